@@ -1,0 +1,1 @@
+"""Analytic side of mjharness: Lagrangian derivations (sympy) and our own solvers."""

@@ -1,0 +1,160 @@
+"""Numeric equations of motion, built once per system from a :class:`Derivation`.
+
+All functions accept a single state (q of shape (n,)) or a batch (shape
+(N, n)) and broadcast, so a whole reference trajectory is evaluated in one
+call rather than in a Python loop.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sp
+
+from analytic.lagrangian import Derivation
+
+Array = np.ndarray
+
+
+def _vectorized(exprs: sp.Matrix, args: list[sp.Symbol]) -> Callable[..., Array]:
+    """Lambdify a matrix so that it broadcasts over leading batch dimensions.
+
+    sympy's lambdify returns constant entries as Python scalars; here every
+    entry is broadcast to the batch shape, giving an array (*batch, rows, cols).
+    """
+    rows, cols = exprs.shape
+    flat = list(exprs) if rows * cols else []
+    fn = sp.lambdify(args, flat, modules="numpy", cse=True) if flat else None
+
+    def evaluate(*values: Array) -> Array:
+        batch = np.broadcast_shapes(*(np.shape(v) for v in values))
+        if fn is None:
+            return np.zeros((*batch, rows, cols))
+        entries = np.broadcast_arrays(*[np.asarray(e, dtype=float) for e in fn(*values)],
+                                      np.zeros(batch))[:-1]
+        return np.stack(entries, axis=-1).reshape(*batch, rows, cols)
+
+    return evaluate
+
+
+@dataclass(frozen=True)
+class Dynamics:
+    """Numeric M, F, J, γ, energy, momenta and observables at bound parameter values.
+
+    Shapes: q, qd are (..., n); matrices come back (..., rows, cols) and
+    vectors (..., k).
+    """
+
+    coordinates: tuple[str, ...]
+    constraint_names: tuple[str, ...]
+    point_names: tuple[str, ...]
+    cyclic: tuple[str, ...]
+    params: Mapping[str, float]
+    _funcs: Mapping[str, Callable[..., Array]]
+
+    @classmethod
+    def build(cls, derivation: Derivation, params: Mapping[str, float]) -> Dynamics:
+        """Lambdify every quantity once, then bind the parameter values."""
+        s = derivation.system
+        missing = {p.name for p in s.params} - set(params)
+        if missing:
+            raise ValueError(f"params missing values for {sorted(missing)}; system {s.name!r} needs "
+                             f"{sorted(p.name for p in s.params)}")
+        values = {p: float(params[p.name]) for p in s.params}
+        n = len(s.q)
+        point_pos = sp.Matrix([[e for e in s.points[k]] for k in s.points]) if s.points else sp.zeros(0, 3)
+        point_vel = sp.Matrix([[sum(sp.diff(e, qi) * vi for qi, vi in zip(s.q, s.qd, strict=True))
+                                for e in s.points[k]] for k in s.points]) if s.points else sp.zeros(0, 3)
+        symbolic = {
+            "mass_matrix": derivation.mass_matrix,
+            "forcing": derivation.forcing,
+            "jacobian": derivation.jacobian if s.constraints else sp.zeros(0, n),
+            "gamma": derivation.gamma,
+            "velocity_residual": derivation.constraint_rows,
+            "position_residual": derivation.holonomic_residual,
+            "energy": sp.Matrix([derivation.energy]),
+            "momenta": derivation.momenta,
+            "points": point_pos,
+            "point_velocities": point_vel,
+        }
+        args = [*s.q, *s.qd]
+        funcs = {k: _vectorized(sp.Matrix(v).subs(values), args) for k, v in symbolic.items()}
+        return cls(
+            coordinates=tuple(c.name for c in s.q),
+            constraint_names=tuple(c.name for c in s.constraints),
+            point_names=tuple(s.points),
+            cyclic=tuple(c.name for c in derivation.cyclic),
+            params=dict(params),
+            _funcs=funcs,
+        )
+
+    @property
+    def n(self) -> int:
+        return len(self.coordinates)
+
+    def _call(self, key: str, q: Array, qd: Array) -> Array:
+        q = np.asarray(q, dtype=float)
+        qd = np.asarray(qd, dtype=float)
+        return self._funcs[key](*np.moveaxis(q, -1, 0), *np.moveaxis(qd, -1, 0))
+
+    def mass_matrix(self, q: Array) -> Array:
+        return self._call("mass_matrix", q, np.zeros_like(q))
+
+    def forcing(self, q: Array, qd: Array) -> Array:
+        return self._call("forcing", q, qd)[..., 0]
+
+    def jacobian(self, q: Array) -> Array:
+        return self._call("jacobian", q, np.zeros_like(q))
+
+    def gamma(self, q: Array, qd: Array) -> Array:
+        return self._call("gamma", q, qd)[..., 0]
+
+    def position_residual(self, q: Array) -> Array:
+        """f(q) per constraint row (0 for Pfaffian rows)."""
+        return self._call("position_residual", q, np.zeros_like(q))[..., 0]
+
+    def velocity_residual(self, q: Array, qd: Array) -> Array:
+        """J q̇ + b per constraint row."""
+        return self._call("velocity_residual", q, qd)[..., 0]
+
+    def energy(self, q: Array, qd: Array) -> Array:
+        return self._call("energy", q, qd)[..., 0, 0]
+
+    def momenta(self, q: Array, qd: Array) -> Array:
+        return self._call("momenta", q, qd)[..., 0]
+
+    def points(self, q: Array) -> Array:
+        """World positions, shape (..., npoints, 3), in ``point_names`` order."""
+        return self._call("points", q, np.zeros_like(q))
+
+    def point_velocities(self, q: Array, qd: Array) -> Array:
+        return self._call("point_velocities", q, qd)
+
+    def accelerations(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)
+                      ) -> tuple[Array, Array]:
+        """q̈ and λ from the KKT system [[M, −Jᵀ], [J, 0]] [q̈; λ] = [F; γ].
+
+        ``stabilization`` = (α, β) adds Baumgarte terms −α(Jq̇+b) − βf(q) to γ;
+        they vanish on the constraint manifold, so they change only drift.
+        """
+        q = np.asarray(q, dtype=float)
+        qd = np.asarray(qd, dtype=float)
+        mass = self.mass_matrix(q)
+        force = self.forcing(q, qd)
+        m = len(self.constraint_names)
+        if m == 0:
+            return np.linalg.solve(mass, force[..., None])[..., 0], np.zeros((*q.shape[:-1], 0))
+        jac = self.jacobian(q)
+        alpha, beta = stabilization
+        gamma = self.gamma(q, qd)
+        if alpha or beta:
+            gamma = gamma - alpha * self.velocity_residual(q, qd) - beta * self.position_residual(q)
+        kkt = np.zeros((*q.shape[:-1], self.n + m, self.n + m))
+        kkt[..., : self.n, : self.n] = mass
+        kkt[..., : self.n, self.n :] = -np.swapaxes(jac, -1, -2)
+        kkt[..., self.n :, : self.n] = jac
+        rhs = np.concatenate([force, gamma], axis=-1)
+        sol = np.linalg.solve(kkt, rhs[..., None])[..., 0]
+        return sol[..., : self.n], sol[..., self.n :]

@@ -1,0 +1,69 @@
+"""Planar pendulum whose length is held by a constraint (seed 001, "Constraints").
+
+A point mass m on a massless rod, pivot at the origin, in the x–z plane::
+
+        z ^
+          |
+    pivot o------> x
+           \\
+            \\  r        θ from the downward vertical,
+             \\          positive towards +x
+              ● m       bob at (r sin θ, 0, −r cos θ)
+
+Coordinates q = (theta, r). The radius r is kept as a coordinate and held by
+the holonomic constraint ``rod``: f = r − l = 0, J = ∂f/∂q = (0, 1).
+
+Sign of the multiplier: with M q̈ = F + Jᵀλ, λ is the generalized force on r,
+i.e. the radial force on the bob, positive outward. The rod pulls inward, so
+λ = −(rod tension) = −(m l θ̇² + m g cos θ) on the constraint. MuJoCo's joint
+equality on the slide ``r`` has the same Jacobian row, so its ``efc_force``
+is λ with the same sign.
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
+from analytic.systems import Scales
+
+m, g, l = sp.symbols("m g l", positive=True)
+
+
+def build() -> LagrangianSystem:
+    (theta, r), (theta_d, r_d) = coordinates("theta r")
+    x, z = r * sp.sin(theta), -r * sp.cos(theta)
+    vx, vz = sp.diff(x, theta) * theta_d + sp.diff(x, r) * r_d, sp.diff(z, theta) * theta_d + sp.diff(z, r) * r_d
+    return LagrangianSystem(
+        name="pendulum",
+        q=(theta, r),
+        qd=(theta_d, r_d),
+        kinetic=m * (vx**2 + vz**2) / 2,
+        potential=m * g * z,
+        params=(m, g, l),
+        constraints=(Constraint("rod", r - l),),
+        points={"bob": (x, 0, z)},
+    )
+
+
+def minimal() -> LagrangianSystem:
+    """θ alone, with r = l substituted: the textbook pendulum ODE."""
+    full = build()
+    theta, r = full.q
+    (s,), (s_d,) = coordinates("theta")
+    return full.reduce(q=(s,), qd=(s_d,), embedding={theta: s, r: l})
+
+
+def params_from_model(model) -> dict[str, float]:
+    """m from the bob's mass, l from the slide's reference (qpos0), g from gravity."""
+    return {
+        "m": float(model.body("bob").mass[0]),
+        "l": float(model.joint("r").qpos0[0]),
+        "g": float(-model.opt.gravity[2]),
+    }
+
+
+def scales(params: dict[str, float]) -> Scales:
+    mg = params["m"] * params["g"]
+    return Scales(length=params["l"], force=mg, energy=mg * params["l"],
+                  momentum=params["m"] * (params["g"] * params["l"]) ** 0.5 * params["l"])

@@ -1,0 +1,140 @@
+"""Run one case through every layer: reference, instantaneous checks, trajectories.
+
+Pure function of its inputs: the CLI, the tests and the CI gate all call
+:func:`run_case` and differ only in what they do with the result.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from analytic.dynamics import Dynamics
+from analytic.solvers import solve
+from harness import reference as refmod
+from harness.binding import JointBinding
+from harness.cases import Case
+from harness.compare import trajectory_figures
+from harness.figures import Figure, max_abs
+from harness.instant import instantaneous_figures
+from harness.models import compile_model, mjcf_path
+from harness.simulate import Probe, available_integrators, integrator_name, simulate
+from harness.trajectory import Trajectory
+
+
+@dataclass(frozen=True)
+class CaseResult:
+    """Everything one case produced: figures, trajectories and the settings used."""
+
+    case: Case
+    figures: tuple[Figure, ...]
+    reference: Trajectory
+    simulations: dict[str, Trajectory]
+    settings: dict[str, object]
+    timings: dict[str, float] = field(default_factory=dict)
+
+    def figure(self, name: str) -> Figure:
+        for f in self.figures:
+            if f.name == name:
+                return f
+        raise KeyError(name)
+
+
+def probe_for(dyn: Dynamics) -> Probe:
+    return Probe(binding=JointBinding(dyn.coordinates), points=dyn.point_names,
+                 constraints=dyn.constraint_names)
+
+
+def model_settings(model: mujoco.MjModel) -> dict[str, object]:
+    """The settings that matter for a comparison, as recorded in the report."""
+    out: dict[str, object] = {
+        "timestep": float(model.opt.timestep),
+        "integrator": integrator_name(model),
+        "solver": mujoco.mjtSolver(int(model.opt.solver)).name.removeprefix("mjSOL_"),
+        "iterations": int(model.opt.iterations),
+        "tolerance": float(model.opt.tolerance),
+        "cone": mujoco.mjtCone(int(model.opt.cone)).name.removeprefix("mjCONE_"),
+        "impratio": float(model.opt.impratio),
+        "noslip_iterations": int(model.opt.noslip_iterations),
+    }
+    for i in range(model.neq):
+        eq = model.equality(i)
+        out[f"equality.{eq.name}.solref"] = [float(x) for x in eq.solref]
+        out[f"equality.{eq.name}.solimp"] = [float(x) for x in eq.solimp]
+    return out
+
+
+def reference_figures(ref: refmod.Reference, t: np.ndarray) -> list[Figure]:
+    """Quality of the reference itself: constraint residual and the ODE cross-check."""
+    pos, vel = ref.solution.residuals(t)
+    figs = [
+        Figure("reference.residual", max(max_abs(pos), max_abs(vel)), "SI",
+               f"max |f(q)|, |Jq̇+b| of our DAE solution (rtol {ref.solution.rtol:g})"),
+    ]
+    minimal = refmod.minimal_system(ref.case)
+    if minimal is not None:
+        dyn_min = Dynamics.build(minimal.derive(), ref.params)
+        full_q, full_qd = ref.solution.state([0.0])
+        # the minimal coordinates are the full ones that survive the embedding
+        keep = [ref.dynamics.coordinates.index(c) for c in dyn_min.coordinates]
+        sol = solve(dyn_min, q0=full_q[0, keep], qd0=full_qd[0, keep], t_end=ref.solution.t_end,
+                    rtol=ref.solution.rtol, atol=ref.solution.rtol)
+        q_full, _ = ref.solution.state(t)
+        q_min, _ = sol.state(t)
+        diff = np.max(np.linalg.norm(ref.dynamics.points(q_full) - dyn_min.points(q_min), axis=-1))
+        figs.append(Figure("reference.ode_vs_dae", float(diff), "m",
+                           "max distance between the DAE and minimal-coordinate ODE solutions"))
+    return figs
+
+
+def run_case(
+    case: Case,
+    *,
+    mjcf: Path | str | None = None,
+    integrators: Sequence[str] | None = None,
+    timestep: float | None = None,
+    edit: Callable[[mujoco.MjSpec], None] | None = None,
+) -> CaseResult:
+    """All layers for ``case``. ``mjcf`` replaces the shipped model (the reference
+    keeps the shipped parameters); ``edit`` modifies the model through MjSpec."""
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+    shipped = compile_model(mjcf_path(case.mjcf))
+    path = Path(mjcf) if mjcf is not None else mjcf_path(case.mjcf)
+    model = compile_model(path, timestep=timestep, edit=edit)
+    ref = refmod.build_reference(case, shipped)
+    timings["reference"] = time.perf_counter() - clock
+    probe = probe_for(ref.dynamics)
+    figures: list[Figure] = []
+
+    clock = time.perf_counter()
+    instant_model = model
+    if integrator_name(model) == "discrete":  # qacc is the step map there; use continuous time
+        instant_model = compile_model(path, timestep=timestep, edit=edit, integrator="Euler")
+    figures += instantaneous_figures(instant_model, probe, ref)
+    timings["instant"] = time.perf_counter() - clock
+
+    clock = time.perf_counter()
+    sims: dict[str, Trajectory] = {}
+    steps = round(case.horizon / model.opt.timestep)
+    for name in integrators or available_integrators():
+        m = compile_model(path, timestep=timestep, edit=edit, integrator=name)
+        sims[name] = simulate(m, probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
+    timings["mujoco"] = time.perf_counter() - clock
+
+    clock = time.perf_counter()
+    grid = next(iter(sims.values())).t
+    ref_traj = refmod.trajectory(ref, grid)
+    figures += reference_figures(ref, grid)
+    for name, sim in sims.items():
+        figures += trajectory_figures(ref_traj, sim, ref.scales, prefix=name)
+    timings["compare"] = time.perf_counter() - clock
+    settings = model_settings(model) | {"mjcf": str(path), "horizon": case.horizon,
+                                        "params": dict(ref.params)}
+    return CaseResult(case=case, figures=tuple(figures), reference=ref_traj, simulations=sims,
+                      settings=settings, timings=timings)

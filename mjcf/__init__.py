@@ -1,0 +1,1 @@
+"""MJCF models, one per system (``NAME.xml``), shipped as package data."""
