@@ -6,8 +6,12 @@ module, one MJCF model and one entry here.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
+
+# A MuJoCo-side reading: (model, data) after mj_forward -> one number.
+Reading = Callable[[Any, Any], float]
 
 
 @dataclass(frozen=True)
@@ -23,6 +27,15 @@ class Case:
         system: analytic module under ``analytic.systems`` (default: name).
         mjcf: model file under ``mjcf/`` without ``.xml`` (default: name).
         tags: selection tags (``fast``, ``ci``, ``constrained`` ...).
+        binding: factory from the analytic coordinate names to the object that
+            sets MuJoCo's state (default: ``JointBinding``, one same-named
+            hinge/slide per coordinate).
+        mujoco_invariants: extra invariants computed from MuJoCo's own state,
+            by the name the reference uses (e.g. ``p_phi``); energy is always
+            recorded.
+        mujoco_forces: constraint forces for constraints that are not MJCF
+            equalities (contacts), by the analytic constraint name, in the
+            analytic sign convention.
     """
 
     name: str
@@ -33,6 +46,9 @@ class Case:
     system: str = ""
     mjcf: str = ""
     tags: frozenset[str] = field(default_factory=frozenset)
+    binding: Callable[[tuple[str, ...]], Any] | None = None
+    mujoco_invariants: Mapping[str, Reading] = field(default_factory=dict)
+    mujoco_forces: Mapping[str, Reading] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "system", self.system or self.name)

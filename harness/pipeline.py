@@ -45,9 +45,13 @@ class CaseResult:
         raise KeyError(name)
 
 
-def probe_for(dyn: Dynamics) -> Probe:
-    return Probe(binding=JointBinding(dyn.coordinates), points=dyn.point_names,
-                 constraints=dyn.constraint_names)
+def probe_for(case: Case, dyn: Dynamics) -> Probe:
+    """What to read from MuJoCo for ``case``: equalities for every constraint not
+    read through the case's own ``mujoco_forces``."""
+    binding = (case.binding or JointBinding)(dyn.coordinates)
+    equalities = tuple(c for c in dyn.constraint_names if c not in case.mujoco_forces)
+    return Probe(binding=binding, points=dyn.point_names, constraints=equalities,
+                 invariants=case.mujoco_invariants, forces=case.mujoco_forces)
 
 
 def model_settings(model: mujoco.MjModel) -> dict[str, object]:
@@ -109,7 +113,7 @@ def run_case(
     model = compile_model(path, timestep=timestep, edit=edit)
     ref = refmod.build_reference(case, shipped)
     timings["reference"] = time.perf_counter() - clock
-    probe = probe_for(ref.dynamics)
+    probe = probe_for(case, ref.dynamics)
     figures: list[Figure] = []
 
     clock = time.perf_counter()

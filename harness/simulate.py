@@ -10,13 +10,14 @@ bit-identical to it (pinned in tests/test_simulate.py).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
 from harness.binding import JointBinding, ModelMismatch
+from harness.cases import Reading
 from harness.trajectory import Trajectory
 
 
@@ -64,6 +65,8 @@ class Probe:
     binding: JointBinding
     points: Sequence[str]
     constraints: Sequence[str]
+    invariants: Mapping[str, Reading] = field(default_factory=dict)
+    forces: Mapping[str, Reading] = field(default_factory=dict)
 
     def validate(self, model: mujoco.MjModel) -> None:
         self.binding.validate(model)
@@ -139,6 +142,8 @@ def simulate(
     lam = {c: np.zeros(n) for c in probe.constraints}
     viol = {c: np.zeros(n) for c in probe.constraints}
     energy = np.zeros(n)
+    extra = {name: np.zeros(n) for name in probe.invariants}
+    forces = {name: np.zeros(n) for name in probe.forces}
     qfrc = np.zeros((n, model.nv))
     for k in range(n):
         mujoco.mj_forward(model, data)
@@ -149,11 +154,15 @@ def simulate(
         for c in probe.constraints:
             lam[c][k], viol[c][k] = equality_force(model, data, c)
         energy[k] = data.energy[0] + data.energy[1]
+        for name, read in probe.invariants.items():
+            extra[name][k] = read(model, data)
+        for name, read in probe.forces.items():
+            forces[name][k] = read(model, data)
         qfrc[k] = data.qfrc_constraint
         if k < steps:
             step(model, data)
     return Trajectory(
-        t=t, positions=pos, velocities=vel, multipliers=lam,
-        generalized_force=qfrc @ dof, invariants={"energy": energy}, violations=viol,
+        t=t, positions=pos, velocities=vel, multipliers=lam | forces,
+        generalized_force=qfrc @ dof, invariants={"energy": energy} | extra, violations=viol,
         source=f"mujoco:{integrator_name(model)}",
     )
