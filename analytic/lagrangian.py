@@ -211,7 +211,9 @@ class Derivation:
     def holonomic_residual(self) -> sp.Matrix:
         """f(q) for holonomic rows (0 for Pfaffian rows, which have no position form)."""
         s = self.system
-        return sp.Matrix([c.expr if c.kind == "holonomic" else 0 for c in s.constraints]) if s.constraints else sp.zeros(0, 1)
+        if not s.constraints:
+            return sp.zeros(0, 1)
+        return sp.Matrix([c.expr if c.kind == "holonomic" else 0 for c in s.constraints])
 
     @cached_property
     def energy(self) -> sp.Expr:

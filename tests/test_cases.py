@@ -1,0 +1,48 @@
+"""Generic checks every registered case inherits: finite outputs, determinism, gates pass."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from harness import cases
+from harness.pipeline import run_case
+from harness.verdict import verdict
+from tests.conftest import case_ids, shipped_run
+
+
+@pytest.mark.parametrize("name", case_ids())
+def test_outputs_are_finite(name):
+    result = shipped_run(name)
+    assert all(np.isfinite(f.value) for f in result.figures)
+    assert result.reference.is_finite()
+    assert all(sim.is_finite() for sim in result.simulations.values())
+
+
+@pytest.mark.parametrize("name", case_ids())
+def test_runs_are_bit_identical(name):
+    again = run_case(cases.get(name))
+    first = shipped_run(name)
+    assert [(f.name, f.value) for f in again.figures] == [(f.name, f.value) for f in first.figures]
+
+
+@pytest.mark.parametrize("name", case_ids())
+def test_every_case_has_gates_and_they_pass_at_shipped_settings(name, config):
+    thresholds = config.for_case(name)
+    assert thresholds, f"case {name!r} has no thresholds in [tool.mjharness.thresholds.{name}]"
+    checks = verdict(name, shipped_run(name).figures, thresholds)
+    failed = [(c.name, c.value, c.threshold) for c in checks if not c.passed]
+    assert not failed
+
+
+@pytest.mark.parametrize("name", case_ids())
+def test_every_integrator_is_gated(name, config):
+    """Each integrator's position error is a gate: none is reported without a verdict."""
+    result = shipped_run(name)
+    for integrator in result.simulations:
+        assert f"{integrator}.position" in config.for_case(name)
+
+
+def test_unknown_case_lists_known_ones():
+    with pytest.raises(ValueError, match=r"known cases: .*pendulum"):
+        cases.get("pendulumm")
