@@ -1,0 +1,319 @@
+"""Atwood's machine with a massive pulley: hand-derived closed forms against the sympy
+derivation, our reference and MuJoCo's efc_force; the softness theory behind the
+instantaneous figures; and the broken models that trip every gate.
+
+Closed forms (derived by hand, independently of the sympy path), with M = m1 + m2 + m_p:
+
+    z̈1 = −z̈2 = a θ̈ = −(m1 − m2) g / M
+    T1 = λ_string1 = m1 g (2 m2 + m_p) / M,   T2 = λ_string2 = m2 g (2 m1 + m_p) / M
+
+(from m1 z̈1 = −m1 g + T1, m2 z̈2 = −m2 g + T2, m_p a² θ̈ = a (T2 − T1)).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import mujoco
+import numpy as np
+import pytest
+import sympy as sp
+
+from analytic.systems import atwood
+from harness import cases, pipeline
+from harness import reference as refmod
+from harness.binding import JointBinding
+from harness.config import load_config
+from harness.models import compile_model, mjcf_path
+from harness.simulate import equality_force
+from harness.verdict import verdict
+from tests.conftest import shipped_run
+
+CASE = cases.get("atwood")
+INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4", "discrete")
+STRINGS = ("string1", "string2")
+
+
+def closed_forms(m1, m2, m_p, g):
+    """(z̈1, T1, T2), typed by hand; works on sympy symbols and floats alike."""
+    total = m1 + m2 + m_p
+    return -(m1 - m2) * g / total, m1 * g * (2 * m2 + m_p) / total, m2 * g * (2 * m1 + m_p) / total
+
+
+@pytest.fixture(scope="module")
+def model() -> mujoco.MjModel:
+    return compile_model(mjcf_path("atwood"))
+
+
+@pytest.fixture(scope="module")
+def shipped() -> pipeline.CaseResult:
+    return shipped_run("atwood")
+
+
+@dataclasses.dataclass(frozen=True)
+class Physical:
+    """The machine's constants, read directly from the compiled model (not via params_from_model)."""
+
+    m1: float
+    m2: float
+    m_p: float
+    inertia: float
+    a: float
+    g: float
+
+    @classmethod
+    def read(cls, model: mujoco.MjModel) -> Physical:
+        return cls(m1=float(model.body("mass1").mass[0]), m2=float(model.body("mass2").mass[0]),
+                   m_p=float(model.body("pulley").mass[0]), inertia=float(model.body("pulley").inertia[1]),
+                   a=float(model.equality("string1").data[1]), g=float(-model.opt.gravity[2]))
+
+    def tensions(self) -> np.ndarray:
+        return np.array(closed_forms(self.m1, self.m2, self.m_p, self.g)[1:])
+
+    def softness_error(self, diag: np.ndarray, d: float) -> np.ndarray:
+        """Δf = −(A + R)⁻¹ R f*: MuJoCo's equality forces minus the ideal tensions at a
+        consistent state (zero violation and velocity, so a_ref = 0), with
+        A = J M⁻¹ Jᵀ and R = (1 − d)/d · diag (MuJoCo's regulariser)."""
+        jac = np.array([[1.0, 0.0, -self.a], [0.0, 1.0, self.a]])
+        delassus = jac @ np.diag([1 / self.m1, 1 / self.m2, 1 / self.inertia]) @ jac.T
+        reg = np.diag((1 - d) / d * diag)
+        return -np.linalg.solve(delassus + reg, reg @ self.tensions())
+
+    def exact_diagonal(self) -> np.ndarray:
+        return np.array([1 / self.m1 + self.a**2 / self.inertia, 1 / self.m2 + self.a**2 / self.inertia])
+
+
+def failing(result: pipeline.CaseResult) -> set[str]:
+    """Gated figures over their limit (thresholds restricted to the figures this run measured)."""
+    limits = load_config().for_case(result.case.name)
+    measured = {f.name for f in result.figures}
+    checks = verdict(result.case.name, result.figures, {k: v for k, v in limits.items() if k in measured})
+    return {c.name for c in checks if not c.passed}
+
+
+# --- layer 1: derivation ---------------------------------------------------------------
+
+def test_constraint_rows_are_the_mjcf_equalities() -> None:
+    der = atwood.build().derive()
+    a = atwood.a
+    assert der.jacobian == sp.Matrix([[1, 0, -a], [0, 1, a]])
+    assert [c.name for c in der.system.constraints] == list(STRINGS)
+
+
+def test_sympy_derivation_gives_the_closed_forms() -> None:
+    der = atwood.build().derive()
+    qdd = [sp.Symbol(f"{c.name}_ddot", real=True) for c in der.system.q]
+    lam = list(der.multiplier_symbols)
+    constraint_acc = der.jacobian * sp.Matrix(qdd) - der.gamma
+    sol = sp.solve([*der.equations, *constraint_acc], [*qdd, *lam], dict=True)
+    assert len(sol) == 1
+    sol = sol[0]
+    z1dd, t1, t2 = closed_forms(atwood.m1, atwood.m2, atwood.m_p, atwood.g)
+    assert sp.simplify(sol[qdd[0]] - z1dd) == 0
+    assert sp.simplify(sol[qdd[1]] + z1dd) == 0
+    assert sp.simplify(sol[qdd[2]] - z1dd / atwood.a) == 0
+    assert sp.simplify(sol[lam[0]] - t1) == 0
+    assert sp.simplify(sol[lam[1]] - t2) == 0
+
+
+def test_seed_claims() -> None:
+    """The seed's z̈1 and λ1 hold; its λ2 is printed with −m_p in the denominator, a typo:
+    only the +m_p form equals the derivation (and makes λ2 the tension by symmetry 1 ↔ 2)."""
+    m1, m2, m_p, g = atwood.m1, atwood.m2, atwood.m_p, atwood.g
+    z1dd, t1, t2 = closed_forms(m1, m2, m_p, g)
+    assert sp.simplify(z1dd - (-(m1 - m2) / (m_p + m1 + m2) * g)) == 0
+    assert sp.simplify(t1 - (m_p + 2 * m2) / (m_p + m1 + m2) * m1 * g) == 0
+    assert sp.simplify(t2 - (m_p + 2 * m1) / (-m_p + m1 + m2) * m2 * g) != 0
+    assert sp.simplify(t2 - (m_p + 2 * m1) / (m_p + m1 + m2) * m2 * g) == 0
+
+
+def test_minimal_system_is_the_effective_mass_equation() -> None:
+    der = atwood.minimal().derive()
+    z_dd = sp.Symbol("z1_ddot", real=True)
+    m1, m2, m_p, g = atwood.m1, atwood.m2, atwood.m_p, atwood.g
+    assert sp.simplify(der.equations[0] - ((m1 + m2 + m_p) * z_dd + (m1 - m2) * g)) == 0
+
+
+def test_params_come_from_the_model(model) -> None:
+    p = Physical.read(model)
+    params = atwood.params_from_model(model)
+    assert (params["m1"], params["m2"], params["m_p"], params["a"], params["g"]) == \
+        (p.m1, p.m2, p.m_p, p.a, p.g)
+    assert params["h"] == float(model.body("pulley").pos[2])
+    assert p.inertia == pytest.approx(p.m_p * p.a**2, rel=1e-12)  # mass on the rim
+
+
+def test_positive_theta_raises_the_left_rim(model) -> None:
+    """The docstring's sense of θ: hinge about +y, so the rim point above mass1 (x = −a)
+    rises by a sin θ, as z1 = aθ says to first order."""
+    a = float(model.equality("string1").data[1])
+    data = mujoco.MjData(model)
+    data.qpos[model.joint("theta").qposadr[0]] = 0.1
+    mujoco.mj_kinematics(model, data)
+    pulley = model.body("pulley").id
+    rim = data.xpos[pulley] + data.xmat[pulley].reshape(3, 3) @ [-a, 0.0, 0.0]
+    assert rim[2] - data.xpos[pulley][2] == pytest.approx(a * np.sin(0.1), rel=1e-12)
+
+
+# --- reference and MuJoCo against the closed forms -------------------------------------
+
+def test_reference_matches_closed_forms(model) -> None:
+    p = Physical.read(model)
+    z1dd, t1, t2 = closed_forms(p.m1, p.m2, p.m_p, p.g)
+    ref = refmod.build_reference(CASE, model)
+    t = np.linspace(0.0, CASE.horizon, 301)
+    q, qd = ref.solution.state(t)
+    qdd, lam = ref.dynamics.accelerations(q, qd)
+    assert np.max(np.abs(q[:, 0] - z1dd * t**2 / 2)) < 1e-10
+    assert np.max(np.abs(qdd - [z1dd, -z1dd, z1dd / p.a])) < 1e-10 * abs(z1dd / p.a)
+    assert np.max(np.abs(lam - [t1, t2])) < 1e-10 * t1
+    assert t1 > t2 > 0  # both strings taut; the heavier side pulls harder
+
+
+def _forward_at_consistent_states(model: mujoco.MjModel, count: int = 12):
+    """(efc_force per string, qacc in analytic order, data) after mj_forward at states exactly
+    on both strings (z1 = aθ, z2 = −aθ and the same for velocities, in floating point too)."""
+    a = float(model.equality("string1").data[1])
+    binding = JointBinding(("z1", "z2", "theta"))
+    dof = binding.dof_matrix(model)
+    data = mujoco.MjData(model)
+    forces, qacc = [], []
+    for theta, omega in zip(np.linspace(-10.0, 2.0, count), np.linspace(-12.0, 3.0, count), strict=True):
+        mujoco.mj_resetData(model, data)
+        binding.set_state(model, data, [a * theta, -a * theta, theta], [a * omega, -a * omega, omega])
+        mujoco.mj_forward(model, data)
+        forces.append([equality_force(model, data, s)[0] for s in STRINGS])
+        qacc.append(dof.T @ data.qacc)
+    return np.array(forces), np.array(qacc), data
+
+
+def test_mujoco_tensions_match_closed_forms_within_softness(model) -> None:
+    """At the shipped settings efc_force = T + Δf with Δf = −(A+R)⁻¹R T, R = (1−d)/d diag A
+    (diagexact): it is within |Δf| (×1.5) of the ideal tension, and Δf predicts the
+    difference to 1e-6."""
+    p = Physical.read(model)
+    d = float(model.eq_solimp[model.equality("string1").id][0])
+    assert d == float(model.eq_solimp[model.equality("string2").id][0])
+    delta = p.softness_error(p.exact_diagonal(), d)
+    forces, qacc, _ = _forward_at_consistent_states(model)
+    assert np.all(np.abs(forces - p.tensions()) <= 1.5 * np.abs(delta))
+    assert np.max(np.abs(forces - p.tensions() - delta)) < 1e-6 * np.abs(delta).max()
+    # the accelerations follow: M q̈ = F + Jᵀ(T + Δf)
+    z1dd = closed_forms(p.m1, p.m2, p.m_p, p.g)[0]
+    dq = np.array([delta[0] / p.m1, delta[1] / p.m2, p.a * (delta[1] - delta[0]) / p.inertia])
+    assert np.max(np.abs(qacc - [z1dd, -z1dd, z1dd / p.a] - dq)) < 1e-10
+
+
+def test_instant_figures_are_the_softness_theory(model, shipped) -> None:
+    p = Physical.read(model)
+    delta = p.softness_error(p.exact_diagonal(), 0.9999)
+    weight = (p.m1 + p.m2) * p.g
+    for j, s in enumerate(STRINGS):
+        assert shipped.figure(f"instant.force.{s}").value == pytest.approx(abs(delta[j]) / weight, rel=1e-3)
+    z1dd = closed_forms(p.m1, p.m2, p.m_p, p.g)[0]
+    dq = np.array([delta[0] / p.m1, delta[1] / p.m2, p.a * (delta[1] - delta[0]) / p.inertia])
+    assert shipped.figure("instant.qacc").value == pytest.approx(np.abs(dq).max() / abs(z1dd / p.a), rel=1e-3)
+
+
+def test_default_diagonal_ignores_the_polycoef_gain(model) -> None:
+    """Why the MJCF enables diagexact: MuJoCo's default diagonal for a joint equality adds the
+    two joints' inverse weights without the gain a², so R is ~75× the softness solimp asks
+    for, and the tensions are off by percents (measured 2.7 %)."""
+    def edit(spec: mujoco.MjSpec) -> None:
+        spec.option.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_DIAGEXACT)
+
+    approx = compile_model(mjcf_path("atwood"), edit=edit)
+    p = Physical.read(approx)
+    forces, _, data = _forward_at_consistent_states(approx, count=3)
+    rows = [int(np.flatnonzero((data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY)
+                               & (data.efc_id == approx.equality(s).id))[0]) for s in STRINGS]
+    naive = np.array([1 / p.m1 + 1 / p.inertia, 1 / p.m2 + 1 / p.inertia])
+    assert data.efc_diagA[rows] == pytest.approx(naive, rel=1e-9)
+    delta = p.softness_error(naive, 0.9999)
+    assert np.max(np.abs(forces - p.tensions() - delta)) < 1e-6 * np.abs(delta).max()
+    assert np.max(np.abs(forces - p.tensions()) / p.tensions()) > 0.02
+
+
+# --- gates ---------------------------------------------------------------------------
+
+def test_shipped_case_passes_every_gate(shipped) -> None:
+    checks = verdict("atwood", shipped.figures, load_config().for_case("atwood"))
+    assert [c.name for c in checks if not c.passed] == []
+
+
+def _equality(spec: mujoco.MjSpec, name: str):
+    return next(e for e in spec.equalities if e.name == name)
+
+
+def _polycoef(name: str, value: float):
+    def edit(spec: mujoco.MjSpec) -> None:
+        eq = _equality(spec, name)
+        eq.data = [eq.data[0], value, *list(eq.data[2:])]
+    return edit
+
+
+def _soft(spec: mujoco.MjSpec) -> None:
+    for name in STRINGS:
+        _equality(spec, name).solref = [0.02, 1.0]
+        _equality(spec, name).solimp = [0.9, 0.95, 0.001, 0.5, 2.0]
+
+
+def _damp(spec: mujoco.MjSpec) -> None:
+    spec.joint("theta").damping = [1e-3, *list(spec.joint("theta").damping)[1:]]
+
+
+def _inertia(spec: mujoco.MjSpec) -> None:
+    spec.body("pulley").inertia = [x * 1.1 for x in spec.body("pulley").inertia]
+
+
+def _move_mass1(spec: mujoco.MjSpec) -> None:
+    spec.body("mass1").pos = [-0.101, 0.0, 0.0]
+
+
+def _approximate_diagonal(spec: mujoco.MjSpec) -> None:
+    spec.option.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_DIAGEXACT)
+
+
+def _each(*figures: str) -> set[str]:
+    return {f"{i}.{f}" for i in INTEGRATORS for f in figures}
+
+
+_INSTANT_FORCES = {"instant.force.string1", "instant.force.string2", "instant.qacc",
+                   "instant.point_acceleration", "instant.generalized_force"}
+# an initial state 5e-10 m off string1: inside solve()'s 1e-9 consistency check, so only the
+# reference's own residual and its ODE cross-check can catch it
+_OFF_MANIFOLD = dataclasses.replace(CASE, q0={**CASE.q0, "z1": 5e-10})
+
+# broken variant -> (case, run_case keywords, gates it must trip)
+VARIANTS = {
+    "string2 polycoef a +2%": (CASE, dict(edit=_polycoef("string2", -0.102)),
+                               _INSTANT_FORCES | _each("position", "force.string1", "force.string2")),
+    "string1 polycoef a +2%": (CASE, dict(edit=_polycoef("string1", 0.102)),
+                               _INSTANT_FORCES | _each("position", "force.string1", "force.string2")),
+    "soft strings": (CASE, dict(edit=_soft),
+                     _INSTANT_FORCES | _each("force.string1", "force.string2",
+                                             "violation.string1", "violation.string2")),
+    "pulley damping 1e-3 N m s": (CASE, dict(edit=_damp),
+                                  {"instant.forcing"} | _each("position", "drift.energy")),
+    "pulley inertia +10%": (CASE, dict(edit=_inertia), {"instant.mass_matrix", "instant.kinetic_energy"}),
+    "mass1 1 mm off x = -a": (CASE, dict(edit=_move_mass1), {"instant.kinematics"}),
+    "timestep x4": (CASE, dict(timestep=0.004),
+                    {f"{i}.position" for i in INTEGRATORS if i != "RK4"}
+                    | _each("violation.string1", "violation.string2")),
+    "diagexact off": (CASE, dict(edit=_approximate_diagonal), _INSTANT_FORCES),
+    "reference off the manifold": (_OFF_MANIFOLD, dict(integrators=["RK4"]),
+                                   {"reference.residual", "reference.ode_vs_dae"}),
+}
+
+
+@pytest.mark.parametrize("variant", list(VARIANTS))
+def test_broken_variant_trips_its_gates(variant: str) -> None:
+    case, kwargs, expected = VARIANTS[variant]
+    failed = failing(pipeline.run_case(case, **kwargs))
+    assert expected <= failed, f"{variant}: did not fail {sorted(expected - failed)}"
+
+
+def test_every_gate_has_a_breaking_variant() -> None:
+    covered = set().union(*(expected for _, _, expected in VARIANTS.values()))
+    # converge.* (layer-4 order) gates: generic breakages in tests/test_gates.py, tests/test_convergence.py
+    assert {k for k in load_config().for_case("atwood") if not k.startswith("converge.")} <= covered
