@@ -67,6 +67,12 @@ class Dynamics:
         point_pos = sp.Matrix([[e for e in s.points[k]] for k in s.points]) if s.points else sp.zeros(0, 3)
         point_vel = sp.Matrix([[sum(sp.diff(e, qi) * vi for qi, vi in zip(s.q, s.qd, strict=True))
                                 for e in s.points[k]] for k in s.points]) if s.points else sp.zeros(0, 3)
+        # ∂x/∂q stacked point by point (3 rows each), and the velocity-product part of ẍ,
+        # q̇ᵀ ∂²x/∂q² q̇ = (∂ẋ/∂q) q̇
+        point_jac = sp.Matrix([[sp.diff(e, qi) for qi in s.q] for k in s.points for e in s.points[k]]) \
+            if s.points else sp.zeros(0, n)
+        point_bias = point_vel.applyfunc(
+            lambda v: sum(sp.diff(v, qi) * vi for qi, vi in zip(s.q, s.qd, strict=True)))
         symbolic = {
             "mass_matrix": derivation.mass_matrix,
             "forcing": derivation.forcing,
@@ -78,6 +84,8 @@ class Dynamics:
             "momenta": derivation.momenta,
             "points": point_pos,
             "point_velocities": point_vel,
+            "point_jacobians": point_jac,
+            "point_bias": point_bias,
         }
         args = [*s.q, *s.qd]
         funcs = {k: _vectorized(sp.Matrix(v).subs(values), args) for k, v in symbolic.items()}
@@ -131,6 +139,16 @@ class Dynamics:
 
     def point_velocities(self, q: Array, qd: Array) -> Array:
         return self._call("point_velocities", q, qd)
+
+    def point_jacobians(self, q: Array) -> Array:
+        """∂x/∂q per point, shape (..., npoints, 3, n)."""
+        jac = self._call("point_jacobians", q, np.zeros_like(q))
+        return jac.reshape(*jac.shape[:-2], len(self.point_names), 3, self.n)
+
+    def point_accelerations(self, q: Array, qd: Array, qdd: Array) -> Array:
+        """World accelerations ẍ = (∂x/∂q) q̈ + q̇ᵀ(∂²x/∂q²)q̇, shape (..., npoints, 3)."""
+        qdd = np.asarray(qdd, dtype=float)
+        return np.einsum("...pij,...j->...pi", self.point_jacobians(q), qdd) + self._call("point_bias", q, qd)
 
     def accelerations(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)
                       ) -> tuple[Array, Array]:

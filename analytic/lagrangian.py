@@ -233,7 +233,8 @@ class Derivation:
         out = []
         for k, c in enumerate(s.q):
             in_constraints = any(jac[j, k] != 0 for j in range(jac.rows))
-            if sp.diff(s.lagrangian, c) == 0 and not in_constraints:
+            # simplified: a coordinate can hide in L behind an identity such as sin² + cos² = 1
+            if sp.simplify(sp.diff(s.lagrangian, c)) == 0 and not in_constraints:
                 out.append(c)
         return tuple(out)
 

@@ -3,13 +3,16 @@
 The default binding is one hinge or slide joint per analytic coordinate, of
 the same name, with qpos equal to the coordinate; generalized forces then map
 through the constant dof matrix D (qvel = D q̇, analytic force = Dᵀ f_mujoco).
-A model whose coordinates differ (a ball joint) supplies its own binding.
+A model whose coordinates differ (a ball joint) supplies its own binding; where
+no constant D exists its ``dof_matrix`` returns None, and the harness compares
+only observables (point positions, velocities, accelerations, kinetic energy).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import mujoco
 import numpy as np
@@ -19,6 +22,21 @@ _ONE_DOF = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
 class ModelMismatch(ValueError):
     """The MJCF does not fit the case (missing joints, equalities or bodies)."""
+
+
+class Binding(Protocol):
+    """What the harness needs to put an analytic state into a MuJoCo model."""
+
+    def validate(self, model: mujoco.MjModel) -> None:
+        """Raise ModelMismatch if ``model`` lacks the joints this binding drives."""
+
+    def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
+                  q: Sequence[float], qd: Sequence[float]) -> None:
+        """Write qpos and qvel for the analytic state (q, q̇)."""
+
+    def dof_matrix(self, model: mujoco.MjModel) -> np.ndarray | None:
+        """Constant D with qvel = D q̇, shape (nv, n); None where qvel is not a constant
+        linear map of q̇ (a ball joint's local angular velocity)."""
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,325 @@
+"""Spherical pendulum: derivation vs the seed, conventions of both MJCF models, the ball
+binding, the MuJoCo-side p_phi, agreement of the two models, and gates that can fail."""
+
+from __future__ import annotations
+
+import functools
+
+import mujoco
+import numpy as np
+import pytest
+import sympy as sp
+
+from analytic.systems import spherical_pendulum as sph
+from harness import cases
+from harness import reference as refmod
+from harness.ball_binding import BallBinding
+from harness.binding import JointBinding, ModelMismatch
+from harness.config import load_config
+from harness.instant import point_acceleration
+from harness.models import compile_model, mjcf_path
+from harness.pipeline import run_case
+from harness.simulate import SimulationDiverged, point_state
+from harness.verdict import verdict
+from tests.conftest import shipped_run
+
+HINGE, BALL = "spherical_pendulum", "spherical_pendulum_ball"
+COORDS = ("theta", "phi")
+
+
+def _models() -> dict[str, tuple[mujoco.MjModel, object]]:
+    return {HINGE: (compile_model(mjcf_path(HINGE)), JointBinding(COORDS)),
+            BALL: (compile_model(mjcf_path(BALL)), BallBinding(COORDS))}
+
+
+def _at(model: mujoco.MjModel, binding, q, qd) -> mujoco.MjData:
+    data = mujoco.MjData(model)
+    binding.set_state(model, data, q, qd)
+    mujoco.mj_forward(model, data)
+    return data
+
+
+def _random_states(count: int, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    q = np.stack([rng.uniform(0.2, 2.9, count), rng.uniform(-3.0, 3.0, count)], axis=1)
+    return q, rng.uniform(-3.0, 3.0, (count, 2))
+
+
+# --- layer 1: derivation --------------------------------------------------------------
+
+
+def test_equations_match_the_seed_with_theta_from_the_downward_vertical():
+    d = sph.build().derive()
+    m, g, l = sph.m, sph.g, sph.l
+    (th, ph), (thd, phd) = d.system.q, d.system.qd
+    thdd, phdd = sp.symbols("theta_ddot phi_ddot", real=True)
+    # hand-typed: T = ½ m l² (θ̇² + sin²θ φ̇²); V = −m g l cos θ = seed's m g l cos θ_up with θ_up = π − θ
+    assert sp.simplify(d.system.kinetic - m * l**2 * (thd**2 + sp.sin(th) ** 2 * phd**2) / 2) == 0
+    assert sp.simplify(d.system.potential - (m * g * l * sp.cos(sp.pi - th))) == 0
+    seed_theta_eq = (m * l**2 * thdd - m * l**2 * phd**2 * sp.sin(th) * sp.cos(th) - m * g * l * sp.sin(th))
+    up = {th: sp.pi - th, thd: -thd, thdd: -thdd}  # the seed's equation with θ_up = π − θ
+    assert sp.simplify(d.equations[0] + seed_theta_eq.subs(up, simultaneous=True)) == 0
+    # the seed's φ equation has −2 m l² θ̇ φ̇ sinθ cosθ: a sign slip; d/dt sin²θ = +2 sinθ cosθ θ̇
+    phi_eq = m * l**2 * sp.sin(th) ** 2 * phdd + 2 * m * l**2 * thd * phd * sp.sin(th) * sp.cos(th)
+    assert sp.simplify(d.equations[1] - phi_eq) == 0
+    assert d.cyclic == (ph,)
+    assert sp.simplify(d.momenta[1] - m * l**2 * sp.sin(th) ** 2 * phd) == 0
+
+
+def test_phi_equation_is_the_time_derivative_of_p_phi():
+    d = sph.build().derive()
+    s = d.system
+    qdd = [sp.Symbol(f"{c.name}_ddot", real=True) for c in s.q]
+    p_phi = d.momenta[1]
+    rate = sum(sp.diff(p_phi, c) * v + sp.diff(p_phi, v) * a for c, v, a in zip(s.q, s.qd, qdd, strict=True))
+    assert sp.simplify(d.equations[1] - rate) == 0
+
+
+def test_bob_acceleration_minus_gravity_points_along_the_rod():
+    """Only gravity and the rod act: ẍ − g ∥ x (checks the EOM and Dynamics.point_accelerations)."""
+    dyn = refmod.dynamics(sph.build().name, {"m": 1.3, "g": 9.81, "l": 0.7})
+    q, qd = _random_states(40)
+    qdd, _ = dyn.accelerations(q, qd)
+    acc = dyn.point_accelerations(q, qd, qdd)[:, 0]
+    x = dyn.points(q)[:, 0]
+    cross = np.cross(acc - np.array([0.0, 0.0, -9.81]), x)
+    assert np.max(np.linalg.norm(cross, axis=1)) < 1e-12
+    # and the radial part is the centripetal one: (ẍ − g)·x = −|ẋ|² ... + gravity term cancels
+    vel = dyn.point_velocities(q, qd)[:, 0]
+    np.testing.assert_allclose(np.einsum("ni,ni->n", acc, x), -np.einsum("ni,ni->n", vel, vel), atol=1e-12)
+
+
+# --- conventions: analytic ↔ both MJCF models -----------------------------------------
+
+
+def test_params_are_read_from_each_model_and_agree():
+    params = [sph.params_from_model(model) for model, _ in _models().values()]
+    assert params[0] == params[1] == {"m": 1.0, "l": 1.0, "g": 9.81}
+
+
+def test_bob_position_and_frame_match_the_convention_in_both_models():
+    models = _models()
+    dyn = refmod.dynamics(HINGE, sph.params_from_model(models[HINGE][0]))
+    q, qd = _random_states(20)
+    for qi, qdi in zip(q, qd, strict=True):
+        (theta, phi), l = qi, dyn.params["l"]
+        expected = l * np.array([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), -np.cos(theta)])
+        frames = []
+        for model, binding in models.values():
+            data = _at(model, binding, qi, qdi)
+            bid = model.body("bob").id
+            np.testing.assert_allclose(data.xipos[bid], expected, atol=1e-15)
+            np.testing.assert_allclose(data.site_xpos[model.site("pivot").id], 0.0, atol=0)
+            frames.append(data.xquat[bid].copy())
+        np.testing.assert_allclose(dyn.points(qi)[0], expected, atol=1e-15)
+        np.testing.assert_allclose(frames[0], frames[1], atol=1e-15)
+
+
+def test_ball_qvel_is_the_angular_velocity_in_the_local_frame():
+    """mj_integratePos(qpos, qvel, h) reaches the orientation at (θ + h θ̇, φ + h φ̇), to O(h²),
+    and the body moves exactly as in the two-hinge model (same 6D velocity)."""
+    models = _models()
+    model, binding = models[BALL]
+    h = 1e-7
+    for qi, qdi in zip(*_random_states(10), strict=True):
+        data = _at(model, binding, qi, qdi)
+        ahead = data.qpos.copy()
+        mujoco.mj_integratePos(model, ahead, data.qvel, h)
+        later = _at(model, binding, qi + h * qdi, qdi)
+        assert np.max(np.abs(ahead - later.qpos)) < 1e-12
+        hinge_model, hinge_binding = models[HINGE]
+        hinge = _at(hinge_model, hinge_binding, qi, qdi)
+        vel = [np.zeros(6), np.zeros(6)]
+        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, 1, vel[0], 0)
+        mujoco.mj_objectVelocity(hinge_model, hinge, mujoco.mjtObj.mjOBJ_BODY, 1, vel[1], 0)
+        np.testing.assert_allclose(vel[0], vel[1], atol=1e-13)
+
+
+def test_ball_binding_round_trips():
+    model, _ = _models()[BALL]
+    for order in (COORDS, COORDS[::-1]):
+        binding = BallBinding(order)
+        for qi, qdi in zip(*_random_states(30, seed=7), strict=True):
+            q_in, qd_in = qi if order == COORDS else qi[::-1], qdi if order == COORDS else qdi[::-1]
+            data = _at(model, binding, q_in, qd_in)
+            q_out, qd_out = binding.read_state(model, data)
+            np.testing.assert_allclose(q_out, q_in, atol=1e-13)
+            np.testing.assert_allclose(qd_out, qd_in, atol=1e-12)
+
+
+def test_ball_binding_rejects_what_it_cannot_bind():
+    with pytest.raises(ValueError, match="theta"):
+        BallBinding(("theta", "r"))
+    binding = BallBinding(COORDS)
+    with pytest.raises(ModelMismatch, match="no joint 'ball'"):
+        binding.validate(_models()[HINGE][0])
+    with pytest.raises(ModelMismatch, match="must be a ball joint"):
+        BallBinding(COORDS, joint="phi").validate(_models()[HINGE][0])
+    assert binding.dof_matrix(_models()[BALL][0]) is None
+
+
+def test_point_acceleration_agrees_with_mujocos_accelerometer_convention():
+    """J qacc + J̇ qvel = mj_objectAcceleration (after mj_rnePostConstraint), which reads a − g."""
+    for model, binding in _models().values():
+        for qi, qdi in zip(*_random_states(5), strict=True):
+            data = _at(model, binding, qi, qdi)
+            mujoco.mj_rnePostConstraint(model, data)
+            acc6 = np.zeros(6)
+            mujoco.mj_objectAcceleration(model, data, mujoco.mjtObj.mjOBJ_BODY, model.body("bob").id, acc6, 0)
+            np.testing.assert_allclose(point_acceleration(model, data, "bob"), acc6[3:] + model.opt.gravity,
+                                       atol=1e-12)
+
+
+def test_mujoco_p_phi_is_the_bobs_vertical_angular_momentum():
+    """The reading (from mj_subtreeVel) = m (x × v)_z of the bob plus its tiny spin ε ω_z;
+    and = m l² sin²θ φ̇ at the state set through either binding."""
+    read = cases.get(HINGE).mujoco_invariants["p_phi"]
+    assert cases.get(BALL).mujoco_invariants["p_phi"] is not None
+    for model, binding in _models().values():
+        for qi, qdi in zip(*_random_states(10), strict=True):
+            data = _at(model, binding, qi, qdi)
+            x, v = point_state(model, data, "bob")
+            orbital = model.body("bob").mass[0] * np.cross(x, v)[2]
+            eps = model.body("bob").inertia[2]  # the point-mass floor: its spin adds ε φ̇
+            assert abs(read(model, data) - orbital - eps * qdi[1]) < 1e-15
+            assert abs(orbital - np.sin(qi[0]) ** 2 * qdi[1]) < 1e-13
+
+
+# --- trajectories ---------------------------------------------------------------------
+
+
+def test_orbit_precesses_away_from_the_poles():
+    """θ ∈ [0.47, 1] rad (away from the two-hinge singularity at θ = 0), φ̇ > 0, not conical."""
+    result = shipped_run(HINGE)
+    pos = result.reference.positions["bob"]
+    theta = np.arccos(-pos[:, 2] / result.settings["params"]["l"])
+    assert 0.45 < theta.min() < 0.5 and abs(theta.max() - 1.0) < 1e-9
+    phi = np.unwrap(np.arctan2(pos[:, 1], pos[:, 0]))
+    assert np.all(np.diff(phi) > 0) and phi[-1] > 5 * np.pi
+
+
+def test_p_phi_is_conserved_on_both_sides():
+    for name in (HINGE, BALL):
+        result = shipped_run(name)
+        params = result.settings["params"]
+        scale = sph.scales(params).momentum
+        ref = result.reference.invariants["p_phi"]
+        assert np.ptp(ref) / scale < 1e-10
+        case = cases.get(name)  # p_phi(0) = m l² sin²θ0 φ̇0
+        expected = params["m"] * params["l"] ** 2 * np.sin(case.q0["theta"]) ** 2 * case.qd0["phi"]
+        assert abs(ref[0] - expected) < 1e-12
+        assert np.ptp(result.simulations["RK4"].invariants["p_phi"]) / scale < 1e-10
+    # the ball has no dof matrix, so no generalized force is recorded for it
+    assert shipped_run(BALL).simulations["RK4"].generalized_force is None
+    assert shipped_run(HINGE).simulations["RK4"].generalized_force is not None
+
+
+def test_the_two_models_agree_with_each_other_and_the_reference():
+    hinge, ball = shipped_run(HINGE), shipped_run(BALL)
+    for integrator in ("RK4",):
+        a, b = hinge.simulations[integrator], ball.simulations[integrator]
+        assert np.max(np.linalg.norm(a.positions["bob"] - b.positions["bob"], axis=1)) < 3e-10
+        # J: the two-hinge model's own RK4 energy drift is 1.5e-10 J
+        assert np.max(np.abs(a.invariants["energy"] - b.invariants["energy"])) < 5e-10
+    for result in (hinge, ball):
+        assert result.figure("RK4.position").value < 3e-10
+    # instantaneous: same state in both models → same bob acceleration and kinetic energy, up to
+    # the point-mass floor: the hinges tie the bob's spin (inertia ε) to φ̇, the ball leaves
+    # it free, a relative difference ε/(m l² sin²θ)
+    models = _models()
+    eps = models[BALL][0].body("bob").inertia[0]
+    for qi, qdi in zip(*_random_states(10), strict=True):
+        got = []
+        for model, binding in models.values():
+            data = _at(model, binding, qi, qdi)
+            got.append((point_acceleration(model, data, "bob"), data.energy[1]))
+        floor = eps / np.sin(qi[0]) ** 2
+        assert np.linalg.norm(got[0][0] - got[1][0]) <= 2 * floor * np.linalg.norm(got[1][0])
+        assert abs(got[0][1] - got[1][1]) <= 1e-14 + 2 * floor * got[1][1]
+
+
+def test_ball_case_has_observable_figures_instead_of_dof_ones():
+    names = {f.name for f in shipped_run(BALL).figures}
+    assert {"instant.kinematics", "instant.kinetic_energy", "instant.point_acceleration"} <= names
+    assert not names & {"instant.mass_matrix", "instant.forcing", "instant.qacc", "instant.generalized_force"}
+    assert {"instant.mass_matrix", "instant.forcing", "instant.qacc"} <= {f.name for f in shipped_run(HINGE).figures}
+
+
+# --- gates fail on broken variants ----------------------------------------------------
+
+
+def _damping(joint: str, value: float):
+    def edit(spec: mujoco.MjSpec) -> None:
+        spec.joint(joint).damping = [value] * len(spec.joint(joint).damping)
+    return edit
+
+
+def _gravity(vector):
+    def edit(spec: mujoco.MjSpec) -> None:
+        spec.option.gravity = vector
+    return edit
+
+
+def _mass(spec: mujoco.MjSpec) -> None:
+    spec.body("bob").mass = spec.body("bob").mass * 1.01
+
+
+def _rod(spec: mujoco.MjSpec) -> None:
+    spec.body("bob").ipos = [0.0, 0.0, -0.01]  # centre of mass 1 cm further from the pivot
+
+
+EULER_FAMILY = ["Euler", "implicit", "implicitfast", "discrete"]
+RK4 = ["RK4"]
+VARIANTS = {
+    # name: (kwargs for run_case per case, gates that must fail, gates that must still pass)
+    "azimuth_damping": ({HINGE: dict(edit=_damping("phi", 3e-3)),
+                         BALL: dict(edit=_damping("ball", 3e-3), integrators=EULER_FAMILY)},
+                        {"Euler.position", "Euler.drift.energy", "Euler.drift.p_phi", "Euler.p_phi",
+                         "discrete.drift.p_phi", "implicit.p_phi"}, set()),
+    "horizontal_gravity": ({c: dict(edit=_gravity([0.05, 0.0, -9.81]), integrators=RK4) for c in (HINGE, BALL)},
+                           {"RK4.drift.p_phi", "RK4.p_phi", "instant.point_acceleration"},
+                           {"RK4.drift.energy", "instant.kinetic_energy"}),
+    "mass": ({c: dict(edit=_mass, integrators=RK4) for c in (HINGE, BALL)},
+             {"instant.kinetic_energy", "RK4.p_phi"}, {"instant.point_acceleration", "RK4.position"}),
+    "gravity": ({c: dict(edit=_gravity([0.0, 0.0, -9.9]), integrators=RK4) for c in (HINGE, BALL)},
+                {"instant.point_acceleration", "RK4.position"}, {"instant.kinetic_energy"}),
+    "rod_length": ({c: dict(edit=_rod, integrators=RK4) for c in (HINGE, BALL)},
+                   {"instant.kinematics", "instant.kinetic_energy", "RK4.position"}, set()),
+    "coarse_timestep": ({c: dict(timestep=0.004, integrators=RK4) for c in (HINGE, BALL)},
+                        {"RK4.position", "RK4.drift.energy", "RK4.drift.p_phi"}, {"instant.kinematics"}),
+}
+
+
+@functools.cache
+def _verdict(name: str, variant: str) -> tuple[frozenset[str], frozenset[str]]:
+    """(failed, passed) gates of ``name`` under ``variant``."""
+    figures = run_case(cases.get(name), **VARIANTS[variant][0][name]).figures
+    measured = {f.name for f in figures}  # a variant may run only some integrators
+    checks = verdict(name, figures, {k: v for k, v in load_config().for_case(name).items() if k in measured})
+    return (frozenset(c.name for c in checks if not c.passed), frozenset(c.name for c in checks if c.passed))
+
+
+@pytest.mark.parametrize("variant", list(VARIANTS))
+@pytest.mark.parametrize("name", [HINGE, BALL])
+def test_broken_variant_fails_the_expected_gates(name, variant):
+    failed, passed = _verdict(name, variant)
+    _, must_fail, must_pass = VARIANTS[variant]
+    assert must_fail <= failed, f"expected to fail but passed: {sorted(must_fail - failed)}"
+    assert must_pass <= passed, f"expected to pass but failed: {sorted(must_pass - passed)}"
+
+
+@pytest.mark.parametrize("name", [HINGE, BALL])
+def test_every_gate_fails_under_some_variant(name, config):
+    gated = set(config.for_case(name))
+    caught = set().union(*(_verdict(name, v)[0] for v in VARIANTS))
+    assert gated - caught == set(), f"gates no variant reaches: {sorted(gated - caught)}"
+    if name == HINGE:  # the D-based gates too
+        assert {"instant.mass_matrix", "instant.forcing", "instant.qacc"} <= caught
+
+
+def test_ball_damping_is_too_stiff_for_explicit_rk4():
+    """Damping on the ball acts on the spin about the rod too, whose inertia is the point-mass
+    floor ε: rate c/ε = 3e7 /s, far past RK4's stability at 1 ms (why the damping variant of the
+    ball case runs only the integrators that treat damping implicitly)."""
+    with pytest.raises(SimulationDiverged):
+        run_case(cases.get(BALL), edit=_damping("ball", 3e-3), integrators=RK4)
