@@ -6,11 +6,17 @@ maximum over the horizon unless its name says ``final``.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from analytic.systems import Scales
 from harness.figures import Figure, max_abs
 from harness.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from harness.cases import Series
 
 
 def _point_error(a: dict, b: dict) -> np.ndarray:
@@ -36,9 +42,17 @@ def _check_grid(ref: Trajectory, sim: Trajectory) -> None:
         raise ValueError(f"point names differ: {sorted(ref.positions)} vs {sorted(sim.positions)}")
 
 
-def trajectory_figures(ref: Trajectory, sim: Trajectory, scales: Scales, *, prefix: str) -> list[Figure]:
-    """Position, velocity, invariant drift, multiplier and violation figures."""
+def trajectory_figures(ref: Trajectory, sim: Trajectory, scales: Scales, *, prefix: str,
+                       settle: float = 0.0) -> list[Figure]:
+    """Position, velocity, invariant drift, multiplier and violation figures.
+
+    Force figures (multipliers, generalized force) are maxima over t ≥ ``settle``
+    only: a contact has no force of its own at the first sample, it builds one
+    from slip or penetration over a few solref time constants (``Case.settle``).
+    """
     err = error_series(ref, sim)
+    settled = ref.t >= settle
+    after = f" for t ≥ {settle:g} s" if settle > 0 else ""
     figs = [
         Figure(f"{prefix}.position", max_abs(err["position"]), "m",
                "max over horizon of |x_mj − x_ref| (worst point)"),
@@ -56,13 +70,20 @@ def trajectory_figures(ref: Trajectory, sim: Trajectory, scales: Scales, *, pref
                                f"max |{name}_mj − {name}_ref| / {scale:.4g}"))
     for c in ref.multipliers:
         if c in sim.multipliers:
-            figs.append(Figure(f"{prefix}.force.{c}", max_abs(err[f"force.{c}"]) / scales.force, "1",
-                               f"max |λ_mj − λ_ref| for {c!r} / force scale {scales.force:.4g} N"))
+            figs.append(Figure(f"{prefix}.force.{c}", max_abs(err[f"force.{c}"][settled]) / scales.force,
+                               "1", f"max |λ_mj − λ_ref| for {c!r}{after} / force scale {scales.force:.4g} N"))
         if c in sim.violations:
             figs.append(Figure(f"{prefix}.violation.{c}", max_abs(sim.violations[c]), "m",
                                f"max constraint violation of {c!r} in MuJoCo"))
     if ref.generalized_force is not None and sim.generalized_force is not None and ref.multipliers:
         diff = sim.generalized_force - ref.generalized_force
-        figs.append(Figure(f"{prefix}.generalized_force", max_abs(diff) / scales.force, "1",
-                           "max |Dᵀqfrc_constraint − Jᵀλ| / force scale (per coordinate, SI)"))
+        figs.append(Figure(f"{prefix}.generalized_force", max_abs(diff[settled]) / scales.force, "1",
+                           f"max |Dᵀqfrc_constraint − Jᵀλ|{after} / force scale (per coordinate, SI)"))
     return figs
+
+
+def series_figures(sim: Trajectory, specs: Mapping[str, Series], *, prefix: str) -> list[Figure]:
+    """One figure per MuJoCo-only series (``Case.mujoco_series``): its max |·| over the horizon."""
+    return [Figure(f"{prefix}.series.{name}", max_abs(sim.series[name]), spec.unit,
+                   f"max over horizon of {spec.description}")
+            for name, spec in specs.items()]

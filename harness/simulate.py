@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from harness.binding import JointBinding, ModelMismatch
+from harness.binding import Binding, ModelMismatch
 from harness.cases import Reading
 from harness.trajectory import Trajectory
 
@@ -62,11 +62,12 @@ def integrator_name(model: mujoco.MjModel) -> str:
 class Probe:
     """What to read from MuJoCo: points, constraints (equalities) and the dof map."""
 
-    binding: JointBinding
+    binding: Binding
     points: Sequence[str]
     constraints: Sequence[str]
     invariants: Mapping[str, Reading] = field(default_factory=dict)
     forces: Mapping[str, Reading] = field(default_factory=dict)
+    series: Mapping[str, Reading] = field(default_factory=dict)
 
     def validate(self, model: mujoco.MjModel) -> None:
         self.binding.validate(model)
@@ -144,6 +145,7 @@ def simulate(
     energy = np.zeros(n)
     extra = {name: np.zeros(n) for name in probe.invariants}
     forces = {name: np.zeros(n) for name in probe.forces}
+    series = {name: np.zeros(n) for name in probe.series}
     qfrc = np.zeros((n, model.nv))
     for k in range(n):
         mujoco.mj_forward(model, data)
@@ -158,11 +160,13 @@ def simulate(
             extra[name][k] = read(model, data)
         for name, read in probe.forces.items():
             forces[name][k] = read(model, data)
+        for name, read in probe.series.items():
+            series[name][k] = read(model, data)
         qfrc[k] = data.qfrc_constraint
         if k < steps:
             step(model, data)
     return Trajectory(
         t=t, positions=pos, velocities=vel, multipliers=lam | forces,
-        generalized_force=qfrc @ dof, invariants={"energy": energy} | extra, violations=viol,
-        source=f"mujoco:{integrator_name(model)}",
+        generalized_force=None if dof is None else qfrc @ dof, invariants={"energy": energy} | extra, violations=viol,
+        source=f"mujoco:{integrator_name(model)}", series=series,
     )

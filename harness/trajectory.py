@@ -27,6 +27,8 @@ class Trajectory:
         invariants: conserved quantities by name (``energy``, ``p_phi``), (N,).
         violations: constraint violation by constraint name, (N,), in the
             constraint's own units (f(q) for holonomic rows).
+        series: one producer's own series with no counterpart on the other
+            side (a contact's slip velocity), by name, (N,).
         source: who produced it ("reference" or "mujoco:RK4", ...).
     """
 
@@ -38,17 +40,19 @@ class Trajectory:
     invariants: Mapping[str, np.ndarray] = field(default_factory=dict)
     violations: Mapping[str, np.ndarray] = field(default_factory=dict)
     source: str = ""
+    series: Mapping[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         n = len(self.t)
-        for group in ("positions", "velocities", "multipliers", "invariants", "violations"):
+        for group in ("positions", "velocities", "multipliers", "invariants", "violations", "series"):
             for name, arr in getattr(self, group).items():
                 if len(arr) != n:
                     raise ValueError(f"{group}[{name!r}] has {len(arr)} samples, t has {n}")
 
     def is_finite(self) -> bool:
         arrays = [self.t, *self.positions.values(), *self.velocities.values(),
-                  *self.multipliers.values(), *self.invariants.values(), *self.violations.values()]
+                  *self.multipliers.values(), *self.invariants.values(), *self.violations.values(),
+                  *self.series.values()]
         if self.generalized_force is not None:
             arrays.append(self.generalized_force)
         return all(np.all(np.isfinite(a)) for a in arrays)

@@ -1,0 +1,136 @@
+"""MuJoCo-side readings for rolling contacts: contact forces as multipliers, and slip.
+
+Contact forces. ``mj_contactForce(model, data, i, f)`` gives contact i's force
+in its contact frame, whose axes are the *rows* of ``contact.frame`` (normal
+first, then the two tangents); the normal points from ``geom1`` to ``geom2``
+and f is the force geom1 exerts on geom2 (normal component ≥ 0, pushing
+apart). In world coordinates the force on geom2 is ``frameᵀ f[:3]`` and the
+force on geom1 its negative (pinned in tests/test_hoop_ramp.py against
+``qfrc_constraint``). Contacts MuJoCo excluded (``efc_address < 0``) carry none.
+
+The rolling systems write each contact multiplier as one world component of
+the contact force on the hoop, along the axis of one of its slides (the
+system modules say which), so a multiplier is read as "contact force on the
+hoop's geom, along slide J's world axis".
+
+What a contact can be checked against. MuJoCo's soft contact answers to its
+own state: a normal row pushes with the penetration, a friction row asks
+J q̈ = −b J q̇ (no position term) and omits J̇ q̇. So at a sampled state of ideal
+rolling the contact force equals the analytic multiplier only where J̇ q̇ = 0
+and the contact is already active (a straight rolling line, with a pair margin
+so that exact touching counts): there ``instant.qacc`` is gated. A turning
+hoop gets its lateral force only from a steady slip v θ̇ · timeconst / 2, so
+its instantaneous qacc misses the centripetal part entirely and only its
+trajectories, forces after ``Case.settle`` and slip are gated.
+
+Slip. The analytic constraint rows evaluated on MuJoCo's state: J q̇ + b for
+the rolling rows is the slip velocity (ẋ − a φ̇ on the ramp), f(q) for a
+holonomic row its violation (creep x − aφ, or the contact's s − a), with q
+and q̇ read from the same-named joints and the parameters from the model.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from typing import Literal
+
+import mujoco
+import numpy as np
+import sympy as sp
+
+# same shape as harness.cases.Reading, which cannot be imported here (cases imports this module)
+Reading = Callable[[mujoco.MjModel, mujoco.MjData], float]
+
+ResidualLevel = Literal["position", "velocity"]
+
+
+def contact_force(model: mujoco.MjModel, data: mujoco.MjData, geom: str | int) -> np.ndarray:
+    """Net world force, shape (3,), of every active contact on ``geom`` (name or id), after ``mj_forward``."""
+    gid = geom if isinstance(geom, int) else model.geom(geom).id
+    total = np.zeros(3)
+    local = np.zeros(6)
+    for i in range(data.ncon):
+        con = data.contact[i]
+        if con.efc_address < 0 or gid not in (con.geom1, con.geom2):
+            continue
+        mujoco.mj_contactForce(model, data, i, local)
+        world = con.frame.reshape(3, 3).T @ local[:3]
+        total += world if con.geom2 == gid else -world
+    return total
+
+
+def slide_force(*, geom: str, joint: str) -> Reading:
+    """A reading of the contact force on ``geom`` along the world axis of the slide ``joint``."""
+    ids: dict[str, object] = {}
+
+    def read(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+        if ids.get("model") is not model:
+            jid = model.joint(joint).id
+            if model.jnt_type[jid] != mujoco.mjtJoint.mjJNT_SLIDE:
+                raise ValueError(f"joint {joint!r} must be a slide, got "
+                                 f"{mujoco.mjtJoint(model.jnt_type[jid]).name}")
+            ids.update(model=model, geom=model.geom(geom).id, joint=jid)
+        return float(contact_force(model, data, ids["geom"]) @ data.xaxis[ids["joint"]])
+
+    read.__doc__ = f"contact force on geom {geom!r} along slide {joint!r} (N)"
+    return read
+
+
+def analytic_residual(*, system: str, constraints: Sequence[str], level: ResidualLevel) -> Reading:
+    """A reading of |residual| of the analytic ``constraints`` at MuJoCo's state.
+
+    ``level="velocity"``: J q̇ + b (slip velocity for rolling rows);
+    ``level="position"``: f(q) (0 for Pfaffian rows). Several rows give the
+    Euclidean norm (the slip speed of a planar contact). The rows come from
+    the system's derivation with the parameters of the model being read.
+    """
+    if level not in ("position", "velocity"):
+        raise ValueError(f"level must be 'position' or 'velocity', got {level!r}")
+    if not constraints:
+        raise ValueError("constraints must name at least one constraint")
+    bound: dict[str, object] = {}
+
+    def bind(model: mujoco.MjModel) -> None:
+        from analytic.systems import load
+        from harness.reference import derivation  # local: reference imports the case registry
+
+        deriv = derivation(system)
+        names = [c.name for c in deriv.system.constraints]
+        unknown = sorted(set(constraints) - set(names))
+        if unknown:
+            raise ValueError(f"system {system!r} has no constraint(s) {unknown}; it has {names}")
+        exprs = deriv.constraint_rows if level == "velocity" else deriv.holonomic_residual
+        params = load(system).params_from_model(model)
+        values = {p: params[p.name] for p in deriv.system.params}
+        rows = [exprs[names.index(c)].subs(values) for c in constraints]
+        coords = [c.name for c in deriv.system.q]
+        bound.update(model=model,
+                     fn=sp.lambdify([*deriv.system.q, *deriv.system.qd], rows, modules="math"),
+                     qpos=[model.joint(n).qposadr[0] for n in coords],
+                     qvel=[model.joint(n).dofadr[0] for n in coords])
+
+    def read(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+        if bound.get("model") is not model:
+            bind(model)
+        args = [*data.qpos[bound["qpos"]], *data.qvel[bound["qvel"]]]
+        return math.hypot(*bound["fn"](*args))
+
+    read.__doc__ = f"|{level} residual of {list(constraints)}| of system {system!r} at MuJoCo's state"
+    return read
+
+
+def fit_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """Centre (2,) and radius of the least-squares circle through planar ``points`` (N, 2).
+
+    The algebraic (Kåsa) fit: x² + y² = 2 c·p + (r² − |c|²) is linear in c and
+    r² − |c|², exact for points on a circle, so it turns a rolling hoop's path
+    into the two numbers its analytic motion predicts (centre, radius a φ̇ / θ̇).
+    """
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 3:
+        raise ValueError(f"points must have shape (N >= 3, 2), got {pts.shape}")
+    lhs = np.column_stack([2 * pts, np.ones(len(pts))])
+    (cx, cy, k), *_ = np.linalg.lstsq(lhs, np.sum(pts**2, axis=1), rcond=None)
+    centre = np.array([cx, cy])
+    return centre, float(np.sqrt(k + centre @ centre))

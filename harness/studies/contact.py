@@ -1,0 +1,165 @@
+"""Layer 4 for contacts: slip and force error vs friction cone, impratio, noslip and softness.
+
+One reference per case, then one MuJoCo run per setting (the model's own
+integrator and timestep), each compared with the same figures run_case uses.
+The settings swept are the options that decide how MuJoCo's soft contact
+approximates rolling without slipping:
+
+- ``cone``: pyramidal or elliptic friction cone;
+- ``impratio``: ratio of frictional to normal impedance (elliptic cones);
+- ``noslip_iterations``: the NoSlip post-processing pass (hard friction rows);
+- softness: the case's own contact ``solref``/``solimp`` ("shipped") or
+  MuJoCo's defaults ("mujoco_default": solref 0.02 1, solimp 0.9 0.95 0.001
+  0.5 2), to show which of the three matter where.
+
+The figures per row: the largest slip speed (J q̇ + b of the rolling rows at
+MuJoCo's state) over the horizon and over its second half (the steady, slow
+slippage), the penetration, the error of every contact multiplier (after the
+case's ``settle`` time, / m g), the position error and MuJoCo's energy drift.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from harness import cases
+from harness import reference as refmod
+from harness.compare import series_figures, trajectory_figures
+from harness.models import compile_model, mjcf_path
+from harness.pipeline import probe_for
+from harness.simulate import integrator_name, simulate
+from harness.studies._common import png_bytes
+
+CONES = ("pyramidal", "elliptic")
+IMPRATIOS = (1.0, 10.0, 100.0)
+NOSLIP_ITERATIONS = (0, 3)
+SOFTNESS: Mapping[str, tuple[tuple[float, ...], tuple[float, ...]] | None] = {
+    "shipped": None,
+    "mujoco_default": ((0.02, 1.0), (0.9, 0.95, 0.001, 0.5, 2.0)),
+}
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    """Rows of the study (one dict per setting) and the settings the MJCF ships."""
+
+    case: str
+    integrator: str
+    timestep: float
+    shipped: Mapping[str, object]
+    rows: tuple[Mapping[str, object], ...]
+
+    def shipped_row(self) -> Mapping[str, object]:
+        """The row with the MJCF's own cone, impratio, noslip and softness."""
+        for row in self.rows:
+            if row["softness"] == "shipped" and all(row[k] == v for k, v in self.shipped.items()):
+                return row
+        raise ValueError(f"the study did not include the shipped settings {dict(self.shipped)}")
+
+    def plot_png(self) -> bytes:
+        """Steady slip, worst force error and position error per setting, as PNG bytes."""
+        import matplotlib.pyplot as plt  # Agg, selected by harness.studies._common
+        from matplotlib.patches import Patch
+
+        labels = [f"{r['cone'][0].upper()} i{r['impratio']:g} n{r['noslip_iterations']}\n{r['softness']}"
+                  for r in self.rows]
+        colours = ["tab:blue" if r["cone"] == "elliptic" else "tab:orange" for r in self.rows]
+        panels = [("slip_late", "steady slip, max over 2nd half (m/s)"),
+                  ("force_error", "worst contact force error / m g"),
+                  ("position", "position error (m)")]
+        fig, axes = plt.subplots(len(panels), 1, figsize=(max(8.0, 0.45 * len(self.rows)), 9), sharex=True)
+        x = np.arange(len(self.rows))
+        for ax, (key, title) in zip(axes, panels, strict=True):
+            values = np.array([max(float(r[key]), 1e-16) for r in self.rows])
+            ax.bar(x, values, color=colours)
+            ax.set_yscale("log")
+            ax.set_ylabel(title, fontsize=8)
+            ax.grid(True, axis="y", alpha=0.3)
+        axes[-1].set_xticks(x, labels, rotation=90, fontsize=6)
+        axes[0].legend(handles=[Patch(color="tab:orange", label="pyramidal"),
+                                Patch(color="tab:blue", label="elliptic")], fontsize=7)
+        fig.suptitle(f"{self.case}: contact settings ({self.integrator}, h = {self.timestep:g} s; "
+                     "P/E = pyramidal/elliptic, i = impratio, n = noslip iterations)", fontsize=9)
+        return png_bytes(fig)
+
+
+def _options(model: mujoco.MjModel) -> dict[str, object]:
+    return {"cone": mujoco.mjtCone(int(model.opt.cone)).name.removeprefix("mjCONE_").lower(),
+            "impratio": float(model.opt.impratio),
+            "noslip_iterations": int(model.opt.noslip_iterations)}
+
+
+def _edit(cone: str, impratio: float, noslip: int, softness: tuple | None):
+    def edit(spec: mujoco.MjSpec) -> None:
+        spec.option.cone = getattr(mujoco.mjtCone, f"mjCONE_{cone.upper()}")
+        spec.option.impratio = impratio
+        spec.option.noslip_iterations = noslip
+        if softness is not None:
+            for pair in spec.pairs:
+                pair.solref, pair.solimp = list(softness[0]), list(softness[1])
+
+    return edit
+
+
+def _validate(values: Sequence, allowed: Sequence | None, label: str) -> None:
+    if not values:
+        raise ValueError(f"{label} must not be empty")
+    if allowed is not None and set(values) - set(allowed):
+        raise ValueError(f"{label} must be among {list(allowed)}, got {list(values)}")
+
+
+def contact_study(
+    case_name: str,
+    *,
+    cones: Sequence[str] = CONES,
+    impratios: Sequence[float] = IMPRATIOS,
+    noslip_iterations: Sequence[int] = NOSLIP_ITERATIONS,
+    softness: Sequence[str] = tuple(SOFTNESS),
+) -> StudyResult:
+    """Run ``case_name`` (a case with a contact <pair> and a ``slip`` series) at every
+    combination of the settings; one row per combination."""
+    case = cases.get(case_name)
+    _validate(cones, CONES, "cones")
+    _validate(softness, tuple(SOFTNESS), "softness")
+    _validate(impratios, None, "impratios")
+    _validate(noslip_iterations, None, "noslip_iterations")
+    if any(not r >= 1 for r in impratios) or any(n < 0 for n in noslip_iterations):
+        raise ValueError(f"impratios must be >= 1 and noslip_iterations >= 0, got {impratios}, "
+                         f"{noslip_iterations}")
+    path = mjcf_path(case.mjcf)
+    shipped_model = compile_model(path)
+    if shipped_model.npair == 0 or "slip" not in case.mujoco_series:
+        raise ValueError(f"case {case_name!r} has no contact pair and slip series; contact cases: "
+                         f"{[c.name for c in cases.CASES if 'slip' in c.mujoco_series]}")
+    ref = refmod.build_reference(case, shipped_model)
+    probe = probe_for(case, ref.dynamics)
+    steps = round(case.horizon / shipped_model.opt.timestep)
+    rows = []
+    for soft, cone, imp, ns in itertools.product(softness, cones, impratios, noslip_iterations):
+        model = compile_model(path, edit=_edit(cone, float(imp), int(ns), SOFTNESS[soft]))
+        sim = simulate(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
+        ref_traj = refmod.trajectory(ref, sim.t)
+        figs = {f.name.removeprefix("sim."): f.value
+                for f in trajectory_figures(ref_traj, sim, ref.scales, prefix="sim", settle=case.settle)
+                + series_figures(sim, case.mujoco_series, prefix="sim")}
+        forces = {f"force.{c}": figs[f"force.{c}"] for c in case.mujoco_forces}
+        slip = sim.series["slip"]
+        rows.append({
+            "softness": soft, "cone": cone, "impratio": float(imp), "noslip_iterations": int(ns),
+            "solref": [float(x) for x in model.pair_solref[0]],
+            "slip_max": float(np.max(np.abs(slip))),
+            "slip_late": float(np.max(np.abs(slip[len(slip) // 2:]))),
+            "penetration": figs.get("series.penetration", float("nan")),
+            **forces,
+            "force_error": max(forces.values()),
+            "position": figs["position"],
+            "drift.energy": figs["drift.energy"],
+        })
+    return StudyResult(case=case_name, integrator=integrator_name(shipped_model),
+                       timestep=float(shipped_model.opt.timestep), shipped=_options(shipped_model),
+                       rows=tuple(rows))
