@@ -30,8 +30,10 @@ def load_spec(path: Path | str) -> mujoco.MjSpec:
     path = Path(path)
     if not path.is_file():
         raise ModelError(f"cannot read MJCF {str(path)!r}: no such file")
+    from harness.compat import spec_from_file
+
     try:
-        return mujoco.MjSpec.from_file(str(path))
+        return spec_from_file(str(path))  # MjSpec.from_file, with fallbacks for an older MuJoCo
     except Exception as exc:  # MuJoCo raises ValueError with the parser's message
         raise ModelError(f"invalid MJCF {str(path)!r}: {_one_line(exc)}") from None
 
@@ -55,10 +57,14 @@ def compile_model(
         spec.option.timestep = timestep
     if edit is not None:
         edit(spec)
+    from harness.compat import after_compile
+
     try:
-        return spec.compile()
+        model = spec.compile()
     except Exception as exc:
         raise ModelError(f"invalid MJCF {str(path)!r}: {_one_line(exc)}") from None
+    after_compile(model, str(path))  # fallbacks for an older MuJoCo (harness.compat)
+    return model
 
 
 def _one_line(exc: Exception) -> str:

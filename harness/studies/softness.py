@@ -1,0 +1,263 @@
+"""Layer 4: how soft MuJoCo's equality constraints are, beside its documented relations.
+
+For every case whose constraints are MJCF equalities, each equality's
+``solref`` time constant and ``solimp`` impedance (d = dmin = dmax) is swept
+at the shipped integrator and timestep, and three errors are measured against
+the reference, each beside what the documentation predicts:
+
+- Violation (MuJoCo's ``efc_pos``). modeling.rst, "Solver parameters": the
+  constraint-space dynamics are a_c + d (b v + k r) = (1 − d) a_u with
+  b = 2/(d_w timeconst) and k = d(r)/(d_w² timeconst² dampratio²); at rest, with
+  d = d0 = d_w, the "penetration depth" is
+
+      r = a_u (1 − d) timeconst² dampratio².
+
+  We evaluate it quasi-statically along the reference, with a_u = −A λ (the
+  ideal a_c = a_u + A λ = 0), A = J M⁻¹ Jᵀ, and timeconst → max(timeconst, 2h),
+  the refsafe clamp the same section documents. For coupled rows (A not
+  diagonal: Atwood's strings) the same derivation from the documented R and
+  a_ref gives r_i = −(1 − d) timeconst² dampratio² A_ii λ_i, which is the
+  formula above for one row; that general form is the 'doc' column.
+- Force error at t = 0, where r = v = 0: −(A + R)⁻¹ R λ(0) with
+  R_ii = (1 − d)/d A_ii (computation chapter, "Parameters"); (1 − d)|λ(0)| for
+  a single row (see convergence.initial_force_floor).
+- Force error once the transient has decayed (t ≥ 10 timeconst): the
+  quasi-static relation predicts none (a_c ≈ 0 makes the force the ideal one),
+  so what remains is lag of the constraint spring and integrator error.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from harness import reference as refmod
+from harness.cases import Case
+from harness.models import compile_model, mjcf_path
+from harness.simulate import integrator_name, simulate
+from harness.studies._common import case_dynamics, fmt, html_table, png_bytes, png_data_uri, text_table
+from harness.studies.convergence import initial_force_floor
+
+TIMECONSTS: tuple[float, ...] = (0.002, 0.005, 0.02, 0.05)   # s; 0.02 is MuJoCo's default solref
+IMPEDANCES: tuple[float, ...] = (0.9, 0.99, 0.999, 0.9999)   # 0.9999 = mjMAXIMP, the stiffest
+FAST_TIMECONSTS: tuple[float, ...] = (0.002, 0.02)
+FAST_IMPEDANCES: tuple[float, ...] = (0.99, 0.9999)
+FAST_HORIZON = 0.5
+SETTLE = 10.0  # force errors "settled" from SETTLE × effective timeconst on
+
+
+@dataclass(frozen=True)
+class SoftnessRow:
+    """One (timeconst, d) setting: measured errors beside the documented ones.
+
+    Forces are |λ_mj − λ_ref| / the case's force scale, worst constraint;
+    violations in metres (the rows' own units), worst equality.
+    """
+
+    timeconst: float
+    effective_timeconst: float
+    dampratio: float
+    impedance: float
+    violation: float
+    violation_doc: float
+    force_t0: float
+    force_t0_doc: float
+    force_settled: float
+    position: float
+
+
+@dataclass(frozen=True)
+class SoftnessFit:
+    """log(violation) = c + a log(1 − d) + b log(timeconst_eff), vs. documented a = 1, b = 2."""
+
+    impedance_exponent: float
+    timeconst_exponent: float
+
+
+@dataclass(frozen=True)
+class SoftnessStudy:
+    case: str
+    integrator: str
+    timestep: float
+    horizon: float
+    constraints: tuple[str, ...]
+    rows: tuple[SoftnessRow, ...]
+    fit: SoftnessFit | None
+    plot_png: bytes | None = None
+    mujoco_version: str = mujoco.__version__
+
+
+def equality_cases(selected: Sequence[Case]) -> tuple[Case, ...]:
+    """The cases whose system has constraints that are MJCF equalities."""
+    from harness.pipeline import probe_for
+
+    return tuple(c for c in selected if probe_for(c, case_dynamics(c)).constraints)
+
+
+def set_softness(timeconst: float, impedance: float) -> Callable[[mujoco.MjSpec], None]:
+    """MjSpec edit: every equality gets solref (timeconst, its dampratio), solimp d0 = d_w = impedance."""
+    if not timeconst > 0:
+        raise ValueError(f"timeconst must be positive (the standard solref format), got {timeconst}")
+    if not 0 < impedance < 1:
+        raise ValueError(f"impedance d must lie in (0, 1), got {impedance}")
+
+    def edit(spec: mujoco.MjSpec) -> None:
+        for eq in spec.equalities:
+            eq.solref = [timeconst, float(eq.solref[1])]
+            eq.solimp = [impedance, impedance, *[float(x) for x in eq.solimp[2:]]]
+    return edit
+
+
+def _documented_violation(reference: refmod.Reference, t: np.ndarray, names: Sequence[str],
+                          eps: float, tc: float, dr: float) -> float:
+    """max over t and rows of the documented quasi-static violation |(1 − d) tc² dr² A_ii λ_i|.
+
+    From the documented definitions, at a_c = 0, v = 0: A f = −a_u, (A + R) f =
+    a_r − a_u, a_r = −k r, so k r = R A⁻¹ a_u, and with R_ii = (1 − d)/d A_ii,
+    k = 1/(d tc² dr²): r = (1 − d) tc² dr² diag(A) A⁻¹ a_u = −(1 − d) tc² dr² A_ii λ_i.
+    For one row (A = A_ii) this is modeling.rst's r = a_u (1 − d) tc² dr².
+    """
+    dyn = reference.dynamics
+    rows = [dyn.constraint_names.index(c) for c in names]
+    q, qd = reference.solution.state(t)
+    _, lam = dyn.accelerations(q, qd)
+    jac = dyn.jacobian(q)[:, rows]
+    a = jac @ np.linalg.solve(dyn.mass_matrix(q), np.swapaxes(jac, -1, -2))
+    a_diag = np.diagonal(a, axis1=-2, axis2=-1)
+    return float(np.max(np.abs(eps * tc**2 * dr**2 * a_diag * lam[:, rows])))
+
+
+def softness_study(case: Case, *, fast: bool = False, timeconsts: Sequence[float] | None = None,
+                   impedances: Sequence[float] | None = None, plot: bool = True) -> SoftnessStudy:
+    """Sweep solref timeconst × solimp d for ``case``'s equalities at its shipped integrator and timestep."""
+    from harness.pipeline import probe_for
+
+    timeconsts = tuple(timeconsts or (FAST_TIMECONSTS if fast else TIMECONSTS))
+    impedances = tuple(impedances or (FAST_IMPEDANCES if fast else IMPEDANCES))
+    path = mjcf_path(case.mjcf)
+    shipped = compile_model(path)
+    horizon = min(case.horizon, FAST_HORIZON) if fast else case.horizon
+    reference = refmod.build_reference(case, shipped, t_end=horizon)
+    probe = probe_for(case, reference.dynamics)
+    if not probe.constraints:
+        raise ValueError(f"case {case.name!r} has no MJCF equality constraints; the softness study needs "
+                         f"some (cases with them: {', '.join(c.name for c in equality_cases(_all()))})")
+    h = float(shipped.opt.timestep)
+    steps = round(horizon / h)
+    refsafe = not shipped.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_REFSAFE
+    scale = reference.scales.force
+    rows, ref_traj = [], None
+    for tc in timeconsts:
+        for d in impedances:
+            model = compile_model(path, edit=set_softness(tc, d))
+            sim = simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps)
+            if ref_traj is None:
+                ref_traj = refmod.trajectory(reference, sim.t)
+            tc_eff = max(tc, 2 * h) if refsafe else tc
+            dr = float(model.eq_solref[model.equality(probe.constraints[0]).id, 1])
+            force = np.max(np.abs(np.stack([sim.multipliers[c] - ref_traj.multipliers[c]
+                                            for c in probe.constraints])), axis=0) / scale
+            settled = sim.t >= SETTLE * tc_eff
+            rows.append(SoftnessRow(
+                timeconst=tc, effective_timeconst=tc_eff, dampratio=dr, impedance=d,
+                violation=max(float(np.max(np.abs(sim.violations[c]))) for c in probe.constraints),
+                violation_doc=_documented_violation(reference, sim.t, probe.constraints, 1 - d, tc_eff, dr),
+                force_t0=float(force[0]), force_t0_doc=initial_force_floor(model, reference),
+                force_settled=float(np.max(force[settled])) if settled.any() else math.nan,
+                position=max(float(np.max(np.linalg.norm(sim.positions[p] - ref_traj.positions[p], axis=1)))
+                             for p in ref_traj.positions)))
+    study = SoftnessStudy(case=case.name, integrator=integrator_name(shipped), timestep=h, horizon=horizon,
+                          constraints=tuple(probe.constraints), rows=tuple(rows), fit=_fit(rows))
+    return dataclasses.replace(study, plot_png=plot_softness(study)) if plot else study
+
+
+def _all() -> tuple[Case, ...]:
+    from harness.cases import CASES
+
+    return CASES
+
+
+def _fit(rows: Sequence[SoftnessRow]) -> SoftnessFit | None:
+    eps = np.log([1 - r.impedance for r in rows])
+    tcs = np.log([r.effective_timeconst for r in rows])
+    if len(set(eps)) < 2 or len(set(tcs)) < 2:
+        return None
+    design = np.column_stack([np.ones_like(eps), eps, tcs])
+    coef, *_ = np.linalg.lstsq(design, np.log([r.violation for r in rows]), rcond=None)
+    return SoftnessFit(impedance_exponent=float(coef[1]), timeconst_exponent=float(coef[2]))
+
+
+# ----------------------------------------------------------------- outputs
+HEADER = ("case", "timeconst [s]", "eff. [s]", "d", "violation [m]", "doc", "ratio",
+          "force t=0", "doc", "force settled", "position [m]")
+
+
+def table_rows(study: SoftnessStudy) -> list[tuple[str, ...]]:
+    return [(study.case, f"{r.timeconst:g}", f"{r.effective_timeconst:g}", f"{r.impedance:g}",
+             fmt(r.violation, ".2e"), fmt(r.violation_doc, ".2e"),
+             fmt(r.violation / r.violation_doc if r.violation_doc else math.nan, ".2f"),
+             fmt(r.force_t0, ".2e"), fmt(r.force_t0_doc, ".2e"), fmt(r.force_settled, ".2e"),
+             fmt(r.position, ".2e")) for r in study.rows]
+
+
+def summary(study: SoftnessStudy) -> str:
+    """One paragraph: the fitted exponents against the documented ones, and the best setting."""
+    best = min(study.rows, key=lambda r: r.violation)
+    text = (f"{study.case}: {study.integrator} at h = {study.timestep:g} s over {study.horizon:g} s, "
+            f"equalities {', '.join(study.constraints)}. Forces are |λ_mj − λ_ref| / force scale "
+            f"(worst constraint); 'force settled' from t = {SETTLE:g} × effective timeconst. ")
+    if study.fit is not None:
+        text += (f"Violation ∝ (1 − d)^{study.fit.impedance_exponent:.2f} · timeconst^"
+                 f"{study.fit.timeconst_exponent:.2f} (documented: 1 and 2). ")
+    return text + (f"Stiffest: timeconst {best.timeconst:g} s, d {best.impedance:g}: violation "
+                   f"{best.violation:.1e} m, force error {best.force_t0:.1e} at t = 0, "
+                   f"{fmt(best.force_settled, '.1e')} settled.")
+
+
+def text(study: SoftnessStudy) -> str:
+    return summary(study) + "\n" + text_table(HEADER, table_rows(study))
+
+
+def plot_softness(study: SoftnessStudy) -> bytes:
+    """Violation and force error at t = 0 vs 1 − d, one colour per timeconst; markers measured,
+    lines documented."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(8.8, 3.4))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for k, tc in enumerate(dict.fromkeys(r.timeconst for r in study.rows)):
+        rs = [r for r in study.rows if r.timeconst == tc]
+        eps = [1 - r.impedance for r in rs]
+        c = colours[k % len(colours)]
+        axes[0].loglog(eps, [r.violation for r in rs], "o", color=c, label=f"timeconst {tc:g} s")
+        axes[0].loglog(eps, [r.violation_doc for r in rs], "-", color=c, lw=0.8)
+        axes[1].loglog(eps, [r.force_t0 for r in rs], "o", color=c, label=f"t = 0, timeconst {tc:g} s")
+        axes[1].loglog(eps, [r.force_t0_doc for r in rs], "-", color=c, lw=0.8)
+        settled = [(e, r.force_settled) for e, r in zip(eps, rs, strict=True) if np.isfinite(r.force_settled)]
+        if settled:
+            axes[1].loglog(*zip(*settled, strict=True), "x", color=c)
+    axes[0].set(xlabel="1 − d", ylabel="max |violation| [m]", title="violation (o) vs documented sag (line)")
+    axes[1].set(xlabel="1 − d", ylabel="|λ_mj − λ_ref| / force scale",
+                title="force error at t = 0 (o, line: doc); settled (x)")
+    for ax in axes:
+        ax.grid(True, which="both", lw=0.3)
+        ax.legend(fontsize=6)
+    fig.suptitle(f"{study.case}: softness of the equalities ({study.integrator}, h = {study.timestep:g} s)",
+                 fontsize=9)
+    return png_bytes(fig)
+
+
+def html_section(study: SoftnessStudy) -> str:
+    """An HTML section (summary, table, plot) for the report."""
+    img = f"<img src='{png_data_uri(study.plot_png)}' alt='softness plot'>" if study.plot_png else ""
+    return (f"<section id='softness-{study.case}'><h3>Constraint softness: {study.case}</h3>"
+            f"<p>{summary(study)} 'doc' columns: the violation r = a_u (1 − d) timeconst² dampratio² "
+            f"(modeling.rst, Solver parameters), i.e. −(1 − d) timeconst² dampratio² A_ii λ_i along the "
+            f"reference (timeconst clamped to ≥ 2h by refsafe), and the force error (A + R)⁻¹Rλ(0), "
+            f"R_ii = (1 − d)/d A_ii.</p>"
+            f"{html_table(HEADER, table_rows(study))}{img}</section>")

@@ -1,0 +1,153 @@
+"""Layer 4: MuJoCo's constraint solvers (Newton, CG, PGS) on the constrained cases.
+
+Each solver runs the case at its shipped integrator, timestep, iteration
+limit and tolerance; the study reports the constraint-force error against the
+reference (worst constraint, / force scale), the position error, and the
+iterations each solve used (``mjData.solver_niter``, per island since MuJoCo
+3.x: harness.compat.solver_iterations takes the most any island used).
+A solver that reaches the iteration limit has not met the tolerance; the
+table says so. The force error of every solver includes the softness floor
+(1 − d)|λ(0)| (see softness.py), so the solvers' disagreement with the first
+one (Newton) is reported too. Iterations are those of the solve at each
+recorded state (mj_forward); RK4's intermediate stages solve too, uncounted.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from harness import reference as refmod
+from harness.cases import Case
+from harness.compat import solver_iterations
+from harness.models import compile_model, mjcf_path
+from harness.simulate import integrator_name, simulate
+from harness.studies._common import case_dynamics, fmt, html_table, png_bytes, png_data_uri, text_table
+
+SOLVERS: tuple[str, ...] = ("Newton", "CG", "PGS")
+FAST_HORIZON = 0.5
+
+
+@dataclass(frozen=True)
+class SolverRow:
+    solver: str
+    force: float
+    force_vs_first: float
+    position: float
+    iterations_mean: float
+    iterations_max: int
+    iteration_limit: int
+
+
+@dataclass(frozen=True)
+class SolverStudy:
+    case: str
+    integrator: str
+    timestep: float
+    tolerance: float
+    horizon: float
+    rows: tuple[SolverRow, ...]
+    plot_png: bytes | None = None
+    mujoco_version: str = mujoco.__version__
+
+
+def constrained_cases(selected: Sequence[Case]) -> tuple[Case, ...]:
+    """Cases with constraint forces to compare: MJCF equalities or contacts read by the case."""
+    return tuple(c for c in selected if case_dynamics(c).constraint_names or c.mujoco_forces)
+
+
+def _solver(name: str):
+    if name not in SOLVERS:
+        raise ValueError(f"unknown solver {name!r}; accepted: {list(SOLVERS)}")
+
+    def edit(spec: mujoco.MjSpec) -> None:
+        spec.option.solver = getattr(mujoco.mjtSolver, f"mjSOL_{name.upper()}")
+    return edit
+
+
+def solver_study(case: Case, *, fast: bool = False, solvers: Sequence[str] = SOLVERS,
+                 plot: bool = True) -> SolverStudy:
+    """Force and position error and iterations used, per solver, at the shipped settings."""
+    from harness.pipeline import probe_for
+
+    path = mjcf_path(case.mjcf)
+    shipped = compile_model(path)
+    horizon = min(case.horizon, FAST_HORIZON) if fast else case.horizon
+    reference = refmod.build_reference(case, shipped, t_end=horizon)
+    base = probe_for(case, reference.dynamics)
+    if not (base.constraints or base.forces):
+        raise ValueError(f"case {case.name!r} has no constraint forces to compare; the solver study needs "
+                         "equality or contact constraints")
+    probe = dataclasses.replace(base, series={**base.series, "solver_niter": lambda m, d: solver_iterations(d)})
+    steps = round(horizon / shipped.opt.timestep)
+    names = [*base.constraints, *base.forces]
+    rows, series, ref_traj, newton = [], {}, None, None
+    for name in solvers:
+        model = compile_model(path, edit=_solver(name))
+        sim = simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps)
+        if ref_traj is None:
+            ref_traj = refmod.trajectory(reference, sim.t)
+        lam = np.stack([sim.multipliers[c] for c in names])
+        newton = lam if newton is None else newton
+        force = np.max(np.abs(lam - np.stack([ref_traj.multipliers[c] for c in names])), axis=0)
+        force = force / reference.scales.force
+        iters = sim.series["solver_niter"]
+        series[name] = (sim.t, force, iters)
+        settled = sim.t >= case.settle
+        rows.append(SolverRow(
+            solver=name, force=float(np.max(force[settled])),
+            force_vs_first=float(np.max(np.abs(lam - newton)[:, settled])) / reference.scales.force,
+            position=max(float(np.max(np.linalg.norm(sim.positions[p] - ref_traj.positions[p], axis=1)))
+                         for p in ref_traj.positions),
+            iterations_mean=float(np.mean(iters)), iterations_max=int(np.max(iters)),
+            iteration_limit=int(model.opt.iterations)))
+    study = SolverStudy(case=case.name, integrator=integrator_name(shipped), timestep=float(shipped.opt.timestep),
+                        tolerance=float(shipped.opt.tolerance), horizon=horizon, rows=tuple(rows))
+    return dataclasses.replace(study, plot_png=_plot(study, series)) if plot else study
+
+
+HEADER = ("case", "solver", "force error", "vs first", "position [m]", "iterations mean", "max", "limit", "note")
+
+
+def table_rows(study: SolverStudy) -> list[tuple[str, ...]]:
+    return [(study.case, r.solver, fmt(r.force, ".2e"), fmt(r.force_vs_first, ".1e"), fmt(r.position, ".2e"),
+             f"{r.iterations_mean:.2f}",
+             str(r.iterations_max), str(r.iteration_limit),
+             "hit the iteration limit" if r.iterations_max >= r.iteration_limit else "")
+            for r in study.rows]
+
+
+def summary(study: SolverStudy) -> str:
+    return (f"{study.case}: {study.integrator} at h = {study.timestep:g} s over {study.horizon:g} s, "
+            f"tolerance {study.tolerance:g}; force error = max |λ_mj − λ_ref| / force scale (worst constraint, "
+            f"t ≥ the case's settle time); 'vs first' = max |λ − λ_{study.rows[0].solver}| / force scale, the "
+            f"solvers' own disagreement; iterations of the solve at each recorded state.")
+
+
+def text(study: SolverStudy) -> str:
+    return summary(study) + "\n" + text_table(HEADER, table_rows(study))
+
+
+def _plot(study: SolverStudy, series: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]) -> bytes:
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 1, figsize=(6.4, 4.4), sharex=True)
+    for name, (t, force, iters) in series.items():
+        axes[0].semilogy(t, np.maximum(force, 1e-16), lw=0.8, label=name)
+        axes[1].plot(t, iters, lw=0.8, label=name)
+    axes[0].set(ylabel="|λ_mj − λ_ref| / force scale", title=f"{study.case}: solvers ({study.integrator}, "
+                f"h = {study.timestep:g} s)")
+    axes[1].set(xlabel="t [s]", ylabel="solver iterations")
+    for ax in axes:
+        ax.legend(fontsize=7)
+    return png_bytes(fig)
+
+
+def html_section(study: SolverStudy) -> str:
+    img = f"<img src='{png_data_uri(study.plot_png)}' alt='solver plot'>" if study.plot_png else ""
+    return (f"<section id='solvers-{study.case}'><h3>Solvers: {study.case}</h3><p>{summary(study)}</p>"
+            f"{html_table(HEADER, table_rows(study))}{img}</section>")
