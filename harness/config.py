@@ -50,16 +50,19 @@ def _read(path: Path) -> dict:
         return tomllib.loads(path.read_text())
     except OSError as exc:
         raise ConfigError(f"cannot read config {str(path)!r}: {exc.strerror}") from None
-    except tomllib.TOMLDecodeError as exc:
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ConfigError(f"config {str(path)!r} is not valid TOML: {exc}") from None
 
 
 def _section(path: Path) -> dict:
     data = _read(path)
     if "tool" in data:
-        data = data["tool"].get("mjharness")
+        tool = data["tool"]
+        data = tool.get("mjharness") if isinstance(tool, dict) else None
         if data is None:
             raise ConfigError(f"config {str(path)!r} has no [tool.mjharness] table")
+    if not isinstance(data, dict):
+        raise ConfigError(f"config {str(path)!r}: [tool.mjharness] must be a table")
     unknown = set(data) - KNOWN_KEYS
     if unknown:
         raise ConfigError(f"config {str(path)!r}: unknown key(s) {sorted(unknown)}; "
@@ -78,6 +81,10 @@ def _thresholds(raw: object, path: Path, known_cases: set[str]) -> dict[str, dic
         if not isinstance(table, dict):
             raise ConfigError(f"config {str(path)!r}: thresholds.{case} must be a table")
         for fig, value in table.items():
+            if isinstance(value, dict):  # RK4.position = 1 unquoted: TOML nests a table "RK4"
+                inner = next(iter(value), "QUANTITY")
+                raise ConfigError(f"config {str(path)!r}: thresholds.{case}.{fig} is a table; quote dotted "
+                                  f"figure names, e.g. \"{fig}.{inner}\" = LIMIT")
             if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) \
                     or value <= 0:
                 raise ConfigError(f"config {str(path)!r}: thresholds.{case}.{fig!r} must be a "

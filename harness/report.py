@@ -1,11 +1,17 @@
 """Reports: one self-contained HTML page, a Markdown summary and a JSON of every figure.
 
 A builder collects independent sections; each section is a function of one
-CaseResult (plus its checks) returning HTML. Plots are PNGs embedded as data
-URIs, so the page opens offline. Nothing time- or machine-dependent beyond
-the versions is written, so identical inputs give byte-identical files.
+CaseResult (plus its checks) returning HTML. Images (plots, the derived
+equations, a still of each model) are PNGs embedded as data URIs and there is
+no script or stylesheet from the network, so the page opens offline. Nothing
+time-dependent is written, so identical inputs give byte-identical files.
 Files are written to a temporary directory and moved into place, so a failed
 run never leaves a half-written report.
+
+Layout of the page: verdict banner, how to read it, summary table (one row per
+case), then per case: model still and equations of motion, gated checks
+grouped by layer (figure, threshold, the share of the threshold used),
+plots, figures measured but not gated, settings; versions at the top.
 """
 
 from __future__ import annotations
@@ -16,9 +22,9 @@ import io
 import json
 import os
 import platform
-import shutil
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import matplotlib
@@ -31,9 +37,12 @@ import numpy as np
 from harness import __version__
 from harness.compare import error_series
 from harness.pipeline import CaseResult
+from harness.render import Still
 from harness.verdict import Check
 
 plt.rcParams.update({"figure.dpi": 90, "font.size": 9, "svg.hashsalt": "mjharness"})
+
+SCHEMA = 1  # of report.json; bumped when a consumer (``mjharness diff``) must change
 
 
 def versions() -> dict[str, str]:
@@ -42,7 +51,7 @@ def versions() -> dict[str, str]:
 
     return {"mjharness": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
             "scipy": scipy.__version__, "sympy": sympy.__version__,
-            "python": platform.python_version()}
+            "matplotlib": matplotlib.__version__, "python": platform.python_version()}
 
 
 # ----------------------------------------------------------------- plots
@@ -90,7 +99,7 @@ def plot_forces(result: CaseResult) -> str | None:
     names = [c for c in ref.multipliers if c in sim.multipliers]
     if not names:
         return None
-    fig, axes = plt.subplots(2, 1, figsize=(6.4, 4.2), sharex=True)
+    fig, axes = plt.subplots(2, 1, figsize=(6.4, 4.2), sharex=True, layout="constrained")
     for c in names:
         axes[0].plot(ref.t, ref.multipliers[c], lw=1.5, label=f"λ_{c} reference")
         axes[0].plot(sim.t, sim.multipliers[c], "--", lw=1, label=f"{c} MuJoCo ({sim.source})")
@@ -105,7 +114,8 @@ def plot_forces(result: CaseResult) -> str | None:
 def plot_invariants(result: CaseResult) -> str:
     """Drift of each invariant of MuJoCo's own state, per integrator (|I(t) − I(0)|, log)."""
     names = list(result.reference.invariants)
-    fig, axes = plt.subplots(len(names), 1, figsize=(6.4, 2.6 * len(names)), squeeze=False)
+    fig, axes = plt.subplots(len(names), 1, figsize=(6.4, 2.6 * len(names)), squeeze=False,
+                             layout="constrained")
     for ax, inv in zip(axes[:, 0], names, strict=True):
         for name, sim in result.simulations.items():
             if inv in sim.invariants:
@@ -116,97 +126,356 @@ def plot_invariants(result: CaseResult) -> str:
     return _png(fig)
 
 
-# -------------------------------------------------------------- sections
+# ------------------------------------------------------------ formatting
 def _fmt(value: float) -> str:
     return f"{value:.3e}" if np.isfinite(value) else str(value)
 
 
-def _checks_table(checks: Sequence[Check]) -> str:
-    rows = "".join(
-        f"<tr class='{'pass' if c.passed else 'fail'}'><td>{html.escape(c.name)}</td>"
-        f"<td>{_fmt(c.value)}</td><td>{_fmt(c.threshold)}</td><td>{html.escape(c.unit)}</td>"
-        f"<td>{'PASS' if c.passed else 'FAIL'}</td></tr>" for c in checks)
-    return ("<table><tr><th>check</th><th>figure</th><th>threshold</th><th>unit</th>"
-            f"<th>verdict</th></tr>{rows}</table>")
+def ratio(check: Check) -> float:
+    """Share of the threshold a figure uses: ≤ 1 passes (non-finite figures fail: inf);
+    nan for a check this MuJoCo cannot measure (n/a)."""
+    if check.note:
+        return float("nan")
+    return check.value / check.threshold if np.isfinite(check.value) else float("inf")
 
 
-def section_summary(results: Sequence[CaseResult], checks: dict[str, list[Check]]) -> str:
-    rows = []
-    for r in results:
-        cs = checks[r.case.name]
-        failed = [c.name for c in cs if not c.passed]
-        verdict = "PASS" if not failed else "FAIL"
-        rows.append(f"<tr class='{verdict.lower()}'><td><a href='#{r.case.name}'>{r.case.name}</a></td>"
-                    f"<td>{len(cs) - len(failed)}/{len(cs)}</td><td>{verdict}</td>"
-                    f"<td>{html.escape(', '.join(failed))}</td></tr>")
-    return ("<h2>Summary</h2><table><tr><th>case</th><th>checks passed</th><th>verdict</th>"
-            f"<th>failed checks</th></tr>{''.join(rows)}</table>")
+def _closest(checks: Sequence[Check]) -> Check | None:
+    """The measurable check using the largest share of its threshold."""
+    return max((c for c in checks if not c.note), key=ratio, default=None)
 
 
-def section_case(result: CaseResult, checks: list[Check]) -> str:
-    c = result.case
-    gated = {ch.name for ch in checks}
-    info = "".join(f"<tr><td>{html.escape(f.name)}</td><td>{_fmt(f.value)}</td>"
-                   f"<td>{html.escape(f.unit)}</td><td>{html.escape(f.description)}</td></tr>"
-                   for f in result.figures if f.name not in gated)
-    settings = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(str(v))}</td></tr>"
-                       for k, v in result.settings.items())
-    plots = [plot_overlay(result), plot_errors(result), plot_forces(result), plot_invariants(result)]
-    imgs = "".join(f"<img src='{p}' alt='plot'>" for p in plots if p)
-    return (f"<section id='{c.name}'><h2>{c.name}</h2><p>{html.escape(c.description)}</p>"
-            f"<h3>Gated checks</h3>{_checks_table(checks)}<h3>Plots</h3>{imgs}"
-            f"<h3>Other figures (not gated)</h3><table><tr><th>figure</th><th>value</th><th>unit</th>"
-            f"<th>meaning</th></tr>{info}</table>"
-            f"<h3>Settings</h3><table>{settings}</table></section>")
+def ratio_text(r: float) -> str:
+    if np.isnan(r):
+        return "n/a"
+    if not np.isfinite(r):
+        return "—"
+    return f"{100 * r:.0f}%" if r <= 1 else f"{r:.3g}× over"
 
 
-_STYLE = """
-body{font-family:sans-serif;max-width:60em;margin:1em auto;color:#222}
-table{border-collapse:collapse;margin:.5em 0;font-size:.85em}
-td,th{border:1px solid #ccc;padding:2px 6px;text-align:left}
-tr.pass td:last-child{color:#070} tr.fail td{background:#fdd}
-tr.fail td:last-child{color:#b00;font-weight:bold} img{max-width:100%;display:block;margin:.5em 0}
+def _esc(value: object) -> str:
+    return html.escape(str(value), quote=True)
+
+
+def _setting(value: object) -> str:
+    if isinstance(value, Mapping):
+        return ", ".join(f"{k} = {_setting(v)}" for k, v in value.items())
+    if isinstance(value, list | tuple):
+        return " ".join(_setting(v) for v in value)
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+def _all_passed(checks: Mapping[str, Sequence[Check]]) -> bool:
+    return all(c.passed for cs in checks.values() for c in cs)
+
+
+def _group(name: str) -> str:
+    return name.split(".", 1)[0]
+
+
+# -------------------------------------------------------------- sections
+def section_banner(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]]) -> str:
+    total = sum(len(checks[r.case.name]) for r in results)
+    failed = [c for r in results for c in checks[r.case.name] if not c.passed]
+    bad_cases = len({c.case for c in failed})
+    if not failed:
+        text = f"PASS — {len(results)} case(s), all {total} checks within their thresholds"
+    else:
+        text = (f"FAIL — {len(failed)} of {total} checks over their thresholds, "
+                f"in {bad_cases} of {len(results)} case(s)")
+    return f"<p class='banner {'pass' if not failed else 'fail'}'>{_esc(text)}</p>"
+
+
+_HOW_TO_READ = """
+<details class='howto' open><summary>How to read this report (one minute)</summary><ul>
+<li>Every <b>check</b> is one measured <b>figure</b> beside its <b>threshold</b>; it passes when the figure
+is finite and ≤ the threshold. <b>used</b> is figure ÷ threshold: 40% means 2.5× headroom.</li>
+<li>Thresholds are a measured value times a stated margin (2–3×) or a bound from theory, kept with their
+reasoning in <code>[tool.mjharness.thresholds.CASE]</code> of pyproject.toml.</li>
+<li>Figure names are <code>LAYER.QUANTITY[.DETAIL]</code>: <code>instant.*</code> compares MuJoCo and the
+analytic equations at sampled states without integrating (a failure there is in the model);
+<code>reference.*</code> judges our own solution; <code>INTEGRATOR.*</code> (RK4, Euler, …) compares a MuJoCo run
+over the case's horizon with the reference; <code>converge.*</code> compares the observed order of accuracy
+with the documented one. Errors are maxima over the horizon; “1” means relative to the case's scale (m·g for
+forces, m·g·l for energy).</li>
+<li>Constraint forces follow M q̈ = F + Jᵀλ, which is MuJoCo's <code>qfrc_constraint = Jᵀ efc_force</code>.</li>
+</ul></details>
 """
 
 
-def render_html(results: Sequence[CaseResult], checks: dict[str, list[Check]]) -> str:
+def section_summary(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]]) -> str:
+    """One row per case: verdict, checks passed, the check closest to its limit, the failures."""
+    rows = []
+    for r in results:
+        cs = checks[r.case.name]
+        failed = [c for c in cs if not c.passed]
+        verdict = "PASS" if not failed else "FAIL"
+        tight = _closest(cs)
+        closest = (f"{_esc(tight.name)} <span class='dim'>({ratio_text(ratio(tight))})</span>"
+                   if tight else "no gates")
+        fails = "<br>".join(f"{_esc(c.name)}: {_fmt(c.value)} &gt; {_fmt(c.threshold)} {_esc(c.unit)}"
+                            for c in failed)
+        rows.append(f"<tr class='{verdict.lower()}'><td><a href='#{_esc(r.case.name)}'>{_esc(r.case.name)}</a></td>"
+                    f"<td class='verdict'>{verdict}</td><td>{len(cs) - len(failed)}/{len(cs)}</td>"
+                    f"<td>{closest}</td><td>{fails}</td></tr>")
+    return ("<h2>Summary</h2><table class='summary'><tr><th>case</th><th>verdict</th><th>checks passed</th>"
+            "<th>closest to its limit (used)</th><th>failed: figure &gt; threshold</th></tr>"
+            f"{''.join(rows)}</table>")
+
+
+def _bar(r: float) -> str:
+    if np.isnan(r):
+        return "n/a"
+    width = 100.0 if not np.isfinite(r) else min(100.0, 100.0 * r)
+    return (f"<span class='bar'><span class='{'over' if not r <= 1 else 'ok'}' "
+            f"style='width:{width:.0f}%'></span></span>{ratio_text(r)}")
+
+
+def _group_title(group: str, result: CaseResult) -> str:
+    if group == "instant":
+        return "Layer 2 — instantaneous dynamics at sampled states (no time integration)"
+    if group == "reference":
+        return "Reference quality — our own DAE/ODE solution"
+    if group == "converge":
+        return "Layer 4 — observed convergence order vs the documented one (error vs timestep)"
+    if group not in result.simulations:
+        return group
+    shipped = " (the model's own integrator)" if group == _shipped(result) else ""
+    return f"MuJoCo {group}{shipped} — {_setting(result.settings.get('horizon', ''))} s against the reference"
+
+
+def _status(c: Check) -> str:
+    """PASS / FAIL, or n/a / KNOWN DEFECT with the reason (harness.compat)."""
+    if c.note:
+        return f"n/a: {c.note}"
+    return f"known defect: {c.known}" if c.known else c.status.upper()
+
+
+def _checks_table(result: CaseResult, checks: Sequence[Check]) -> str:
+    meaning = {f.name: f.description for f in result.figures}
+    groups: dict[str, list[Check]] = {}
+    for c in checks:
+        groups.setdefault(_group(c.name), []).append(c)
+    body = []
+    for group, cs in groups.items():
+        body.append(f"<tr class='group'><td colspan='7'>{_esc(_group_title(group, result))}</td></tr>")
+        body += [f"<tr class='{'na' if c.note else 'pass' if c.passed else 'fail'}'><td>{_esc(c.name)}</td>"
+                 f"<td class='num'>{_fmt(c.value)}</td><td class='num'>{_fmt(c.threshold)}</td>"
+                 f"<td>{_esc(c.unit)}</td><td class='used'>{_bar(ratio(c))}</td>"
+                 f"<td class='verdict'>{_esc(_status(c))}</td>"
+                 f"<td class='dim'>{_esc(meaning.get(c.name, ''))}</td></tr>" for c in cs]
+    return ("<table class='checks'><tr><th>check</th><th>figure</th><th>threshold</th><th>unit</th>"
+            f"<th>used</th><th>verdict</th><th>meaning</th></tr>{''.join(body)}</table>")
+
+
+def section_model(result: CaseResult, still: Still | None) -> str:
+    """The model still (or why there is none) beside the derived equations of motion."""
+    from harness.equations import equations, png_data_uri
+    from harness.reference import derivation
+
+    if still is not None and still.png is not None:
+        uri = "data:image/png;base64," + base64.b64encode(still.png).decode("ascii")
+        image = (f"<figure><img src='{uri}' alt='{_esc(result.case.name)} model at its initial state'>"
+                 f"<figcaption>{_esc(Path(str(result.settings.get('mjcf', ''))).name)} at the initial "
+                 f"state (rendered headless, MUJOCO_GL={_esc(still.backend)})</figcaption></figure>")
+    else:
+        note = still.note if still is not None else "model image not rendered"
+        image = f"<p class='note'>{_esc(note)}</p>"
+    rows = []
+    for eq in equations(derivation(result.case.system)):
+        uri = png_data_uri(eq.latex)
+        shown = (f"<img class='eq' src='{uri}' alt='{_esc(eq.latex)}'>" if uri
+                 else f"<code>{_esc(eq.latex)}</code>")
+        rows.append(f"<tr><td class='dim'>{_esc(eq.label)}</td><td>{shown}</td></tr>")
+    eqs = ("<div><h3>Equations of motion (derived by sympy)</h3>"
+           "<p class='dim'>Lagrange's equations M q̈ − F − Jᵀλ = 0, one per coordinate, with the "
+           "constraints f(q) = 0. The LaTeX of each line is the image's alt text.</p>"
+           f"<table class='eqs'>{''.join(rows)}</table></div>")
+    return f"<div class='model'><div>{image}</div>{eqs}</div>"
+
+
+def section_plots(result: CaseResult) -> str:
+    plots = [plot_overlay(result), plot_errors(result), plot_forces(result), plot_invariants(result)]
+    return "".join(f"<img src='{p}' alt='plot'>" for p in plots if p)
+
+
+_UNITS = {"timestep": "s", "horizon": "s", "tolerance": ""}
+
+
+def section_case(result: CaseResult, checks: Sequence[Check], still: Still | None = None, *,
+                 plots: str | None = None) -> str:
+    """One case: model and equations, gated checks, plots (``plots`` if already drawn), the rest."""
+    c = result.case
+    failed = sum(not ch.passed for ch in checks)
+    verdict = "PASS" if not failed else "FAIL"
+    gated = {ch.name for ch in checks}
+    info = "".join(f"<tr><td>{_esc(f.name)}</td><td class='num'>{_fmt(f.value)}</td>"
+                   f"<td>{_esc(f.unit)}</td><td class='dim'>{_esc(f.description)}</td></tr>"
+                   for f in result.figures if f.name not in gated)
+    settings = "".join(f"<tr><td>{_esc(k)}</td><td>{_esc(_setting(v))} {_UNITS.get(k, '')}</td></tr>"
+                       for k, v in result.settings.items())
+    imgs = plots if plots is not None else section_plots(result)
+    return (f"<section id='{_esc(c.name)}'><h2>{_esc(c.name)} <span class='badge {verdict.lower()}'>"
+            f"{verdict} {len(checks) - failed}/{len(checks)}</span></h2><p>{_esc(c.description)}</p>"
+            f"{section_model(result, still)}"
+            f"<h3>Gated checks</h3>{_checks_table(result, checks)}"
+            f"<h3>Plots</h3><div class='plots'>{imgs}</div>"
+            f"<h3>Other figures (measured, not gated)</h3><table><tr><th>figure</th><th>value</th>"
+            f"<th>unit</th><th>meaning</th></tr>{info}</table>"
+            f"<h3>Settings used</h3><table class='settings'>{settings}</table></section>")
+
+
+_STYLE = """
+body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;max-width:74em;margin:1em auto;padding:0 1em;
+color:#222;line-height:1.35}
+h1{margin-bottom:.2em} h2{border-bottom:2px solid #ddd;padding-bottom:.15em;margin-top:1.6em}
+h3{margin:1.1em 0 .3em}
+table{border-collapse:collapse;margin:.4em 0;font-size:.85em}
+td,th{border:1px solid #d4d4d4;padding:2px 7px;text-align:left;vertical-align:middle}
+th{background:#f3f3f3} td.num{font-family:ui-monospace,monospace;text-align:right;white-space:nowrap}
+tr.fail td{background:#fde4e4} td.verdict{font-weight:bold} tr.pass td.verdict{color:#17701d}
+tr.fail td.verdict{color:#b00000} tr.na td{color:#888} tr.group td{background:#eef2f7;font-weight:bold;font-size:.95em}
+.dim{color:#666} .note{background:#fff6d6;border:1px solid #e7c75a;padding:.6em;border-radius:4px}
+.banner{font-size:1.25em;font-weight:bold;padding:.5em .8em;border-radius:5px;margin:.6em 0}
+.banner.pass{background:#e3f4e4;color:#17701d;border:1px solid #9ad09e}
+.banner.fail{background:#fde4e4;color:#b00000;border:1px solid #e8a0a0}
+.badge{font-size:.6em;padding:2px 8px;border-radius:10px;vertical-align:middle}
+.badge.pass{background:#e3f4e4;color:#17701d} .badge.fail{background:#fde4e4;color:#b00000}
+.bar{display:inline-block;width:60px;height:9px;background:#eee;margin-right:5px;vertical-align:middle}
+.bar span{display:block;height:100%} .bar .ok{background:#6aa86f} .bar .over{background:#d33}
+td.used{white-space:nowrap;font-family:ui-monospace,monospace}
+.model{display:grid;grid-template-columns:minmax(0,480px) minmax(0,1fr);gap:1.5em;align-items:start}
+.model figure{margin:0} .model figure img{width:100%;border:1px solid #ccc}
+figcaption{font-size:.8em;color:#666} table.eqs td{border:none;padding:3px 6px}
+img.eq{max-width:100%;display:block}
+.plots{display:grid;grid-template-columns:repeat(auto-fit,minmax(440px,1fr));gap:.6em}
+.plots img{width:100%} .howto{background:#f7f9fc;border:1px solid #dde3ec;padding:.4em .8em;border-radius:5px}
+.howto summary{font-weight:bold;cursor:pointer} .howto li{margin:.25em 0}
+footer{margin-top:2em;font-size:.8em;color:#666}
+"""
+
+
+def model_stills(results: Sequence[CaseResult]) -> dict[str, Still]:
+    """A still of each case's model (the file actually run), rendered in a child process."""
+    from harness.reference import derivation
+    from harness.render import Request, stills
+
+    return stills([Request(case=r.case.name, mjcf=str(r.settings["mjcf"]),
+                           coordinates=tuple(q.name for q in derivation(r.case.system).system.q))
+                   for r in results])
+
+
+def render_html(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+                stills: Mapping[str, Still] | None = None, config_source: str | None = None) -> str:
+    """The whole page. ``stills`` defaults to rendering each model now (see harness.render)."""
+    with ThreadPoolExecutor(max_workers=1) as pool:  # the stills render in a child process meanwhile
+        pending = pool.submit(model_stills, results) if stills is None else None
+        plots = {r.case.name: section_plots(r) for r in results}
+        shown = pending.result() if pending is not None else stills or {}
     ver = ", ".join(f"{k} {v}" for k, v in versions().items())
+    source = f" Thresholds from {_esc(config_source)}." if config_source else ""
     body = section_summary(results, checks) + "".join(
-        section_case(r, checks[r.case.name]) for r in results)
-    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>mjharness report</title>"
+        section_case(r, checks[r.case.name], shown.get(r.case.name), plots=plots[r.case.name])
+        for r in results)
+    return (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>mjharness report</title>"
             f"<style>{_STYLE}</style></head><body><h1>mjharness report</h1>"
-            f"<p>How to read: each check is a measured figure beside its threshold (a measured value "
-            f"times a stated margin, see pyproject.toml). Figures named INTEGRATOR.* come from a run "
-            f"of that MuJoCo integrator against our reference; instant.* from sampled states without "
-            f"time integration; reference.* judge the reference itself.</p>"
-            f"<p>Versions: {html.escape(ver)}</p>{body}</body></html>\n")
+            f"<p class='dim'>MuJoCo checked against analytical mechanics. Versions: {_esc(ver)}.{source}</p>"
+            f"{section_banner(results, checks)}{_HOW_TO_READ}{body}"
+            f"<footer>Generated by mjharness {_esc(__version__)}; the same figures are in report.json, "
+            f"a summary in summary.md.</footer></body></html>\n")
 
 
-def render_markdown(results: Sequence[CaseResult], checks: dict[str, list[Check]]) -> str:
-    lines = ["# mjharness summary", "", "| case | check | figure | threshold | verdict |",
-             "|---|---|---|---|---|"]
+def render_markdown(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]]) -> str:
+    """A CI job summary: the verdict, one row per case, the failures, every check folded away."""
+    total = sum(len(checks[r.case.name]) for r in results)
+    failed = [c for r in results for c in checks[r.case.name] if not c.passed]
+    head = (f"**PASS**: {len(results)} case(s), all {total} checks within their thresholds" if not failed
+            else f"**FAIL**: {len(failed)} of {total} checks over their thresholds")
+    lines = ["# mjharness summary", "", head, "",
+             "| case | verdict | checks passed | closest to its limit (used) |", "|---|---|---|---|"]
+    for r in results:
+        cs = checks[r.case.name]
+        bad = sum(not c.passed for c in cs)
+        tight = _closest(cs)
+        closest = f"{tight.name} ({ratio_text(ratio(tight))})" if tight else "no gates"
+        lines.append(f"| {r.case.name} | {'pass' if not bad else '**FAIL**'} | {len(cs) - bad}/{len(cs)} "
+                     f"| {closest} |")
+    if failed:
+        lines += ["", "## Failed checks", "", "| case | check | figure | threshold | unit |",
+                  "|---|---|---|---|---|"]
+        lines += [f"| {c.case} | {c.name} | {_fmt(c.value)} | {_fmt(c.threshold)} | {c.unit} |" for c in failed]
+    lines += ["", "<details><summary>Every check</summary>", "",
+              "| case | check | figure | threshold | used | verdict |", "|---|---|---|---|---|---|"]
     for r in results:
         for c in checks[r.case.name]:
             lines.append(f"| {r.case.name} | {c.name} | {_fmt(c.value)} | {_fmt(c.threshold)} | "
-                         f"{'pass' if c.passed else '**FAIL**'} |")
+                         f"{ratio_text(ratio(c))} | {c.status if c.passed else '**FAIL**'} |")
+    lines += ["", "</details>"]
     return "\n".join(lines) + "\n"
 
 
-def render_json(results: Sequence[CaseResult], checks: dict[str, list[Check]]) -> str:
-    doc = {"versions": versions(), "cases": {}}
+def json_doc(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]]) -> dict:
+    """Every figure, every check and the settings, per case (the schema ``mjharness diff`` reads)."""
+    doc: dict = {"schema": SCHEMA, "versions": versions(), "passed": _all_passed(checks), "cases": {}}
     for r in results:
+        cs = checks[r.case.name]
         doc["cases"][r.case.name] = {
+            "passed": all(c.passed for c in cs),
             "figures": {f.name: f.as_dict() for f in r.figures},
-            "checks": {c.name: {"value": c.value, "threshold": c.threshold, "passed": c.passed}
-                       for c in checks[r.case.name]},
+            "checks": {c.name: {"value": c.value, "threshold": c.threshold, "unit": c.unit,
+                                "passed": c.passed, **({"note": c.note} if c.note else {})} for c in cs},
             "settings": r.settings,
         }
-    return json.dumps(doc, indent=1, sort_keys=True, default=float) + "\n"
+    return doc
 
 
-def prepare_output(out: Path) -> Path:
-    """Create ``out`` if needed; ValueError if it cannot be created or written."""
+def _jsonable(value: object) -> object:
+    """Plain JSON: numpy scalars and arrays unwrapped, non-finite floats as the strings
+    "nan", "inf", "-inf" (strict JSON has no NaN; ``float()`` reads them back)."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float):
+        return value if np.isfinite(value) else str(value)
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if value is None or isinstance(value, bool | int | str):
+        return value
+    return str(value)
+
+
+def dumps(doc: object) -> str:
+    """JSON text for report documents: strict JSON, stable key order."""
+    return json.dumps(_jsonable(doc), indent=1, sort_keys=True, allow_nan=False) + "\n"
+
+
+def render_json(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]]) -> str:
+    return dumps(json_doc(results, checks))
+
+
+def check_output(out: Path | str) -> Path:
+    """ValueError unless ``out`` is, or can be created as, a writable directory. Creates nothing,
+    so a run that fails later leaves no trace."""
     out = Path(out)
+    probe = out
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if probe.exists() and not probe.is_dir():
+        raise ValueError(f"cannot create output directory {str(out)!r}: {str(probe)!r} is not a directory")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise ValueError(f"output directory {str(out)!r} is not writable ({str(probe)!r} is read-only)")
+    return out
+
+
+def prepare_output(out: Path | str) -> Path:
+    """Create ``out`` if needed; ValueError if it cannot be created or written."""
+    out = check_output(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -216,17 +485,38 @@ def prepare_output(out: Path) -> Path:
     return out
 
 
-def write_report(out: Path, results: Sequence[CaseResult], checks: dict[str, list[Check]]) -> list[Path]:
-    """Write report.html, report.json and summary.md into ``out`` atomically (all or nothing)."""
-    out = prepare_output(out)
-    files = {"report.html": render_html(results, checks), "report.json": render_json(results, checks),
-             "summary.md": render_markdown(results, checks)}
-    tmp = Path(tempfile.mkdtemp(prefix=".mjharness-", dir=out))
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def write_atomic(files: Mapping[Path, str]) -> list[Path]:
+    """Write each text beside its destination under a temporary name, then move all into place."""
+    staged: list[tuple[Path, Path]] = []
     try:
-        for name, text in files.items():
-            (tmp / name).write_text(text, encoding="utf-8")
-        for name in files:
-            os.replace(tmp / name, out / name)
+        for dest, text in files.items():
+            fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", dir=dest.parent)
+            staged.append((Path(tmp), dest))
+            os.chmod(tmp, 0o666 & ~_umask())  # mkstemp's 0600 would make the report private
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                fh.write(text)
+        for tmp, dest in staged:
+            os.replace(tmp, dest)
+    except OSError as exc:
+        raise ValueError(f"cannot write {str(exc.filename or '')!r}: {exc.strerror}") from None
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-    return [out / name for name in files]
+        for tmp, _ in staged:
+            tmp.unlink(missing_ok=True)
+    return [dest for _, dest in staged]
+
+
+def write_report(out: Path | str, results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+                 stills: Mapping[str, Still] | None = None, config_source: str | None = None) -> list[Path]:
+    """Write report.html, report.json and summary.md into ``out`` (all rendered before anything is
+    written, then moved into place)."""
+    files = {"report.html": render_html(results, checks, stills=stills, config_source=config_source),
+             "report.json": render_json(results, checks),
+             "summary.md": render_markdown(results, checks)}
+    out = prepare_output(out)
+    return write_atomic({out / name: text for name, text in files.items()})

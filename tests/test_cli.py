@@ -1,16 +1,39 @@
-"""The CLI: exit codes 0 / 1 / 2, one-line errors, complete reports or none."""
+"""The CLI: exit codes 0 / 1 / 2, one-line errors, complete reports or none; and the config it reads.
+
+Exit-code matrix (each row is a test below):
+
+    list                                          0
+    check CASE                                    0   (table; --json; --junit FILE)
+    check CASE --config tighter.toml              1   (table; --json; --junit FILE with <failure>)
+    run CASE --out DIR [--junit FILE]             0   report.html + report.json + summary.md, deterministic
+    run --case CASE --mjcf copy.xml               0   same figures as the shipped model
+    run --case CASE --mjcf heavier.xml            1   report written, failures in it
+    run/check: unknown case, bad config, missing / invalid MJCF, a model that does not fit,
+      a diverging model, --mjcf with 0 or 2 cases, unwritable --out or --junit    2, nothing written
+    diff OLD NEW (changes, flips)                 0;  missing / non-JSON / not a run   2
+    baseline --write FILE / --compare FILE        0;  regression or missing case        1;  no mode  2
+
+Most in-process tests reuse the session's shipped pendulum run (``cached_runs``); a
+few go through a real subprocess to pin "no traceback" and the process exit code.
+"""
 
 from __future__ import annotations
 
 import json
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import pytest
 
-from harness.cli import main
+from harness import cases, pipeline
+from harness.cli import COMMANDS, main
+from harness.config import ConfigError, load_config
+from tests.conftest import shipped_run
 
 CASE = "pendulum"
+MJCF = Path(__file__).resolve().parent.parent / "mjcf" / f"{CASE}.xml"
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:
@@ -18,15 +41,48 @@ def _run(*args: str) -> subprocess.CompletedProcess:
                           text=True, timeout=300)
 
 
-def test_list_names_every_case(capsys):
-    from harness import cases
+@pytest.fixture
+def cached_runs(monkeypatch):
+    """run_case of a shipped case returns the session's cached run (variants still run for real)."""
+    real = pipeline.run_case
+    monkeypatch.setattr(pipeline, "run_case",
+                        lambda case, **kw: real(case, **kw) if kw else shipped_run(case.name))
 
+
+@pytest.fixture
+def strict(tmp_path):
+    path = tmp_path / "strict.toml"
+    path.write_text(f'[thresholds.{CASE}]\n"RK4.position" = 1e-12\n')
+    return path
+
+
+def _variant(tmp_path: Path, old: str, new: str) -> Path:
+    text = MJCF.read_text()
+    assert old in text
+    path = tmp_path / "variant.xml"
+    path.write_text(text.replace(old, new))
+    return path
+
+
+def _one_line_error(err: str, needle: str) -> None:
+    assert needle in err, err
+    assert "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1, err
+
+
+# --------------------------------------------------------------- list, check
+def test_every_subcommand_is_one_function():
+    assert set(COMMANDS) >= {"list", "run", "check", "diff", "baseline"}
+    assert all(c.run.__name__ == f"cmd_{name}" for name, c in COMMANDS.items())
+
+
+def test_list_names_every_case(capsys):
     assert main(["list"]) == 0
     out = capsys.readouterr().out
     assert all(name in out for name in cases.names())
 
 
-def test_check_passes_and_prints_each_figure_beside_its_threshold(capsys, config):
+def test_check_passes_and_prints_each_figure_beside_its_threshold(capsys, config, cached_runs):
     assert main(["check", CASE]) == 0
     out = capsys.readouterr().out
     for name, limit in config.for_case(CASE).items():
@@ -34,47 +90,142 @@ def test_check_passes_and_prints_each_figure_beside_its_threshold(capsys, config
     assert "0 failed" in out
 
 
-def test_check_fails_with_exit_1_when_a_threshold_is_tightened(tmp_path):
-    strict = tmp_path / "strict.toml"
-    strict.write_text(f'[thresholds.{CASE}]\n"RK4.position" = 1e-12\n')
+def test_check_fails_with_exit_1_when_a_threshold_is_tightened(strict):
     proc = _run("check", CASE, "--config", str(strict))
     assert proc.returncode == 1
     assert "FAIL" in proc.stdout and "Traceback" not in proc.stderr
+    assert proc.stderr == ""  # no progress bar when stderr is not a terminal
 
 
+@pytest.mark.parametrize("tight, code", [(False, 0), (True, 1)])
+def test_check_json_is_the_only_stdout(capsys, cached_runs, strict, tight, code):
+    assert main(["check", CASE, "--json", *(["--config", str(strict)] if tight else [])]) == code
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["passed"] is (not tight)
+    assert doc["cases"][CASE]["checks"]["RK4.position"]["passed"] is (not tight)
+    assert "RK4.velocity" in doc["cases"][CASE]["figures"]
+
+
+@pytest.mark.parametrize("tight, code", [(False, 0), (True, 1)])
+def test_check_junit(tmp_path, cached_runs, strict, tight, code, capsys):
+    junit = tmp_path / "ci" / "junit.xml"
+    assert main(["check", CASE, "--junit", str(junit), *(["--config", str(strict)] if tight else [])]) == code
+    root = ET.parse(junit).getroot()
+    cases_ = root.findall("./testsuite/testcase")
+    assert len(cases_) == len(load_config().for_case(CASE))
+    failures = [tc.get("name") for tc in cases_ if tc.find("failure") is not None]
+    assert failures == (["RK4.position"] if tight else [])
+    assert "passed" in capsys.readouterr().out
+
+
+def test_progress_bar_only_on_a_terminal(monkeypatch):
+    from harness import cli
+
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
+    assert cli._progress([1], "x").disable
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    bar = cli._progress([1], "x")
+    assert not bar.disable
+    bar.close()
+
+
+# ------------------------------------------------------------------- errors
 @pytest.mark.parametrize("args, needle", [
-    (["check", "nosuchcase"], "known cases"),
-    (["run", "nosuchcase"], "known cases"),
+    (["check", "nosuchcase"], "known cases: pendulum"),
+    (["run", "nosuchcase"], "known cases: pendulum"),
     (["frobnicate"], "invalid choice"),
     (["check", CASE, "--config", "/nonexistent.toml"], "cannot read config"),
+    (["baseline", CASE], "one of the arguments --write --compare is required"),
+    (["diff", "/nonexistent/old.json", "/nonexistent/new.json"], "cannot read"),
 ])
 def test_bad_usage_exits_2_with_one_line(args, needle):
     proc = _run(*args)
     assert proc.returncode == 2
-    assert needle in proc.stderr
-    assert "Traceback" not in proc.stderr
-    assert len(proc.stderr.strip().splitlines()) == 1
+    _one_line_error(proc.stderr, needle)
 
 
 @pytest.mark.parametrize("text, needle", [
     ("[thresholds.pendulum]\n\"RK4.position\" = -1\n", "positive number"),
+    ("[thresholds.pendulum]\n\"RK4.position\" = true\n", "positive number"),
+    ("[thresholds.pendulum]\n\"RK4.position\" = \"1e-3\"\n", "positive number"),
+    ("[thresholds.pendulum]\n\"RK4.position\" = inf\n", "positive number"),
+    ("[thresholds.pendulum]\nRK4.position = 1e-3\n", 'quote dotted figure names, e.g. "RK4.position"'),
     ("[thresholds.pendulum]\n\"RK4.nonsense\" = 1\n", "unmeasured figure"),
     ("[thresholds.nosuchcase]\n\"RK4.position\" = 1\n", "unknown case"),
+    ("thresholds = 3\n", "must be a table of cases"),
     ("[colours]\nred = 1\n", "unknown key"),
+    ("[tool.black]\nline-length = 1\n", "no [tool.mjharness] table"),
     ("this is = not [toml", "not valid TOML"),
 ])
-def test_bad_config_exits_2(tmp_path, text, needle):
+def test_bad_config_exits_2(tmp_path, text, needle, capsys, cached_runs):
     cfg = tmp_path / "bad.toml"
     cfg.write_text(text)
-    proc = _run("check", CASE, "--config", str(cfg))
-    assert proc.returncode == 2, proc.stdout
-    assert needle in proc.stderr and "Traceback" not in proc.stderr
+    assert main(["check", CASE, "--config", str(cfg)]) == 2
+    _one_line_error(capsys.readouterr().err, needle)
 
 
-def test_run_writes_complete_deterministic_report(tmp_path):
+def test_config_overrides_key_by_key(tmp_path):
+    cfg = tmp_path / "override.toml"
+    cfg.write_text('[tool.mjharness.thresholds.pendulum]\n"RK4.position" = 5e-7\n')  # pyproject style works too
+    merged, config = load_config(cfg), load_config()
+    assert merged.for_case(CASE)["RK4.position"] == 5e-7
+    others = {k: v for k, v in merged.for_case(CASE).items() if k != "RK4.position"}
+    assert others == {k: v for k, v in config.for_case(CASE).items() if k != "RK4.position"}
+    assert str(cfg) in merged.source
+
+
+def test_non_utf8_config_is_a_config_error(tmp_path):
+    cfg = tmp_path / "latin1.toml"
+    cfg.write_bytes(b"# \xe9\n")
+    with pytest.raises(ConfigError, match="not valid TOML"):
+        load_config(cfg)
+
+
+@pytest.mark.parametrize("make, needle", [
+    (lambda tmp: tmp / "missing.xml", "no such file"),
+    (lambda tmp: _variant(tmp, "</mujoco>", ""), "invalid MJCF"),
+    (lambda tmp: _variant(tmp, 'name="theta"', 'name="angle"'), "model has no joint 'theta'"),
+    (lambda tmp: _variant(tmp, '<joint name="rod"', '<joint name="stick"'), "model has no equality 'rod'"),
+    (lambda tmp: _variant(tmp, 'gravity="0 0 -9.81"', 'gravity="0 0 -1e12"'), "simulation diverged"),
+])
+def test_bad_model_exits_2_and_writes_nothing(tmp_path, make, needle, capsys):
+    out = tmp_path / "report"
+    assert main(["run", "--case", CASE, "--mjcf", str(make(tmp_path)), "--out", str(out)]) == 2
+    _one_line_error(capsys.readouterr().err, needle)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("names", [[], [CASE, "spring"]])
+def test_mjcf_needs_exactly_one_case(tmp_path, names, capsys):
+    assert main(["check", *names, "--mjcf", str(MJCF)]) == 2
+    _one_line_error(capsys.readouterr().err, "--mjcf validates one model against one case")
+
+
+def test_unwritable_output_exits_2_and_writes_nothing(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    proc = _run("run", CASE, "--out", str(blocker / "sub"))
+    assert proc.returncode == 2
+    _one_line_error(proc.stderr, "output directory")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+
+
+@pytest.mark.parametrize("where", ["under_file", "directory"])
+def test_unwritable_junit_exits_2_before_running(tmp_path, where, capsys, monkeypatch):
+    monkeypatch.setattr(pipeline, "run_case", lambda *a, **k: pytest.fail("ran before checking --junit"))
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    target = blocker / "junit.xml" if where == "under_file" else tmp_path
+    assert main(["check", CASE, "--junit", str(target)]) == 2
+    assert "Traceback" not in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------- run
+def test_run_writes_complete_deterministic_report(tmp_path, cached_runs, capsys):
     out1, out2 = tmp_path / "a", tmp_path / "b"
-    assert main(["run", CASE, "--out", str(out1)]) == 0
+    assert main(["run", CASE, "--out", str(out1), "--junit", str(tmp_path / "junit.xml")]) == 0
     assert main(["run", CASE, "--out", str(out2)]) == 0
+    assert ET.parse(tmp_path / "junit.xml").getroot().get("failures") == "0"
     names = sorted(p.name for p in out1.iterdir())
     assert names == ["report.html", "report.json", "summary.md"]
     for name in names:
@@ -84,10 +235,80 @@ def test_run_writes_complete_deterministic_report(tmp_path):
     page = (out1 / "report.html").read_text()
     assert "http://" not in page and "https://" not in page  # self-contained
     assert page.count("data:image/png;base64,") >= 4
+    assert "wrote " in capsys.readouterr().out
 
 
-def test_unwritable_output_exits_2_and_writes_nothing(tmp_path):
-    blocker = tmp_path / "file"
-    blocker.write_text("not a directory")
-    proc = _run("run", CASE, "--out", str(blocker / "sub"))
-    assert proc.returncode == 2 and "output directory" in proc.stderr
+def test_run_user_variant_against_the_case(tmp_path, capsys, config):
+    """--mjcf: a copy of the shipped model gives the shipped figures; a 2 % heavier bob fails (1),
+    and the report still says which model was validated and what failed."""
+    copy = tmp_path / "copy.xml"
+    copy.write_text(MJCF.read_text())
+    assert main(["check", "--case", CASE, "--mjcf", str(copy), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    shipped = {f.name: f.value for f in shipped_run(CASE).figures}
+    assert {k: v["value"] for k, v in doc["cases"][CASE]["figures"].items()} == shipped
+    assert doc["cases"][CASE]["settings"]["mjcf"] == str(copy)
+
+    heavy = _variant(tmp_path, 'mass="1" diaginertia', 'mass="1.02" diaginertia')
+    out = tmp_path / "report"
+    assert main(["run", "--case", CASE, "--mjcf", str(heavy), "--out", str(out)]) == 1
+    doc = json.loads((out / "report.json").read_text())
+    assert doc["passed"] is False and doc["cases"][CASE]["settings"]["mjcf"] == str(heavy)
+    assert "variant.xml" in (out / "report.html").read_text()
+    assert "FAIL" in capsys.readouterr().out
+
+
+# -------------------------------------------------------------------- diff
+def test_diff_exits_0_and_flags_flips(tmp_path, cached_runs, strict, capsys):
+    old, new = tmp_path / "old.json", tmp_path / "new.json"
+    assert main(["check", CASE, "--json"]) == 0
+    old.write_text(capsys.readouterr().out)
+    assert main(["check", CASE, "--json", "--config", str(strict)]) == 1
+    new.write_text(capsys.readouterr().out)
+    assert main(["diff", str(old), str(old)]) == 0
+    assert "0 verdict(s) flipped" in capsys.readouterr().out
+    assert main(["diff", str(old), str(new)]) == 0
+    out = capsys.readouterr().out
+    assert "FLIPPED pendulum RK4.position: pass -> FAIL" in out and "1 pass -> FAIL" in out
+
+
+@pytest.mark.parametrize("content, needle", [
+    ("{oops", "is not JSON"),
+    ('{"versions": {}}', "is not an mjharness run"),
+])
+def test_diff_of_bad_file_exits_2(tmp_path, content, needle, capsys):
+    bad = tmp_path / "bad.json"
+    bad.write_text(content)
+    assert main(["diff", str(bad), str(bad)]) == 2
+    _one_line_error(capsys.readouterr().err, needle)
+
+
+# ---------------------------------------------------------------- baseline
+def test_baseline_write_then_compare(tmp_path, cached_runs, capsys):
+    path = tmp_path / "baseline.json"
+    assert main(["baseline", CASE, "--write", str(path)]) == 0
+    doc = json.loads(path.read_text())
+    assert set(doc["cases"]) == {CASE} and doc["kind"] == "baseline"
+    assert main(["baseline", CASE, "--compare", str(path)]) == 0
+    assert "0 regression(s)" in capsys.readouterr().out
+
+    entry = doc["cases"][CASE]["figures"]["RK4.position"]
+    entry["value"] /= 3  # the baseline was 3× better than today: today regressed
+    path.write_text(json.dumps(doc))
+    assert main(["baseline", CASE, "--compare", str(path)]) == 1
+    out = capsys.readouterr().out
+    assert "pendulum RK4.position regressed" in out and f"mjharness baseline --write {path}" in out
+
+
+def test_baseline_compare_fails_on_a_case_missing_from_it(tmp_path, cached_runs, capsys):
+    path = tmp_path / "baseline.json"
+    path.write_text(json.dumps({"cases": {}}))
+    assert main(["baseline", CASE, "--compare", str(path)]) == 1
+    assert "case 'pendulum' is not in the baseline" in capsys.readouterr().out
+
+
+def test_baseline_refuses_to_record_failing_checks(tmp_path, cached_runs, strict, capsys):
+    path = tmp_path / "baseline.json"
+    assert main(["baseline", CASE, "--write", str(path), "--config", str(strict)]) == 1
+    assert not path.exists()
+    assert "refusing to write a baseline" in capsys.readouterr().err

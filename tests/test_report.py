@@ -1,0 +1,309 @@
+"""The report and its companions as pure functions of one shipped pendulum run.
+
+HTML (self-contained: model still, sympy's equations, plots, settings,
+versions), Markdown, JSON, JUnit, diff, and the regression baseline — plus the
+baseline check of every registry case against reports/baseline.json.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import json
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import mujoco
+import pytest
+
+from harness import baseline, report
+from harness.diff import diff_runs, format_diff, load_run
+from harness.equations import equations, png_data_uri
+from harness.figures import Figure
+from harness.junit import junit_xml
+from harness.reference import derivation
+from harness.render import Request, stills
+from harness.verdict import verdict
+from tests.conftest import case_ids, shipped_run
+
+CASE = "pendulum"
+ROOT = Path(__file__).resolve().parent.parent
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def run(config):
+    result = shipped_run(CASE)
+    return [result], {CASE: verdict(CASE, result.figures, config.for_case(CASE))}
+
+
+@pytest.fixture(scope="module")
+def model_stills(run):
+    return report.model_stills(run[0])
+
+
+@pytest.fixture(scope="module")
+def page(run, model_stills):
+    return report.render_html(*run, stills=model_stills, config_source="pyproject.toml")
+
+
+def _failing(checks, name="RK4.position"):
+    """``checks`` with one check's threshold tightened below its figure."""
+    return {case: [dataclasses.replace(c, threshold=c.value / 10) if c.name == name else c for c in cs]
+            for case, cs in checks.items()}
+
+
+# ------------------------------------------------------------------ HTML
+def test_page_is_self_contained(page):
+    assert "http://" not in page and "https://" not in page
+    assert "<script" not in page and "<link" not in page
+    assert page.count("data:image/png;base64,") >= 4 + len(equations(derivation("pendulum")))
+
+
+def test_page_has_every_section(page, run):
+    for heading in ("Summary", "Equations of motion", "Gated checks", "Plots", "Other figures", "Settings used"):
+        assert f">{heading}" in page, heading
+    assert f"mujoco {mujoco.__version__}" in page and "mjharness 0.1.0" in page
+    assert "PASS — 1 case(s), all" in page
+    for c in run[1][CASE]:
+        assert f"<td>{c.name}</td>" in page and f"{c.threshold:.3e}" in page
+    assert "timestep</td><td>0.001 s" in page
+
+
+def test_page_shows_sympy_equations_with_readable_symbols(page):
+    eqs = equations(derivation("pendulum"))
+    assert [e.label for e in eqs] == ["kinetic energy", "potential energy", "constraint rod",
+                                      "equation for theta", "equation for r"]
+    tex = " ".join(e.latex for e in eqs)
+    assert r"\ddot{\theta}" in tex and r"\dot{r}" in tex and r"\lambda_{\mathrm{rod}}" in tex
+    assert "_ddot" not in tex and "lambda_rod" not in tex
+    for e in eqs:
+        assert png_data_uri(e.latex) is not None, e.latex
+        assert f"alt='{e.latex}'" in page.replace("&#x27;", "'")
+
+
+def test_unparseable_latex_falls_back_to_none():
+    assert png_data_uri(r"\frac{a}{") is None
+
+
+def test_model_still_is_a_png_or_a_visible_note(model_stills, page):
+    still = model_stills[CASE]
+    if still.png is not None:
+        assert still.png.startswith(PNG) and still.backend
+        assert "at the initial state (rendered headless" in page
+    else:  # no GL on this machine: the page says so instead of crashing
+        assert still.note and "class='note'" in page
+
+
+def test_gl_failure_is_a_note_not_a_crash(monkeypatch, run):
+    monkeypatch.setenv("MUJOCO_GL", "no-such-backend")
+    got = report.model_stills(run[0])[CASE]
+    assert got.png is None and "no headless OpenGL backend worked" in got.note
+    section = report.section_model(run[0][0], got)
+    assert "class='note'" in section and "no headless OpenGL backend worked" in section
+
+
+def test_unreadable_model_is_a_note_for_that_model_only(tmp_path):
+    bad = tmp_path / "bad.xml"
+    bad.write_text("<mujoco><worldbody>")
+    good = Request(CASE, str(ROOT / "mjcf" / "pendulum.xml"), ("theta", "r"))
+    got = stills([Request("atwood", str(bad), ("z1", "z2", "theta")), good])
+    assert got["atwood"].png is None and got["atwood"].note
+    if got[CASE].png is None:
+        pytest.skip(f"no OpenGL here: {got[CASE].note}")
+
+
+def test_identical_inputs_give_identical_pages(run, page):
+    """Rendering again, model still included (re-rendered in a fresh child), gives the same bytes."""
+    again = report.render_html(*run, config_source="pyproject.toml")
+    assert again == page
+
+
+def test_failures_are_flagged_in_banner_summary_and_table(run):
+    results, checks = run
+    checks = _failing(checks)
+    assert "FAIL — 1 of" in report.section_banner(results, checks)
+    assert "RK4.position: " in report.section_summary(results, checks)
+    section = report.section_case(results[0], checks[CASE], None, plots="")
+    assert "<tr class='fail'><td>RK4.position</td>" in section and "model image not rendered" in section
+
+
+# ------------------------------------------------------- Markdown, JSON
+def test_markdown_summary_for_ci(run):
+    results, checks = run
+    md = report.render_markdown(results, checks)
+    assert md.startswith("# mjharness summary\n") and "**PASS**" in md and "Failed checks" not in md
+    md = report.render_markdown(results, _failing(checks))
+    assert "**FAIL**: 1 of" in md and "## Failed checks" in md
+    assert any(line.startswith("| pendulum | RK4.position |") for line in md.splitlines())
+
+
+def test_json_has_every_figure_and_is_strict_json(run):
+    results, checks = run
+    text = report.render_json(results, checks)
+
+    def reject(name):
+        raise AssertionError(f"non-standard JSON constant {name}")
+
+    doc = json.loads(text, parse_constant=reject)
+    entry = doc["cases"][CASE]
+    assert doc["schema"] == report.SCHEMA and doc["passed"] is True
+    assert set(entry["figures"]) == {f.name for f in results[0].figures}
+    assert entry["checks"]["RK4.position"]["threshold"] == checks[CASE][
+        [c.name for c in checks[CASE]].index("RK4.position")].threshold
+    nan_doc = json.loads(report.dumps({"x": math.nan, "y": [math.inf]}), parse_constant=reject)
+    assert nan_doc == {"x": "nan", "y": ["inf"]}
+
+
+def test_write_report_is_all_or_nothing(tmp_path, run, monkeypatch):
+    results, checks = run
+
+    def boom(*_args, **_kw):
+        raise RuntimeError("rendering failed")
+
+    monkeypatch.setattr(report, "render_html", lambda *_a, **_k: "<html></html>")
+    monkeypatch.setattr(report, "render_markdown", boom)
+    with pytest.raises(RuntimeError):
+        report.write_report(tmp_path / "out", results, checks, stills={})
+    assert not (tmp_path / "out").exists()
+
+
+def test_write_atomic_leaves_no_temporaries_and_readable_files(tmp_path):
+    paths = report.write_atomic({tmp_path / "a.txt": "a", tmp_path / "b.txt": "b"})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.txt"] == [p.name for p in paths]
+    assert (tmp_path / "a.txt").stat().st_mode & 0o444 == 0o444
+
+
+def test_output_that_cannot_be_a_directory_is_refused_before_anything_is_created(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    with pytest.raises(ValueError, match="is not a directory"):
+        report.check_output(blocker / "sub" / "dir")
+    assert report.check_output(tmp_path / "new" / "dir") == tmp_path / "new" / "dir"
+    assert not (tmp_path / "new").exists()
+
+
+# ------------------------------------------------------------------ JUnit
+def test_junit_has_one_testcase_per_check_and_failures_carry_figure_and_threshold(run):
+    checks = _failing(run[1])
+    root = ET.fromstring(junit_xml(checks))
+    cases = root.findall("./testsuite/testcase")
+    assert len(cases) == len(checks[CASE]) and root.get("failures") == "1"
+    failed = [tc for tc in cases if tc.find("failure") is not None]
+    assert [tc.get("name") for tc in failed] == ["RK4.position"]
+    c = next(c for c in checks[CASE] if c.name == "RK4.position")
+    message = failed[0].find("failure").get("message")
+    assert f"{c.value:.6e}" in message and f"{c.threshold:.6e}" in message
+    assert junit_xml(checks) == junit_xml(checks)
+
+
+# ------------------------------------------------------------------- diff
+def test_diff_of_a_run_with_itself_is_empty(run):
+    doc = report.json_doc(*run)
+    d = diff_runs(doc, doc)
+    assert not d.flipped and not any(r.changed for r in d.rows)
+    assert "0 changed" in format_diff(d) and "0 verdict(s) flipped" in format_diff(d)
+
+
+def test_diff_reports_ratio_and_highlights_flipped_verdicts(run):
+    old = json.loads(report.render_json(*run))
+    new = copy.deepcopy(old)
+    entry = new["cases"][CASE]
+    entry["figures"]["RK4.position"]["value"] *= 4
+    entry["checks"]["RK4.position"]["passed"] = False
+    entry["figures"]["Euler.velocity"]["value"] /= 2
+    new["versions"]["mujoco"] = "9.9.9"
+    d = diff_runs(old, new)
+    rows = {r.figure: r for r in d.rows if r.changed}
+    assert set(rows) == {"RK4.position", "Euler.velocity"}
+    assert rows["RK4.position"].ratio == pytest.approx(4) and rows["RK4.position"].flipped
+    assert rows["Euler.velocity"].ratio == pytest.approx(0.5) and not rows["Euler.velocity"].flipped
+    text = format_diff(d)
+    assert f"mujoco: {mujoco.__version__} -> 9.9.9" in text
+    assert "FLIPPED pendulum RK4.position: pass -> FAIL" in text
+    assert any("RK4.position" in ln and "<< FLIPPED" in ln and "pass -> FAIL" in ln for ln in text.splitlines())
+    assert "1 pass -> FAIL" in text
+    assert len(format_diff(d, show_all=True).splitlines()) > len(text.splitlines())
+
+
+@pytest.mark.parametrize("content, needle", [
+    (None, "cannot read"),
+    ("{not json", "is not JSON"),
+    ('{"cases": {"pendulum": {"checks": {}}}}', "is not an mjharness run"),
+    ("[1, 2]", "is not an mjharness run"),
+])
+def test_diff_inputs_are_validated(tmp_path, content, needle):
+    path = tmp_path / "run.json"
+    if content is not None:
+        path.write_text(content)
+    with pytest.raises(ValueError, match=needle):
+        load_run(path)
+
+
+# --------------------------------------------------------------- baseline
+def _fig(name, value):
+    return Figure(name, value, "m", "")
+
+
+@pytest.mark.parametrize("old, new, threshold, regressed", [
+    (1e-3, 1.9e-3, 4e-3, False),    # within 2×
+    (1e-3, 2.1e-3, 4e-3, True),     # beyond 2×, although under the threshold
+    (1e-3, 5e-4, 4e-3, False),      # improved
+    (1e-16, 3e-16, 1e-12, False),   # roundoff wobble under the floor (2 % of the threshold)
+    (1e-16, 3e-14, 1e-12, True),    # 300× growth from roundoff: above the floor
+    (1e-3, math.nan, 4e-3, True),   # not finite
+])
+def test_regression_rule(old, new, threshold, regressed):
+    base = {"cases": {"c": {"figures": {"x": {"value": old}}}}}
+    found = baseline.compare(base, "c", [_fig("x", new)], {"x": threshold})
+    assert bool(found) == regressed
+    if regressed:
+        assert baseline.REFRESH in found[0].message and "regressed" in found[0].message
+
+
+def test_missing_case_or_figure_names_the_refresh_command():
+    found = baseline.compare({"cases": {}}, "c", [_fig("x", 1.0)], {"x": 2.0})
+    assert len(found) == 1 and "not in the baseline" in found[0].message
+    assert "mjharness baseline --write reports/baseline.json" in found[0].message
+    found = baseline.compare({"cases": {"c": {"figures": {}}}}, "c", [_fig("x", 1.0)], {"x": 2.0})
+    assert "1 gated figure(s) not in the baseline" in found[0].message and "(x)" in found[0].message
+    assert baseline.REFRESH in found[0].message
+
+
+def test_baseline_doc_keeps_gated_figures_and_no_machine_paths(run):
+    doc = baseline.baseline_doc(*run)
+    entry = doc["cases"][CASE]
+    assert set(entry["figures"]) == {c.name for c in run[1][CASE]}
+    assert entry["settings"]["mjcf"] == "pendulum.xml"
+    merged = baseline.merge({"cases": {"other": {"figures": {}}}}, doc)
+    assert set(merged["cases"]) == {"other", CASE}
+
+
+@pytest.fixture(scope="module")
+def committed_baseline():
+    return load_run(ROOT / baseline.DEFAULT_PATH)
+
+
+@pytest.mark.parametrize("name", case_ids())
+def test_no_gated_figure_regressed_against_the_committed_baseline(name, config, committed_baseline):
+    """Fails when a figure is > 2× its committed value (see harness/baseline.py for why 2×), or when
+    the case or a gated figure is missing from reports/baseline.json (refresh command in the message)."""
+    found = baseline.compare(committed_baseline, name, shipped_run(name).figures, config.for_case(name),
+                             source=baseline.DEFAULT_PATH)
+    assert not found, "\n".join(f.message for f in found)
+
+
+def test_checks_this_mujoco_cannot_measure_are_na_not_failures(run, monkeypatch):
+    """A gate for an integrator an older MuJoCo lacks: n/a in the table, never 'closest to its limit',
+    and skipped by the baseline comparison."""
+    results, checks = run
+    tightest = report._closest(checks[CASE]).name
+    na = [dataclasses.replace(c, value=math.nan, unit="", note="integrator X is not in MuJoCo 3.3")
+          if c.name == tightest else c for c in checks[CASE]]
+    section = report.section_case(results[0], na, None, plots="")
+    assert f"<tr class='na'><td>{tightest}</td>" in section and "n/a: integrator X" in section
+    assert report._closest(na).name != tightest
+    assert f"{tightest} <span" not in report.section_summary(results, {CASE: na})
+    monkeypatch.setattr(baseline, "unavailable_reason", lambda name: "absent" if name == "x" else "")
+    assert baseline.compare({"cases": {"c": {"figures": {}}}}, "c", [], {"x": 1.0}) == []
