@@ -19,7 +19,7 @@ from analytic.solvers import solve
 from harness import reference as refmod
 from harness.binding import JointBinding
 from harness.cases import Case
-from harness.compare import trajectory_figures
+from harness.compare import series_figures, trajectory_figures
 from harness.figures import Figure, max_abs
 from harness.instant import instantaneous_figures
 from harness.models import compile_model, mjcf_path
@@ -51,7 +51,8 @@ def probe_for(case: Case, dyn: Dynamics) -> Probe:
     binding = (case.binding or JointBinding)(dyn.coordinates)
     equalities = tuple(c for c in dyn.constraint_names if c not in case.mujoco_forces)
     return Probe(binding=binding, points=dyn.point_names, constraints=equalities,
-                 invariants=case.mujoco_invariants, forces=case.mujoco_forces)
+                 invariants=case.mujoco_invariants, forces=case.mujoco_forces,
+                 series={k: s.read for k, s in case.mujoco_series.items()})
 
 
 def model_settings(model: mujoco.MjModel) -> dict[str, object]:
@@ -70,6 +71,10 @@ def model_settings(model: mujoco.MjModel) -> dict[str, object]:
         eq = model.equality(i)
         out[f"equality.{eq.name}.solref"] = [float(x) for x in eq.solref]
         out[f"equality.{eq.name}.solimp"] = [float(x) for x in eq.solimp]
+    for i in range(model.npair):
+        pair = model.pair(i)
+        for key in ("solref", "solimp", "friction", "margin"):
+            out[f"pair.{pair.name}.{key}"] = [float(x) for x in np.atleast_1d(getattr(pair, key))]
     return out
 
 
@@ -136,9 +141,23 @@ def run_case(
     ref_traj = refmod.trajectory(ref, grid)
     figures += reference_figures(ref, grid)
     for name, sim in sims.items():
-        figures += trajectory_figures(ref_traj, sim, ref.scales, prefix=name)
+        figures += trajectory_figures(ref_traj, sim, ref.scales, prefix=name, settle=case.settle)
+        figures += series_figures(sim, case.mujoco_series, prefix=name)
     timings["compare"] = time.perf_counter() - clock
+
+    clock = time.perf_counter()  # layer 4, fast subset: observed vs documented order per integrator
+    from harness.studies.convergence import convergence_study, order_figures  # imports this module
+
+    figures += order_figures(convergence_study(case, fast=True, integrators=list(sims), mjcf=path,
+                                               timestep=timestep, edit=edit, reference=ref, plot=False))
+    timings["converge"] = time.perf_counter() - clock
     settings = model_settings(model) | {"mjcf": str(path), "horizon": case.horizon,
                                         "params": dict(ref.params)}
+    from harness.compat import fallbacks, unavailable_reason
+
+    missing = [n for n in ("discrete",) if unavailable_reason(n)]  # shown, never silently skipped
+    notes = [*fallbacks(str(path)), *(unavailable_reason(n) for n in missing)]
+    if notes:
+        settings["compat"] = notes
     return CaseResult(case=case, figures=tuple(figures), reference=ref_traj, simulations=sims,
                       settings=settings, timings=timings)

@@ -17,6 +17,7 @@ from analytic.dynamics import Dynamics
 from analytic.solvers import solve
 from harness import cases
 from harness import reference as refmod
+from harness.compat import known_defect, set_damping, unavailable_reason
 from harness.models import compile_model, mjcf_path
 from harness.pipeline import reference_figures, run_case
 from harness.verdict import verdict
@@ -24,8 +25,12 @@ from tests.conftest import case_ids
 
 
 def _damping(spec: mujoco.MjSpec) -> None:
+    """Damping on every hinge and slide. Not on ball joints: there it also damps the spin about the rod,
+    which carries only the point mass's tiny inertia, and explicit integrators diverge (pinned in
+    tests/test_spherical_pendulum.py)."""
     for j in spec.joints:
-        j.damping = [0.02 * (1.0 if k == 0 else 0.0) for k in range(len(j.damping))]
+        if j.type in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+            set_damping(j, 0.02)  # a float in MuJoCo 3.3, a per-dof array later
 
 
 def _mass(spec: mujoco.MjSpec) -> None:
@@ -70,7 +75,10 @@ def _failed(name: str, config, **kwargs) -> set[str]:
 
 @pytest.mark.parametrize("name", case_ids())
 def test_every_model_gate_fails_on_some_broken_model(name, config):
-    gated = {k for k in config.for_case(name) if not k.startswith("reference.")}
+    # gates of an integrator this MuJoCo lacks are n/a, and those a documented defect of this MuJoCo
+    # already fails are known defects (harness.compat): neither can be broken further
+    gated = {k for k in config.for_case(name) if not k.startswith("reference.") and not unavailable_reason(k)
+             and not known_defect(name, k)}
     timestep = compile_model(mjcf_path(cases.get(name).mjcf)).opt.timestep
     caught = _failed(name, config, timestep=timestep * 10)
     for edit in BREAKAGES.values():
