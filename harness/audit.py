@@ -334,3 +334,11 @@ def html_section(rows: Sequence[AuditRow]) -> str:
             "(claim's relative error / our derivation's on the same MuJoCo states).</p><table><tr><th>claim"
             "</th><th>as printed</th><th>verdict</th><th>corrected</th><th>MuJoCo error / floor</th>"
             f"<th>why</th></tr>{''.join(cells)}</table></section>")
+
+
+def json_rows(rows: Sequence[AuditRow]) -> dict[str, dict[str, object]]:
+    """The verdicts by claim id, for report.json and ``mjharness audit --json``."""
+    return {r.claim.id: {"verdict": r.verdict, "cause": r.cause, "document": r.claim.document,
+                         "location": r.claim.location, "printed": r.claim.quote, "corrected": r.corrected,
+                         "numeric_error": r.numeric_error, "numeric_floor": r.numeric_floor,
+                         "why": _why(r)} for r in rows}

@@ -142,7 +142,25 @@ def _args_run(p: argparse.ArgumentParser) -> None:
     _add_selection(p)
     p.add_argument("--out", type=Path, default=Path("mjharness-report"), metavar="DIR",
                    help="output directory (default: ./mjharness-report)")
+    p.add_argument("--no-studies", dest="studies", action="store_false",
+                   help="skip layer 4 (convergence, softness, solver and contact studies) and the seed audit")
     _add_junit(p)
+
+
+def _studies(selected: Sequence[cases.Case]) -> tuple[list[str], dict[str, object]]:
+    """Layer 4 and the seed audit for the report: HTML sections and their JSON entries."""
+    from harness import audit
+    from harness.studies import contact as contact_study
+    from harness.studies import html_section, run_studies
+
+    studies = run_studies(selected, fast=False, with_softness=True, with_solvers=True, progress=True)
+    contact = [contact_study.contact_study(c.name) for c in selected if "slip" in c.mujoco_series]
+    systems = {c.system for c in selected}
+    rows = audit.audit([c for c in audit.all_claims() if c.frame.system in systems])
+    html = [html_section(studies), contact_study.html_section(contact), audit.html_section(rows)]
+    appendix = {"audit": audit.json_rows(rows),
+                "contact_study": {r.case: [dict(row) for row in r.rows] for r in contact}}
+    return [h for h in html if h], appendix
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -153,7 +171,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     _check_junit(args.junit)
     selected = _selected(args)
     results, checks, config = _run_all(selected, args.config, args.mjcf)
-    paths = write_report(args.out, results, checks, config_source=config.source)
+    extras, appendix = _studies(selected) if args.studies and args.mjcf is None else ([], None)
+    paths = write_report(args.out, results, checks, config_source=config.source, extras=extras,
+                         appendix=appendix)
     paths += _write_junit(args.junit, checks)
     print(_table(checks))
     print(f"wrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - start:.1f} s")
@@ -258,6 +278,22 @@ def cmd_converge(args: argparse.Namespace) -> int:
     return EXIT_OK if studies.passed else EXIT_FAIL
 
 
+def _args_audit(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--json", action="store_true", help="print the verdicts as JSON instead of the table")
+
+
+def cmd_audit(args: argparse.Namespace) -> int:
+    from harness import audit
+    from harness.report import dumps
+
+    rows = audit.audit()
+    if args.json:
+        sys.stdout.write(dumps(audit.json_rows(rows)))
+    else:
+        print(audit.format_table(rows))
+    return EXIT_OK
+
+
 @dataclass(frozen=True)
 class Command:
     help: str
@@ -274,6 +310,8 @@ COMMANDS: dict[str, Command] = {
                         _args_baseline, cmd_baseline),
     "converge": Command("convergence order per integrator vs the documented one (exit 1 if one falls "
                         "short); --softness, --solvers: constraint studies", _args_converge, cmd_converge),
+    "audit": Command("the seed documents' claims: confirmed, refuted (with the correction) or ambiguous",
+                     _args_audit, cmd_audit),
 }
 
 

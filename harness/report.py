@@ -327,6 +327,7 @@ def section_case(result: CaseResult, checks: Sequence[Check], still: Still | Non
 
 
 _STYLE = """
+tr.shipped td{font-weight:bold} tr.ambiguous td{background:#fff6d5}
 body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;max-width:74em;margin:1em auto;padding:0 1em;
 color:#222;line-height:1.35}
 h1{margin-bottom:.2em} h2{border-bottom:2px solid #ddd;padding-bottom:.15em;margin-top:1.6em}
@@ -367,8 +368,10 @@ def model_stills(results: Sequence[CaseResult]) -> dict[str, Still]:
 
 
 def render_html(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
-                stills: Mapping[str, Still] | None = None, config_source: str | None = None) -> str:
-    """The whole page. ``stills`` defaults to rendering each model now (see harness.render)."""
+                stills: Mapping[str, Still] | None = None, config_source: str | None = None,
+                extras: Sequence[str] = ()) -> str:
+    """The whole page. ``stills`` defaults to rendering each model now (see harness.render);
+    ``extras`` are further sections (studies, audit) appended after the cases."""
     with ThreadPoolExecutor(max_workers=1) as pool:  # the stills render in a child process meanwhile
         pending = pool.submit(model_stills, results) if stills is None else None
         plots = {r.case.name: section_plots(r) for r in results}
@@ -377,7 +380,7 @@ def render_html(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Che
     source = f" Thresholds from {_esc(config_source)}." if config_source else ""
     body = section_summary(results, checks) + "".join(
         section_case(r, checks[r.case.name], shown.get(r.case.name), plots=plots[r.case.name])
-        for r in results)
+        for r in results) + "".join(extras)
     return (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>mjharness report</title>"
             f"<style>{_STYLE}</style></head><body><h1>mjharness report</h1>"
             f"<p class='dim'>MuJoCo checked against analytical mechanics. Versions: {_esc(ver)}.{source}</p>"
@@ -415,9 +418,12 @@ def render_markdown(results: Sequence[CaseResult], checks: Mapping[str, Sequence
     return "\n".join(lines) + "\n"
 
 
-def json_doc(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]]) -> dict:
-    """Every figure, every check and the settings, per case (the schema ``mjharness diff`` reads)."""
-    doc: dict = {"schema": SCHEMA, "versions": versions(), "passed": _all_passed(checks), "cases": {}}
+def json_doc(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+             appendix: Mapping[str, object] | None = None) -> dict:
+    """Every figure, every check and the settings, per case (the schema ``mjharness diff`` reads);
+    ``appendix`` adds further top-level entries (the studies, the seed audit)."""
+    doc: dict = {"schema": SCHEMA, "versions": versions(), "passed": _all_passed(checks), "cases": {},
+                 **(appendix or {})}
     for r in results:
         cs = checks[r.case.name]
         doc["cases"][r.case.name] = {
@@ -453,8 +459,9 @@ def dumps(doc: object) -> str:
     return json.dumps(_jsonable(doc), indent=1, sort_keys=True, allow_nan=False) + "\n"
 
 
-def render_json(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]]) -> str:
-    return dumps(json_doc(results, checks))
+def render_json(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+                appendix: Mapping[str, object] | None = None) -> str:
+    return dumps(json_doc(results, checks, appendix=appendix))
 
 
 def check_output(out: Path | str) -> Path:
@@ -512,11 +519,13 @@ def write_atomic(files: Mapping[Path, str]) -> list[Path]:
 
 
 def write_report(out: Path | str, results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
-                 stills: Mapping[str, Still] | None = None, config_source: str | None = None) -> list[Path]:
+                 stills: Mapping[str, Still] | None = None, config_source: str | None = None,
+                 extras: Sequence[str] = (), appendix: Mapping[str, object] | None = None) -> list[Path]:
     """Write report.html, report.json and summary.md into ``out`` (all rendered before anything is
-    written, then moved into place)."""
-    files = {"report.html": render_html(results, checks, stills=stills, config_source=config_source),
-             "report.json": render_json(results, checks),
+    written, then moved into place). ``extras``/``appendix``: further HTML sections and JSON entries."""
+    files = {"report.html": render_html(results, checks, stills=stills, config_source=config_source,
+                                        extras=extras),
+             "report.json": render_json(results, checks, appendix=appendix),
              "summary.md": render_markdown(results, checks)}
     out = prepare_output(out)
     return write_atomic({out / name: text for name, text in files.items()})

@@ -163,3 +163,27 @@ def contact_study(
     return StudyResult(case=case_name, integrator=integrator_name(shipped_model),
                        timestep=float(shipped_model.opt.timestep), shipped=_options(shipped_model),
                        rows=tuple(rows))
+
+
+def html_section(results: Sequence[StudyResult]) -> str:
+    """The contact-settings studies as a report section: a table per case (shipped row marked) and its plot."""
+    import base64
+    import html
+
+    keys = ("cone", "impratio", "noslip_iterations", "softness", "slip_late", "force_error", "position")
+    parts = []
+    for r in results:
+        shipped = r.shipped_row()
+        head = "".join(f"<th>{k}</th>" for k in keys)
+        rows = "".join(
+            "<tr" + (" class='shipped'" if row is shipped else "") + ">"
+            + "".join(f"<td>{row[k]:.3g}</td>" if isinstance(row[k], float) else f"<td>{html.escape(str(row[k]))}</td>"
+                      for k in keys) + "</tr>" for row in r.rows)
+        img = base64.b64encode(r.plot_png()).decode("ascii")
+        parts.append(f"<h3>{html.escape(r.case)}: cone, impratio, noslip ({html.escape(r.integrator)}, "
+                     f"h = {r.timestep:g} s)</h3><p>Shipped settings: {html.escape(str(dict(r.shipped)))} "
+                     f"(bold row). slip_late: steady slip velocity (m/s), max over the second half; "
+                     f"force_error: worst contact force error / m g; position: max position error (m).</p>"
+                     f"<table><tr>{head}</tr>{rows}</table><img src='data:image/png;base64,{img}' alt='study'>")
+    return (f"<section id='contact-study'><h2>Contact settings study</h2>{''.join(parts)}</section>"
+            if parts else "")
