@@ -66,9 +66,14 @@ def baseline_doc(results: Sequence, checks: Mapping[str, Sequence]) -> dict:
 
 
 def merge(old: Mapping | None, new: Mapping) -> dict:
-    """``new`` with the cases of ``old`` it does not have (a partial refresh keeps the rest)."""
+    """``new`` with the cases of ``old`` it does not have (a partial refresh keeps the rest).
+    Both must come from one MuJoCo version (a baseline is per version)."""
     if old is None:
         return dict(new)
+    versions = [doc.get("versions", {}).get("mujoco") for doc in (old, new)]
+    if None not in versions and versions[0] != versions[1]:
+        raise ValueError(f"the baseline was recorded with MuJoCo {versions[0]}, this run is MuJoCo {versions[1]}: "
+                         "a partial refresh would mix versions; write all cases to a baseline of its own")
     out = dict(new)
     out["cases"] = {**old.get("cases", {}), **new["cases"]}
     out["cases"] = dict(sorted(out["cases"].items()))
@@ -78,6 +83,23 @@ def merge(old: Mapping | None, new: Mapping) -> dict:
 def limit(old: float, threshold: float) -> float:
     """The largest value a figure may take before it counts as a regression."""
     return FACTOR * max(old, FLOOR * threshold)
+
+
+def version_mismatch(baseline: Mapping, *, source: str = DEFAULT_PATH) -> str:
+    """Why ``baseline`` cannot judge this run ('' if it can): it was recorded with another MuJoCo.
+
+    A baseline is per MuJoCo version: the same model on another version moves figures by
+    factors where the version changed an algorithm (or has a documented defect), which
+    is what ``mjharness diff`` shows, not a regression. A baseline that records no
+    MuJoCo version is compared as before.
+    """
+    import mujoco
+
+    recorded = baseline.get("versions", {}).get("mujoco")
+    if recorded is None or recorded == mujoco.__version__:
+        return ""
+    return (f"{source} was recorded with MuJoCo {recorded}, this is MuJoCo {mujoco.__version__}: a baseline "
+            f"is per MuJoCo version (compare the versions with `mjharness diff`)")
 
 
 def compare(baseline: Mapping, case: str, figures: Iterable[Figure],

@@ -37,6 +37,16 @@ def solver_iterations(data: mujoco.MjData) -> int:
     return int(np.max(data.solver_niter[:count]))
 
 
+def constraint_diagonal(data: mujoco.MjData) -> np.ndarray:
+    """The diagonal of A = J M⁻¹ Jᵀ per constraint row that the regulariser R is scaled by.
+
+    ``mjData.efc_diagA`` since it can be exact (diagexact); ``efc_diagApprox`` in
+    MuJoCo 3.3, where it is always the approximation.
+    """
+    diag = data.efc_diagA if hasattr(data, "efc_diagA") else data.efc_diagApprox
+    return np.asarray(diag)[: data.nefc]
+
+
 # Integrators MuJoCo's documentation describes (computation/index.rst, "Integrators"),
 # of which an older MuJoCo lacks some (``discrete`` is new in 4.0).
 DOCUMENTED_INTEGRATORS: tuple[str, ...] = ("Euler", "implicit", "implicitfast", "RK4", "discrete")
@@ -170,17 +180,32 @@ def after_compile(model: mujoco.MjModel, path: str) -> None:
     _FALLBACKS[path] = tuple(notes)
 
 
+def _set_linear(joint, attr: str, value: float) -> None:
+    current = getattr(joint, attr)
+    if np.ndim(current) == 0:
+        setattr(joint, attr, float(value))
+    else:
+        setattr(joint, attr, [float(value), *[float(x) for x in np.asarray(current)[1:]]])
+
+
 def set_damping(joint, value: float) -> None:
     """Set a joint's (linear) damping through MjSpec.
 
-    ``MjsJoint.damping`` is a float in MuJoCo 3.3 and an array later, whose
-    first entry is the linear damping; the other entries are kept.
+    ``MjsJoint.damping`` is a float in MuJoCo 3.3 and an array later: the
+    polynomial coefficients (a, b, c) of f = −(a v + b v|v| + c v³), the same
+    for every dof of the joint. ``a`` is set; the other entries are kept.
     """
-    current = joint.damping
-    if np.ndim(current) == 0:
-        joint.damping = float(value)
-    else:
-        joint.damping = [float(value), *[float(x) for x in np.asarray(current)[1:]]]
+    _set_linear(joint, "damping", value)
+
+
+def set_stiffness(joint, value: float) -> None:
+    """Set a joint's (linear) stiffness through MjSpec.
+
+    ``MjsJoint.stiffness`` is a float in MuJoCo 3.3 and an array later: the
+    polynomial coefficients (a, b, c) of f = −(a x + b x² + c x³). ``a`` is set;
+    the other entries are kept.
+    """
+    _set_linear(joint, "stiffness", value)
 
 
 # Defects of older MuJoCo versions that the harness measures, documented upstream. A check that

@@ -56,6 +56,12 @@ def test_set_damping_sets_the_linear_term_on_any_version():
     assert model.dof_damping[model.joint(spec.joints[0].name).dofadr[0]] == pytest.approx(0.02)
 
 
+def test_set_stiffness_sets_the_linear_term_on_any_version():
+    spec = mujoco.MjSpec.from_file(str(mjcf_path("spring")))
+    compat.set_stiffness(spec.joint("x"), 21.0)
+    assert float(spec.compile().joint("x").stiffness[0]) == 21.0
+
+
 def test_solver_iterations_is_within_the_limit():
     model = compile_model(mjcf_path("pendulum"))
     data = mujoco.MjData(model)

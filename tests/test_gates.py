@@ -30,7 +30,7 @@ def _damping(spec: mujoco.MjSpec) -> None:
     tests/test_spherical_pendulum.py)."""
     for j in spec.joints:
         if j.type in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
-            set_damping(j, 0.02)  # a float in MuJoCo 3.3, a per-dof array later
+            set_damping(j, 0.02)  # linear; a float in MuJoCo 3.3, (linear, quadratic, cubic) later
 
 
 def _mass(spec: mujoco.MjSpec) -> None:

@@ -274,7 +274,8 @@ def test_missing_case_or_figure_names_the_refresh_command():
 def test_baseline_doc_keeps_gated_figures_and_no_machine_paths(run):
     doc = baseline.baseline_doc(*run)
     entry = doc["cases"][CASE]
-    assert set(entry["figures"]) == {c.name for c in run[1][CASE]}
+    # every gated figure this MuJoCo measures (an n/a check, of an integrator it lacks, has none)
+    assert set(entry["figures"]) == {c.name for c in run[1][CASE] if c.status != "n/a"}
     assert entry["settings"]["mjcf"] == "pendulum.xml"
     merged = baseline.merge({"cases": {"other": {"figures": {}}}}, doc)
     assert set(merged["cases"]) == {"other", CASE}
@@ -288,10 +289,25 @@ def committed_baseline():
 @pytest.mark.parametrize("name", case_ids())
 def test_no_gated_figure_regressed_against_the_committed_baseline(name, config, committed_baseline):
     """Fails when a figure is > 2× its committed value (see harness/baseline.py for why 2×), or when
-    the case or a gated figure is missing from reports/baseline.json (refresh command in the message)."""
+    the case or a gated figure is missing from reports/baseline.json (refresh command in the message).
+    Only on the MuJoCo version the baseline was recorded with: a baseline is per version."""
+    if why := baseline.version_mismatch(committed_baseline):
+        pytest.skip(why)
     found = baseline.compare(committed_baseline, name, shipped_run(name).figures, config.for_case(name),
                              source=baseline.DEFAULT_PATH)
     assert not found, "\n".join(f.message for f in found)
+
+
+def test_a_baseline_judges_only_runs_on_its_own_mujoco_version(committed_baseline):
+    assert committed_baseline["versions"]["mujoco"]  # recorded, so the regression test knows
+    same = {"versions": {"mujoco": mujoco.__version__}, "cases": {}}
+    assert baseline.version_mismatch(same) == "" and baseline.version_mismatch({"cases": {}}) == ""
+    why = baseline.version_mismatch({"versions": {"mujoco": "0.9.9"}, "cases": {}}, source="b.json")
+    assert why.startswith("b.json was recorded with MuJoCo 0.9.9, this is MuJoCo " + mujoco.__version__)
+    assert "per MuJoCo version" in why and "mjharness diff" in why
+    with pytest.raises(ValueError, match="mix versions"):  # a partial refresh on another version
+        baseline.merge({"versions": {"mujoco": "0.9.9"}, "cases": {}}, {**same, "cases": {"c": {}}})
+    assert baseline.merge(same, {**same, "cases": {"c": {}}})["cases"] == {"c": {}}
 
 
 def test_checks_this_mujoco_cannot_measure_are_na_not_failures(run, monkeypatch):

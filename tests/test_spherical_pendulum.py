@@ -11,7 +11,7 @@ import pytest
 import sympy as sp
 
 from analytic.systems import spherical_pendulum as sph
-from harness import cases
+from harness import cases, compat
 from harness import reference as refmod
 from harness.ball_binding import BallBinding
 from harness.binding import JointBinding, ModelMismatch
@@ -25,6 +25,13 @@ from tests.conftest import shipped_run
 
 HINGE, BALL = "spherical_pendulum", "spherical_pendulum_ball"
 COORDS = ("theta", "phi")
+
+
+def _rk4_accuracy(name: str, figure: str = "RK4.position"):
+    """``name`` as a test parameter; expected to fail (strictly) where a documented defect of
+    this MuJoCo makes its RK4 inaccurate (harness.compat.KNOWN_DEFECTS: ball joints before 4.0)."""
+    why = compat.known_defect(name, figure)
+    return pytest.param(name, marks=pytest.mark.xfail(bool(why), reason=why, strict=True))
 
 
 def _models() -> dict[str, tuple[mujoco.MjModel, object]]:
@@ -208,21 +215,30 @@ def test_p_phi_is_conserved_on_both_sides():
         case = cases.get(name)  # p_phi(0) = m l² sin²θ0 φ̇0
         expected = params["m"] * params["l"] ** 2 * np.sin(case.q0["theta"]) ** 2 * case.qd0["phi"]
         assert abs(ref[0] - expected) < 1e-12
-        assert np.ptp(result.simulations["RK4"].invariants["p_phi"]) / scale < 1e-10
     # the ball has no dof matrix, so no generalized force is recorded for it
     assert shipped_run(BALL).simulations["RK4"].generalized_force is None
     assert shipped_run(HINGE).simulations["RK4"].generalized_force is not None
 
 
-def test_the_two_models_agree_with_each_other_and_the_reference():
-    hinge, ball = shipped_run(HINGE), shipped_run(BALL)
+@pytest.mark.parametrize("name", [_rk4_accuracy(HINGE), _rk4_accuracy(BALL)])
+def test_mujoco_rk4_conserves_p_phi_and_follows_the_reference(name):
+    result = shipped_run(name)
+    scale = sph.scales(result.settings["params"]).momentum
+    assert np.ptp(result.simulations["RK4"].invariants["p_phi"]) / scale < 1e-10
+    assert result.figure("RK4.position").value < 3e-10
+
+
+@pytest.mark.parametrize("name", [_rk4_accuracy(BALL)])  # the ball's RK4 against the hinges'
+def test_the_two_models_agree_under_rk4(name):
+    hinge, ball = shipped_run(HINGE), shipped_run(name)
     for integrator in ("RK4",):
         a, b = hinge.simulations[integrator], ball.simulations[integrator]
         assert np.max(np.linalg.norm(a.positions["bob"] - b.positions["bob"], axis=1)) < 3e-10
         # J: the two-hinge model's own RK4 energy drift is 1.5e-10 J
         assert np.max(np.abs(a.invariants["energy"] - b.invariants["energy"])) < 5e-10
-    for result in (hinge, ball):
-        assert result.figure("RK4.position").value < 3e-10
+
+
+def test_the_two_models_agree_at_the_same_state():
     # instantaneous: same state in both models → same bob acceleration and kinetic energy, up to
     # the point-mass floor: the hinges tie the bob's spin (inertia ε) to φ̇, the ball leaves
     # it free, a relative difference ε/(m l² sin²θ)
@@ -250,7 +266,7 @@ def test_ball_case_has_observable_figures_instead_of_dof_ones():
 
 def _damping(joint: str, value: float):
     def edit(spec: mujoco.MjSpec) -> None:
-        spec.joint(joint).damping = [value] * len(spec.joint(joint).damping)
+        compat.set_damping(spec.joint(joint), value)  # linear: f = −c q̇ per dof (3.3 has no other)
     return edit
 
 
@@ -272,8 +288,13 @@ EULER_FAMILY = ["Euler", "implicit", "implicitfast", "discrete"]
 RK4 = ["RK4"]
 VARIANTS = {
     # name: (kwargs for run_case per case, gates that must fail, gates that must still pass)
-    "azimuth_damping": ({HINGE: dict(edit=_damping("phi", 3e-3)),
-                         BALL: dict(edit=_damping("ball", 3e-3), integrators=EULER_FAMILY)},
+    # linear damping (the only kind MuJoCo 3.3 has), measured on 3.3.0 and 4.0.0: the gates below at
+    # ≥ 4.3× their limits on the hinges (0.03 N m s), ≥ 2.8× on the ball (0.008 N m s). The ball's is
+    # capped by the spin about the rod (inertia ε = 1e-12): at t = 0 its qacc is c ω_spin/ε = 1.08e12 c,
+    # and mj_step resets a simulation whose |qacc| passes mjMAXVAL = 1e10, so c < 9.2e-3.
+    "azimuth_damping": ({HINGE: dict(edit=_damping("phi", 3e-2)),
+                         BALL: dict(edit=_damping("ball", 8e-3),
+                                    integrators=[i for i in EULER_FAMILY if not compat.unavailable_reason(i)])},
                         {"Euler.position", "Euler.drift.energy", "Euler.drift.p_phi", "Euler.p_phi",
                          "discrete.drift.p_phi", "implicit.p_phi"}, set()),
     "horizontal_gravity": ({c: dict(edit=_gravity([0.05, 0.0, -9.81]), integrators=RK4) for c in (HINGE, BALL)},
@@ -304,13 +325,17 @@ def _verdict(name: str, variant: str) -> tuple[frozenset[str], frozenset[str]]:
 def test_broken_variant_fails_the_expected_gates(name, variant):
     failed, passed = _verdict(name, variant)
     _, must_fail, must_pass = VARIANTS[variant]
+    # without gates this MuJoCo cannot fail: n/a (an integrator it lacks) or a known defect of it
+    must_fail = compat.breakable(name, must_fail)
     assert must_fail <= failed, f"expected to fail but passed: {sorted(must_fail - failed)}"
     assert must_pass <= passed, f"expected to pass but failed: {sorted(must_pass - passed)}"
 
 
 @pytest.mark.parametrize("name", [HINGE, BALL])
 def test_every_gate_fails_under_some_variant(name, config):
-    gated = set(config.for_case(name))
+    gated = compat.breakable(name, config.for_case(name))  # as in test_broken_variant_fails_the_expected_gates
+    if name == BALL:  # damping the ball below the qacc cap (VARIANTS) leaves implicit's order intact;
+        gated -= {"converge.implicit.order_shortfall"}  # tests/test_gates.py's generic breakages reach it
     caught = set().union(*(_verdict(name, v)[0] for v in VARIANTS))
     assert gated - caught == set(), f"gates no variant reaches: {sorted(gated - caught)}"
     if name == HINGE:  # the D-based gates too
@@ -319,7 +344,7 @@ def test_every_gate_fails_under_some_variant(name, config):
 
 def test_ball_damping_is_too_stiff_for_explicit_rk4():
     """Damping on the ball acts on the spin about the rod too, whose inertia is the point-mass
-    floor ε: rate c/ε = 3e7 /s, far past RK4's stability at 1 ms (why the damping variant of the
+    floor ε: rate c/ε = 3e9 /s, far past RK4's stability at 1 ms (why the damping variant of the
     ball case runs only the integrators that treat damping implicitly)."""
     with pytest.raises(SimulationDiverged):
         run_case(cases.get(BALL), edit=_damping("ball", 3e-3), integrators=RK4)
