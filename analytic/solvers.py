@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from analytic.dynamics import Array, Dynamics
 
@@ -83,6 +82,8 @@ def solve(
     if not 0 < rtol <= 1e-6:
         raise ValueError(f"rtol must be in (0, 1e-6], got {rtol}")
     _check_consistent(dynamics, q0, qd0)
+    from scipy.integrate import solve_ivp  # here, not at import: scipy.integrate takes 0.2 s to load
+
     omega = float(stabilization_rate)
     stab = (2.0 * omega, omega * omega)
     n = dynamics.n

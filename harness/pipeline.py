@@ -23,7 +23,8 @@ from harness.compare import series_figures, trajectory_figures
 from harness.figures import Figure, max_abs
 from harness.instant import instantaneous_figures
 from harness.models import compile_model, mjcf_path
-from harness.simulate import Probe, available_integrators, integrator_name, simulate
+from harness.simulate import Probe, available_integrators, integrator_name, recorder, simulate
+from harness.simulate import recorder_notes as simulate_notes
 from harness.trajectory import Trajectory
 
 
@@ -85,9 +86,8 @@ def reference_figures(ref: refmod.Reference, t: np.ndarray) -> list[Figure]:
         Figure("reference.residual", max(max_abs(pos), max_abs(vel)), "SI",
                f"max |f(q)|, |Jq̇+b| of our DAE solution (rtol {ref.solution.rtol:g})"),
     ]
-    minimal = refmod.minimal_system(ref.case)
-    if minimal is not None:
-        dyn_min = Dynamics.build(minimal.derive(), ref.params)
+    dyn_min = refmod.minimal_dynamics(ref.case.system, ref.params)
+    if dyn_min is not None:
         full_q, full_qd = ref.solution.state([0.0])
         # the minimal coordinates are the full ones that survive the embedding
         keep = [ref.dynamics.coordinates.index(c) for c in dyn_min.coordinates]
@@ -113,6 +113,11 @@ def run_case(
     keeps the shipped parameters); ``edit`` modifies the model through MjSpec."""
     timings: dict[str, float] = {}
     clock = time.perf_counter()
+    refmod.derivation(case.system)  # loaded from the on-disk cache, or derived (and cached)
+    refmod.minimal_derivation(case.system)
+    timings["derivation"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    recorder_notes = len(simulate_notes())
     shipped = compile_model(mjcf_path(case.mjcf))
     path = Path(mjcf) if mjcf is not None else mjcf_path(case.mjcf)
     model = compile_model(path, timestep=timestep, edit=edit)
@@ -152,7 +157,10 @@ def run_case(
                                                timestep=timestep, edit=edit, reference=ref, plot=False))
     timings["converge"] = time.perf_counter() - clock
     settings = model_settings(model) | {"mjcf": str(path), "horizon": case.horizon,
-                                        "params": dict(ref.params)}
+                                        "params": dict(ref.params), "recorder": recorder()}
+    fallbacks_here = tuple(dict.fromkeys(simulate_notes()[recorder_notes:]))
+    if fallbacks_here:  # the batch recorder handed some runs to the loop: shown, never silent
+        settings["recorder_fallbacks"] = list(fallbacks_here)
     from harness.compat import fallbacks, unavailable_reason
 
     missing = [n for n in ("discrete",) if unavailable_reason(n)]  # shown, never silently skipped

@@ -1,7 +1,17 @@
 """Build and solve the analytic reference of a case, and express it as a Trajectory.
 
-The derivation is done once per system per process; the reference is solved
-once per case and reused (dense output) for every integrator and timestep.
+Derivations are cached on disk (harness/cache.py), keyed by the source of the
+system module and of analytic/lagrangian.py, so a run derives only what was
+edited since the last one; within a process each is loaded once.
+
+A case's reference is solved once per process over the case's horizon (or a
+longer one asked for) and reused, through its dense output, by every
+integrator, timestep, setting and study that asks for that horizon or a
+shorter one. The solve is keyed by everything it depends on (system,
+parameters, initial state, tolerance, horizon), never by call order, so a
+result does not depend on which case or study ran first. Solutions solved in a
+worker process can be handed to the parent (:func:`export_solutions`,
+:func:`import_solutions`), so that a run's studies reuse its cases' solves.
 """
 
 from __future__ import annotations
@@ -9,21 +19,63 @@ from __future__ import annotations
 import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 
 import mujoco
 import numpy as np
 
+from analytic import lagrangian
 from analytic.dynamics import Dynamics
 from analytic.lagrangian import Derivation, LagrangianSystem
 from analytic.solvers import DEFAULT_RTOL, Solution, solve
 from analytic.systems import Scales, load
+from harness import cache
 from harness.cases import Case
 from harness.trajectory import Trajectory
+
+# Derivation's lazily computed results, all evaluated before a derivation is cached on disk
+SYMBOLIC = ("mass_matrix", "forcing", "constraint_rows", "jacobian", "gamma", "holonomic_residual", "energy",
+            "momenta", "cyclic", "equations", "multiplier_symbols")
+
+
+def _sources(system: str) -> list[Path]:
+    """The files a derivation of ``system`` depends on."""
+    return [Path(str(load(system).__file__)), Path(lagrangian.__file__)]
+
+
+def _derived(system_of: LagrangianSystem) -> Derivation:
+    result = system_of.derive()
+    for name in SYMBOLIC:
+        getattr(result, name)
+    return result
 
 
 @functools.cache
 def derivation(system: str) -> Derivation:
-    return load(system).build().derive()
+    """The derivation of ``system`` with every symbolic result evaluated (cached on disk and per process)."""
+    digest = cache.source_key(_sources(system))
+    return cache.cached("derivation", system, digest, lambda: _derived(load(system).build()), Derivation)
+
+
+@functools.cache
+def minimal_derivation(system: str) -> Derivation | None:
+    """The derivation of the system's minimal-coordinate form (``minimal()``), or None if it has none."""
+    module = load(system)
+    if not hasattr(module, "minimal"):
+        return None
+    digest = cache.source_key(_sources(system))
+    return cache.cached("minimal", system, digest, lambda: _derived(module.minimal()), Derivation)
+
+
+@functools.cache
+def _minimal_dynamics(system: str, params: tuple[tuple[str, float], ...]) -> Dynamics | None:
+    deriv = minimal_derivation(system)
+    return None if deriv is None else Dynamics.build(deriv, dict(params))
+
+
+def minimal_dynamics(system: str, params: Mapping[str, float]) -> Dynamics | None:
+    """Numeric dynamics of the minimal-coordinate form at ``params`` (cached), or None."""
+    return _minimal_dynamics(system, tuple(sorted(params.items())))
 
 
 @functools.cache
@@ -62,16 +114,58 @@ def _ordered(values: Mapping[str, float], order: tuple[str, ...], label: str) ->
     return np.array([values[k] for k in order], dtype=float)
 
 
+# solutions by (system, params, q0, qd0, rtol, horizon); seeds (exported by another process) wait
+# there without their dynamics until asked for
+_solutions: dict[tuple, Solution] = {}
+_seeds: dict[tuple, tuple[float, float, int, object]] = {}
+_exported: set[tuple] = set()
+
+
 def build_reference(case: Case, model: mujoco.MjModel, *, rtol: float = DEFAULT_RTOL,
                     t_end: float | None = None) -> Reference:
-    """Solve the case's system with the parameters read from ``model``."""
+    """The case's system solved with the parameters read from ``model``, over at least ``t_end``
+    (default: the case's horizon).
+
+    One solve over max(t_end, horizon) serves every request up to it: a shorter
+    ``t_end`` gets the case's solution, whose dense output covers it.
+    """
     module = load(case.system)
     params = module.params_from_model(model)
     dyn = dynamics(case.system, params)
     q0 = _ordered(case.q0, dyn.coordinates, "q0")
     qd0 = _ordered(case.qd0, dyn.coordinates, "qd0")
-    sol = solve(dyn, q0=q0, qd0=qd0, t_end=t_end or case.horizon, rtol=rtol, atol=rtol)
+    span = max(float(t_end or case.horizon), float(case.horizon))
+    key = (case.system, tuple(sorted(params.items())), tuple(q0.tolist()), tuple(qd0.tolist()),
+           float(rtol), span)
+    sol = _solutions.get(key)
+    if sol is None and key in _seeds:
+        end, tol, nfev, dense = _seeds.pop(key)
+        sol = Solution(dynamics=dyn, t_end=end, rtol=tol, nfev=nfev, _dense=dense)
+    if sol is None:
+        sol = solve(dyn, q0=q0, qd0=qd0, t_end=span, rtol=rtol, atol=rtol)
+    _solutions[key] = sol
     return Reference(case=case, params=params, scales=module.scales(params), solution=sol)
+
+
+def export_solutions() -> dict[tuple, tuple[float, float, int, object]]:
+    """The solutions of this process not exported before, in a picklable form (no dynamics)."""
+    out = {k: (s.t_end, s.rtol, s.nfev, s._dense) for k, s in _solutions.items() if k not in _exported}
+    _exported.update(out)
+    return out
+
+
+def import_solutions(seeds: Mapping[tuple, tuple[float, float, int, object]]) -> None:
+    """Solutions exported by another process: :func:`build_reference` uses them instead of solving."""
+    for key, seed in seeds.items():
+        if key not in _solutions:
+            _seeds[key] = seed
+
+
+def clear_caches() -> None:
+    """Forget this process's solutions (derivations stay: they depend on source code only)."""
+    _solutions.clear()
+    _seeds.clear()
+    _exported.clear()
 
 
 def minimal_system(case: Case) -> LagrangianSystem | None:

@@ -2,14 +2,45 @@
 
 After ``mj_step`` the derived fields describe the state *before* the step, and
 after an RK4 step ``efc_force``, ``qfrc_constraint`` and ``energy`` hold the
-last Runge–Kutta stage (design.md, "Conventions"). So each step here is
-``mj_forward`` (derived fields of the current state), record, then the
-integrator's own function — the same work ``mj_step`` does, in the same order,
-bit-identical to it (pinned in tests/test_simulate.py).
+last Runge–Kutta stage (design.md, "Conventions"). Two recorders honour that
+and give the same numbers, bit for bit (pinned in tests/test_simulate.py):
+
+``loop`` (any MuJoCo): each step is ``mj_forward`` (derived fields of the
+current state) between the checks ``mj_step`` makes around it
+(``mj_checkPos/Vel/Acc``: a huge or non-finite value is a MuJoCo warning),
+record, then the integrator's own function — the same work ``mj_step`` does,
+in the same order, bit-identical to it. It costs a Python round trip per
+sample, several times MuJoCo's own step.
+
+``batch`` (``mujoco.batch``, MuJoCo ≥ 4): the steps run in C
+(``Batch.rollout``), recording after every substep the integration state and
+the fixed-size derived fields :data:`FIELDS`. For every integrator but RK4,
+the fields recorded after step k + 1 are those ``mj_step``'s own
+``mj_forward`` computed at state k — what the loop reads at sample k — so they
+are shifted by one, and the last state gets one checked ``forward``. After an RK4 step
+they hold the last stage, so RK4's fields are recomputed by one batched
+``forward`` of every recorded state (warm start included: it is part of the
+integration state). The rest is numpy over the whole run, reproducing the
+loop's arithmetic: a point's position is ``xipos``, its velocity J·qvel with J
+assembled from ``cdof`` and ``subtree_com`` as ``mj_jac`` does, and a joint
+equality's ``efc_force``/``efc_pos`` come from ``qfrc_constraint`` and
+``qpos`` where that is exact (:class:`_JointEquality`). The case's Python
+readings (``Probe.invariants/forces/series``), and equalities that cannot be
+recovered exactly, are read after ``mj_forward`` at every recorded state
+(``mj_setState`` of its row), as the loop reads them.
+
+Every batch run is checked against a fresh ``mj_forward`` at a few samples,
+bit for bit; a mismatch (another MuJoCo's arithmetic) hands the equalities,
+or the whole run, to the loop, and :func:`recorder_notes` says so. Where
+``mujoco.batch`` does not exist (MuJoCo 3.3) the loop records everything and
+:func:`recorder` says why.
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -19,6 +50,11 @@ import numpy as np
 from harness.binding import Binding, ModelMismatch
 from harness.cases import Reading
 from harness.trajectory import Trajectory
+
+try:  # MuJoCo ≥ 4
+    from mujoco import batch as _batch
+except ImportError:  # MuJoCo 3.3: the loop records everything (recorder() says so)
+    _batch = None
 
 
 class SimulationDiverged(RuntimeError):
@@ -40,6 +76,18 @@ _STEP_FUNCTIONS: dict[str, Callable[[mujoco.MjModel, mujoco.MjData], None]] = {
     "discrete": mujoco.mj_Euler,
 }
 
+# Derived fields the batch recorder records at every state (all fixed-size).
+FIELDS: tuple[str, ...] = ("xipos", "subtree_com", "cdof", "qfrc_constraint", "energy", "nefc", "qacc")
+_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+
+_PARALLEL_SIMS = 256  # fewer recomputed states than this run on the caller's thread alone
+
+_SPARE_DATA = 4  # MjData kept for reuse, by model layout
+
+_notes: list[str] = []
+_threads: int | None = None
+_spare_data: dict[tuple[int, int, int], mujoco.MjData] = {}
+
 
 def available_integrators() -> tuple[str, ...]:
     """Integrators this MuJoCo offers (``discrete`` only where it exists)."""
@@ -56,6 +104,20 @@ def integrator_enum(name: str) -> mujoco.mjtIntegrator:
 def integrator_name(model: mujoco.MjModel) -> str:
     value = int(model.opt.integrator)
     return next(k for k in available_integrators() if int(integrator_enum(k)) == value)
+
+
+def recorder() -> str:
+    """Which recorder :func:`simulate` uses on this MuJoCo, and why."""
+    if _batch is None:
+        return (f"loop: mj_forward, read, integrator function per step in Python (MuJoCo {mujoco.__version__} "
+                "has no mujoco.batch)")
+    return "batch: steps and fixed-size fields recorded in C (mujoco.batch), readings per sample in Python"
+
+
+def recorder_notes() -> tuple[str, ...]:
+    """Every time this process's batch recorder fell back to reading per sample or to the loop, and why,
+    in order (empty when it never did); ``recorder_notes()[n:]`` are the notes since an earlier count n."""
+    return tuple(_notes)
 
 
 @dataclass(frozen=True)
@@ -80,6 +142,12 @@ class Probe:
                 raise ModelMismatch(f"model has no equality {name!r} (equalities: {known})")
         if not model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_ENERGY:
             raise ModelMismatch("model must enable the energy flag (<flag energy=\"enable\"/>)")
+
+    def readings(self) -> dict[str, Reading]:
+        """Every Python reading, by a key unique across the three groups."""
+        return ({f"invariants.{k}": r for k, r in self.invariants.items()}
+                | {f"forces.{k}": r for k, r in self.forces.items()}
+                | {f"series.{k}": r for k, r in self.series.items()})
 
 
 def equality_rows(model: mujoco.MjModel, data: mujoco.MjData, name: str) -> np.ndarray:
@@ -110,9 +178,29 @@ def check_healthy(data: mujoco.MjData, time: float) -> None:
     if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))
             and np.all(np.isfinite(data.qacc))):
         raise SimulationDiverged(f"non-finite state at t={time:.6g} s")
-    raised = [mujoco.mjtWarning(i).name for i in range(len(data.warning)) if data.warning[i].number > 0]
+    _check_warnings(data.warning.number, time)
+
+
+def _check_warnings(counts: np.ndarray, time: float) -> None:
+    raised = [mujoco.mjtWarning(i).name for i in range(len(counts)) if counts[i] > 0]
     if raised:
         raise SimulationDiverged(f"MuJoCo warnings {raised} at t={time:.6g} s")
+
+
+# ---------------------------------------------------------------- recorded run
+@dataclass
+class _Run:
+    """A run in arrays: integration states and derived fields at every sample, plus readings."""
+
+    states: np.ndarray                      # (N, nstate), mjSTATE_INTEGRATION rows (batch recorder only)
+    t: np.ndarray                           # (N,)
+    positions: dict[str, np.ndarray]        # (N, 3) per point
+    velocities: dict[str, np.ndarray]       # (N, 3) per point
+    lam: dict[str, np.ndarray]              # efc_force per equality, (N,)
+    viol: dict[str, np.ndarray]             # efc_pos per equality, (N,)
+    energy: np.ndarray                      # (N,)
+    qfrc: np.ndarray                        # (N, nv) qfrc_constraint
+    readings: dict[str, np.ndarray]         # Probe.readings() keys, (N,)
 
 
 def simulate(
@@ -122,20 +210,61 @@ def simulate(
     q0: Sequence[float],
     qd0: Sequence[float],
     steps: int,
+    method: str = "auto",
+    timings: dict[str, float] | None = None,
 ) -> Trajectory:
     """Step ``model`` with its own integrator and timestep, recording every state.
 
     Returns ``steps + 1`` samples, t = 0 .. steps·h. Raises SimulationDiverged
     on NaN or MuJoCo warnings, ModelMismatch if the model lacks what the probe
-    reads.
+    reads. ``method``: ``auto`` (the batch recorder where ``mujoco.batch``
+    exists, else the loop), ``batch`` or ``loop``; all give the same numbers.
+    ``timings``, if given, receives seconds per phase (``readings`` is the
+    Python readings' share).
     """
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
+    if method not in ("auto", "batch", "loop"):
+        raise ValueError(f"method must be 'auto', 'batch' or 'loop', got {method!r}")
+    if method == "batch" and _batch is None:
+        raise ValueError(f"method 'batch' needs mujoco.batch, which MuJoCo {mujoco.__version__} lacks; "
+                         "accepted here: 'auto', 'loop'")
     probe.validate(model)
-    step = _STEP_FUNCTIONS[integrator_name(model)]
-    data = mujoco.MjData(model)
-    probe.binding.set_state(model, data, q0, qd0)
+    timings = {} if timings is None else timings
+    run = None
+    if _batch is not None and method != "loop":
+        data = _take_data(model)
+        try:
+            probe.binding.set_state(model, data, q0, qd0)
+            run = _record_batch(model, probe, data, steps, timings)
+        finally:
+            _give_back_data(model, data)
+    if run is None:
+        start = time.perf_counter()
+        data = mujoco.MjData(model)
+        probe.binding.set_state(model, data, q0, qd0)
+        run = _record_loop(model, probe, data, steps)
+        timings["loop"] = time.perf_counter() - start
+    return _trajectory(model, probe, run)
+
+
+def _trajectory(model: mujoco.MjModel, probe: Probe, run: _Run) -> Trajectory:
     dof = probe.binding.dof_matrix(model)
+    extra = {name: run.readings[f"invariants.{name}"] for name in probe.invariants}
+    forces = {name: run.readings[f"forces.{name}"] for name in probe.forces}
+    series = {name: run.readings[f"series.{name}"] for name in probe.series}
+    return Trajectory(
+        t=run.t, positions=run.positions, velocities=run.velocities, multipliers=run.lam | forces,
+        generalized_force=None if dof is None else run.qfrc @ dof,
+        invariants={"energy": run.energy} | extra, violations=run.viol,
+        source=f"mujoco:{integrator_name(model)}", series=series,
+    )
+
+
+# ----------------------------------------------------------------- loop recorder
+def _record_loop(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps: int) -> _Run:
+    """mj_forward, record, integrator function: one Python round trip per step."""
+    step = _STEP_FUNCTIONS[integrator_name(model)]
     n = steps + 1
     t = np.zeros(n)
     pos = {p: np.zeros((n, 3)) for p in probe.points}
@@ -143,12 +272,11 @@ def simulate(
     lam = {c: np.zeros(n) for c in probe.constraints}
     viol = {c: np.zeros(n) for c in probe.constraints}
     energy = np.zeros(n)
-    extra = {name: np.zeros(n) for name in probe.invariants}
-    forces = {name: np.zeros(n) for name in probe.forces}
-    series = {name: np.zeros(n) for name in probe.series}
+    readings = probe.readings()
+    values = {key: np.zeros(n) for key in readings}
     qfrc = np.zeros((n, model.nv))
     for k in range(n):
-        mujoco.mj_forward(model, data)
+        _checked_forward(model, data)
         check_healthy(data, data.time)
         t[k] = data.time
         for p in probe.points:
@@ -156,17 +284,313 @@ def simulate(
         for c in probe.constraints:
             lam[c][k], viol[c][k] = equality_force(model, data, c)
         energy[k] = data.energy[0] + data.energy[1]
-        for name, read in probe.invariants.items():
-            extra[name][k] = read(model, data)
-        for name, read in probe.forces.items():
-            forces[name][k] = read(model, data)
-        for name, read in probe.series.items():
-            series[name][k] = read(model, data)
+        for key, read in readings.items():
+            values[key][k] = read(model, data)
         qfrc[k] = data.qfrc_constraint
         if k < steps:
             step(model, data)
-    return Trajectory(
-        t=t, positions=pos, velocities=vel, multipliers=lam | forces,
-        generalized_force=None if dof is None else qfrc @ dof, invariants={"energy": energy} | extra, violations=viol,
-        source=f"mujoco:{integrator_name(model)}", series=series,
-    )
+    return _Run(states=np.zeros((0, 0)), t=t, positions=pos, velocities=vel, lam=lam, viol=viol, energy=energy,
+                qfrc=qfrc, readings=values)
+
+
+# ---------------------------------------------------------------- batch recorder
+def _state_offset(model: mujoco.MjModel, component: mujoco.mjtState) -> int:
+    """Where ``component`` starts in an mjSTATE_INTEGRATION row (components lie in bit order)."""
+    return mujoco.mj_stateSize(model, int(_STATE) & (int(component) - 1))
+
+
+def set_threads(count: int | None) -> None:
+    """Threads the batch recorder may use for RK4's recomputation (None: one per CPU). A process pool
+    of one worker per CPU sets 1, so that workers do not compete for the same cores."""
+    if count is not None and count < 1:
+        raise ValueError(f"thread count must be >= 1 or None, got {count}")
+    global _threads
+    _threads = count
+
+
+def _layout(model: mujoco.MjModel) -> tuple[int, int, int]:
+    return int(model.signature), int(model.narena), int(model.nbuffer)
+
+
+def _take_data(model: mujoco.MjModel) -> mujoco.MjData:
+    """A reset MjData for ``model``, reused from an earlier run of a model of the same layout (same
+    signature and arena, as models compiled from one MJCF with other options are) where one was
+    given back: making one costs about 0.35 ms, as much as a short rollout. The batch recorder sets
+    every state it reads, so nothing leaks from one run to the next."""
+    data = _spare_data.pop(_layout(model), None)
+    if data is None:
+        return mujoco.MjData(model)
+    mujoco.mj_resetData(model, data)
+    return data
+
+
+def _give_back_data(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    while len(_spare_data) >= _SPARE_DATA:
+        _spare_data.pop(next(iter(_spare_data)))
+    _spare_data[_layout(model)] = data
+
+
+def _new_batch(model: mujoco.MjModel, nsim: int, data: mujoco.MjData) -> _batch.Batch:
+    # the batch's results are bit-identical at any thread count (mujoco.batch documentation)
+    threads = 1 if nsim < _PARALLEL_SIMS else (_threads or os.cpu_count() or 1)
+    b = _batch.Batch(model, nsim, nthread=min(threads, nsim))
+    # The batch makes an MjData of its own, only to learn field shapes, on first use (about as costly
+    # as a short rollout); ours serves as well. An optimisation: without it the batch makes its own.
+    with contextlib.suppress(Exception):  # another mujoco.batch: it makes its own
+        b._data = data
+    return b
+
+
+def _checked_forward(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """mj_forward between the checks mj_step makes around it: a huge or non-finite qpos, qvel or
+    qacc raises a MuJoCo warning (and resets the data), which the caller turns into SimulationDiverged."""
+    mujoco.mj_checkPos(model, data)
+    mujoco.mj_checkVel(model, data)
+    mujoco.mj_forward(model, data)
+    mujoco.mj_checkAcc(model, data)
+
+
+def _forward_at(model: mujoco.MjModel, data: mujoco.MjData, state: np.ndarray) -> None:
+    """mj_forward at a recorded state, as the loop recorder computes it there."""
+    mujoco.mj_setState(model, data, state, _STATE)
+    mujoco.mj_forward(model, data)
+
+
+def _fields_of(data: mujoco.MjData) -> dict[str, np.ndarray]:
+    """:data:`FIELDS` of ``data``, each with a leading axis of one sample."""
+    return {f: np.array(getattr(data, f), dtype=None if f != "nefc" else np.int32)[None] for f in FIELDS}
+
+
+def _forward_all(model: mujoco.MjModel, data: mujoco.MjData, states: np.ndarray) -> dict[str, np.ndarray]:
+    """:data:`FIELDS` after mj_forward at every state row (one batched call in C)."""
+    fb = _new_batch(model, len(states), data)
+    outputs = {f: fb.bind(f) for f in FIELDS}
+    fb.state[:] = states
+    fb.forward()
+    raised = np.flatnonzero(fb.warning[:, :, 1].max(axis=1) > 0)
+    if raised.size:
+        k = int(raised[0])
+        _check_warnings(fb.warning[k, :, 1], float(states[k, 0]))
+    return {f: np.array(v) for f, v in outputs.items()}
+
+
+def _rollout(model: mujoco.MjModel, data: mujoco.MjData, row0: np.ndarray, steps: int, shifted: bool
+             ) -> tuple[np.ndarray, dict[str, np.ndarray] | None]:
+    """Integration states 0..steps and, if ``shifted``, the fields mj_step computed at states 0..steps−1."""
+    b = _new_batch(model, 1, data)
+    b.state[0] = row0
+    record = [_STATE, *FIELDS] if shifted else [_STATE]
+    try:
+        rec = b.rollout(steps, record=record)
+    except _batch.SimulationError as exc:
+        raise SimulationDiverged(f"MuJoCo raised an error: {exc}") from None
+    states = np.concatenate([row0[None], rec[_STATE][0]])
+    counts = b.warning[0, :, 1]
+    if counts.max() > 0:  # the rollout stopped stepping; its records repeat the last state
+        _check_warnings(counts, float(b.state[0, 0]))
+    return states, ({f: rec[f][0] for f in FIELDS} if shifted else None)
+
+
+def _record_batch(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps: int,
+                  timings: dict[str, float]) -> _Run | None:
+    """The batch recorder; None where a check sends the run back to the loop."""
+    clock = time.perf_counter()
+    row0 = np.zeros(mujoco.mj_stateSize(model, _STATE))
+    mujoco.mj_getState(model, data, row0, _STATE)
+    shifted = integrator_name(model) != "RK4"
+    states, fields = _rollout(model, data, row0, steps, shifted)
+    timings["rollout"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    # the last state, which no step follows, gets the checks mj_step would make (as in the loop)
+    mujoco.mj_setState(model, data, states[-1], _STATE)
+    _checked_forward(model, data)
+    _check_warnings(data.warning.number, float(states[-1, 0]))
+    if shifted:  # fields of states 0..steps−1 from the rollout, the last state's from that forward
+        last = _fields_of(data)
+        fields = {f: np.concatenate([fields[f], last[f]]) for f in FIELDS}
+    else:
+        fields = _forward_all(model, data, states)
+    timings["forward"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    finite = np.isfinite(states).all(axis=1) & np.isfinite(fields["qacc"]).all(axis=1)
+    if not finite.all():
+        raise SimulationDiverged(f"non-finite state at t={states[np.argmin(finite), 0]:.6g} s")
+    run = _assemble(model, probe, states, fields)
+    timings["assemble"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    recovered = list(run.lam)
+    _read_at_states(model, data, probe, run, [c for c in probe.constraints if c not in run.lam],
+                    with_readings=True)
+    timings["readings"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    bad = _verify(model, data, probe, run)
+    wrong = [c for c in recovered if f"equality {c!r}" in bad]
+    if wrong and len(wrong) == len(bad):  # only the recovered equalities: read them per sample instead
+        _notes.append(f"{_label(model)}: efc_force/efc_pos recovered from qfrc_constraint and qpos differed "
+                      f"from a fresh mj_forward for {wrong}; read per sample instead")
+        _read_at_states(model, data, probe, run, wrong, with_readings=False)
+        bad = _verify(model, data, probe, run)
+    timings["verify"] = time.perf_counter() - clock
+    if bad:
+        _notes.append(f"{_label(model)}: the batch recorder's {', '.join(bad)} differed from a fresh "
+                      "mj_forward; recorded with the loop instead")
+        return None
+    return run
+
+
+def _label(model: mujoco.MjModel) -> str:
+    return f"{integrator_name(model)} at h = {model.opt.timestep:g} s"
+
+
+def _velocity_chain(model: mujoco.MjModel, body: int) -> list[int]:
+    """The dofs mj_jac visits for ``body``: its first moving ancestor's dof chain."""
+    while body and model.body_dofnum[body] == 0:
+        body = int(model.body_parentid[body])
+    if not body:
+        return []
+    chain, i = [], int(model.body_dofadr[body] + model.body_dofnum[body] - 1)
+    while i >= 0:
+        chain.append(i)
+        i = int(model.dof_parentid[i])
+    return chain
+
+
+def _point_velocity(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], qvel: np.ndarray,
+                    body: int) -> np.ndarray:
+    """J·qvel at xipos, J assembled as mj_jac does (cdof_lin + cdof_ang × (xipos − subtree_com[root]))
+    and multiplied as point_state does (numpy matmul), so the result is point_state's, bit for bit."""
+    n = len(qvel)
+    offset = fields["xipos"][:, body] - fields["subtree_com"][:, model.body_rootid[body]]
+    jac = np.zeros((n, 3, model.nv))
+    cdof = fields["cdof"]
+    o0, o1, o2 = offset[:, 0], offset[:, 1], offset[:, 2]
+    for i in _velocity_chain(model, body):
+        a0, a1, a2 = cdof[:, i, 0], cdof[:, i, 1], cdof[:, i, 2]
+        jac[:, 0, i] = cdof[:, i, 3] + (a1 * o2 - a2 * o1)
+        jac[:, 1, i] = cdof[:, i, 4] + (a2 * o0 - a0 * o2)
+        jac[:, 2, i] = cdof[:, i, 5] + (a0 * o1 - a1 * o0)
+    # the same matmul as point_state's jacp @ qvel (a BLAS gemv per sample, fused multiply-adds included)
+    return np.matmul(jac, qvel[:, :, None])[..., 0]
+
+
+@dataclass(frozen=True)
+class _JointEquality:
+    """A one-row joint equality whose efc_force and efc_pos follow exactly from recorded fields.
+
+    MuJoCo's row of a joint equality (engine_core_constraint.c) has Jacobian 1
+    at joint1's dof and −p'(q2 − q2₀) at joint2's, and position error
+    q1 − q1₀ − c0 − (c1 d + c2 d² + c3 d³ + c4 d⁴), d = q2 − q2₀. When no
+    other row touches joint1's dof, qfrc_constraint = Jᵀ efc_force holds
+    efc_force there times 1, exactly; and the position error is recomputed
+    with the same operations. Both are checked bit for bit at a few samples.
+    """
+
+    dof: int
+    qpos1: int
+    ref1: float
+    qpos2: int | None
+    ref2: float
+    coef: tuple[float, ...]
+
+    def violation(self, qpos: np.ndarray) -> np.ndarray:
+        c0, c1, c2, c3, c4 = self.coef
+        if self.qpos2 is None:
+            return qpos[:, self.qpos1] - self.ref1 - c0
+        dif = qpos[:, self.qpos2] - self.ref2
+        return qpos[:, self.qpos1] - self.ref1 - c0 - (c1 * dif + c2 * dif * dif + c3 * dif * dif * dif
+                                                       + c4 * dif * dif * dif * dif)
+
+
+_ONE_DOF = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+def _joint_equalities(model: mujoco.MjModel, names: Sequence[str]) -> dict[str, _JointEquality]:
+    """The equalities of ``names`` recoverable from recorded fields (see :class:`_JointEquality`),
+    provided every efc row at every sample is a joint-equality row (checked by the caller)."""
+    if model.neq == 0 or any(int(t) != int(mujoco.mjtEq.mjEQ_JOINT) for t in model.eq_type):
+        return {}
+    joints = [(int(model.eq_obj1id[i]), int(model.eq_obj2id[i])) for i in range(model.neq)]
+    if any(int(model.jnt_type[j]) not in _ONE_DOF for pair in joints for j in pair if j >= 0):
+        return {}
+    touched = [model.jnt_dofadr[j] for pair in joints for j in pair if j >= 0]
+    out = {}
+    for name in names:
+        eq = model.equality(name).id
+        j1, j2 = joints[eq]
+        dof = int(model.jnt_dofadr[j1])
+        if touched.count(dof) != 1:
+            continue
+        adr1 = int(model.jnt_qposadr[j1])
+        adr2 = int(model.jnt_qposadr[j2]) if j2 >= 0 else None
+        out[name] = _JointEquality(
+            dof=dof, qpos1=adr1, ref1=float(model.qpos0[adr1]), qpos2=adr2,
+            ref2=float(model.qpos0[adr2]) if adr2 is not None else 0.0,
+            coef=tuple(float(c) for c in model.eq_data[eq, :5]))
+    return out
+
+
+def _assemble(model: mujoco.MjModel, probe: Probe, states: np.ndarray, fields: dict[str, np.ndarray]) -> _Run:
+    nq, nv = model.nq, model.nv
+    qpos = states[:, 1:1 + nq]
+    qvel = states[:, 1 + nq:1 + nq + nv]
+    positions, velocities = {}, {}
+    for p in probe.points:
+        bid = model.body(p).id
+        positions[p] = fields["xipos"][:, bid].copy()
+        velocities[p] = _point_velocity(model, fields, qvel, bid)
+    energy = fields["energy"][:, 0] + fields["energy"][:, 1]
+    qfrc = np.ascontiguousarray(fields["qfrc_constraint"])
+    lam, viol = {}, {}
+    recoverable = _joint_equalities(model, probe.constraints)
+    if recoverable:
+        start = _state_offset(model, mujoco.mjtState.mjSTATE_EQ_ACTIVE)
+        active = states[:, start:start + model.neq]
+        if np.all(active == 1) and np.all(fields["nefc"] == model.neq):  # every row is an equality's
+            for c, eq in recoverable.items():
+                lam[c] = qfrc[:, eq.dof].copy()
+                viol[c] = eq.violation(qpos)
+    n = len(states)
+    return _Run(states=states, t=states[:, 0].copy(), positions=positions, velocities=velocities, lam=lam,
+                viol=viol, energy=energy, qfrc=qfrc, readings={key: np.zeros(n) for key in probe.readings()})
+
+
+def _read_at_states(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run,
+                    equalities: Sequence[str], *,
+                    with_readings: bool) -> None:
+    """The equalities ``equalities`` and (if ``with_readings``) the probe's Python readings, after
+    mj_forward at every recorded state, as the loop recorder reads them."""
+    readings = probe.readings() if with_readings else {}
+    if not readings and not equalities:
+        return
+    n = len(run.states)
+    for c in equalities:
+        run.lam[c], run.viol[c] = np.zeros(n), np.zeros(n)
+    for k in range(n):
+        _forward_at(model, data, run.states[k])
+        for c in equalities:
+            run.lam[c][k], run.viol[c][k] = equality_force(model, data, c)
+        for key, read in readings.items():
+            run.readings[key][k] = read(model, data)
+
+
+def _verify(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run) -> list[str]:
+    """What differs from a fresh mj_forward at a few samples (bit for bit); empty when nothing does."""
+    n = len(run.states)
+    samples = sorted({0, n - 1})  # a shifted record, and the last state's own forward
+    bad: list[str] = []
+    for k in samples:
+        _forward_at(model, data, run.states[k])
+        for p in probe.points:
+            x, v = point_state(model, data, p)
+            if not np.array_equal(x, run.positions[p][k]):
+                bad.append(f"position of {p!r}")
+            if not np.array_equal(v, run.velocities[p][k]):
+                bad.append(f"velocity of {p!r}")
+        if data.energy[0] + data.energy[1] != run.energy[k]:
+            bad.append("energy")
+        if not np.array_equal(data.qfrc_constraint, run.qfrc[k]):
+            bad.append("qfrc_constraint")
+        for c in probe.constraints:
+            if equality_force(model, data, c) != (run.lam[c][k], run.viol[c][k]):
+                bad.append(f"equality {c!r}")
+    return list(dict.fromkeys(bad))

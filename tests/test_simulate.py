@@ -1,4 +1,9 @@
-"""The MuJoCo recorder: same steps as mj_step, and every sample belongs to its state."""
+"""The MuJoCo recorders: same steps as mj_step, and every sample belongs to its state.
+
+Both recorders (the batch recorder, in C, where ``mujoco.batch`` exists, and
+the Python loop) are pinned to the same guarantees, and to each other bit for
+bit on every registered case and integrator.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +11,9 @@ import mujoco
 import numpy as np
 import pytest
 
+from harness import cases, pipeline
+from harness import reference as refmod
+from harness import simulate as simmod
 from harness.binding import JointBinding, ModelMismatch
 from harness.models import ModelError, compile_model, mjcf_path
 from harness.simulate import (
@@ -13,17 +21,36 @@ from harness.simulate import (
     SimulationDiverged,
     available_integrators,
     equality_force,
+    point_state,
     simulate,
 )
 
 PROBE = Probe(binding=JointBinding(("theta", "r")), points=("bob",), constraints=("rod",))
 Q0, QD0 = [1.0, 1.0], [0.5, 0.0]
+HAS_BATCH = simmod._batch is not None
+METHODS = ["auto", "loop"]
 
 
+def _case_probe(name: str):
+    case = cases.get(name)
+    ref = refmod.build_reference(case, compile_model(mjcf_path(case.mjcf)))
+    return case, pipeline.probe_for(case, ref.dynamics), ref.q0(), ref.qd0()
+
+
+def _arrays(traj) -> dict[str, np.ndarray]:
+    out = {"t": traj.t}
+    for group in ("positions", "velocities", "multipliers", "invariants", "violations", "series"):
+        out |= {f"{group}.{k}": v for k, v in getattr(traj, group).items()}
+    if traj.generalized_force is not None:
+        out["generalized_force"] = traj.generalized_force
+    return out
+
+
+@pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("integrator", available_integrators())
-def test_recording_is_bit_identical_to_mj_step(integrator):
+def test_recording_is_bit_identical_to_mj_step(integrator, method):
     model = compile_model(mjcf_path("pendulum"), integrator=integrator)
-    traj = simulate(model, PROBE, q0=Q0, qd0=QD0, steps=300)
+    traj = simulate(model, PROBE, q0=Q0, qd0=QD0, steps=300, method=method)
     data = mujoco.MjData(model)
     PROBE.binding.set_state(model, data, Q0, QD0)
     for _ in range(300):
@@ -32,12 +59,13 @@ def test_recording_is_bit_identical_to_mj_step(integrator):
     assert np.array_equal(traj.positions["bob"][-1], data.xipos[model.body("bob").id])
 
 
+@pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("integrator", available_integrators())
-def test_recorded_fields_belong_to_the_recorded_state(integrator):
+def test_recorded_fields_belong_to_the_recorded_state(integrator, method):
     """efc_force, energy, violation at sample k equal a fresh mj_forward at state k (RK4 included)."""
     model = compile_model(mjcf_path("pendulum"), integrator=integrator)
     steps = 50
-    traj = simulate(model, PROBE, q0=Q0, qd0=QD0, steps=steps)
+    traj = simulate(model, PROBE, q0=Q0, qd0=QD0, steps=steps, method=method)
     data = mujoco.MjData(model)
     PROBE.binding.set_state(model, data, Q0, QD0)
     fresh = mujoco.MjData(model)
@@ -51,6 +79,106 @@ def test_recorded_fields_belong_to_the_recorded_state(integrator):
         assert traj.violations["rod"][k] == viol
         assert traj.invariants["energy"][k] == fresh.energy[0] + fresh.energy[1]
         mujoco.mj_step(model, data)
+
+
+@pytest.mark.parametrize("name", ["atwood", "hoop_ramp", "hoop_plane", "spherical_pendulum_ball"])
+@pytest.mark.parametrize("integrator", ["Euler", "RK4"])
+def test_every_recorded_quantity_belongs_to_its_state(name, integrator):
+    """Positions, velocities, multipliers (two-joint equalities, contact readings), violations,
+    energy, generalized force and Python readings at sample k equal a fresh mj_forward at the
+    state mj_step reaches after k steps, bit for bit."""
+    case, probe, q0, qd0 = _case_probe(name)
+    model = compile_model(mjcf_path(case.mjcf), integrator=integrator)
+    steps = 40
+    traj = simulate(model, probe, q0=q0, qd0=qd0, steps=steps)
+    data, fresh = mujoco.MjData(model), mujoco.MjData(model)
+    probe.binding.set_state(model, data, q0, qd0)
+    spec = mujoco.mjtState.mjSTATE_INTEGRATION
+    state = np.zeros(mujoco.mj_stateSize(model, spec))
+    dof = probe.binding.dof_matrix(model)
+    for k in range(steps + 1):
+        mujoco.mj_getState(model, data, state, spec)
+        mujoco.mj_setState(model, fresh, state, spec)
+        mujoco.mj_forward(model, fresh)
+        assert traj.t[k] == fresh.time
+        for p in probe.points:
+            x, v = point_state(model, fresh, p)
+            assert np.array_equal(traj.positions[p][k], x) and np.array_equal(traj.velocities[p][k], v)
+        for c in probe.constraints:
+            assert (traj.multipliers[c][k], traj.violations[c][k]) == equality_force(model, fresh, c)
+        assert traj.invariants["energy"][k] == fresh.energy[0] + fresh.energy[1]
+        if dof is not None:
+            assert np.array_equal(traj.generalized_force[k], fresh.qfrc_constraint @ dof)
+        for c, read in probe.forces.items():
+            assert traj.multipliers[c][k] == read(model, fresh)
+        for group in ("invariants", "series"):
+            for key, read in getattr(probe, group).items():
+                assert getattr(traj, group)[key][k] == read(model, fresh)
+        mujoco.mj_step(model, data)
+
+
+@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo: the loop records everything")
+@pytest.mark.parametrize("name", cases.names())
+def test_batch_recorder_equals_the_loop_bit_for_bit(name):
+    """Every registered case, every integrator: the two recorders give the same arrays, bit for bit."""
+    case, probe, q0, qd0 = _case_probe(name)
+    for integrator in available_integrators():
+        model = compile_model(mjcf_path(case.mjcf), integrator=integrator)
+        notes = len(simmod.recorder_notes())
+        batch = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=120, method="batch"))
+        loop = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=120, method="loop"))
+        assert batch.keys() == loop.keys()
+        assert [k for k in batch if not np.array_equal(batch[k], loop[k])] == [], integrator
+        assert simmod.recorder_notes()[notes:] == (), "the batch recorder fell back to the loop"
+
+
+@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo")
+def test_a_batch_result_that_differs_from_mj_forward_is_not_used(monkeypatch):
+    """The spot check against a fresh mj_forward: wrong velocities send the run to the loop, and a
+    wrong recovered equality is read per sample instead; each says so in recorder_notes()."""
+    model = compile_model(mjcf_path("pendulum"), integrator="Euler")
+    loop = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=60, method="loop"))
+    real = simmod._point_velocity
+    monkeypatch.setattr(simmod, "_point_velocity", lambda *a: real(*a) * (1 + 1e-15))
+    notes = len(simmod.recorder_notes())
+    again = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=60))
+    assert all(np.array_equal(again[k], loop[k]) for k in loop)
+    assert "velocity" in simmod.recorder_notes()[notes] and "loop instead" in simmod.recorder_notes()[notes]
+    monkeypatch.undo()
+    monkeypatch.setattr(simmod._JointEquality, "violation", lambda self, qpos: qpos[:, self.qpos1] * 0.0)
+    notes = len(simmod.recorder_notes())
+    again = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=60))
+    assert all(np.array_equal(again[k], loop[k]) for k in loop)
+    assert "read per sample instead" in simmod.recorder_notes()[notes]
+
+
+@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo")
+def test_rk4_recomputation_is_the_same_on_any_number_of_threads():
+    model = compile_model(mjcf_path("pendulum"), integrator="RK4")
+    try:
+        simmod.set_threads(1)
+        one = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=600))
+        simmod.set_threads(2)
+        two = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=600))
+    finally:
+        simmod.set_threads(None)
+    assert all(np.array_equal(one[k], two[k]) for k in one)
+    with pytest.raises(ValueError, match="thread count"):
+        simmod.set_threads(0)
+
+
+def test_without_mujoco_batch_the_loop_records_and_says_so(monkeypatch):
+    """MuJoCo 3.3 has no mujoco.batch: the loop records, recorder() says why (never silent), and
+    asking for the batch recorder is a one-line ValueError."""
+    monkeypatch.setattr(simmod, "_batch", None)
+    assert simmod.recorder().startswith("loop") and "no mujoco.batch" in simmod.recorder()
+    model = compile_model(mjcf_path("pendulum"), integrator="RK4")
+    traj = simulate(model, PROBE, q0=Q0, qd0=QD0, steps=20)
+    assert traj.is_finite() and len(traj.t) == 21
+    with pytest.raises(ValueError, match=r"method 'batch' needs mujoco\.batch"):
+        simulate(model, PROBE, q0=Q0, qd0=QD0, steps=20, method="batch")
+    with pytest.raises(ValueError, match="method must be"):
+        simulate(model, PROBE, q0=Q0, qd0=QD0, steps=20, method="fast")
 
 
 @pytest.mark.parametrize("integrator", available_integrators())
@@ -68,13 +196,30 @@ def test_mj_step_fields_would_not_belong_to_the_new_state(integrator):
     assert not np.array_equal(stale_energy, data.energy)
 
 
-def test_divergence_is_reported_not_returned():
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("integrator", ["Euler", "RK4"])
+def test_divergence_is_reported_not_returned(integrator, method):
     def explode(spec):
         spec.option.gravity = [0, 0, -1e12]
 
-    model = compile_model(mjcf_path("pendulum"), integrator="Euler", timestep=0.05, edit=explode)
-    with pytest.raises(SimulationDiverged):
-        simulate(model, PROBE, q0=Q0, qd0=QD0, steps=2000)
+    model = compile_model(mjcf_path("pendulum"), integrator=integrator, timestep=0.05, edit=explode)
+    with pytest.raises(SimulationDiverged, match=r"at t=") as info:
+        simulate(model, PROBE, q0=Q0, qd0=QD0, steps=2000, method=method)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_recorders_make_the_checks_mj_step_makes(method):
+    """A finite qacc above mjMAXVAL (1e10) is a MuJoCo warning inside mj_step (mj_checkAcc), so both
+    recorders report it as a divergence, as a user stepping with mj_step would see it."""
+    from harness import compat
+
+    case, probe, q0, qd0 = _case_probe("spherical_pendulum_ball")
+    # the spin about the rod has inertia 1e-12: damping 3e-2 gives |qacc(0)| ≈ 3e10
+    model = compile_model(mjcf_path(case.mjcf), integrator="Euler",
+                          edit=lambda spec: compat.set_damping(spec.joint("ball"), 3e-2))
+    with pytest.raises(SimulationDiverged, match="mjWARN_BADQACC"):
+        simulate(model, probe, q0=q0, qd0=qd0, steps=50, method=method)
 
 
 def test_model_mismatch_names_what_is_missing():

@@ -1,0 +1,115 @@
+"""On-disk cache of symbolic derivations, shared by every run and process.
+
+A sympy derivation costs about 0.3 s per system and depends only on source
+code, so it is pickled once under the user's cache directory
+(``$XDG_CACHE_HOME/mjharness`` or ``~/.cache/mjharness``) and loaded by later
+runs and by parallel workers.
+
+An entry's key is a hash of everything the result depends on: the source text
+of the files that define it (the system module and ``analytic/lagrangian.py``),
+the sympy and Python versions and :data:`FORMAT`. Editing a system, the
+Lagrangian machinery or upgrading sympy changes the key, so a stale entry is
+never read; old entries are simply left behind.
+
+The cache is an optimisation only: an entry that cannot be read (missing,
+corrupt, truncated, of the wrong type) is recomputed, and a directory that
+cannot be written is skipped, both silently, because the recomputed value is
+the correct one. Entries are written to a temporary file and renamed into
+place, so concurrent writers never leave a half-written entry.
+``MJHARNESS_NO_CACHE=1`` turns the cache off.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+import pickle
+import sys
+import tempfile
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import TypeVar
+
+T = TypeVar("T")
+
+FORMAT = "1"  # bump when what is pickled changes shape
+
+
+def cache_dir() -> Path | None:
+    """Where entries live, or None when the cache is turned off."""
+    if os.environ.get("MJHARNESS_NO_CACHE", "").strip() not in ("", "0"):
+        return None
+    base = os.environ.get("XDG_CACHE_HOME", "").strip()
+    root = Path(base) if base else Path.home() / ".cache"
+    return root / "mjharness"
+
+
+def key(*parts: str | bytes) -> str:
+    """A hex digest of ``parts`` and of the versions every entry depends on."""
+    import sympy
+
+    digest = hashlib.sha256()
+    for part in (FORMAT, sys.version.split()[0], sympy.__version__, *parts):
+        data = part if isinstance(part, bytes) else part.encode()
+        digest.update(len(data).to_bytes(8, "little"))
+        digest.update(data)
+    return digest.hexdigest()
+
+
+def source_key(files: Iterable[Path | str]) -> str:
+    """:func:`key` of the text of ``files`` (a missing file counts as empty)."""
+    texts = []
+    for f in files:
+        try:
+            texts.append(Path(f).read_bytes())
+        except OSError:
+            texts.append(b"")
+    return key(*(str(Path(f).name) for f in files), *texts)
+
+
+def _path(kind: str, name: str, digest: str) -> Path | None:
+    root = cache_dir()
+    return None if root is None else root / kind / f"{name}-{digest[:32]}.pickle"
+
+
+def load(kind: str, name: str, digest: str, expected: type) -> object | None:
+    """The entry, or None when it is absent or unusable for any reason."""
+    path = _path(kind, name, digest)
+    if path is None:
+        return None
+    try:
+        with path.open("rb") as fh:
+            value = pickle.load(fh)
+    except Exception:  # missing, unreadable, truncated, corrupt, from an incompatible version
+        return None
+    return value if isinstance(value, expected) else None
+
+
+def store(kind: str, name: str, digest: str, value: object) -> bool:
+    """Write the entry atomically; False (and nothing left behind) where that is not possible."""
+    path = _path(kind, name, digest)
+    if path is None:
+        return False
+    tmp = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile("wb", dir=path.parent, prefix=f".{path.name}.", delete=False) as fh:
+            tmp = Path(fh.name)
+            pickle.dump(value, fh, protocol=pickle.HIGHEST_PROTOCOL)
+        os.replace(tmp, path)
+        return True
+    except Exception:  # read-only or full disk, a name in the way, a value that does not pickle
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+        return False
+
+
+def cached(kind: str, name: str, digest: str, compute: Callable[[], T], expected: type) -> T:
+    """The entry for (kind, name, digest) if it can be loaded, else ``compute()``, stored for next time."""
+    value = load(kind, name, digest, expected)
+    if value is None:
+        value = compute()
+        store(kind, name, digest, value)
+    return value  # type: ignore[return-value]

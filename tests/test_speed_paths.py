@@ -1,0 +1,185 @@
+"""The speed paths give the slow paths' answers: derivation cache, reused references, parallel cases.
+
+- Derivations cached on disk load as the derivation itself; a corrupt,
+  truncated or foreign entry and an unwritable cache directory fall back to
+  deriving, silently and correctly; editing a system's source changes the key.
+- A case's reference is solved once per process and reused for every shorter
+  horizon, whatever asked first.
+- ``--jobs N`` gives the serial run's figures, in registry order, and a case's
+  error is still the one-line exit-2 message.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import pickle
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from harness import cache, cases, cli, pipeline
+from harness import reference as refmod
+from harness.models import compile_model, mjcf_path
+from harness.simulate import SimulationDiverged
+
+SYSTEM = "pendulum"
+
+
+@pytest.fixture
+def cache_home(tmp_path, monkeypatch):
+    """An empty cache directory, and no derivation cached in this process."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    monkeypatch.delenv("MJHARNESS_NO_CACHE", raising=False)
+    refmod.derivation.cache_clear()
+    refmod.minimal_derivation.cache_clear()
+    yield tmp_path / "xdg" / "mjharness"
+    refmod.derivation.cache_clear()
+    refmod.minimal_derivation.cache_clear()
+
+
+def _entry(root, kind: str = "derivation"):
+    entries = sorted((root / kind).glob(f"{SYSTEM}-*.pickle"))
+    assert len(entries) == 1, entries
+    return entries[0]
+
+
+def _same(a, b) -> bool:
+    return all(sp.srepr(getattr(a, name)) == sp.srepr(getattr(b, name)) for name in refmod.SYMBOLIC)
+
+
+def test_a_cached_derivation_is_the_derivation(cache_home):
+    fresh = refmod.derivation(SYSTEM)
+    entry = _entry(cache_home)
+    refmod.derivation.cache_clear()
+    loaded = refmod.derivation(SYSTEM)
+    assert loaded is not fresh and _same(loaded, fresh)
+    assert all(name in vars(loaded) for name in refmod.SYMBOLIC)  # nothing left to derive
+    assert _entry(cache_home) == entry
+    assert refmod.minimal_derivation(SYSTEM) is not None and _entry(cache_home, "minimal")
+
+
+@pytest.mark.parametrize("damage", [b"", b"not a pickle", pickle.dumps({"a": "dict"}), "truncate"])
+def test_a_damaged_entry_is_recomputed_silently(cache_home, damage):
+    good = refmod.derivation(SYSTEM)
+    entry = _entry(cache_home)
+    entry.write_bytes(entry.read_bytes()[:100] if damage == "truncate" else damage)
+    refmod.derivation.cache_clear()
+    again = refmod.derivation(SYSTEM)
+    assert _same(again, good)
+    assert isinstance(pickle.loads(entry.read_bytes()), type(good))  # rewritten
+
+
+def test_an_unwritable_cache_still_derives(cache_home):
+    cache_home.parent.mkdir(parents=True)
+    cache_home.write_text("a file where the directory should be")
+    assert _same(refmod.derivation(SYSTEM), refmod._derived(refmod.load(SYSTEM).build()))
+    assert cache.store("derivation", SYSTEM, "0" * 64, 1) is False
+
+
+def test_the_cache_can_be_turned_off(cache_home, monkeypatch):
+    monkeypatch.setenv("MJHARNESS_NO_CACHE", "1")
+    refmod.derivation(SYSTEM)
+    assert not cache_home.exists()
+
+
+def test_the_key_follows_the_sources(tmp_path):
+    one, two = tmp_path / "system.py", tmp_path / "lagrangian.py"
+    one.write_text("L = T - V\n")
+    two.write_text("def derive(): ...\n")
+    before = cache.source_key([one, two])
+    assert cache.source_key([one, two]) == before
+    one.write_text("L = T - V + 1\n")
+    assert cache.source_key([one, two]) != before
+    assert refmod._sources(SYSTEM)[0].name == f"{SYSTEM}.py"
+    assert refmod._sources(SYSTEM)[1].name == "lagrangian.py"
+
+
+def test_a_reference_is_solved_once_and_serves_shorter_horizons():
+    case = cases.get("atwood")
+    model = compile_model(mjcf_path(case.mjcf))
+    refmod.clear_caches()
+    short_first = refmod.build_reference(case, model, t_end=0.25).solution
+    full = refmod.build_reference(case, model).solution
+    assert short_first is full and full.t_end == case.horizon
+    longer = refmod.build_reference(case, model, t_end=2 * case.horizon).solution
+    assert longer is not full and longer.t_end == 2 * case.horizon
+    # order does not matter: a fresh process's solve of the same key is the same numbers
+    refmod.clear_caches()
+    again = refmod.build_reference(case, model).solution
+    t = np.linspace(0, case.horizon, 97)
+    assert np.array_equal(again.state(t)[0], full.state(t)[0])
+
+
+def test_solutions_handed_between_processes_are_reused():
+    case = cases.get("spring")
+    model = compile_model(mjcf_path(case.mjcf))
+    refmod.clear_caches()
+    solved = refmod.build_reference(case, model).solution
+    seeds = pickle.loads(pickle.dumps(refmod.export_solutions()))
+    assert refmod.export_solutions() == {}  # exported once
+    refmod.clear_caches()
+    refmod.import_solutions(seeds)
+    reused = refmod.build_reference(case, model).solution
+    t = np.linspace(0, case.horizon, 51)
+    assert reused is not solved and reused.nfev == solved.nfev
+    assert np.array_equal(reused.state(t)[1], solved.state(t)[1])
+
+
+def _check_json(*args: str, cache_dir) -> dict:
+    env = dict(os.environ, XDG_CACHE_HOME=str(cache_dir))
+    proc = subprocess.run([sys.executable, "-m", "harness.cli", "check", "--json", *args],
+                          capture_output=True, text=True, timeout=300, env=env)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout)
+
+
+def test_parallel_check_is_the_serial_check(tmp_path):
+    names = ["spring", "atwood", "hoop_ramp"]
+    serial = _check_json(*names, "--jobs", "1", cache_dir=tmp_path / "serial")  # each from a cold cache
+    parallel = _check_json(*names, "--jobs", "2", cache_dir=tmp_path / "parallel")
+    assert list(parallel["cases"]) == list(serial["cases"])
+    for name in names:
+        assert parallel["cases"][name]["figures"] == serial["cases"][name]["figures"]
+
+
+def test_a_failing_case_in_a_pool_is_the_one_line_exit_2(monkeypatch, capsys):
+    real = pipeline.run_case
+
+    def run_case(case, **kw):  # the forked workers inherit this
+        if case.name == "atwood":
+            raise SimulationDiverged("MuJoCo warnings ['mjWARN_BADQACC'] at t=0.25 s")
+        return real(case, **kw)
+
+    monkeypatch.setattr(pipeline, "run_case", run_case)
+    assert cli.main(["check", "spring", "atwood", "--jobs", "2"]) == 2
+    err = capsys.readouterr().err
+    assert err.strip() == "mjharness: error: simulation diverged: MuJoCo warnings ['mjWARN_BADQACC'] at t=0.25 s"
+
+
+def test_the_progress_bar_counts_cases_done_in_workers(monkeypatch):
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    bars = []
+    real = cli._progress
+    monkeypatch.setattr(cli, "_progress", lambda *a: bars.append(real(*a)) or bars[-1])
+    monkeypatch.setattr(sys, "stderr", Terminal())
+    results, checks, _ = cli._run_all(cases.select(["spring", "atwood"]), None, jobs=2)
+    assert [r.case.name for r in results] == ["spring", "atwood"] and list(checks) == ["spring", "atwood"]
+    (bar,) = bars
+    assert bar.n == bar.total == 2  # (a closed bar reads as disabled)
+    assert "mjharness" in sys.stderr.getvalue() and "case" in sys.stderr.getvalue()
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "two"])
+def test_jobs_must_be_a_positive_integer(value, capsys):
+    with pytest.raises(SystemExit) as info:
+        cli.main(["check", "spring", "--jobs", value])
+    assert info.value.code == 2
+    assert "must be a positive integer" in capsys.readouterr().err
