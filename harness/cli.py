@@ -14,6 +14,7 @@ and a ``cmd_NAME(args) -> int`` doing the work.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -52,20 +53,120 @@ def _selected(args: argparse.Namespace) -> tuple[cases.Case, ...]:
     return selected
 
 
-def _run_all(selected: Sequence[cases.Case], config_path: Path | None, mjcf: Path | None = None):
-    """run_case for each case, then its verdict; (results, checks by case)."""
+def _run_all(selected: Sequence[cases.Case], config_path: Path | None, mjcf: Path | None = None, *,
+             jobs: int | None = None):
+    """run_case for each case, then its verdict; (results, checks by case, config).
+
+    ``jobs`` worker processes (default: one per CPU) share the cases; every
+    case is computed by the same code from the same inputs wherever it runs, so
+    the results are those of a serial run, in registry order, for any ``jobs``.
+    """
     from harness import pipeline
 
     config = load_config(config_path)
-    results, checks = [], {}
+    workers = min(jobs or _cpus(), len(selected))
     bar = _progress(selected, "mjharness")
-    for case in bar:
-        bar.set_postfix_str(case.name)
-        result = pipeline.run_case(case, mjcf=mjcf) if mjcf is not None else pipeline.run_case(case)
-        results.append(result)
-        checks[case.name] = verdict(case.name, result.figures, config.for_case(case.name))
+    if workers <= 1 or mjcf is not None:
+        results = []
+        for case in bar:
+            bar.set_postfix_str(case.name)
+            results.append(pipeline.run_case(case, mjcf=mjcf) if mjcf is not None else pipeline.run_case(case))
+    else:
+        results = _run_parallel(selected, workers, bar)
     bar.close()
+    checks = {r.case.name: verdict(r.case.name, r.figures, config.for_case(r.case.name)) for r in results}
     return results, checks, config
+
+
+def _cpus() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _cost(case: cases.Case) -> float:
+    """A rough relative cost, to start the longest work first: horizon, and the Python readings
+    that run per sample."""
+    readings = len(case.mujoco_invariants) + len(case.mujoco_forces) + len(case.mujoco_series)
+    return case.horizon * (1.0 + 2.0 * readings)
+
+
+def _groups(selected: Sequence[cases.Case]) -> list[list[int]]:
+    """Indices of the selected cases by system, each group in registry order, costliest group first.
+    A system's cases run in one worker, so that its derivation, dynamics and reference are made once."""
+    by_system: dict[str, list[int]] = {}
+    for i, case in enumerate(selected):
+        by_system.setdefault(case.system, []).append(i)
+    return sorted(by_system.values(), key=lambda group: -sum(_cost(selected[i]) for i in group))
+
+
+def _worker_init() -> None:
+    import signal
+
+    from harness import simulate
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops the workers
+    simulate.set_threads(1)  # one worker per CPU: the workers, not MuJoCo's threads, share the cores
+
+
+def _run_group(names: Sequence[str]):
+    """A group's cases in a worker, in order, until one fails: per case (its result without the
+    unpicklable Case, or its error), then the references this worker solved."""
+    import dataclasses
+
+    from harness import pipeline
+    from harness import reference as refmod
+
+    outcomes = []
+    for name in names:
+        try:
+            result = pipeline.run_case(cases.get(name))
+        except Exception as exc:  # returned, raised by the parent in registry order
+            outcomes.append((None, exc))
+            break
+        outcomes.append((dataclasses.replace(result, case=None), None))
+    return outcomes, refmod.export_solutions()
+
+
+def _run_parallel(selected: Sequence[cases.Case], workers: int, bar) -> list:
+    """run_case on a process pool; results in registry order. A case's error is raised once every
+    case before it in the registry has finished, as a serial run would raise it."""
+    import dataclasses
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    from harness import pipeline  # noqa: F401  imported once here, not once per worker
+    from harness import reference as refmod
+    from harness.studies import convergence  # noqa: F401  (run_case imports it)
+
+    # fork: the workers start with this process's imports (spawn re-imports them, about 1 s each)
+    context = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else None)
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_worker_init)
+    outcomes: dict[int, tuple] = {}
+    try:
+        futures = {pool.submit(_run_group, [selected[i].name for i in group]): group
+                   for group in _groups(selected)}
+        next_in_order = 0
+        for future in as_completed(futures):
+            group = futures[future]
+            done, seeds = future.result()
+            refmod.import_solutions(seeds)  # the run's studies reuse these solves
+            outcomes.update(zip(group, done, strict=False))  # cases after a failure never ran
+            bar.set_postfix_str(", ".join(selected[i].name for i in group[:len(done)]), refresh=False)
+            bar.update(len(done))
+            while next_in_order in outcomes:
+                error = outcomes[next_in_order][1]
+                if error is not None:
+                    raise error
+                next_in_order += 1
+    except BaseException:  # a case failed, or an interrupt: stop the others now, not after their cases
+        for process in list(getattr(pool, "_processes", {}).values()):
+            process.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
+    return [dataclasses.replace(outcomes[i][0], case=case) for i, case in enumerate(selected)]
 
 
 def _table(checks: dict[str, list[Check]]) -> str:
@@ -95,10 +196,23 @@ def _add_selection(p: argparse.ArgumentParser, *, mjcf: bool = True) -> None:
     p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
     p.add_argument("--case", action="append", metavar="NAME", help="a case name (same as CASE; repeatable)")
     p.add_argument("--config", type=Path, metavar="FILE", help="TOML overriding [tool.mjharness] thresholds")
+    p.add_argument("--jobs", "-j", type=_positive, metavar="N",
+                   help=f"worker processes for the cases (default: one per CPU, here {_cpus()}); "
+                        "the results do not depend on N")
     if mjcf:
         p.add_argument("--mjcf", type=Path, metavar="PATH",
                        help="validate this MJCF (your variant of the case's model) against the case's "
                             "reference and thresholds; needs exactly one case")
+
+
+def _positive(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return value
 
 
 # ----------------------------------------------------------- subcommands
@@ -170,7 +284,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_output(args.out)  # fail before minutes of work, not after
     _check_junit(args.junit)
     selected = _selected(args)
-    results, checks, config = _run_all(selected, args.config, args.mjcf)
+    results, checks, config = _run_all(selected, args.config, args.mjcf, jobs=args.jobs)
     extras, appendix = _studies(selected) if args.studies and args.mjcf is None else ([], None)
     paths = write_report(args.out, results, checks, config_source=config.source, extras=extras,
                          appendix=appendix)
@@ -191,7 +305,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     from harness.report import dumps, json_doc
 
     _check_junit(args.junit)
-    results, checks, _ = _run_all(_selected(args), args.config, args.mjcf)
+    results, checks, _ = _run_all(_selected(args), args.config, args.mjcf, jobs=args.jobs)
     _write_junit(args.junit, checks)
     if args.json:
         sys.stdout.write(dumps(json_doc(results, checks)))
@@ -232,7 +346,7 @@ def cmd_baseline(args: argparse.Namespace) -> int:
     if args.write is not None:
         check_output(args.write.parent)
         old = load_run(args.write) if args.write.exists() and (args.cases or args.case) else None
-        results, checks, _ = _run_all(selected, args.config)
+        results, checks, _ = _run_all(selected, args.config, jobs=args.jobs)
         failing = [c for cs in checks.values() for c in cs if not c.passed]
         if failing:
             print(_table(checks))
@@ -245,7 +359,7 @@ def cmd_baseline(args: argparse.Namespace) -> int:
         print(f"wrote {args.write}: {len(doc['cases'])} case(s), {count} gated figures")
         return EXIT_OK
     reference = load_run(args.compare)
-    results, checks, config = _run_all(selected, args.config)
+    results, checks, config = _run_all(selected, args.config, jobs=args.jobs)
     findings = [f for r in results for f in baseline.compare(
         reference, r.case.name, r.figures, config.for_case(r.case.name), source=str(args.compare))]
     for f in findings:
