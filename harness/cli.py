@@ -359,6 +359,9 @@ def cmd_baseline(args: argparse.Namespace) -> int:
         print(f"wrote {args.write}: {len(doc['cases'])} case(s), {count} gated figures")
         return EXIT_OK
     reference = load_run(args.compare)
+    mismatch = baseline.version_mismatch(reference, source=str(args.compare))
+    if mismatch:  # a baseline is per MuJoCo version: refuse before any work
+        raise ValueError(mismatch)
     results, checks, config = _run_all(selected, args.config, jobs=args.jobs)
     findings = [f for r in results for f in baseline.compare(
         reference, r.case.name, r.figures, config.for_case(r.case.name), source=str(args.compare))]
