@@ -35,6 +35,7 @@ from harness.models import compile_model, mjcf_path
 from harness.studies.contact import contact_study
 from harness.verdict import verdict
 from tests.conftest import shipped_run
+from tests.contact_edits import friction, mujoco_default_softness, rim_radius
 
 CASE = cases.get("hoop_plane")
 COORDS = ("x", "y", "z", "theta", "phi")
@@ -234,28 +235,16 @@ def test_study_finds_slip_independent_of_cone_impratio_noslip() -> None:
     assert study.shipped_row()["cone"] == "elliptic"
 
 
-def _friction(mu: float):
-    def edit(spec: mujoco.MjSpec) -> None:
-        for pair in spec.pairs:
-            pair.friction = [mu, mu, 0.0, 0.0, 0.0]
-    return edit
 
 
-def _mujoco_default_softness(spec: mujoco.MjSpec) -> None:
-    for pair in spec.pairs:
-        pair.solref, pair.solimp = [0.02, 1.0], [0.9, 0.95, 0.001, 0.5, 2.0]
-
-
-def _rim_radius(spec: mujoco.MjSpec) -> None:
-    spec.geom("rim").size = np.asarray(spec.geom("rim").size) * 0.9
 
 
 @pytest.mark.parametrize(("label", "kwargs", "expected"), [
-    ("μ = 0.05 < v θ̇ / g: skids", {"edit": _friction(0.05)},
+    ("μ = 0.05 < v θ̇ / g: skids", {"edit": friction(0.05)},
      {"RK4.series.slip", "RK4.force.roll_x", "RK4.force.roll_y", "RK4.position", "RK4.velocity"}),
-    ("soft contact", {"edit": _mujoco_default_softness},
+    ("soft contact", {"edit": mujoco_default_softness},
      {"RK4.series.slip", "RK4.series.penetration", "RK4.force.normal", "RK4.force.roll_y", "RK4.position"}),
-    ("rim radius 0.9 a", {"edit": _rim_radius},
+    ("rim radius 0.9 a", {"edit": rim_radius(0.9)},
      {"RK4.series.slip", "RK4.series.penetration", "RK4.position", "RK4.drift.energy"}),
     ("timestep 10 ms", {"timestep": 0.01},
      {"RK4.series.slip", "RK4.series.penetration", "RK4.position", "RK4.force.roll_y"}),

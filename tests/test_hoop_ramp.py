@@ -34,6 +34,7 @@ from harness.simulate import equality_force
 from harness.studies.contact import contact_study
 from harness.verdict import verdict
 from tests.conftest import shipped_run
+from tests.contact_edits import friction, mujoco_default_softness, rim_radius
 
 MODELS = ("hoop_ramp", "hoop_ramp_contact")
 COORDS = ("x", "s", "phi")
@@ -255,27 +256,13 @@ def test_study_supports_the_shipped_contact_settings() -> None:
 
 # --- broken models -----------------------------------------------------------------------------
 
-def _friction(mu: float):
-    def edit(spec: mujoco.MjSpec) -> None:
-        for pair in spec.pairs:
-            pair.friction = [mu, mu, 0.0, 0.0, 0.0]
-    return edit
 
 
-def _mujoco_default_softness(spec: mujoco.MjSpec) -> None:
-    for pair in spec.pairs:
-        pair.solref, pair.solimp = [0.02, 1.0], [0.9, 0.95, 0.001, 0.5, 2.0]
-
-
-def _rim_radius(factor: float):
-    def edit(spec: mujoco.MjSpec) -> None:
-        spec.geom("rim").size = np.asarray(spec.geom("rim").size) * factor
-    return edit
 
 
 def test_too_little_friction_slides_with_the_coulomb_closed_form() -> None:
     mu = 0.2  # below tan α / 2 = 0.289
-    result = pipeline.run_case(cases.get("hoop_ramp_contact"), integrators=["RK4"], edit=_friction(mu))
+    result = pipeline.run_case(cases.get("hoop_ramp_contact"), integrators=["RK4"], edit=friction(mu))
     p = result.settings["params"]
     slip = result.simulations["RK4"].series["slip"]
     growth = p["g"] * (math.sin(p["alpha"]) - 2 * mu * math.cos(p["alpha"]))
@@ -284,9 +271,9 @@ def test_too_little_friction_slides_with_the_coulomb_closed_form() -> None:
 
 
 @pytest.mark.parametrize(("label", "kwargs", "expected"), [
-    ("soft contact", {"edit": _mujoco_default_softness},
+    ("soft contact", {"edit": mujoco_default_softness},
      {"RK4.series.penetration", "RK4.series.slip", "RK4.force.normal", "RK4.force.roll", "instant.qacc"}),
-    ("rim radius 0.9 a", {"edit": _rim_radius(0.9)},
+    ("rim radius 0.9 a", {"edit": rim_radius(0.9)},
      {"RK4.series.slip", "RK4.series.penetration", "RK4.position", "RK4.force.normal"}),
     ("timestep 10 ms", {"timestep": 0.01},
      {"RK4.series.penetration", "RK4.series.slip", "RK4.position", "RK4.drift.energy"}),
