@@ -168,11 +168,6 @@ def clear_caches() -> None:
     _exported.clear()
 
 
-def minimal_system(case: Case) -> LagrangianSystem | None:
-    module = load(case.system)
-    return module.minimal() if hasattr(module, "minimal") else None
-
-
 def trajectory(ref: Reference, t: np.ndarray) -> Trajectory:
     """The reference sampled at times t, in the common schema."""
     dyn = ref.dynamics

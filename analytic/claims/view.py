@@ -88,7 +88,6 @@ class DocView:
         """q̈ and λ on motions (KKT solved symbolically), in the document's variables."""
         d = self.derivation
         eqs = list(d.equations)
-        n = len(d.system.q)
         qdd = [self.ours_qdd[c.name] for c in d.system.q]
         if d.system.constraints:
             eqs += list(d.jacobian * sp.Matrix(qdd) - d.gamma)
@@ -99,7 +98,7 @@ class DocView:
         ours = {k: sp.simplify(v) for k, v in sol[0].items()}
         out: dict[sp.Symbol, sp.Expr] = {}
         # q̈_doc: invert the linear relation between our q̈ and the document's
-        acc_eqs = [self.doc(self.ours_qdd[c.name]) - self.doc(ours[self.ours_qdd[c.name]]) for c in d.system.q[:n]]
+        acc_eqs = [self.doc(self.ours_qdd[c.name]) - self.doc(ours[self.ours_qdd[c.name]]) for c in d.system.q]
         acc = sp.solve(acc_eqs, self.frame.qdd, dict=True)
         out.update({k: sp.simplify(v) for k, v in acc[0].items()})
         for name, sym in self.frame.lam.items():
