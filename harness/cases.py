@@ -13,9 +13,9 @@ from typing import Any
 from harness.ball_binding import BallBinding
 from harness.contact import analytic_residual, slide_force
 from harness.momentum import axial_angular_momentum
+from harness.readings import Reading
 
-# A MuJoCo-side reading: (model, data) after mj_forward -> one number.
-Reading = Callable[[Any, Any], float]
+__all__ = ["CASES", "Case", "Reading", "Series", "get", "names", "select"]
 
 
 @dataclass(frozen=True)

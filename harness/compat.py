@@ -6,10 +6,13 @@ import functools
 import os
 import re
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+
+from harness.readings import Reading
 
 
 def full_mass_matrix(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
@@ -35,6 +38,18 @@ def solver_iterations(data: mujoco.MjData) -> int:
     """
     count = max(1, min(int(getattr(data, "nisland", 0)), len(data.solver_niter)))
     return int(np.max(data.solver_niter[:count]))
+
+
+def _iterations(model: mujoco.MjModel, rec: Mapping[str, np.ndarray]) -> np.ndarray:
+    niter = rec["solver_niter"]
+    count = np.clip(rec["nisland"].reshape(len(niter)), 1, niter.shape[1])
+    return np.where(np.arange(niter.shape[1]) < count[:, None], niter, 0).max(axis=1).astype(float)
+
+
+# solver_iterations over a recorded run (a series the solver study records with every integrator)
+SOLVER_ITERATIONS = Reading(fields=("solver_niter", "nisland"), evaluate=_iterations,
+                            description="constraint-solver iterations of the sample's mj_forward: the most "
+                                        "any island took")
 
 
 def constraint_diagonal(data: mujoco.MjData) -> np.ndarray:

@@ -11,7 +11,16 @@ force on geom1 its negative (pinned in tests/test_hoop_ramp.py against
 The rolling systems write each contact multiplier as one world component of
 the contact force on the hoop, along the axis of one of its slides (the
 system modules say which), so a multiplier is read as "contact force on the
-hoop's geom, along slide J's world axis".
+hoop's geom, along slide J's world axis". That component is the generalized
+constraint force ``qfrc_constraint`` = Jᵀ f at the slide's dof: a slide's
+Jacobian column is its axis at every point of the bodies it moves, so Jᵀ f
+there sums every constraint force on those bodies along the axis, which is
+the contact's force alone when nothing else can push them along it (no limit
+or friction loss on the slide, no equality on the bodies it moves, no other
+colliding geom among them; :func:`slide_force` refuses a model where
+something could). Read that way it is recorded with the run, at no cost per
+sample; it equals the sum over contacts of ``mj_contactForce`` above to
+rounding (pinned in tests/test_hoop_ramp.py and tests/test_hoop_plane.py).
 
 What a contact can be checked against. MuJoCo's soft contact answers to its
 own state: a normal row pushes with the penetration, a friction row asks
@@ -31,16 +40,15 @@ and q̇ read from the same-named joints and the parameters from the model.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Sequence
+from collections.abc import Mapping, Sequence
 from typing import Literal
 
 import mujoco
 import numpy as np
 import sympy as sp
 
-# same shape as harness.cases.Reading, which cannot be imported here (cases imports this module)
-Reading = Callable[[mujoco.MjModel, mujoco.MjData], float]
+from harness.momentum import subtree
+from harness.readings import Reading
 
 ResidualLevel = Literal["position", "velocity"]
 
@@ -60,21 +68,61 @@ def contact_force(model: mujoco.MjModel, data: mujoco.MjData, geom: str | int) -
     return total
 
 
-def slide_force(*, geom: str, joint: str) -> Reading:
-    """A reading of the contact force on ``geom`` along the world axis of the slide ``joint``."""
-    ids: dict[str, object] = {}
+def _other_pushers(model: mujoco.MjModel, geom: int, joint: int) -> list[str]:
+    """What besides contacts on ``geom`` could push the bodies ``joint`` moves along its axis."""
+    moved = set(subtree(model, int(model.jnt_bodyid[joint])))
+    dof = int(model.jnt_dofadr[joint])
+    name = model.joint(joint).name
+    found = []
+    if model.jnt_limited[joint]:
+        found.append(f"a limit on slide {name!r}")
+    if model.dof_frictionloss[dof] > 0:
+        found.append(f"friction loss on slide {name!r}")
+    for i in range(model.neq):
+        kind = int(model.eq_type[i])
+        objs = [int(model.eq_obj1id[i]), int(model.eq_obj2id[i])]
+        if kind == int(mujoco.mjtEq.mjEQ_JOINT):
+            touches = joint in objs
+        elif kind in (int(mujoco.mjtEq.mjEQ_CONNECT), int(mujoco.mjtEq.mjEQ_WELD)):
+            touches = bool(moved & set(objs)) or int(model.eq_objtype[i]) == int(mujoco.mjtObj.mjOBJ_SITE)
+        else:
+            touches = True
+        if touches:
+            found.append(f"equality {model.equality(i).name or i!r}")
+    if np.any(model.tendon_limited) or np.any(model.tendon_frictionloss > 0):
+        found.append("a limited or frictional tendon")
+    others = {g for g in range(model.ngeom) if g != geom and int(model.geom_bodyid[g]) in moved}
+    colliding = {g for g in others if model.geom_contype[g] or model.geom_conaffinity[g]}
+    colliding |= {int(g) for pair in (model.pair_geom1, model.pair_geom2) for g in pair if int(g) in others}
+    found += [f"colliding geom {model.geom(g).name or g!r}" for g in sorted(colliding)]
+    return found
 
-    def read(model: mujoco.MjModel, data: mujoco.MjData) -> float:
-        if ids.get("model") is not model:
+
+def slide_force(*, geom: str, joint: str) -> Reading:
+    """A reading of the contact force on ``geom`` along the world axis of the slide ``joint`` (N):
+    ``qfrc_constraint`` at the slide's dof (see the module docstring for why that is the contact force,
+    and when it would not be, which raises ValueError)."""
+    checked: dict[str, object] = {}
+
+    def evaluate(model: mujoco.MjModel, rec: Mapping[str, np.ndarray]) -> np.ndarray:
+        if checked.get("model") is not model:
             jid = model.joint(joint).id
             if model.jnt_type[jid] != mujoco.mjtJoint.mjJNT_SLIDE:
                 raise ValueError(f"joint {joint!r} must be a slide, got "
                                  f"{mujoco.mjtJoint(model.jnt_type[jid]).name}")
-            ids.update(model=model, geom=model.geom(geom).id, joint=jid)
-        return float(contact_force(model, data, ids["geom"]) @ data.xaxis[ids["joint"]])
+            gid = model.geom(geom).id
+            if int(model.geom_bodyid[gid]) not in subtree(model, int(model.jnt_bodyid[jid])):
+                raise ValueError(f"slide {joint!r} does not move geom {geom!r}")
+            others = _other_pushers(model, gid, jid)
+            if others:
+                raise ValueError(f"contact force on {geom!r} along slide {joint!r} is read as qfrc_constraint "
+                                 f"there, which would also include {', '.join(others)}; accepted: a model "
+                                 f"where only contacts on {geom!r} push the bodies {joint!r} moves")
+            checked.update(model=model, dof=int(model.jnt_dofadr[jid]))
+        return rec["qfrc_constraint"][:, checked["dof"]].copy()
 
-    read.__doc__ = f"contact force on geom {geom!r} along slide {joint!r} (N)"
-    return read
+    return Reading(fields=("qfrc_constraint",), evaluate=evaluate,
+                   description=f"contact force on geom {geom!r} along slide {joint!r} (N)")
 
 
 def analytic_residual(*, system: str, constraints: Sequence[str], level: ResidualLevel) -> Reading:
@@ -106,18 +154,23 @@ def analytic_residual(*, system: str, constraints: Sequence[str], level: Residua
         rows = [exprs[names.index(c)].subs(values) for c in constraints]
         coords = [c.name for c in deriv.system.q]
         bound.update(model=model,
-                     fn=sp.lambdify([*deriv.system.q, *deriv.system.qd], rows, modules="math"),
+                     fn=sp.lambdify([*deriv.system.q, *deriv.system.qd], rows, modules="numpy"),
                      qpos=[model.joint(n).qposadr[0] for n in coords],
                      qvel=[model.joint(n).dofadr[0] for n in coords])
 
-    def read(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+    def evaluate(model: mujoco.MjModel, rec: Mapping[str, np.ndarray]) -> np.ndarray:
         if bound.get("model") is not model:
             bind(model)
-        args = [*data.qpos[bound["qpos"]], *data.qvel[bound["qvel"]]]
-        return math.hypot(*bound["fn"](*args))
+        n = len(rec["qpos"])
+        args = [*rec["qpos"][:, bound["qpos"]].T, *rec["qvel"][:, bound["qvel"]].T]
+        rows = [np.abs(np.broadcast_to(np.asarray(r, dtype=float), (n,))) for r in bound["fn"](*args)]
+        out = rows[0]
+        for r in rows[1:]:
+            out = np.hypot(out, r)
+        return out.copy()
 
-    read.__doc__ = f"|{level} residual of {list(constraints)}| of system {system!r} at MuJoCo's state"
-    return read
+    return Reading(fields=(), evaluate=evaluate,
+                   description=f"|{level} residual of {list(constraints)}| of system {system!r} at MuJoCo's state")
 
 
 def fit_circle(points: np.ndarray) -> tuple[np.ndarray, float]:

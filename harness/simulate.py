@@ -24,10 +24,12 @@ integration state). The rest is numpy over the whole run, reproducing the
 loop's arithmetic: a point's position is ``xipos``, its velocity J·qvel with J
 assembled from ``cdof`` and ``subtree_com`` as ``mj_jac`` does, and a joint
 equality's ``efc_force``/``efc_pos`` come from ``qfrc_constraint`` and
-``qpos`` where that is exact (:class:`_JointEquality`). The case's Python
-readings (``Probe.invariants/forces/series``), and equalities that cannot be
-recovered exactly, are read after ``mj_forward`` at every recorded state
-(``mj_setState`` of its row), as the loop reads them.
+``qpos`` where that is exact (:class:`_JointEquality`). The case's readings
+(``Probe.invariants/forces/series``, :class:`harness.readings.Reading`) name
+the fixed-size fields they need; those are recorded with :data:`FIELDS` and
+the readings evaluated once over the whole run, by both recorders alike.
+Equalities that cannot be recovered exactly are read after ``mj_forward`` at
+every recorded state (``mj_setState`` of its row), as the loop reads them.
 
 Every batch run is checked against a fresh ``mj_forward`` at a few samples,
 bit for bit; a mismatch (another MuJoCo's arithmetic) hands the equalities,
@@ -48,7 +50,7 @@ import mujoco
 import numpy as np
 
 from harness.binding import Binding, ModelMismatch
-from harness.cases import Reading
+from harness.readings import STATE_FIELDS, Reading, fields_of
 from harness.trajectory import Trajectory
 
 try:  # MuJoCo ≥ 4
@@ -76,7 +78,7 @@ _STEP_FUNCTIONS: dict[str, Callable[[mujoco.MjModel, mujoco.MjData], None]] = {
     "discrete": mujoco.mj_Euler,
 }
 
-# Derived fields the batch recorder records at every state (all fixed-size).
+# Derived fields the batch recorder records at every state (all fixed-size), besides the readings' own.
 FIELDS: tuple[str, ...] = ("xipos", "subtree_com", "cdof", "qfrc_constraint", "energy", "nefc", "qacc")
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 
@@ -144,10 +146,14 @@ class Probe:
             raise ModelMismatch("model must enable the energy flag (<flag energy=\"enable\"/>)")
 
     def readings(self) -> dict[str, Reading]:
-        """Every Python reading, by a key unique across the three groups."""
+        """Every reading, by a key unique across the three groups."""
         return ({f"invariants.{k}": r for k, r in self.invariants.items()}
                 | {f"forces.{k}": r for k, r in self.forces.items()}
                 | {f"series.{k}": r for k, r in self.series.items()})
+
+    def fields(self) -> tuple[str, ...]:
+        """The derived fields to record at every state: :data:`FIELDS` and those the readings need."""
+        return tuple(dict.fromkeys((*FIELDS, *fields_of(self.readings()))))
 
 
 def equality_rows(model: mujoco.MjModel, data: mujoco.MjData, name: str) -> np.ndarray:
@@ -201,6 +207,21 @@ class _Run:
     energy: np.ndarray                      # (N,)
     qfrc: np.ndarray                        # (N, nv) qfrc_constraint
     readings: dict[str, np.ndarray]         # Probe.readings() keys, (N,)
+    fields: dict[str, np.ndarray] = field(default_factory=dict)  # recorded derived fields (batch recorder)
+
+
+def _evaluate_readings(model: mujoco.MjModel, probe: Probe, states_t: np.ndarray, qpos: np.ndarray,
+                       qvel: np.ndarray, fields: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Every reading of ``probe`` over the run, from the recorded state and fields."""
+    recorded = {"time": states_t, "qpos": qpos, "qvel": qvel, **fields}
+    assert set(STATE_FIELDS) <= set(recorded)
+    out = {}
+    for key, reading in probe.readings().items():
+        values = np.asarray(reading.evaluate(model, recorded), dtype=float)
+        if values.shape != states_t.shape:
+            raise ValueError(f"reading {key!r} returned shape {values.shape}; expected {states_t.shape}")
+        out[key] = values
+    return out
 
 
 def simulate(
@@ -272,8 +293,9 @@ def _record_loop(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
     lam = {c: np.zeros(n) for c in probe.constraints}
     viol = {c: np.zeros(n) for c in probe.constraints}
     energy = np.zeros(n)
-    readings = probe.readings()
-    values = {key: np.zeros(n) for key in readings}
+    extra = fields_of(probe.readings())
+    recorded = {f: np.zeros((n, *np.shape(getattr(data, f)))) for f in extra}
+    qpos, qvel = np.zeros((n, model.nq)), np.zeros((n, model.nv))
     qfrc = np.zeros((n, model.nv))
     for k in range(n):
         _checked_forward(model, data)
@@ -284,11 +306,13 @@ def _record_loop(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
         for c in probe.constraints:
             lam[c][k], viol[c][k] = equality_force(model, data, c)
         energy[k] = data.energy[0] + data.energy[1]
-        for key, read in readings.items():
-            values[key][k] = read(model, data)
+        qpos[k], qvel[k] = data.qpos, data.qvel
+        for f in extra:
+            recorded[f][k] = getattr(data, f)
         qfrc[k] = data.qfrc_constraint
         if k < steps:
             step(model, data)
+    values = _evaluate_readings(model, probe, t, qpos, qvel, recorded)
     return _Run(states=np.zeros((0, 0)), t=t, positions=pos, velocities=vel, lam=lam, viol=viol, energy=energy,
                 qfrc=qfrc, readings=values)
 
@@ -356,15 +380,16 @@ def _forward_at(model: mujoco.MjModel, data: mujoco.MjData, state: np.ndarray) -
     mujoco.mj_forward(model, data)
 
 
-def _fields_of(data: mujoco.MjData) -> dict[str, np.ndarray]:
-    """:data:`FIELDS` of ``data``, each with a leading axis of one sample."""
-    return {f: np.array(getattr(data, f), dtype=None if f != "nefc" else np.int32)[None] for f in FIELDS}
+def _fields_of(data: mujoco.MjData, fields: Sequence[str]) -> dict[str, np.ndarray]:
+    """``fields`` of ``data``, each with a leading axis of one sample."""
+    return {f: np.array(getattr(data, f), dtype=None if f != "nefc" else np.int32)[None] for f in fields}
 
 
-def _forward_all(model: mujoco.MjModel, data: mujoco.MjData, states: np.ndarray) -> dict[str, np.ndarray]:
-    """:data:`FIELDS` after mj_forward at every state row (one batched call in C)."""
+def _forward_all(model: mujoco.MjModel, data: mujoco.MjData, states: np.ndarray, fields: Sequence[str]
+                 ) -> dict[str, np.ndarray]:
+    """``fields`` after mj_forward at every state row (one batched call in C)."""
     fb = _new_batch(model, len(states), data)
-    outputs = {f: fb.bind(f) for f in FIELDS}
+    outputs = {f: fb.bind(f) for f in fields}
     fb.state[:] = states
     fb.forward()
     raised = np.flatnonzero(fb.warning[:, :, 1].max(axis=1) > 0)
@@ -374,12 +399,13 @@ def _forward_all(model: mujoco.MjModel, data: mujoco.MjData, states: np.ndarray)
     return {f: np.array(v) for f, v in outputs.items()}
 
 
-def _rollout(model: mujoco.MjModel, data: mujoco.MjData, row0: np.ndarray, steps: int, shifted: bool
-             ) -> tuple[np.ndarray, dict[str, np.ndarray] | None]:
-    """Integration states 0..steps and, if ``shifted``, the fields mj_step computed at states 0..steps−1."""
+def _rollout(model: mujoco.MjModel, data: mujoco.MjData, row0: np.ndarray, steps: int,
+             fields: Sequence[str]) -> tuple[np.ndarray, dict[str, np.ndarray] | None]:
+    """Integration states 0..steps and the ``fields`` mj_step computed at states 0..steps−1 (none
+    recorded when ``fields`` is empty)."""
     b = _new_batch(model, 1, data)
     b.state[0] = row0
-    record = [_STATE, *FIELDS] if shifted else [_STATE]
+    record = [_STATE, *fields]
     try:
         rec = b.rollout(steps, record=record)
     except _batch.SimulationError as exc:
@@ -388,7 +414,7 @@ def _rollout(model: mujoco.MjModel, data: mujoco.MjData, row0: np.ndarray, steps
     counts = b.warning[0, :, 1]
     if counts.max() > 0:  # the rollout stopped stepping; its records repeat the last state
         _check_warnings(counts, float(b.state[0, 0]))
-    return states, ({f: rec[f][0] for f in FIELDS} if shifted else None)
+    return states, ({f: rec[f][0] for f in fields} if fields else None)
 
 
 def _record_batch(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps: int,
@@ -398,7 +424,8 @@ def _record_batch(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, step
     row0 = np.zeros(mujoco.mj_stateSize(model, _STATE))
     mujoco.mj_getState(model, data, row0, _STATE)
     shifted = integrator_name(model) != "RK4"
-    states, fields = _rollout(model, data, row0, steps, shifted)
+    wanted = probe.fields()
+    states, fields = _rollout(model, data, row0, steps, wanted if shifted else ())
     timings["rollout"] = time.perf_counter() - clock
     clock = time.perf_counter()
     # the last state, which no step follows, gets the checks mj_step would make (as in the loop)
@@ -406,10 +433,10 @@ def _record_batch(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, step
     _checked_forward(model, data)
     _check_warnings(data.warning.number, float(states[-1, 0]))
     if shifted:  # fields of states 0..steps−1 from the rollout, the last state's from that forward
-        last = _fields_of(data)
-        fields = {f: np.concatenate([fields[f], last[f]]) for f in FIELDS}
+        last = _fields_of(data, wanted)
+        fields = {f: np.concatenate([fields[f], last[f]]) for f in wanted}
     else:
-        fields = _forward_all(model, data, states)
+        fields = _forward_all(model, data, states, wanted)
     timings["forward"] = time.perf_counter() - clock
     clock = time.perf_counter()
     finite = np.isfinite(states).all(axis=1) & np.isfinite(fields["qacc"]).all(axis=1)
@@ -418,17 +445,20 @@ def _record_batch(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, step
     run = _assemble(model, probe, states, fields)
     timings["assemble"] = time.perf_counter() - clock
     clock = time.perf_counter()
-    recovered = list(run.lam)
-    _read_at_states(model, data, probe, run, [c for c in probe.constraints if c not in run.lam],
-                    with_readings=True)
+    run.readings = _evaluate_readings(model, probe, run.t, states[:, 1:1 + model.nq],
+                                      states[:, 1 + model.nq:1 + model.nq + model.nv], fields)
     timings["readings"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    recovered = list(run.lam)
+    _read_at_states(model, data, probe, run, [c for c in probe.constraints if c not in run.lam])
+    timings["equalities"] = time.perf_counter() - clock
     clock = time.perf_counter()
     bad = _verify(model, data, probe, run)
     wrong = [c for c in recovered if f"equality {c!r}" in bad]
     if wrong and len(wrong) == len(bad):  # only the recovered equalities: read them per sample instead
         _notes.append(f"{_label(model)}: efc_force/efc_pos recovered from qfrc_constraint and qpos differed "
                       f"from a fresh mj_forward for {wrong}; read per sample instead")
-        _read_at_states(model, data, probe, run, wrong, with_readings=False)
+        _read_at_states(model, data, probe, run, wrong)
         bad = _verify(model, data, probe, run)
     timings["verify"] = time.perf_counter() - clock
     if bad:
@@ -549,18 +579,15 @@ def _assemble(model: mujoco.MjModel, probe: Probe, states: np.ndarray, fields: d
             for c, eq in recoverable.items():
                 lam[c] = qfrc[:, eq.dof].copy()
                 viol[c] = eq.violation(qpos)
-    n = len(states)
     return _Run(states=states, t=states[:, 0].copy(), positions=positions, velocities=velocities, lam=lam,
-                viol=viol, energy=energy, qfrc=qfrc, readings={key: np.zeros(n) for key in probe.readings()})
+                viol=viol, energy=energy, qfrc=qfrc, readings={}, fields=fields)
 
 
 def _read_at_states(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run,
-                    equalities: Sequence[str], *,
-                    with_readings: bool) -> None:
-    """The equalities ``equalities`` and (if ``with_readings``) the probe's Python readings, after
-    mj_forward at every recorded state, as the loop recorder reads them."""
-    readings = probe.readings() if with_readings else {}
-    if not readings and not equalities:
+                    equalities: Sequence[str]) -> None:
+    """The equalities ``equalities`` after mj_forward at every recorded state, as the loop recorder
+    reads them."""
+    if not equalities:
         return
     n = len(run.states)
     for c in equalities:
@@ -569,8 +596,6 @@ def _read_at_states(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, ru
         _forward_at(model, data, run.states[k])
         for c in equalities:
             run.lam[c][k], run.viol[c][k] = equality_force(model, data, c)
-        for key, read in readings.items():
-            run.readings[key][k] = read(model, data)
 
 
 def _verify(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run) -> list[str]:
@@ -590,6 +615,9 @@ def _verify(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run)
             bad.append("energy")
         if not np.array_equal(data.qfrc_constraint, run.qfrc[k]):
             bad.append("qfrc_constraint")
+        for f, values in run.fields.items():
+            if f not in FIELDS and not np.array_equal(getattr(data, f), values[k]):
+                bad.append(f"field {f!r}")
         for c in probe.constraints:
             if equality_force(model, data, c) != (run.lam[c][k], run.viol[c][k]):
                 bad.append(f"equality {c!r}")

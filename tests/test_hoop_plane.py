@@ -30,7 +30,7 @@ from harness import cases, pipeline
 from harness import reference as refmod
 from harness.binding import JointBinding
 from harness.config import load_config
-from harness.contact import fit_circle, slide_force
+from harness.contact import contact_force, fit_circle, slide_force
 from harness.models import compile_model, mjcf_path
 from harness.studies.contact import contact_study
 from harness.verdict import verdict
@@ -155,9 +155,9 @@ def test_contact_readings_are_world_force_components(model) -> None:
     data = mujoco.MjData(model)
     JointBinding(COORDS).set_state(model, data, [0.0, 0.0, 0.5 - 1e-4, 0.3, 0.0], [0.2, -0.1, -0.05, 0.0, 0.0])
     mujoco.mj_forward(model, data)
-    for joint in ("x", "y", "z"):
-        assert slide_force(geom="rim", joint=joint)(model, data) == pytest.approx(
-            data.qfrc_constraint[model.joint(joint).dofadr[0]], abs=1e-12)
+    world = contact_force(model, data, "rim")  # from mj_contactForce, contact by contact
+    for axis, joint in enumerate(("x", "y", "z")):
+        assert slide_force(geom="rim", joint=joint)(model, data) == pytest.approx(world[axis], abs=1e-12)
     assert slide_force(geom="rim", joint="z")(model, data) > 0
 
 
@@ -252,3 +252,20 @@ def test_study_finds_slip_independent_of_cone_impratio_noslip() -> None:
 def test_broken_contact_trips_its_gates(label, kwargs, expected) -> None:
     result = pipeline.run_case(CASE, integrators=["RK4"], **kwargs)
     assert expected <= failing(result), label
+
+
+def test_p_theta_reading_equals_mj_subtree_vel(model) -> None:
+    """The hoop's vertical angular momentum about its centre, read from cvel, ximat and body_inertia
+    (the hoop spins and turns: its own inertia matters), equals mj_subtreeVel's at random states."""
+    read = cases.get("hoop_plane").mujoco_invariants["p_theta"]
+    rng = np.random.default_rng(3)
+    bid = model.body("hoop").id
+    for _ in range(10):
+        data = mujoco.MjData(model)
+        JointBinding(COORDS).set_state(model, data, rng.normal(size=5), rng.normal(size=5))
+        mujoco.mj_forward(model, data)
+        mujoco.mj_subtreeVel(model, data)
+        lever = data.subtree_com[bid] - data.site_xpos[model.site("centre").id]
+        expected = data.subtree_angmom[bid] + model.body_subtreemass[bid] * np.cross(lever, data.subtree_linvel[bid])
+        assert read(model, data) == pytest.approx(expected[2], rel=1e-13, abs=1e-15)
+        assert abs(expected[2]) > 1e-3

@@ -17,6 +17,7 @@ grows at g (sin α − 2 μ cos α).
 from __future__ import annotations
 
 import math
+import re
 
 import mujoco
 import numpy as np
@@ -153,10 +154,11 @@ def test_equality_forces_are_friction_and_normal_with_their_signs() -> None:
 
 
 def test_contact_force_reader_is_the_generalized_contact_force() -> None:
-    """slide_force along x and s equals qfrc_constraint on those slides (the contact is the
-    only constraint): the frame is transposed and the force is the one on geom2 (the rim;
-    MuJoCo orders a plane first). The plane feels the opposite force, and the hinge carries
-    −a times the friction (its moment about the axle)."""
+    """slide_force along x and s (qfrc_constraint on those slides) equals the contact force from
+    mj_contactForce along the slides' world axes (the contact is the only constraint): the frame
+    is transposed and the force is the one on geom2 (the rim; MuJoCo orders a plane first). The
+    plane feels the opposite force, and the hinge carries −a times the friction (its moment about
+    the axle)."""
     model = compile_model(mjcf_path("hoop_ramp_contact"))
     p = hoop_ramp.params_from_model(model)
     data = rolling_state(model)
@@ -164,14 +166,36 @@ def test_contact_force_reader_is_the_generalized_contact_force() -> None:
     np.testing.assert_array_equal(contact_force(model, data, "slope"), -contact_force(model, data, "rim"))
     roll = slide_force(geom="rim", joint="x")(model, data)
     normal = slide_force(geom="rim", joint="s")(model, data)
+    world = contact_force(model, data, "rim")
+    assert roll == pytest.approx(world @ data.xaxis[model.joint("x").id], abs=1e-12)
+    assert normal == pytest.approx(world @ data.xaxis[model.joint("s").id], abs=1e-12)
     dof = {n: model.joint(n).dofadr[0] for n in COORDS}
-    assert roll == pytest.approx(data.qfrc_constraint[dof["x"]], abs=1e-12)
-    assert normal == pytest.approx(data.qfrc_constraint[dof["s"]], abs=1e-12)
     assert data.qfrc_constraint[dof["phi"]] == pytest.approx(-p["a"] * roll, abs=1e-12)
     _, roll_cf, normal_cf = closed_forms(p["m"], p["g"], p["alpha"])
     assert roll == pytest.approx(roll_cf, rel=1e-3) and normal == pytest.approx(normal_cf, rel=1e-3)
     with pytest.raises(ValueError, match="must be a slide"):
         slide_force(geom="rim", joint="phi")(model, data)
+
+
+@pytest.mark.parametrize(("edit", "named", "s_reads"), [
+    (lambda spec: setattr(spec.joint("x"), "range", [-1.0, 10.0]) or setattr(spec.joint("x"), "limited", 1),
+     "a limit on slide 'x'", True),
+    (lambda spec: setattr(spec.joint("x"), "frictionloss", 0.1), "friction loss on slide 'x'", True),
+    (lambda spec: setattr(spec.geom("hoop"), "contype", 1), "colliding geom 'hoop'", False),
+])
+def test_contact_force_reader_refuses_a_model_where_more_than_the_contact_pushes(edit, named, s_reads) -> None:
+    """qfrc_constraint on a slide is the contact force only if nothing else acts along it: a limit,
+    friction loss or a second colliding geom on the hoop makes the reading refuse, naming it; a
+    limit or friction loss on x alone leaves the reading along s valid."""
+    model = compile_model(mjcf_path("hoop_ramp_contact"), edit=edit)
+    data = rolling_state(model)
+    with pytest.raises(ValueError, match=re.escape(named)):
+        slide_force(geom="rim", joint="x")(model, data)
+    if s_reads:
+        assert slide_force(geom="rim", joint="s")(model, data) > 0
+    else:
+        with pytest.raises(ValueError, match=re.escape(named)):
+            slide_force(geom="rim", joint="s")(model, data)
 
 
 def test_slip_reading_is_the_rolling_residual() -> None:

@@ -105,3 +105,15 @@ def test_full_sweep_matches_the_documented_relations(name):
 def test_full_solver_comparison_meets_the_tolerance(name):
     study = sv.solver_study(cases.get(name))
     assert all(r.iterations_max < r.iteration_limit for r in study.rows)
+
+
+def test_recorded_solver_iterations_are_solver_iterations():
+    """The series the solver study records is solver_iterations of each sample, over a whole run."""
+    from harness.compat import SOLVER_ITERATIONS
+
+    model = compile_model(mjcf_path("atwood"))
+    data = mujoco.MjData(model)
+    for _ in range(5):
+        mujoco.mj_step(model, data)
+        mujoco.mj_forward(model, data)
+        assert SOLVER_ITERATIONS(model, data) == solver_iterations(data) > 0

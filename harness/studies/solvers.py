@@ -23,7 +23,7 @@ import numpy as np
 
 from harness import reference as refmod
 from harness.cases import Case
-from harness.compat import solver_iterations
+from harness.compat import SOLVER_ITERATIONS
 from harness.models import compile_model, mjcf_path
 from harness.simulate import integrator_name, simulate
 from harness.studies._common import case_dynamics, fmt, html_table, png_bytes, png_data_uri, text_table
@@ -82,7 +82,7 @@ def solver_study(case: Case, *, fast: bool = False, solvers: Sequence[str] = SOL
     if not (base.constraints or base.forces):
         raise ValueError(f"case {case.name!r} has no constraint forces to compare; the solver study needs "
                          "equality or contact constraints")
-    probe = dataclasses.replace(base, series={**base.series, "solver_niter": lambda m, d: solver_iterations(d)})
+    probe = dataclasses.replace(base, series={**base.series, "solver_niter": SOLVER_ITERATIONS})
     steps = round(horizon / shipped.opt.timestep)
     names = [*base.constraints, *base.forces]
     rows, series, ref_traj, newton = [], {}, None, None
