@@ -12,8 +12,10 @@ Four parts, each printed as a table:
    integrator's trajectory (state, constraint forces, energy, readings) against
    a bare ``mujoco.rollout`` of the same models and steps, as a ratio measured
    in this one run (best of ``--repeat``). Where the recorder reports its own
-   split, "core" is the recording without the case's Python readings
-   (``Case.mujoco_forces/series/invariants``), which run per sample.
+   split, "core" is the recording without evaluating the case's readings
+   (``Case.mujoco_forces/series/invariants``: per sample in Python before the
+   speed work, over the whole run from recorded fields since). Wall time: an
+   RK4 run recomputes its fields on a second thread while it steps.
 2. Per-case split (target 5): derivation, reference solve, instantaneous
    layer, MuJoCo runs, comparison, the fast convergence study, and the case's
    report (HTML/JSON/Markdown with its plots), so that the next bottleneck is

@@ -4,17 +4,16 @@ The conserved momentum of a cyclic azimuth (``p_phi`` of the spherical
 pendulum) is the component along the symmetry axis of the angular momentum
 about a fixed point o of the subtree rooted at a body:
 
-    L_o = Σ_b  R_b I_b R_bᵀ ω_b + m_b (x_b − o) × v_b
+    L_o = Σ_b  L_c,b + (c − o) × P_b
 
-over the subtree's bodies b, with I_b the principal inertia (``body_inertia``)
-in the inertia frame R_b (``ximat``), x_b the centre of mass (``xipos``), and
-ω_b, v_b its angular and linear velocity from the com-based velocity
-``cvel`` = (ω, velocity of the point at ``subtree_com`` of b's root):
-v_b = cvel_lin + ω × (x_b − subtree_com[root]). It includes the bodies' own
-spin, so it is the quantity MuJoCo's dynamics conserves when gravity is along
-the axis; it is what ``mj_subtreeVel`` assembles (subtree_angmom plus the
-transport term), computed from fields ``mj_forward`` leaves, over a whole
-run at once (pinned against ``mj_subtreeVel`` in tests/test_spherical_pendulum.py).
+over the subtree's bodies b, with (L_c,b, P_b) = cinert_b · cvel_b the body's
+spatial momentum in MuJoCo's com-based frame (angular momentum about the point
+c = ``subtree_com`` of b's root, and linear momentum; the product is
+``mju_mulInertVec``'s, written out here over a whole run). ``cinert`` holds the
+body's inertia about c (its own spin included), so this is the quantity
+MuJoCo's dynamics conserves when gravity is along the axis; it is what
+``mj_subtreeVel`` assembles (pinned against it in
+tests/test_spherical_pendulum.py and tests/test_hoop_plane.py).
 """
 
 from __future__ import annotations
@@ -37,10 +36,21 @@ def subtree(model: mujoco.MjModel, body: int) -> list[int]:
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise a × b of (N, 3) arrays (np.cross's own overhead dominates on small arrays)."""
-    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
-                     a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
-                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
+    """a × b for vectors stored as rows of (3, N) arrays."""
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def _spatial_momentum(inert: np.ndarray, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """mju_mulInertVec over samples: (angular momentum about the com-frame origin, linear momentum),
+    each (3, N), from cinert rows (10, N) and cvel rows (6, N)."""
+    i, v = inert, vel
+    angular = np.stack([i[0] * v[0] + i[3] * v[1] + i[4] * v[2] - i[8] * v[4] + i[7] * v[5],
+                        i[3] * v[0] + i[1] * v[1] + i[5] * v[2] + i[8] * v[3] - i[6] * v[5],
+                        i[4] * v[0] + i[5] * v[1] + i[2] * v[2] - i[7] * v[3] + i[6] * v[4]])
+    linear = np.stack([i[8] * v[1] - i[7] * v[2] + i[9] * v[3],
+                       i[6] * v[2] - i[8] * v[0] + i[9] * v[4],
+                       i[7] * v[0] - i[6] * v[1] + i[9] * v[5]])
+    return angular, linear
 
 
 def axial_angular_momentum(*, body: str, site: str, axis: Sequence[float] = (0.0, 0.0, 1.0)) -> Reading:
@@ -54,17 +64,15 @@ def axial_angular_momentum(*, body: str, site: str, axis: Sequence[float] = (0.0
     unit = unit / np.linalg.norm(unit)
 
     def evaluate(model: mujoco.MjModel, rec: Mapping[str, np.ndarray]) -> np.ndarray:
-        origin = rec["site_xpos"][:, model.site(site).id]
-        total = np.zeros((len(origin), 3))
+        rows = np.ascontiguousarray  # (3, N) rows of contiguous samples: fast elementwise operations
+        origin = rows(rec["site_xpos"][:, model.site(site).id].T)
+        total = np.zeros(origin.shape[1])
         for b in subtree(model, model.body(body).id):
-            omega = rec["cvel"][:, b, :3]
-            centre = rec["xipos"][:, b]
-            rot = rec["ximat"][:, b].reshape(-1, 3, 3)
-            velocity = rec["cvel"][:, b, 3:] + _cross(omega, centre - rec["subtree_com"][:, model.body_rootid[b]])
-            local = np.einsum("nji,nj->ni", rot, omega) * model.body_inertia[b]  # I_b R_bᵀ ω
-            total += np.einsum("nij,nj->ni", rot, local) + model.body_mass[b] * _cross(centre - origin, velocity)
-        return total @ unit
+            angular, linear = _spatial_momentum(rows(rec["cinert"][:, b].T), rows(rec["cvel"][:, b].T))
+            lever = rows(rec["subtree_com"][:, model.body_rootid[b]].T) - origin
+            total += unit @ (angular + _cross(lever, linear))
+        return total
 
-    return Reading(fields=("site_xpos", "cvel", "xipos", "ximat", "subtree_com"), evaluate=evaluate,
+    return Reading(fields=("site_xpos", "cinert", "cvel", "subtree_com"), evaluate=evaluate,
                    description=f"axis {unit.tolist()} · angular momentum of subtree {body!r} about site "
                                f"{site!r} (kg m²/s)")

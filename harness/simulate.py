@@ -14,19 +14,24 @@ sample, several times MuJoCo's own step.
 
 ``batch`` (``mujoco.batch``, MuJoCo ≥ 4): the steps run in C
 (``Batch.rollout``), recording after every substep the integration state and
-the fixed-size derived fields :data:`FIELDS`. For every integrator but RK4,
+the fixed-size derived fields it needs (:func:`recorded_fields`). For every
+integrator but RK4,
 the fields recorded after step k + 1 are those ``mj_step``'s own
 ``mj_forward`` computed at state k — what the loop reads at sample k — so they
-are shifted by one, and the last state gets one checked ``forward``. After an RK4 step
-they hold the last stage, so RK4's fields are recomputed by one batched
+are shifted by one, and the last state gets one checked ``forward``. After an
+RK4 step they hold the last stage, so RK4's fields are recomputed by a batched
 ``forward`` of every recorded state (warm start included: it is part of the
-integration state). The rest is numpy over the whole run, reproducing the
-loop's arithmetic: a point's position is ``xipos``, its velocity J·qvel with J
-assembled from ``cdof`` and ``subtree_com`` as ``mj_jac`` does, and a joint
-equality's ``efc_force``/``efc_pos`` come from ``qfrc_constraint`` and
-``qpos`` where that is exact (:class:`_JointEquality`). The case's readings
+integration state); where a second thread may run, the rollout goes in chunks
+(bit-identical to one call: the integration state carries everything a step
+reads) and each chunk's states are recomputed on that thread while the next
+chunk steps, so only the last chunk's recomputation adds to the wall time.
+The rest is numpy over the whole run, reproducing the loop's arithmetic: a
+point's position is ``xipos``, its velocity J·qvel with J assembled from
+``cdof`` and ``subtree_com`` as ``mj_jac`` does, and a joint equality's
+``efc_force``/``efc_pos`` come from ``qfrc_constraint`` and ``qpos`` where
+that is exact (:class:`_JointEquality`). The case's readings
 (``Probe.invariants/forces/series``, :class:`harness.readings.Reading`) name
-the fixed-size fields they need; those are recorded with :data:`FIELDS` and
+the fixed-size fields they need; those are recorded with the rest and
 the readings evaluated once over the whole run, by both recorders alike.
 Equalities that cannot be recovered exactly are read after ``mj_forward`` at
 every recorded state (``mj_setState`` of its row), as the loop reads them.
@@ -41,6 +46,8 @@ or the whole run, to the loop, and :func:`recorder_notes` says so. Where
 from __future__ import annotations
 
 import contextlib
+import functools
+import itertools
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -78,19 +85,27 @@ _STEP_FUNCTIONS: dict[str, Callable[[mujoco.MjModel, mujoco.MjData], None]] = {
     "discrete": mujoco.mj_Euler,
 }
 
-# Derived fields the batch recorder records at every state (all fixed-size), besides the readings' own.
-FIELDS: tuple[str, ...] = ("xipos", "subtree_com", "cdof", "qfrc_constraint", "energy", "nefc", "qacc")
+# Derived fields the batch recorder records at every state (all fixed-size), besides the readings' own:
+# always (energy, generalized constraint force), for points (position, and velocity as mj_jac assembles
+# it) and for joint equalities recovered from qfrc_constraint (the row count, to know every row is theirs).
+# Each costs about 1 % of a small model's step; a non-finite qacc is MuJoCo's own warning (mj_checkAcc).
+ALWAYS_FIELDS: tuple[str, ...] = ("qfrc_constraint", "energy")
+POINT_FIELDS: tuple[str, ...] = ("xipos", "subtree_com", "cdof")
+EQUALITY_FIELDS: tuple[str, ...] = ("nefc",)
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 
 _PARALLEL_SIMS = 256  # fewer recomputed states than this run on the caller's thread alone
+_MIN_CHUNK = 32  # RK4 rollouts with a second thread go in halving chunks down to about this many steps
 
 _SPARE_DATA = 4  # MjData kept for reuse, by model layout
 
 _notes: list[str] = []
 _threads: int | None = None
-_spare_data: dict[tuple[int, int, int], mujoco.MjData] = {}
+_spare_data: dict[tuple[int, int, int, bool], mujoco.MjData] = {}
+_spare_batches: dict[int, tuple[mujoco.MjModel, object]] = {}
 
 
+@functools.cache
 def available_integrators() -> tuple[str, ...]:
     """Integrators this MuJoCo offers (``discrete`` only where it exists)."""
     names = {i.name.removeprefix("mjINT_") for i in mujoco.mjtIntegrator.__members__.values()}
@@ -113,7 +128,8 @@ def recorder() -> str:
     if _batch is None:
         return (f"loop: mj_forward, read, integrator function per step in Python (MuJoCo {mujoco.__version__} "
                 "has no mujoco.batch)")
-    return "batch: steps and fixed-size fields recorded in C (mujoco.batch), readings per sample in Python"
+    return ("batch: steps and fixed-size fields recorded in C (mujoco.batch; RK4's fields recomputed on a "
+            "second thread while it steps), readings evaluated over the whole run")
 
 
 def recorder_notes() -> tuple[str, ...]:
@@ -151,9 +167,13 @@ class Probe:
                 | {f"forces.{k}": r for k, r in self.forces.items()}
                 | {f"series.{k}": r for k, r in self.series.items()})
 
-    def fields(self) -> tuple[str, ...]:
-        """The derived fields to record at every state: :data:`FIELDS` and those the readings need."""
-        return tuple(dict.fromkeys((*FIELDS, *fields_of(self.readings()))))
+
+def recorded_fields(model: mujoco.MjModel, probe: Probe) -> tuple[str, ...]:
+    """The derived fields the batch recorder records at every state for ``probe`` on ``model``."""
+    wanted = [*ALWAYS_FIELDS, *(POINT_FIELDS if probe.points else ())]
+    if _joint_equalities(model, probe.constraints):
+        wanted += EQUALITY_FIELDS
+    return tuple(dict.fromkeys((*wanted, *fields_of(probe.readings()))))
 
 
 def equality_rows(model: mujoco.MjModel, data: mujoco.MjData, name: str) -> np.ndarray:
@@ -172,11 +192,18 @@ def equality_force(model: mujoco.MjModel, data: mujoco.MjData, name: str) -> tup
 
 
 def point_state(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> tuple[np.ndarray, np.ndarray]:
-    """World position and linear velocity of a body's centre of mass."""
+    """World position and linear velocity of a body's centre of mass.
+
+    The velocity is J·qvel with J from ``mj_jacBodyCom``, summed column by column in dof order
+    (Σᵢ Jᵢ q̇ᵢ, a multiply then an add per term, no fused multiply-add), so that the batch recorder's
+    vectorized sum over a whole run gives the same numbers bit for bit."""
     bid = model.body(body).id
     jacp = np.zeros((3, model.nv))
     mujoco.mj_jacBodyCom(model, data, jacp, None, bid)
-    return data.xipos[bid].copy(), jacp @ data.qvel
+    velocity = np.zeros(3)
+    for i in range(model.nv):
+        velocity = velocity + jacp[:, i] * data.qvel[i]
+    return data.xipos[bid].copy(), velocity
 
 
 def check_healthy(data: mujoco.MjData, time: float) -> None:
@@ -217,7 +244,7 @@ def _evaluate_readings(model: mujoco.MjModel, probe: Probe, states_t: np.ndarray
     assert set(STATE_FIELDS) <= set(recorded)
     out = {}
     for key, reading in probe.readings().items():
-        values = np.asarray(reading.evaluate(model, recorded), dtype=float)
+        values = np.array(reading.evaluate(model, recorded), dtype=float)  # a copy: recorded is scratch
         if values.shape != states_t.shape:
             raise ValueError(f"reading {key!r} returned shape {values.shape}; expected {states_t.shape}")
         out[key] = values
@@ -336,27 +363,28 @@ def _layout(model: mujoco.MjModel) -> tuple[int, int, int]:
     return int(model.signature), int(model.narena), int(model.nbuffer)
 
 
-def _take_data(model: mujoco.MjModel) -> mujoco.MjData:
+def _take_data(model: mujoco.MjModel, *, spare: bool = False) -> mujoco.MjData:
     """A reset MjData for ``model``, reused from an earlier run of a model of the same layout (same
     signature and arena, as models compiled from one MJCF with other options are) where one was
     given back: making one costs about 0.35 ms, as much as a short rollout. The batch recorder sets
     every state it reads, so nothing leaks from one run to the next."""
-    data = _spare_data.pop(_layout(model), None)
+    data = _spare_data.pop((*_layout(model), spare), None)
     if data is None:
         return mujoco.MjData(model)
     mujoco.mj_resetData(model, data)
     return data
 
 
-def _give_back_data(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+def _give_back_data(model: mujoco.MjModel, data: mujoco.MjData, *, spare: bool = False) -> None:
     while len(_spare_data) >= _SPARE_DATA:
         _spare_data.pop(next(iter(_spare_data)))
-    _spare_data[_layout(model)] = data
+    _spare_data[(*_layout(model), spare)] = data
 
 
-def _new_batch(model: mujoco.MjModel, nsim: int, data: mujoco.MjData) -> _batch.Batch:
+def _new_batch(model: mujoco.MjModel, nsim: int, data: mujoco.MjData, *, threads: int | None = None
+               ) -> _batch.Batch:
     # the batch's results are bit-identical at any thread count (mujoco.batch documentation)
-    threads = 1 if nsim < _PARALLEL_SIMS else (_threads or os.cpu_count() or 1)
+    threads = threads or (1 if nsim < _PARALLEL_SIMS else _threads_allowed())
     b = _batch.Batch(model, nsim, nthread=min(threads, nsim))
     # The batch makes an MjData of its own, only to learn field shapes, on first use (about as costly
     # as a short rollout); ours serves as well. An optimisation: without it the batch makes its own.
@@ -385,10 +413,53 @@ def _fields_of(data: mujoco.MjData, fields: Sequence[str]) -> dict[str, np.ndarr
     return {f: np.array(getattr(data, f), dtype=None if f != "nefc" else np.int32)[None] for f in fields}
 
 
-def _forward_all(model: mujoco.MjModel, data: mujoco.MjData, states: np.ndarray, fields: Sequence[str]
+@dataclass
+class _Record:
+    """Where a batch run is recorded: the integration states and ``fields``, one row per sample.
+
+    The arrays are scratch space, reused by the next run of the same layout and length (fresh
+    arrays of a few MB cost a page fault per 4 KiB when first written: about a sixth of a short
+    rollout). Everything a Trajectory keeps is copied out of them."""
+
+    states: np.ndarray                # (steps + 1, nstate)
+    fields: dict[str, np.ndarray]     # (steps + 1, ...) per field, MjData's dtype
+
+    @classmethod
+    def take(cls, model: mujoco.MjModel, data: mujoco.MjData, steps: int, fields: Sequence[str]) -> _Record:
+        key = (*_layout(model), steps, tuple(fields))
+        spare = _spare_records.pop(key, None)
+        if spare is not None:
+            return spare
+        nstate = mujoco.mj_stateSize(model, _STATE)
+        # MjData's types: an int field (nefc, nisland) is a C int, as the batch records it
+        shapes = {f: (np.shape(getattr(data, f)), np.int32 if isinstance(getattr(data, f), int)
+                      else np.asarray(getattr(data, f)).dtype) for f in fields}
+        return cls(states=np.empty((steps + 1, nstate)),
+                   fields={f: np.empty((steps + 1, *shape), dtype) for f, (shape, dtype) in shapes.items()})
+
+    def give_back(self, model: mujoco.MjModel) -> None:
+        while len(_spare_records) >= _SPARE_DATA:
+            _spare_records.pop(next(iter(_spare_records)))
+        _spare_records[(*_layout(model), len(self.states) - 1, tuple(self.fields))] = self
+
+    def out(self, start: int, stop: int, *, fields_at: int = 0) -> dict:
+        """``Batch.rollout``'s out= for steps start..stop−1: states start+1..stop and, when asked, the
+        fields mj_step computed at states start..stop−1 (``fields_at`` = 0; RK4 records none)."""
+        out: dict = {_STATE: self.states[None, start + 1:stop + 1]}
+        if fields_at == 0:
+            out |= {f: v[None, start:stop] for f, v in self.fields.items()}
+        return out
+
+
+_spare_records: dict[tuple, _Record] = {}
+
+
+def _forward_all(model: mujoco.MjModel, data: mujoco.MjData, states: np.ndarray, fields: Sequence[str],
+                 *, threads: int | None = None, into: Mapping[str, np.ndarray] | None = None
                  ) -> dict[str, np.ndarray]:
-    """``fields`` after mj_forward at every state row (one batched call in C)."""
-    fb = _new_batch(model, len(states), data)
+    """``fields`` after mj_forward at every state row (one batched call in C), written into ``into``
+    (arrays of len(states) rows) where given."""
+    fb = _new_batch(model, len(states), data, threads=threads)
     outputs = {f: fb.bind(f) for f in fields}
     fb.state[:] = states
     fb.forward()
@@ -396,52 +467,140 @@ def _forward_all(model: mujoco.MjModel, data: mujoco.MjData, states: np.ndarray,
     if raised.size:
         k = int(raised[0])
         _check_warnings(fb.warning[k, :, 1], float(states[k, 0]))
-    return {f: np.array(v) for f, v in outputs.items()}
+    if into is None:
+        return {f: np.array(v) for f, v in outputs.items()}
+    for f, v in outputs.items():
+        into[f][...] = np.asarray(v).reshape(into[f].shape)
+    return dict(into)
 
 
-def _rollout(model: mujoco.MjModel, data: mujoco.MjData, row0: np.ndarray, steps: int,
-             fields: Sequence[str]) -> tuple[np.ndarray, dict[str, np.ndarray] | None]:
-    """Integration states 0..steps and the ``fields`` mj_step computed at states 0..steps−1 (none
-    recorded when ``fields`` is empty)."""
-    b = _new_batch(model, 1, data)
-    b.state[0] = row0
-    record = [_STATE, *fields]
+def _step(b: _batch.Batch, nstep: int, record: Sequence, out: dict) -> None:
+    """``nstep`` steps of batch ``b``'s one simulation, recording into ``out``; SimulationDiverged on an
+    error or a warning (after which the rollout stopped stepping and its records repeat the last state)."""
     try:
-        rec = b.rollout(steps, record=record)
+        b.rollout(nstep, record=record, out=out)
     except _batch.SimulationError as exc:
         raise SimulationDiverged(f"MuJoCo raised an error: {exc}") from None
-    states = np.concatenate([row0[None], rec[_STATE][0]])
     counts = b.warning[0, :, 1]
-    if counts.max() > 0:  # the rollout stopped stepping; its records repeat the last state
+    if counts.max() > 0:
         _check_warnings(counts, float(b.state[0, 0]))
-    return states, ({f: rec[f][0] for f in fields} if fields else None)
+
+
+def _rollout(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record, steps: int) -> None:
+    """States 1..steps and the fields mj_step computed at states 0..steps−1, into ``rec``."""
+    b = _take_batch(model, data)
+    b.state[0] = rec.states[0]
+    _step(b, steps, [_STATE, *rec.fields], rec.out(0, steps))
+    _give_back_batch(model, b)  # not after an error: its warning counters would stop the next run
+
+
+def _take_batch(model: mujoco.MjModel, data: mujoco.MjData) -> _batch.Batch:
+    """A one-simulation batch of ``model`` (this very object: a batch keeps its model), reused from an
+    earlier run where one was given back (making one costs about 0.1 ms, 3 % of a short rollout).
+    Every run sets the whole integration state, and a step starts from it alone (mj_forward), so
+    nothing leaks from one run to the next (pinned bit for bit against the loop)."""
+    spare = _spare_batches.pop(id(model), None)
+    return spare[1] if spare is not None else _new_batch(model, 1, data)
+
+
+def _give_back_batch(model: mujoco.MjModel, b: _batch.Batch) -> None:
+    while len(_spare_batches) >= 2 * _SPARE_DATA:
+        _spare_batches.pop(next(iter(_spare_batches)))
+    _spare_batches[id(model)] = (model, b)  # the model is held, so its id is not reused meanwhile
+
+
+def _threads_allowed() -> int:
+    return _threads or os.cpu_count() or 1
+
+
+def _chunk_sizes(steps: int) -> list[int]:
+    """Halving chunks (half the run, a quarter, ...) down to at most 2·_MIN_CHUNK steps. A forward costs
+    about a quarter of an RK4 step, so a chunk's recomputation ends while the next, half as long,
+    steps; what is left after the last step is the last chunk's, a few dozen states."""
+    sizes, left = [], steps
+    while left > 2 * _MIN_CHUNK:
+        sizes.append(left - left // 2)
+        left //= 2
+    return [*sizes, left]
+
+
+def _rollout_recomputed(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record, steps: int) -> float:
+    """States 1..steps and the fields after mj_forward at every state 0..steps (RK4), into ``rec``;
+    returns the seconds spent waiting for recomputation after the last step. With a second thread,
+    chunk i's states are recomputed while chunk i + 1 steps (both calls release the GIL)."""
+    sizes = _chunk_sizes(steps)
+    b = _take_batch(model, data)
+    b.state[0] = rec.states[0]
+    fields = list(rec.fields)
+    if _threads_allowed() < 2 or len(sizes) < 2:
+        _step(b, steps, [_STATE], rec.out(0, steps, fields_at=-1))
+        _give_back_batch(model, b)
+        clock = time.perf_counter()
+        _forward_all(model, data, rec.states, fields, into=rec.fields)
+        return time.perf_counter() - clock
+    from concurrent.futures import ThreadPoolExecutor
+
+    def recompute(start: int, stop: int) -> None:  # states start..stop−1, on the other thread
+        _forward_all(model, helper, rec.states[start:stop], fields, threads=1,
+                     into={f: v[start:stop] for f, v in rec.fields.items()})
+
+    bounds = np.cumsum([0, *sizes])
+    helper = _take_data(model, spare=True)  # the other thread's template: not the rollout's own
+    try:
+        with ThreadPoolExecutor(max_workers=1) as pool:
+            pending = []
+            for start, stop in itertools.pairwise(bounds):
+                _step(b, int(stop - start), [_STATE], rec.out(int(start), int(stop), fields_at=-1))
+                pending.append(pool.submit(recompute, int(start), int(stop)))
+            _give_back_batch(model, b)
+            pending.append(pool.submit(recompute, steps, steps + 1))
+            clock = time.perf_counter()
+            for f in pending:
+                f.result()
+            return time.perf_counter() - clock
+    finally:
+        _give_back_data(model, helper, spare=True)
 
 
 def _record_batch(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps: int,
                   timings: dict[str, float]) -> _Run | None:
     """The batch recorder; None where a check sends the run back to the loop."""
-    clock = time.perf_counter()
-    row0 = np.zeros(mujoco.mj_stateSize(model, _STATE))
-    mujoco.mj_getState(model, data, row0, _STATE)
     shifted = integrator_name(model) != "RK4"
-    wanted = probe.fields()
-    states, fields = _rollout(model, data, row0, steps, wanted if shifted else ())
-    timings["rollout"] = time.perf_counter() - clock
+    rec = _Record.take(model, data, steps, recorded_fields(model, probe))
+    try:
+        return _record_into(model, probe, data, steps, rec, shifted, timings)
+    finally:
+        rec.give_back(model)
+
+
+def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps: int, rec: _Record,
+                 shifted: bool, timings: dict[str, float]) -> _Run | None:
+    """:func:`_record_batch` with its scratch arrays."""
     clock = time.perf_counter()
+    mujoco.mj_getState(model, data, rec.states[0], _STATE)
+    waited = 0.0
+    if shifted:
+        _rollout(model, data, rec, steps)
+    else:
+        waited = _rollout_recomputed(model, data, rec, steps)
+    timings["rollout"] = time.perf_counter() - clock - waited
+    clock = time.perf_counter()
+    states, fields = rec.states, rec.fields
     # the last state, which no step follows, gets the checks mj_step would make (as in the loop)
     mujoco.mj_setState(model, data, states[-1], _STATE)
     _checked_forward(model, data)
     _check_warnings(data.warning.number, float(states[-1, 0]))
     if shifted:  # fields of states 0..steps−1 from the rollout, the last state's from that forward
-        last = _fields_of(data, wanted)
-        fields = {f: np.concatenate([fields[f], last[f]]) for f in wanted}
-    else:
-        fields = _forward_all(model, data, states, wanted)
-    timings["forward"] = time.perf_counter() - clock
+        for f, v in fields.items():
+            v[-1] = getattr(data, f)
+    timings["forward"] = time.perf_counter() - clock + waited
     clock = time.perf_counter()
-    finite = np.isfinite(states).all(axis=1) & np.isfinite(fields["qacc"]).all(axis=1)
-    if not finite.all():
-        raise SimulationDiverged(f"non-finite state at t={states[np.argmin(finite), 0]:.6g} s")
+    # a sum is finite only if every term is (MuJoCo's own checks would have warned long before an
+    # overflow); the row-by-row look, only to say where
+    if not np.isfinite(states.sum()):
+        finite = np.isfinite(states).all(axis=1)
+        if not finite.all():
+            raise SimulationDiverged(f"non-finite state at t={states[np.argmin(finite), 0]:.6g} s")
     run = _assemble(model, probe, states, fields)
     timings["assemble"] = time.perf_counter() - clock
     clock = time.perf_counter()
@@ -487,20 +646,19 @@ def _velocity_chain(model: mujoco.MjModel, body: int) -> list[int]:
 
 def _point_velocity(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], qvel: np.ndarray,
                     body: int) -> np.ndarray:
-    """J·qvel at xipos, J assembled as mj_jac does (cdof_lin + cdof_ang × (xipos − subtree_com[root]))
-    and multiplied as point_state does (numpy matmul), so the result is point_state's, bit for bit."""
-    n = len(qvel)
-    offset = fields["xipos"][:, body] - fields["subtree_com"][:, model.body_rootid[body]]
-    jac = np.zeros((n, 3, model.nv))
-    cdof = fields["cdof"]
-    o0, o1, o2 = offset[:, 0], offset[:, 1], offset[:, 2]
-    for i in _velocity_chain(model, body):
-        a0, a1, a2 = cdof[:, i, 0], cdof[:, i, 1], cdof[:, i, 2]
-        jac[:, 0, i] = cdof[:, i, 3] + (a1 * o2 - a2 * o1)
-        jac[:, 1, i] = cdof[:, i, 4] + (a2 * o0 - a0 * o2)
-        jac[:, 2, i] = cdof[:, i, 5] + (a0 * o1 - a1 * o0)
-    # the same matmul as point_state's jacp @ qvel (a BLAS gemv per sample, fused multiply-adds included)
-    return np.matmul(jac, qvel[:, :, None])[..., 0]
+    """J·qvel at xipos for every sample, J's columns assembled as mj_jac does
+    (cdof_lin + cdof_ang × (xipos − subtree_com[root])) and summed in dof order as point_state does
+    (the dofs outside the chain add exact zeros there), so the result is point_state's, bit for bit."""
+    rows = np.ascontiguousarray  # samples contiguous per component: fast elementwise operations
+    o0, o1, o2 = rows((fields["xipos"][:, body] - fields["subtree_com"][:, model.body_rootid[body]]).T)
+    velocity = np.zeros((3, len(qvel)))
+    for i in sorted(_velocity_chain(model, body)):
+        a0, a1, a2, l0, l1, l2 = rows(fields["cdof"][:, i].T)
+        q = rows(qvel[:, i])
+        velocity[0] = velocity[0] + (l0 + (a1 * o2 - a2 * o1)) * q
+        velocity[1] = velocity[1] + (l1 + (a2 * o0 - a0 * o2)) * q
+        velocity[2] = velocity[2] + (l2 + (a0 * o1 - a1 * o0)) * q
+    return rows(velocity.T)
 
 
 @dataclass(frozen=True)
@@ -569,7 +727,7 @@ def _assemble(model: mujoco.MjModel, probe: Probe, states: np.ndarray, fields: d
         positions[p] = fields["xipos"][:, bid].copy()
         velocities[p] = _point_velocity(model, fields, qvel, bid)
     energy = fields["energy"][:, 0] + fields["energy"][:, 1]
-    qfrc = np.ascontiguousarray(fields["qfrc_constraint"])
+    qfrc = np.array(fields["qfrc_constraint"])  # fields are the recorder's scratch space
     lam, viol = {}, {}
     recoverable = _joint_equalities(model, probe.constraints)
     if recoverable:
@@ -601,7 +759,7 @@ def _read_at_states(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, ru
 def _verify(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run) -> list[str]:
     """What differs from a fresh mj_forward at a few samples (bit for bit); empty when nothing does."""
     n = len(run.states)
-    samples = sorted({0, n - 1})  # a shifted record, and the last state's own forward
+    samples = [n // 2]  # a shifted (or recomputed) record, one of a chunk's inside for RK4
     bad: list[str] = []
     for k in samples:
         _forward_at(model, data, run.states[k])
@@ -616,7 +774,7 @@ def _verify(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run)
         if not np.array_equal(data.qfrc_constraint, run.qfrc[k]):
             bad.append("qfrc_constraint")
         for f, values in run.fields.items():
-            if f not in FIELDS and not np.array_equal(getattr(data, f), values[k]):
+            if not np.array_equal(getattr(data, f), values[k]):
                 bad.append(f"field {f!r}")
         for c in probe.constraints:
             if equality_force(model, data, c) != (run.lam[c][k], run.viol[c][k]):

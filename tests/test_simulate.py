@@ -153,18 +153,39 @@ def test_a_batch_result_that_differs_from_mj_forward_is_not_used(monkeypatch):
 
 
 @pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo")
-def test_rk4_recomputation_is_the_same_on_any_number_of_threads():
-    model = compile_model(mjcf_path("pendulum"), integrator="RK4")
+@pytest.mark.parametrize("name", ["pendulum", "spherical_pendulum", "hoop_plane"])
+def test_rk4_recomputation_is_the_same_on_any_number_of_threads(name):
+    """One thread: one rollout, then every state recomputed. Two: the rollout in chunks, each chunk
+    recomputed on the other thread while the next steps (1000 steps: several chunks, with readings).
+    Both equal the loop bit for bit."""
+    case, probe, q0, qd0 = _case_probe(name)
+    model = compile_model(mjcf_path(case.mjcf), integrator="RK4")
+    assert len(simmod._chunk_sizes(1000)) > 2
     try:
         simmod.set_threads(1)
-        one = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=600))
+        one = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000))
         simmod.set_threads(2)
-        two = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=600))
+        two = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000))
     finally:
         simmod.set_threads(None)
-    assert all(np.array_equal(one[k], two[k]) for k in one)
+    loop = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000, method="loop"))
+    assert one.keys() == two.keys() == loop.keys()
+    assert [k for k in one if not (np.array_equal(one[k], two[k]) and np.array_equal(one[k], loop[k]))] == []
     with pytest.raises(ValueError, match="thread count"):
         simmod.set_threads(0)
+
+
+@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo")
+@pytest.mark.parametrize("integrator", ["Euler", "RK4"])
+def test_a_trajectory_owns_its_arrays(integrator):
+    """The batch recorder reuses its scratch arrays from run to run: a trajectory must not see the
+    next run's numbers."""
+    case, probe, q0, qd0 = _case_probe("spherical_pendulum")
+    model = compile_model(mjcf_path(case.mjcf), integrator=integrator)
+    first = simulate(model, probe, q0=q0, qd0=qd0, steps=300)
+    kept = {k: v.copy() for k, v in _arrays(first).items()}
+    simulate(model, probe, q0=[0.5, 1.0], qd0=[1.0, -3.0], steps=300)
+    assert [k for k, v in _arrays(first).items() if not np.array_equal(v, kept[k])] == []
 
 
 def test_without_mujoco_batch_the_loop_records_and_says_so(monkeypatch):
@@ -206,6 +227,19 @@ def test_divergence_is_reported_not_returned(integrator, method):
     with pytest.raises(SimulationDiverged, match=r"at t=") as info:
         simulate(model, PROBE, q0=Q0, qd0=QD0, steps=2000, method=method)
     assert "\n" not in str(info.value)
+
+
+@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo")
+@pytest.mark.parametrize("integrator", ["Euler", "RK4"])
+def test_a_diverged_run_leaves_nothing_to_the_next(integrator):
+    """The batch recorder reuses its batch and scratch arrays: after a run that diverged (a MuJoCo
+    warning), the next run of the same model is still the loop's, bit for bit."""
+    model = compile_model(mjcf_path("pendulum"), integrator=integrator)
+    with pytest.raises(SimulationDiverged):
+        simulate(model, PROBE, q0=Q0, qd0=[1e11, 0.0], steps=600)
+    batch = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=600))
+    loop = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=600, method="loop"))
+    assert [k for k in loop if not np.array_equal(batch[k], loop[k])] == []
 
 
 @pytest.mark.parametrize("method", METHODS)
