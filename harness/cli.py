@@ -54,12 +54,16 @@ def _selected(args: argparse.Namespace) -> tuple[cases.Case, ...]:
 
 
 def _run_all(selected: Sequence[cases.Case], config_path: Path | None, mjcf: Path | None = None, *,
-             jobs: int | None = None):
+             jobs: int | None = None, figures_only: bool = False):
     """run_case for each case, then its verdict; (results, checks by case, config).
 
     ``jobs`` worker processes (default: one per CPU) share the cases; every
     case is computed by the same code from the same inputs wherever it runs, so
     the results are those of a serial run, in registry order, for any ``jobs``.
+    ``figures_only``: the caller reads figures and settings alone (``check``,
+    ``baseline``), so workers send back no trajectories (several MB a case,
+    which the parent would unpickle while the workers wait on the pipe) and no
+    reference solutions (for studies).
     """
     from harness import pipeline
 
@@ -72,7 +76,7 @@ def _run_all(selected: Sequence[cases.Case], config_path: Path | None, mjcf: Pat
             bar.set_postfix_str(case.name)
             results.append(pipeline.run_case(case, mjcf=mjcf) if mjcf is not None else pipeline.run_case(case))
     else:
-        results = _run_parallel(selected, workers, bar)
+        results = _run_parallel(selected, workers, bar, figures_only=figures_only)
     bar.close()
     checks = {r.case.name: verdict(r.case.name, r.figures, config.for_case(r.case.name)) for r in results}
     return results, checks, config
@@ -110,9 +114,10 @@ def _worker_init() -> None:
     simulate.set_threads(1)  # one worker per CPU: the workers, not MuJoCo's threads, share the cores
 
 
-def _run_group(names: Sequence[str]):
+def _run_group(names: Sequence[str], figures_only: bool):
     """A group's cases in a worker, in order, until one fails: per case (its result without the
-    unpicklable Case, or its error), then the references this worker solved."""
+    unpicklable Case, or its error), then the references this worker solved (none if
+    ``figures_only``, when the results carry no trajectories either)."""
     import dataclasses
 
     from harness import pipeline
@@ -125,11 +130,13 @@ def _run_group(names: Sequence[str]):
         except Exception as exc:  # returned, raised by the parent in registry order
             outcomes.append((None, exc))
             break
+        if figures_only:
+            result = dataclasses.replace(result, reference=None, simulations={})
         outcomes.append((dataclasses.replace(result, case=None), None))
-    return outcomes, refmod.export_solutions()
+    return outcomes, ({} if figures_only else refmod.export_solutions())
 
 
-def _run_parallel(selected: Sequence[cases.Case], workers: int, bar) -> list:
+def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_only: bool) -> list:
     """run_case on a process pool; results in registry order. A case's error is raised once every
     case before it in the registry has finished, as a serial run would raise it."""
     import dataclasses
@@ -145,7 +152,7 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar) -> list:
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_worker_init)
     outcomes: dict[int, tuple] = {}
     try:
-        futures = {pool.submit(_run_group, [selected[i].name for i in group]): group
+        futures = {pool.submit(_run_group, [selected[i].name for i in group], figures_only): group
                    for group in _groups(selected)}
         next_in_order = 0
         for future in as_completed(futures):
@@ -305,7 +312,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     from harness.report import dumps, json_doc
 
     _check_junit(args.junit)
-    results, checks, _ = _run_all(_selected(args), args.config, args.mjcf, jobs=args.jobs)
+    results, checks, _ = _run_all(_selected(args), args.config, args.mjcf, jobs=args.jobs, figures_only=True)
     _write_junit(args.junit, checks)
     if args.json:
         sys.stdout.write(dumps(json_doc(results, checks)))
@@ -346,7 +353,7 @@ def cmd_baseline(args: argparse.Namespace) -> int:
     if args.write is not None:
         check_output(args.write.parent)
         old = load_run(args.write) if args.write.exists() and (args.cases or args.case) else None
-        results, checks, _ = _run_all(selected, args.config, jobs=args.jobs)
+        results, checks, _ = _run_all(selected, args.config, jobs=args.jobs, figures_only=True)
         failing = [c for cs in checks.values() for c in cs if not c.passed]
         if failing:
             print(_table(checks))
@@ -362,7 +369,7 @@ def cmd_baseline(args: argparse.Namespace) -> int:
     mismatch = baseline.version_mismatch(reference, source=str(args.compare))
     if mismatch:  # a baseline is per MuJoCo version: refuse before any work
         raise ValueError(mismatch)
-    results, checks, config = _run_all(selected, args.config, jobs=args.jobs)
+    results, checks, config = _run_all(selected, args.config, jobs=args.jobs, figures_only=True)
     findings = [f for r in results for f in baseline.compare(
         reference, r.case.name, r.figures, config.for_case(r.case.name), source=str(args.compare))]
     for f in findings:

@@ -66,11 +66,9 @@ def equations(derivation: Derivation) -> list[Equation]:
 
 def png_data_uri(latex: str, *, fontsize: float = 13.0) -> str | None:
     """The formula as a PNG data URI, or None if mathtext cannot typeset it."""
-    import matplotlib
+    from harness.plotting import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig = plt.figure(figsize=(0.01, 0.01))
     fig.text(0, 0, f"${latex}$", fontsize=fontsize)
     buf = io.BytesIO()

@@ -30,11 +30,12 @@ from harness.trajectory import Trajectory
 
 @dataclass(frozen=True)
 class CaseResult:
-    """Everything one case produced: figures, trajectories and the settings used."""
+    """Everything one case produced: figures, trajectories and the settings used (``reference`` None
+    and ``simulations`` empty where a parallel run sent back figures only: ``check``, ``baseline``)."""
 
     case: Case
     figures: tuple[Figure, ...]
-    reference: Trajectory
+    reference: Trajectory | None
     simulations: dict[str, Trajectory]
     settings: dict[str, object]
     timings: dict[str, float] = field(default_factory=dict)

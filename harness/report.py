@@ -27,38 +27,35 @@ from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import mujoco
 import numpy as np
 
 from harness import __version__
 from harness.compare import error_series
 from harness.pipeline import CaseResult
+from harness.plotting import pyplot
 from harness.render import Still
 from harness.verdict import Check
-
-plt.rcParams.update({"figure.dpi": 90, "font.size": 9, "svg.hashsalt": "mjharness"})
 
 SCHEMA = 1  # of report.json; bumped when a consumer (``mjharness diff``) must change
 
 
 def versions() -> dict[str, str]:
+    from importlib.metadata import version
+
     import scipy
     import sympy
 
     return {"mjharness": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
             "scipy": scipy.__version__, "sympy": sympy.__version__,
-            "matplotlib": matplotlib.__version__, "python": platform.python_version()}
+            "matplotlib": version("matplotlib"), "python": platform.python_version()}
 
 
 # ----------------------------------------------------------------- plots
-def _png(fig: plt.Figure) -> str:
+def _png(fig) -> str:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", metadata={"Software": None}, bbox_inches="tight")
-    plt.close(fig)
+    pyplot().close(fig)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
@@ -70,7 +67,7 @@ def _shipped(result: CaseResult) -> str:
 def plot_overlay(result: CaseResult) -> str:
     """World coordinates of each point: reference (line) vs MuJoCo's shipped integrator (dashed)."""
     ref, sim = result.reference, result.simulations[_shipped(result)]
-    fig, ax = plt.subplots(figsize=(6.4, 3.0))
+    fig, ax = pyplot().subplots(figsize=(6.4, 3.0))
     for p in ref.positions:
         for k, axis in enumerate("xyz"):
             if np.ptp(ref.positions[p][:, k]) < 1e-9:
@@ -84,7 +81,7 @@ def plot_overlay(result: CaseResult) -> str:
 
 def plot_errors(result: CaseResult) -> str:
     """Position error vs time for every integrator (log scale)."""
-    fig, ax = plt.subplots(figsize=(6.4, 3.0))
+    fig, ax = pyplot().subplots(figsize=(6.4, 3.0))
     for name, sim in result.simulations.items():
         err = error_series(result.reference, sim)["position"]
         ax.semilogy(sim.t[1:], np.maximum(err[1:], 1e-16), lw=1, label=name)
@@ -99,7 +96,7 @@ def plot_forces(result: CaseResult) -> str | None:
     names = [c for c in ref.multipliers if c in sim.multipliers]
     if not names:
         return None
-    fig, axes = plt.subplots(2, 1, figsize=(6.4, 4.2), sharex=True, layout="constrained")
+    fig, axes = pyplot().subplots(2, 1, figsize=(6.4, 4.2), sharex=True, layout="constrained")
     for c in names:
         axes[0].plot(ref.t, ref.multipliers[c], lw=1.5, label=f"λ_{c} reference")
         axes[0].plot(sim.t, sim.multipliers[c], "--", lw=1, label=f"{c} MuJoCo ({sim.source})")
@@ -114,7 +111,7 @@ def plot_forces(result: CaseResult) -> str | None:
 def plot_invariants(result: CaseResult) -> str:
     """Drift of each invariant of MuJoCo's own state, per integrator (|I(t) − I(0)|, log)."""
     names = list(result.reference.invariants)
-    fig, axes = plt.subplots(len(names), 1, figsize=(6.4, 2.6 * len(names)), squeeze=False,
+    fig, axes = pyplot().subplots(len(names), 1, figsize=(6.4, 2.6 * len(names)), squeeze=False,
                              layout="constrained")
     for ax, inv in zip(axes[:, 0], names, strict=True):
         for name, sim in result.simulations.items():

@@ -183,3 +183,23 @@ def test_jobs_must_be_a_positive_integer(value, capsys):
         cli.main(["check", "spring", "--jobs", value])
     assert info.value.code == 2
     assert "must be a positive integer" in capsys.readouterr().err
+
+
+def test_figures_only_workers_send_no_trajectories_and_the_same_figures():
+    """check and baseline read figures and settings only: their workers send no trajectories back
+    (megabytes a case), and the figures are those of a run that kept them."""
+    selected = cases.select(["spring", "atwood"])
+    light, _, _ = cli._run_all(selected, None, jobs=2, figures_only=True)
+    full, _, _ = cli._run_all(selected, None, jobs=2)
+    assert all(r.reference is None and r.simulations == {} for r in light)
+    assert all(r.reference is not None and r.simulations for r in full)
+    assert [r.figures for r in light] == [r.figures for r in full]
+
+
+def test_check_draws_nothing_and_never_imports_matplotlib():
+    """matplotlib is imported on first plot (harness.plotting): a check, which draws nothing, does not
+    pay for it."""
+    code = ("import sys; from harness import cli; code = cli.main(['check', 'spring', '--jobs', '1']); "
+            "print('matplotlib' in sys.modules, code)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert proc.stdout.strip().splitlines()[-1] == "False 0", proc.stderr

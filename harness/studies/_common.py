@@ -1,7 +1,8 @@
 """Shared helpers of the studies: PNG plots, aligned text tables, HTML tables.
 
-Plots are rendered with matplotlib's Agg backend to PNG bytes with no
-timestamp, so the same study gives byte-identical images.
+Plots are rendered with matplotlib's Agg backend (``harness.plotting``,
+imported on first use) to PNG bytes with no timestamp, so the same study
+gives byte-identical images.
 """
 
 from __future__ import annotations
@@ -12,17 +13,14 @@ import io
 import math
 from collections.abc import Sequence
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+from harness.plotting import pyplot
 
 
-def png_bytes(fig: plt.Figure) -> bytes:
+def png_bytes(fig) -> bytes:
     """Render and close ``fig``; PNG bytes without the Software/time metadata."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=90, metadata={"Software": None}, bbox_inches="tight")
-    plt.close(fig)
+    pyplot().close(fig)
     return buf.getvalue()
 
 

@@ -32,6 +32,7 @@ from harness import reference as refmod
 from harness.compare import series_figures, trajectory_figures
 from harness.models import compile_model, mjcf_path
 from harness.pipeline import probe_for
+from harness.plotting import pyplot
 from harness.simulate import integrator_name, simulate
 from harness.studies._common import png_bytes
 
@@ -63,7 +64,7 @@ class StudyResult:
 
     def plot_png(self) -> bytes:
         """Steady slip, worst force error and position error per setting, as PNG bytes."""
-        import matplotlib.pyplot as plt  # Agg, selected by harness.studies._common
+        plt = pyplot()
         from matplotlib.patches import Patch
 
         labels = [f"{r['cone'][0].upper()} i{r['impratio']:g} n{r['noslip_iterations']}\n{r['softness']}"

@@ -60,6 +60,7 @@ from harness import reference as refmod
 from harness.cases import Case
 from harness.figures import Figure
 from harness.models import compile_model, mjcf_path
+from harness.plotting import pyplot
 from harness.simulate import SimulationDiverged, available_integrators, simulate
 from harness.studies._common import fmt, html_table, png_bytes, png_data_uri, text_table
 from harness.trajectory import Trajectory
@@ -456,7 +457,7 @@ def text(study: ConvergenceStudy) -> str:
 def plot_study(study: ConvergenceStudy) -> bytes:
     """Log-log error vs h: the gated series per integrator (filled: fitted), the as-authored
     series for constrained cases (dashed), fitted lines and detected floors."""
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]

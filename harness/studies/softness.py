@@ -39,6 +39,7 @@ import numpy as np
 from harness import reference as refmod
 from harness.cases import Case
 from harness.models import compile_model, mjcf_path
+from harness.plotting import pyplot
 from harness.simulate import integrator_name, simulate
 from harness.studies._common import case_dynamics, fmt, html_table, png_bytes, png_data_uri, text_table
 from harness.studies.convergence import initial_force_floor
@@ -226,7 +227,7 @@ def text(study: SoftnessStudy) -> str:
 def plot_softness(study: SoftnessStudy) -> bytes:
     """Violation and force error at t = 0 vs 1 − d, one colour per timeconst; markers measured,
     lines documented."""
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, axes = plt.subplots(1, 2, figsize=(8.8, 3.4))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]

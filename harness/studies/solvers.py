@@ -25,6 +25,7 @@ from harness import reference as refmod
 from harness.cases import Case
 from harness.compat import SOLVER_ITERATIONS
 from harness.models import compile_model, mjcf_path
+from harness.plotting import pyplot
 from harness.simulate import integrator_name, simulate
 from harness.studies._common import case_dynamics, fmt, html_table, png_bytes, png_data_uri, text_table
 
@@ -133,7 +134,7 @@ def text(study: SolverStudy) -> str:
 
 
 def _plot(study: SolverStudy, series: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]) -> bytes:
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, axes = plt.subplots(2, 1, figsize=(6.4, 4.4), sharex=True)
     for name, (t, force, iters) in series.items():
