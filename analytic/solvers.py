@@ -82,7 +82,7 @@ def solve(
     if not 0 < rtol <= 1e-6:
         raise ValueError(f"rtol must be in (0, 1e-6], got {rtol}")
     _check_consistent(dynamics, q0, qd0)
-    from scipy.integrate import solve_ivp  # here, not at import: scipy.integrate takes 0.2 s to load
+    solve_ivp = integrator()
 
     omega = float(stabilization_rate)
     stab = (2.0 * omega, omega * omega)
@@ -98,6 +98,15 @@ def solve(
         raise RuntimeError(f"reference solver failed: {result.message}")
     return Solution(dynamics=dynamics, t_end=float(t_end), rtol=rtol, nfev=int(result.nfev),
                     _dense=result.sol)
+
+
+def integrator():
+    """scipy's ``solve_ivp``, imported on first use: scipy.integrate takes 0.2 s to load, which
+    commands that solve nothing (``list``, ``diff``) should not pay; a process pool loads it before
+    forking its workers, once rather than in every worker side by side."""
+    from scipy.integrate import solve_ivp
+
+    return solve_ivp
 
 
 def _check_consistent(dynamics: Dynamics, q0: Array, qd0: Array, tol: float = 1e-9) -> None:

@@ -55,6 +55,12 @@ class Case:
         settle: seconds after which force figures are taken. A soft contact
             builds its force from slip or penetration, so at t = 0 it has none
             of its own; 0 (compare from the start) for equalities.
+        cost: seconds a cold ``mjharness check`` of this case alone takes
+            (empty derivation cache; measured with benchmarks/bench.py, part
+            5, on the 2-core CI machine; a further case of the same system
+            reuses its derivation and reference). Only orders a process
+            pool's work, costliest first so that the cheapest fill the end;
+            results never depend on it.
     """
 
     name: str
@@ -70,6 +76,7 @@ class Case:
     mujoco_forces: Mapping[str, Reading] = field(default_factory=dict)
     mujoco_series: Mapping[str, Series] = field(default_factory=dict)
     settle: float = 0.0
+    cost: float = 0.5
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "system", self.system or self.name)
@@ -78,6 +85,8 @@ class Case:
             raise ValueError(f"case {self.name!r}: q0 and qd0 must name the same coordinates")
         if not self.horizon > 0:
             raise ValueError(f"case {self.name!r}: horizon must be positive, got {self.horizon}")
+        if not self.cost > 0:
+            raise ValueError(f"case {self.name!r}: cost must be positive, got {self.cost}")
         if not 0 <= self.settle < self.horizon:
             raise ValueError(f"case {self.name!r}: settle must be in [0, horizon), got {self.settle}")
 
@@ -90,6 +99,7 @@ CASES: tuple[Case, ...] = (
         qd0={"theta": 0.5, "r": 0.0},
         horizon=5.0,
         tags=frozenset({"fast", "ci", "constrained"}),
+        cost=1.1,
     ),
     Case(
         name="spherical_pendulum",
@@ -98,6 +108,7 @@ CASES: tuple[Case, ...] = (
         qd0={"theta": 0.0, "phi": 2.0},  # conical orbit at θ = 1 needs φ̇ = √(g/(l cos θ)) = 4.26 rad/s
         horizon=5.0,
         tags=frozenset({"fast", "ci"}),
+        cost=0.75,
         mujoco_invariants={"p_phi": axial_angular_momentum(body="bob", site="pivot")},
     ),
     Case(
@@ -109,6 +120,7 @@ CASES: tuple[Case, ...] = (
         qd0={"theta": 0.0, "phi": 2.0},
         horizon=5.0,
         tags=frozenset({"fast", "ci"}),
+        cost=0.15,
         binding=BallBinding,
         mujoco_invariants={"p_phi": axial_angular_momentum(body="bob", site="pivot")},
     ),
@@ -119,6 +131,7 @@ CASES: tuple[Case, ...] = (
         qd0={"x": 1.0},
         horizon=5.0,
         tags=frozenset({"fast", "ci"}),
+        cost=0.25,
     ),
     Case(
         name="atwood",
@@ -127,6 +140,7 @@ CASES: tuple[Case, ...] = (
         qd0={"z1": 0.0, "z2": 0.0, "theta": 0.0},  # from rest: consistent for any radius a
         horizon=1.5,
         tags=frozenset({"fast", "ci", "constrained"}),
+        cost=0.35,
     ),
     Case(
         name="hoop_ramp",
@@ -136,6 +150,7 @@ CASES: tuple[Case, ...] = (
         qd0={"x": 0.5, "s": 0.0, "phi": 2.0},  # rolling: ẋ = a φ̇ with a = 0.25 m
         horizon=2.0,
         tags=frozenset({"fast", "ci", "constrained"}),
+        cost=0.75,
     ),
     Case(
         name="hoop_ramp_contact",
@@ -145,6 +160,7 @@ CASES: tuple[Case, ...] = (
         qd0={"x": 0.5, "s": 0.0, "phi": 2.0},
         horizon=2.0,
         tags=frozenset({"fast", "ci", "constrained", "contact"}),
+        cost=0.2,
         mujoco_forces={"roll": slide_force(geom="rim", joint="x"),
                        "normal": slide_force(geom="rim", joint="s")},
         mujoco_series={
@@ -166,6 +182,7 @@ CASES: tuple[Case, ...] = (
         qd0={"x": 1.0, "y": 0.0, "z": 0.0, "theta": 1.0, "phi": 2.0},
         horizon=2.0,
         tags=frozenset({"fast", "ci", "constrained", "contact"}),
+        cost=0.8,
         mujoco_forces={"roll_x": slide_force(geom="rim", joint="x"),
                        "roll_y": slide_force(geom="rim", joint="y"),
                        "normal": slide_force(geom="rim", joint="z")},

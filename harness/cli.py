@@ -89,20 +89,13 @@ def _cpus() -> int:
         return os.cpu_count() or 1
 
 
-def _cost(case: cases.Case) -> float:
-    """A rough relative cost, to start the longest work first: horizon, and the Python readings
-    that run per sample."""
-    readings = len(case.mujoco_invariants) + len(case.mujoco_forces) + len(case.mujoco_series)
-    return case.horizon * (1.0 + 2.0 * readings)
-
-
 def _groups(selected: Sequence[cases.Case]) -> list[list[int]]:
     """Indices of the selected cases by system, each group in registry order, costliest group first.
     A system's cases run in one worker, so that its derivation, dynamics and reference are made once."""
     by_system: dict[str, list[int]] = {}
     for i, case in enumerate(selected):
         by_system.setdefault(case.system, []).append(i)
-    return sorted(by_system.values(), key=lambda group: -sum(_cost(selected[i]) for i in group))
+    return sorted(by_system.values(), key=lambda group: -sum(selected[i].cost for i in group))
 
 
 def _worker_init() -> None:
@@ -143,9 +136,12 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
+    from analytic import solvers
     from harness import pipeline  # noqa: F401  imported once here, not once per worker
     from harness import reference as refmod
     from harness.studies import convergence  # noqa: F401  (run_case imports it)
+
+    solvers.integrator()  # every worker solves references: load scipy.integrate once, before the fork
 
     # fork: the workers start with this process's imports (spawn re-imports them, about 1 s each)
     context = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else None)

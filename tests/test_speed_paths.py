@@ -203,3 +203,16 @@ def test_check_draws_nothing_and_never_imports_matplotlib():
             "print('matplotlib' in sys.modules, code)")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert proc.stdout.strip().splitlines()[-1] == "False 0", proc.stderr
+
+
+def test_the_pool_starts_the_costliest_systems_first():
+    """Groups are a system's cases (derivation and reference made once), ordered by their summed cost
+    hint, so the cheapest fill the end; a case's cost must be positive."""
+    selected = cases.CASES
+    groups = cli._groups(selected)
+    assert sorted(i for g in groups for i in g) == list(range(len(selected)))
+    assert all(len({selected[i].system for i in g}) == 1 for g in groups)
+    totals = [sum(selected[i].cost for i in g) for g in groups]
+    assert totals == sorted(totals, reverse=True)
+    with pytest.raises(ValueError, match="cost must be positive"):
+        cases.Case(name="x", description="", q0={"x": 0.0}, qd0={"x": 0.0}, horizon=1.0, cost=0.0)
