@@ -247,13 +247,21 @@ def command_lines(run_report: bool, repeat: int) -> None:
         print(f"   TARGET 4b: full report with studies, cold start = {elapsed:.1f} s (target <= 120 s)")
 
 
+def _timed_study(kind: str, name: str):
+    """cli._study, with its duration (module-level: the pool's forked workers run it)."""
+    from harness import cli
+
+    start = time.perf_counter()
+    result = cli._study(kind, name)
+    return result, time.perf_counter() - start
+
+
 def report_split(selected) -> None:
     """What ``mjharness run --out DIR`` spends its time on, step by step as cmd_run does it, in this
-    process (derivations already cached by the parts above)."""
-    from harness import audit, cli
+    process (derivations already cached by the parts above), and each study call's own duration."""
+    from harness import cli
+    from harness.pool import run_tasks
     from harness.report import write_report
-    from harness.studies import Studies, convergence, html_section, softness, solvers
-    from harness.studies import contact as contact_study
 
     _clear_process_caches()
     steps: dict[str, float] = {}
@@ -261,33 +269,24 @@ def report_split(selected) -> None:
     results, checks, config = cli._run_all(selected, None)
     steps["cases (run_case, default --jobs)"] = time.perf_counter() - clock
     clock = time.perf_counter()
-    conv = [convergence.convergence_study(c, fast=False) for c in selected]
-    steps["convergence study"] = time.perf_counter() - clock
+    extras, appendix = cli._studies(selected)
+    steps["studies and seed audit (default --jobs)"] = time.perf_counter() - clock
     clock = time.perf_counter()
-    soft = [softness.softness_study(c, fast=False) for c in softness.equality_cases(selected)]
-    steps["softness study"] = time.perf_counter() - clock
-    clock = time.perf_counter()
-    solv = [solvers.solver_study(c, fast=False) for c in solvers.constrained_cases(selected)]
-    steps["solver study"] = time.perf_counter() - clock
-    clock = time.perf_counter()
-    contact = [contact_study.contact_study(c.name) for c in selected if "slip" in c.mujoco_series]
-    steps["contact study"] = time.perf_counter() - clock
-    clock = time.perf_counter()
-    systems = {c.system for c in selected}
-    rows = audit.audit([c for c in audit.all_claims() if c.frame.system in systems])
-    steps["seed audit"] = time.perf_counter() - clock
-    clock = time.perf_counter()
-    extras = [html_section(Studies(convergence=tuple(conv), softness=tuple(soft), solvers=tuple(solv))),
-              contact_study.html_section(contact), audit.html_section(rows)]
     with tempfile.TemporaryDirectory() as out:
-        write_report(out, results, checks, config_source=config.source, extras=[h for h in extras if h],
-                     appendix={"audit": audit.json_rows(rows)})
+        write_report(out, results, checks, config_source=config.source, extras=extras, appendix=appendix)
     steps["report (HTML, JSON, Markdown, plots, stills)"] = time.perf_counter() - clock
     total = sum(steps.values())
     print(f"\n== 4b. Where the full report's time goes (in this process, {_load()}), seconds")
     for name, seconds in steps.items():
         print(f"   {name:46s} {seconds:7.2f}  {seconds / total:4.0%}")
     print(f"   {'total':46s} {total:7.2f}")
+    calls = cli._study_calls(selected)
+    timed = run_tasks([(_timed_study, call) for call in calls], cli._cpus())
+    kinds: dict[str, float] = {}
+    for (kind, _), (_, seconds) in zip(calls, timed, strict=True):
+        kinds[kind] = kinds.get(kind, 0.0) + seconds
+    print(f"   study calls ({len(calls)}), their own seconds summed by kind (on {cli._cpus()} workers): "
+          + ", ".join(f"{k} {v:.2f}" for k, v in kinds.items()))
 
 
 def main(argv: list[str] | None = None) -> int:

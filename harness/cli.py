@@ -14,7 +14,6 @@ and a ``cmd_NAME(args) -> int`` doing the work.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -83,10 +82,9 @@ def _run_all(selected: Sequence[cases.Case], config_path: Path | None, mjcf: Pat
 
 
 def _cpus() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
+    from harness.pool import cpus
+
+    return cpus()
 
 
 def _groups(selected: Sequence[cases.Case]) -> list[list[int]]:
@@ -96,15 +94,6 @@ def _groups(selected: Sequence[cases.Case]) -> list[list[int]]:
     for i, case in enumerate(selected):
         by_system.setdefault(case.system, []).append(i)
     return sorted(by_system.values(), key=lambda group: -sum(selected[i].cost for i in group))
-
-
-def _worker_init() -> None:
-    import signal
-
-    from harness import simulate
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops the workers
-    simulate.set_threads(1)  # one worker per CPU: the workers, not MuJoCo's threads, share the cores
 
 
 def _run_group(names: Sequence[str], figures_only: bool):
@@ -130,24 +119,21 @@ def _run_group(names: Sequence[str], figures_only: bool):
 
 
 def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_only: bool) -> list:
-    """run_case on a process pool; results in registry order. A case's error is raised once every
-    case before it in the registry has finished, as a serial run would raise it."""
+    """run_case on a process pool, a system's cases in one worker; results in registry order. A
+    case's error is raised once every case before it in the registry has finished, as a serial run
+    would raise it."""
     import dataclasses
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import as_completed
 
     from analytic import solvers
     from harness import pipeline  # noqa: F401  imported once here, not once per worker
     from harness import reference as refmod
+    from harness.pool import fork_pool
     from harness.studies import convergence  # noqa: F401  (run_case imports it)
 
     solvers.integrator()  # every worker solves references: load scipy.integrate once, before the fork
-
-    # fork: the workers start with this process's imports (spawn re-imports them, about 1 s each)
-    context = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else None)
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_worker_init)
     outcomes: dict[int, tuple] = {}
-    try:
+    with fork_pool(workers) as pool:
         futures = {pool.submit(_run_group, [selected[i].name for i in group], figures_only): group
                    for group in _groups(selected)}
         next_in_order = 0
@@ -163,12 +149,6 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_
                 if error is not None:
                     raise error
                 next_in_order += 1
-    except BaseException:  # a case failed, or an interrupt: stop the others now, not after their cases
-        for process in list(getattr(pool, "_processes", {}).values()):
-            process.terminate()
-        pool.shutdown(wait=False, cancel_futures=True)
-        raise
-    pool.shutdown()
     return [dataclasses.replace(outcomes[i][0], case=case) for i, case in enumerate(selected)]
 
 
@@ -264,16 +244,80 @@ def _args_run(p: argparse.ArgumentParser) -> None:
     _add_junit(p)
 
 
-def _studies(selected: Sequence[cases.Case]) -> tuple[list[str], dict[str, object]]:
-    """Layer 4 and the seed audit for the report: HTML sections and their JSON entries."""
+def _study_calls(selected: Sequence[cases.Case]) -> list[tuple[str, str]]:
+    """Layer 4 and the seed audit as (kind, name) calls, the costliest kinds first (measured: a seed
+    audit of a system 0.3-1.5 s, a convergence study 0.3-1.5 s, the rest 0.2-1 s)."""
     from harness import audit
-    from harness.studies import contact as contact_study
-    from harness.studies import html_section, run_studies
+    from harness.studies import softness, solvers
 
-    studies = run_studies(selected, fast=False, with_softness=True, with_solvers=True, progress=True)
-    contact = [contact_study.contact_study(c.name) for c in selected if "slip" in c.mujoco_series]
-    systems = {c.system for c in selected}
-    rows = audit.audit([c for c in audit.all_claims() if c.frame.system in systems])
+    systems = list(dict.fromkeys(c.system for c in selected))
+    claimed = {c.frame.system for c in audit.all_claims()}
+    return ([("audit", s) for s in systems if s in claimed]
+            + [("convergence", c.name) for c in selected]
+            + [("softness", c.name) for c in softness.equality_cases(selected)]
+            + [("solvers", c.name) for c in solvers.constrained_cases(selected)]
+            + [("contact", c.name) for c in selected if "slip" in c.mujoco_series])
+
+
+def _study(kind: str, name: str):
+    """One call of :func:`_study_calls` (module-level: a worker runs it). An audit's rows come back
+    without their claims, which hold closures; the parent puts them back."""
+    import dataclasses
+
+    from harness import audit
+    from harness.studies import contact, convergence, softness, solvers
+
+    if kind == "audit":
+        return [dataclasses.replace(row, claim=None)
+                for row in audit.audit([c for c in audit.all_claims() if c.frame.system == name])]
+    case = cases.get(name)
+    study = {"convergence": lambda: convergence.convergence_study(case, fast=False),
+             "softness": lambda: softness.softness_study(case, fast=False),
+             "solvers": lambda: solvers.solver_study(case, fast=False),
+             "contact": lambda: contact.contact_study(name)}[kind]
+    return study()
+
+
+def _studies(selected: Sequence[cases.Case], *, jobs: int | None = None) -> tuple[list[str], dict[str, object]]:
+    """Layer 4 and the seed audit for the report: HTML sections and their JSON entries. With more
+    than one worker the calls share a process pool forked now, so the workers hold the references
+    the cases solved; the results are those of a serial run, in the same order."""
+    import dataclasses
+
+    from harness import audit
+    from harness.studies import Studies, html_section
+    from harness.studies import contact as contact_study
+
+    start = time.perf_counter()
+    calls = _study_calls(selected)
+    workers = min(jobs or _cpus(), len(calls))
+
+    def note(i: int, _result: object) -> None:
+        print(f"study {calls[i][0]} {calls[i][1]} done", file=sys.stderr, flush=True)
+
+    if workers > 1:
+        from harness.pool import run_tasks
+
+        results = run_tasks([(_study, call) for call in calls], workers, on_done=note)
+    else:
+        results = []
+        for i, call in enumerate(calls):
+            results.append(_study(*call))
+            note(i, results[-1])
+    done = dict(zip(calls, results, strict=True))
+    claims = audit.all_claims()
+    rows = []
+    for system in dict.fromkeys(c.system for c in selected):  # each in all_claims() order
+        system_claims = [c for c in claims if c.frame.system == system]
+        rows += [dataclasses.replace(row, claim=claim)
+                 for row, claim in zip(done.get(("audit", system), []), system_claims, strict=True)]
+    order = {c.id: k for k, c in enumerate(claims)}
+    rows.sort(key=lambda row: order[row.claim.id])  # the order of one audit of every claim
+    by_kind = {kind: tuple(r for (k, _), r in done.items() if k == kind)
+               for kind in ("convergence", "softness", "solvers", "contact")}
+    studies = Studies(convergence=by_kind["convergence"], softness=by_kind["softness"],
+                      solvers=by_kind["solvers"], elapsed=time.perf_counter() - start)
+    contact = list(by_kind["contact"])
     html = [html_section(studies), contact_study.html_section(contact), audit.html_section(rows)]
     appendix = {"audit": audit.json_rows(rows),
                 "contact_study": {r.case: [dict(row) for row in r.rows] for r in contact}}
@@ -288,7 +332,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     _check_junit(args.junit)
     selected = _selected(args)
     results, checks, config = _run_all(selected, args.config, args.mjcf, jobs=args.jobs)
-    extras, appendix = _studies(selected) if args.studies and args.mjcf is None else ([], None)
+    extras, appendix = (_studies(selected, jobs=args.jobs) if args.studies and args.mjcf is None
+                        else ([], None))
     paths = write_report(args.out, results, checks, config_source=config.source, extras=extras,
                          appendix=appendix)
     paths += _write_junit(args.junit, checks)

@@ -216,3 +216,36 @@ def test_the_pool_starts_the_costliest_systems_first():
     assert totals == sorted(totals, reverse=True)
     with pytest.raises(ValueError, match="cost must be positive"):
         cases.Case(name="x", description="", q0={"x": 0.0}, qd0={"x": 0.0}, horizon=1.0, cost=0.0)
+
+
+def _square_or_fail(x: int) -> int:
+    if x in (3, 5):
+        raise ValueError(f"call {x} failed")
+    return x * x
+
+
+def test_pool_results_come_in_call_order_and_the_first_error_wins():
+    from harness.pool import run_tasks
+
+    done = []
+    assert run_tasks([(_square_or_fail, (x,)) for x in (4, 2, 0, 1)], 2,
+                     on_done=lambda i, r: done.append(i)) == [16, 4, 0, 1]
+    assert sorted(done) == [0, 1, 2, 3]
+    with pytest.raises(ValueError, match="call 3 failed"):  # the earlier of the two failing calls
+        run_tasks([(_square_or_fail, (x,)) for x in (1, 3, 5, 2)], 2)
+
+
+@pytest.mark.slow
+def test_studies_on_the_pool_are_the_serial_studies():
+    """The report's layer 4 and seed audit on two workers: the same sections and JSON as one process."""
+    selected = cases.select(["spring", "atwood", "hoop_ramp_contact"])
+    serial = cli._studies(selected, jobs=1)
+    parallel = cli._studies(selected, jobs=2)
+    assert parallel[1] == serial[1]
+    assert [_without_timings(h) for h in parallel[0]] == [_without_timings(h) for h in serial[0]]
+
+
+def _without_timings(page: str) -> str:
+    import re
+
+    return re.sub(r"\d+(\.\d+)? s\b", "T s", page)
