@@ -21,8 +21,9 @@ Four parts, each printed as a table:
    report (HTML/JSON/Markdown with its plots), so that the next bottleneck is
    visible. The on-disk derivation cache (if this version has one) points at a
    directory that is empty when the benchmark starts.
-3. The full report's split (target 4b): the cases, each study, the seed
-   audit and the report, as ``mjharness run`` does them.
+3. The full report's split (target 4b): the cases, the studies and seed
+   audit, and the report, as ``mjharness run`` does them (both first steps on
+   the process pool), then each study call's own seconds summed by kind.
 4. Command lines (targets 3 and 4): ``mjharness check`` from a cold start
    (fresh process, empty derivation cache) and warm, on 1 and 2 workers, and
    the full report with studies (``mjharness run --out DIR``) from a cold start.
