@@ -34,11 +34,11 @@ class _Parser(argparse.ArgumentParser):
 
 
 # --------------------------------------------------------------- helpers
-def _progress(items: Sequence, desc: str):
+def _progress(items: Sequence, desc: str, unit: str = "case"):
     """A tqdm bar on stderr, silent when stderr is not a terminal (CI logs, pipes)."""
     from tqdm import tqdm
 
-    return tqdm(items, desc=desc, unit="case", file=sys.stderr, leave=False,
+    return tqdm(items, desc=desc, unit=unit, file=sys.stderr, leave=False,
                 disable=not sys.stderr.isatty())
 
 
@@ -291,9 +291,11 @@ def _studies(selected: Sequence[cases.Case], *, jobs: int | None = None) -> tupl
     start = time.perf_counter()
     calls = _study_calls(selected)
     workers = min(jobs or _cpus(), len(calls))
+    bar = _progress(calls, "studies", unit="study")
 
     def note(i: int, _result: object) -> None:
-        print(f"study {calls[i][0]} {calls[i][1]} done", file=sys.stderr, flush=True)
+        bar.set_postfix_str(" ".join(calls[i]), refresh=False)
+        bar.update()
 
     if workers > 1:
         from harness.pool import run_tasks
@@ -304,6 +306,7 @@ def _studies(selected: Sequence[cases.Case], *, jobs: int | None = None) -> tupl
         for i, call in enumerate(calls):
             results.append(_study(*call))
             note(i, results[-1])
+    bar.close()
     done = dict(zip(calls, results, strict=True))
     claims = audit.all_claims()
     rows = []
