@@ -442,11 +442,11 @@ class _Record:
             _spare_records.pop(next(iter(_spare_records)))
         _spare_records[(*_layout(model), len(self.states) - 1, tuple(self.fields))] = self
 
-    def out(self, start: int, stop: int, *, fields_at: int = 0) -> dict:
-        """``Batch.rollout``'s out= for steps start..stop−1: states start+1..stop and, when asked, the
-        fields mj_step computed at states start..stop−1 (``fields_at`` = 0; RK4 records none)."""
+    def out(self, start: int, stop: int, *, with_fields: bool) -> dict:
+        """``Batch.rollout``'s out= for steps start..stop−1: states start+1..stop and, ``with_fields``,
+        the fields mj_step computed at states start..stop−1 (an RK4 rollout records none)."""
         out: dict = {_STATE: self.states[None, start + 1:stop + 1]}
-        if fields_at == 0:
+        if with_fields:
             out |= {f: v[None, start:stop] for f, v in self.fields.items()}
         return out
 
@@ -490,7 +490,7 @@ def _rollout(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record, steps: in
     """States 1..steps and the fields mj_step computed at states 0..steps−1, into ``rec``."""
     b = _take_batch(model, data)
     b.state[0] = rec.states[0]
-    _step(b, steps, [_STATE, *rec.fields], rec.out(0, steps))
+    _step(b, steps, [_STATE, *rec.fields], rec.out(0, steps, with_fields=True))
     _give_back_batch(model, b)  # not after an error: its warning counters would stop the next run
 
 
@@ -533,7 +533,7 @@ def _rollout_recomputed(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record
     b.state[0] = rec.states[0]
     fields = list(rec.fields)
     if _threads_allowed() < 2 or len(sizes) < 2:
-        _step(b, steps, [_STATE], rec.out(0, steps, fields_at=-1))
+        _step(b, steps, [_STATE], rec.out(0, steps, with_fields=False))
         _give_back_batch(model, b)
         clock = time.perf_counter()
         _forward_all(model, data, rec.states, fields, into=rec.fields)
@@ -550,7 +550,7 @@ def _rollout_recomputed(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record
         with ThreadPoolExecutor(max_workers=1) as pool:
             pending = []
             for start, stop in itertools.pairwise(bounds):
-                _step(b, int(stop - start), [_STATE], rec.out(int(start), int(stop), fields_at=-1))
+                _step(b, int(stop - start), [_STATE], rec.out(int(start), int(stop), with_fields=False))
                 pending.append(pool.submit(recompute, int(start), int(stop)))
             _give_back_batch(model, b)
             pending.append(pool.submit(recompute, steps, steps + 1))
