@@ -21,9 +21,10 @@ Four parts, each printed as a table:
    report (HTML/JSON/Markdown with its plots), so that the next bottleneck is
    visible. The on-disk derivation cache (if this version has one) points at a
    directory that is empty when the benchmark starts.
-3. The full report's split (target 4b): the cases, the studies and seed
-   audit, and the report, as ``mjharness run`` does them (both first steps on
-   the process pool), then each study call's own seconds summed by kind.
+3. The full report's split (target 4b): the cases, the studies, seed audit
+   and plots, and the rest of the report, as ``mjharness run`` does them (both
+   first steps on the process pool), then each study call's own seconds
+   summed by kind.
 4. Command lines (targets 3 and 4): ``mjharness check`` from a cold start
    (fresh process, empty derivation cache) and warm, on 1 and 2 workers, and
    the full report with studies (``mjharness run --out DIR``) from a cold start.
@@ -270,11 +271,12 @@ def report_split(selected) -> None:
     results, checks, config = cli._run_all(selected, None)
     steps["cases (run_case, default --jobs)"] = time.perf_counter() - clock
     clock = time.perf_counter()
-    extras, appendix = cli._studies(selected)
-    steps["studies and seed audit (default --jobs)"] = time.perf_counter() - clock
+    extras, appendix, plots = cli._report_parts(selected, results, jobs=None, studies=True)
+    steps["studies, seed audit, plots (default --jobs)"] = time.perf_counter() - clock
     clock = time.perf_counter()
     with tempfile.TemporaryDirectory() as out:
-        write_report(out, results, checks, config_source=config.source, extras=extras, appendix=appendix)
+        write_report(out, results, checks, config_source=config.source, extras=extras, appendix=appendix,
+                     plots=plots)
     steps["report (HTML, JSON, Markdown, plots, stills)"] = time.perf_counter() - clock
     total = sum(steps.values())
     print(f"\n== 4b. Where the full report's time goes (in this process, {_load()}), seconds")

@@ -278,36 +278,63 @@ def _study(kind: str, name: str):
     return study()
 
 
-def _studies(selected: Sequence[cases.Case], *, jobs: int | None = None) -> tuple[list[str], dict[str, object]]:
-    """Layer 4 and the seed audit for the report: HTML sections and their JSON entries. With more
-    than one worker the calls share a process pool forked now, so the workers hold the references
-    the cases solved; the results are those of a serial run, in the same order."""
+def _plots(name: str, result):
+    """A case's report plots (module-level: a worker runs it), from its result sent without the Case,
+    which holds closures."""
+    import dataclasses
+
+    from harness.report import section_plots
+
+    return section_plots(dataclasses.replace(result, case=cases.get(name)))
+
+
+def _report_parts(selected: Sequence[cases.Case], results: Sequence, *, jobs: int | None,
+                  studies: bool) -> tuple[list[str], dict[str, object] | None, dict[str, str]]:
+    """What the report draws besides its tables: layer 4 and the seed audit (HTML sections and JSON
+    entries, when ``studies``) and each case's plots. With more than one worker the calls share a
+    process pool forked now, so the workers hold the references the cases solved; the results are
+    those of a serial run, in the same order."""
+    import dataclasses
+
+    start = time.perf_counter()
+    study_calls = _study_calls(selected) if studies else []
+    calls = ([(_study, call) for call in study_calls]
+             + [(_plots, (r.case.name, dataclasses.replace(r, case=None))) for r in results])
+    labels = [" ".join(c) for c in study_calls] + [f"plots {r.case.name}" for r in results]
+    workers = min(jobs or _cpus(), len(calls))
+    bar = _progress(calls, "report", unit="part")
+
+    def note(i: int, _result: object) -> None:
+        bar.set_postfix_str(labels[i], refresh=False)
+        bar.update()
+
+    if workers > 1:
+        from harness.pool import run_tasks
+
+        done = run_tasks(calls, workers, on_done=note)
+    else:
+        done = []
+        for i, (fn, call_args) in enumerate(calls):
+            done.append(fn(*call_args))
+            note(i, done[-1])
+    bar.close()
+    plots = {r.case.name: html for r, html in zip(results, done[len(study_calls):], strict=True)}
+    if not studies:
+        return [], None, plots
+    extras, appendix = _studies_html(selected, dict(zip(study_calls, done, strict=False)),
+                                     elapsed=time.perf_counter() - start)
+    return extras, appendix, plots
+
+
+def _studies_html(selected: Sequence[cases.Case], done: dict, *, elapsed: float
+                  ) -> tuple[list[str], dict[str, object]]:
+    """The studies' and the audit's HTML sections and JSON entries, from their calls' results."""
     import dataclasses
 
     from harness import audit
     from harness.studies import Studies, html_section
     from harness.studies import contact as contact_study
 
-    start = time.perf_counter()
-    calls = _study_calls(selected)
-    workers = min(jobs or _cpus(), len(calls))
-    bar = _progress(calls, "studies", unit="study")
-
-    def note(i: int, _result: object) -> None:
-        bar.set_postfix_str(" ".join(calls[i]), refresh=False)
-        bar.update()
-
-    if workers > 1:
-        from harness.pool import run_tasks
-
-        results = run_tasks([(_study, call) for call in calls], workers, on_done=note)
-    else:
-        results = []
-        for i, call in enumerate(calls):
-            results.append(_study(*call))
-            note(i, results[-1])
-    bar.close()
-    done = dict(zip(calls, results, strict=True))
     claims = audit.all_claims()
     rows = []
     for system in dict.fromkeys(c.system for c in selected):  # each in all_claims() order
@@ -319,7 +346,7 @@ def _studies(selected: Sequence[cases.Case], *, jobs: int | None = None) -> tupl
     by_kind = {kind: tuple(r for (k, _), r in done.items() if k == kind)
                for kind in ("convergence", "softness", "solvers", "contact")}
     studies = Studies(convergence=by_kind["convergence"], softness=by_kind["softness"],
-                      solvers=by_kind["solvers"], elapsed=time.perf_counter() - start)
+                      solvers=by_kind["solvers"], elapsed=elapsed)
     contact = list(by_kind["contact"])
     html = [html_section(studies), contact_study.html_section(contact), audit.html_section(rows)]
     appendix = {"audit": audit.json_rows(rows),
@@ -335,10 +362,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     _check_junit(args.junit)
     selected = _selected(args)
     results, checks, config = _run_all(selected, args.config, args.mjcf, jobs=args.jobs)
-    extras, appendix = (_studies(selected, jobs=args.jobs) if args.studies and args.mjcf is None
-                        else ([], None))
+    extras, appendix, plots = _report_parts(selected, results, jobs=args.jobs,
+                                            studies=args.studies and args.mjcf is None)
     paths = write_report(args.out, results, checks, config_source=config.source, extras=extras,
-                         appendix=appendix)
+                         appendix=appendix, plots=plots)
     paths += _write_junit(args.junit, checks)
     print(_table(checks))
     print(f"wrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - start:.1f} s")

@@ -366,12 +366,13 @@ def model_stills(results: Sequence[CaseResult]) -> dict[str, Still]:
 
 def render_html(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
                 stills: Mapping[str, Still] | None = None, config_source: str | None = None,
-                extras: Sequence[str] = ()) -> str:
+                extras: Sequence[str] = (), plots: Mapping[str, str] | None = None) -> str:
     """The whole page. ``stills`` defaults to rendering each model now (see harness.render);
-    ``extras`` are further sections (studies, audit) appended after the cases."""
+    ``extras`` are further sections (studies, audit) appended after the cases; ``plots``, each case's
+    :func:`section_plots` by case name, are drawn now where not given."""
     with ThreadPoolExecutor(max_workers=1) as pool:  # the stills render in a child process meanwhile
         pending = pool.submit(model_stills, results) if stills is None else None
-        plots = {r.case.name: section_plots(r) for r in results}
+        plots = {r.case.name: (plots or {}).get(r.case.name) or section_plots(r) for r in results}
         shown = pending.result() if pending is not None else stills or {}
     ver = ", ".join(f"{k} {v}" for k, v in versions().items())
     source = f" Thresholds from {_esc(config_source)}." if config_source else ""
@@ -517,11 +518,13 @@ def write_atomic(files: Mapping[Path, str]) -> list[Path]:
 
 def write_report(out: Path | str, results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
                  stills: Mapping[str, Still] | None = None, config_source: str | None = None,
-                 extras: Sequence[str] = (), appendix: Mapping[str, object] | None = None) -> list[Path]:
+                 extras: Sequence[str] = (), appendix: Mapping[str, object] | None = None,
+                 plots: Mapping[str, str] | None = None) -> list[Path]:
     """Write report.html, report.json and summary.md into ``out`` (all rendered before anything is
-    written, then moved into place). ``extras``/``appendix``: further HTML sections and JSON entries."""
+    written, then moved into place). ``extras``/``appendix``: further HTML sections and JSON entries;
+    ``plots``: each case's plots, already drawn (see :func:`render_html`)."""
     files = {"report.html": render_html(results, checks, stills=stills, config_source=config_source,
-                                        extras=extras),
+                                        extras=extras, plots=plots),
              "report.json": render_json(results, checks, appendix=appendix),
              "summary.md": render_markdown(results, checks)}
     out = prepare_output(out)

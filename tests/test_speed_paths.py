@@ -236,12 +236,15 @@ def test_pool_results_come_in_call_order_and_the_first_error_wins():
 
 
 @pytest.mark.slow
-def test_studies_on_the_pool_are_the_serial_studies():
-    """The report's layer 4 and seed audit on two workers: the same sections and JSON as one process."""
+def test_studies_and_plots_on_the_pool_are_the_serial_ones():
+    """The report's layer 4, seed audit and plots on two workers: the same sections, JSON and
+    images as one process."""
     selected = cases.select(["spring", "atwood", "hoop_ramp_contact"])
-    serial = cli._studies(selected, jobs=1)
-    parallel = cli._studies(selected, jobs=2)
-    assert parallel[1] == serial[1]
+    results, _, _ = cli._run_all(selected, None, jobs=1)
+    serial = cli._report_parts(selected, results, jobs=1, studies=True)
+    parallel = cli._report_parts(selected, results, jobs=2, studies=True)
+    assert parallel[1] == serial[1] and parallel[2] == serial[2]
+    assert list(parallel[2]) == [c.name for c in selected] and all(parallel[2].values())
     assert [_without_timings(h) for h in parallel[0]] == [_without_timings(h) for h in serial[0]]
 
 
