@@ -250,28 +250,28 @@ def command_lines(run_report: bool, repeat: int) -> None:
 
 
 def _timed_study(kind: str, name: str):
-    """cli._study, with its duration (module-level: the pool's forked workers run it)."""
-    from harness import cli
+    """runner.study, with its duration (module-level: the pool's forked workers run it)."""
+    from harness import runner
 
     start = time.perf_counter()
-    result = cli._study(kind, name)
+    result = runner.study(kind, name)
     return result, time.perf_counter() - start
 
 
 def report_split(selected) -> None:
     """What ``mjharness run --out DIR`` spends its time on, step by step as cmd_run does it, in this
     process (derivations already cached by the parts above), and each study call's own duration."""
-    from harness import cli
-    from harness.pool import run_tasks
+    from harness import runner
+    from harness.pool import cpus, run_tasks
     from harness.report import write_report
 
     _clear_process_caches()
     steps: dict[str, float] = {}
     clock = time.perf_counter()
-    results, checks, config = cli._run_all(selected, None)
+    results, checks, config = runner.run_all(selected, None)
     steps["cases (run_case, default --jobs)"] = time.perf_counter() - clock
     clock = time.perf_counter()
-    extras, appendix, plots = cli._report_parts(selected, results, jobs=None, studies=True)
+    extras, appendix, plots = runner.report_parts(selected, results, jobs=None, studies=True)
     steps["studies, seed audit, plots (default --jobs)"] = time.perf_counter() - clock
     clock = time.perf_counter()
     with tempfile.TemporaryDirectory() as out:
@@ -283,12 +283,12 @@ def report_split(selected) -> None:
     for name, seconds in steps.items():
         print(f"   {name:46s} {seconds:7.2f}  {seconds / total:4.0%}")
     print(f"   {'total':46s} {total:7.2f}")
-    calls = cli._study_calls(selected)
-    timed = run_tasks([(_timed_study, call) for call in calls], cli._cpus())
+    calls = runner.study_calls(selected)
+    timed = run_tasks([(_timed_study, call) for call in calls], cpus())
     kinds: dict[str, float] = {}
     for (kind, _), (_, seconds) in zip(calls, timed, strict=True):
         kinds[kind] = kinds.get(kind, 0.0) + seconds
-    print(f"   study calls ({len(calls)}), their own seconds summed by kind (on {cli._cpus()} workers): "
+    print(f"   study calls ({len(calls)}), their own seconds summed by kind (on {cpus()} workers): "
           + ", ".join(f"{k} {v:.2f}" for k, v in kinds.items()))
 
 

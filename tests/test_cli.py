@@ -119,12 +119,12 @@ def test_check_junit(tmp_path, cached_runs, strict, tight, code, capsys):
 
 
 def test_progress_bar_only_on_a_terminal(monkeypatch):
-    from harness import cli
+    from harness import runner
 
     monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
-    assert cli._progress([1], "x").disable
+    assert runner.progress([1], "x").disable
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
-    bar = cli._progress([1], "x")
+    bar = runner.progress([1], "x")
     assert not bar.disable
     bar.close()
 

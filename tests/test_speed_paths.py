@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from harness import cache, cases, cli, pipeline
+from harness import cache, cases, cli, pipeline, runner
 from harness import reference as refmod
 from harness.models import compile_model, mjcf_path
 from harness.simulate import SimulationDiverged
@@ -167,10 +167,10 @@ def test_the_progress_bar_counts_cases_done_in_workers(monkeypatch):
             return True
 
     bars = []
-    real = cli._progress
-    monkeypatch.setattr(cli, "_progress", lambda *a: bars.append(real(*a)) or bars[-1])
+    real = runner.progress
+    monkeypatch.setattr(runner, "progress", lambda *a: bars.append(real(*a)) or bars[-1])
     monkeypatch.setattr(sys, "stderr", Terminal())
-    results, checks, _ = cli._run_all(cases.select(["spring", "atwood"]), None, jobs=2)
+    results, checks, _ = runner.run_all(cases.select(["spring", "atwood"]), None, jobs=2)
     assert [r.case.name for r in results] == ["spring", "atwood"] and list(checks) == ["spring", "atwood"]
     (bar,) = bars
     assert bar.n == bar.total == 2  # (a closed bar reads as disabled)
@@ -189,8 +189,8 @@ def test_figures_only_workers_send_no_trajectories_and_the_same_figures():
     """check and baseline read figures and settings only: their workers send no trajectories back
     (megabytes a case), and the figures are those of a run that kept them."""
     selected = cases.select(["spring", "atwood"])
-    light, _, _ = cli._run_all(selected, None, jobs=2, figures_only=True)
-    full, _, _ = cli._run_all(selected, None, jobs=2)
+    light, _, _ = runner.run_all(selected, None, jobs=2, figures_only=True)
+    full, _, _ = runner.run_all(selected, None, jobs=2)
     assert all(r.reference is None and r.simulations == {} for r in light)
     assert all(r.reference is not None and r.simulations for r in full)
     assert [r.figures for r in light] == [r.figures for r in full]
@@ -209,7 +209,7 @@ def test_the_pool_starts_the_costliest_systems_first():
     """Groups are a system's cases (derivation and reference made once), ordered by their summed cost
     hint, so the cheapest fill the end; a case's cost must be positive."""
     selected = cases.CASES
-    groups = cli._groups(selected)
+    groups = runner.groups(selected)
     assert sorted(i for g in groups for i in g) == list(range(len(selected)))
     assert all(len({selected[i].system for i in g}) == 1 for g in groups)
     totals = [sum(selected[i].cost for i in g) for g in groups]
@@ -240,9 +240,9 @@ def test_studies_and_plots_on_the_pool_are_the_serial_ones():
     """The report's layer 4, seed audit and plots on two workers: the same sections, JSON and
     images as one process."""
     selected = cases.select(["spring", "atwood", "hoop_ramp_contact"])
-    results, _, _ = cli._run_all(selected, None, jobs=1)
-    serial = cli._report_parts(selected, results, jobs=1, studies=True)
-    parallel = cli._report_parts(selected, results, jobs=2, studies=True)
+    results, _, _ = runner.run_all(selected, None, jobs=1)
+    serial = runner.report_parts(selected, results, jobs=1, studies=True)
+    parallel = runner.report_parts(selected, results, jobs=2, studies=True)
     assert parallel[1] == serial[1] and parallel[2] == serial[2]
     assert list(parallel[2]) == [c.name for c in selected] and all(parallel[2].values())
     assert [_without_timings(h) for h in parallel[0]] == [_without_timings(h) for h in serial[0]]
