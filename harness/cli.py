@@ -165,7 +165,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     from harness.report import dumps, json_doc
 
     _check_junit(args.junit)
-    results, checks, _ = runner.run_all(_selected(args), args.config, args.mjcf, jobs=args.jobs, figures_only=True)
+    results, checks, _ = runner.run_all(_selected(args), args.config, args.mjcf, jobs=args.jobs,
+                                        figures_only=True)
     _write_junit(args.junit, checks)
     if args.json:
         sys.stdout.write(dumps(json_doc(results, checks)))

@@ -31,7 +31,7 @@ def progress(items: Sequence, desc: str, unit: str = "case"):
 
 
 def run_all(selected: Sequence[cases.Case], config_path: Path | None, mjcf: Path | None = None, *,
-             jobs: int | None = None, figures_only: bool = False):
+            jobs: int | None = None, figures_only: bool = False):
     """run_case for each case, then its verdict; (results, checks by case, config).
 
     ``jobs`` worker processes (default: one per CPU) share the cases; every
@@ -169,7 +169,7 @@ def case_plots(name: str, result):
 
 
 def report_parts(selected: Sequence[cases.Case], results: Sequence, *, jobs: int | None,
-                  studies: bool) -> tuple[list[str], dict[str, object] | None, dict[str, str]]:
+                 studies: bool) -> tuple[list[str], dict[str, object] | None, dict[str, str]]:
     """What the report draws besides its tables: layer 4 and the seed audit (HTML sections and JSON
     entries, when ``studies``) and each case's plots. With more than one worker the calls share a
     process pool forked now, so the workers hold the references the cases solved; the results are
