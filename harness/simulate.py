@@ -57,7 +57,7 @@ import mujoco
 import numpy as np
 
 from harness.binding import Binding, ModelMismatch
-from harness.readings import STATE_FIELDS, Reading, fields_of
+from harness.readings import Reading, fields_of
 from harness.trajectory import Trajectory
 
 try:  # MuJoCo ≥ 4
@@ -241,7 +241,6 @@ def _evaluate_readings(model: mujoco.MjModel, probe: Probe, states_t: np.ndarray
                        qvel: np.ndarray, fields: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Every reading of ``probe`` over the run, from the recorded state and fields."""
     recorded = {"time": states_t, "qpos": qpos, "qvel": qvel, **fields}
-    assert set(STATE_FIELDS) <= set(recorded)
     out = {}
     for key, reading in probe.readings().items():
         values = np.array(reading.evaluate(model, recorded), dtype=float)  # a copy: recorded is scratch
@@ -408,11 +407,6 @@ def _forward_at(model: mujoco.MjModel, data: mujoco.MjData, state: np.ndarray) -
     mujoco.mj_forward(model, data)
 
 
-def _fields_of(data: mujoco.MjData, fields: Sequence[str]) -> dict[str, np.ndarray]:
-    """``fields`` of ``data``, each with a leading axis of one sample."""
-    return {f: np.array(getattr(data, f), dtype=None if f != "nefc" else np.int32)[None] for f in fields}
-
-
 @dataclass
 class _Record:
     """Where a batch run is recorded: the integration states and ``fields``, one row per sample.
@@ -454,24 +448,20 @@ class _Record:
 _spare_records: dict[tuple, _Record] = {}
 
 
-def _forward_all(model: mujoco.MjModel, data: mujoco.MjData, states: np.ndarray, fields: Sequence[str],
-                 *, threads: int | None = None, into: Mapping[str, np.ndarray] | None = None
-                 ) -> dict[str, np.ndarray]:
-    """``fields`` after mj_forward at every state row (one batched call in C), written into ``into``
-    (arrays of len(states) rows) where given."""
+def _forward_all(model: mujoco.MjModel, data: mujoco.MjData, states: np.ndarray,
+                 into: Mapping[str, np.ndarray], *, threads: int | None = None) -> None:
+    """The fields ``into`` names, after mj_forward at every state row (one batched call in C),
+    written into ``into`` (arrays of len(states) rows)."""
     fb = _new_batch(model, len(states), data, threads=threads)
-    outputs = {f: fb.bind(f) for f in fields}
+    outputs = {f: fb.bind(f) for f in into}
     fb.state[:] = states
     fb.forward()
     raised = np.flatnonzero(fb.warning[:, :, 1].max(axis=1) > 0)
     if raised.size:
         k = int(raised[0])
         _check_warnings(fb.warning[k, :, 1], float(states[k, 0]))
-    if into is None:
-        return {f: np.array(v) for f, v in outputs.items()}
     for f, v in outputs.items():
         into[f][...] = np.asarray(v).reshape(into[f].shape)
-    return dict(into)
 
 
 def _step(b: _batch.Batch, nstep: int, record: Sequence, out: dict) -> None:
@@ -531,18 +521,17 @@ def _rollout_recomputed(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record
     sizes = _chunk_sizes(steps)
     b = _take_batch(model, data)
     b.state[0] = rec.states[0]
-    fields = list(rec.fields)
     if _threads_allowed() < 2 or len(sizes) < 2:
         _step(b, steps, [_STATE], rec.out(0, steps, with_fields=False))
         _give_back_batch(model, b)
         clock = time.perf_counter()
-        _forward_all(model, data, rec.states, fields, into=rec.fields)
+        _forward_all(model, data, rec.states, rec.fields)
         return time.perf_counter() - clock
     from concurrent.futures import ThreadPoolExecutor
 
     def recompute(start: int, stop: int) -> None:  # states start..stop−1, on the other thread
-        _forward_all(model, helper, rec.states[start:stop], fields, threads=1,
-                     into={f: v[start:stop] for f, v in rec.fields.items()})
+        _forward_all(model, helper, rec.states[start:stop], {f: v[start:stop] for f, v in rec.fields.items()},
+                     threads=1)
 
     bounds = np.cumsum([0, *sizes])
     helper = _take_data(model, spare=True)  # the other thread's template: not the rollout's own
