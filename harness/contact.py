@@ -40,7 +40,8 @@ and q̇ read from the same-named joints and the parameters from the model.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import functools
+from collections.abc import Callable, Mapping, Sequence
 from typing import Literal
 
 import mujoco
@@ -119,7 +120,7 @@ def slide_force(*, geom: str, joint: str) -> Reading:
                                  f"there, which would also include {', '.join(others)}; accepted: a model "
                                  f"where only contacts on {geom!r} push the bodies {joint!r} moves")
             checked.update(model=model, dof=int(model.jnt_dofadr[jid]))
-        return rec["qfrc_constraint"][:, checked["dof"]].copy()
+        return rec["qfrc_constraint"][:, checked["dof"]]  # the recorder copies what it keeps
 
     return Reading(fields=("qfrc_constraint",), evaluate=evaluate,
                    description=f"contact force on geom {geom!r} along slide {joint!r} (N)")
@@ -139,22 +140,31 @@ def analytic_residual(*, system: str, constraints: Sequence[str], level: Residua
         raise ValueError("constraints must name at least one constraint")
     bound: dict[str, object] = {}
 
+    @functools.cache
+    def rows_fn(values: tuple[float, ...]) -> Callable[..., list]:
+        """The rows as a numpy function of (q, q̇) at these parameter values: lambdified once per set
+        of values, not once per compiled model (every integrator and study variant is a new model)."""
+        from harness.reference import derivation  # local: reference imports the case registry
+
+        deriv = derivation(system)
+        names = [c.name for c in deriv.system.constraints]
+        exprs = deriv.constraint_rows if level == "velocity" else deriv.holonomic_residual
+        subs = dict(zip(deriv.system.params, values, strict=True))
+        rows = [exprs[names.index(c)].subs(subs) for c in constraints]
+        return sp.lambdify([*deriv.system.q, *deriv.system.qd], rows, modules="numpy")
+
     def bind(model: mujoco.MjModel) -> None:
         from analytic.systems import load
-        from harness.reference import derivation  # local: reference imports the case registry
+        from harness.reference import derivation
 
         deriv = derivation(system)
         names = [c.name for c in deriv.system.constraints]
         unknown = sorted(set(constraints) - set(names))
         if unknown:
             raise ValueError(f"system {system!r} has no constraint(s) {unknown}; it has {names}")
-        exprs = deriv.constraint_rows if level == "velocity" else deriv.holonomic_residual
         params = load(system).params_from_model(model)
-        values = {p: params[p.name] for p in deriv.system.params}
-        rows = [exprs[names.index(c)].subs(values) for c in constraints]
         coords = [c.name for c in deriv.system.q]
-        bound.update(model=model,
-                     fn=sp.lambdify([*deriv.system.q, *deriv.system.qd], rows, modules="numpy"),
+        bound.update(model=model, fn=rows_fn(tuple(float(params[p.name]) for p in deriv.system.params)),
                      qpos=[model.joint(n).qposadr[0] for n in coords],
                      qvel=[model.joint(n).dofadr[0] for n in coords])
 
@@ -167,7 +177,7 @@ def analytic_residual(*, system: str, constraints: Sequence[str], level: Residua
         out = rows[0]
         for r in rows[1:]:
             out = np.hypot(out, r)
-        return out.copy()
+        return out
 
     return Reading(fields=(), evaluate=evaluate,
                    description=f"|{level} residual of {list(constraints)}| of system {system!r} at MuJoCo's state")
