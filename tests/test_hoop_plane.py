@@ -235,10 +235,6 @@ def test_study_finds_slip_independent_of_cone_impratio_noslip() -> None:
     assert study.shipped_row()["cone"] == "elliptic"
 
 
-
-
-
-
 @pytest.mark.parametrize(("label", "kwargs", "expected"), [
     ("μ = 0.05 < v θ̇ / g: skids", {"edit": friction(0.05)},
      {"RK4.series.slip", "RK4.force.roll_x", "RK4.force.roll_y", "RK4.position", "RK4.velocity"}),
@@ -254,9 +250,23 @@ def test_broken_contact_trips_its_gates(label, kwargs, expected) -> None:
     assert expected <= failing(result), label
 
 
+def test_p_theta_gates_fail_when_the_heading_is_damped() -> None:
+    """A tiny damping on the heading hinge θ (1e-8 N m s) breaks the conservation of p_θ and nothing
+    else the gates see: every integrator's p_θ and its drift fail, while its trajectory, contact
+    forces and slip still pass."""
+    from harness.compat import set_damping
+
+    result = pipeline.run_case(CASE, edit=lambda spec: set_damping(spec.joint("theta"), 1e-8))
+    ran = list(result.simulations)
+    bad = failing(result)
+    assert {f"{i}.{g}" for i in ran for g in ("p_theta", "drift.p_theta")} <= bad
+    assert not {f"{i}.{g}" for i in ran for g in ("position", "force.roll_x", "force.normal", "series.slip")} & bad
+
+
 def test_p_theta_reading_equals_mj_subtree_vel(model) -> None:
-    """The hoop's vertical angular momentum about its centre, read from cvel, ximat and body_inertia
-    (the hoop spins and turns: its own inertia matters), equals mj_subtreeVel's at random states."""
+    """The hoop's vertical angular momentum about its centre, read from cinert and cvel over the
+    subtree (the hoop spins and turns: its own inertia matters), equals mj_subtreeVel's at random
+    states."""
     read = cases.get("hoop_plane").mujoco_invariants["p_theta"]
     rng = np.random.default_rng(3)
     bid = model.body("hoop").id

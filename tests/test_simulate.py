@@ -161,6 +161,7 @@ def test_rk4_recomputation_is_the_same_on_any_number_of_threads(name):
     case, probe, q0, qd0 = _case_probe(name)
     model = compile_model(mjcf_path(case.mjcf), integrator="RK4")
     assert len(simmod._chunk_sizes(1000)) > 2
+    notes = len(simmod.recorder_notes())
     try:
         simmod.set_threads(1)
         one = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000))
@@ -168,6 +169,7 @@ def test_rk4_recomputation_is_the_same_on_any_number_of_threads(name):
         two = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000))
     finally:
         simmod.set_threads(None)
+    assert simmod.recorder_notes()[notes:] == (), "the batch recorder fell back to the loop"
     loop = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000, method="loop"))
     assert one.keys() == two.keys() == loop.keys()
     assert [k for k in one if not (np.array_equal(one[k], two[k]) and np.array_equal(one[k], loop[k]))] == []
@@ -182,9 +184,11 @@ def test_a_trajectory_owns_its_arrays(integrator):
     next run's numbers."""
     case, probe, q0, qd0 = _case_probe("spherical_pendulum")
     model = compile_model(mjcf_path(case.mjcf), integrator=integrator)
+    notes = len(simmod.recorder_notes())
     first = simulate(model, probe, q0=q0, qd0=qd0, steps=300)
     kept = {k: v.copy() for k, v in _arrays(first).items()}
     simulate(model, probe, q0=[0.5, 1.0], qd0=[1.0, -3.0], steps=300)
+    assert simmod.recorder_notes()[notes:] == (), "the batch recorder fell back to the loop"
     assert [k for k, v in _arrays(first).items() if not np.array_equal(v, kept[k])] == []
 
 
@@ -237,7 +241,9 @@ def test_a_diverged_run_leaves_nothing_to_the_next(integrator):
     model = compile_model(mjcf_path("pendulum"), integrator=integrator)
     with pytest.raises(SimulationDiverged):
         simulate(model, PROBE, q0=Q0, qd0=[1e11, 0.0], steps=600)
+    notes = len(simmod.recorder_notes())
     batch = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=600))
+    assert simmod.recorder_notes()[notes:] == (), "the batch recorder fell back to the loop"
     loop = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=600, method="loop"))
     assert [k for k in loop if not np.array_equal(batch[k], loop[k])] == []
 

@@ -108,8 +108,17 @@ def test_full_solver_comparison_meets_the_tolerance(name):
 
 
 def test_recorded_solver_iterations_are_solver_iterations():
-    """The series the solver study records is solver_iterations of each sample, over a whole run."""
+    """The series the solver study records is solver_iterations of each sample: at single states,
+    over records with several islands (the most any island took, the unused entries ignored), and
+    as the series a run records."""
+    import dataclasses
+
+    import numpy as np
+
+    from harness import pipeline
+    from harness import reference as refmod
     from harness.compat import SOLVER_ITERATIONS
+    from harness.simulate import simulate
 
     model = compile_model(mjcf_path("atwood"))
     data = mujoco.MjData(model)
@@ -117,3 +126,20 @@ def test_recorded_solver_iterations_are_solver_iterations():
         mujoco.mj_step(model, data)
         mujoco.mj_forward(model, data)
         assert SOLVER_ITERATIONS(model, data) == solver_iterations(data) > 0
+    niter = np.array([[3, 7, 9], [3, 7, 9], [3, 7, 9], [0, 0, 0]])
+    record = {"solver_niter": niter, "nisland": np.array([0, 1, 2, 2])}
+    assert SOLVER_ITERATIONS.evaluate(model, record).tolist() == [3, 3, 7, 0]
+    case = cases.get("atwood")
+    ref = refmod.build_reference(case, model)
+    probe = pipeline.probe_for(case, ref.dynamics)
+    probe = dataclasses.replace(probe, series={"niter": SOLVER_ITERATIONS})
+    sim = simulate(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=50)
+    data = mujoco.MjData(model)
+    probe.binding.set_state(model, data, ref.q0(), ref.qd0())
+    expected = []
+    for k in range(51):
+        mujoco.mj_forward(model, data)
+        expected.append(solver_iterations(data))
+        if k < 50:
+            mujoco.mj_step(model, data)
+    assert sim.series["niter"].tolist() == expected

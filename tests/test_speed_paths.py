@@ -115,7 +115,7 @@ def test_a_reference_is_solved_once_and_serves_shorter_horizons():
     assert np.array_equal(again.state(t)[0], full.state(t)[0])
 
 
-def test_solutions_handed_between_processes_are_reused():
+def test_solutions_handed_between_processes_are_reused(monkeypatch):
     case = cases.get("spring")
     model = compile_model(mjcf_path(case.mjcf))
     refmod.clear_caches()
@@ -124,6 +124,11 @@ def test_solutions_handed_between_processes_are_reused():
     assert refmod.export_solutions() == {}  # exported once
     refmod.clear_caches()
     refmod.import_solutions(seeds)
+
+    def no_solve(*args, **kwargs):
+        raise AssertionError("an imported solution was solved again")
+
+    monkeypatch.setattr(refmod, "solve", no_solve)
     reused = refmod.build_reference(case, model).solution
     t = np.linspace(0, case.horizon, 51)
     assert reused is not solved and reused.nfev == solved.nfev

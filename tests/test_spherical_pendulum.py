@@ -178,7 +178,7 @@ def test_point_acceleration_agrees_with_mujocos_accelerometer_convention():
 
 
 def test_mujoco_p_phi_is_the_bobs_vertical_angular_momentum():
-    """The reading (from mj_subtreeVel) = m (x × v)_z of the bob plus its tiny spin ε ω_z;
+    """The reading = m (x × v)_z of the bob plus its tiny spin ε ω_z;
     and = m l² sin²θ φ̇ at the state set through either binding."""
     read = cases.get(HINGE).mujoco_invariants["p_phi"]
     assert cases.get(BALL).mujoco_invariants["p_phi"] is not None
