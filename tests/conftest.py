@@ -9,6 +9,7 @@ import pytest
 from harness import cases
 from harness.config import load_config
 from harness.pipeline import CaseResult, run_case
+from harness.verdict import verdict
 
 
 @functools.cache
@@ -20,6 +21,14 @@ def shipped_run(name: str) -> CaseResult:
 @pytest.fixture(scope="session")
 def config():
     return load_config()
+
+
+def failing(result: CaseResult) -> set[str]:
+    """Gated figures over their limit (thresholds restricted to the figures this run measured)."""
+    limits = load_config().for_case(result.case.name)
+    measured = {f.name for f in result.figures}
+    checks = verdict(result.case.name, result.figures, {k: v for k, v in limits.items() if k in measured})
+    return {c.name for c in checks if not c.passed}
 
 
 def case_ids() -> list[str]:

@@ -27,7 +27,7 @@ from harness.config import load_config
 from harness.models import compile_model, mjcf_path
 from harness.simulate import equality_force
 from harness.verdict import verdict
-from tests.conftest import shipped_run
+from tests.conftest import failing, shipped_run
 
 CASE = cases.get("atwood")
 INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4", "discrete")
@@ -84,14 +84,6 @@ class Physical:
 
     def exact_diagonal(self) -> np.ndarray:
         return np.array([1 / self.m1 + self.a**2 / self.inertia, 1 / self.m2 + self.a**2 / self.inertia])
-
-
-def failing(result: pipeline.CaseResult) -> set[str]:
-    """Gated figures over their limit (thresholds restricted to the figures this run measured)."""
-    limits = load_config().for_case(result.case.name)
-    measured = {f.name for f in result.figures}
-    checks = verdict(result.case.name, result.figures, {k: v for k, v in limits.items() if k in measured})
-    return {c.name for c in checks if not c.passed}
 
 
 # --- layer 1: derivation ---------------------------------------------------------------

@@ -29,12 +29,10 @@ from analytic.systems import hoop_plane
 from harness import cases, pipeline
 from harness import reference as refmod
 from harness.binding import JointBinding
-from harness.config import load_config
 from harness.contact import contact_force, fit_circle, slide_force
 from harness.models import compile_model, mjcf_path
 from harness.studies.contact import contact_study
-from harness.verdict import verdict
-from tests.conftest import shipped_run
+from tests.conftest import failing, shipped_run
 from tests.contact_edits import friction, mujoco_default_softness, rim_radius
 
 CASE = cases.get("hoop_plane")
@@ -52,13 +50,6 @@ def circle(case: cases.Case, a: float) -> tuple[np.ndarray, float]:
     radius = a * case.qd0["phi"] / case.qd0["theta"]
     theta0 = case.q0["theta"]
     return np.array([case.q0["x"] - radius * math.sin(theta0), case.q0["y"] + radius * math.cos(theta0)]), radius
-
-
-def failing(result: pipeline.CaseResult) -> set[str]:
-    limits = load_config().for_case(result.case.name)
-    measured = {f.name for f in result.figures}
-    checks = verdict(result.case.name, result.figures, {k: v for k, v in limits.items() if k in measured})
-    return {c.name for c in checks if not c.passed}
 
 
 @pytest.fixture(scope="module")

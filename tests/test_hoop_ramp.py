@@ -28,13 +28,11 @@ from analytic.systems import hoop_ramp
 from harness import cases, pipeline
 from harness import reference as refmod
 from harness.binding import JointBinding
-from harness.config import load_config
 from harness.contact import analytic_residual, contact_force, slide_force
 from harness.models import compile_model, mjcf_path
 from harness.simulate import equality_force
 from harness.studies.contact import contact_study
-from harness.verdict import verdict
-from tests.conftest import shipped_run
+from tests.conftest import failing, shipped_run
 from tests.contact_edits import friction, mujoco_default_softness, rim_radius
 
 MODELS = ("hoop_ramp", "hoop_ramp_contact")
@@ -45,14 +43,6 @@ def closed_forms(m, g, alpha):
     """(ẍ, λ_roll, λ_normal), typed by hand; sympy symbols or floats."""
     sin, cos = (sp.sin, sp.cos) if isinstance(alpha, sp.Basic) else (math.sin, math.cos)
     return g * sin(alpha) / 2, -m * g * sin(alpha) / 2, m * g * cos(alpha)
-
-
-def failing(result: pipeline.CaseResult) -> set[str]:
-    """Gated figures over their limit (thresholds restricted to the figures this run measured)."""
-    limits = load_config().for_case(result.case.name)
-    measured = {f.name for f in result.figures}
-    checks = verdict(result.case.name, result.figures, {k: v for k, v in limits.items() if k in measured})
-    return {c.name for c in checks if not c.passed}
 
 
 def rolling_state(model: mujoco.MjModel, *, x: float = 0.3, xdot: float = 0.8) -> mujoco.MjData:
@@ -279,9 +269,6 @@ def test_study_supports_the_shipped_contact_settings() -> None:
 
 
 # --- broken models -----------------------------------------------------------------------------
-
-
-
 
 
 def test_too_little_friction_slides_with_the_coulomb_closed_form() -> None:

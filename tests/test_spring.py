@@ -21,7 +21,7 @@ from harness import reference as refmod
 from harness.config import load_config
 from harness.models import compile_model, mjcf_path
 from harness.verdict import verdict
-from tests.conftest import shipped_run
+from tests.conftest import failing, shipped_run
 
 CASE = cases.get("spring")
 INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4", "discrete")
@@ -49,14 +49,6 @@ def closed_form(t: np.ndarray, model: mujoco.MjModel) -> np.ndarray:
     omega = math.sqrt(k / m)
     c1, c2 = CASE.qd0["x"] / omega, CASE.q0["x"]
     return c1 * np.sin(omega * t) + c2 * np.cos(omega * t)
-
-
-def failing(result: pipeline.CaseResult) -> set[str]:
-    """Gated figures over their limit (thresholds restricted to the figures this run measured)."""
-    limits = load_config().for_case(result.case.name)
-    measured = {f.name for f in result.figures}
-    checks = verdict(result.case.name, result.figures, {k: v for k, v in limits.items() if k in measured})
-    return {c.name for c in checks if not c.passed}
 
 
 def test_derivation_is_the_seed_equation() -> None:
