@@ -17,7 +17,7 @@ from typing import Protocol
 import mujoco
 import numpy as np
 
-_ONE_DOF = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+ONE_DOF = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
 
 class ModelMismatch(ValueError):
@@ -51,7 +51,7 @@ class JointBinding:
             if jid < 0:
                 known = [model.joint(i).name for i in range(model.njnt)]
                 raise ModelMismatch(f"model has no joint {name!r} (joints: {known})")
-            if int(model.jnt_type[jid]) not in _ONE_DOF:
+            if int(model.jnt_type[jid]) not in ONE_DOF:
                 raise ModelMismatch(f"joint {name!r} must be a hinge or slide")
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
