@@ -17,6 +17,7 @@ plots, figures measured but not gated, settings; versions at the top.
 from __future__ import annotations
 
 import base64
+import functools
 import html
 import io
 import json
@@ -268,9 +269,6 @@ def _checks_table(result: CaseResult, checks: Sequence[Check]) -> str:
 
 def section_model(result: CaseResult, still: Still | None) -> str:
     """The model still (or why there is none) beside the derived equations of motion."""
-    from harness.equations import equations, png_data_uri
-    from harness.reference import derivation
-
     if still is not None and still.png is not None:
         uri = "data:image/png;base64," + base64.b64encode(still.png).decode("ascii")
         image = (f"<figure><img src='{uri}' alt='{_esc(result.case.name)} model at its initial state'>"
@@ -279,17 +277,26 @@ def section_model(result: CaseResult, still: Still | None) -> str:
     else:
         note = still.note if still is not None else "model image not rendered"
         image = f"<p class='note'>{_esc(note)}</p>"
+    return f"<div class='model'><div>{image}</div>{equations_html(result.case.system)}</div>"
+
+
+@functools.cache
+def equations_html(system: str) -> str:
+    """The system's equations of motion as typeset images, once per system (a system's cases share
+    them; sympy's simplification and mathtext cost about 0.2 s)."""
+    from harness.equations import equations, png_data_uri
+    from harness.reference import derivation
+
     rows = []
-    for eq in equations(derivation(result.case.system)):
+    for eq in equations(derivation(system)):
         uri = png_data_uri(eq.latex)
         shown = (f"<img class='eq' src='{uri}' alt='{_esc(eq.latex)}'>" if uri
                  else f"<code>{_esc(eq.latex)}</code>")
         rows.append(f"<tr><td class='dim'>{_esc(eq.label)}</td><td>{shown}</td></tr>")
-    eqs = ("<div><h3>Equations of motion (derived by sympy)</h3>"
-           "<p class='dim'>Lagrange's equations M q̈ − F − Jᵀλ = 0, one per coordinate, with the "
-           "constraints f(q) = 0. The LaTeX of each line is the image's alt text.</p>"
-           f"<table class='eqs'>{''.join(rows)}</table></div>")
-    return f"<div class='model'><div>{image}</div>{eqs}</div>"
+    return ("<div><h3>Equations of motion (derived by sympy)</h3>"
+            "<p class='dim'>Lagrange's equations M q̈ − F − Jᵀλ = 0, one per coordinate, with the "
+            "constraints f(q) = 0. The LaTeX of each line is the image's alt text.</p>"
+            f"<table class='eqs'>{''.join(rows)}</table></div>")
 
 
 def section_plots(result: CaseResult) -> str:
@@ -300,9 +307,9 @@ def section_plots(result: CaseResult) -> str:
 _UNITS = {"timestep": "s", "horizon": "s", "tolerance": ""}
 
 
-def section_case(result: CaseResult, checks: Sequence[Check], still: Still | None = None, *,
-                 plots: str | None = None) -> str:
-    """One case: model and equations, gated checks, plots (``plots`` if already drawn), the rest."""
+def section_case(result: CaseResult, checks: Sequence[Check], still: Still | None, *, plots: str) -> str:
+    """One case: model and equations, gated checks, plots (already drawn: :func:`section_plots`), the
+    rest."""
     c = result.case
     failed = sum(not ch.passed for ch in checks)
     verdict = "PASS" if not failed else "FAIL"
@@ -312,12 +319,11 @@ def section_case(result: CaseResult, checks: Sequence[Check], still: Still | Non
                    for f in result.figures if f.name not in gated)
     settings = "".join(f"<tr><td>{_esc(k)}</td><td>{_esc(_setting(v))} {_UNITS.get(k, '')}</td></tr>"
                        for k, v in result.settings.items())
-    imgs = plots if plots is not None else section_plots(result)
     return (f"<section id='{_esc(c.name)}'><h2>{_esc(c.name)} <span class='badge {verdict.lower()}'>"
             f"{verdict} {len(checks) - failed}/{len(checks)}</span></h2><p>{_esc(c.description)}</p>"
             f"{section_model(result, still)}"
             f"<h3>Gated checks</h3>{_checks_table(result, checks)}"
-            f"<h3>Plots</h3><div class='plots'>{imgs}</div>"
+            f"<h3>Plots</h3><div class='plots'>{plots}</div>"
             f"<h3>Other figures (measured, not gated)</h3><table><tr><th>figure</th><th>value</th>"
             f"<th>unit</th><th>meaning</th></tr>{info}</table>"
             f"<h3>Settings used</h3><table class='settings'>{settings}</table></section>")
@@ -373,6 +379,8 @@ def render_html(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Che
     with ThreadPoolExecutor(max_workers=1) as pool:  # the stills render in a child process meanwhile
         pending = pool.submit(model_stills, results) if stills is None else None
         plots = {r.case.name: (plots or {}).get(r.case.name) or section_plots(r) for r in results}
+        for system in dict.fromkeys(r.case.system for r in results):
+            equations_html(system)  # typeset while the stills render
         shown = pending.result() if pending is not None else stills or {}
     ver = ", ".join(f"{k} {v}" for k, v in versions().items())
     source = f" Thresholds from {_esc(config_source)}." if config_source else ""

@@ -51,7 +51,7 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, mjcf: Path
         results = []
         for case in bar:
             bar.set_postfix_str(case.name)
-            results.append(pipeline.run_case(case, mjcf=mjcf) if mjcf is not None else pipeline.run_case(case))
+            results.append(pipeline.run_case(case, mjcf=mjcf))
     else:
         results = _run_parallel(selected, workers, bar, figures_only=figures_only)
     bar.close()
