@@ -10,8 +10,9 @@ quality of the reference is a measured figure, not an assumption.
 An unconstrained (minimal-coordinate) system goes through the same code with
 no constraint rows, which makes it a plain ODE.
 
-The solution keeps scipy's dense output: one solve serves every timestep,
-integrator and setting a study asks for.
+Both are integrated by our DOP853 (:mod:`analytic.dop853`, order 8, 7th-order
+dense output): one solve serves every timestep, integrator and setting a study
+asks for.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from analytic import dop853
 from analytic.dynamics import Array, Dynamics
 
 DEFAULT_RTOL = 1e-12
@@ -34,14 +36,14 @@ class Solution:
     t_end: float
     rtol: float
     nfev: int
-    _dense: object  # scipy OdeSolution
+    _dense: dop853.Dense
 
     def state(self, t: Array) -> tuple[Array, Array]:
         """q and q̇ at times t, shapes (N, n)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         if t.min() < -1e-12 or t.max() > self.t_end * (1 + 1e-12) + 1e-12:
             raise ValueError(f"t must lie in [0, {self.t_end}], got [{t.min()}, {t.max()}]")
-        y = self._dense(np.clip(t, 0.0, self.t_end)).T
+        y = self._dense(np.clip(t, 0.0, self.t_end))
         n = self.dynamics.n
         return y[:, :n], y[:, n:]
 
@@ -65,7 +67,6 @@ def solve(
     rtol: float = DEFAULT_RTOL,
     atol: float = DEFAULT_ATOL,
     stabilization_rate: float = 10.0,
-    method: str = "DOP853",
 ) -> Solution:
     """Integrate from (q0, q̇0) over [0, t_end] with dense output.
 
@@ -82,7 +83,6 @@ def solve(
     if not 0 < rtol <= 1e-6:
         raise ValueError(f"rtol must be in (0, 1e-6], got {rtol}")
     _check_consistent(dynamics, q0, qd0)
-    solve_ivp = integrator()
 
     omega = float(stabilization_rate)
     stab = (2.0 * omega, omega * omega)
@@ -92,21 +92,11 @@ def solve(
         qdd, _ = dynamics.accelerations(y[:n], y[n:], stabilization=stab)
         return np.concatenate([y[n:], qdd])
 
-    result = solve_ivp(rhs, (0.0, t_end), np.concatenate([q0, qd0]), method=method,
-                       rtol=rtol, atol=atol, dense_output=True)
-    if not result.success:
-        raise RuntimeError(f"reference solver failed: {result.message}")
-    return Solution(dynamics=dynamics, t_end=float(t_end), rtol=rtol, nfev=int(result.nfev),
-                    _dense=result.sol)
-
-
-def integrator():
-    """scipy's ``solve_ivp``, imported on first use: scipy.integrate takes 0.2 s to load, which
-    commands that solve nothing (``list``, ``diff``) should not pay; a process pool loads it before
-    forking its workers, once rather than in every worker side by side."""
-    from scipy.integrate import solve_ivp
-
-    return solve_ivp
+    try:
+        result = dop853.integrate(rhs, float(t_end), np.concatenate([q0, qd0]), rtol=rtol, atol=atol)
+    except RuntimeError as exc:
+        raise RuntimeError(f"reference solver failed: {exc}") from None
+    return Solution(dynamics=dynamics, t_end=float(t_end), rtol=rtol, nfev=result.nfev, _dense=result.dense)
 
 
 def _check_consistent(dynamics: Dynamics, q0: Array, qd0: Array, tol: float = 1e-9) -> None:

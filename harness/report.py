@@ -44,11 +44,10 @@ SCHEMA = 1  # of report.json; bumped when a consumer (``mjharness diff``) must c
 def versions() -> dict[str, str]:
     from importlib.metadata import version
 
-    import scipy
     import sympy
 
     return {"mjharness": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
-            "scipy": scipy.__version__, "sympy": sympy.__version__,
+            "sympy": sympy.__version__,
             "matplotlib": version("matplotlib"), "python": platform.python_version()}
 
 

@@ -97,13 +97,11 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_
     import dataclasses
     from concurrent.futures import as_completed
 
-    from analytic import solvers
     from harness import pipeline  # noqa: F401  imported once here, not once per worker
     from harness import reference as refmod
     from harness.pool import fork_pool
     from harness.studies import convergence  # noqa: F401  (run_case imports it)
 
-    solvers.integrator()  # every worker solves references: load scipy.integrate once, before the fork
     outcomes: dict[int, tuple] = {}
     with fork_pool(workers) as pool:
         futures = {pool.submit(_run_group, [selected[i].name for i in group], figures_only): group
