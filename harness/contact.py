@@ -40,13 +40,11 @@ and q̇ read from the same-named joints and the parameters from the model.
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import Literal
 
 import mujoco
 import numpy as np
-import sympy as sp
 
 from harness.momentum import subtree
 from harness.readings import Reading
@@ -140,44 +138,26 @@ def analytic_residual(*, system: str, constraints: Sequence[str], level: Residua
         raise ValueError("constraints must name at least one constraint")
     bound: dict[str, object] = {}
 
-    @functools.cache
-    def rows_fn(values: tuple[float, ...]) -> Callable[..., list]:
-        """The rows as a numpy function of (q, q̇) at these parameter values: lambdified once per set
-        of values, not once per compiled model (every integrator and study variant is a new model)."""
-        from harness.reference import derivation  # local: reference imports the case registry
-
-        deriv = derivation(system)
-        names = [c.name for c in deriv.system.constraints]
-        exprs = deriv.constraint_rows if level == "velocity" else deriv.holonomic_residual
-        subs = dict(zip(deriv.system.params, values, strict=True))
-        rows = [exprs[names.index(c)].subs(subs) for c in constraints]
-        return sp.lambdify([*deriv.system.q, *deriv.system.qd], rows, modules="numpy")
-
     def bind(model: mujoco.MjModel) -> None:
         from analytic.systems import load
-        from harness.reference import derivation
+        from harness.reference import dynamics  # local: reference imports the case registry
 
-        deriv = derivation(system)
-        names = [c.name for c in deriv.system.constraints]
+        dyn = dynamics(system, load(system).params_from_model(model))
+        names = list(dyn.constraint_names)
         unknown = sorted(set(constraints) - set(names))
         if unknown:
             raise ValueError(f"system {system!r} has no constraint(s) {unknown}; it has {names}")
-        params = load(system).params_from_model(model)
-        coords = [c.name for c in deriv.system.q]
-        bound.update(model=model, fn=rows_fn(tuple(float(params[p.name]) for p in deriv.system.params)),
-                     qpos=[model.joint(n).qposadr[0] for n in coords],
-                     qvel=[model.joint(n).dofadr[0] for n in coords])
+        bound.update(model=model, dyn=dyn, rows=[names.index(c) for c in constraints],
+                     qpos=[model.joint(n).qposadr[0] for n in dyn.coordinates],
+                     qvel=[model.joint(n).dofadr[0] for n in dyn.coordinates])
 
     def evaluate(model: mujoco.MjModel, rec: Mapping[str, np.ndarray]) -> np.ndarray:
         if bound.get("model") is not model:
             bind(model)
-        n = len(rec["qpos"])
-        args = [*rec["qpos"][:, bound["qpos"]].T, *rec["qvel"][:, bound["qvel"]].T]
-        rows = [np.abs(np.broadcast_to(np.asarray(r, dtype=float), (n,))) for r in bound["fn"](*args)]
-        out = rows[0]
-        for r in rows[1:]:
-            out = np.hypot(out, r)
-        return out
+        dyn = bound["dyn"]
+        q, qd = rec["qpos"][:, bound["qpos"]], rec["qvel"][:, bound["qvel"]]
+        values = dyn.velocity_residual(q, qd) if level == "velocity" else dyn.position_residual(q)
+        return np.linalg.norm(values[:, bound["rows"]], axis=1)
 
     return Reading(fields=(), evaluate=evaluate,
                    description=f"|{level} residual of {list(constraints)}| of system {system!r} at MuJoCo's state")

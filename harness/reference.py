@@ -2,7 +2,11 @@
 
 Derivations are cached on disk (harness/cache.py), keyed by the source of the
 system module and of analytic/lagrangian.py, so a run derives only what was
-edited since the last one; within a process each is loaded once.
+edited since the last one; within a process each is loaded once. So are the
+numeric functions made from them at a model's parameter values
+(:class:`analytic.dynamics.Compiled`, keyed also by analytic/dynamics.py and
+the values): a run that finds them cached needs no derivation and never
+imports sympy.
 
 A case's reference is solved once per process over the case's horizon (or a
 longer one asked for) and reused, through its dense output, by every
@@ -17,30 +21,40 @@ worker process can be handed to the parent (:func:`export_solutions`,
 from __future__ import annotations
 
 import functools
-from collections.abc import Mapping
+import importlib.util
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 
-from analytic import lagrangian
-from analytic.dynamics import Dynamics
-from analytic.lagrangian import Derivation, LagrangianSystem
+from analytic.dynamics import Compiled, Dynamics
 from analytic.solvers import DEFAULT_RTOL, Solution, solve
 from analytic.systems import Scales, load
 from harness import cache
 from harness.cases import Case
 from harness.trajectory import Trajectory
 
+if TYPE_CHECKING:
+    from analytic.lagrangian import Derivation, LagrangianSystem
+
 # Derivation's lazily computed results, all evaluated before a derivation is cached on disk
 SYMBOLIC = ("mass_matrix", "forcing", "constraint_rows", "jacobian", "gamma", "holonomic_residual", "energy",
             "momenta", "cyclic", "equations", "multiplier_symbols")
 
 
+def _module_file(module: str) -> Path:
+    """Where ``module``'s source is, found without importing it (analytic.lagrangian loads sympy)."""
+    spec = importlib.util.find_spec(module)
+    assert spec is not None and spec.origin is not None, module
+    return Path(spec.origin)
+
+
 def _sources(system: str) -> list[Path]:
     """The files a derivation of ``system`` depends on."""
-    return [Path(str(load(system).__file__)), Path(lagrangian.__file__)]
+    return [Path(str(load(system).__file__)), _module_file("analytic.lagrangian")]
 
 
 def _derived(system_of: LagrangianSystem) -> Derivation:
@@ -53,13 +67,22 @@ def _derived(system_of: LagrangianSystem) -> Derivation:
 @functools.cache
 def derivation(system: str) -> Derivation:
     """The derivation of ``system`` with every symbolic result evaluated (cached on disk and per process)."""
+    from analytic.lagrangian import Derivation
+
     digest = cache.source_key(_sources(system))
     return cache.cached("derivation", system, digest, lambda: _derived(load(system).build()), Derivation)
+
+
+def derivation_stored(system: str) -> bool:
+    """Whether the on-disk cache holds ``system``'s derivation for its current source (no loading)."""
+    return cache.has("derivation", system, cache.source_key(_sources(system)))
 
 
 @functools.cache
 def minimal_derivation(system: str) -> Derivation | None:
     """The derivation of the system's minimal-coordinate form (``minimal()``), or None if it has none."""
+    from analytic.lagrangian import Derivation
+
     module = load(system)
     if not hasattr(module, "minimal"):
         return None
@@ -67,10 +90,19 @@ def minimal_derivation(system: str) -> Derivation | None:
     return cache.cached("minimal", system, digest, lambda: _derived(module.minimal()), Derivation)
 
 
+def _compiled(kind: str, system: str, params: tuple[tuple[str, float], ...],
+              deriving: Callable[[str], Derivation | None]) -> Dynamics:
+    """Dynamics from the on-disk entry for (system, params), made from ``deriving(system)`` if absent."""
+    digest = cache.key(cache.source_key([*_sources(system), _module_file("analytic.dynamics")]), repr(params))
+    compiled = cache.cached(kind, system, digest, lambda: Compiled.of(deriving(system), dict(params)), Compiled)
+    return Dynamics.load(compiled)
+
+
 @functools.cache
 def _minimal_dynamics(system: str, params: tuple[tuple[str, float], ...]) -> Dynamics | None:
-    deriv = minimal_derivation(system)
-    return None if deriv is None else Dynamics.build(deriv, dict(params))
+    if not hasattr(load(system), "minimal"):
+        return None
+    return _compiled("minimal-dynamics", system, params, minimal_derivation)
 
 
 def minimal_dynamics(system: str, params: Mapping[str, float]) -> Dynamics | None:
@@ -80,11 +112,11 @@ def minimal_dynamics(system: str, params: Mapping[str, float]) -> Dynamics | Non
 
 @functools.cache
 def _dynamics(system: str, params: tuple[tuple[str, float], ...]) -> Dynamics:
-    return Dynamics.build(derivation(system), dict(params))
+    return _compiled("dynamics", system, params, derivation)
 
 
 def dynamics(system: str, params: Mapping[str, float]) -> Dynamics:
-    """Numeric dynamics of ``system`` at ``params`` (cached)."""
+    """Numeric dynamics of ``system`` at ``params`` (cached on disk and per process)."""
     return _dynamics(system, tuple(sorted(params.items())))
 
 

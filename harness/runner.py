@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from harness import cases
@@ -59,13 +59,24 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, mjcf: Path
     return results, checks, config
 
 
-def groups(selected: Sequence[cases.Case]) -> list[list[int]]:
+def groups(selected: Sequence[cases.Case], *, derived: Callable[[str], bool] | None = None) -> list[list[int]]:
     """Indices of the selected cases by system, each group in registry order, costliest group first.
-    A system's cases run in one worker, so that its derivation, dynamics and reference are made once."""
+
+    A system's cases run in one worker, so that its derivation, dynamics and reference are made once.
+    A group costs its cases' ``cost`` plus, where ``derived(system)`` is False (default: its
+    derivation is not in the on-disk cache), the system's :data:`cases.DERIVATION_COST`.
+    """
+    if derived is None:
+        from harness.reference import derivation_stored as derived
     by_system: dict[str, list[int]] = {}
     for i, case in enumerate(selected):
         by_system.setdefault(case.system, []).append(i)
-    return sorted(by_system.values(), key=lambda group: -sum(selected[i].cost for i in group))
+
+    def cost(system: str, group: list[int]) -> float:
+        deriving = 0.0 if derived(system) else cases.DERIVATION_COST.get(system, 0.5)
+        return deriving + sum(selected[i].cost for i in group)
+
+    return sorted(by_system.values(), key=lambda group: -cost(selected[group[0]].system, group))
 
 
 def _run_group(names: Sequence[str], figures_only: bool):

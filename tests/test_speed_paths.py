@@ -3,6 +3,9 @@
 - Derivations cached on disk load as the derivation itself; a corrupt,
   truncated or foreign entry and an unwritable cache directory fall back to
   deriving, silently and correctly; editing a system's source changes the key.
+- Numeric dynamics cached on disk (lambdify's source at the model's
+  parameters) give the freshly lambdified values, per parameter values; a
+  check that finds them cached never imports sympy.
 - A case's reference is solved once per process and reused for every shorter
   horizon, whatever asked first.
 - ``--jobs N`` gives the serial run's figures, in registry order, and a case's
@@ -35,11 +38,14 @@ def cache_home(tmp_path, monkeypatch):
     """An empty cache directory, and no derivation cached in this process."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     monkeypatch.delenv("MJHARNESS_NO_CACHE", raising=False)
-    refmod.derivation.cache_clear()
-    refmod.minimal_derivation.cache_clear()
+    _clear()
     yield tmp_path / "xdg" / "mjharness"
-    refmod.derivation.cache_clear()
-    refmod.minimal_derivation.cache_clear()
+    _clear()
+
+
+def _clear() -> None:
+    for fn in (refmod.derivation, refmod.minimal_derivation, refmod._dynamics, refmod._minimal_dynamics):
+        fn.cache_clear()
 
 
 def _entry(root, kind: str = "derivation"):
@@ -85,6 +91,39 @@ def test_the_cache_can_be_turned_off(cache_home, monkeypatch):
     monkeypatch.setenv("MJHARNESS_NO_CACHE", "1")
     refmod.derivation(SYSTEM)
     assert not cache_home.exists()
+
+
+def test_cached_dynamics_are_the_lambdified_dynamics_per_parameter_values(cache_home):
+    """The stored source evaluates bit for bit as the functions lambdify made; other parameter values
+    are another entry, never the first one's."""
+    params = refmod.load(SYSTEM).params_from_model(compile_model(mjcf_path(SYSTEM)))
+    fresh = refmod.dynamics(SYSTEM, params)
+    assert refmod.minimal_dynamics(SYSTEM, params) is not None
+    assert _entry(cache_home, "dynamics") and _entry(cache_home, "minimal-dynamics")
+    _clear()
+    loaded = refmod.dynamics(SYSTEM, params)
+    assert loaded is not fresh and loaded.coordinates == fresh.coordinates
+    rng = np.random.default_rng(0)
+    q, qd = rng.normal(size=(50, 2)) + np.array([0.0, params["l"]]), rng.normal(size=(50, 2))
+    for name in ("mass_matrix", "forcing", "jacobian", "gamma", "energy", "momenta", "points"):
+        args = (q,) if name in ("mass_matrix", "jacobian", "points") else (q, qd)
+        assert np.array_equal(getattr(loaded, name)(*args), getattr(fresh, name)(*args)), name
+    heavier = refmod.dynamics(SYSTEM, dict(params, m=2 * params["m"]))
+    assert len(list((cache_home / "dynamics").glob(f"{SYSTEM}-*.pickle"))) == 2
+    assert np.allclose(heavier.mass_matrix(q), 2 * loaded.mass_matrix(q), rtol=1e-15, atol=0)
+
+
+def test_a_check_with_its_derivations_cached_never_imports_sympy(tmp_path):
+    """sympy costs 0.15 s to import and 0.08 s to tear down in every process; with the numeric
+    dynamics cached, check needs numpy and MuJoCo only (the first run derives and stores them)."""
+    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path))
+    env.pop("MJHARNESS_NO_CACHE", None)
+    code = ("import sys; from harness import cli; code = cli.main(['check', 'pendulum', 'hoop_ramp_contact', "
+            "'--jobs', '1']); print(sorted({m.split('.')[0] for m in sys.modules} & {'sympy', 'scipy'}), code)")
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env=env)
+            for _ in range(2)]
+    assert runs[0].stdout.strip().splitlines()[-1] == "['sympy'] 0", runs[0].stderr  # derived: it can fail
+    assert runs[1].stdout.strip().splitlines()[-1] == "[] 0", runs[1].stderr
 
 
 def test_the_key_follows_the_sources(tmp_path):
@@ -212,15 +251,29 @@ def test_check_draws_nothing_and_never_imports_matplotlib():
 
 def test_the_pool_starts_the_costliest_systems_first():
     """Groups are a system's cases (derivation and reference made once), ordered by their summed cost
-    hint, so the cheapest fill the end; a case's cost must be positive."""
+    hint plus the system's derivation where it is not cached, so the cheapest fill the end; a
+    case's cost must be positive."""
     selected = cases.CASES
-    groups = runner.groups(selected)
-    assert sorted(i for g in groups for i in g) == list(range(len(selected)))
-    assert all(len({selected[i].system for i in g}) == 1 for g in groups)
-    totals = [sum(selected[i].cost for i in g) for g in groups]
-    assert totals == sorted(totals, reverse=True)
+    for derived in (lambda system: True, lambda system: False, lambda system: system != "hoop_ramp"):
+        groups = runner.groups(selected, derived=derived)
+        assert sorted(i for g in groups for i in g) == list(range(len(selected)))
+        assert all(len({selected[i].system for i in g}) == 1 for g in groups)
+        totals = [sum(selected[i].cost for i in g)
+                  + (0 if derived(selected[g[0]].system) else cases.DERIVATION_COST[selected[g[0]].system])
+                  for g in groups]
+        assert totals == sorted(totals, reverse=True)
+    warm = [selected[g[0]].system for g in runner.groups(selected, derived=lambda system: True)]
+    cold = [selected[g[0]].system for g in runner.groups(selected, derived=lambda system: False)]
+    assert warm != cold  # the derivations change which systems cost most
+    assert set(cases.DERIVATION_COST) == {c.system for c in selected}
     with pytest.raises(ValueError, match="cost must be positive"):
         cases.Case(name="x", description="", q0={"x": 0.0}, qd0={"x": 0.0}, horizon=1.0, cost=0.0)
+
+
+def test_the_scheduler_sees_whether_a_derivation_is_stored(cache_home):
+    assert not refmod.derivation_stored(SYSTEM)
+    refmod.derivation(SYSTEM)
+    assert refmod.derivation_stored(SYSTEM)
 
 
 def _square_or_fail(x: int) -> int:

@@ -10,6 +10,13 @@ Each module defines:
   measured against (e.g. m·g for a tension).
 - optionally ``minimal() -> LagrangianSystem``: the same system in minimal
   coordinates, the independent ODE path the DAE result is checked against.
+- ``PARAMETERS``: the names of its physical parameters; ``system.m`` etc. are
+  their (positive) sympy symbols, made on first use by the module's
+  ``__getattr__``.
+
+sympy is imported inside ``build``/``minimal`` only: the numeric half of a
+system (``params_from_model``, ``scales``) is all a run with cached
+derivations needs, and it then never loads sympy (0.15 s a process).
 """
 
 from __future__ import annotations
@@ -27,6 +34,22 @@ class Scales:
     force: float
     energy: float
     momentum: float = 1.0
+
+
+def parameters(names: str) -> tuple:
+    """The parameters ``names`` (space-separated) as positive sympy symbols. Symbols are equal by name
+    and assumptions, so every call gives the same parameters."""
+    import sympy as sp
+
+    return sp.symbols(names, positive=True, seq=True)
+
+
+def parameter(module: str, names: str, attr: str):
+    """A system module's ``__getattr__``: the symbol of parameter ``attr``, or AttributeError."""
+    listed = names.split()
+    if attr in listed:
+        return parameters(names)[listed.index(attr)]
+    raise AttributeError(f"module {module!r} has no attribute {attr!r}")
 
 
 def load(name: str) -> ModuleType:

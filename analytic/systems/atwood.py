@@ -36,15 +36,25 @@ rows, so its ``efc_force`` is λ with the same sign.
 
 from __future__ import annotations
 
-import sympy as sp
+from typing import TYPE_CHECKING
 
-from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
-from analytic.systems import Scales
+from analytic.systems import Scales, parameter, parameters
 
-m1, m2, m_p, a, g, h = sp.symbols("m1 m2 m_p a g h", positive=True)
+if TYPE_CHECKING:
+    from analytic.lagrangian import LagrangianSystem
+
+PARAMETERS = "m1 m2 m_p a g h"  # positive; atwood.m1 etc. are their sympy symbols
+
+
+def __getattr__(name: str):
+    return parameter(__name__, PARAMETERS, name)
 
 
 def build() -> LagrangianSystem:
+
+    from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
+
+    m1, m2, m_p, a, g, h = parameters(PARAMETERS)
     (z1, z2, theta), (z1_d, z2_d, theta_d) = coordinates("z1 z2 theta")
     return LagrangianSystem(
         name="atwood",
@@ -60,6 +70,9 @@ def build() -> LagrangianSystem:
 
 def minimal() -> LagrangianSystem:
     """z1 alone, with z2 = −z1 and θ = z1/a substituted: (m1 + m2 + m_p) z̈1 = −(m1 − m2) g."""
+    from analytic.lagrangian import coordinates
+
+    a = parameter(__name__, PARAMETERS, "a")
     full = build()
     z1, z2, theta = full.q
     (s,), (s_d,) = coordinates("z1")

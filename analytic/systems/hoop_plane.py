@@ -46,15 +46,26 @@ lateral, m v θ̇ along w (towards the circle's centre).
 
 from __future__ import annotations
 
-import sympy as sp
+from typing import TYPE_CHECKING
 
-from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
-from analytic.systems import Scales
+from analytic.systems import Scales, parameter, parameters
 
-m, g, a = sp.symbols("m g a", positive=True)
+if TYPE_CHECKING:
+    from analytic.lagrangian import LagrangianSystem
+
+PARAMETERS = "m g a"  # positive; hoop_plane.m etc. are their sympy symbols
+
+
+def __getattr__(name: str):
+    return parameter(__name__, PARAMETERS, name)
 
 
 def build() -> LagrangianSystem:
+    import sympy as sp
+
+    from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
+
+    m, g, a = parameters(PARAMETERS)
     (x, y, z, theta, phi), qd = coordinates("x y z theta phi")
     x_d, y_d, z_d, theta_d, phi_d = qd
     centre = sp.Matrix([x, y, z])

@@ -49,21 +49,31 @@ the same J and γ, hence the same motion and multipliers: ``build(form="pfaffian
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import mujoco
-import sympy as sp
 
-from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
-from analytic.systems import Scales
+from analytic.systems import Scales, parameter, parameters
 
-m, g, a, alpha = sp.symbols("m g a alpha", positive=True)
+if TYPE_CHECKING:
+    from analytic.lagrangian import LagrangianSystem
+
+PARAMETERS = "m g a alpha"  # positive; hoop_ramp.m etc. are their sympy symbols
+
+
+def __getattr__(name: str):
+    return parameter(__name__, PARAMETERS, name)
 
 RollForm = Literal["holonomic", "pfaffian"]
 
 
 def build(*, form: RollForm = "holonomic") -> LagrangianSystem:
     """The hoop in (x, s, φ); ``form`` writes ``roll`` as x − aφ = 0 or as ẋ − aφ̇ = 0."""
+    import sympy as sp
+
+    from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
+
+    m, g, a, alpha = parameters(PARAMETERS)
     (x, s, phi), (x_d, s_d, phi_d) = coordinates("x s phi")
     if form == "holonomic":
         roll = Constraint("roll", x - a * phi)
@@ -90,6 +100,9 @@ def build(*, form: RollForm = "holonomic") -> LagrangianSystem:
 
 def minimal() -> LagrangianSystem:
     """x alone, with s = a and φ = x/a substituted: 2m ẍ = m g sin α."""
+    from analytic.lagrangian import coordinates
+
+    a = parameter(__name__, PARAMETERS, "a")
     full = build()
     x, s, phi = full.q
     (u,), (u_d,) = coordinates("x")

@@ -22,15 +22,26 @@ is λ with the same sign.
 
 from __future__ import annotations
 
-import sympy as sp
+from typing import TYPE_CHECKING
 
-from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
-from analytic.systems import Scales
+from analytic.systems import Scales, parameter, parameters
 
-m, g, l = sp.symbols("m g l", positive=True)
+if TYPE_CHECKING:
+    from analytic.lagrangian import LagrangianSystem
+
+PARAMETERS = "m g l"  # positive; pendulum.m etc. are their sympy symbols
+
+
+def __getattr__(name: str):
+    return parameter(__name__, PARAMETERS, name)
 
 
 def build() -> LagrangianSystem:
+    import sympy as sp
+
+    from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
+
+    m, g, l = parameters(PARAMETERS)
     (theta, r), (theta_d, r_d) = coordinates("theta r")
     x, z = r * sp.sin(theta), -r * sp.cos(theta)
     vx, vz = sp.diff(x, theta) * theta_d + sp.diff(x, r) * r_d, sp.diff(z, theta) * theta_d + sp.diff(z, r) * r_d
@@ -48,6 +59,9 @@ def build() -> LagrangianSystem:
 
 def minimal() -> LagrangianSystem:
     """θ alone, with r = l substituted: the textbook pendulum ODE."""
+    from analytic.lagrangian import coordinates
+
+    l = parameter(__name__, PARAMETERS, "l")
     full = build()
     theta, r = full.q
     (s,), (s_d,) = coordinates("theta")

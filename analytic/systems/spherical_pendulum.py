@@ -42,18 +42,30 @@ frame as the two-hinge model (harness/ball_binding.py maps the state).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import sympy as sp
 
-from analytic.lagrangian import LagrangianSystem, coordinates
-from analytic.systems import Scales
+from analytic.systems import Scales, parameter, parameters
 
-m, g, l = sp.symbols("m g l", positive=True)
+if TYPE_CHECKING:
+    from analytic.lagrangian import LagrangianSystem
+
+PARAMETERS = "m g l"  # positive; spherical_pendulum.m etc. are their sympy symbols
+
+
+def __getattr__(name: str):
+    return parameter(__name__, PARAMETERS, name)
 
 BOB = "bob"
 
 
 def build() -> LagrangianSystem:
+    import sympy as sp
+
+    from analytic.lagrangian import LagrangianSystem, coordinates
+
+    m, g, l = parameters(PARAMETERS)
     (theta, phi), (theta_d, phi_d) = coordinates("theta phi")
     pos = sp.Matrix([l * sp.sin(theta) * sp.cos(phi), l * sp.sin(theta) * sp.sin(phi), -l * sp.cos(theta)])
     vel = pos.jacobian([theta, phi]) * sp.Matrix([theta_d, phi_d])

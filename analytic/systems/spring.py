@@ -23,15 +23,25 @@ The rest length l0 enters only the observable position and the scales.
 
 from __future__ import annotations
 
-import sympy as sp
+from typing import TYPE_CHECKING
 
-from analytic.lagrangian import LagrangianSystem, coordinates
-from analytic.systems import Scales
+from analytic.systems import Scales, parameter, parameters
 
-m, k, l0 = sp.symbols("m k l0", positive=True)
+if TYPE_CHECKING:
+    from analytic.lagrangian import LagrangianSystem
+
+PARAMETERS = "m k l0"  # positive; spring.m etc. are their sympy symbols
+
+
+def __getattr__(name: str):
+    return parameter(__name__, PARAMETERS, name)
 
 
 def build() -> LagrangianSystem:
+
+    from analytic.lagrangian import LagrangianSystem, coordinates
+
+    m, k, l0 = parameters(PARAMETERS)
     (x,), (x_d,) = coordinates("x")
     return LagrangianSystem(
         name="spring",
