@@ -16,11 +16,13 @@ Four parts, each printed as a table:
    (``Case.mujoco_forces/series/invariants``: per sample in Python before the
    speed work, over the whole run from recorded fields since). Wall time: an
    RK4 run recomputes its fields on a second thread while it steps.
-2. Per-case split (target 5): derivation, reference solve, instantaneous
-   layer, MuJoCo runs, comparison, the fast convergence study, and the case's
-   report (HTML/JSON/Markdown with its plots), so that the next bottleneck is
-   visible. The on-disk derivation cache (if this version has one) points at a
-   directory that is empty when the benchmark starts.
+2. Per-case split (target 5): derivation (sympy, then the numeric functions
+   lambdified at the model's parameters; or both loaded from the on-disk
+   cache), reference solve, instantaneous layer, MuJoCo runs, comparison, the
+   fast convergence study, and the case's report (HTML/JSON/Markdown with its
+   plots), so that the next bottleneck is visible. The on-disk derivation cache
+   (if this version has one) points at a directory that is empty when the
+   benchmark starts.
 3. The full report's split (target 4b): the cases, the studies, seed audit
    and plots, and the rest of the report, as ``mjharness run`` does them (both
    first steps on the process pool), then each study call's own seconds
@@ -145,7 +147,7 @@ def recorder_vs_rollout(selected, repeat: int) -> None:
 
 # ------------------------------------------------------------------ part 2
 def _clear_process_caches() -> None:
-    for name in ("derivation", "_dynamics", "minimal_derivation", "_solution", "clear_cache"):
+    for name in ("derivation", "_dynamics", "minimal_derivation", "_minimal_dynamics", "_solution", "clear_cache"):
         fn = getattr(refmod, name, None)
         if hasattr(fn, "cache_clear"):
             fn.cache_clear()
@@ -203,7 +205,7 @@ def per_case_split(selected) -> None:
 def _cli(args: list[str], cache: str) -> tuple[float, int, str]:
     env = dict(os.environ, XDG_CACHE_HOME=cache)
     start = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-m", "harness.cli", *args], cwd=ROOT, env=env,
+    proc = subprocess.run([sys.executable, "-m", "harness.command", *args], cwd=ROOT, env=env,
                           capture_output=True, text=True, check=False)
     elapsed = time.perf_counter() - start
     tail = (proc.stdout.strip().splitlines() or [""])[-1]
@@ -213,7 +215,7 @@ def _cli(args: list[str], cache: str) -> tuple[float, int, str]:
 
 
 def command_lines(run_report: bool, repeat: int) -> None:
-    helptext = subprocess.run([sys.executable, "-m", "harness.cli", "check", "--help"], cwd=ROOT,
+    helptext = subprocess.run([sys.executable, "-m", "harness.command", "check", "--help"], cwd=ROOT,
                               capture_output=True, text=True, check=False).stdout
     jobs = "--jobs" in helptext
     print(f"\n== 3, 4. Command lines (best of {repeat}), cold start = fresh process and empty derivation cache; "
@@ -221,6 +223,7 @@ def command_lines(run_report: bool, repeat: int) -> None:
     times = {}
     configs = [("1 worker", ["--jobs", "1"]), ("2 workers", ["--jobs", "2"])] if jobs else [("serial", [])]
     warm = tempfile.mkdtemp(prefix="mjharness-bench-warm-")
+    _cli(["check"], warm)  # fills the warm cache: every warm run below finds its derivations stored
     for warmth in ("cold", "warm"):
         runs: dict[str, list] = {label: [] for label, _ in configs}
         for _ in range(repeat):  # interleaved, so that a busy moment of the machine hits both alike
@@ -299,7 +302,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-cli", dest="cli", action="store_false", help="skip part 3 (command lines)")
     p.add_argument("--no-run", dest="run", action="store_false",
                    help="skip the full report (its split, and the command in part 3)")
-    p.add_argument("--cli-repeat", type=int, default=3, help="runs of each check command in part 3 (best taken)")
+    p.add_argument("--cli-repeat", type=int, default=5, help="runs of each check command in part 3 (best taken)")
     args = p.parse_args(argv)
     selected = cases.select(args.cases or [])
     print(f"mjharness benchmark: MuJoCo {mujoco.__version__}, Python {platform.python_version()}, "

@@ -14,7 +14,6 @@ and a ``cmd_NAME(args) -> int`` doing the work.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -318,18 +317,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     return EXIT_USAGE
 
 
-def entry() -> None:
-    """The ``mjharness`` command: :func:`main`, then exit without tearing the interpreter down.
-
-    Every file a command writes is closed before ``main`` returns and the worker pools are shut
-    down, so what teardown would add is freeing the symbolic and numeric objects one by one: 0.1 s
-    a run with sympy loaded, paid at the end of every command and serially in a parallel ``check``.
-    """
-    code = main()
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(code)
-
-
 if __name__ == "__main__":
+    from harness.command import entry
+
     entry()

@@ -277,18 +277,32 @@ def test_the_scheduler_sees_whether_a_derivation_is_stored(cache_home):
 
 
 def test_the_command_exits_with_mains_code_and_flushed_output(tmp_path):
-    """``mjharness`` (harness.cli:entry) skips interpreter teardown: its output must still be whole
-    and its exit code main's, for a listing (short: it sits in the buffer until flushed), a usage
-    error and a bad argument."""
+    """``mjharness`` (harness.command:entry) skips interpreter teardown: its output must still be
+    whole and its exit code main's, for a listing (short: it sits in the buffer until flushed), a
+    usage error and a bad argument."""
     env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path))
     env.pop("PYTHONUNBUFFERED", None)  # a pipe is then block-buffered, as in a CI log
-    run = [sys.executable, "-m", "harness.cli"]
+    run = [sys.executable, "-m", "harness.command"]
     ok = subprocess.run([*run, "list"], capture_output=True, text=True, timeout=60, env=env)
     assert ok.returncode == 0 and all(name in ok.stdout for name in cases.names()), (ok.stdout, ok.stderr)
     bad = subprocess.run([*run, "check", "no_such_case"], capture_output=True, text=True, timeout=60, env=env)
     assert bad.returncode == cli.EXIT_USAGE and bad.stderr.startswith("mjharness: error:"), bad.stderr
     usage = subprocess.run([*run, "check", "--jobs", "0"], capture_output=True, text=True, timeout=60, env=env)
     assert usage.returncode == 2 and "jobs" in usage.stderr
+
+
+@pytest.mark.parametrize("user", [None, "egl"])
+def test_the_command_loads_no_gl_binding_and_leaves_mujoco_gl_as_it_was(user):
+    """The command's own process never renders (stills come from subprocesses that pick a backend
+    from MUJOCO_GL), so it imports MuJoCo without GLFW; the variable is the user's again after."""
+    env = dict(os.environ)
+    env.pop("MUJOCO_GL", None)
+    if user:
+        env["MUJOCO_GL"] = user
+    code = ("import os, sys; from harness import command; command.import_mujoco_without_gl(); "
+            "import mujoco; print('glfw' in sys.modules, os.environ.get('MUJOCO_GL'))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, env=env)
+    assert proc.stdout.split() == ["False", str(user)], proc.stderr
 
 
 def _square_or_fail(x: int) -> int:
