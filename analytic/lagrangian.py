@@ -20,6 +20,7 @@ properties of the returned :class:`Derivation`.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -28,6 +29,23 @@ from typing import Literal
 import sympy as sp
 
 ConstraintKind = Literal["holonomic", "pfaffian"]
+
+
+# sympy modules a first derivation imports lazily: the tensor module on the first sum (Add.flatten),
+# physics.units on the first simplify, the code printers on the first lambdify; 0.1 s a process
+_LAZY = ("sympy.tensor.tensor", "sympy.physics.units", "sympy.codegen.ast", "sympy.printing.numpy",
+         "sympy.assumptions.wrapper", "sympy.sets.setexpr")
+
+
+def preload() -> None:
+    """Import what a first derivation would import on its way (see ``_LAZY``), so that a process that
+    forks workers to derive pays for it once instead of in every worker side by side. A name a
+    later sympy no longer has is skipped: this only moves work earlier."""
+    import importlib
+
+    for name in _LAZY:
+        with contextlib.suppress(ImportError):
+            importlib.import_module(name)
 
 
 def coordinates(names: str) -> tuple[tuple[sp.Symbol, ...], tuple[sp.Symbol, ...]]:

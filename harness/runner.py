@@ -113,10 +113,15 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_
     from harness.pool import fork_pool
     from harness.studies import convergence  # noqa: F401  (run_case imports it)
 
+    stored = {system: refmod.derivation_stored(system) for system in dict.fromkeys(c.system for c in selected)}
+    if not all(stored.values()):  # the workers derive: sympy and its lazily loaded parts, once, before the fork
+        from analytic import lagrangian
+
+        lagrangian.preload()
     outcomes: dict[int, tuple] = {}
     with fork_pool(workers) as pool:
         futures = {pool.submit(_run_group, [selected[i].name for i in group], figures_only): group
-                   for group in groups(selected)}
+                   for group in groups(selected, derived=stored.__getitem__)}
         next_in_order = 0
         for future in as_completed(futures):
             group = futures[future]

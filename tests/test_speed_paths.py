@@ -270,6 +270,14 @@ def test_the_pool_starts_the_costliest_systems_first():
         cases.Case(name="x", description="", q0={"x": 0.0}, qd0={"x": 0.0}, horizon=1.0, cost=0.0)
 
 
+def test_preloading_sympy_for_forked_derivers_tolerates_a_module_sympy_lacks(monkeypatch):
+    from analytic import lagrangian
+
+    monkeypatch.setattr(lagrangian, "_LAZY", ("sympy.physics.units", "sympy.no_such_module"))
+    lagrangian.preload()
+    assert "sympy.physics.units" in sys.modules
+
+
 def test_the_scheduler_sees_whether_a_derivation_is_stored(cache_home):
     assert not refmod.derivation_stored(SYSTEM)
     refmod.derivation(SYSTEM)
