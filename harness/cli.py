@@ -317,7 +317,5 @@ def main(argv: Sequence[str] | None = None) -> int:
     return EXIT_USAGE
 
 
-if __name__ == "__main__":
-    from harness.command import entry
-
-    entry()
+if __name__ == "__main__":  # the command itself is harness.command:entry (python -m harness.command)
+    sys.exit(main())

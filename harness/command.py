@@ -8,7 +8,8 @@
 - Interpreter teardown, which frees every module's objects one by one (0.1 s with sympy loaded,
   and after a parallel ``check`` it comes when the workers are done): every file a command
   writes is closed and every worker pool shut down before ``main`` returns, so the command
-  flushes its output and exits with main's code at once.
+  flushes its output (Python's and C's: MuJoCo prints its warnings with printf) and exits with
+  main's code at once.
 
 Library use (``from harness import ...``, tests) goes through neither.
 """
@@ -34,14 +35,23 @@ def import_mujoco_without_gl() -> None:
             os.environ["MUJOCO_GL"] = user
 
 
+def exit_now(code: int) -> None:
+    """Exit with ``code`` after flushing Python's and C's output buffers, without teardown. MuJoCo
+    writes its warnings with C's printf, which a pipe (a CI log) buffers apart from Python."""
+    import ctypes
+
+    sys.stdout.flush()
+    sys.stderr.flush()
+    ctypes.CDLL(None).fflush(None)  # every C stdio stream
+    os._exit(code)
+
+
 def entry() -> None:
+    """``mjharness``: MuJoCo without GL, :func:`harness.cli.main`, then :func:`exit_now` with its code."""
     import_mujoco_without_gl()
     from harness.cli import main
 
-    code = main()
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(code)
+    exit_now(main())
 
 
 if __name__ == "__main__":

@@ -284,6 +284,17 @@ def test_the_scheduler_sees_whether_a_derivation_is_stored(cache_home):
     assert refmod.derivation_stored(SYSTEM)
 
 
+def test_the_command_flushes_what_c_printed_before_it_exits():
+    """MuJoCo prints its warnings with C's printf: on a pipe they wait in C's buffer, which
+    interpreter teardown would flush and os._exit does not."""
+    env = dict(os.environ)
+    env.pop("PYTHONUNBUFFERED", None)
+    code = ("import ctypes; from harness import command; ctypes.CDLL(None).printf(b'from C\\n'); "
+            "command.exit_now(3)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, env=env)
+    assert proc.returncode == 3 and proc.stdout == "from C\n", (proc.stdout, proc.stderr)
+
+
 def test_the_command_exits_with_mains_code_and_flushed_output(tmp_path):
     """``mjharness`` (harness.command:entry) skips interpreter teardown: its output must still be
     whole and its exit code main's, for a listing (short: it sits in the buffer until flushed), a
