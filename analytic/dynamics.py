@@ -148,7 +148,7 @@ class Dynamics:
 
     @classmethod
     def build(cls, derivation: Derivation, params: Mapping[str, float]) -> Dynamics:
-        """Lambdify every quantity once, then bind the parameter values."""
+        """Substitute the parameter values into every quantity, lambdify it, and load the result."""
         return cls.load(Compiled.of(derivation, params))
 
     @classmethod
@@ -162,6 +162,15 @@ class Dynamics:
             params=dict(compiled.params),
             _funcs={name: _vectorized(src, rows, cols) for name, src, rows, cols in compiled.functions},
         )
+
+    def checked(self) -> Dynamics:
+        """Self, once every function has run at one state (a NameError or TypeError in loaded code
+        shows here rather than mid-run); the values are not judged."""
+        q = np.ones(self.n)
+        with np.errstate(all="ignore"):
+            for fn in self._funcs.values():
+                fn(*q, *q)
+        return self
 
     @property
     def n(self) -> int:

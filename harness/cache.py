@@ -1,15 +1,18 @@
-"""On-disk cache of symbolic derivations, shared by every run and process.
+"""On-disk cache of symbolic derivations and of the numeric code made from them, shared by every
+run and process.
 
 A sympy derivation costs about 0.3 s per system and depends only on source
 code, so it is pickled once under the user's cache directory
 (``$XDG_CACHE_HOME/mjharness`` or ``~/.cache/mjharness``) and loaded by later
-runs and by parallel workers.
+runs and by parallel workers. So is the numeric code lambdified from it at a
+model's parameter values (``analytic.dynamics.Compiled``; harness/reference.py).
 
 An entry's key is a hash of everything the result depends on: the source text
-of the files that define it (the system module and ``analytic/lagrangian.py``),
-the sympy and Python versions and :data:`FORMAT`. Editing a system, the
-Lagrangian machinery or upgrading sympy changes the key, so a stale entry is
-never read; old entries are simply left behind.
+of the files that define it (the system module, ``analytic/systems/__init__.py``
+and ``analytic/lagrangian.py``; for numeric code also ``analytic/dynamics.py``
+and the parameter values), the sympy and Python versions and :data:`FORMAT`.
+Editing a system, the Lagrangian machinery or upgrading sympy changes the key,
+so a stale entry is never read; old entries are simply left behind.
 
 The cache is an optimisation only: an entry that cannot be read (missing,
 corrupt, truncated, of the wrong type) is recomputed, and a directory that
@@ -48,14 +51,15 @@ def cache_dir() -> Path | None:
 
 def _sympy_release() -> bytes:
     """sympy's release file (``__version__ = "..."``), read rather than imported: a run whose entries
-    are all cached never loads sympy (0.15 s)."""
+    are all cached never loads sympy (0.15 s). Where a sympy has no such file, its installed
+    version from the package metadata (slower to read, still no import)."""
     spec = importlib.util.find_spec("sympy")
-    if spec is None or spec.origin is None:
-        return b""
-    try:
-        return (Path(spec.origin).parent / "release.py").read_bytes()
-    except OSError:
-        return b""
+    if spec is not None and spec.origin is not None:
+        with contextlib.suppress(OSError):
+            return (Path(spec.origin).parent / "release.py").read_bytes()
+    from importlib.metadata import version
+
+    return version("sympy").encode()
 
 
 def key(*parts: str | bytes) -> str:

@@ -20,6 +20,7 @@ worker process can be handed to the parent (:func:`export_solutions`,
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib.util
 from collections.abc import Callable, Mapping
@@ -48,13 +49,14 @@ SYMBOLIC = ("mass_matrix", "forcing", "constraint_rows", "jacobian", "gamma", "h
 def _module_file(module: str) -> Path:
     """Where ``module``'s source is, found without importing it (analytic.lagrangian loads sympy)."""
     spec = importlib.util.find_spec(module)
-    assert spec is not None and spec.origin is not None, module
+    if spec is None or spec.origin is None:
+        raise ImportError(f"cannot find the source of {module}")
     return Path(spec.origin)
 
 
 def _sources(system: str) -> list[Path]:
-    """The files a derivation of ``system`` depends on."""
-    return [Path(str(load(system).__file__)), _module_file("analytic.lagrangian")]
+    """The files a derivation of ``system`` depends on (the package's ``parameters`` makes its symbols)."""
+    return [Path(str(load(system).__file__)), _module_file("analytic.systems"), _module_file("analytic.lagrangian")]
 
 
 def _derived(system_of: LagrangianSystem) -> Derivation:
@@ -92,9 +94,16 @@ def minimal_derivation(system: str) -> Derivation | None:
 
 def _compiled(kind: str, system: str, params: tuple[tuple[str, float], ...],
               deriving: Callable[[str], Derivation | None]) -> Dynamics:
-    """Dynamics from the on-disk entry for (system, params), made from ``deriving(system)`` if absent."""
+    """Dynamics from the on-disk entry for (system, params), made from ``deriving(system)`` if absent
+    or if its code does not run here (e.g. a numpy that lacks a function it names): then made anew
+    and stored over it."""
     digest = cache.key(cache.source_key([*_sources(system), _module_file("analytic.dynamics")]), repr(params))
-    compiled = cache.cached(kind, system, digest, lambda: Compiled.of(deriving(system), dict(params)), Compiled)
+    stored = cache.load(kind, system, digest, Compiled)
+    if stored is not None:
+        with contextlib.suppress(Exception):  # unusable code: the fresh one below is the right one
+            return Dynamics.load(stored).checked()
+    compiled = Compiled.of(deriving(system), dict(params))
+    cache.store(kind, system, digest, compiled)
     return Dynamics.load(compiled)
 
 
