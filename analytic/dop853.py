@@ -93,7 +93,8 @@ def _rms(x: Array) -> float:
     return float(np.sqrt(np.mean(x * x)))
 
 
-def _initial_step(fun: Callable, y: Array, f: Array, t_end: float, rtol: float, atol: float) -> float:
+def _initial_step(fun: Callable[[float, Array], Array], y: Array, f: Array, t_end: float, rtol: float,
+                  atol: float) -> float:
     """Hairer's starting step (§II.4): one Euler step of a hundredth of the state's scale, then the
     step at which an 8th-order error would meet the tolerance given the estimated second derivative."""
     scale = atol + np.abs(y) * rtol
@@ -114,67 +115,88 @@ def _error_norm(K: Array, h: float, scale: Array) -> float:
     return abs(h) * n5 / np.sqrt((n5 + 0.01 * n3) * len(scale))
 
 
-def integrate(fun: Callable[[float, Array], Array], t_end: float, y0: Array, *, rtol: float,
-              atol: float, max_steps: int = MAX_STEPS) -> Result:
-    """Integrate y' = fun(t, y) from y(0) = y0 to t_end with dense output.
+class IntegrationError(RuntimeError):
+    """The integration could not go on: the step size collapsed (a singularity, a non-finite
+    right-hand side, a tolerance the arithmetic cannot meet) or the step budget ran out."""
 
-    Raises RuntimeError (naming the time) when the step size falls below ten
+
+RightHandSide = Callable[[float, Array], Array]
+
+
+def _stages(fun: RightHandSide, t: float, y: Array, h: float, K: Array, first: int, last: int) -> None:
+    """K[s] = f(t + c_s h, y + h Σ_j a_sj K[j]) for stages first..last-1, in place."""
+    for s in range(first, last):
+        K[s] = fun(t + _C[s] * h, y + h * (_A[s] @ K[:s]))
+
+
+def _step(fun: RightHandSide, t: float, y: Array, f: Array, h: float, t_end: float, K: Array,
+          rtol: float, atol: float) -> tuple[float, float, Array, float, int]:
+    """One accepted step from (t, y) with f = f(t, y), trying h first and shrinking it on each
+    rejection: (t_new, h taken, y_new, factor for the next step, rejections). K holds its stages."""
+    rejected = 0
+    min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+    h = max(h, min_step)
+    while True:
+        if h < min_step:
+            raise IntegrationError(f"step size fell below {min_step:.3g} at t = {t:.6g}")
+        t_new = min(t + h, t_end)
+        h = t_new - t
+        K[0] = f
+        _stages(fun, t, y, h, K, 1, table.N_STAGES)
+        y_new = y + h * (_B @ K[:table.N_STAGES])
+        K[table.N_STAGES] = fun(t_new, y_new)
+        scale = atol + rtol * np.maximum(np.abs(y), np.abs(y_new))
+        err = _error_norm(K[:table.N_STAGES + 1], h, scale)
+        if err < 1.0:  # False for a NaN: a non-finite step is rejected and shrinks
+            factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err ** ERROR_EXPONENT)
+            return t_new, h, y_new, (min(1.0, factor) if rejected else factor), rejected
+        rejected += 1
+        h *= MIN_FACTOR if not np.isfinite(err) else max(MIN_FACTOR, SAFETY * err ** ERROR_EXPONENT)
+
+
+def _dense_coefficients(fun: RightHandSide, t: float, y: Array, y_new: Array, h: float, K: Array) -> Array:
+    """The seven coefficient vectors of the step's interpolant (Hairer's ``contd8``), after the three
+    extra stages (K[0] = f at the start, K[12] = f at the end)."""
+    _stages(fun, t, y, h, K, table.N_STAGES + 1, len(table.C))
+    dy = y_new - y
+    F = np.empty((_ORDER, y.size))
+    F[0] = dy
+    F[1] = h * K[0] - dy
+    F[2] = 2.0 * dy - h * (K[table.N_STAGES] + K[0])
+    F[3:] = h * (_D @ K)
+    return F
+
+
+def integrate(fun: RightHandSide, t_end: float, y0: Array, *, rtol: float, atol: float,
+              max_steps: int = MAX_STEPS) -> Result:
+    """Integrate y' = fun(t, y) from y(0) = y0 to t_end > 0 with dense output.
+
+    Raises IntegrationError (naming the time) when the step size falls below ten
     units in the last place of t — a singularity, a non-finite right-hand side
     or a tolerance the arithmetic cannot meet — or after ``max_steps`` steps.
     """
+    if not t_end > 0:
+        raise ValueError(f"t_end must be positive, got {t_end}")
     y = np.array(y0, dtype=float)
-    n = y.size
     t = 0.0
     f = np.asarray(fun(t, y), dtype=float)
-    nfev = 1
     if not np.all(np.isfinite(f)):
-        raise RuntimeError("the right-hand side is not finite at t = 0")
+        raise IntegrationError("the right-hand side is not finite at t = 0")
     h = _initial_step(fun, y, f, t_end, rtol, atol)
-    nfev += 1
-    K = np.empty((len(table.C), n))
+    nfev, rejected = 2, 0
+    K = np.empty((len(table.C), y.size))
     t_starts, hs, y_starts, coeffs = [], [], [], []
-    rejected = 0
     while t < t_end:
         if len(hs) >= max_steps:
-            raise RuntimeError(f"more than {max_steps} steps before t = {t_end} (reached t = {t:.6g})")
-        min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
-        h = max(h, min_step)
-        rejected_here = False
-        while True:
-            if h < min_step:
-                raise RuntimeError(f"step size fell below {min_step:.3g} at t = {t:.6g}")
-            t_new = min(t + h, t_end)
-            h = t_new - t
-            K[0] = f
-            for s in range(1, table.N_STAGES):
-                K[s] = fun(t + _C[s] * h, y + h * (_A[s] @ K[:s]))
-            y_new = y + h * (_B @ K[:table.N_STAGES])
-            K[table.N_STAGES] = f_new = fun(t_new, y_new)
-            nfev += table.N_STAGES
-            scale = atol + rtol * np.maximum(np.abs(y), np.abs(y_new))
-            err = _error_norm(K[:table.N_STAGES + 1], h, scale)
-            if err < 1.0:  # False for a NaN: a non-finite step is rejected and shrinks
-                factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err ** ERROR_EXPONENT)
-                if rejected_here:
-                    factor = min(1.0, factor)
-                break
-            rejected += 1
-            rejected_here = True
-            h *= MIN_FACTOR if not np.isfinite(err) else max(MIN_FACTOR, SAFETY * err ** ERROR_EXPONENT)
-        for s in range(table.N_STAGES + 1, len(table.C)):
-            K[s] = fun(t + _C[s] * h, y + h * (_A[s] @ K[:s]))
-        nfev += len(table.C) - table.N_STAGES - 1
-        dy = y_new - y
-        F = np.empty((_ORDER, n))
-        F[0] = dy
-        F[1] = h * f - dy
-        F[2] = 2.0 * dy - h * (f_new + f)
-        F[3:] = h * (_D @ K)
+            raise IntegrationError(f"more than {max_steps} steps before t = {t_end} (reached t = {t:.6g})")
+        t_new, h, y_new, factor, rejections = _step(fun, t, y, f, h, t_end, K, rtol, atol)
+        coeffs.append(_dense_coefficients(fun, t, y, y_new, h, K))
+        nfev += (rejections + 1) * table.N_STAGES + len(table.C) - table.N_STAGES - 1
+        rejected += rejections
         t_starts.append(t)
         hs.append(h)
         y_starts.append(y)
-        coeffs.append(F)
-        t, y, f = t_new, y_new, f_new
+        t, y, f = t_new, y_new, K[table.N_STAGES].copy()
         h *= factor
     dense = Dense(t_start=np.array(t_starts), h=np.array(hs), y_start=np.array(y_starts), coeffs=np.array(coeffs))
     return Result(dense=dense, nfev=nfev, steps=len(hs), rejected=rejected)

@@ -94,8 +94,8 @@ def solve(
 
     try:
         result = dop853.integrate(rhs, float(t_end), np.concatenate([q0, qd0]), rtol=rtol, atol=atol)
-    except RuntimeError as exc:
-        raise RuntimeError(f"reference solver failed: {exc}") from None
+    except dop853.IntegrationError as exc:
+        raise RuntimeError(f"reference solver failed: {exc}") from exc
     return Solution(dynamics=dynamics, t_end=float(t_end), rtol=rtol, nfev=result.nfev, _dense=result.dense)
 
 

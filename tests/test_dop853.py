@@ -105,11 +105,13 @@ def test_agrees_with_scipy_step_for_step():
     y0 = np.array([2.5, 0.3])
     ours = dop853.integrate(pendulum, 10.0, y0, rtol=1e-10, atol=1e-10)
     theirs = solve_ivp(pendulum, (0.0, 10.0), y0, method="DOP853", rtol=1e-10, atol=1e-10, dense_output=True)
-    assert ours.steps == len(theirs.t) - 1
-    assert ours.nfev == theirs.nfev
+    # as many steps (one more or fewer allowed: an accept/reject decision at the edge of the
+    # tolerance may fall the other way under another summation order; measured: equal, and equal nfev)
+    assert abs(ours.steps - (len(theirs.t) - 1)) <= 1
     # the step sizes follow from error estimates that are differences of nearly equal numbers, so a
     # different summation order moves the grid in its 9th digit (measured 6e-9) ...
-    assert np.abs(np.append(ours.dense.t_start, 10.0) - theirs.t).max() < 1e-7
+    if ours.steps == len(theirs.t) - 1:
+        assert np.abs(np.append(ours.dense.t_start, 10.0) - theirs.t).max() < 1e-7
     # ... while the solution agrees far below the tolerance (measured 7e-14)
     t = np.linspace(0.0, 10.0, 777)
     assert np.abs(ours.dense(t) - theirs.sol(t).T).max() < 1e-12
@@ -117,18 +119,23 @@ def test_agrees_with_scipy_step_for_step():
 
 def test_a_singularity_is_an_error_naming_the_time():
     """y' = y² from 1 blows up at t = 1: the step size collapses there, and the error says so."""
-    with pytest.raises(RuntimeError, match=r"step size fell below .* at t = 1$"):
+    with pytest.raises(dop853.IntegrationError, match=r"step size fell below .* at t = 1$"):
         dop853.integrate(lambda t, y: y * y, 2.0, np.array([1.0]), rtol=1e-10, atol=1e-10)
 
 
 def test_a_non_finite_right_hand_side_is_an_error():
-    with pytest.raises(RuntimeError, match="not finite at t = 0"):
+    with pytest.raises(dop853.IntegrationError, match="not finite at t = 0"):
         dop853.integrate(lambda t, y: y * np.inf, 1.0, np.array([1.0]), rtol=1e-10, atol=1e-10)
-    with pytest.raises(RuntimeError, match="step size fell below"):
+    with pytest.raises(dop853.IntegrationError, match="step size fell below"):
         dop853.integrate(lambda t, y: np.sqrt(1.0 - t) * y if t < 0.5 else y + np.nan, 1.0, np.array([1.0]),
                          rtol=1e-10, atol=1e-10)
 
 
+def test_t_end_must_be_positive():
+    with pytest.raises(ValueError, match="t_end must be positive, got 0"):
+        dop853.integrate(oscillator, 0.0, np.array([1.0, 0.0]), rtol=1e-12, atol=1e-12)
+
+
 def test_step_budget():
-    with pytest.raises(RuntimeError, match="more than 5 steps"):
+    with pytest.raises(dop853.IntegrationError, match="more than 5 steps"):
         dop853.integrate(oscillator, 100.0, np.array([1.0, 0.0]), rtol=1e-12, atol=1e-12, max_steps=5)

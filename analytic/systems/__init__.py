@@ -24,6 +24,10 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 from types import ModuleType
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import sympy as sp
 
 
 @dataclass(frozen=True)
@@ -36,7 +40,7 @@ class Scales:
     momentum: float = 1.0
 
 
-def parameters(names: str) -> tuple:
+def parameters(names: str) -> tuple[sp.Symbol, ...]:
     """The parameters ``names`` (space-separated) as positive sympy symbols. Symbols are equal by name
     and assumptions, so every call gives the same parameters."""
     import sympy as sp
@@ -44,7 +48,7 @@ def parameters(names: str) -> tuple:
     return sp.symbols(names, positive=True, seq=True)
 
 
-def parameter(module: str, names: str, attr: str):
+def parameter(module: str, names: str, attr: str) -> sp.Symbol:
     """A system module's ``__getattr__``: the symbol of parameter ``attr``, or AttributeError."""
     listed = names.split()
     if attr in listed:

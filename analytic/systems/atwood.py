@@ -41,17 +41,18 @@ from typing import TYPE_CHECKING
 from analytic.systems import Scales, parameter, parameters
 
 if TYPE_CHECKING:
+    import sympy as sp
+
     from analytic.lagrangian import LagrangianSystem
 
 PARAMETERS = "m1 m2 m_p a g h"  # positive; atwood.m1 etc. are their sympy symbols
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> sp.Symbol:
     return parameter(__name__, PARAMETERS, name)
 
 
 def build() -> LagrangianSystem:
-
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
 
     m1, m2, m_p, a, g, h = parameters(PARAMETERS)

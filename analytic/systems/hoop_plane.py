@@ -51,12 +51,14 @@ from typing import TYPE_CHECKING
 from analytic.systems import Scales, parameter, parameters
 
 if TYPE_CHECKING:
+    import sympy as sp
+
     from analytic.lagrangian import LagrangianSystem
 
 PARAMETERS = "m g a"  # positive; hoop_plane.m etc. are their sympy symbols
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> sp.Symbol:
     return parameter(__name__, PARAMETERS, name)
 
 

@@ -56,12 +56,14 @@ import mujoco
 from analytic.systems import Scales, parameter, parameters
 
 if TYPE_CHECKING:
+    import sympy as sp
+
     from analytic.lagrangian import LagrangianSystem
 
 PARAMETERS = "m g a alpha"  # positive; hoop_ramp.m etc. are their sympy symbols
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> sp.Symbol:
     return parameter(__name__, PARAMETERS, name)
 
 RollForm = Literal["holonomic", "pfaffian"]

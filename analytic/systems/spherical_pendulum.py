@@ -49,12 +49,14 @@ import numpy as np
 from analytic.systems import Scales, parameter, parameters
 
 if TYPE_CHECKING:
+    import sympy as sp
+
     from analytic.lagrangian import LagrangianSystem
 
 PARAMETERS = "m g l"  # positive; spherical_pendulum.m etc. are their sympy symbols
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> sp.Symbol:
     return parameter(__name__, PARAMETERS, name)
 
 BOB = "bob"

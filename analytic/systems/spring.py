@@ -28,17 +28,18 @@ from typing import TYPE_CHECKING
 from analytic.systems import Scales, parameter, parameters
 
 if TYPE_CHECKING:
+    import sympy as sp
+
     from analytic.lagrangian import LagrangianSystem
 
 PARAMETERS = "m k l0"  # positive; spring.m etc. are their sympy symbols
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> sp.Symbol:
     return parameter(__name__, PARAMETERS, name)
 
 
 def build() -> LagrangianSystem:
-
     from analytic.lagrangian import LagrangianSystem, coordinates
 
     m, k, l0 = parameters(PARAMETERS)
