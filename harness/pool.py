@@ -14,6 +14,7 @@ loop would raise its first error; the other workers are stopped at once.
 from __future__ import annotations
 
 import contextlib
+import gc
 import multiprocessing
 import os
 import sys
@@ -43,8 +44,15 @@ def _worker_init() -> None:
 def fork_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     """A process pool of ``workers``, forked where the platform can (spawn re-imports everything,
     about 1 s a worker). On an error or an interrupt in the ``with`` body the workers are terminated
-    at once rather than after their current call."""
+    at once rather than after their current call.
+
+    Everything this process holds is frozen out of the garbage collector while the pool lives
+    (``gc.freeze``, as Python's docs advise before a fork): a worker's collections would otherwise
+    walk every inherited object (sympy's expressions, the modules) and write to it, copying its
+    memory page by page in each worker; measured 0.04 s of a 2.5 s cold check on 2 workers.
+    """
     context = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else None)
+    gc.freeze()
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_worker_init)
     try:
         yield pool
@@ -53,7 +61,10 @@ def fork_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
             process.terminate()
         pool.shutdown(wait=False, cancel_futures=True)
         raise
-    pool.shutdown()
+    else:
+        pool.shutdown()
+    finally:
+        gc.unfreeze()
 
 
 def run_tasks(calls: Sequence[tuple[Callable[..., Any], tuple]], workers: int, *,

@@ -356,6 +356,23 @@ def _square_or_fail(x: int) -> int:
     return x * x
 
 
+def test_a_pool_keeps_what_it_inherits_out_of_the_garbage_collector_while_it_lives():
+    """gc.freeze before the fork (the workers' collections then leave inherited objects, and their
+    memory pages, alone) and unfreeze after, whether the body ends or raises."""
+    import gc
+
+    from harness.pool import fork_pool
+
+    before = gc.get_freeze_count()
+    with fork_pool(1) as pool:
+        assert gc.get_freeze_count() > before
+        assert pool.submit(abs, -2).result() == 2
+    assert gc.get_freeze_count() == before
+    with pytest.raises(KeyError), fork_pool(1):
+        raise KeyError("in the body")
+    assert gc.get_freeze_count() == before
+
+
 def test_pool_results_come_in_call_order_and_the_first_error_wins():
     from harness.pool import run_tasks
 
