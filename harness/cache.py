@@ -15,7 +15,7 @@ Editing a system, the Lagrangian machinery or upgrading sympy changes the key,
 so a stale entry is never read; old entries are simply left behind.
 
 The cache is an optimisation only: an entry that cannot be read (missing,
-corrupt, truncated, of the wrong type) is recomputed, and a directory that
+corrupt, truncated, of the wrong type) or used (see :func:`cached`) is recomputed, and a directory that
 cannot be written is skipped, both silently, because the recomputed value is
 the correct one. Entries are written to a temporary file and renamed into
 place, so concurrent writers never leave a half-written entry.
@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import TypeVar
 
 T = TypeVar("T")
+R = TypeVar("R")
 
 FORMAT = "1"  # bump when what is pickled changes shape
 
@@ -127,10 +128,19 @@ def store(kind: str, name: str, digest: str, value: object) -> bool:
         return False
 
 
-def cached(kind: str, name: str, digest: str, compute: Callable[[], T], expected: type) -> T:
-    """The entry for (kind, name, digest) if it can be loaded, else ``compute()``, stored for next time."""
+def cached(kind: str, name: str, digest: str, compute: Callable[[], T], expected: type,
+           open_: Callable[[T], R] | None = None) -> R:
+    """``open_`` of the entry for (kind, name, digest) if it can be loaded and opened, else of
+    ``compute()``, stored (over the entry) for next time. ``open_`` (default: the value itself) turns
+    an entry into what the caller uses; an entry it raises on is unusable here (e.g. code that names
+    a function this numpy lacks) and is recomputed like a corrupt one."""
+    opening: Callable[[T], R] = open_ if open_ is not None else (lambda v: v)  # type: ignore[assignment,return-value]
     value = load(kind, name, digest, expected)
-    if value is None:
-        value = compute()
-        store(kind, name, digest, value)
-    return value  # type: ignore[return-value]
+    if value is not None:
+        try:
+            return opening(value)  # type: ignore[arg-type]
+        except Exception:  # unusable here: the recomputed value below is the right one
+            pass
+    value = compute()
+    store(kind, name, digest, value)
+    return opening(value)

@@ -20,7 +20,6 @@ worker process can be handed to the parent (:func:`export_solutions`,
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import importlib.util
 from collections.abc import Callable, Mapping
@@ -95,16 +94,10 @@ def minimal_derivation(system: str) -> Derivation | None:
 def _compiled(kind: str, system: str, params: tuple[tuple[str, float], ...],
               deriving: Callable[[str], Derivation | None]) -> Dynamics:
     """Dynamics from the on-disk entry for (system, params), made from ``deriving(system)`` if absent
-    or if its code does not run here (e.g. a numpy that lacks a function it names): then made anew
-    and stored over it."""
+    or if its code does not run here (e.g. a numpy that lacks a function it names)."""
     digest = cache.key(cache.source_key([*_sources(system), _module_file("analytic.dynamics")]), repr(params))
-    stored = cache.load(kind, system, digest, Compiled)
-    if stored is not None:
-        with contextlib.suppress(Exception):  # unusable code: the fresh one below is the right one
-            return Dynamics.load(stored).checked()
-    compiled = Compiled.of(deriving(system), dict(params))
-    cache.store(kind, system, digest, compiled)
-    return Dynamics.load(compiled)
+    return cache.cached(kind, system, digest, lambda: Compiled.of(deriving(system), dict(params)), Compiled,
+                        lambda compiled: Dynamics.load(compiled).checked())
 
 
 @functools.cache
