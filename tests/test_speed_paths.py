@@ -58,6 +58,27 @@ def _same(a, b) -> bool:
     return all(sp.srepr(getattr(a, name)) == sp.srepr(getattr(b, name)) for name in refmod.SYMBOLIC)
 
 
+def _python(*args: str, timeout: float = 60, **env: str | None) -> subprocess.CompletedProcess:
+    """A fresh interpreter on ``args``, its environment this one's with ``env`` applied (None unsets)."""
+    environ = dict(os.environ)
+    for name, value in env.items():
+        if value is None:
+            environ.pop(name, None)
+        else:
+            environ[name] = value
+    return subprocess.run([sys.executable, *args], capture_output=True, text=True, timeout=timeout, env=environ)
+
+
+def _check_imports(cases_: str, *modules: str, cache_dir=None) -> str:
+    """The last line ``check CASES --jobs 1`` prints in a fresh process: which of ``modules`` it
+    imported, then main's exit code."""
+    code = (f"import sys; from harness import cli; code = cli.main(['check', {cases_}, '--jobs', '1']); "
+            f"print(sorted({{m.split('.')[0] for m in sys.modules}} & {set(modules)!r}), code)")
+    env = {} if cache_dir is None else {"XDG_CACHE_HOME": str(cache_dir), "MJHARNESS_NO_CACHE": None}
+    proc = _python("-c", code, timeout=300, **env)
+    return proc.stdout.strip().splitlines()[-1] if proc.stdout.strip() else proc.stderr
+
+
 def test_a_cached_derivation_is_the_derivation(cache_home):
     fresh = refmod.derivation(SYSTEM)
     entry = _entry(cache_home)
@@ -141,14 +162,10 @@ def test_stored_numeric_code_that_does_not_run_is_made_anew(cache_home):
 def test_a_check_with_its_derivations_cached_never_imports_sympy(tmp_path):
     """sympy costs 0.15 s to import and 0.08 s to tear down in every process; with the numeric
     dynamics cached, check needs numpy and MuJoCo only (the first run derives and stores them)."""
-    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path))
-    env.pop("MJHARNESS_NO_CACHE", None)
-    code = ("import sys; from harness import cli; code = cli.main(['check', 'pendulum', 'hoop_ramp_contact', "
-            "'--jobs', '1']); print(sorted({m.split('.')[0] for m in sys.modules} & {'sympy', 'scipy'}), code)")
-    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env=env)
-            for _ in range(2)]
-    assert runs[0].stdout.strip().splitlines()[-1] == "['sympy'] 0", runs[0].stderr  # derived: it can fail
-    assert runs[1].stdout.strip().splitlines()[-1] == "[] 0", runs[1].stderr
+    first = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", "scipy", cache_dir=tmp_path)
+    again = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", "scipy", cache_dir=tmp_path)
+    assert first == "['sympy'] 0"  # derived: the probe can fail
+    assert again == "[] 0"
 
 
 def test_the_key_follows_the_sources(tmp_path):
@@ -201,9 +218,7 @@ def test_solutions_handed_between_processes_are_reused(monkeypatch):
 
 
 def _check_json(*args: str, cache_dir) -> dict:
-    env = dict(os.environ, XDG_CACHE_HOME=str(cache_dir))
-    proc = subprocess.run([sys.executable, "-m", "harness.cli", "check", "--json", *args],
-                          capture_output=True, text=True, timeout=300, env=env)
+    proc = _python("-m", "harness.cli", "check", "--json", *args, timeout=300, XDG_CACHE_HOME=str(cache_dir))
     assert proc.returncode == 0, proc.stderr
     return json.loads(proc.stdout)
 
@@ -269,10 +284,7 @@ def test_figures_only_workers_send_no_trajectories_and_the_same_figures():
 def test_check_draws_nothing_and_never_imports_matplotlib():
     """matplotlib is imported on first plot (harness.plotting): a check, which draws nothing, does not
     pay for it."""
-    code = ("import sys; from harness import cli; code = cli.main(['check', 'spring', '--jobs', '1']); "
-            "print('matplotlib' in sys.modules, code)")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
-    assert proc.stdout.strip().splitlines()[-1] == "False 0", proc.stderr
+    assert _check_imports("'spring'", "matplotlib") == "[] 0"
 
 
 def test_the_pool_starts_the_costliest_systems_first():
@@ -313,11 +325,9 @@ def test_the_scheduler_sees_whether_a_derivation_is_stored(cache_home):
 def test_the_command_flushes_what_c_printed_before_it_exits():
     """MuJoCo prints its warnings with C's printf: on a pipe they wait in C's buffer, which
     interpreter teardown would flush and os._exit does not."""
-    env = dict(os.environ)
-    env.pop("PYTHONUNBUFFERED", None)
     code = ("import ctypes; from harness import command; ctypes.CDLL(None).printf(b'from C\\n'); "
             "command.exit_now(3)")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, env=env)
+    proc = _python("-c", code, PYTHONUNBUFFERED=None)  # a pipe is then block-buffered, as in a CI log
     assert proc.returncode == 3 and proc.stdout == "from C\n", (proc.stdout, proc.stderr)
 
 
@@ -325,14 +335,12 @@ def test_the_command_exits_with_mains_code_and_flushed_output(tmp_path):
     """``mjharness`` (harness.command:entry) skips interpreter teardown: its output must still be
     whole and its exit code main's, for a listing (short: it sits in the buffer until flushed), a
     usage error and a bad argument."""
-    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path))
-    env.pop("PYTHONUNBUFFERED", None)  # a pipe is then block-buffered, as in a CI log
-    run = [sys.executable, "-m", "harness.command"]
-    ok = subprocess.run([*run, "list"], capture_output=True, text=True, timeout=60, env=env)
+    env = {"XDG_CACHE_HOME": str(tmp_path), "PYTHONUNBUFFERED": None}  # a pipe is then block-buffered
+    ok = _python("-m", "harness.command", "list", **env)
     assert ok.returncode == 0 and all(name in ok.stdout for name in cases.names()), (ok.stdout, ok.stderr)
-    bad = subprocess.run([*run, "check", "no_such_case"], capture_output=True, text=True, timeout=60, env=env)
+    bad = _python("-m", "harness.command", "check", "no_such_case", **env)
     assert bad.returncode == cli.EXIT_USAGE and bad.stderr.startswith("mjharness: error:"), bad.stderr
-    usage = subprocess.run([*run, "check", "--jobs", "0"], capture_output=True, text=True, timeout=60, env=env)
+    usage = _python("-m", "harness.command", "check", "--jobs", "0", **env)
     assert usage.returncode == 2 and "jobs" in usage.stderr
 
 
@@ -340,13 +348,9 @@ def test_the_command_exits_with_mains_code_and_flushed_output(tmp_path):
 def test_the_command_loads_no_gl_binding_and_leaves_mujoco_gl_as_it_was(user):
     """The command's own process never renders (stills come from subprocesses that pick a backend
     from MUJOCO_GL), so it imports MuJoCo without GLFW; the variable is the user's again after."""
-    env = dict(os.environ)
-    env.pop("MUJOCO_GL", None)
-    if user:
-        env["MUJOCO_GL"] = user
     code = ("import os, sys; from harness import command; command.import_mujoco_without_gl(); "
             "import mujoco; print('glfw' in sys.modules, os.environ.get('MUJOCO_GL'))")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, env=env)
+    proc = _python("-c", code, MUJOCO_GL=user)
     assert proc.stdout.split() == ["False", str(user)], proc.stderr
 
 
