@@ -73,8 +73,15 @@ def run_tasks(calls: Sequence[tuple[Callable[..., Any], tuple]], workers: int, *
 
     Calls are submitted in the given order (put the costliest first). ``on_done(i, result)`` runs in
     this process as call i finishes (progress). ``fn`` must be a module-level function and its result
-    picklable.
+    picklable. With one worker (or fewer) the calls run here, one after another, with no pool.
     """
+    if workers <= 1:
+        done = []
+        for i, (fn, args) in enumerate(calls):
+            done.append(fn(*args))
+            if on_done is not None:
+                on_done(i, done[-1])
+        return done
     results: dict[int, Any] = {}
     errors: dict[int, BaseException] = {}
     with fork_pool(workers) as pool:

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from harness import cases
 from harness.config import load_config
-from harness.pool import cpus
+from harness.pool import cpus, run_tasks
 from harness.verdict import verdict
 
 
@@ -202,15 +202,7 @@ def report_parts(selected: Sequence[cases.Case], results: Sequence, *, jobs: int
         bar.set_postfix_str(labels[i], refresh=False)
         bar.update()
 
-    if workers > 1:
-        from harness.pool import run_tasks
-
-        done = run_tasks(calls, workers, on_done=note)
-    else:
-        done = []
-        for i, (fn, call_args) in enumerate(calls):
-            done.append(fn(*call_args))
-            note(i, done[-1])
+    done = run_tasks(calls, workers, on_done=note)
     bar.close()
     drawn = {r.case.name: html for r, html in zip(results, done[len(layer4):], strict=True)}
     if not studies:

@@ -377,15 +377,16 @@ def test_a_pool_keeps_what_it_inherits_out_of_the_garbage_collector_while_it_liv
     assert gc.get_freeze_count() == before
 
 
-def test_pool_results_come_in_call_order_and_the_first_error_wins():
+@pytest.mark.parametrize("workers", [1, 2])
+def test_pool_results_come_in_call_order_and_the_first_error_wins(workers):
     from harness.pool import run_tasks
 
     done = []
-    assert run_tasks([(_square_or_fail, (x,)) for x in (4, 2, 0, 1)], 2,
+    assert run_tasks([(_square_or_fail, (x,)) for x in (4, 2, 0, 1)], workers,
                      on_done=lambda i, r: done.append(i)) == [16, 4, 0, 1]
     assert sorted(done) == [0, 1, 2, 3]
     with pytest.raises(ValueError, match="call 3 failed"):  # the earlier of the two failing calls
-        run_tasks([(_square_or_fail, (x,)) for x in (1, 3, 5, 2)], 2)
+        run_tasks([(_square_or_fail, (x,)) for x in (1, 3, 5, 2)], workers)
 
 
 @pytest.mark.slow
