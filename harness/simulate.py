@@ -258,8 +258,8 @@ def simulate(
     on NaN or MuJoCo warnings, ModelMismatch if the model lacks what the probe
     reads. ``method``: ``auto`` (the batch recorder where ``mujoco.batch``
     exists, else the loop), ``batch`` or ``loop``; all give the same numbers.
-    ``timings``, if given, receives seconds per phase (``readings`` is the
-    Python readings' share).
+    ``timings``, if given, receives the seconds of the Python readings
+    (``readings``, batch recorder) or of the whole loop recording (``loop``).
     """
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
@@ -366,10 +366,15 @@ def _take_data(model: mujoco.MjModel, *, spare: bool = False) -> mujoco.MjData:
     return data
 
 
+def _keep(pool: dict, key: object, value: object, limit: int) -> None:
+    """Put ``value`` in ``pool`` for the next run, dropping the oldest entries beyond ``limit``."""
+    while len(pool) >= limit:
+        pool.pop(next(iter(pool)))
+    pool[key] = value
+
+
 def _give_back_data(model: mujoco.MjModel, data: mujoco.MjData, *, spare: bool = False) -> None:
-    while len(_spare_data) >= _SPARE_DATA:
-        _spare_data.pop(next(iter(_spare_data)))
-    _spare_data[(*_layout(model), spare)] = data
+    _keep(_spare_data, (*_layout(model), spare), data, _SPARE_DATA)
 
 
 def _new_batch(model: mujoco.MjModel, nsim: int, data: mujoco.MjData, *, threads: int | None = None
@@ -424,9 +429,7 @@ class _Record:
                    fields={f: np.empty((steps + 1, *shape), dtype) for f, (shape, dtype) in shapes.items()})
 
     def give_back(self, model: mujoco.MjModel) -> None:
-        while len(_spare_records) >= _SPARE_DATA:
-            _spare_records.pop(next(iter(_spare_records)))
-        _spare_records[(*_layout(model), len(self.states) - 1, tuple(self.fields))] = self
+        _keep(_spare_records, (*_layout(model), len(self.states) - 1, tuple(self.fields)), self, _SPARE_DATA)
 
     def out(self, start: int, stop: int, *, with_fields: bool) -> dict:
         """``Batch.rollout``'s out= for steps start..stop−1: states start+1..stop and, ``with_fields``,
@@ -486,9 +489,8 @@ def _take_batch(model: mujoco.MjModel, data: mujoco.MjData) -> _batch.Batch:
 
 
 def _give_back_batch(model: mujoco.MjModel, b: _batch.Batch) -> None:
-    while len(_spare_batches) >= 2 * _SPARE_DATA:
-        _spare_batches.pop(next(iter(_spare_batches)))
-    _spare_batches[id(model)] = (model, b)  # the model is held, so its id is not reused meanwhile
+    # the model is held, so its id is not reused meanwhile
+    _keep(_spare_batches, id(model), (model, b), 2 * _SPARE_DATA)
 
 
 def _threads_allowed() -> int:
@@ -506,19 +508,18 @@ def _chunk_sizes(steps: int) -> list[int]:
     return [*sizes, left]
 
 
-def _rollout_recomputed(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record, steps: int) -> float:
-    """States 1..steps and the fields after mj_forward at every state 0..steps (RK4), into ``rec``;
-    returns the seconds spent waiting for recomputation after the last step. With a second thread,
-    chunk i's states are recomputed while chunk i + 1 steps (both calls release the GIL)."""
+def _rollout_recomputed(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record, steps: int) -> None:
+    """States 1..steps and the fields after mj_forward at every state 0..steps (RK4), into ``rec``.
+    With a second thread, chunk i's states are recomputed while chunk i + 1 steps (both calls
+    release the GIL)."""
     sizes = _chunk_sizes(steps)
     b = _take_batch(model, data)
     b.state[0] = rec.states[0]
     if _threads_allowed() < 2 or len(sizes) < 2:
         _step(b, steps, [_STATE], rec.out(0, steps, with_fields=False))
         _give_back_batch(model, b)
-        clock = time.perf_counter()
         _forward_all(model, data, rec.states, rec.fields)
-        return time.perf_counter() - clock
+        return
     from concurrent.futures import ThreadPoolExecutor
 
     def recompute(start: int, stop: int) -> None:  # states start..stop−1, on the other thread
@@ -535,10 +536,8 @@ def _rollout_recomputed(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record
                 pending.append(pool.submit(recompute, int(start), int(stop)))
             _give_back_batch(model, b)
             pending.append(pool.submit(recompute, steps, steps + 1))
-            clock = time.perf_counter()
             for f in pending:
                 f.result()
-            return time.perf_counter() - clock
     finally:
         _give_back_data(model, helper, spare=True)
 
@@ -557,15 +556,11 @@ def _record_batch(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, step
 def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps: int, rec: _Record,
                  shifted: bool, timings: dict[str, float]) -> _Run | None:
     """:func:`_record_batch` with its scratch arrays."""
-    clock = time.perf_counter()
     mujoco.mj_getState(model, data, rec.states[0], _STATE)
-    waited = 0.0
     if shifted:
         _rollout(model, data, rec, steps)
     else:
-        waited = _rollout_recomputed(model, data, rec, steps)
-    timings["rollout"] = time.perf_counter() - clock - waited
-    clock = time.perf_counter()
+        _rollout_recomputed(model, data, rec, steps)
     states, fields = rec.states, rec.fields
     # the last state, which no step follows, gets the checks mj_step would make (as in the loop)
     mujoco.mj_setState(model, data, states[-1], _STATE)
@@ -574,8 +569,6 @@ def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
     if shifted:  # fields of states 0..steps−1 from the rollout, the last state's from that forward
         for f, v in fields.items():
             v[-1] = getattr(data, f)
-    timings["forward"] = time.perf_counter() - clock + waited
-    clock = time.perf_counter()
     # a sum is finite only if every term is (MuJoCo's own checks would have warned long before an
     # overflow); the row-by-row look, only to say where
     if not np.isfinite(states.sum()):
@@ -583,16 +576,12 @@ def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
         if not finite.all():
             raise SimulationDiverged(f"non-finite state at t={states[np.argmin(finite), 0]:.6g} s")
     run = _assemble(model, probe, states, fields)
-    timings["assemble"] = time.perf_counter() - clock
     clock = time.perf_counter()
     run.readings = _evaluate_readings(model, probe, run.t, states[:, 1:1 + model.nq],
                                       states[:, 1 + model.nq:1 + model.nq + model.nv], fields)
     timings["readings"] = time.perf_counter() - clock
-    clock = time.perf_counter()
     recovered = list(run.lam)
     _read_at_states(model, data, probe, run, [c for c in probe.constraints if c not in run.lam])
-    timings["equalities"] = time.perf_counter() - clock
-    clock = time.perf_counter()
     bad = _verify(model, data, probe, run)
     wrong = [c for c in recovered if f"equality {c!r}" in bad]
     if wrong and len(wrong) == len(bad):  # only the recovered equalities: read them per sample instead
@@ -600,7 +589,6 @@ def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
                       f"from a fresh mj_forward for {wrong}; read per sample instead")
         _read_at_states(model, data, probe, run, wrong)
         bad = _verify(model, data, probe, run)
-    timings["verify"] = time.perf_counter() - clock
     if bad:
         _notes.append(f"{_label(model)}: the batch recorder's {', '.join(bad)} differed from a fresh "
                       "mj_forward; recorded with the loop instead")
