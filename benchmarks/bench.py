@@ -38,7 +38,6 @@ command-line figure, and ratios of part 1 are taken within one run.
 from __future__ import annotations
 
 import argparse
-import inspect
 import os
 import platform
 import subprocess
@@ -59,12 +58,20 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from mujoco import rollout  # noqa: E402
 
-from harness import cases, pipeline  # noqa: E402
-from harness import reference as refmod  # noqa: E402
-from harness import simulate as simmod  # noqa: E402
-from harness.config import load_config  # noqa: E402
-from harness.models import compile_model, mjcf_path  # noqa: E402
-from harness.verdict import verdict  # noqa: E402
+from harness import cases  # noqa: E402
+from harness.engine import simulate as simmod  # noqa: E402
+from harness.engine.integrators import available_integrators  # noqa: E402
+from harness.engine.models import compile_model  # noqa: E402
+from harness.engine.probe import Probe  # noqa: E402
+from harness.outputs import parts  # noqa: E402
+from harness.outputs.report import write_report  # noqa: E402
+from harness.pipeline import matrix as runner  # noqa: E402
+from harness.pipeline.limits import load_limits  # noqa: E402
+from harness.pipeline.pool import cpus, run_tasks  # noqa: E402
+from harness.pipeline.run import run_case  # noqa: E402
+from harness.pipeline.verdict import judge  # noqa: E402
+from harness.reference import derivations  # noqa: E402
+from harness.reference import solutions as refmod  # noqa: E402
 
 
 def _best(fn: Callable[[], object], repeat: int) -> float:
@@ -81,12 +88,11 @@ def _load() -> str:
 
 
 def _recorder() -> str:
-    describe = getattr(simmod, "recorder", None)
-    return describe() if callable(describe) else "python loop (mj_forward, read, integrator function per step)"
+    return simmod.recorder()
 
 
 # ------------------------------------------------------------------ part 1
-def _bare_rollout(model: mujoco.MjModel, probe: simmod.Probe, q0, qd0, steps: int) -> Callable[[], object]:
+def _bare_rollout(model: mujoco.MjModel, probe: Probe, q0, qd0, steps: int) -> Callable[[], object]:
     data = mujoco.MjData(model)
     probe.binding.set_state(model, data, q0, qd0)
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -96,7 +102,7 @@ def _bare_rollout(model: mujoco.MjModel, probe: simmod.Probe, q0, qd0, steps: in
 
 
 def recorder_vs_rollout(selected, repeat: int) -> None:
-    split = "timings" in inspect.signature(simmod.simulate).parameters
+    split = True  # the recorder reports its Python readings' share
     print(f"\n== 1. Recorder vs bare mujoco.rollout (target: ratio <= 1.2), best of {repeat}")
     print(f"   recorder: {_recorder()}")
     print(f"   {'case':24s} {'steps':>6s} {'rollout ms':>11s} {'record ms':>10s} {'ratio':>6s}"
@@ -104,13 +110,13 @@ def recorder_vs_rollout(selected, repeat: int) -> None:
     totals = np.zeros(4)
     worst_core, any_loop = 0.0, False
     for case in selected:
-        ref = refmod.build_reference(case, compile_model(mjcf_path(case.mjcf)))
-        probe = pipeline.probe_for(case, ref.dynamics)
+        ref = case.reference(compile_model(case.mjcf))
+        probe = case.probe(ref.dynamics)
         q0, qd0 = ref.q0(), ref.qd0()
         bare = rec = core = readings = 0.0
         steps, looped = 0, False
-        for name in simmod.available_integrators():
-            model = compile_model(mjcf_path(case.mjcf), integrator=name)
+        for name in available_integrators():
+            model = compile_model(case.mjcf, integrator=name)
             steps = round(case.horizon / model.opt.timestep)
             bare += _best(_bare_rollout(model, probe, q0, qd0, steps), repeat)
             best, best_split = np.inf, {}
@@ -147,34 +153,21 @@ def recorder_vs_rollout(selected, repeat: int) -> None:
 
 # ------------------------------------------------------------------ part 2
 def _clear_process_caches() -> None:
-    for name in ("derivation", "_dynamics", "minimal_derivation", "_minimal_dynamics", "_solution", "clear_cache"):
-        fn = getattr(refmod, name, None)
-        if hasattr(fn, "cache_clear"):
-            fn.cache_clear()
-    clear = getattr(refmod, "clear_caches", None)
-    if callable(clear):
-        clear()
-
-
-# the symbolic results a derivation computes lazily: the harness's own list where it has one (its
-# derivations come with all of them), for versions before it the ones the numeric dynamics use
-_SYMBOLIC = getattr(refmod, "SYMBOLIC", ("mass_matrix", "forcing", "constraint_rows", "jacobian", "gamma",
-                                         "holonomic_residual", "energy", "momenta", "cyclic"))
+    for fn in (derivations.derivation, derivations._dynamics, derivations.minimal_derivation,
+               derivations._minimal_dynamics):
+        fn.cache_clear()
+    refmod.clear_caches()
 
 
 def _derive(system: str) -> None:
-    deriv = refmod.derivation(system)
-    for name in _SYMBOLIC:
+    deriv = derivations.derivation(system)
+    for name in derivations.SYMBOLIC:
         getattr(deriv, name)
-    minimal = getattr(refmod, "minimal_derivation", None)  # cached since the speed work; else done in "compare"
-    if callable(minimal):
-        minimal(system)
+    derivations.minimal_derivation(system)
 
 
 def per_case_split(selected) -> None:
-    from harness.report import write_report
-
-    config = load_config()
+    config = load_limits()
     cols = ("derivation", "reference", "instant", "mujoco", "compare", "converge", "report")
     print("\n== 5. Per-case time split, seconds (process caches cleared per case; the on-disk derivation cache "
           "starts empty, so a system's second case loads what its first one stored)")
@@ -187,12 +180,12 @@ def per_case_split(selected) -> None:
         start = time.perf_counter()
         _derive(case.system)
         derivation = time.perf_counter() - start
-        result = pipeline.run_case(case)
+        result = run_case(case)
         t = dict(result.timings)
         row = {"derivation": derivation + t.get("derivation", 0.0)}
         for c in cols[1:-1]:
             row[c] = t.get(c, 0.0)
-        checks = {case.name: verdict(case.name, result.figures, config.for_case(case.name))}
+        checks = {case.name: judge(result, config.for_case(case.name))}
         with tempfile.TemporaryDirectory() as out:
             start = time.perf_counter()
             write_report(out, [result], checks, config_source=config.source)
@@ -208,7 +201,7 @@ def per_case_split(selected) -> None:
 def _cli(args: list[str], cache: str) -> tuple[float, int, str]:
     env = dict(os.environ, XDG_CACHE_HOME=cache)
     start = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-m", "harness.command", *args], cwd=ROOT, env=env,
+    proc = subprocess.run([sys.executable, "-m", "harness.cli.entry", *args], cwd=ROOT, env=env,
                           capture_output=True, text=True, check=False)
     elapsed = time.perf_counter() - start
     tail = (proc.stdout.strip().splitlines() or [""])[-1]
@@ -218,7 +211,7 @@ def _cli(args: list[str], cache: str) -> tuple[float, int, str]:
 
 
 def command_lines(run_report: bool, repeat: int) -> None:
-    helptext = subprocess.run([sys.executable, "-m", "harness.command", "check", "--help"], cwd=ROOT,
+    helptext = subprocess.run([sys.executable, "-m", "harness.cli.entry", "check", "--help"], cwd=ROOT,
                               capture_output=True, text=True, check=False).stdout
     jobs = "--jobs" in helptext
     print(f"\n== 3, 4. Command lines (best of {repeat}), cold start = fresh process and empty derivation cache; "
@@ -256,28 +249,22 @@ def command_lines(run_report: bool, repeat: int) -> None:
 
 
 def _timed_study(kind: str, name: str):
-    """runner.study, with its duration (module-level: the pool's forked workers run it)."""
-    from harness import runner
-
+    """parts.study, with its duration (module-level: the pool's forked workers run it)."""
     start = time.perf_counter()
-    result = runner.study(kind, name)
+    result = parts.study(kind, name)
     return result, time.perf_counter() - start
 
 
 def report_split(selected) -> None:
     """What ``mjharness run --out DIR`` spends its time on, step by step as cmd_run does it, in this
     process (derivations already cached by the parts above), and each study call's own duration."""
-    from harness import runner
-    from harness.pool import cpus, run_tasks
-    from harness.report import write_report
-
     _clear_process_caches()
     steps: dict[str, float] = {}
     clock = time.perf_counter()
     results, checks, config = runner.run_all(selected, None)
     steps["cases (run_case, default --jobs)"] = time.perf_counter() - clock
     clock = time.perf_counter()
-    extras, appendix, plots = runner.report_parts(selected, results, jobs=None, studies=True)
+    extras, appendix, plots = parts.report_parts(selected, results, jobs=None, studies=True)
     steps["studies, seed audit, plots (default --jobs)"] = time.perf_counter() - clock
     clock = time.perf_counter()
     with tempfile.TemporaryDirectory() as out:
@@ -289,7 +276,7 @@ def report_split(selected) -> None:
     for name, seconds in steps.items():
         print(f"   {name:46s} {seconds:7.2f}  {seconds / total:4.0%}")
     print(f"   {'total':46s} {total:7.2f}")
-    calls = runner.study_calls(selected)
+    calls = parts.study_calls(selected)
     timed = run_tasks([(_timed_study, call) for call in calls], cpus())
     kinds: dict[str, float] = {}
     for (kind, _), (_, seconds) in zip(calls, timed, strict=True):

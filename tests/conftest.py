@@ -7,9 +7,13 @@ import functools
 import pytest
 
 from harness import cases
-from harness.config import load_config
-from harness.pipeline import CaseResult, run_case
-from harness.verdict import verdict
+from harness.engine.compat import joint_types, known_defect, unavailable_reason
+from harness.engine.models import compile_model
+from harness.pipeline.limits import load_limits
+from harness.pipeline.run import CaseResult, run_case
+from harness.pipeline.verdict import judge
+
+pytest_plugins = ["pytester"]
 
 
 @functools.cache
@@ -20,15 +24,24 @@ def shipped_run(name: str) -> CaseResult:
 
 @pytest.fixture(scope="session")
 def config():
-    return load_config()
+    """Every case's shipped limits."""
+    return load_limits()
 
 
 def failing(result: CaseResult) -> set[str]:
-    """Gated figures over their limit (thresholds restricted to the figures this run measured)."""
-    limits = load_config().for_case(result.case.name)
+    """Gated figures over their limit (limits restricted to the figures this run measured)."""
+    limits = load_limits().for_case(result.case.name)
     measured = {f.name for f in result.figures}
-    checks = verdict(result.case.name, result.figures, {k: v for k, v in limits.items() if k in measured})
+    checks = judge(result, {k: v for k, v in limits.items() if k in measured})
     return {c.name for c in checks if not c.passed}
+
+
+def breakable(case: str, names) -> set[str]:
+    """The check names of ``case`` this MuJoCo can fail: without those of integrators it lacks (n/a)
+    and those a documented defect of this version already fails on the case's model (known defects).
+    For tests that expect a broken variant to fail a set of gates."""
+    joints = joint_types(compile_model(cases.get(case).mjcf))
+    return {n for n in names if not unavailable_reason(n) and not known_defect(joints, n)}
 
 
 def case_ids() -> list[str]:

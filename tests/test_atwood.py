@@ -19,15 +19,19 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from analytic import systems
 from analytic.systems import atwood
-from harness import cases, compat, pipeline
-from harness import reference as refmod
-from harness.binding import JointBinding
-from harness.config import load_config
-from harness.models import compile_model, mjcf_path
-from harness.simulate import equality_force
-from harness.verdict import verdict
-from tests.conftest import failing, shipped_run
+from harness import cases
+from harness.engine import compat
+from harness.engine.bindings import JointBinding
+from harness.engine.constraints import equality_force
+from harness.engine.models import compile_model, mjcf_path
+from harness.pipeline import run as pipeline
+from harness.pipeline.limits import load_limits
+from harness.pipeline.verdict import verdict
+from tests.conftest import breakable, failing, shipped_run
+
+P = systems.symbols("atwood")  # the parameters as sympy symbols
 
 CASE = cases.get("atwood")
 INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4", "discrete")
@@ -89,24 +93,24 @@ class Physical:
 # --- layer 1: derivation ---------------------------------------------------------------
 
 def test_constraint_rows_are_the_mjcf_equalities() -> None:
-    der = atwood.build().derive()
-    a = atwood.a
+    der = systems.build("atwood").derive()
+    a = P.a
     assert der.jacobian == sp.Matrix([[1, 0, -a], [0, 1, a]])
     assert [c.name for c in der.system.constraints] == list(STRINGS)
 
 
 def test_sympy_derivation_gives_the_closed_forms() -> None:
-    der = atwood.build().derive()
+    der = systems.build("atwood").derive()
     qdd = [sp.Symbol(f"{c.name}_ddot", real=True) for c in der.system.q]
     lam = list(der.multiplier_symbols)
     constraint_acc = der.jacobian * sp.Matrix(qdd) - der.gamma
     sol = sp.solve([*der.equations, *constraint_acc], [*qdd, *lam], dict=True)
     assert len(sol) == 1
     sol = sol[0]
-    z1dd, t1, t2 = closed_forms(atwood.m1, atwood.m2, atwood.m_p, atwood.g)
+    z1dd, t1, t2 = closed_forms(P.m1, P.m2, P.m_p, P.g)
     assert sp.simplify(sol[qdd[0]] - z1dd) == 0
     assert sp.simplify(sol[qdd[1]] + z1dd) == 0
-    assert sp.simplify(sol[qdd[2]] - z1dd / atwood.a) == 0
+    assert sp.simplify(sol[qdd[2]] - z1dd / P.a) == 0
     assert sp.simplify(sol[lam[0]] - t1) == 0
     assert sp.simplify(sol[lam[1]] - t2) == 0
 
@@ -114,7 +118,7 @@ def test_sympy_derivation_gives_the_closed_forms() -> None:
 def test_seed_claims() -> None:
     """The seed's z̈1 and λ1 hold; its λ2 is printed with −m_p in the denominator, a typo:
     only the +m_p form equals the derivation (and makes λ2 the tension by symmetry 1 ↔ 2)."""
-    m1, m2, m_p, g = atwood.m1, atwood.m2, atwood.m_p, atwood.g
+    m1, m2, m_p, g = P.m1, P.m2, P.m_p, P.g
     z1dd, t1, t2 = closed_forms(m1, m2, m_p, g)
     assert sp.simplify(z1dd - (-(m1 - m2) / (m_p + m1 + m2) * g)) == 0
     assert sp.simplify(t1 - (m_p + 2 * m2) / (m_p + m1 + m2) * m1 * g) == 0
@@ -123,9 +127,9 @@ def test_seed_claims() -> None:
 
 
 def test_minimal_system_is_the_effective_mass_equation() -> None:
-    der = atwood.minimal().derive()
+    der = systems.build("atwood", minimal=True).derive()
     z_dd = sp.Symbol("z1_ddot", real=True)
-    m1, m2, m_p, g = atwood.m1, atwood.m2, atwood.m_p, atwood.g
+    m1, m2, m_p, g = P.m1, P.m2, P.m_p, P.g
     assert sp.simplify(der.equations[0] - ((m1 + m2 + m_p) * z_dd + (m1 - m2) * g)) == 0
 
 
@@ -155,7 +159,7 @@ def test_positive_theta_raises_the_left_rim(model) -> None:
 def test_reference_matches_closed_forms(model) -> None:
     p = Physical.read(model)
     z1dd, t1, t2 = closed_forms(p.m1, p.m2, p.m_p, p.g)
-    ref = refmod.build_reference(CASE, model)
+    ref = CASE.reference(model)
     t = np.linspace(0.0, CASE.horizon, 301)
     q, qd = ref.solution.state(t)
     qdd, lam = ref.dynamics.accelerations(q, qd)
@@ -240,7 +244,7 @@ def test_shipped_diagonal_is_the_exact_one(model) -> None:
 # --- gates ---------------------------------------------------------------------------
 
 def test_shipped_case_passes_every_gate(shipped) -> None:
-    checks = verdict("atwood", shipped.figures, load_config().for_case("atwood"))
+    checks = verdict("atwood", shipped.figures, load_limits().for_case("atwood"))
     assert [c.name for c in checks if not c.passed] == []
 
 
@@ -324,7 +328,7 @@ VARIANTS = {
 def test_broken_variant_trips_its_gates(variant: str, monkeypatch) -> None:
     case, kwargs, expected = VARIANTS[variant]
     # gates of an integrator this MuJoCo lacks are n/a, not failures (harness.compat)
-    expected = compat.breakable(case.name, expected)
+    expected = breakable(case.name, expected)
     if kwargs.get("edit") is _approximate_diagonal:
         _default_diagonal_on_any_version(monkeypatch)
     failed = failing(pipeline.run_case(case, **kwargs))
@@ -334,4 +338,4 @@ def test_broken_variant_trips_its_gates(variant: str, monkeypatch) -> None:
 def test_every_gate_has_a_breaking_variant() -> None:
     covered = set().union(*(expected for _, _, expected in VARIANTS.values()))
     # converge.* (layer-4 order) gates: generic breakages in tests/test_gates.py, tests/test_convergence.py
-    assert {k for k in load_config().for_case("atwood") if not k.startswith("converge.")} <= covered
+    assert {k for k in load_limits().for_case("atwood") if not k.startswith("converge.")} <= covered

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import pytest
 
+from analytic import systems
 from analytic.claims import Claim, all_claims, doc_frame
-from analytic.systems import spring
-from harness.audit import audit, audit_claim, consistent, format_table
+from harness.studies.audit import audit, audit_claim, consistent, format_table
+
+P = systems.symbols("spring")  # the parameters as sympy symbols
 
 # Hand analysis of both documents (see the closing note of the audit issue): claim id -> (verdict, cause)
 EXPECTED = {
@@ -65,7 +67,7 @@ def test_deliberately_wrong_claim_is_refuted_by_both_checks():
     f = doc_frame("spring", "q", {"x": "q"})
     (q,), (_qd,) = f.q, f.qd
     wrong = Claim("test.spring.U_wrong", "test", "test", "U = k q^2", f, "value",
-                  claimed=spring.k * q**2, truth=lambda v: v.V, measure="potential")
+                  claimed=P.k * q**2, truth=lambda v: v.V, measure="potential")
     row = audit_claim(wrong)
     assert row.verdict == "refuted" and row.cause == "error"
     assert row.numeric_agrees is False and row.numeric_error > 0.5

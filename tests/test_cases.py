@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from harness import cases
-from harness.pipeline import run_case
-from harness.verdict import verdict
+from harness.pipeline.run import run_case
+from harness.pipeline.verdict import verdict
 from tests.conftest import case_ids, shipped_run
 
 

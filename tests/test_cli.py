@@ -27,9 +27,12 @@ from pathlib import Path
 
 import pytest
 
-from harness import cases, pipeline
-from harness.cli import COMMANDS, main
-from harness.config import ConfigError, load_config
+from harness import cases
+from harness.cli.commands import COMMANDS, main
+from harness.core.errors import ConfigError
+from harness.pipeline import matrix
+from harness.pipeline import run as pipeline
+from harness.pipeline.limits import load_limits
 from tests.conftest import shipped_run
 
 CASE = "pendulum"
@@ -45,7 +48,7 @@ def _run(*args: str) -> subprocess.CompletedProcess:
 def cached_runs(monkeypatch):
     """run_case of a shipped case returns the session's cached run (variants still run for real)."""
     real = pipeline.run_case
-    monkeypatch.setattr(pipeline, "run_case",
+    monkeypatch.setattr(matrix, "run_case",
                         lambda case, **kw: real(case, **kw) if kw else shipped_run(case.name))
 
 
@@ -112,14 +115,14 @@ def test_check_junit(tmp_path, cached_runs, strict, tight, code, capsys):
     assert main(["check", CASE, "--junit", str(junit), *(["--config", str(strict)] if tight else [])]) == code
     root = ET.parse(junit).getroot()
     cases_ = root.findall("./testsuite/testcase")
-    assert len(cases_) == len(load_config().for_case(CASE))
+    assert len(cases_) == len(load_limits().for_case(CASE))
     failures = [tc.get("name") for tc in cases_ if tc.find("failure") is not None]
     assert failures == (["RK4.position"] if tight else [])
     assert "passed" in capsys.readouterr().out
 
 
 def test_progress_bar_only_on_a_terminal(monkeypatch):
-    from harness import runner
+    from harness.pipeline import matrix as runner
 
     monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
     assert runner.progress([1], "x").disable
@@ -131,8 +134,8 @@ def test_progress_bar_only_on_a_terminal(monkeypatch):
 
 # ------------------------------------------------------------------- errors
 @pytest.mark.parametrize("args, needle", [
-    (["check", "nosuchcase"], "known cases: pendulum"),
-    (["run", "nosuchcase"], "known cases: pendulum"),
+    (["check", "nosuchcase"], "known cases: atwood"),
+    (["run", "nosuchcase"], "known cases: atwood"),
     (["frobnicate"], "invalid choice"),
     (["check", CASE, "--config", "/nonexistent.toml"], "cannot read config"),
     (["baseline", CASE], "one of the arguments --write --compare is required"),
@@ -167,7 +170,7 @@ def test_bad_config_exits_2(tmp_path, text, needle, capsys, cached_runs):
 def test_config_overrides_key_by_key(tmp_path):
     cfg = tmp_path / "override.toml"
     cfg.write_text('[tool.mjharness.thresholds.pendulum]\n"RK4.position" = 5e-7\n')  # pyproject style works too
-    merged, config = load_config(cfg), load_config()
+    merged, config = load_limits(cfg), load_limits()
     assert merged.for_case(CASE)["RK4.position"] == 5e-7
     others = {k: v for k, v in merged.for_case(CASE).items() if k != "RK4.position"}
     assert others == {k: v for k, v in config.for_case(CASE).items() if k != "RK4.position"}
@@ -178,7 +181,7 @@ def test_non_utf8_config_is_a_config_error(tmp_path):
     cfg = tmp_path / "latin1.toml"
     cfg.write_bytes(b"# \xe9\n")
     with pytest.raises(ConfigError, match="not valid TOML"):
-        load_config(cfg)
+        load_limits(cfg)
 
 
 @pytest.mark.parametrize("make, needle", [
@@ -212,7 +215,7 @@ def test_unwritable_output_exits_2_and_writes_nothing(tmp_path):
 
 @pytest.mark.parametrize("where", ["under_file", "directory"])
 def test_unwritable_junit_exits_2_before_running(tmp_path, where, capsys, monkeypatch):
-    monkeypatch.setattr(pipeline, "run_case", lambda *a, **k: pytest.fail("ran before checking --junit"))
+    monkeypatch.setattr(matrix, "run_case", lambda *a, **k: pytest.fail("ran before checking --junit"))
     blocker = tmp_path / "file"
     blocker.write_text("x")
     target = blocker / "junit.xml" if where == "under_file" else tmp_path

@@ -8,10 +8,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from harness import cases, compat
-from harness.figures import Figure
-from harness.models import compile_model, mjcf_path
-from harness.verdict import verdict
+from harness import cases
+from harness.core.figures import Figure
+from harness.engine import compat
+from harness.engine.models import compile_model, mjcf_path
+from harness.pipeline.verdict import verdict
 
 
 def _random_state(model: mujoco.MjModel, data: mujoco.MjData, seed: int = 0) -> None:
@@ -70,9 +71,7 @@ def test_solver_iterations_is_within_the_limit():
 
 
 def test_a_missing_integrator_makes_its_thresholds_n_a(monkeypatch):
-    import harness.simulate as sim
-
-    monkeypatch.setattr(sim, "available_integrators", lambda: ("Euler", "implicit", "implicitfast", "RK4"))
+    monkeypatch.setattr(compat, "available_integrators", lambda: ("Euler", "implicit", "implicitfast", "RK4"))
     assert compat.unavailable_reason("discrete.position").startswith("integrator discrete is not in MuJoCo")
     assert compat.unavailable_reason("converge.discrete.order_shortfall")
     assert compat.unavailable_reason("RK4.position") == ""
@@ -84,18 +83,23 @@ def test_a_missing_integrator_makes_its_thresholds_n_a(monkeypatch):
         verdict("pendulum", figures, {"nonsense.figure": 1.0})
 
 
+def _joints(name: str) -> frozenset[int]:
+    return compat.joint_types(compile_model(cases.get(name).mjcf))
+
+
 def test_a_documented_defect_explains_a_failure_only_on_an_affected_version(monkeypatch):
     if "spherical_pendulum_ball" not in cases.names():
         pytest.skip("the ball case is not registered")
     figures = [Figure("RK4.position", 1e-6, "m", ""), Figure("Euler.position", 1.0, "m", "")]
     limits = {"RK4.position": 1e-9, "Euler.position": 1e-3}
     monkeypatch.setattr(compat, "_version", lambda: (3, 3, 0))
-    checks = {c.name: c for c in verdict("spherical_pendulum_ball", figures, limits)}
+    ball, hinges = _joints("spherical_pendulum_ball"), _joints("pendulum")
+    checks = {c.name: c for c in verdict("spherical_pendulum_ball", figures, limits, joints=ball)}
     assert checks["RK4.position"].status == "known defect" and "Munthe-Kaas" in checks["RK4.position"].known
     assert checks["Euler.position"].status == "FAIL"  # not RK4: no excuse
-    assert verdict("pendulum", figures, limits)[0].status == "FAIL"  # no ball joint: no excuse
+    assert verdict("pendulum", figures, limits, joints=hinges)[0].status == "FAIL"  # no ball joint: no excuse
     monkeypatch.setattr(compat, "_version", lambda: (4, 0, 0))
-    assert verdict("spherical_pendulum_ball", figures, limits)[0].status == "FAIL"
+    assert verdict("spherical_pendulum_ball", figures, limits, joints=ball)[0].status == "FAIL"
 
 
 def test_diagexact_fallback_reproduces_the_exact_diagonal(monkeypatch, tmp_path):
@@ -119,10 +123,9 @@ def test_diagexact_fallback_reproduces_the_exact_diagonal(monkeypatch, tmp_path)
         mujoco.mj_forward(reference, rdata)
         np.testing.assert_allclose(data.efc_force[: data.nefc], rdata.efc_force[: rdata.nefc], rtol=1e-9)
     # independently: with R_ii = (1 − d)/d · A_ii exact, the t = 0 force error is (A + R)⁻¹ R λ*
-    from harness import reference as refmod
-    from harness.studies.convergence import initial_force_floor
+    from harness.layers.orders import initial_force_floor
 
-    ref = refmod.build_reference(cases.get("atwood"), reference, t_end=0.1)
+    ref = cases.get("atwood").reference(reference, t_end=0.1)
     lam = ref.solution.multipliers([0.0])[0]
     err = np.max(np.abs(data.efc_force[: data.nefc] - lam)) / ref.scales.force
     assert err == pytest.approx(initial_force_floor(emulated, ref), rel=1e-3)

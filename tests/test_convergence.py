@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from harness import cases
-from harness import reference as refmod
-from harness.cli import main
-from harness.models import compile_model, mjcf_path
+from harness.cli.commands import main
+from harness.engine.models import compile_model, mjcf_path
+from harness.layers import orders
 from harness.studies import convergence as cv
 from harness.studies import html_section, run_studies, text
 from tests.conftest import case_ids
@@ -19,15 +19,15 @@ from tests.conftest import case_ids
 H = np.array([32, 16, 8, 4, 2, 1, 0.5]) * 1e-3
 
 
-def _series(errors, expected, dts=H) -> cv.Series:
-    return cv.Series(integrator="RK4", quantity="position", unit="m", dts=tuple(dts), errors=tuple(errors),
-                     fit=cv.fit_order(dts, errors), expected=expected)
+def _series(errors, expected, dts=H) -> orders.Series:
+    return orders.Series(integrator="RK4", quantity="position", unit="m", dts=tuple(dts), errors=tuple(errors),
+                     fit=orders.fit_order(dts, errors), expected=expected)
 
 
 # ------------------------------------------------------------- fitting
 @pytest.mark.parametrize("order", [1, 2, 4])
 def test_a_pure_power_law_gives_its_order(order):
-    fit = cv.fit_order(H, 3.0 * H**order)
+    fit = orders.fit_order(H, 3.0 * H**order)
     assert fit.order == pytest.approx(order, abs=1e-9)
     assert fit.floor is None and fit.n_used == len(H)
 
@@ -35,13 +35,13 @@ def test_a_pure_power_law_gives_its_order(order):
 def test_a_floor_is_detected_and_not_fitted_as_an_order():
     floor = 1e-9
     errors = 50.0 * H**4 + floor  # 50·h⁴ reaches the floor near h = 2 ms
-    fit = cv.fit_order(H, errors)
+    fit = orders.fit_order(H, errors)
     assert fit.floor == pytest.approx(floor, rel=0.1)
     assert all(st == "floor" for e, st in zip(errors, fit.status, strict=True) if e <= 10 * fit.floor)
-    assert fit.order == pytest.approx(4, abs=cv.ORDER_TOLERANCE)
+    assert fit.order == pytest.approx(4, abs=orders.ORDER_TOLERANCE)
     # the same data fitted without the floor cut would read as a lower order
     naive = np.polyfit(np.log(H), np.log(errors), 1)[0]
-    assert naive < 4 - cv.ORDER_TOLERANCE
+    assert naive < 4 - orders.ORDER_TOLERANCE
 
 
 def test_an_order_one_sequence_fails_against_expected_four():
@@ -62,7 +62,7 @@ def test_a_floor_dominated_series_fails_with_the_whole_expected_order():
 def test_saturated_and_diverged_points_are_left_out():
     errors = 0.01 * H
     errors[0], errors[1] = math.nan, 0.5  # diverged, saturated
-    fit = cv.fit_order(H, errors, saturation=0.05)
+    fit = orders.fit_order(H, errors, saturation=0.05)
     assert fit.status[:2] == ("diverged", "saturated")
     assert fit.order == pytest.approx(1)
 
@@ -75,17 +75,17 @@ def test_saturated_and_diverged_points_are_left_out():
 ])
 def test_bad_fit_input_is_a_one_line_value_error(dts, errors, needle):
     with pytest.raises(ValueError, match=needle):
-        cv.fit_order(dts, errors)
+        orders.fit_order(dts, errors)
 
 
 # -------------------------------------------------------- on the models
 @pytest.fixture(scope="module")
-def pendulum_fast() -> cv.ConvergenceStudy:
+def pendulum_fast() -> orders.ConvergenceStudy:
     return cv.convergence_study(cases.get("pendulum"), fast=True)
 
 
 def test_expected_orders_are_the_documented_ones():
-    assert cv.EXPECTED_ORDER == {"Euler": 1, "implicit": 1, "implicitfast": 1, "RK4": 4, "discrete": 1}
+    assert orders.EXPECTED_ORDER == {"Euler": 1, "implicit": 1, "implicitfast": 1, "RK4": 4, "discrete": 1}
 
 
 def test_pendulum_orders_pass_on_the_rigid_limit(pendulum_fast):
@@ -98,7 +98,7 @@ def test_rk4_claimed_on_the_soft_pendulum_as_authored_fails(pendulum_fast):
     """The as-authored position error is dominated by the softness (refsafe: timeconst ≥ 2h, so the
     sag is O(h²)); judged against RK4's 4 it must fail — a floor is not an order."""
     raw = next(s for s in pendulum_fast.series if s.integrator == "RK4" and s.quantity == "position")
-    judged = cv.Series(integrator="RK4", quantity="position", unit="m", dts=raw.dts, errors=raw.errors,
+    judged = orders.Series(integrator="RK4", quantity="position", unit="m", dts=raw.dts, errors=raw.errors,
                        fit=raw.fit, expected=4.0)
     assert judged.fit.order == pytest.approx(2, abs=0.3)
     assert judged.passed is False
@@ -115,23 +115,23 @@ def test_a_broken_model_fails_every_order_verdict():
     def gravity(spec: mujoco.MjSpec) -> None:
         spec.option.gravity = np.asarray(spec.option.gravity) * 1.02
 
-    study = cv.convergence_study(cases.get("pendulum"), fast=True, edit=gravity, plot=False)
+    study = orders.convergence_study(cases.get("pendulum"), fast=True, edit=gravity)
     assert all(s.passed is False for s in study.verdicts)
-    figs = cv.order_figures(study)
-    assert all(f.value > cv.ORDER_TOLERANCE for f in figs)
+    figs = orders.order_figures(study)
+    assert all(f.value > orders.ORDER_TOLERANCE for f in figs)
 
 
 def test_double_softness_doubles_one_minus_d():
     spec = mujoco.MjSpec.from_file(str(mjcf_path("pendulum")))
     before = [1 - float(e.solimp[0]) for e in spec.equalities]
-    cv.double_softness(spec)
+    orders.double_softness(spec)
     assert [1 - float(e.solimp[0]) for e in spec.equalities] == pytest.approx([2 * b for b in before])
 
 
 def test_a_missing_integrator_is_shown_not_skipped(monkeypatch):
-    present = tuple(k for k in cv.EXPECTED_ORDER if k != "discrete")
-    monkeypatch.setattr(cv, "available_integrators", lambda: present)
-    study = cv.convergence_study(cases.get("spring"), fast=True, plot=False)
+    present = tuple(k for k in orders.EXPECTED_ORDER if k != "discrete")
+    monkeypatch.setattr(orders, "available_integrators", lambda: present)
+    study = orders.convergence_study(cases.get("spring"), fast=True)
     assert "discrete" in study.unavailable and "discrete" not in {s.integrator for s in study.series}
     shown = [r for r in cv.rows(study) if r[1] == "discrete"]
     assert shown and shown[0][-1].startswith("n/a: not in MuJoCo")
@@ -142,25 +142,25 @@ def test_uniform_acceleration_makes_rk4_exact_not_failed():
     if "atwood" not in cases.names():
         pytest.skip("atwood is not registered")
     case = cases.get("atwood")
-    ref = refmod.build_reference(case, compile_model(mjcf_path(case.mjcf)), t_end=0.5)
-    assert cv.polynomial_degree(ref, 0.5, max_degree=4) == 2
+    ref = case.reference(compile_model(case.mjcf), t_end=0.5)
+    assert orders.polynomial_degree(ref, 0.5, max_degree=4) == 2
     pend = cases.get("pendulum")
-    ref = refmod.build_reference(pend, compile_model(mjcf_path(pend.mjcf)), t_end=0.5)
-    assert cv.polynomial_degree(ref, 0.5, max_degree=4) is None
+    ref = pend.reference(compile_model(pend.mjcf), t_end=0.5)
+    assert orders.polynomial_degree(ref, 0.5, max_degree=4) is None
 
 
 def test_outputs_plot_table_html_and_figures(pendulum_fast):
     assert pendulum_fast.plot_png.startswith(b"\x89PNG")
     page = html_section(run_studies([cases.get("spring")], fast=True, with_softness=False, with_solvers=False))
     assert "data:image/png;base64," in page and "<table>" in page
-    figs = cv.order_figures(pendulum_fast)
+    figs = orders.order_figures(pendulum_fast)
     assert {f.name for f in figs} == {f"converge.{s.integrator}.order_shortfall" for s in pendulum_fast.verdicts}
     assert all(np.isfinite(f.value) for f in figs)
 
 
 def test_gates_use_the_stated_tolerance(config):
     limits = {v for name in case_ids() for k, v in config.for_case(name).items() if k.startswith("converge.")}
-    assert limits == {cv.ORDER_TOLERANCE}
+    assert limits == {orders.ORDER_TOLERANCE}
 
 
 def test_cli_converge_prints_the_table_and_exits_0(capsys):

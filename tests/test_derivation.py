@@ -5,17 +5,19 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
+from analytic import systems
 from analytic.dynamics import Dynamics
 from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
 from analytic.solvers import solve
-from analytic.systems import pendulum
+
+SYM = systems.symbols("pendulum")  # the parameters as sympy symbols
 
 P = {"m": 1.3, "g": 9.81, "l": 0.7}
 
 
 def test_pendulum_equations_match_textbook():
-    d = pendulum.build().derive()
-    m, g = pendulum.m, pendulum.g
+    d = systems.build("pendulum").derive()
+    m, g = SYM.m, SYM.g
     (theta, r), (theta_d, r_d) = d.system.q, d.system.qd
     # hand-typed independent forms: M = diag(m r², m); F = (−m r (g sinθ + 2 ṙ θ̇), m (r θ̇² + g cosθ))
     assert sp.simplify(d.mass_matrix - sp.diag(m * r**2, m)) == sp.zeros(2)
@@ -28,7 +30,7 @@ def test_pendulum_equations_match_textbook():
 
 def test_multiplier_is_minus_tension_closed_form():
     """Convention pinned: λ = −(m l θ̇² + m g cos θ) on the constraint (λ outward radial force)."""
-    dyn = Dynamics.build(pendulum.build().derive(), P)
+    dyn = Dynamics.build(systems.build("pendulum").derive(), P)
     rng = np.random.default_rng(1)
     th, thd = rng.uniform(-3, 3, 50), rng.uniform(-4, 4, 50)
     q = np.stack([th, np.full(50, P["l"])], axis=1)
@@ -41,8 +43,8 @@ def test_multiplier_is_minus_tension_closed_form():
 
 
 def test_dae_matches_minimal_ode_and_tension_over_time():
-    dyn = Dynamics.build(pendulum.build().derive(), P)
-    dyn_min = Dynamics.build(pendulum.minimal().derive(), P)
+    dyn = Dynamics.build(systems.build("pendulum").derive(), P)
+    dyn_min = Dynamics.build(systems.build("pendulum", minimal=True).derive(), P)
     t = np.linspace(0.0, 10.0, 2001)
     sol = solve(dyn, q0=[1.2, P["l"]], qd0=[0.3, 0.0], t_end=10.0, rtol=1e-12)
     sol_min = solve(dyn_min, q0=[1.2], qd0=[0.3], t_end=10.0, rtol=1e-12)
@@ -59,7 +61,7 @@ def test_dae_matches_minimal_ode_and_tension_over_time():
 
 def test_stabilization_controls_drift_of_a_broken_gamma():
     """With γ corrupted, Baumgarte keeps the residual bounded and the solution reports it."""
-    dyn = Dynamics.build(pendulum.build().derive(), P)
+    dyn = Dynamics.build(systems.build("pendulum").derive(), P)
     broken = dict(dyn._funcs)
     good_gamma = broken["gamma"]
     broken["gamma"] = lambda *a: good_gamma(*a) + 1e-3
@@ -87,7 +89,7 @@ def test_pfaffian_constraint_is_accepted_and_linear_checked():
 
 
 def test_inconsistent_initial_state_is_refused():
-    dyn = Dynamics.build(pendulum.build().derive(), P)
+    dyn = Dynamics.build(systems.build("pendulum").derive(), P)
     try:
         solve(dyn, q0=[0.1, P["l"] + 0.1], qd0=[0.0, 0.0], t_end=1.0)
     except ValueError as exc:

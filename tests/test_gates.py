@@ -7,6 +7,7 @@ test module for gates these do not reach.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 
 import mujoco
@@ -16,12 +17,12 @@ import pytest
 from analytic.dynamics import Dynamics
 from analytic.solvers import solve
 from harness import cases
-from harness import reference as refmod
-from harness.compat import known_defect, set_damping, unavailable_reason
-from harness.models import compile_model, mjcf_path
-from harness.pipeline import reference_figures, run_case
-from harness.verdict import verdict
-from tests.conftest import case_ids
+from harness.engine.compat import set_damping
+from harness.engine.models import compile_model
+from harness.layers.reference import reference_figures
+from harness.pipeline.run import run_case
+from harness.pipeline.verdict import judge, verdict
+from tests.conftest import breakable, case_ids
 
 
 def _damping(spec: mujoco.MjSpec) -> None:
@@ -70,16 +71,15 @@ BREAKAGES: dict[str, Callable[[mujoco.MjSpec], None]] = {
 
 def _failed(name: str, config, **kwargs) -> set[str]:
     result = run_case(cases.get(name), **kwargs)
-    return {c.name for c in verdict(name, result.figures, config.for_case(name)) if not c.passed}
+    return {c.name for c in judge(result, config.for_case(name)) if not c.passed}
 
 
 @pytest.mark.parametrize("name", case_ids())
 def test_every_model_gate_fails_on_some_broken_model(name, config):
     # gates of an integrator this MuJoCo lacks are n/a, and those a documented defect of this MuJoCo
-    # already fails are known defects (harness.compat): neither can be broken further
-    gated = {k for k in config.for_case(name) if not k.startswith("reference.") and not unavailable_reason(k)
-             and not known_defect(name, k)}
-    timestep = compile_model(mjcf_path(cases.get(name).mjcf)).opt.timestep
+    # already fails are known defects (harness.engine.compat): neither can be broken further
+    gated = breakable(name, {k for k in config.for_case(name) if not k.startswith("reference.")})
+    timestep = compile_model(cases.get(name).mjcf).opt.timestep
     caught = _failed(name, config, timestep=timestep * 10)
     for edit in BREAKAGES.values():
         caught |= _failed(name, config, edit=edit)
@@ -92,8 +92,8 @@ def test_reference_gates_fail_on_a_broken_reference(name, config):
     thresholds = {k: v for k, v in config.for_case(name).items() if k.startswith("reference.")}
     if not thresholds:
         pytest.skip(f"{name} gates no reference figure")
-    model = compile_model(mjcf_path(case.mjcf))
-    good = refmod.build_reference(case, model)
+    model = compile_model(case.mjcf)
+    good = case.reference(model)
     dyn = good.dynamics
     funcs = dict(dyn._funcs)
     gamma = funcs["gamma"]
@@ -102,7 +102,7 @@ def test_reference_gates_fail_on_a_broken_reference(name, config):
                           dyn.params, funcs)
     loose = solve(broken_dyn if dyn.constraint_names else dyn, q0=good.q0(), qd0=good.qd0(),
                   t_end=case.horizon, rtol=1e-6, atol=1e-6)
-    broken = refmod.Reference(case=case, params=good.params, scales=good.scales, solution=loose)
+    broken = dataclasses.replace(good, solution=loose)
     t = np.linspace(0.0, case.horizon, 501)
     figures = reference_figures(broken, t)
     failed = {c.name for c in verdict(name, figures, thresholds) if not c.passed}

@@ -25,15 +25,18 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from analytic import systems
 from analytic.systems import hoop_plane
-from harness import cases, pipeline
-from harness import reference as refmod
-from harness.binding import JointBinding
-from harness.contact import contact_force, fit_circle, slide_force
-from harness.models import compile_model, mjcf_path
+from harness import cases
+from harness.engine.bindings import JointBinding
+from harness.engine.models import compile_model, mjcf_path
+from harness.engine.readings.contact import contact_force, fit_circle, slide_force
+from harness.pipeline import run as pipeline
 from harness.studies.contact import contact_study
 from tests.conftest import failing, shipped_run
 from tests.contact_edits import friction, mujoco_default_softness, rim_radius
+
+P = systems.symbols("hoop_plane")  # the parameters as sympy symbols
 
 CASE = cases.get("hoop_plane")
 COORDS = ("x", "y", "z", "theta", "phi")
@@ -60,25 +63,25 @@ def model() -> mujoco.MjModel:
 # --- layer 1: derivation ---------------------------------------------------------------
 
 def test_rows_are_the_seed_pfaffian_constraints() -> None:
-    der = hoop_plane.build().derive()
+    der = systems.build("hoop_plane").derive()
     theta, (xd, yd, _, _, phid) = der.system.q[3], der.system.qd
-    a = hoop_plane.a
+    a = P.a
     assert [(c.name, c.kind) for c in der.system.constraints] == \
         [("normal", "holonomic"), ("roll_x", "pfaffian"), ("roll_y", "pfaffian")]
     assert sp.simplify(der.constraint_rows[1:, 0] - sp.Matrix([xd - a * phid * sp.cos(theta),
                                                                yd - a * phid * sp.sin(theta)])) == sp.zeros(2, 1)
     assert der.cyclic == (theta,)  # absent from L and from every row's coefficients of q̇_θ
-    assert sp.simplify(der.momenta[3] - hoop_plane.m * a**2 / 2 * der.system.qd[3]) == 0
+    assert sp.simplify(der.momenta[3] - P.m * a**2 / 2 * der.system.qd[3]) == 0
 
 
 def test_sympy_derivation_gives_the_closed_forms() -> None:
-    der = hoop_plane.build().derive()
+    der = systems.build("hoop_plane").derive()
     qdd = [sp.Symbol(f"{c.name}_ddot", real=True) for c in der.system.q]
     lam = list(der.multiplier_symbols)
     sol = sp.solve([*der.equations, *(der.jacobian * sp.Matrix(qdd) - der.gamma)], [*qdd, *lam], dict=True)
     assert len(sol) == 1
     theta, (theta_d, phi_d) = der.system.q[3], der.system.qd[3:]
-    m, g, a = hoop_plane.m, hoop_plane.g, hoop_plane.a
+    m, g, a = P.m, P.g, P.a
     fx, fy = lateral_force(m, a, phi_d, theta_d, theta)
     expected = {qdd[0]: fx / m, qdd[1]: fy / m, qdd[2]: 0, qdd[3]: 0, qdd[4]: 0,
                 lam[0]: m * g, lam[1]: fx, lam[2]: fy}
@@ -88,18 +91,18 @@ def test_sympy_derivation_gives_the_closed_forms() -> None:
 
 def test_pfaffian_rows_cannot_be_eliminated() -> None:
     """The seed: x and y depend on the history of θ and φ, so no embedding q = φ(s) holds."""
-    full = hoop_plane.build()
+    full = systems.build("hoop_plane")
     x, y, z, theta, phi = full.q
     (th, ph), (th_d, ph_d) = (sp.symbols("th ph", real=True), sp.symbols("th_dot ph_dot", real=True))
     with pytest.raises(ValueError, match="does not vanish"):
         full.reduce(q=(th, ph), qd=(th_d, ph_d),
-                    embedding={x: hoop_plane.a * ph * sp.cos(th), y: hoop_plane.a * ph * sp.sin(th),
-                               z: hoop_plane.a, theta: th, phi: ph})
+                    embedding={x: P.a * ph * sp.cos(th), y: P.a * ph * sp.sin(th),
+                               z: P.a, theta: th, phi: ph})
 
 
 def test_reference_runs_round_the_closed_form_circle(model) -> None:
     p = hoop_plane.params_from_model(model)
-    ref = refmod.build_reference(CASE, model)
+    ref = CASE.reference(model)
     t = np.linspace(0.0, CASE.horizon, 401)
     q, qd = ref.solution.state(t)
     centre, radius = circle(CASE, p["a"])
@@ -245,7 +248,7 @@ def test_p_theta_gates_fail_when_the_heading_is_damped() -> None:
     """A tiny damping on the heading hinge θ (1e-8 N m s) breaks the conservation of p_θ and nothing
     else the gates see: every integrator's p_θ and its drift fail, while its trajectory, contact
     forces and slip still pass."""
-    from harness.compat import set_damping
+    from harness.engine.compat import set_damping
 
     result = pipeline.run_case(CASE, edit=lambda spec: set_damping(spec.joint("theta"), 1e-8))
     ran = list(result.simulations)

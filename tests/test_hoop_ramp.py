@@ -24,16 +24,19 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from analytic import systems
 from analytic.systems import hoop_ramp
-from harness import cases, pipeline
-from harness import reference as refmod
-from harness.binding import JointBinding
-from harness.contact import analytic_residual, contact_force, slide_force
-from harness.models import compile_model, mjcf_path
-from harness.simulate import equality_force
+from harness import cases
+from harness.engine.bindings import JointBinding
+from harness.engine.constraints import equality_force
+from harness.engine.models import compile_model, mjcf_path
+from harness.engine.readings.contact import analytic_residual, contact_force, slide_force
+from harness.pipeline import run as pipeline
 from harness.studies.contact import contact_study
 from tests.conftest import failing, shipped_run
 from tests.contact_edits import friction, mujoco_default_softness, rim_radius
+
+P = systems.symbols("hoop_ramp")  # the parameters as sympy symbols
 
 MODELS = ("hoop_ramp", "hoop_ramp_contact")
 COORDS = ("x", "s", "phi")
@@ -58,34 +61,34 @@ def rolling_state(model: mujoco.MjModel, *, x: float = 0.3, xdot: float = 0.8) -
 
 @pytest.mark.parametrize("form", ["holonomic", "pfaffian"])
 def test_sympy_derivation_gives_the_closed_forms(form) -> None:
-    der = hoop_ramp.build(form=form).derive()
+    der = hoop_ramp.build(P, form=form).derive()
     assert [c.name for c in der.system.constraints] == ["normal", "roll"]
-    assert der.jacobian == sp.Matrix([[0, 1, 0], [1, 0, -hoop_ramp.a]])
+    assert der.jacobian == sp.Matrix([[0, 1, 0], [1, 0, -P.a]])
     qdd = [sp.Symbol(f"{c.name}_ddot", real=True) for c in der.system.q]
     lam = list(der.multiplier_symbols)
     sol = sp.solve([*der.equations, *(der.jacobian * sp.Matrix(qdd) - der.gamma)], [*qdd, *lam], dict=True)
     assert len(sol) == 1
-    xdd, roll, normal = closed_forms(hoop_ramp.m, hoop_ramp.g, hoop_ramp.alpha)
-    expected = {qdd[0]: xdd, qdd[1]: 0, qdd[2]: xdd / hoop_ramp.a, lam[0]: normal, lam[1]: roll}
+    xdd, roll, normal = closed_forms(P.m, P.g, P.alpha)
+    expected = {qdd[0]: xdd, qdd[1]: 0, qdd[2]: xdd / P.a, lam[0]: normal, lam[1]: roll}
     for symbol, value in expected.items():
         assert sp.simplify(sol[0][symbol] - value) == 0, symbol
 
 
 def test_pfaffian_roll_is_the_same_system_as_the_integrated_one() -> None:
     """The seed: dx = a dφ integrates to x = aφ + x0; both forms give the same J, γ, M, F."""
-    hol, pfaff = hoop_ramp.build().derive(), hoop_ramp.build(form="pfaffian").derive()
+    hol, pfaff = systems.build("hoop_ramp").derive(), hoop_ramp.build(P, form="pfaffian").derive()
     assert pfaff.system.constraints[1].kind == "pfaffian"
     for attr in ("jacobian", "gamma", "mass_matrix", "forcing", "constraint_rows"):
         assert sp.simplify(getattr(hol, attr) - getattr(pfaff, attr)) == sp.zeros(*getattr(hol, attr).shape)
     assert hol.holonomic_residual[1] != 0 and pfaff.holonomic_residual[1] == 0
     with pytest.raises(ValueError, match="form must be"):
-        hoop_ramp.build(form="rolling")
+        hoop_ramp.build(P, form="rolling")
 
 
 def test_minimal_system_is_twice_the_mass() -> None:
-    der = hoop_ramp.minimal().derive()
+    der = systems.build("hoop_ramp", minimal=True).derive()
     xdd = sp.Symbol("x_ddot", real=True)
-    m, g, alpha = hoop_ramp.m, hoop_ramp.g, hoop_ramp.alpha
+    m, g, alpha = P.m, P.g, P.alpha
     assert sp.simplify(der.equations[0] - (2 * m * xdd - m * g * sp.sin(alpha))) == 0
 
 
@@ -211,7 +214,7 @@ def test_reference_matches_closed_forms() -> None:
     model = compile_model(mjcf_path("hoop_ramp"))
     p = hoop_ramp.params_from_model(model)
     xdd, roll, normal = closed_forms(p["m"], p["g"], p["alpha"])
-    ref = refmod.build_reference(case, model)
+    ref = case.reference(model)
     t = np.linspace(0.0, case.horizon, 201)
     q, qd = ref.solution.state(t)
     assert np.max(np.abs(q[:, 0] - (case.qd0["x"] * t + xdd * t**2 / 2))) < 1e-10

@@ -17,14 +17,15 @@ from pathlib import Path
 import mujoco
 import pytest
 
-from harness import baseline, report
-from harness.diff import diff_runs, format_diff, load_run
-from harness.equations import equations, png_data_uri
-from harness.figures import Figure
-from harness.junit import junit_xml
-from harness.reference import derivation
-from harness.render import Request, stills
-from harness.verdict import verdict
+from harness.core.figures import Figure
+from harness.outputs import baseline, files, jsondoc, report
+from harness.outputs.diff import diff_runs, format_diff, load_run
+from harness.outputs.equations import equations, png_data_uri
+from harness.outputs.junit import junit_xml
+from harness.outputs.stills import Request, stills
+from harness.outputs.table import closest
+from harness.pipeline.verdict import judge
+from harness.reference.derivations import derivation
 from tests.conftest import case_ids, shipped_run
 
 CASE = "pendulum"
@@ -35,7 +36,7 @@ PNG = b"\x89PNG\r\n\x1a\n"
 @pytest.fixture(scope="module")
 def run(config):
     result = shipped_run(CASE)
-    return [result], {CASE: verdict(CASE, result.figures, config.for_case(CASE))}
+    return [result], {CASE: judge(result, config.for_case(CASE))}
 
 
 @pytest.fixture(scope="module")
@@ -141,18 +142,18 @@ def test_markdown_summary_for_ci(run):
 
 def test_json_has_every_figure_and_is_strict_json(run):
     results, checks = run
-    text = report.render_json(results, checks)
+    text = jsondoc.render_json(results, checks)
 
     def reject(name):
         raise AssertionError(f"non-standard JSON constant {name}")
 
     doc = json.loads(text, parse_constant=reject)
     entry = doc["cases"][CASE]
-    assert doc["schema"] == report.SCHEMA and doc["passed"] is True
+    assert doc["schema"] == jsondoc.SCHEMA and doc["passed"] is True
     assert set(entry["figures"]) == {f.name for f in results[0].figures}
     assert entry["checks"]["RK4.position"]["threshold"] == checks[CASE][
         [c.name for c in checks[CASE]].index("RK4.position")].threshold
-    nan_doc = json.loads(report.dumps({"x": math.nan, "y": [math.inf]}), parse_constant=reject)
+    nan_doc = json.loads(jsondoc.dumps({"x": math.nan, "y": [math.inf]}), parse_constant=reject)
     assert nan_doc == {"x": "nan", "y": ["inf"]}
 
 
@@ -170,7 +171,7 @@ def test_write_report_is_all_or_nothing(tmp_path, run, monkeypatch):
 
 
 def test_write_atomic_leaves_no_temporaries_and_readable_files(tmp_path):
-    paths = report.write_atomic({tmp_path / "a.txt": "a", tmp_path / "b.txt": "b"})
+    paths = files.write_atomic({tmp_path / "a.txt": "a", tmp_path / "b.txt": "b"})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.txt"] == [p.name for p in paths]
     assert (tmp_path / "a.txt").stat().st_mode & 0o444 == 0o444
 
@@ -179,8 +180,8 @@ def test_output_that_cannot_be_a_directory_is_refused_before_anything_is_created
     blocker = tmp_path / "file"
     blocker.write_text("x")
     with pytest.raises(ValueError, match="is not a directory"):
-        report.check_output(blocker / "sub" / "dir")
-    assert report.check_output(tmp_path / "new" / "dir") == tmp_path / "new" / "dir"
+        files.check_output(blocker / "sub" / "dir")
+    assert files.check_output(tmp_path / "new" / "dir") == tmp_path / "new" / "dir"
     assert not (tmp_path / "new").exists()
 
 
@@ -200,14 +201,14 @@ def test_junit_has_one_testcase_per_check_and_failures_carry_figure_and_threshol
 
 # ------------------------------------------------------------------- diff
 def test_diff_of_a_run_with_itself_is_empty(run):
-    doc = report.json_doc(*run)
+    doc = jsondoc.json_doc(*run)
     d = diff_runs(doc, doc)
     assert not d.flipped and not any(r.changed for r in d.rows)
     assert "0 changed" in format_diff(d) and "0 verdict(s) flipped" in format_diff(d)
 
 
 def test_diff_reports_ratio_and_highlights_flipped_verdicts(run):
-    old = json.loads(report.render_json(*run))
+    old = json.loads(jsondoc.render_json(*run))
     new = copy.deepcopy(old)
     entry = new["cases"][CASE]
     entry["figures"]["RK4.position"]["value"] *= 4
@@ -255,19 +256,19 @@ def _fig(name, value):
     (1e-3, math.nan, 4e-3, True),   # not finite
 ])
 def test_regression_rule(old, new, threshold, regressed):
-    base = {"cases": {"c": {"figures": {"x": {"value": old}}}}}
-    found = baseline.compare(base, "c", [_fig("x", new)], {"x": threshold})
+    base = {"cases": {"c": {"figures": {"RK4.x": {"value": old}}}}}
+    found = baseline.compare(base, "c", [_fig("RK4.x", new)], {"RK4.x": threshold})
     assert bool(found) == regressed
     if regressed:
         assert baseline.REFRESH in found[0].message and "regressed" in found[0].message
 
 
 def test_missing_case_or_figure_names_the_refresh_command():
-    found = baseline.compare({"cases": {}}, "c", [_fig("x", 1.0)], {"x": 2.0})
+    found = baseline.compare({"cases": {}}, "c", [_fig("RK4.x", 1.0)], {"RK4.x": 2.0})
     assert len(found) == 1 and "not in the baseline" in found[0].message
-    assert "mjharness baseline --write reports/baseline.json" in found[0].message
-    found = baseline.compare({"cases": {"c": {"figures": {}}}}, "c", [_fig("x", 1.0)], {"x": 2.0})
-    assert "1 gated figure(s) not in the baseline" in found[0].message and "(x)" in found[0].message
+    assert "mjharness baseline --write reports/baseline" in found[0].message
+    found = baseline.compare({"cases": {"c": {"figures": {}}}}, "c", [_fig("RK4.x", 1.0)], {"RK4.x": 2.0})
+    assert "1 gated figure(s) not in the baseline" in found[0].message and "(RK4.x)" in found[0].message
     assert baseline.REFRESH in found[0].message
 
 
@@ -288,8 +289,8 @@ def committed_baseline():
 
 @pytest.mark.parametrize("name", case_ids())
 def test_no_gated_figure_regressed_against_the_committed_baseline(name, config, committed_baseline):
-    """Fails when a figure is > 2× its committed value (see harness/baseline.py for why 2×), or when
-    the case or a gated figure is missing from reports/baseline.json (refresh command in the message).
+    """Fails when a figure is > 2× its committed value (see harness/outputs/baseline.py for why 2×), or when
+    the case or a gated figure is missing from reports/baseline/ (refresh command in the message).
     Only on the MuJoCo version the baseline was recorded with: a baseline is per version."""
     if why := baseline.version_mismatch(committed_baseline):
         pytest.skip(why)
@@ -314,12 +315,12 @@ def test_checks_this_mujoco_cannot_measure_are_na_not_failures(run, monkeypatch)
     """A gate for an integrator an older MuJoCo lacks: n/a in the table, never 'closest to its limit',
     and skipped by the baseline comparison."""
     results, checks = run
-    tightest = report._closest(checks[CASE]).name
+    tightest = closest(checks[CASE]).name
     na = [dataclasses.replace(c, value=math.nan, unit="", note="integrator X is not in MuJoCo 3.3")
           if c.name == tightest else c for c in checks[CASE]]
     section = report.section_case(results[0], na, None, plots="")
     assert f"<tr class='na'><td>{tightest}</td>" in section and "n/a: integrator X" in section
-    assert report._closest(na).name != tightest
+    assert closest(na).name != tightest
     assert f"{tightest} <span" not in report.section_summary(results, {CASE: na})
-    monkeypatch.setattr(baseline, "unavailable_reason", lambda name: "absent" if name == "x" else "")
-    assert baseline.compare({"cases": {"c": {"figures": {}}}}, "c", [], {"x": 1.0}) == []
+    monkeypatch.setattr(baseline, "unavailable_reason", lambda name: "absent" if name == "X.position" else "")
+    assert baseline.compare({"cases": {"c": {"figures": {}}}}, "c", [], {"X.position": 1.0}) == []

@@ -11,19 +11,15 @@ import mujoco
 import numpy as np
 import pytest
 
-from harness import cases, pipeline
-from harness import reference as refmod
-from harness import simulate as simmod
-from harness.binding import JointBinding, ModelMismatch
-from harness.models import ModelError, compile_model, mjcf_path
-from harness.simulate import (
-    Probe,
-    SimulationDiverged,
-    available_integrators,
-    equality_force,
-    point_state,
-    simulate,
-)
+from harness import cases
+from harness.core.errors import ModelError, ModelMismatch, SimulationDiverged
+from harness.engine import simulate as simmod
+from harness.engine.bindings import JointBinding
+from harness.engine.constraints import equality_force
+from harness.engine.integrators import available_integrators
+from harness.engine.models import compile_model, mjcf_path
+from harness.engine.probe import Probe
+from harness.engine.simulate import point_state, simulate
 
 PROBE = Probe(binding=JointBinding(("theta", "r")), points=("bob",), constraints=("rod",))
 Q0, QD0 = [1.0, 1.0], [0.5, 0.0]
@@ -33,8 +29,8 @@ METHODS = ["auto", "loop"]
 
 def _case_probe(name: str):
     case = cases.get(name)
-    ref = refmod.build_reference(case, compile_model(mjcf_path(case.mjcf)))
-    return case, pipeline.probe_for(case, ref.dynamics), ref.q0(), ref.qd0()
+    ref = case.reference(compile_model(case.mjcf))
+    return case, case.probe(ref.dynamics), ref.q0(), ref.qd0()
 
 
 def _arrays(traj) -> dict[str, np.ndarray]:
@@ -88,7 +84,7 @@ def test_every_recorded_quantity_belongs_to_its_state(name, integrator):
     energy, generalized force and Python readings at sample k equal a fresh mj_forward at the
     state mj_step reaches after k steps, bit for bit."""
     case, probe, q0, qd0 = _case_probe(name)
-    model = compile_model(mjcf_path(case.mjcf), integrator=integrator)
+    model = compile_model(case.mjcf, integrator=integrator)
     steps = 40
     traj = simulate(model, probe, q0=q0, qd0=qd0, steps=steps)
     data, fresh = mujoco.MjData(model), mujoco.MjData(model)
@@ -123,7 +119,7 @@ def test_batch_recorder_equals_the_loop_bit_for_bit(name):
     """Every registered case, every integrator: the two recorders give the same arrays, bit for bit."""
     case, probe, q0, qd0 = _case_probe(name)
     for integrator in available_integrators():
-        model = compile_model(mjcf_path(case.mjcf), integrator=integrator)
+        model = compile_model(case.mjcf, integrator=integrator)
         notes = len(simmod.recorder_notes())
         batch = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=120, method="batch"))
         loop = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=120, method="loop"))
@@ -159,7 +155,7 @@ def test_rk4_recomputation_is_the_same_on_any_number_of_threads(name):
     recomputed on the other thread while the next steps (1000 steps: several chunks, with readings).
     Both equal the loop bit for bit."""
     case, probe, q0, qd0 = _case_probe(name)
-    model = compile_model(mjcf_path(case.mjcf), integrator="RK4")
+    model = compile_model(case.mjcf, integrator="RK4")
     assert len(simmod._chunk_sizes(1000)) > 2
     notes = len(simmod.recorder_notes())
     try:
@@ -183,7 +179,7 @@ def test_a_trajectory_owns_its_arrays(integrator):
     """The batch recorder reuses its scratch arrays from run to run: a trajectory must not see the
     next run's numbers."""
     case, probe, q0, qd0 = _case_probe("spherical_pendulum")
-    model = compile_model(mjcf_path(case.mjcf), integrator=integrator)
+    model = compile_model(case.mjcf, integrator=integrator)
     notes = len(simmod.recorder_notes())
     first = simulate(model, probe, q0=q0, qd0=qd0, steps=300)
     kept = {k: v.copy() for k, v in _arrays(first).items()}
@@ -252,11 +248,11 @@ def test_a_diverged_run_leaves_nothing_to_the_next(integrator):
 def test_recorders_make_the_checks_mj_step_makes(method):
     """A finite qacc above mjMAXVAL (1e10) is a MuJoCo warning inside mj_step (mj_checkAcc), so both
     recorders report it as a divergence, as a user stepping with mj_step would see it."""
-    from harness import compat
+    from harness.engine import compat
 
     case, probe, q0, qd0 = _case_probe("spherical_pendulum_ball")
     # the spin about the rod has inertia 1e-12: damping 3e-2 gives |qacc(0)| ≈ 3e10
-    model = compile_model(mjcf_path(case.mjcf), integrator="Euler",
+    model = compile_model(case.mjcf, integrator="Euler",
                           edit=lambda spec: compat.set_damping(spec.joint("ball"), 3e-2))
     with pytest.raises(SimulationDiverged, match="mjWARN_BADQACC"):
         simulate(model, probe, q0=q0, qd0=qd0, steps=50, method=method)

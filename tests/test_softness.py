@@ -8,8 +8,8 @@ import mujoco
 import pytest
 
 from harness import cases
-from harness.compat import solver_iterations
-from harness.models import compile_model, mjcf_path
+from harness.engine.compat import solver_iterations
+from harness.engine.models import compile_model, mjcf_path
 from harness.studies import softness as sf
 from harness.studies import solvers as sv
 
@@ -20,7 +20,7 @@ def pendulum() -> sf.SoftnessStudy:
 
 
 def test_equality_cases_are_those_with_mjcf_equalities():
-    chosen = {c.name for c in sf.equality_cases(cases.CASES)}
+    chosen = {c.name for c in sf.equality_cases(cases.all_cases())}
     assert "pendulum" in chosen
     assert not chosen & {"spring", "spherical_pendulum"} & set(cases.names())
 
@@ -90,7 +90,7 @@ def test_unknown_solver_is_a_value_error():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", [c.name for c in sf.equality_cases(cases.CASES)])
+@pytest.mark.parametrize("name", [c.name for c in sf.equality_cases(cases.all_cases())])
 def test_full_sweep_matches_the_documented_relations(name):
     study = sf.softness_study(cases.get(name))
     for row in study.rows:
@@ -101,7 +101,7 @@ def test_full_sweep_matches_the_documented_relations(name):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", [c.name for c in sv.constrained_cases(cases.CASES)])
+@pytest.mark.parametrize("name", [c.name for c in sv.constrained_cases(cases.all_cases())])
 def test_full_solver_comparison_meets_the_tolerance(name):
     study = sv.solver_study(cases.get(name))
     assert all(r.iterations_max < r.iteration_limit for r in study.rows)
@@ -115,10 +115,8 @@ def test_recorded_solver_iterations_are_solver_iterations():
 
     import numpy as np
 
-    from harness import pipeline
-    from harness import reference as refmod
-    from harness.compat import SOLVER_ITERATIONS
-    from harness.simulate import simulate
+    from harness.engine.compat import SOLVER_ITERATIONS
+    from harness.engine.simulate import simulate
 
     model = compile_model(mjcf_path("atwood"))
     data = mujoco.MjData(model)
@@ -130,8 +128,8 @@ def test_recorded_solver_iterations_are_solver_iterations():
     record = {"solver_niter": niter, "nisland": np.array([0, 1, 2, 2])}
     assert SOLVER_ITERATIONS.evaluate(model, record).tolist() == [3, 3, 7, 0]
     case = cases.get("atwood")
-    ref = refmod.build_reference(case, model)
-    probe = pipeline.probe_for(case, ref.dynamics)
+    ref = case.reference(model)
+    probe = case.probe(ref.dynamics)
     probe = dataclasses.replace(probe, series={"niter": SOLVER_ITERATIONS})
     sim = simulate(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=50)
     data = mujoco.MjData(model)

@@ -25,10 +25,17 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from harness import cache, cases, cli, pipeline, runner
-from harness import reference as refmod
-from harness.models import compile_model, mjcf_path
-from harness.simulate import SimulationDiverged
+from analytic import systems
+from harness import cases
+from harness.cli import commands as cli
+from harness.core import cache, costs
+from harness.core.errors import SimulationDiverged
+from harness.engine.models import compile_model, mjcf_path
+from harness.outputs import parts
+from harness.pipeline import matrix as runner
+from harness.pipeline import run as pipeline
+from harness.reference import derivations
+from harness.reference import solutions as refmod
 
 SYSTEM = "pendulum"
 
@@ -44,7 +51,8 @@ def cache_home(tmp_path, monkeypatch):
 
 
 def _clear() -> None:
-    for fn in (refmod.derivation, refmod.minimal_derivation, refmod._dynamics, refmod._minimal_dynamics):
+    for fn in (derivations.derivation, derivations.minimal_derivation, derivations._dynamics,
+               derivations._minimal_dynamics):
         fn.cache_clear()
 
 
@@ -55,7 +63,7 @@ def _entry(root, kind: str = "derivation"):
 
 
 def _same(a, b) -> bool:
-    return all(sp.srepr(getattr(a, name)) == sp.srepr(getattr(b, name)) for name in refmod.SYMBOLIC)
+    return all(sp.srepr(getattr(a, name)) == sp.srepr(getattr(b, name)) for name in derivations.SYMBOLIC)
 
 
 def _python(*args: str, timeout: float = 60, **env: str | None) -> subprocess.CompletedProcess:
@@ -72,7 +80,8 @@ def _python(*args: str, timeout: float = 60, **env: str | None) -> subprocess.Co
 def _check_imports(cases_: str, *modules: str, cache_dir=None) -> str:
     """The last line ``check CASES --jobs 1`` prints in a fresh process: which of ``modules`` it
     imported, then main's exit code."""
-    code = (f"import sys; from harness import cli; code = cli.main(['check', {cases_}, '--jobs', '1']); "
+    code = (f"import sys; from harness.cli import commands as cli; "
+            f"code = cli.main(['check', {cases_}, '--jobs', '1']); "
             f"print(sorted({{m.split('.')[0] for m in sys.modules}} & {set(modules)!r}), code)")
     env = {} if cache_dir is None else {"XDG_CACHE_HOME": str(cache_dir), "MJHARNESS_NO_CACHE": None}
     proc = _python("-c", code, timeout=300, **env)
@@ -80,23 +89,23 @@ def _check_imports(cases_: str, *modules: str, cache_dir=None) -> str:
 
 
 def test_a_cached_derivation_is_the_derivation(cache_home):
-    fresh = refmod.derivation(SYSTEM)
+    fresh = derivations.derivation(SYSTEM)
     entry = _entry(cache_home)
-    refmod.derivation.cache_clear()
-    loaded = refmod.derivation(SYSTEM)
+    derivations.derivation.cache_clear()
+    loaded = derivations.derivation(SYSTEM)
     assert loaded is not fresh and _same(loaded, fresh)
-    assert all(name in vars(loaded) for name in refmod.SYMBOLIC)  # nothing left to derive
+    assert all(name in vars(loaded) for name in derivations.SYMBOLIC)  # nothing left to derive
     assert _entry(cache_home) == entry
-    assert refmod.minimal_derivation(SYSTEM) is not None and _entry(cache_home, "minimal")
+    assert derivations.minimal_derivation(SYSTEM) is not None and _entry(cache_home, "minimal")
 
 
 @pytest.mark.parametrize("damage", [b"", b"not a pickle", pickle.dumps({"a": "dict"}), "truncate"])
 def test_a_damaged_entry_is_recomputed_silently(cache_home, damage):
-    good = refmod.derivation(SYSTEM)
+    good = derivations.derivation(SYSTEM)
     entry = _entry(cache_home)
     entry.write_bytes(entry.read_bytes()[:100] if damage == "truncate" else damage)
-    refmod.derivation.cache_clear()
-    again = refmod.derivation(SYSTEM)
+    derivations.derivation.cache_clear()
+    again = derivations.derivation(SYSTEM)
     assert _same(again, good)
     assert isinstance(pickle.loads(entry.read_bytes()), type(good))  # rewritten
 
@@ -104,13 +113,13 @@ def test_a_damaged_entry_is_recomputed_silently(cache_home, damage):
 def test_an_unwritable_cache_still_derives(cache_home):
     cache_home.parent.mkdir(parents=True)
     cache_home.write_text("a file where the directory should be")
-    assert _same(refmod.derivation(SYSTEM), refmod._derived(refmod.load(SYSTEM).build()))
+    assert _same(derivations.derivation(SYSTEM), derivations._derived(systems.build(SYSTEM)))
     assert cache.store("derivation", SYSTEM, "0" * 64, 1) is False
 
 
 def test_the_cache_can_be_turned_off(cache_home, monkeypatch):
     monkeypatch.setenv("MJHARNESS_NO_CACHE", "1")
-    refmod.derivation(SYSTEM)
+    derivations.derivation(SYSTEM)
     assert not cache_home.exists()
 
 
@@ -118,12 +127,12 @@ def test_cached_dynamics_are_the_lambdified_dynamics_per_parameter_values(cache_
     """The stored source, loaded with numpy alone, evaluates as sympy's own lambdify of the
     derivation at these values (its default printer and namespace); other parameter values are
     another entry, never the first one's."""
-    params = refmod.load(SYSTEM).params_from_model(compile_model(mjcf_path(SYSTEM)))
-    assert refmod.dynamics(SYSTEM, params) and refmod.minimal_dynamics(SYSTEM, params) is not None
+    params = systems.load(SYSTEM).params_from_model(compile_model(mjcf_path(SYSTEM)))
+    assert derivations.dynamics(SYSTEM, params) and derivations.minimal_dynamics(SYSTEM, params) is not None
     assert _entry(cache_home, "dynamics") and _entry(cache_home, "minimal-dynamics")
     _clear()
-    loaded = refmod.dynamics(SYSTEM, params)
-    deriv = refmod.derivation(SYSTEM)
+    loaded = derivations.dynamics(SYSTEM, params)
+    deriv = derivations.derivation(SYSTEM)
     values = {p: params[p.name] for p in deriv.system.params}
     rng = np.random.default_rng(0)
     q, qd = rng.normal(size=(50, 2)) + np.array([0.0, params["l"]]), rng.normal(size=(50, 2))
@@ -135,7 +144,7 @@ def test_cached_dynamics_are_the_lambdified_dynamics_per_parameter_values(cache_
             expected = np.asarray(direct(*q[i], *qd[i]), dtype=float)
             got = getattr(loaded, name)(*(a[i] for a in args))
             assert np.allclose(got.reshape(expected.shape), expected, rtol=1e-14, atol=1e-14), name
-    heavier = refmod.dynamics(SYSTEM, dict(params, m=2 * params["m"]))
+    heavier = derivations.dynamics(SYSTEM, dict(params, m=2 * params["m"]))
     assert len(list((cache_home / "dynamics").glob(f"{SYSTEM}-*.pickle"))) == 2
     assert np.allclose(heavier.mass_matrix(q), 2 * loaded.mass_matrix(q), rtol=1e-15, atol=0)
 
@@ -145,15 +154,15 @@ def test_stored_numeric_code_that_does_not_run_is_made_anew(cache_home):
     edit) is replaced, not served to every later run."""
     from analytic.dynamics import Compiled
 
-    params = refmod.load(SYSTEM).params_from_model(compile_model(mjcf_path(SYSTEM)))
-    good = refmod.dynamics(SYSTEM, params)
+    params = systems.load(SYSTEM).params_from_model(compile_model(mjcf_path(SYSTEM)))
+    good = derivations.dynamics(SYSTEM, params)
     entry = _entry(cache_home, "dynamics")
     compiled = pickle.loads(entry.read_bytes())
     broken = [(n, src.replace("numpy.sin", "numpy.no_such_function"), r, c) for n, src, r, c in compiled.functions]
     assert broken != list(compiled.functions)
     entry.write_bytes(pickle.dumps(Compiled(**{**vars(compiled), "functions": tuple(broken)})))
     _clear()
-    again = refmod.dynamics(SYSTEM, params)
+    again = derivations.dynamics(SYSTEM, params)
     q = np.array([[0.3, params["l"]]])
     assert np.array_equal(again.mass_matrix(q), good.mass_matrix(q))
     assert "no_such_function" not in entry.read_text(errors="ignore")  # stored over
@@ -176,32 +185,32 @@ def test_the_key_follows_the_sources(tmp_path):
     assert cache.source_key([one, two]) == before
     one.write_text("L = T - V + 1\n")
     assert cache.source_key([one, two]) != before
-    assert refmod._sources(SYSTEM)[0].name == f"{SYSTEM}.py"
-    assert [p.relative_to(p.parents[1]).as_posix() for p in refmod._sources(SYSTEM)[1:]] == \
+    assert derivations._sources(SYSTEM)[0].name == f"{SYSTEM}.py"
+    assert [p.relative_to(p.parents[1]).as_posix() for p in derivations._sources(SYSTEM)[1:]] == \
         ["systems/__init__.py", "analytic/lagrangian.py"]
 
 
 def test_a_reference_is_solved_once_and_serves_shorter_horizons():
     case = cases.get("atwood")
-    model = compile_model(mjcf_path(case.mjcf))
+    model = compile_model(case.mjcf)
     refmod.clear_caches()
-    short_first = refmod.build_reference(case, model, t_end=0.25).solution
-    full = refmod.build_reference(case, model).solution
+    short_first = case.reference(model, t_end=0.25).solution
+    full = case.reference(model).solution
     assert short_first is full and full.t_end == case.horizon
-    longer = refmod.build_reference(case, model, t_end=2 * case.horizon).solution
+    longer = case.reference(model, t_end=2 * case.horizon).solution
     assert longer is not full and longer.t_end == 2 * case.horizon
     # order does not matter: a fresh process's solve of the same key is the same numbers
     refmod.clear_caches()
-    again = refmod.build_reference(case, model).solution
+    again = case.reference(model).solution
     t = np.linspace(0, case.horizon, 97)
     assert np.array_equal(again.state(t)[0], full.state(t)[0])
 
 
 def test_solutions_handed_between_processes_are_reused(monkeypatch):
     case = cases.get("spring")
-    model = compile_model(mjcf_path(case.mjcf))
+    model = compile_model(case.mjcf)
     refmod.clear_caches()
-    solved = refmod.build_reference(case, model).solution
+    solved = case.reference(model).solution
     seeds = pickle.loads(pickle.dumps(refmod.export_solutions()))
     assert refmod.export_solutions() == {}  # exported once
     refmod.clear_caches()
@@ -211,7 +220,7 @@ def test_solutions_handed_between_processes_are_reused(monkeypatch):
         raise AssertionError("an imported solution was solved again")
 
     monkeypatch.setattr(refmod, "solve", no_solve)
-    reused = refmod.build_reference(case, model).solution
+    reused = case.reference(model).solution
     t = np.linspace(0, case.horizon, 51)
     assert reused is not solved and reused.nfev == solved.nfev
     assert np.array_equal(reused.state(t)[1], solved.state(t)[1])
@@ -240,7 +249,7 @@ def test_a_failing_case_in_a_pool_is_the_one_line_exit_2(monkeypatch, capsys):
             raise SimulationDiverged("MuJoCo warnings ['mjWARN_BADQACC'] at t=0.25 s")
         return real(case, **kw)
 
-    monkeypatch.setattr(pipeline, "run_case", run_case)
+    monkeypatch.setattr(runner, "run_case", run_case)
     assert cli.main(["check", "spring", "atwood", "--jobs", "2"]) == 2
     err = capsys.readouterr().err
     assert err.strip() == "mjharness: error: simulation diverged: MuJoCo warnings ['mjWARN_BADQACC'] at t=0.25 s"
@@ -287,25 +296,39 @@ def test_check_draws_nothing_and_never_imports_matplotlib():
     assert _check_imports("'spring'", "matplotlib") == "[] 0"
 
 
-def test_the_pool_starts_the_costliest_systems_first():
-    """Groups are a system's cases (derivation and reference made once), ordered by their summed cost
-    hint plus the system's derivation where it is not cached, so the cheapest fill the end; a
-    case's cost must be positive."""
-    selected = cases.CASES
+def test_the_pool_starts_the_costliest_systems_first(monkeypatch):
+    """Groups are a system's cases (derivation and reference made once), ordered by their cases'
+    measured costs plus the system's measured derivation where it is not cached, so the cheapest
+    fill the end; a case or derivation never measured counts costs.UNKNOWN."""
+    selected = cases.all_cases()
+    measured = {c.name: 0.1 + 0.05 * k for k, c in enumerate(selected)}
+    derive = {s: 3.0 - 0.4 * k for k, s in enumerate(dict.fromkeys(c.system for c in selected))}  # against the cases
+    monkeypatch.setattr(costs, "case_costs", lambda: measured)
+    monkeypatch.setattr(derivations, "derivation_cost", derive.get)
     for derived in (lambda system: True, lambda system: False, lambda system: system != "hoop_ramp"):
         groups = runner.groups(selected, derived=derived)
         assert sorted(i for g in groups for i in g) == list(range(len(selected)))
         assert all(len({selected[i].system for i in g}) == 1 for g in groups)
-        totals = [sum(selected[i].cost for i in g)
-                  + (0 if derived(selected[g[0]].system) else cases.DERIVATION_COST[selected[g[0]].system])
-                  for g in groups]
+        totals = [sum(measured[selected[i].name] for i in g)
+                  + (0 if derived(selected[g[0]].system) else derive[selected[g[0]].system]) for g in groups]
         assert totals == sorted(totals, reverse=True)
     warm = [selected[g[0]].system for g in runner.groups(selected, derived=lambda system: True)]
     cold = [selected[g[0]].system for g in runner.groups(selected, derived=lambda system: False)]
     assert warm != cold  # the derivations change which systems cost most
-    assert set(cases.DERIVATION_COST) == {c.system for c in selected}
-    with pytest.raises(ValueError, match="cost must be positive"):
-        cases.Case(name="x", description="", q0={"x": 0.0}, qd0={"x": 0.0}, horizon=1.0, cost=0.0)
+    monkeypatch.setattr(costs, "case_costs", dict)  # nothing measured yet: every group costs UNKNOWN a case
+    monkeypatch.setattr(derivations, "derivation_cost", lambda system: None)
+    sizes = [len(g) for g in runner.groups(selected, derived=lambda system: True)]
+    assert sizes == sorted(sizes, reverse=True)
+
+
+def test_costs_are_measured_and_recorded_by_a_run(cache_home):
+    """No hand-typed cost table: a run records each case's warm cost, and the cache the seconds of
+    each derivation it computed; the next run's scheduler reads them."""
+    assert costs.case_costs() == {} and derivations.derivation_cost("spring") is None
+    runner.run_all(cases.select(["spring", "atwood"]), None, jobs=1, figures_only=True)
+    recorded = costs.case_costs()
+    assert set(recorded) == {"spring", "atwood"} and all(v > 0 for v in recorded.values())
+    assert derivations.derivation_cost("spring") > 0 and derivations.derivation_cost("atwood") > 0
 
 
 def test_preloading_sympy_for_forked_derivers_tolerates_a_module_sympy_lacks(monkeypatch):
@@ -317,30 +340,30 @@ def test_preloading_sympy_for_forked_derivers_tolerates_a_module_sympy_lacks(mon
 
 
 def test_the_scheduler_sees_whether_a_derivation_is_stored(cache_home):
-    assert not refmod.derivation_stored(SYSTEM)
-    refmod.derivation(SYSTEM)
-    assert refmod.derivation_stored(SYSTEM)
+    assert not derivations.derivation_stored(SYSTEM)
+    derivations.derivation(SYSTEM)
+    assert derivations.derivation_stored(SYSTEM)
 
 
 def test_the_command_flushes_what_c_printed_before_it_exits():
     """MuJoCo prints its warnings with C's printf: on a pipe they wait in C's buffer, which
     interpreter teardown would flush and os._exit does not."""
-    code = ("import ctypes; from harness import command; ctypes.CDLL(None).printf(b'from C\\n'); "
+    code = ("import ctypes; from harness.cli import entry as command; ctypes.CDLL(None).printf(b'from C\\n'); "
             "command.exit_now(3)")
     proc = _python("-c", code, PYTHONUNBUFFERED=None)  # a pipe is then block-buffered, as in a CI log
     assert proc.returncode == 3 and proc.stdout == "from C\n", (proc.stdout, proc.stderr)
 
 
 def test_the_command_exits_with_mains_code_and_flushed_output(tmp_path):
-    """``mjharness`` (harness.command:entry) skips interpreter teardown: its output must still be
+    """``mjharness`` (harness.cli.entry:entry) skips interpreter teardown: its output must still be
     whole and its exit code main's, for a listing (short: it sits in the buffer until flushed), a
     usage error and a bad argument."""
     env = {"XDG_CACHE_HOME": str(tmp_path), "PYTHONUNBUFFERED": None}  # a pipe is then block-buffered
-    ok = _python("-m", "harness.command", "list", **env)
+    ok = _python("-m", "harness.cli.entry", "list", **env)
     assert ok.returncode == 0 and all(name in ok.stdout for name in cases.names()), (ok.stdout, ok.stderr)
-    bad = _python("-m", "harness.command", "check", "no_such_case", **env)
+    bad = _python("-m", "harness.cli.entry", "check", "no_such_case", **env)
     assert bad.returncode == cli.EXIT_USAGE and bad.stderr.startswith("mjharness: error:"), bad.stderr
-    usage = _python("-m", "harness.command", "check", "--jobs", "0", **env)
+    usage = _python("-m", "harness.cli.entry", "check", "--jobs", "0", **env)
     assert usage.returncode == 2 and "jobs" in usage.stderr
 
 
@@ -348,7 +371,7 @@ def test_the_command_exits_with_mains_code_and_flushed_output(tmp_path):
 def test_the_command_loads_no_gl_binding_and_leaves_mujoco_gl_as_it_was(user):
     """The command's own process never renders (stills come from subprocesses that pick a backend
     from MUJOCO_GL), so it imports MuJoCo without GLFW; the variable is the user's again after."""
-    code = ("import os, sys; from harness import command; command.import_mujoco_without_gl(); "
+    code = ("import os, sys; from harness.cli import entry as command; command.import_mujoco_without_gl(); "
             "import mujoco; print('glfw' in sys.modules, os.environ.get('MUJOCO_GL'))")
     proc = _python("-c", code, MUJOCO_GL=user)
     assert proc.stdout.split() == ["False", str(user)], proc.stderr
@@ -365,7 +388,7 @@ def test_a_pool_keeps_what_it_inherits_out_of_the_garbage_collector_while_it_liv
     memory pages, alone) and unfreeze after, whether the body ends or raises."""
     import gc
 
-    from harness.pool import fork_pool
+    from harness.pipeline.pool import fork_pool
 
     before = gc.get_freeze_count()
     with fork_pool(1) as pool:
@@ -379,7 +402,7 @@ def test_a_pool_keeps_what_it_inherits_out_of_the_garbage_collector_while_it_liv
 
 @pytest.mark.parametrize("workers", [1, 2])
 def test_pool_results_come_in_call_order_and_the_first_error_wins(workers):
-    from harness.pool import run_tasks
+    from harness.pipeline.pool import run_tasks
 
     done = []
     assert run_tasks([(_square_or_fail, (x,)) for x in (4, 2, 0, 1)], workers,
@@ -395,8 +418,8 @@ def test_studies_and_plots_on_the_pool_are_the_serial_ones():
     images as one process."""
     selected = cases.select(["spring", "atwood", "hoop_ramp_contact"])
     results, _, _ = runner.run_all(selected, None, jobs=1)
-    serial = runner.report_parts(selected, results, jobs=1, studies=True)
-    parallel = runner.report_parts(selected, results, jobs=2, studies=True)
+    serial = parts.report_parts(selected, results, jobs=1, studies=True)
+    parallel = parts.report_parts(selected, results, jobs=2, studies=True)
     assert parallel[1] == serial[1] and parallel[2] == serial[2]
     assert list(parallel[2]) == [c.name for c in selected] and all(parallel[2].values())
     assert [_without_timings(h) for h in parallel[0]] == [_without_timings(h) for h in serial[0]]

@@ -10,27 +10,32 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from analytic import systems
 from analytic.systems import spherical_pendulum as sph
-from harness import cases, compat
-from harness import reference as refmod
-from harness.ball_binding import BallBinding
-from harness.binding import JointBinding, ModelMismatch
-from harness.config import load_config
-from harness.instant import point_acceleration
-from harness.models import compile_model, mjcf_path
-from harness.pipeline import run_case
-from harness.simulate import SimulationDiverged, point_state
-from harness.verdict import verdict
-from tests.conftest import shipped_run
+from harness import cases
+from harness.core.errors import ModelMismatch, SimulationDiverged
+from harness.engine import compat
+from harness.engine.bindings import JointBinding
+from harness.engine.integrators import available_integrators
+from harness.engine.models import compile_model, mjcf_path
+from harness.engine.simulate import point_state
+from harness.layers.instant import point_acceleration
+from harness.pipeline.limits import load_limits
+from harness.pipeline.run import run_case
+from harness.pipeline.verdict import judge
+from harness.reference import derivations
+from mjcf.spherical_pendulum_ball import BallBinding
+from tests.conftest import breakable, shipped_run
 
 HINGE, BALL = "spherical_pendulum", "spherical_pendulum_ball"
+SYM = systems.symbols("spherical_pendulum")  # the parameters as sympy symbols
 COORDS = ("theta", "phi")
 
 
 def _rk4_accuracy(name: str, figure: str = "RK4.position"):
     """``name`` as a test parameter; expected to fail (strictly) where a documented defect of
-    this MuJoCo makes its RK4 inaccurate (harness.compat.KNOWN_DEFECTS: ball joints before 4.0)."""
-    why = compat.known_defect(name, figure)
+    this MuJoCo makes its RK4 inaccurate (harness.engine.compat.KNOWN_DEFECTS: ball joints before 4.0)."""
+    why = compat.known_defect(compat.joint_types(compile_model(mjcf_path(name))), figure)
     return pytest.param(name, marks=pytest.mark.xfail(bool(why), reason=why, strict=True))
 
 
@@ -56,8 +61,8 @@ def _random_states(count: int, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_equations_match_the_seed_with_theta_from_the_downward_vertical():
-    d = sph.build().derive()
-    m, g, l = sph.m, sph.g, sph.l
+    d = systems.build("spherical_pendulum").derive()
+    m, g, l = SYM.m, SYM.g, SYM.l
     (th, ph), (thd, phd) = d.system.q, d.system.qd
     thdd, phdd = sp.symbols("theta_ddot phi_ddot", real=True)
     # hand-typed: T = ½ m l² (θ̇² + sin²θ φ̇²); V = −m g l cos θ = seed's m g l cos θ_up with θ_up = π − θ
@@ -74,7 +79,7 @@ def test_equations_match_the_seed_with_theta_from_the_downward_vertical():
 
 
 def test_phi_equation_is_the_time_derivative_of_p_phi():
-    d = sph.build().derive()
+    d = systems.build("spherical_pendulum").derive()
     s = d.system
     qdd = [sp.Symbol(f"{c.name}_ddot", real=True) for c in s.q]
     p_phi = d.momenta[1]
@@ -84,7 +89,7 @@ def test_phi_equation_is_the_time_derivative_of_p_phi():
 
 def test_bob_acceleration_minus_gravity_points_along_the_rod():
     """Only gravity and the rod act: ẍ − g ∥ x (checks the EOM and Dynamics.point_accelerations)."""
-    dyn = refmod.dynamics(sph.build().name, {"m": 1.3, "g": 9.81, "l": 0.7})
+    dyn = derivations.dynamics("spherical_pendulum", {"m": 1.3, "g": 9.81, "l": 0.7})
     q, qd = _random_states(40)
     qdd, _ = dyn.accelerations(q, qd)
     acc = dyn.point_accelerations(q, qd, qdd)[:, 0]
@@ -106,7 +111,7 @@ def test_params_are_read_from_each_model_and_agree():
 
 def test_bob_position_and_frame_match_the_convention_in_both_models():
     models = _models()
-    dyn = refmod.dynamics(HINGE, sph.params_from_model(models[HINGE][0]))
+    dyn = derivations.dynamics(HINGE, sph.params_from_model(models[HINGE][0]))
     q, qd = _random_states(20)
     for qi, qdi in zip(q, qd, strict=True):
         (theta, phi), l = qi, dyn.params["l"]
@@ -294,7 +299,7 @@ VARIANTS = {
     # and mj_step resets a simulation whose |qacc| passes mjMAXVAL = 1e10, so c < 9.2e-3.
     "azimuth_damping": ({HINGE: dict(edit=_damping("phi", 3e-2)),
                          BALL: dict(edit=_damping("ball", 8e-3),
-                                    integrators=[i for i in EULER_FAMILY if not compat.unavailable_reason(i)])},
+                                    integrators=[i for i in EULER_FAMILY if i in available_integrators()])},
                         {"Euler.position", "Euler.drift.energy", "Euler.drift.p_phi", "Euler.p_phi",
                          "discrete.drift.p_phi", "implicit.p_phi"}, set()),
     "horizontal_gravity": ({c: dict(edit=_gravity([0.05, 0.0, -9.81]), integrators=RK4) for c in (HINGE, BALL)},
@@ -314,9 +319,9 @@ VARIANTS = {
 @functools.cache
 def _verdict(name: str, variant: str) -> tuple[frozenset[str], frozenset[str]]:
     """(failed, passed) gates of ``name`` under ``variant``."""
-    figures = run_case(cases.get(name), **VARIANTS[variant][0][name]).figures
-    measured = {f.name for f in figures}  # a variant may run only some integrators
-    checks = verdict(name, figures, {k: v for k, v in load_config().for_case(name).items() if k in measured})
+    result = run_case(cases.get(name), **VARIANTS[variant][0][name])
+    measured = {f.name for f in result.figures}  # a variant may run only some integrators
+    checks = judge(result, {k: v for k, v in load_limits().for_case(name).items() if k in measured})
     return (frozenset(c.name for c in checks if not c.passed), frozenset(c.name for c in checks if c.passed))
 
 
@@ -326,14 +331,14 @@ def test_broken_variant_fails_the_expected_gates(name, variant):
     failed, passed = _verdict(name, variant)
     _, must_fail, must_pass = VARIANTS[variant]
     # without gates this MuJoCo cannot fail: n/a (an integrator it lacks) or a known defect of it
-    must_fail = compat.breakable(name, must_fail)
+    must_fail = breakable(name, must_fail)
     assert must_fail <= failed, f"expected to fail but passed: {sorted(must_fail - failed)}"
     assert must_pass <= passed, f"expected to pass but failed: {sorted(must_pass - passed)}"
 
 
 @pytest.mark.parametrize("name", [HINGE, BALL])
 def test_every_gate_fails_under_some_variant(name, config):
-    gated = compat.breakable(name, config.for_case(name))  # as in test_broken_variant_fails_the_expected_gates
+    gated = breakable(name, config.for_case(name))  # as in test_broken_variant_fails_the_expected_gates
     if name == BALL:  # damping the ball below the qacc cap (VARIANTS) leaves implicit's order intact;
         gated -= {"converge.implicit.order_shortfall"}  # tests/test_gates.py's generic breakages reach it
     caught = set().union(*(_verdict(name, v)[0] for v in VARIANTS))

@@ -15,13 +15,17 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from analytic import systems
 from analytic.systems import spring
-from harness import cases, compat, pipeline
-from harness import reference as refmod
-from harness.config import load_config
-from harness.models import compile_model, mjcf_path
-from harness.verdict import verdict
-from tests.conftest import failing, shipped_run
+from harness import cases
+from harness.engine import compat
+from harness.engine.models import compile_model, mjcf_path
+from harness.pipeline import run as pipeline
+from harness.pipeline.limits import load_limits
+from harness.pipeline.verdict import verdict
+from tests.conftest import breakable, failing, shipped_run
+
+P = systems.symbols("spring")  # the parameters as sympy symbols
 
 CASE = cases.get("spring")
 INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4", "discrete")
@@ -52,10 +56,10 @@ def closed_form(t: np.ndarray, model: mujoco.MjModel) -> np.ndarray:
 
 
 def test_derivation_is_the_seed_equation() -> None:
-    der = spring.build().derive()
+    der = systems.build("spring").derive()
     (x,), (x_d,) = der.system.q, der.system.qd
     x_dd = sp.Symbol("x_ddot", real=True)
-    m, k = spring.m, spring.k
+    m, k = P.m, P.k
     assert sp.simplify(der.equations[0] - (m * x_dd + k * x)) == 0
     assert sp.simplify(der.energy - (m * x_d**2 / 2 + k * x**2 / 2)) == 0
     assert der.cyclic == ()
@@ -80,7 +84,7 @@ def test_horizon_covers_several_periods(model) -> None:
 
 
 def test_closed_form_matches_reference(model) -> None:
-    ref = refmod.build_reference(CASE, model)
+    ref = CASE.reference(model)
     t = np.linspace(0.0, CASE.horizon, 2001)
     q, _ = ref.solution.state(t)
     assert np.max(np.abs(q[:, 0] - closed_form(t, model))) < 1e-10
@@ -112,7 +116,7 @@ def test_mujoco_energy_is_spring_plus_kinetic(model) -> None:
 
 def _needs(integrator: str):
     """The integrator as a test parameter, skipped (with the reason) on a MuJoCo that lacks it."""
-    why = compat.unavailable_reason(integrator)
+    why = compat.unavailable_reason(f"{integrator}.position")
     return pytest.param(integrator, marks=pytest.mark.skipif(bool(why), reason=why))
 
 
@@ -129,7 +133,7 @@ def test_energy_drift_matches_integrator_theory(model, shipped, name) -> None:
 
 
 def test_shipped_case_passes_every_gate(shipped) -> None:
-    limits = load_config().for_case("spring")
+    limits = load_limits().for_case("spring")
     checks = verdict("spring", shipped.figures, limits)  # raises if a limit names no figure
     assert [c.name for c in checks if not c.passed] == []
     assert "reference.residual" not in limits  # identically 0 without constraints: cannot fail
@@ -172,7 +176,7 @@ VARIANTS = {
 @pytest.mark.parametrize("variant", list(VARIANTS))
 def test_broken_variant_trips_its_gates(variant: str) -> None:
     kwargs, expected = VARIANTS[variant]
-    expected = compat.breakable("spring", expected)  # an integrator this MuJoCo lacks: n/a, cannot fail
+    expected = breakable("spring", expected)  # an integrator this MuJoCo lacks: n/a, cannot fail
     failed = failing(pipeline.run_case(CASE, **kwargs))
     assert expected <= failed, f"{variant}: did not fail {sorted(expected - failed)}"
 
@@ -180,4 +184,4 @@ def test_broken_variant_trips_its_gates(variant: str) -> None:
 def test_every_gate_has_a_breaking_variant() -> None:
     covered = set().union(*(expected for _, expected in VARIANTS.values()))
     # converge.* (layer-4 order) gates: generic breakages in tests/test_gates.py, tests/test_convergence.py
-    assert {k for k in load_config().for_case("spring") if not k.startswith("converge.")} <= covered
+    assert {k for k in load_limits().for_case("spring") if not k.startswith("converge.")} <= covered

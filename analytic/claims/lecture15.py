@@ -19,7 +19,7 @@ import sympy as sp
 
 from analytic.claims import Claim, doc_frame
 from analytic.claims.view import DocView
-from analytic.systems import atwood, spherical_pendulum
+from analytic.systems import symbols
 
 DOC = "000_53d3a09bcd5afa0f.txt"
 
@@ -28,7 +28,8 @@ def _spherical() -> list[Claim]:
     f = doc_frame("spherical_pendulum", "theta phi", {"theta": "pi - theta", "phi": "phi"},
                   reading="θ_doc from the upward vertical: θ_ours = π − θ_doc")
     (th, ph), (thd, phd), (thdd, phdd) = f.q, f.qd, f.qdd
-    m, g, l = spherical_pendulum.m, spherical_pendulum.g, spherical_pendulum.l
+    sym = symbols("spherical_pendulum")
+    m, g, l = sym.m, sym.g, sym.l
     sec = "Example: Spherical Pendulum"
     s, c = sp.sin(th), sp.cos(th)
 
@@ -128,13 +129,11 @@ def _hoops() -> list[Claim]:
     ramp = doc_frame("hoop_ramp", "x s phi")
     _x, _s, _phi = ramp.q
     xd, _sd, phid = ramp.qd
-    from analytic.systems import hoop_plane, hoop_ramp
-
-    a = hoop_ramp.a
+    a = symbols("hoop_ramp").a
     plane = doc_frame("hoop_plane", "x y z theta phi")
     _px, _py, _pz, th, _pphi = plane.q
     pxd, pyd, _pzd, _thd, pphid = plane.qd
-    ap = hoop_plane.a
+    ap = symbols("hoop_plane").a
 
     def non_integrable(view: DocView) -> tuple[bool, str]:
         # fields allowed by the rolling rows (ignoring the normal row): ∂θ and a cosθ ∂x + a sinθ ∂y + ∂φ
@@ -171,11 +170,12 @@ def _hoops() -> list[Claim]:
 
 
 def _atwood() -> list[Claim]:
-    f = doc_frame("atwood", "z1 z2 z3", {"z1": "z1", "z2": "z2", "theta": sp.Symbol("z3", real=True) / atwood.a},
+    sym = symbols("atwood")
+    f = doc_frame("atwood", "z1 z2 z3", {"z1": "z1", "z2": "z2", "theta": sp.Symbol("z3", real=True) / sym.a},
                   lam={"string1": "lambda1", "string2": "lambda2"}, reading="z3 = a θ")
     (z1, z2, _z3), (z1d, z2d, z3d), (z1dd, z2dd, z3dd) = f.q, f.qd, f.qdd
     l1, l2 = f.lam["string1"], f.lam["string2"]
-    m1, m2, mp, g = atwood.m1, atwood.m2, atwood.m_p, atwood.g
+    m1, m2, mp, g = sym.m1, sym.m2, sym.m_p, sym.g
     sec = "Example: Atwood's Machine"
     total = mp + m1 + m2
 

@@ -12,7 +12,7 @@ import sympy as sp
 
 from analytic.claims import Claim, doc_frame
 from analytic.claims.view import T_SYMBOL, DocView
-from analytic.systems import pendulum, spring
+from analytic.systems import symbols
 
 DOC = "001_c29a5107db08e1d9.txt"
 
@@ -20,7 +20,8 @@ DOC = "001_c29a5107db08e1d9.txt"
 def _spring_claims() -> list[Claim]:
     f = doc_frame("spring", "q", {"x": "q"})
     (q,), (qd,), (qdd,) = f.q, f.qd, f.qdd
-    m, k = spring.m, spring.k
+    sym = symbols("spring")
+    m, k = sym.m, sym.k
     omega = sp.sqrt(k / m)
     q0, v0 = sp.symbols("q0 v0", real=True)
     sec = "Mass on a Spring"
@@ -58,7 +59,8 @@ def _pendulum_claims() -> list[Claim]:
     f = doc_frame("pendulum", "theta r", lam={"rod": "lambda"})
     (th, r), (thd, rd), (thdd, rdd) = f.q, f.qd, f.qdd
     lam = f.lam["rod"]
-    m, g, l = pendulum.m, pendulum.g, pendulum.l
+    sym = symbols("pendulum")
+    m, g, l = sym.m, sym.g, sym.l
     on_rod = {r: l, rd: 0, rdd: 0}
     small = {sp.sin(th): th, sp.cos(th): 1}
     sec = "Constraints (pendulum example)"

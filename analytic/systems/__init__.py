@@ -1,33 +1,42 @@
 """One module per mechanical system; the module name is the system's name everywhere.
 
-Each module defines:
+A system is discovered, not listed: every module in this package (names not
+starting with ``_``) is one. Each defines
 
-- ``build() -> LagrangianSystem``: T, V, coordinates, constraints, named points;
-  the docstring states axes, angle origins and multiplier signs.
-- ``params_from_model(model) -> dict``: the physical parameters, read from the
-  compiled MJCF (the one source of truth for every constant).
-- ``scales(params) -> Scales``: the length, force and energy a figure is
-  measured against (e.g. m·g for a tension).
-- optionally ``minimal() -> LagrangianSystem``: the same system in minimal
-  coordinates, the independent ODE path the DAE result is checked against.
-- ``PARAMETERS``: the names of its physical parameters; ``system.m`` etc. are
-  their (positive) sympy symbols, made on first use by the module's
-  ``__getattr__``.
+- ``PARAMETERS``: its physical parameters, space-separated (``"m g l"``);
+- ``build(p) -> LagrangianSystem``: T, V, coordinates, constraints and named
+  points, with ``p.m``, ``p.g`` … the parameters as positive sympy symbols
+  (:func:`symbols`); the module docstring states axes, angle origins and
+  multiplier signs, with a sketch;
+- optionally ``minimal(p) -> LagrangianSystem``: the same system in minimal
+  coordinates, the independent ODE path the DAE result is checked against;
+- ``params_from_model(model) -> dict``: the parameters, read from the compiled
+  MJCF (the one source of truth for every constant);
+- ``scales(params) -> Scales``: the length, force, energy and momentum a
+  figure is measured against (e.g. m·g for a tension);
+- ``MOTION``: the :class:`Motion` its case runs (initial state, horizon).
 
 sympy is imported inside ``build``/``minimal`` only: the numeric half of a
-system (``params_from_model``, ``scales``) is all a run with cached
+system (``params_from_model``, ``scales``, ``MOTION``) is all a run with cached
 derivations needs, and it then never loads sympy (0.15 s a process).
 """
 
 from __future__ import annotations
 
+import functools
 import importlib
-from dataclasses import dataclass
-from types import ModuleType
+import pkgutil
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import ModuleType, SimpleNamespace
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     import sympy as sp
+
+    from analytic.lagrangian import LagrangianSystem
+
+REQUIRED = ("PARAMETERS", "MOTION", "build", "params_from_model", "scales")
 
 
 @dataclass(frozen=True)
@@ -40,22 +49,79 @@ class Scales:
     momentum: float = 1.0
 
 
-def parameters(names: str) -> tuple[sp.Symbol, ...]:
-    """The parameters ``names`` (space-separated) as positive sympy symbols. Symbols are equal by name
-    and assumptions, so every call gives the same parameters."""
-    import sympy as sp
+@dataclass(frozen=True)
+class Motion:
+    """What a system's case runs: the initial state in the system's coordinates, and for how long.
 
-    return sp.symbols(names, positive=True, seq=True)
+    ``q0``/``qd0`` name every coordinate; the state must satisfy the
+    constraints (the reference refuses otherwise). ``tags`` select cases
+    (``fast``, ``ci``, ``constrained``, ``contact``).
+    """
+
+    description: str
+    q0: Mapping[str, float]
+    qd0: Mapping[str, float]
+    horizon: float
+    tags: frozenset[str] = field(default_factory=lambda: frozenset({"fast", "ci"}))
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "tags", frozenset(self.tags))
+        if set(self.q0) != set(self.qd0):
+            raise ValueError(f"q0 and qd0 must name the same coordinates, got {sorted(self.q0)} and "
+                             f"{sorted(self.qd0)}")
+        if not self.horizon > 0:
+            raise ValueError(f"horizon must be positive, got {self.horizon}")
 
 
-def parameter(module: str, names: str, attr: str) -> sp.Symbol:
-    """A system module's ``__getattr__``: the symbol of parameter ``attr``, or AttributeError."""
-    listed = names.split()
-    if attr in listed:
-        return parameters(names)[listed.index(attr)]
-    raise AttributeError(f"module {module!r} has no attribute {attr!r}")
+def names() -> tuple[str, ...]:
+    """Every system in this package, sorted."""
+    return tuple(sorted(m.name for m in pkgutil.iter_modules(__path__) if not m.name.startswith("_")))
 
 
+@functools.cache
 def load(name: str) -> ModuleType:
-    """The system module ``analytic.systems.NAME``."""
-    return importlib.import_module(f"analytic.systems.{name}")
+    """The system module ``analytic.systems.NAME``; ValueError naming the known systems otherwise,
+    or naming what a module lacks of the protocol above."""
+    if name not in names():
+        raise ValueError(f"unknown system {name!r}; known systems: {', '.join(names())}")
+    module = importlib.import_module(f"{__name__}.{name}")
+    missing = [attr for attr in REQUIRED if not hasattr(module, attr)]
+    if missing:
+        raise ValueError(f"system module {module.__name__} lacks {', '.join(missing)} "
+                         f"(a system defines {', '.join(REQUIRED)}; see analytic/systems/__init__.py)")
+    return module
+
+
+def parameter_names(system: str) -> tuple[str, ...]:
+    return tuple(load(system).PARAMETERS.split())
+
+
+def symbols(system: str) -> SimpleNamespace:
+    """The parameters of ``system`` as positive sympy symbols, by name (``symbols("pendulum").m``).
+    Symbols are equal by name and assumptions, so every call gives the same ones."""
+    import sympy as sp  # lazy: sympy (0.15 s), only where a derivation is made
+
+    names_ = parameter_names(system)
+    return SimpleNamespace(**dict(zip(names_, sp.symbols(" ".join(names_), positive=True, seq=True),
+                                      strict=True)))
+
+
+def has_minimal(system: str) -> bool:
+    """Whether ``system`` gives a minimal-coordinate form."""
+    return hasattr(load(system), "minimal")
+
+
+def build(system: str, *, minimal: bool = False) -> LagrangianSystem:
+    """The system's Lagrangian (``minimal``: its minimal-coordinate form), with its parameter symbols."""
+    module = load(system)
+    made = (module.minimal if minimal else module.build)(symbols(system))
+    expected = f"{system}_minimal" if minimal else system
+    if made.name != expected:
+        raise ValueError(f"{module.__name__}.{'minimal' if minimal else 'build'} names its system "
+                         f"{made.name!r}; it must be {expected!r}")
+    return made
+
+
+def parameter(system: str, name: str) -> sp.Symbol:
+    """One parameter's symbol (``parameter("pendulum", "l")``)."""
+    return getattr(symbols(system), name)

@@ -38,24 +38,28 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from analytic.systems import Scales, parameter, parameters
+from analytic.systems import Motion, Scales
 
 if TYPE_CHECKING:
-    import sympy as sp
+    from types import SimpleNamespace
 
     from analytic.lagrangian import LagrangianSystem
 
-PARAMETERS = "m1 m2 m_p a g h"  # positive; atwood.m1 etc. are their sympy symbols
+PARAMETERS = "m1 m2 m_p a g h"
+
+MOTION = Motion(
+    description="Atwood's machine, massive pulley; two string equalities (multipliers = tensions)",
+    q0={"z1": 0.0, "z2": 0.0, "theta": 0.0},
+    qd0={"z1": 0.0, "z2": 0.0, "theta": 0.0},  # from rest: consistent for any radius a
+    horizon=1.5,
+    tags={"fast", "ci", "constrained"},
+)
 
 
-def __getattr__(name: str) -> sp.Symbol:
-    return parameter(__name__, PARAMETERS, name)
-
-
-def build() -> LagrangianSystem:
+def build(p: SimpleNamespace) -> LagrangianSystem:
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
 
-    m1, m2, m_p, a, g, h = parameters(PARAMETERS)
+    m1, m2, m_p, a, g, h = p.m1, p.m2, p.m_p, p.a, p.g, p.h
     (z1, z2, theta), (z1_d, z2_d, theta_d) = coordinates("z1 z2 theta")
     return LagrangianSystem(
         name="atwood",
@@ -69,12 +73,12 @@ def build() -> LagrangianSystem:
     )
 
 
-def minimal() -> LagrangianSystem:
+def minimal(p: SimpleNamespace) -> LagrangianSystem:
     """z1 alone, with z2 = −z1 and θ = z1/a substituted: (m1 + m2 + m_p) z̈1 = −(m1 − m2) g."""
     from analytic.lagrangian import coordinates
 
-    a = parameter(__name__, PARAMETERS, "a")
-    full = build()
+    a = p.a
+    full = build(p)
     z1, z2, theta = full.q
     (s,), (s_d,) = coordinates("z1")
     return full.reduce(q=(s,), qd=(s_d,), embedding={z1: s, z2: -s, theta: s / a})

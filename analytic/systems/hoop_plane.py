@@ -48,26 +48,32 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from analytic.systems import Scales, parameter, parameters
+from analytic.systems import Motion, Scales
 
 if TYPE_CHECKING:
-    import sympy as sp
+    from types import SimpleNamespace
 
     from analytic.lagrangian import LagrangianSystem
 
-PARAMETERS = "m g a"  # positive; hoop_plane.m etc. are their sympy symbols
+PARAMETERS = "m g a"
+
+MOTION = Motion(
+    description="vertical hoop rolling on a plane, heading turning: circular path, Pfaffian rolling "
+                "rows on a frictional contact",
+    q0={"x": 0.0, "y": 0.0, "z": 0.5, "theta": 0.0, "phi": 0.0},
+    # v = a φ̇ = 1 m/s, θ̇ = 1 rad/s: a circle of radius 1 m about (0, 1)
+    qd0={"x": 1.0, "y": 0.0, "z": 0.0, "theta": 1.0, "phi": 2.0},
+    horizon=2.0,
+    tags={"fast", "ci", "constrained", "contact"},
+)
 
 
-def __getattr__(name: str) -> sp.Symbol:
-    return parameter(__name__, PARAMETERS, name)
-
-
-def build() -> LagrangianSystem:
+def build(p: SimpleNamespace) -> LagrangianSystem:
     import sympy as sp
 
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
 
-    m, g, a = parameters(PARAMETERS)
+    m, g, a = p.m, p.g, p.a
     (x, y, z, theta, phi), qd = coordinates("x y z theta phi")
     x_d, y_d, z_d, theta_d, phi_d = qd
     centre = sp.Matrix([x, y, z])

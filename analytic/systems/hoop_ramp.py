@@ -53,29 +53,34 @@ from typing import TYPE_CHECKING, Literal
 
 import mujoco
 
-from analytic.systems import Scales, parameter, parameters
+from analytic.systems import Motion, Scales
 
 if TYPE_CHECKING:
-    import sympy as sp
+    from types import SimpleNamespace
 
     from analytic.lagrangian import LagrangianSystem
 
-PARAMETERS = "m g a alpha"  # positive; hoop_ramp.m etc. are their sympy symbols
+PARAMETERS = "m g a alpha"
 
-
-def __getattr__(name: str) -> sp.Symbol:
-    return parameter(__name__, PARAMETERS, name)
+MOTION = Motion(
+    description="hoop rolling down a 30° incline, rolling and contact as joint equalities "
+                "(multipliers = friction, normal force)",
+    q0={"x": 0.0, "s": 0.25, "phi": 0.0},
+    qd0={"x": 0.5, "s": 0.0, "phi": 2.0},  # rolling: ẋ = a φ̇ with a = 0.25 m
+    horizon=2.0,
+    tags={"fast", "ci", "constrained"},
+)
 
 RollForm = Literal["holonomic", "pfaffian"]
 
 
-def build(*, form: RollForm = "holonomic") -> LagrangianSystem:
+def build(p: SimpleNamespace, *, form: RollForm = "holonomic") -> LagrangianSystem:
     """The hoop in (x, s, φ); ``form`` writes ``roll`` as x − aφ = 0 or as ẋ − aφ̇ = 0."""
     import sympy as sp
 
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
 
-    m, g, a, alpha = parameters(PARAMETERS)
+    m, g, a, alpha = p.m, p.g, p.a, p.alpha
     (x, s, phi), (x_d, s_d, phi_d) = coordinates("x s phi")
     if form == "holonomic":
         roll = Constraint("roll", x - a * phi)
@@ -100,12 +105,12 @@ def build(*, form: RollForm = "holonomic") -> LagrangianSystem:
     )
 
 
-def minimal() -> LagrangianSystem:
+def minimal(p: SimpleNamespace) -> LagrangianSystem:
     """x alone, with s = a and φ = x/a substituted: 2m ẍ = m g sin α."""
     from analytic.lagrangian import coordinates
 
-    a = parameter(__name__, PARAMETERS, "a")
-    full = build()
+    a = p.a
+    full = build(p)
     x, s, phi = full.q
     (u,), (u_d,) = coordinates("x")
     return full.reduce(q=(u,), qd=(u_d,), embedding={x: u, s: a, phi: u / a})

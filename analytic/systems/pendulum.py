@@ -24,26 +24,30 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from analytic.systems import Scales, parameter, parameters
+from analytic.systems import Motion, Scales
 
 if TYPE_CHECKING:
-    import sympy as sp
+    from types import SimpleNamespace
 
     from analytic.lagrangian import LagrangianSystem
 
-PARAMETERS = "m g l"  # positive; pendulum.m etc. are their sympy symbols
+PARAMETERS = "m g l"
+
+MOTION = Motion(
+    description="planar pendulum, length held by a constraint (multiplier = −rod tension)",
+    q0={"theta": 1.0, "r": 1.0},
+    qd0={"theta": 0.5, "r": 0.0},
+    horizon=5.0,
+    tags={"fast", "ci", "constrained"},
+)
 
 
-def __getattr__(name: str) -> sp.Symbol:
-    return parameter(__name__, PARAMETERS, name)
-
-
-def build() -> LagrangianSystem:
+def build(p: SimpleNamespace) -> LagrangianSystem:
     import sympy as sp
 
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
 
-    m, g, l = parameters(PARAMETERS)
+    m, g, l = p.m, p.g, p.l
     (theta, r), (theta_d, r_d) = coordinates("theta r")
     x, z = r * sp.sin(theta), -r * sp.cos(theta)
     vx, vz = sp.diff(x, theta) * theta_d + sp.diff(x, r) * r_d, sp.diff(z, theta) * theta_d + sp.diff(z, r) * r_d
@@ -59,12 +63,12 @@ def build() -> LagrangianSystem:
     )
 
 
-def minimal() -> LagrangianSystem:
+def minimal(p: SimpleNamespace) -> LagrangianSystem:
     """θ alone, with r = l substituted: the textbook pendulum ODE."""
     from analytic.lagrangian import coordinates
 
-    l = parameter(__name__, PARAMETERS, "l")
-    full = build()
+    l = p.l
+    full = build(p)
     theta, r = full.q
     (s,), (s_d,) = coordinates("theta")
     return full.reduce(q=(s,), qd=(s_d,), embedding={theta: s, r: l})

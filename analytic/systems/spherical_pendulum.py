@@ -46,28 +46,31 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from analytic.systems import Scales, parameter, parameters
+from analytic.systems import Motion, Scales
 
 if TYPE_CHECKING:
-    import sympy as sp
+    from types import SimpleNamespace
 
     from analytic.lagrangian import LagrangianSystem
 
-PARAMETERS = "m g l"  # positive; spherical_pendulum.m etc. are their sympy symbols
+PARAMETERS = "m g l"
 
-
-def __getattr__(name: str) -> sp.Symbol:
-    return parameter(__name__, PARAMETERS, name)
+MOTION = Motion(
+    description="spherical pendulum on two hinges (azimuth, polar); precessing orbit, p_phi conserved",
+    q0={"theta": 1.0, "phi": 0.0},
+    qd0={"theta": 0.0, "phi": 2.0},  # conical orbit at θ = 1 needs φ̇ = √(g/(l cos θ)) = 4.26 rad/s
+    horizon=5.0,
+)
 
 BOB = "bob"
 
 
-def build() -> LagrangianSystem:
+def build(p: SimpleNamespace) -> LagrangianSystem:
     import sympy as sp
 
     from analytic.lagrangian import LagrangianSystem, coordinates
 
-    m, g, l = parameters(PARAMETERS)
+    m, g, l = p.m, p.g, p.l
     (theta, phi), (theta_d, phi_d) = coordinates("theta phi")
     pos = sp.Matrix([l * sp.sin(theta) * sp.cos(phi), l * sp.sin(theta) * sp.sin(phi), -l * sp.cos(theta)])
     vel = pos.jacobian([theta, phi]) * sp.Matrix([theta_d, phi_d])

@@ -25,24 +25,27 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from analytic.systems import Scales, parameter, parameters
+from analytic.systems import Motion, Scales
 
 if TYPE_CHECKING:
-    import sympy as sp
+    from types import SimpleNamespace
 
     from analytic.lagrangian import LagrangianSystem
 
-PARAMETERS = "m k l0"  # positive; spring.m etc. are their sympy symbols
+PARAMETERS = "m k l0"
+
+MOTION = Motion(
+    description="mass on a horizontal spring: x = c1 sin ωt + c2 cos ωt, about 5 periods",
+    q0={"x": 0.2},
+    qd0={"x": 1.0},
+    horizon=5.0,
+)
 
 
-def __getattr__(name: str) -> sp.Symbol:
-    return parameter(__name__, PARAMETERS, name)
-
-
-def build() -> LagrangianSystem:
+def build(p: SimpleNamespace) -> LagrangianSystem:
     from analytic.lagrangian import LagrangianSystem, coordinates
 
-    m, k, l0 = parameters(PARAMETERS)
+    m, k, l0 = p.m, p.k, p.l0
     (x,), (x_d,) = coordinates("x")
     return LagrangianSystem(
         name="spring",

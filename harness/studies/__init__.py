@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import mujoco
 
 from harness.cases import Case
+from harness.core.tables import text_table
+from harness.layers import orders
 from harness.studies import convergence, softness, solvers
 
 
@@ -26,7 +28,7 @@ from harness.studies import convergence, softness, solvers
 class Studies:
     """The studies run on a selection of cases, and how long they took (s)."""
 
-    convergence: tuple[convergence.ConvergenceStudy, ...]
+    convergence: tuple[orders.ConvergenceStudy, ...]
     softness: tuple[softness.SoftnessStudy, ...] = ()
     solvers: tuple[solvers.SolverStudy, ...] = ()
     elapsed: float = 0.0
@@ -38,7 +40,7 @@ class Studies:
         return all(s.passed for s in self.convergence)
 
     @property
-    def failures(self) -> tuple[convergence.Series, ...]:
+    def failures(self) -> tuple[orders.Series, ...]:
         """Failed verdicts, those explained by a documented defect of this MuJoCo included."""
         return tuple(s for st in self.convergence for s in st.verdicts if not s.passed)
 
@@ -71,13 +73,11 @@ def run_studies(selected: Sequence[Case], *, fast: bool = False, with_softness: 
 
 def text(studies: Studies) -> str:
     """Everything as aligned text: one convergence table, then the softness and solver tables."""
-    from harness.studies._common import text_table
-
     gated = [r for st in studies.convergence for r in convergence.rows(st)]
     info = [r for st in studies.convergence for r in convergence.rows(st, gated=False)]
     parts = ["Convergence: error over [0, T] vs timestep h; order = log-log slope over the fitted points, "
              "expected = the documented order (pass: order ≥ expected − "
-             f"{convergence.ORDER_TOLERANCE:g}); constrained cases are judged on the rigid limit.",
+             f"{orders.ORDER_TOLERANCE:g}); constrained cases are judged on the rigid limit.",
              text_table(convergence.HEADER, gated) if gated else "(no cases)"]
     if info:
         parts += ["", "Not gated: constrained cases' position as authored, the softness part the rigid limit "

@@ -28,13 +28,12 @@ import mujoco
 import numpy as np
 
 from harness import cases
-from harness import reference as refmod
-from harness.compare import series_figures, trajectory_figures
-from harness.models import compile_model, mjcf_path
-from harness.pipeline import probe_for
-from harness.plotting import pyplot
-from harness.simulate import integrator_name, simulate
-from harness.studies._common import png_bytes
+from harness.core.plotting import png_bytes, pyplot
+from harness.engine.integrators import integrator_name
+from harness.engine.models import compile_model
+from harness.engine.simulate import simulate
+from harness.layers.trajectory import series_figures, trajectory_figures
+from harness.reference import solutions as refmod
 
 CONES = ("pyramidal", "elliptic")
 IMPRATIOS = (1.0, 10.0, 100.0)
@@ -65,7 +64,7 @@ class StudyResult:
     def plot_png(self) -> bytes:
         """Steady slip, worst force error and position error per setting, as PNG bytes."""
         plt = pyplot()
-        from matplotlib.patches import Patch
+        from matplotlib.patches import Patch  # lazy: matplotlib loads only to draw
 
         labels = [f"{r['cone'][0].upper()} i{r['impratio']:g} n{r['noslip_iterations']}\n{r['softness']}"
                   for r in self.rows]
@@ -132,13 +131,13 @@ def contact_study(
     if any(not r >= 1 for r in impratios) or any(n < 0 for n in noslip_iterations):
         raise ValueError(f"impratios must be >= 1 and noslip_iterations >= 0, got {impratios}, "
                          f"{noslip_iterations}")
-    path = mjcf_path(case.mjcf)
+    path = case.mjcf
     shipped_model = compile_model(path)
     if shipped_model.npair == 0 or "slip" not in case.mujoco_series:
         raise ValueError(f"case {case_name!r} has no contact pair and slip series; contact cases: "
-                         f"{[c.name for c in cases.CASES if 'slip' in c.mujoco_series]}")
-    ref = refmod.build_reference(case, shipped_model)
-    probe = probe_for(case, ref.dynamics)
+                         f"{[c.name for c in cases.all_cases() if 'slip' in c.mujoco_series]}")
+    ref = case.reference(shipped_model)
+    probe = case.probe(ref.dynamics)
     steps = round(case.horizon / shipped_model.opt.timestep)
     rows = []
     for soft, cone, imp, ns in itertools.product(softness, cones, impratios, noslip_iterations):

@@ -36,13 +36,14 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from harness import reference as refmod
-from harness.cases import Case
-from harness.models import compile_model, mjcf_path
-from harness.plotting import pyplot
-from harness.simulate import integrator_name, simulate
-from harness.studies._common import case_dynamics, fmt, html_table, png_bytes, png_data_uri, text_table
-from harness.studies.convergence import initial_force_floor
+from harness.cases import Case, all_cases
+from harness.core.plotting import png_bytes, png_data_uri, pyplot
+from harness.core.tables import fmt, html_table, text_table
+from harness.engine.integrators import integrator_name
+from harness.engine.models import compile_model
+from harness.engine.simulate import simulate
+from harness.layers.orders import initial_force_floor
+from harness.reference import solutions as refmod
 
 TIMECONSTS: tuple[float, ...] = (0.002, 0.005, 0.02, 0.05)   # s; 0.02 is MuJoCo's default solref
 IMPEDANCES: tuple[float, ...] = (0.9, 0.99, 0.999, 0.9999)   # 0.9999 = mjMAXIMP, the stiffest
@@ -95,9 +96,7 @@ class SoftnessStudy:
 
 def equality_cases(selected: Sequence[Case]) -> tuple[Case, ...]:
     """The cases whose system has constraints that are MJCF equalities."""
-    from harness.pipeline import probe_for
-
-    return tuple(c for c in selected if probe_for(c, case_dynamics(c)).constraints)
+    return tuple(c for c in selected if c.probe(c.dynamics()).constraints)
 
 
 def set_softness(timeconst: float, impedance: float) -> Callable[[mujoco.MjSpec], None]:
@@ -136,18 +135,16 @@ def _documented_violation(reference: refmod.Reference, t: np.ndarray, names: Seq
 def softness_study(case: Case, *, fast: bool = False, timeconsts: Sequence[float] | None = None,
                    impedances: Sequence[float] | None = None, plot: bool = True) -> SoftnessStudy:
     """Sweep solref timeconst × solimp d for ``case``'s equalities at its shipped integrator and timestep."""
-    from harness.pipeline import probe_for
-
     timeconsts = tuple(timeconsts or (FAST_TIMECONSTS if fast else TIMECONSTS))
     impedances = tuple(impedances or (FAST_IMPEDANCES if fast else IMPEDANCES))
-    path = mjcf_path(case.mjcf)
+    path = case.mjcf
     shipped = compile_model(path)
     horizon = min(case.horizon, FAST_HORIZON) if fast else case.horizon
-    reference = refmod.build_reference(case, shipped, t_end=horizon)
-    probe = probe_for(case, reference.dynamics)
+    reference = case.reference(shipped, t_end=horizon)
+    probe = case.probe(reference.dynamics)
     if not probe.constraints:
         raise ValueError(f"case {case.name!r} has no MJCF equality constraints; the softness study needs "
-                         f"some (cases with them: {', '.join(c.name for c in equality_cases(_all()))})")
+                         f"some (cases with them: {', '.join(c.name for c in equality_cases(all_cases()))})")
     h = float(shipped.opt.timestep)
     steps = round(horizon / h)
     refsafe = not shipped.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_REFSAFE
@@ -175,12 +172,6 @@ def softness_study(case: Case, *, fast: bool = False, timeconsts: Sequence[float
     study = SoftnessStudy(case=case.name, integrator=integrator_name(shipped), timestep=h, horizon=horizon,
                           constraints=tuple(probe.constraints), rows=tuple(rows), fit=_fit(rows))
     return dataclasses.replace(study, plot_png=plot_softness(study)) if plot else study
-
-
-def _all() -> tuple[Case, ...]:
-    from harness.cases import CASES
-
-    return CASES
 
 
 def _fit(rows: Sequence[SoftnessRow]) -> SoftnessFit | None:

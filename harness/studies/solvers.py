@@ -21,13 +21,14 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from harness import reference as refmod
 from harness.cases import Case
-from harness.compat import SOLVER_ITERATIONS
-from harness.models import compile_model, mjcf_path
-from harness.plotting import pyplot
-from harness.simulate import integrator_name, simulate
-from harness.studies._common import case_dynamics, fmt, html_table, png_bytes, png_data_uri, text_table
+from harness.core.plotting import png_bytes, png_data_uri, pyplot
+from harness.core.tables import fmt, html_table, text_table
+from harness.engine.compat import SOLVER_ITERATIONS
+from harness.engine.integrators import integrator_name
+from harness.engine.models import compile_model
+from harness.engine.simulate import simulate
+from harness.reference import solutions as refmod
 
 SOLVERS: tuple[str, ...] = ("Newton", "CG", "PGS")
 FAST_HORIZON = 0.5
@@ -58,7 +59,7 @@ class SolverStudy:
 
 def constrained_cases(selected: Sequence[Case]) -> tuple[Case, ...]:
     """Cases with constraint forces to compare: MJCF equalities or contacts read by the case."""
-    return tuple(c for c in selected if case_dynamics(c).constraint_names or c.mujoco_forces)
+    return tuple(c for c in selected if c.dynamics().constraint_names or c.mujoco_forces)
 
 
 def _solver(name: str):
@@ -73,13 +74,11 @@ def _solver(name: str):
 def solver_study(case: Case, *, fast: bool = False, solvers: Sequence[str] = SOLVERS,
                  plot: bool = True) -> SolverStudy:
     """Force and position error and iterations used, per solver, at the shipped settings."""
-    from harness.pipeline import probe_for
-
-    path = mjcf_path(case.mjcf)
+    path = case.mjcf
     shipped = compile_model(path)
     horizon = min(case.horizon, FAST_HORIZON) if fast else case.horizon
-    reference = refmod.build_reference(case, shipped, t_end=horizon)
-    base = probe_for(case, reference.dynamics)
+    reference = case.reference(shipped, t_end=horizon)
+    base = case.probe(reference.dynamics)
     if not (base.constraints or base.forces):
         raise ValueError(f"case {case.name!r} has no constraint forces to compare; the solver study needs "
                          "equality or contact constraints")

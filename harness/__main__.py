@@ -1,0 +1,5 @@
+"""``python -m harness``: the ``mjharness`` command."""
+
+from harness.cli.entry import entry
+
+entry()

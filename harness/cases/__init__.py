@@ -1,0 +1,203 @@
+"""The cases the harness checks, discovered from the shipped models: one case per ``mjcf/NAME.xml``.
+
+A case pairs a MuJoCo model with the analytic system it models and the
+motion it runs. Nothing lists them: for every model ``mjcf/NAME.xml``
+
+- the system is ``analytic/systems/NAME.py``, unless the model's own module
+  ``mjcf/NAME.py`` says otherwise (``WIRING = Wiring(system=...)``: a second
+  model of an existing system, such as ``hoop_ramp_contact``);
+- the motion (initial state, horizon, description, tags) is the system's
+  ``MOTION``;
+- what MuJoCo-side readings the case needs beyond the generic ones (a ball
+  joint's binding, an angular momentum, contact forces, slip) is the
+  ``WIRING`` of ``mjcf/NAME.py``, where that module exists.
+
+So a new system is its analytic module and its model, and a new model of an
+existing system is its model and, if it needs readings, its small module.
+CLI, pytest and CI all select from :func:`all_cases`.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import importlib.util
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import mujoco
+
+from analytic import systems
+from analytic.dynamics import Dynamics
+from analytic.systems import Motion
+from harness.engine.bindings import JointBinding
+from harness.engine.models import compile_model
+from harness.engine.probe import Probe
+from harness.engine.readings import Reading
+from harness.reference.derivations import dynamics_of
+from harness.reference.solutions import Reference, build_reference
+
+__all__ = ["Case", "Series", "Wiring", "all_cases", "get", "names", "select"]
+
+MODELS_PACKAGE = "mjcf"
+
+
+@dataclass(frozen=True)
+class Series:
+    """A MuJoCo-only time series with no reference counterpart (a contact's slip
+    velocity, its penetration), reported per integrator as its max |·| over the horizon."""
+
+    read: Reading
+    unit: str
+    description: str
+
+
+@dataclass(frozen=True)
+class Wiring:
+    """How a model is wired to its analytic system, declared as ``WIRING`` in ``mjcf/NAME.py``.
+
+    Attributes:
+        system: the analytic system the model is of (default: the model's name).
+        motion: what the case runs (default: the system's ``MOTION``).
+        description: one line for ``mjharness list`` and the report (default: the motion's).
+        tags: added to the motion's.
+        binding: factory from the analytic coordinate names to the object that
+            sets MuJoCo's state (default: ``JointBinding``, one same-named
+            hinge/slide per coordinate).
+        invariants: extra invariants computed from MuJoCo's own state, by the
+            name the reference uses (e.g. ``p_phi``); energy is always recorded.
+        forces: constraint forces for constraints that are not MJCF equalities
+            (contacts), by the analytic constraint name, in the analytic sign
+            convention.
+        series: MuJoCo-only series (:class:`Series`), e.g. the slip velocity of
+            a contact, each reported as the figure ``INTEGRATOR.series.NAME``.
+        settle: seconds after which force figures are taken. A soft contact
+            builds its force from slip or penetration, so at t = 0 it has none
+            of its own; 0 (compare from the start) for equalities.
+    """
+
+    system: str = ""
+    motion: Motion | None = None
+    description: str = ""
+    tags: frozenset[str] = field(default_factory=frozenset)
+    binding: Callable[[tuple[str, ...]], Any] | None = None
+    invariants: Mapping[str, Reading] = field(default_factory=dict)
+    forces: Mapping[str, Reading] = field(default_factory=dict)
+    series: Mapping[str, Series] = field(default_factory=dict)
+    settle: float = 0.0
+
+
+@dataclass(frozen=True)
+class Case:
+    """One validation case: a model, the system it models and the motion it runs.
+
+    Attributes:
+        name: case id (the model's file name; CLI name, test id, report section).
+        system: analytic module under ``analytic.systems``.
+        mjcf: path of the shipped model.
+        description: one line for ``mjharness list`` and the report.
+        q0, qd0: initial state in the analytic coordinates, by name; it must
+            satisfy the constraints (the reference refuses otherwise).
+        horizon: simulated time in seconds.
+        tags: selection tags (``fast``, ``ci``, ``constrained`` ...).
+        binding, mujoco_invariants, mujoco_forces, mujoco_series, settle: the
+            model's :class:`Wiring`.
+    """
+
+    name: str
+    system: str
+    mjcf: Path
+    description: str
+    q0: Mapping[str, float]
+    qd0: Mapping[str, float]
+    horizon: float
+    tags: frozenset[str] = field(default_factory=frozenset)
+    binding: Callable[[tuple[str, ...]], Any] | None = None
+    mujoco_invariants: Mapping[str, Reading] = field(default_factory=dict)
+    mujoco_forces: Mapping[str, Reading] = field(default_factory=dict)
+    mujoco_series: Mapping[str, Series] = field(default_factory=dict)
+    settle: float = 0.0
+
+    def __post_init__(self) -> None:
+        if set(self.q0) != set(self.qd0):
+            raise ValueError(f"case {self.name!r}: q0 and qd0 must name the same coordinates")
+        if not self.horizon > 0:
+            raise ValueError(f"case {self.name!r}: horizon must be positive, got {self.horizon}")
+        if not 0 <= self.settle < self.horizon:
+            raise ValueError(f"case {self.name!r}: settle must be in [0, horizon), got {self.settle}")
+
+    def reference(self, model: mujoco.MjModel, *, t_end: float | None = None, **solve: float) -> Reference:
+        """The case's motion solved with the parameters of ``model`` (over at least ``t_end``)."""
+        return build_reference(self.system, model, q0=self.q0, qd0=self.qd0, horizon=self.horizon,
+                               t_end=t_end, **solve)
+
+    def dynamics(self) -> Dynamics:
+        """The system's numeric dynamics at the parameters of the shipped model (cached)."""
+        return dynamics_of(self.system, compile_model(self.mjcf))
+
+    def probe(self, dyn: Dynamics) -> Probe:
+        """What to read from MuJoCo for this case: equalities for every constraint not read through
+        the case's own ``mujoco_forces``."""
+        binding = (self.binding or JointBinding)(dyn.coordinates)
+        equalities = tuple(c for c in dyn.constraint_names if c not in self.mujoco_forces)
+        return Probe(binding=binding, points=dyn.point_names, constraints=equalities,
+                     invariants=self.mujoco_invariants, forces=self.mujoco_forces,
+                     series={k: s.read for k, s in self.mujoco_series.items()})
+
+
+def _model_files() -> list[Path]:
+    root = resources.files(MODELS_PACKAGE)
+    return sorted(Path(str(p)) for p in root.iterdir() if p.name.endswith(".xml"))
+
+
+def _wiring(model: str) -> Wiring:
+    """``WIRING`` of ``mjcf/NAME.py``, or the default where the model has no module."""
+    module_name = f"{MODELS_PACKAGE}.{model}"
+    if importlib.util.find_spec(module_name) is None:
+        return Wiring()
+    wiring = getattr(importlib.import_module(module_name), "WIRING", None)
+    if not isinstance(wiring, Wiring):
+        raise ValueError(f"{module_name} must define WIRING = Wiring(...) (harness.cases.Wiring)")
+    return wiring
+
+
+def _case(path: Path) -> Case:
+    name = path.stem
+    wiring = _wiring(name)
+    system = wiring.system or name
+    if system not in systems.names():
+        raise ValueError(f"model {path.name} has no analytic system: add analytic/systems/{system}.py, or "
+                         f"name the system it models in mjcf/{name}.py (WIRING = Wiring(system=...))")
+    motion = wiring.motion or systems.load(system).MOTION
+    return Case(name=name, system=system, mjcf=path, description=wiring.description or motion.description,
+                q0=motion.q0, qd0=motion.qd0, horizon=motion.horizon, tags=motion.tags | wiring.tags,
+                binding=wiring.binding, mujoco_invariants=wiring.invariants, mujoco_forces=wiring.forces,
+                mujoco_series=wiring.series, settle=wiring.settle)
+
+
+@functools.cache
+def all_cases() -> tuple[Case, ...]:
+    """Every case, in the order of their names."""
+    return tuple(_case(path) for path in _model_files())
+
+
+def names() -> tuple[str, ...]:
+    return tuple(c.name for c in all_cases())
+
+
+def get(name: str) -> Case:
+    """The case called ``name``; ValueError listing the known ones otherwise."""
+    for case in all_cases():
+        if case.name == name:
+            return case
+    raise ValueError(f"unknown case {name!r}; known cases: {', '.join(names())}")
+
+
+def select(requested: Iterable[str] = (), *, tag: str | None = None) -> tuple[Case, ...]:
+    """Cases by name (all when none are given), optionally only those with ``tag``."""
+    requested = list(requested)
+    chosen = tuple(get(n) for n in requested) if requested else all_cases()
+    return tuple(c for c in chosen if tag is None or tag in c.tags)

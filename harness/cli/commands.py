@@ -1,0 +1,340 @@
+"""``mjharness``: a thin argparse layer over pure functions.
+
+Exit codes: 0 all checks pass, 1 a check fails (or, for ``baseline
+--compare``, a figure regressed), 2 bad usage or input (unknown case, invalid
+MJCF or config, a model that does not fit its case, unwritable output,
+diverging simulation). User mistakes give one line on stderr, never a
+traceback, and never a half-written file. ``diff`` is informational: 0 unless
+its input is bad (2).
+
+Each subcommand is one entry in ``COMMANDS``: a function adding its arguments
+and a ``cmd_NAME(args) -> int`` doing the work. The commands that draw
+(``run``, ``converge``, ``audit``) import the report and studies, which load
+matplotlib and sympy, when they run; the gate (``check``) never loads them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from harness import cases
+from harness.core.checks import Check
+from harness.core.errors import SimulationDiverged
+from harness.engine.compat import unavailable_reason
+from harness.outputs import baseline
+from harness.outputs.diff import diff_runs, format_diff, load_run
+from harness.outputs.files import check_output, prepare_output, write_atomic
+from harness.outputs.jsondoc import dumps, json_doc
+from harness.outputs.junit import junit_xml
+from harness.outputs.table import checks_table
+from harness.pipeline import limits as limits_data
+from harness.pipeline.matrix import run_all
+from harness.pipeline.pool import cpus
+
+EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2 (argparse's own code)
+        self.exit(EXIT_USAGE, f"mjharness: error: {message}\n")
+
+
+# --------------------------------------------------------------- helpers
+def _selected(args: argparse.Namespace) -> tuple[cases.Case, ...]:
+    """Cases named positionally or with --case (all when none); --mjcf needs exactly one."""
+    names = [*args.cases, *(args.case or [])]
+    selected = cases.select(names)
+    if getattr(args, "mjcf", None) is not None and len(selected) != 1:
+        raise ValueError(f"--mjcf validates one model against one case; name it with --case NAME "
+                         f"(known cases: {', '.join(cases.names())})")
+    return selected
+
+
+def _exit(checks: dict[str, list[Check]]) -> int:
+    return EXIT_OK if all(c.passed for cs in checks.values() for c in cs) else EXIT_FAIL
+
+
+def _add_selection(p: argparse.ArgumentParser, *, mjcf: bool = True) -> None:
+    p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    p.add_argument("--case", action="append", metavar="NAME", help="a case name (same as CASE; repeatable)")
+    p.add_argument("--config", type=Path, metavar="FILE", help="TOML overriding the shipped limits "
+                                                               "([thresholds.CASE] \"FIGURE\" = LIMIT)")
+    p.add_argument("--jobs", "-j", type=_positive, metavar="N",
+                   help=f"worker processes for the cases (default: one per CPU, here {cpus()}); "
+                        "the results do not depend on N")
+    if mjcf:
+        p.add_argument("--mjcf", type=Path, metavar="PATH",
+                       help="validate this MJCF (your variant of the case's model) against the case's "
+                            "reference and limits; needs exactly one case")
+
+
+def _positive(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return value
+
+
+# ----------------------------------------------------------- subcommands
+def _args_list(p: argparse.ArgumentParser) -> None:
+    pass
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+    everything = cases.all_cases()
+    tags = {c.name: f"[{','.join(sorted(c.tags))}]" for c in everything}
+    width, tag_width = max(map(len, tags)), max(map(len, tags.values()))
+    for c in everything:
+        print(f"{c.name.ljust(width)}  {tags[c.name].ljust(tag_width)}  {c.description}")
+    return EXIT_OK
+
+
+def _add_junit(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--junit", type=Path, metavar="FILE", help="also write JUnit XML (one testcase per check)")
+
+
+def _check_junit(path: Path | None) -> None:
+    """Refuse an unusable --junit path before any work is done."""
+    if path is not None:
+        if path.is_dir():
+            raise ValueError(f"--junit {str(path)!r} is a directory; give a file name")
+        check_output(path.parent)
+
+
+def _write_junit(path: Path | None, checks: dict[str, list[Check]]) -> list[Path]:
+    if path is None:
+        return []
+    prepare_output(path.parent)
+    return write_atomic({path: junit_xml(checks)})
+
+
+def _args_run(p: argparse.ArgumentParser) -> None:
+    _add_selection(p)
+    p.add_argument("--out", type=Path, default=Path("mjharness-report"), metavar="DIR",
+                   help="output directory (default: ./mjharness-report)")
+    p.add_argument("--no-studies", dest="studies", action="store_false",
+                   help="skip layer 4 (convergence, softness, solver and contact studies) and the seed audit")
+    _add_junit(p)
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from harness.outputs.parts import report_parts  # lazy: studies and plots load sympy and matplotlib
+    from harness.outputs.report import write_report  # lazy: as above
+
+    start = time.perf_counter()
+    check_output(args.out)  # fail before minutes of work, not after
+    _check_junit(args.junit)
+    selected = _selected(args)
+    results, checks, limits = run_all(selected, args.config, args.mjcf, jobs=args.jobs)
+    extras, appendix, plots = report_parts(selected, results, jobs=args.jobs,
+                                           studies=args.studies and args.mjcf is None)
+    paths = write_report(args.out, results, checks, config_source=limits.source, extras=extras,
+                         appendix=appendix, plots=plots)
+    paths += _write_junit(args.junit, checks)
+    print(checks_table(checks))
+    print(f"wrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - start:.1f} s")
+    return _exit(checks)
+
+
+def _args_check(p: argparse.ArgumentParser) -> None:
+    _add_selection(p)
+    _add_junit(p)
+    p.add_argument("--json", action="store_true", help="print the run as JSON (report.json schema) "
+                                                       "instead of the table")
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    _check_junit(args.junit)
+    results, checks, _ = run_all(_selected(args), args.config, args.mjcf, jobs=args.jobs, figures_only=True)
+    _write_junit(args.junit, checks)
+    if args.json:
+        sys.stdout.write(dumps(json_doc(results, checks)))
+    else:
+        print(checks_table(checks))
+    return _exit(checks)
+
+
+def _args_diff(p: argparse.ArgumentParser) -> None:
+    p.add_argument("old", type=Path, metavar="OLD", help="report.json, check --json output or a baseline "
+                                                         "(file or directory) before")
+    p.add_argument("new", type=Path, metavar="NEW", help="the same after")
+    p.add_argument("--all", action="store_true", help="list unchanged figures too")
+    p.add_argument("--exact", action="store_true",
+                   help="exit 1 unless every figure and verdict of both runs is identical")
+
+
+def cmd_diff(args: argparse.Namespace) -> int:
+    diff = diff_runs(load_run(args.old), load_run(args.new))
+    print(format_diff(diff, show_all=args.all), end="")
+    return EXIT_FAIL if args.exact and not diff.identical else EXIT_OK
+
+
+def _args_baseline(p: argparse.ArgumentParser) -> None:
+    _add_selection(p, mjcf=False)
+    mode = p.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--write", type=Path, metavar="PATH",
+                      help="run the cases and write their gated figures: a directory gets one file per case "
+                           "(naming cases updates only those), a .json file all cases in one")
+    mode.add_argument("--compare", type=Path, metavar="PATH",
+                      help="run the cases and fail (exit 1) where a figure regressed against PATH")
+
+
+def cmd_baseline(args: argparse.Namespace) -> int:
+    selected = _selected(args)
+    if args.write is not None:
+        check_output(baseline.output_dir(args.write))
+        partial = bool(args.cases or args.case)
+        old = load_run(args.write) if partial and baseline.exists(args.write) else None
+        results, checks, _ = run_all(selected, args.config, jobs=args.jobs, figures_only=True)
+        failing = [c for cs in checks.values() for c in cs if not c.passed]
+        if failing:
+            print(checks_table(checks))
+            print(f"mjharness: refusing to write a baseline while {len(failing)} check(s) fail", file=sys.stderr)
+            return EXIT_FAIL
+        written = baseline.write(args.write, baseline.merge(old, baseline.baseline_doc(results, checks)))
+        count = sum(len(c["figures"]) for c in written["cases"].values())
+        print(f"wrote {args.write}: {len(written['cases'])} case(s), {count} gated figures")
+        return EXIT_OK
+    reference = load_run(args.compare)
+    mismatch = baseline.version_mismatch(reference, source=str(args.compare))
+    if mismatch:  # a baseline is per MuJoCo version: refuse before any work
+        raise ValueError(mismatch)
+    results, checks, limits = run_all(selected, args.config, jobs=args.jobs, figures_only=True)
+    findings = [f for r in results for f in baseline.compare(
+        reference, r.case.name, r.figures, limits.for_case(r.case.name), source=str(args.compare))]
+    for f in findings:
+        print(f.message)
+    print(f"{len(findings)} regression(s) or missing entries against {args.compare} "
+          f"(rule: new > {baseline.FACTOR:g} × max(old, {baseline.FLOOR:g} × threshold))")
+    return EXIT_FAIL if findings else EXIT_OK
+
+
+def _args_limits(p: argparse.ArgumentParser) -> None:
+    p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    p.add_argument("--write", action="store_true",
+                   help="run the cases and rewrite their measured limits (theory limits are kept); a case "
+                        "without a limits file gets one by the default rule")
+    p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
+
+
+def cmd_limits(args: argparse.Namespace) -> int:
+    selected = cases.select(args.cases)
+    if not args.write:
+        shipped = limits_data.load_limits()
+        for case in selected:
+            entry = shipped.cases.get(case.name)
+            print(f"{case.name} ({limits_data.limits_path(case.mjcf)}): "
+                  + (f"{len(entry.limits)} limits" if entry else "no limits file"))
+            for name, lim in (entry.limits.items() if entry else ()):
+                print(f"  {name:42s} {lim.value:.3e}  {lim.describe()}")
+        return EXIT_OK
+    for case in selected:  # every file must be writable before minutes of work
+        check_output(limits_data.limits_path(case.mjcf).parent)
+    results, _, _ = run_all(selected, None, jobs=args.jobs, figures_only=True)
+    files = {}
+    for r in results:
+        path = limits_data.limits_path(r.case.mjcf)
+        old = limits_data.read_case_limits(r.case.name, path) if path.is_file() else None
+        constrained = bool(r.case.dynamics().constraint_names)
+        new = limits_data.remeasured(r.case.name, old, r.figures, constrained=constrained,
+                                     skip=[n for n in (old.limits if old else {}) if unavailable_reason(n)])
+        files[path] = limits_data.format_case_limits(new)
+    for path in write_atomic(files):
+        print(f"wrote {path}")
+    return EXIT_OK
+
+
+def _args_converge(p: argparse.ArgumentParser) -> None:
+    p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    p.add_argument("--fast", action="store_true", help="the 3-timestep subset `check` gates (T ≤ 0.5 s)")
+    p.add_argument("--softness", action="store_true", help="also sweep solref/solimp of the equality cases")
+    p.add_argument("--solvers", action="store_true", help="also compare Newton, CG and PGS on the constrained cases")
+    p.add_argument("--html", type=Path, metavar="FILE", help="also write the tables and plots as one HTML page")
+
+
+def cmd_converge(args: argparse.Namespace) -> int:
+    from harness.studies import html_page, run_studies, text  # lazy: the studies' plots load matplotlib
+
+    if args.html is not None:
+        check_output(args.html.parent)
+    studies = run_studies(cases.select(args.cases), fast=args.fast, with_softness=args.softness,
+                          with_solvers=args.solvers, progress=True)
+    print(text(studies))
+    if args.html is not None:
+        prepare_output(args.html.parent)
+        write_atomic({args.html: html_page(studies)})
+    return EXIT_OK if studies.passed else EXIT_FAIL
+
+
+def _args_audit(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--json", action="store_true", help="print the verdicts as JSON instead of the table")
+
+
+def cmd_audit(args: argparse.Namespace) -> int:
+    from harness.studies import audit  # lazy: sympy (0.15 s)
+
+    rows = audit.audit()
+    if args.json:
+        sys.stdout.write(dumps(audit.json_rows(rows)))
+    else:
+        print(audit.format_table(rows))
+    return EXIT_OK
+
+
+@dataclass(frozen=True)
+class Command:
+    help: str
+    add_arguments: Callable[[argparse.ArgumentParser], None]
+    run: Callable[[argparse.Namespace], int]
+
+
+COMMANDS: dict[str, Command] = {
+    "list": Command("list the cases", _args_list, cmd_list),
+    "run": Command("run cases and write the report (report.html, report.json, summary.md)", _args_run, cmd_run),
+    "check": Command("CI gate: figures vs limits (exit 0 pass, 1 fail, 2 bad input)", _args_check, cmd_check),
+    "diff": Command("what changed between two runs' JSON, figure by figure", _args_diff, cmd_diff),
+    "baseline": Command("write or compare the regression baseline (reports/baseline/)",
+                        _args_baseline, cmd_baseline),
+    "limits": Command("list each case's limits with their basis; --write rewrites the measured ones",
+                      _args_limits, cmd_limits),
+    "converge": Command("convergence order per integrator vs the documented one (exit 1 if one falls "
+                        "short); --softness, --solvers: constraint studies", _args_converge, cmd_converge),
+    "audit": Command("the seed documents' claims: confirmed, refuted (with the correction) or ambiguous",
+                     _args_audit, cmd_audit),
+}
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="mjharness", description="Validate MuJoCo against analytical mechanics.")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for name, command in COMMANDS.items():
+        command.add_arguments(sub.add_parser(name, help=command.help, description=command.help))
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        return COMMANDS[args.command].run(args)
+    except SimulationDiverged as exc:
+        print(f"mjharness: error: simulation diverged: {exc}", file=sys.stderr)
+    except ValueError as exc:  # ConfigError, ModelError, ModelMismatch and every input check
+        print(f"mjharness: error: {' '.join(str(exc).split())}", file=sys.stderr)
+    except OSError as exc:
+        print(f"mjharness: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "), file=sys.stderr)
+    except KeyboardInterrupt:
+        print("mjharness: interrupted", file=sys.stderr)
+        return 130
+    return EXIT_USAGE
+
+
+if __name__ == "__main__":  # the command itself is harness.cli.entry:entry (python -m harness.cli.entry)
+    sys.exit(main())

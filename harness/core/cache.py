@@ -1,0 +1,175 @@
+"""On-disk cache of symbolic derivations and of the numeric code made from them, shared by every
+run and process.
+
+A sympy derivation costs about 0.3 s per system and depends only on source
+code, so it is pickled once under the user's cache directory
+(``$XDG_CACHE_HOME/mjharness`` or ``~/.cache/mjharness``) and loaded by later
+runs and by parallel workers. So is the numeric code lambdified from it at a
+model's parameter values (``analytic.dynamics.Compiled``; harness/reference/derivations.py).
+Beside each entry the seconds it took to compute are kept, so that a scheduler
+can put the costliest work first without a hand-measured table.
+
+An entry's key is a hash of everything the result depends on: the source text
+of the files that define it (the system module, ``analytic/systems/__init__.py``
+and ``analytic/lagrangian.py``; for numeric code also ``analytic/dynamics.py``
+and the parameter values), the sympy and Python versions and :data:`FORMAT`.
+Editing a system, the Lagrangian machinery or upgrading sympy changes the key,
+so a stale entry is never read; old entries are simply left behind.
+
+The cache is an optimisation only: an entry that cannot be read (missing,
+corrupt, truncated, of the wrong type) or used (see :func:`cached`) is recomputed, and a directory that
+cannot be written is skipped, both silently, because the recomputed value is
+the correct one. Entries are written to a temporary file and renamed into
+place, so concurrent writers never leave a half-written entry.
+``MJHARNESS_NO_CACHE=1`` turns the cache off.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import importlib.util
+import os
+import pickle
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import TypeVar
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+FORMAT = "1"  # bump when what is pickled changes shape
+
+
+def cache_dir() -> Path | None:
+    """Where entries live, or None when the cache is turned off."""
+    if os.environ.get("MJHARNESS_NO_CACHE", "").strip() not in ("", "0"):
+        return None
+    base = os.environ.get("XDG_CACHE_HOME", "").strip()
+    root = Path(base) if base else Path.home() / ".cache"
+    return root / "mjharness"
+
+
+def _sympy_release() -> bytes:
+    """sympy's release file (``__version__ = "..."``), read rather than imported: a run whose entries
+    are all cached never loads sympy (0.15 s). Where a sympy has no such file, its installed
+    version from the package metadata (slower to read, still no import)."""
+    spec = importlib.util.find_spec("sympy")
+    if spec is not None and spec.origin is not None:
+        with contextlib.suppress(OSError):
+            return (Path(spec.origin).parent / "release.py").read_bytes()
+    from importlib.metadata import version
+
+    return version("sympy").encode()
+
+
+def key(*parts: str | bytes) -> str:
+    """A hex digest of ``parts`` and of the versions every entry depends on."""
+    digest = hashlib.sha256()
+    for part in (FORMAT, sys.version.split()[0], _sympy_release(), *parts):
+        data = part if isinstance(part, bytes) else part.encode()
+        digest.update(len(data).to_bytes(8, "little"))
+        digest.update(data)
+    return digest.hexdigest()
+
+
+def source_key(files: Iterable[Path | str]) -> str:
+    """:func:`key` of the text of ``files`` (a missing file counts as empty)."""
+    texts = []
+    for f in files:
+        try:
+            texts.append(Path(f).read_bytes())
+        except OSError:
+            texts.append(b"")
+    return key(*(str(Path(f).name) for f in files), *texts)
+
+
+def _path(kind: str, name: str, digest: str) -> Path | None:
+    root = cache_dir()
+    return None if root is None else root / kind / f"{name}-{digest[:32]}.pickle"
+
+
+def cost(kind: str, name: str, digest: str) -> float | None:
+    """Seconds the entry took to compute when it was stored (None if unknown): schedulers order work by it."""
+    path = _path(kind, name, digest)
+    if path is None:
+        return None
+    try:
+        return float(path.with_suffix(".seconds").read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def has(kind: str, name: str, digest: str) -> bool:
+    """Whether an entry is stored (a hint only: it may still turn out unreadable)."""
+    path = _path(kind, name, digest)
+    return path is not None and path.is_file()
+
+
+def load(kind: str, name: str, digest: str, expected: type) -> object | None:
+    """The entry, or None when it is absent or unusable for any reason."""
+    path = _path(kind, name, digest)
+    if path is None:
+        return None
+    try:
+        with path.open("rb") as fh:
+            value = pickle.load(fh)
+    except Exception:  # missing, unreadable, truncated, corrupt, from an incompatible version
+        return None
+    return value if isinstance(value, expected) else None
+
+
+def write_atomic(path: Path, data: bytes) -> bool:
+    """Write ``data`` to ``path`` through a temporary file renamed into place (concurrent writers never
+    leave a half-written file); False, and nothing left behind, where that is not possible."""
+    tmp = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile("wb", dir=path.parent, prefix=f".{path.name}.", delete=False) as fh:
+            tmp = Path(fh.name)
+            fh.write(data)
+        os.replace(tmp, path)
+        return True
+    except Exception:  # read-only or full disk, a name in the way
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+        return False
+
+
+def store(kind: str, name: str, digest: str, value: object, *, seconds: float | None = None) -> bool:
+    """Write the entry atomically (and, if given, the ``seconds`` it took to compute); False where that
+    is not possible."""
+    path = _path(kind, name, digest)
+    if path is None:
+        return False
+    try:
+        data = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception:  # a value that does not pickle
+        return False
+    stored = write_atomic(path, data)
+    if stored and seconds is not None:
+        write_atomic(path.with_suffix(".seconds"), f"{seconds:.6f}".encode())
+    return stored
+
+
+def cached(kind: str, name: str, digest: str, compute: Callable[[], T], expected: type,
+           open_: Callable[[T], R] | None = None) -> R:
+    """``open_`` of the entry for (kind, name, digest) if it can be loaded and opened, else of
+    ``compute()``, stored (over the entry) for next time. ``open_`` (default: the value itself) turns
+    an entry into what the caller uses; an entry it raises on is unusable here (e.g. code that names
+    a function this numpy lacks) and is recomputed like a corrupt one."""
+    opening: Callable[[T], R] = open_ if open_ is not None else (lambda v: v)  # type: ignore[assignment,return-value]
+    value = load(kind, name, digest, expected)
+    if value is not None:
+        try:
+            return opening(value)  # type: ignore[arg-type]
+        except Exception:  # unusable here: the recomputed value below is the right one
+            pass
+    start = time.perf_counter()
+    value = compute()
+    store(kind, name, digest, value, seconds=time.perf_counter() - start)
+    return opening(value)

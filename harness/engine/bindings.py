@@ -1,0 +1,67 @@
+"""How an analytic system's coordinates sit in a MuJoCo model.
+
+The default binding is one hinge or slide joint per analytic coordinate, of
+the same name, with qpos equal to the coordinate; generalized forces then map
+through the constant dof matrix D (qvel = D q̇, analytic force = Dᵀ f_mujoco).
+A model whose coordinates differ (a ball joint) supplies its own binding; where
+no constant D exists its ``dof_matrix`` returns None, and the harness compares
+only observables (point positions, velocities, accelerations, kinetic energy).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+import mujoco
+import numpy as np
+
+from harness.core.errors import ModelMismatch
+
+ONE_DOF = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+class Binding(Protocol):
+    """What the harness needs to put an analytic state into a MuJoCo model."""
+
+    def validate(self, model: mujoco.MjModel) -> None:
+        """Raise ModelMismatch if ``model`` lacks the joints this binding drives."""
+
+    def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
+                  q: Sequence[float], qd: Sequence[float]) -> None:
+        """Write qpos and qvel for the analytic state (q, q̇)."""
+
+    def dof_matrix(self, model: mujoco.MjModel) -> np.ndarray | None:
+        """Constant D with qvel = D q̇, shape (nv, n); None where qvel is not a constant
+        linear map of q̇ (a ball joint's local angular velocity)."""
+
+
+@dataclass(frozen=True)
+class JointBinding:
+    """Analytic coordinate k is the MuJoCo joint ``joints[k]`` (hinge or slide)."""
+
+    joints: tuple[str, ...]
+
+    def validate(self, model: mujoco.MjModel) -> None:
+        for name in self.joints:
+            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+            if jid < 0:
+                known = [model.joint(i).name for i in range(model.njnt)]
+                raise ModelMismatch(f"model has no joint {name!r} (joints: {known})")
+            if int(model.jnt_type[jid]) not in ONE_DOF:
+                raise ModelMismatch(f"joint {name!r} must be a hinge or slide")
+
+    def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
+                  q: Sequence[float], qd: Sequence[float]) -> None:
+        for name, qk, vk in zip(self.joints, q, qd, strict=True):
+            jnt = model.joint(name)
+            data.qpos[jnt.qposadr[0]] = qk
+            data.qvel[jnt.dofadr[0]] = vk
+
+    def dof_matrix(self, model: mujoco.MjModel) -> np.ndarray:
+        """D with qvel = D q̇, shape (nv, n)."""
+        mat = np.zeros((model.nv, len(self.joints)))
+        for k, name in enumerate(self.joints):
+            mat[model.joint(name).dofadr[0], k] = 1.0
+        return mat

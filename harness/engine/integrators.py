@@ -1,0 +1,49 @@
+"""MuJoCo's integrators by name: which this MuJoCo has, and the integration stage of each.
+
+MuJoCo's documentation describes five (computation/index.rst, "Integrators");
+an older MuJoCo lacks some (``discrete`` is new in 4.0).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+
+import mujoco
+
+
+def _rk4(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    mujoco.mj_RungeKutta(model, data, 4)
+
+
+# The integration stage each integrator runs after mj_forward inside mj_step.
+# "discrete" folds its implicit update into the constraint solve, so its
+# integration stage is the plain Euler update of the step map in qacc.
+STEP_FUNCTIONS: dict[str, Callable[[mujoco.MjModel, mujoco.MjData], None]] = {
+    "Euler": mujoco.mj_Euler,
+    "implicit": mujoco.mj_implicit,
+    "implicitfast": mujoco.mj_implicit,
+    "RK4": _rk4,
+    "discrete": mujoco.mj_Euler,
+}
+
+# Integrators MuJoCo's documentation describes, of which an older MuJoCo lacks some.
+DOCUMENTED_INTEGRATORS: tuple[str, ...] = tuple(STEP_FUNCTIONS)
+
+
+@functools.cache
+def available_integrators() -> tuple[str, ...]:
+    """Integrators this MuJoCo offers (``discrete`` only where it exists)."""
+    names = {i.name.removeprefix("mjINT_") for i in mujoco.mjtIntegrator.__members__.values()}
+    return tuple(k for k in STEP_FUNCTIONS if k.upper() in names)
+
+
+def integrator_enum(name: str) -> mujoco.mjtIntegrator:
+    if name not in available_integrators():
+        raise ValueError(f"unknown integrator {name!r}; this MuJoCo offers {list(available_integrators())}")
+    return getattr(mujoco.mjtIntegrator, f"mjINT_{name.upper()}")
+
+
+def integrator_name(model: mujoco.MjModel) -> str:
+    value = int(model.opt.integrator)
+    return next(k for k in available_integrators() if int(integrator_enum(k)) == value)

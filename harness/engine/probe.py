@@ -1,0 +1,42 @@
+"""What the harness reads from a MuJoCo run of a case: points, equality constraints, readings."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import mujoco
+
+from harness.core.errors import ModelMismatch
+from harness.engine.bindings import Binding
+from harness.engine.readings import Reading
+
+
+@dataclass(frozen=True)
+class Probe:
+    """What to read from MuJoCo: points, constraints (equalities) and the dof map."""
+
+    binding: Binding
+    points: Sequence[str]
+    constraints: Sequence[str]
+    invariants: Mapping[str, Reading] = field(default_factory=dict)
+    forces: Mapping[str, Reading] = field(default_factory=dict)
+    series: Mapping[str, Reading] = field(default_factory=dict)
+
+    def validate(self, model: mujoco.MjModel) -> None:
+        self.binding.validate(model)
+        for name in self.points:
+            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name) < 0:
+                raise ModelMismatch(f"model has no body {name!r} for point {name!r}")
+        for name in self.constraints:
+            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, name) < 0:
+                known = [model.equality(i).name for i in range(model.neq)]
+                raise ModelMismatch(f"model has no equality {name!r} (equalities: {known})")
+        if not model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_ENERGY:
+            raise ModelMismatch("model must enable the energy flag (<flag energy=\"enable\"/>)")
+
+    def readings(self) -> dict[str, Reading]:
+        """Every reading, by a key unique across the three groups."""
+        return ({f"invariants.{k}": r for k, r in self.invariants.items()}
+                | {f"forces.{k}": r for k, r in self.forces.items()}
+                | {f"series.{k}": r for k, r in self.series.items()})

@@ -1,0 +1,78 @@
+"""MuJoCo-side angular momentum, from MuJoCo's own state (never via analytic coordinates).
+
+The conserved momentum of a cyclic azimuth (``p_phi`` of the spherical
+pendulum) is the component along the symmetry axis of the angular momentum
+about a fixed point o of the subtree rooted at a body:
+
+    L_o = Σ_b  L_c,b + (c − o) × P_b
+
+over the subtree's bodies b, with (L_c,b, P_b) = cinert_b · cvel_b the body's
+spatial momentum in MuJoCo's com-based frame (angular momentum about the point
+c = ``subtree_com`` of b's root, and linear momentum; the product is
+``mju_mulInertVec``'s, written out here over a whole run). ``cinert`` holds the
+body's inertia about c (its own spin included), so this is the quantity
+MuJoCo's dynamics conserves when gravity is along the axis; it is what
+``mj_subtreeVel`` assembles (pinned against it in
+tests/test_spherical_pendulum.py and tests/test_hoop_plane.py).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import mujoco
+import numpy as np
+
+from harness.engine.readings import Reading
+
+
+def subtree(model: mujoco.MjModel, body: int) -> list[int]:
+    """``body`` and every body below it."""
+    inside = [body]
+    for b in range(body + 1, model.nbody):  # parents precede children in MuJoCo's body order
+        if int(model.body_parentid[b]) in inside:
+            inside.append(b)
+    return inside
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b for vectors stored as rows of (3, N) arrays."""
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def _spatial_momentum(inert: np.ndarray, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """mju_mulInertVec over samples: (angular momentum about the com-frame origin, linear momentum),
+    each (3, N), from cinert rows (10, N) and cvel rows (6, N)."""
+    i, v = inert, vel
+    angular = np.stack([i[0] * v[0] + i[3] * v[1] + i[4] * v[2] - i[8] * v[4] + i[7] * v[5],
+                        i[3] * v[0] + i[1] * v[1] + i[5] * v[2] + i[8] * v[3] - i[6] * v[5],
+                        i[4] * v[0] + i[5] * v[1] + i[2] * v[2] - i[7] * v[3] + i[6] * v[4]])
+    linear = np.stack([i[8] * v[1] - i[7] * v[2] + i[9] * v[3],
+                       i[6] * v[2] - i[8] * v[0] + i[9] * v[4],
+                       i[7] * v[0] - i[6] * v[1] + i[9] * v[5]])
+    return angular, linear
+
+
+def axial_angular_momentum(*, body: str, site: str, axis: Sequence[float] = (0.0, 0.0, 1.0)) -> Reading:
+    """A reading of axis · L about ``site`` of the subtree rooted at ``body`` (kg m²/s).
+
+    ``axis`` is a world direction (normalised here).
+    """
+    unit = np.asarray(axis, dtype=float)
+    if unit.shape != (3,) or not np.linalg.norm(unit) > 0:
+        raise ValueError(f"axis must be a non-zero 3-vector, got {axis!r}")
+    unit = unit / np.linalg.norm(unit)
+
+    def evaluate(model: mujoco.MjModel, rec: Mapping[str, np.ndarray]) -> np.ndarray:
+        rows = np.ascontiguousarray  # (3, N) rows of contiguous samples: fast elementwise operations
+        origin = rows(rec["site_xpos"][:, model.site(site).id].T)
+        total = np.zeros(origin.shape[1])
+        for b in subtree(model, model.body(body).id):
+            angular, linear = _spatial_momentum(rows(rec["cinert"][:, b].T), rows(rec["cvel"][:, b].T))
+            lever = rows(rec["subtree_com"][:, model.body_rootid[b]].T) - origin
+            total += unit @ (angular + _cross(lever, linear))
+        return total
+
+    return Reading(fields=("site_xpos", "cinert", "cvel", "subtree_com"), evaluate=evaluate,
+                   description=f"axis {unit.tolist()} · angular momentum of subtree {body!r} about site "
+                               f"{site!r} (kg m²/s)")

@@ -1,0 +1,659 @@
+"""Run a MuJoCo model and record a Trajectory whose every sample belongs to its state.
+
+After ``mj_step`` the derived fields describe the state *before* the step, and
+after an RK4 step ``efc_force``, ``qfrc_constraint`` and ``energy`` hold the
+last Runge–Kutta stage (design.md, "Conventions"). Two recorders honour that
+and give the same numbers, bit for bit (pinned in tests/test_simulate.py):
+
+``loop`` (any MuJoCo): each step is ``mj_forward`` (derived fields of the
+current state) between the checks ``mj_step`` makes around it
+(``mj_checkPos/Vel/Acc``: a huge or non-finite value is a MuJoCo warning),
+record, then the integrator's own function — the same work ``mj_step`` does,
+in the same order, bit-identical to it. It costs a Python round trip per
+sample, several times MuJoCo's own step.
+
+``batch`` (``mujoco.batch``, MuJoCo ≥ 4): the steps run in C
+(``Batch.rollout``), recording after every substep the integration state and
+the fixed-size derived fields it needs (:func:`recorded_fields`). For every
+integrator but RK4,
+the fields recorded after step k + 1 are those ``mj_step``'s own
+``mj_forward`` computed at state k — what the loop reads at sample k — so they
+are shifted by one, and the last state gets one checked ``forward``. After an
+RK4 step they hold the last stage, so RK4's fields are recomputed by a batched
+``forward`` of every recorded state (warm start included: it is part of the
+integration state); where a second thread may run, the rollout goes in chunks
+(bit-identical to one call: the integration state carries everything a step
+reads) and each chunk's states are recomputed on that thread while the next
+chunk steps, so only the last chunk's recomputation adds to the wall time.
+The rest is numpy over the whole run, reproducing the loop's arithmetic: a
+point's position is ``xipos``, its velocity J·qvel with J assembled from
+``cdof`` and ``subtree_com`` as ``mj_jac`` does, and a joint equality's
+``efc_force``/``efc_pos`` come from ``qfrc_constraint`` and ``qpos`` where
+that is exact (:class:`_JointEquality`). The case's readings
+(``Probe.invariants/forces/series``, :class:`harness.readings.Reading`) name
+the fixed-size fields they need; those are recorded with the rest and
+the readings evaluated once over the whole run, by both recorders alike.
+Equalities that cannot be recovered exactly are read after ``mj_forward`` at
+every recorded state (``mj_setState`` of its row), as the loop reads them.
+
+Every batch run is checked against a fresh ``mj_forward`` at a few samples,
+bit for bit; a mismatch (another MuJoCo's arithmetic) hands the equalities,
+or the whole run, to the loop, and :func:`recorder_notes` says so. Where
+``mujoco.batch`` does not exist (MuJoCo 3.3) the loop records everything and
+:func:`recorder` says why.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import os
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from harness.core.errors import SimulationDiverged
+from harness.core.trajectory import Trajectory
+from harness.engine.bindings import ONE_DOF
+from harness.engine.constraints import equality_force
+from harness.engine.integrators import STEP_FUNCTIONS, integrator_name
+from harness.engine.probe import Probe
+from harness.engine.readings import fields_of
+
+try:  # MuJoCo ≥ 4
+    from mujoco import batch as _batch
+except ImportError:  # MuJoCo 3.3: the loop records everything (recorder() says so)
+    _batch = None
+
+
+# Derived fields the batch recorder records at every state (all fixed-size), besides the readings' own:
+# always (energy, generalized constraint force), for points (position, and velocity as mj_jac assembles
+# it) and for joint equalities recovered from qfrc_constraint (the row count, to know every row is theirs).
+# Each costs about 1 % of a small model's step; a non-finite qacc is MuJoCo's own warning (mj_checkAcc).
+ALWAYS_FIELDS: tuple[str, ...] = ("qfrc_constraint", "energy")
+POINT_FIELDS: tuple[str, ...] = ("xipos", "subtree_com", "cdof")
+EQUALITY_FIELDS: tuple[str, ...] = ("nefc",)
+_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+
+_PARALLEL_SIMS = 256  # fewer recomputed states than this run on the caller's thread alone
+_MIN_CHUNK = 32  # RK4 rollouts with a second thread go in halving chunks down to about this many steps
+
+_SPARE_DATA = 4  # MjData kept for reuse, by model layout
+
+_notes: list[str] = []
+_threads: int | None = None
+_spare_data: dict[tuple[int, int, int, bool], mujoco.MjData] = {}
+_spare_batches: dict[int, tuple[mujoco.MjModel, object]] = {}
+
+
+def recorder() -> str:
+    """Which recorder :func:`simulate` uses on this MuJoCo, and why."""
+    if _batch is None:
+        return (f"loop: mj_forward, read, integrator function per step in Python (MuJoCo {mujoco.__version__} "
+                "has no mujoco.batch)")
+    return ("batch: steps and fixed-size fields recorded in C (mujoco.batch; RK4's fields recomputed on a "
+            "second thread while it steps), readings evaluated over the whole run")
+
+
+def recorder_notes() -> tuple[str, ...]:
+    """Every time this process's batch recorder fell back to reading per sample or to the loop, and why,
+    in order (empty when it never did); ``recorder_notes()[n:]`` are the notes since an earlier count n."""
+    return tuple(_notes)
+
+
+def recorded_fields(model: mujoco.MjModel, probe: Probe) -> tuple[str, ...]:
+    """The derived fields the batch recorder records at every state for ``probe`` on ``model``."""
+    wanted = [*ALWAYS_FIELDS, *(POINT_FIELDS if probe.points else ())]
+    if _joint_equalities(model, probe.constraints):
+        wanted += EQUALITY_FIELDS
+    return tuple(dict.fromkeys((*wanted, *fields_of(probe.readings()))))
+
+
+def point_state(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> tuple[np.ndarray, np.ndarray]:
+    """World position and linear velocity of a body's centre of mass.
+
+    The velocity is J·qvel with J from ``mj_jacBodyCom``, summed column by column in dof order
+    (Σᵢ Jᵢ q̇ᵢ, a multiply then an add per term, no fused multiply-add), so that the batch recorder's
+    vectorized sum over a whole run gives the same numbers bit for bit."""
+    bid = model.body(body).id
+    jacp = np.zeros((3, model.nv))
+    mujoco.mj_jacBodyCom(model, data, jacp, None, bid)
+    velocity = np.zeros(3)
+    for i in range(model.nv):
+        velocity = velocity + jacp[:, i] * data.qvel[i]
+    return data.xipos[bid].copy(), velocity
+
+
+def _check_warnings(counts: np.ndarray, time: float) -> None:
+    raised = [mujoco.mjtWarning(i).name for i in range(len(counts)) if counts[i] > 0]
+    if raised:
+        raise SimulationDiverged(f"MuJoCo warnings {raised} at t={time:.6g} s")
+
+
+# ---------------------------------------------------------------- recorded run
+@dataclass
+class _Run:
+    """A run in arrays: integration states and derived fields at every sample, plus readings."""
+
+    states: np.ndarray                      # (N, nstate), mjSTATE_INTEGRATION rows (batch recorder only)
+    t: np.ndarray                           # (N,)
+    positions: dict[str, np.ndarray]        # (N, 3) per point
+    velocities: dict[str, np.ndarray]       # (N, 3) per point
+    lam: dict[str, np.ndarray]              # efc_force per equality, (N,)
+    viol: dict[str, np.ndarray]             # efc_pos per equality, (N,)
+    energy: np.ndarray                      # (N,)
+    qfrc: np.ndarray                        # (N, nv) qfrc_constraint
+    readings: dict[str, np.ndarray]         # Probe.readings() keys, (N,)
+    fields: dict[str, np.ndarray] = field(default_factory=dict)  # recorded derived fields (batch recorder)
+
+
+def _evaluate_readings(model: mujoco.MjModel, probe: Probe, states_t: np.ndarray, qpos: np.ndarray,
+                       qvel: np.ndarray, fields: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Every reading of ``probe`` over the run, from the recorded state and fields."""
+    recorded = {"time": states_t, "qpos": qpos, "qvel": qvel, **fields}
+    out = {}
+    for key, reading in probe.readings().items():
+        values = np.array(reading.evaluate(model, recorded), dtype=float)  # a copy: recorded is scratch
+        if values.shape != states_t.shape:
+            raise ValueError(f"reading {key!r} returned shape {values.shape}; expected {states_t.shape}")
+        out[key] = values
+    return out
+
+
+def simulate(
+    model: mujoco.MjModel,
+    probe: Probe,
+    *,
+    q0: Sequence[float],
+    qd0: Sequence[float],
+    steps: int,
+    method: str = "auto",
+    timings: dict[str, float] | None = None,
+) -> Trajectory:
+    """Step ``model`` with its own integrator and timestep, recording every state.
+
+    Returns ``steps + 1`` samples, t = 0 .. steps·h. Raises SimulationDiverged
+    on NaN or MuJoCo warnings, ModelMismatch if the model lacks what the probe
+    reads. ``method``: ``auto`` (the batch recorder where ``mujoco.batch``
+    exists, else the loop), ``batch`` or ``loop``; all give the same numbers.
+    ``timings``, if given, receives the seconds of the Python readings
+    (``readings``, batch recorder) or of the whole loop recording (``loop``).
+    """
+    if steps < 1:
+        raise ValueError(f"steps must be >= 1, got {steps}")
+    if method not in ("auto", "batch", "loop"):
+        raise ValueError(f"method must be 'auto', 'batch' or 'loop', got {method!r}")
+    if method == "batch" and _batch is None:
+        raise ValueError(f"method 'batch' needs mujoco.batch, which MuJoCo {mujoco.__version__} lacks; "
+                         "accepted here: 'auto', 'loop'")
+    probe.validate(model)
+    timings = {} if timings is None else timings
+    run = None
+    if _batch is not None and method != "loop":
+        data = _take_data(model)
+        try:
+            probe.binding.set_state(model, data, q0, qd0)
+            run = _record_batch(model, probe, data, steps, timings)
+        finally:
+            _give_back_data(model, data)
+    if run is None:
+        start = time.perf_counter()
+        data = mujoco.MjData(model)
+        probe.binding.set_state(model, data, q0, qd0)
+        run = _record_loop(model, probe, data, steps)
+        timings["loop"] = time.perf_counter() - start
+    return _trajectory(model, probe, run)
+
+
+def _trajectory(model: mujoco.MjModel, probe: Probe, run: _Run) -> Trajectory:
+    dof = probe.binding.dof_matrix(model)
+    extra = {name: run.readings[f"invariants.{name}"] for name in probe.invariants}
+    forces = {name: run.readings[f"forces.{name}"] for name in probe.forces}
+    series = {name: run.readings[f"series.{name}"] for name in probe.series}
+    return Trajectory(
+        t=run.t, positions=run.positions, velocities=run.velocities, multipliers=run.lam | forces,
+        generalized_force=None if dof is None else run.qfrc @ dof,
+        invariants={"energy": run.energy} | extra, violations=run.viol,
+        source=f"mujoco:{integrator_name(model)}", series=series,
+    )
+
+
+# ----------------------------------------------------------------- loop recorder
+def _record_loop(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps: int) -> _Run:
+    """mj_forward, record, integrator function: one Python round trip per step."""
+    step = STEP_FUNCTIONS[integrator_name(model)]
+    n = steps + 1
+    t = np.zeros(n)
+    pos = {p: np.zeros((n, 3)) for p in probe.points}
+    vel = {p: np.zeros((n, 3)) for p in probe.points}
+    lam = {c: np.zeros(n) for c in probe.constraints}
+    viol = {c: np.zeros(n) for c in probe.constraints}
+    energy = np.zeros(n)
+    extra = fields_of(probe.readings())
+    recorded = {f: np.zeros((n, *np.shape(getattr(data, f)))) for f in extra}
+    qpos, qvel = np.zeros((n, model.nq)), np.zeros((n, model.nv))
+    qfrc = np.zeros((n, model.nv))
+    for k in range(n):
+        t[k] = data.time  # before the checks: a bad value makes MuJoCo warn and reset the data
+        _checked_forward(model, data)
+        _check_warnings(data.warning.number, t[k])
+        for p in probe.points:
+            pos[p][k], vel[p][k] = point_state(model, data, p)
+        for c in probe.constraints:
+            lam[c][k], viol[c][k] = equality_force(model, data, c)
+        energy[k] = data.energy[0] + data.energy[1]
+        qpos[k], qvel[k] = data.qpos, data.qvel
+        for f in extra:
+            recorded[f][k] = getattr(data, f)
+        qfrc[k] = data.qfrc_constraint
+        if k < steps:
+            step(model, data)
+    values = _evaluate_readings(model, probe, t, qpos, qvel, recorded)
+    return _Run(states=np.zeros((0, 0)), t=t, positions=pos, velocities=vel, lam=lam, viol=viol, energy=energy,
+                qfrc=qfrc, readings=values)
+
+
+# ---------------------------------------------------------------- batch recorder
+def _state_offset(model: mujoco.MjModel, component: mujoco.mjtState) -> int:
+    """Where ``component`` starts in an mjSTATE_INTEGRATION row (components lie in bit order)."""
+    return mujoco.mj_stateSize(model, int(_STATE) & (int(component) - 1))
+
+
+def set_threads(count: int | None) -> None:
+    """Threads the batch recorder may use for RK4's recomputation (None: one per CPU). A process pool
+    of one worker per CPU sets 1, so that workers do not compete for the same cores."""
+    if count is not None and count < 1:
+        raise ValueError(f"thread count must be >= 1 or None, got {count}")
+    global _threads
+    _threads = count
+
+
+def _layout(model: mujoco.MjModel) -> tuple[int, int, int]:
+    return int(model.signature), int(model.narena), int(model.nbuffer)
+
+
+def _take_data(model: mujoco.MjModel, *, spare: bool = False) -> mujoco.MjData:
+    """A reset MjData for ``model``, reused from an earlier run of a model of the same layout (same
+    signature and arena, as models compiled from one MJCF with other options are) where one was
+    given back: making one costs about 0.35 ms, as much as a short rollout. The batch recorder sets
+    every state it reads, so nothing leaks from one run to the next."""
+    data = _spare_data.pop((*_layout(model), spare), None)
+    if data is None:
+        return mujoco.MjData(model)
+    mujoco.mj_resetData(model, data)
+    return data
+
+
+def _keep(pool: dict, key: object, value: object, limit: int) -> None:
+    """Put ``value`` in ``pool`` for the next run, dropping the oldest entries beyond ``limit``."""
+    while len(pool) >= limit:
+        pool.pop(next(iter(pool)))
+    pool[key] = value
+
+
+def _give_back_data(model: mujoco.MjModel, data: mujoco.MjData, *, spare: bool = False) -> None:
+    _keep(_spare_data, (*_layout(model), spare), data, _SPARE_DATA)
+
+
+def _new_batch(model: mujoco.MjModel, nsim: int, data: mujoco.MjData, *, threads: int | None = None
+               ) -> _batch.Batch:
+    # the batch's results are bit-identical at any thread count (mujoco.batch documentation)
+    threads = threads or (1 if nsim < _PARALLEL_SIMS else _threads_allowed())
+    b = _batch.Batch(model, nsim, nthread=min(threads, nsim))
+    # The batch makes an MjData of its own, only to learn field shapes, on first use (about as costly
+    # as a short rollout); ours serves as well. An optimisation: without it the batch makes its own.
+    with contextlib.suppress(Exception):  # another mujoco.batch: it makes its own
+        b._data = data
+    return b
+
+
+def _checked_forward(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """mj_forward between the checks mj_step makes around it: a huge or non-finite qpos, qvel or
+    qacc raises a MuJoCo warning (and resets the data), which the caller turns into SimulationDiverged."""
+    mujoco.mj_checkPos(model, data)
+    mujoco.mj_checkVel(model, data)
+    mujoco.mj_forward(model, data)
+    mujoco.mj_checkAcc(model, data)
+
+
+def _forward_at(model: mujoco.MjModel, data: mujoco.MjData, state: np.ndarray) -> None:
+    """mj_forward at a recorded state, as the loop recorder computes it there."""
+    mujoco.mj_setState(model, data, state, _STATE)
+    mujoco.mj_forward(model, data)
+
+
+@dataclass
+class _Record:
+    """Where a batch run is recorded: the integration states and ``fields``, one row per sample.
+
+    The arrays are scratch space, reused by the next run of the same layout and length (fresh
+    arrays of a few MB cost a page fault per 4 KiB when first written: about a sixth of a short
+    rollout). Everything a Trajectory keeps is copied out of them."""
+
+    states: np.ndarray                # (steps + 1, nstate)
+    fields: dict[str, np.ndarray]     # (steps + 1, ...) per field, MjData's dtype
+
+    @classmethod
+    def take(cls, model: mujoco.MjModel, data: mujoco.MjData, steps: int, fields: Sequence[str]) -> _Record:
+        key = (*_layout(model), steps, tuple(fields))
+        spare = _spare_records.pop(key, None)
+        if spare is not None:
+            return spare
+        nstate = mujoco.mj_stateSize(model, _STATE)
+        # MjData's types: an int field (nefc, nisland) is a C int, as the batch records it
+        shapes = {f: (np.shape(getattr(data, f)), np.int32 if isinstance(getattr(data, f), int)
+                      else np.asarray(getattr(data, f)).dtype) for f in fields}
+        return cls(states=np.empty((steps + 1, nstate)),
+                   fields={f: np.empty((steps + 1, *shape), dtype) for f, (shape, dtype) in shapes.items()})
+
+    def give_back(self, model: mujoco.MjModel) -> None:
+        _keep(_spare_records, (*_layout(model), len(self.states) - 1, tuple(self.fields)), self, _SPARE_DATA)
+
+    def out(self, start: int, stop: int, *, with_fields: bool) -> dict:
+        """``Batch.rollout``'s out= for steps start..stop−1: states start+1..stop and, ``with_fields``,
+        the fields mj_step computed at states start..stop−1 (an RK4 rollout records none)."""
+        out: dict = {_STATE: self.states[None, start + 1:stop + 1]}
+        if with_fields:
+            out |= {f: v[None, start:stop] for f, v in self.fields.items()}
+        return out
+
+
+_spare_records: dict[tuple, _Record] = {}
+
+
+def _forward_all(model: mujoco.MjModel, data: mujoco.MjData, states: np.ndarray,
+                 into: Mapping[str, np.ndarray], *, threads: int | None = None) -> None:
+    """The fields ``into`` names, after mj_forward at every state row (one batched call in C),
+    written into ``into`` (arrays of len(states) rows)."""
+    fb = _new_batch(model, len(states), data, threads=threads)
+    outputs = {f: fb.bind(f) for f in into}
+    fb.state[:] = states
+    fb.forward()
+    raised = np.flatnonzero(fb.warning[:, :, 1].max(axis=1) > 0)
+    if raised.size:
+        k = int(raised[0])
+        _check_warnings(fb.warning[k, :, 1], float(states[k, 0]))
+    for f, v in outputs.items():
+        into[f][...] = np.asarray(v).reshape(into[f].shape)
+
+
+def _step(b: _batch.Batch, nstep: int, record: Sequence, out: dict) -> None:
+    """``nstep`` steps of batch ``b``'s one simulation, recording into ``out``; SimulationDiverged on an
+    error or a warning (after which the rollout stopped stepping and its records repeat the last state)."""
+    try:
+        b.rollout(nstep, record=record, out=out)
+    except _batch.SimulationError as exc:
+        raise SimulationDiverged(f"MuJoCo raised an error: {exc}") from None
+    counts = b.warning[0, :, 1]
+    if counts.max() > 0:
+        _check_warnings(counts, float(b.state[0, 0]))
+
+
+def _rollout(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record, steps: int) -> None:
+    """States 1..steps and the fields mj_step computed at states 0..steps−1, into ``rec``."""
+    b = _take_batch(model, data)
+    b.state[0] = rec.states[0]
+    _step(b, steps, [_STATE, *rec.fields], rec.out(0, steps, with_fields=True))
+    _give_back_batch(model, b)  # not after an error: its warning counters would stop the next run
+
+
+def _take_batch(model: mujoco.MjModel, data: mujoco.MjData) -> _batch.Batch:
+    """A one-simulation batch of ``model`` (this very object: a batch keeps its model), reused from an
+    earlier run where one was given back (making one costs about 0.1 ms, 3 % of a short rollout).
+    Every run sets the whole integration state, and a step starts from it alone (mj_forward), so
+    nothing leaks from one run to the next (pinned bit for bit against the loop)."""
+    spare = _spare_batches.pop(id(model), None)
+    return spare[1] if spare is not None else _new_batch(model, 1, data)
+
+
+def _give_back_batch(model: mujoco.MjModel, b: _batch.Batch) -> None:
+    # the model is held, so its id is not reused meanwhile
+    _keep(_spare_batches, id(model), (model, b), 2 * _SPARE_DATA)
+
+
+def _threads_allowed() -> int:
+    return _threads or os.cpu_count() or 1
+
+
+def _chunk_sizes(steps: int) -> list[int]:
+    """Halving chunks (half the run, a quarter, ...) down to at most 2·_MIN_CHUNK steps. A forward costs
+    about a quarter of an RK4 step, so a chunk's recomputation ends while the next, half as long,
+    steps; what is left after the last step is the last chunk's, a few dozen states."""
+    sizes, left = [], steps
+    while left > 2 * _MIN_CHUNK:
+        sizes.append(left - left // 2)
+        left //= 2
+    return [*sizes, left]
+
+
+def _rollout_recomputed(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record, steps: int) -> None:
+    """States 1..steps and the fields after mj_forward at every state 0..steps (RK4), into ``rec``.
+    With a second thread, chunk i's states are recomputed while chunk i + 1 steps (both calls
+    release the GIL)."""
+    sizes = _chunk_sizes(steps)
+    b = _take_batch(model, data)
+    b.state[0] = rec.states[0]
+    if _threads_allowed() < 2 or len(sizes) < 2:
+        _step(b, steps, [_STATE], rec.out(0, steps, with_fields=False))
+        _give_back_batch(model, b)
+        _forward_all(model, data, rec.states, rec.fields)
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    def recompute(start: int, stop: int) -> None:  # states start..stop−1, on the other thread
+        _forward_all(model, helper, rec.states[start:stop], {f: v[start:stop] for f, v in rec.fields.items()},
+                     threads=1)
+
+    bounds = np.cumsum([0, *sizes])
+    helper = _take_data(model, spare=True)  # the other thread's template: not the rollout's own
+    try:
+        with ThreadPoolExecutor(max_workers=1) as pool:
+            pending = []
+            for start, stop in itertools.pairwise(bounds):
+                _step(b, int(stop - start), [_STATE], rec.out(int(start), int(stop), with_fields=False))
+                pending.append(pool.submit(recompute, int(start), int(stop)))
+            _give_back_batch(model, b)
+            pending.append(pool.submit(recompute, steps, steps + 1))
+            for f in pending:
+                f.result()
+    finally:
+        _give_back_data(model, helper, spare=True)
+
+
+def _record_batch(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps: int,
+                  timings: dict[str, float]) -> _Run | None:
+    """The batch recorder; None where a check sends the run back to the loop."""
+    shifted = integrator_name(model) != "RK4"
+    rec = _Record.take(model, data, steps, recorded_fields(model, probe))
+    try:
+        return _record_into(model, probe, data, steps, rec, shifted, timings)
+    finally:
+        rec.give_back(model)
+
+
+def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps: int, rec: _Record,
+                 shifted: bool, timings: dict[str, float]) -> _Run | None:
+    """:func:`_record_batch` with its scratch arrays."""
+    mujoco.mj_getState(model, data, rec.states[0], _STATE)
+    if shifted:
+        _rollout(model, data, rec, steps)
+    else:
+        _rollout_recomputed(model, data, rec, steps)
+    states, fields = rec.states, rec.fields
+    # the last state, which no step follows, gets the checks mj_step would make (as in the loop)
+    mujoco.mj_setState(model, data, states[-1], _STATE)
+    _checked_forward(model, data)
+    _check_warnings(data.warning.number, float(states[-1, 0]))
+    if shifted:  # fields of states 0..steps−1 from the rollout, the last state's from that forward
+        for f, v in fields.items():
+            v[-1] = getattr(data, f)
+    # a sum is finite only if every term is (MuJoCo's own checks would have warned long before an
+    # overflow); the row-by-row look, only to say where
+    if not np.isfinite(states.sum()):
+        finite = np.isfinite(states).all(axis=1)
+        if not finite.all():
+            raise SimulationDiverged(f"non-finite state at t={states[np.argmin(finite), 0]:.6g} s")
+    run = _assemble(model, probe, states, fields)
+    clock = time.perf_counter()
+    run.readings = _evaluate_readings(model, probe, run.t, states[:, 1:1 + model.nq],
+                                      states[:, 1 + model.nq:1 + model.nq + model.nv], fields)
+    timings["readings"] = time.perf_counter() - clock
+    recovered = list(run.lam)
+    _read_at_states(model, data, probe, run, [c for c in probe.constraints if c not in run.lam])
+    bad = _verify(model, data, probe, run)
+    wrong = [c for c in recovered if f"equality {c!r}" in bad]
+    if wrong and len(wrong) == len(bad):  # only the recovered equalities: read them per sample instead
+        _notes.append(f"{_label(model)}: efc_force/efc_pos recovered from qfrc_constraint and qpos differed "
+                      f"from a fresh mj_forward for {wrong}; read per sample instead")
+        _read_at_states(model, data, probe, run, wrong)
+        bad = _verify(model, data, probe, run)
+    if bad:
+        _notes.append(f"{_label(model)}: the batch recorder's {', '.join(bad)} differed from a fresh "
+                      "mj_forward; recorded with the loop instead")
+        return None
+    return run
+
+
+def _label(model: mujoco.MjModel) -> str:
+    return f"{integrator_name(model)} at h = {model.opt.timestep:g} s"
+
+
+def _velocity_chain(model: mujoco.MjModel, body: int) -> list[int]:
+    """The dofs mj_jac visits for ``body``: its first moving ancestor's dof chain."""
+    while body and model.body_dofnum[body] == 0:
+        body = int(model.body_parentid[body])
+    if not body:
+        return []
+    chain, i = [], int(model.body_dofadr[body] + model.body_dofnum[body] - 1)
+    while i >= 0:
+        chain.append(i)
+        i = int(model.dof_parentid[i])
+    return chain
+
+
+def _point_velocity(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], qvel: np.ndarray,
+                    body: int) -> np.ndarray:
+    """J·qvel at xipos for every sample, J's columns assembled as mj_jac does
+    (cdof_lin + cdof_ang × (xipos − subtree_com[root])) and summed in dof order as point_state does
+    (the dofs outside the chain add exact zeros there), so the result is point_state's, bit for bit."""
+    rows = np.ascontiguousarray  # samples contiguous per component: fast elementwise operations
+    o0, o1, o2 = rows((fields["xipos"][:, body] - fields["subtree_com"][:, model.body_rootid[body]]).T)
+    velocity = np.zeros((3, len(qvel)))
+    for i in sorted(_velocity_chain(model, body)):
+        a0, a1, a2, l0, l1, l2 = rows(fields["cdof"][:, i].T)
+        q = rows(qvel[:, i])
+        velocity[0] = velocity[0] + (l0 + (a1 * o2 - a2 * o1)) * q
+        velocity[1] = velocity[1] + (l1 + (a2 * o0 - a0 * o2)) * q
+        velocity[2] = velocity[2] + (l2 + (a0 * o1 - a1 * o0)) * q
+    return rows(velocity.T)
+
+
+@dataclass(frozen=True)
+class _JointEquality:
+    """A one-row joint equality whose efc_force and efc_pos follow exactly from recorded fields.
+
+    MuJoCo's row of a joint equality (engine_core_constraint.c) has Jacobian 1
+    at joint1's dof and −p'(q2 − q2₀) at joint2's, and position error
+    q1 − q1₀ − c0 − (c1 d + c2 d² + c3 d³ + c4 d⁴), d = q2 − q2₀. When no
+    other row touches joint1's dof, qfrc_constraint = Jᵀ efc_force holds
+    efc_force there times 1, exactly; and the position error is recomputed
+    with the same operations. Both are checked bit for bit at a few samples.
+    """
+
+    dof: int
+    qpos1: int
+    ref1: float
+    qpos2: int | None
+    ref2: float
+    coef: tuple[float, ...]
+
+    def violation(self, qpos: np.ndarray) -> np.ndarray:
+        c0, c1, c2, c3, c4 = self.coef
+        if self.qpos2 is None:
+            return qpos[:, self.qpos1] - self.ref1 - c0
+        dif = qpos[:, self.qpos2] - self.ref2
+        return qpos[:, self.qpos1] - self.ref1 - c0 - (c1 * dif + c2 * dif * dif + c3 * dif * dif * dif
+                                                       + c4 * dif * dif * dif * dif)
+
+
+
+
+def _joint_equalities(model: mujoco.MjModel, names: Sequence[str]) -> dict[str, _JointEquality]:
+    """The equalities of ``names`` recoverable from recorded fields (see :class:`_JointEquality`),
+    provided every efc row at every sample is a joint-equality row (checked by the caller)."""
+    if model.neq == 0 or any(int(t) != int(mujoco.mjtEq.mjEQ_JOINT) for t in model.eq_type):
+        return {}
+    joints = [(int(model.eq_obj1id[i]), int(model.eq_obj2id[i])) for i in range(model.neq)]
+    if any(int(model.jnt_type[j]) not in ONE_DOF for pair in joints for j in pair if j >= 0):
+        return {}
+    touched = [model.jnt_dofadr[j] for pair in joints for j in pair if j >= 0]
+    out = {}
+    for name in names:
+        eq = model.equality(name).id
+        j1, j2 = joints[eq]
+        dof = int(model.jnt_dofadr[j1])
+        if touched.count(dof) != 1:
+            continue
+        adr1 = int(model.jnt_qposadr[j1])
+        adr2 = int(model.jnt_qposadr[j2]) if j2 >= 0 else None
+        out[name] = _JointEquality(
+            dof=dof, qpos1=adr1, ref1=float(model.qpos0[adr1]), qpos2=adr2,
+            ref2=float(model.qpos0[adr2]) if adr2 is not None else 0.0,
+            coef=tuple(float(c) for c in model.eq_data[eq, :5]))
+    return out
+
+
+def _assemble(model: mujoco.MjModel, probe: Probe, states: np.ndarray, fields: dict[str, np.ndarray]) -> _Run:
+    nq, nv = model.nq, model.nv
+    qpos = states[:, 1:1 + nq]
+    qvel = states[:, 1 + nq:1 + nq + nv]
+    positions, velocities = {}, {}
+    for p in probe.points:
+        bid = model.body(p).id
+        positions[p] = fields["xipos"][:, bid].copy()
+        velocities[p] = _point_velocity(model, fields, qvel, bid)
+    energy = fields["energy"][:, 0] + fields["energy"][:, 1]
+    qfrc = np.array(fields["qfrc_constraint"])  # fields are the recorder's scratch space
+    lam, viol = {}, {}
+    recoverable = _joint_equalities(model, probe.constraints)
+    if recoverable:
+        start = _state_offset(model, mujoco.mjtState.mjSTATE_EQ_ACTIVE)
+        active = states[:, start:start + model.neq]
+        if np.all(active == 1) and np.all(fields["nefc"] == model.neq):  # every row is an equality's
+            for c, eq in recoverable.items():
+                lam[c] = qfrc[:, eq.dof].copy()
+                viol[c] = eq.violation(qpos)
+    return _Run(states=states, t=states[:, 0].copy(), positions=positions, velocities=velocities, lam=lam,
+                viol=viol, energy=energy, qfrc=qfrc, readings={}, fields=fields)
+
+
+def _read_at_states(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run,
+                    equalities: Sequence[str]) -> None:
+    """The equalities ``equalities`` after mj_forward at every recorded state, as the loop recorder
+    reads them."""
+    if not equalities:
+        return
+    n = len(run.states)
+    for c in equalities:
+        run.lam[c], run.viol[c] = np.zeros(n), np.zeros(n)
+    for k in range(n):
+        _forward_at(model, data, run.states[k])
+        for c in equalities:
+            run.lam[c][k], run.viol[c][k] = equality_force(model, data, c)
+
+
+def _verify(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run) -> list[str]:
+    """What differs from a fresh mj_forward at one sample mid-run (a shifted or, for RK4, a recomputed
+    record), bit for bit: every recorded field (positions, energy and qfrc_constraint are copies or
+    sums of them), the point velocities and the recovered equalities; empty when nothing does."""
+    k = len(run.states) // 2
+    _forward_at(model, data, run.states[k])
+    bad = [f"field {f!r}" for f, values in run.fields.items() if not np.array_equal(getattr(data, f), values[k])]
+    bad += [f"velocity of {p!r}" for p in probe.points
+            if not np.array_equal(point_state(model, data, p)[1], run.velocities[p][k])]
+    bad += [f"equality {c!r}" for c in probe.constraints
+            if equality_force(model, data, c) != (run.lam[c][k], run.viol[c][k])]
+    return bad

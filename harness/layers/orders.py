@@ -1,0 +1,406 @@
+"""Layer 4: observed convergence order of every MuJoCo integrator vs. its documented order.
+
+This module computes (ladders of runs, fitted orders, the gated
+``converge.*`` figures); :mod:`harness.studies.convergence` renders a study
+as tables and plots.
+
+For each integrator the case is run at a ladder of timesteps h (each a power
+of two times the shipped timestep) over one horizon T shared by the ladder;
+the error is the largest distance between MuJoCo's and the reference's points
+over [0, T] (the reference is solved once and evaluated on each run's grid).
+The observed order is the least-squares slope of log(error) against log(h)
+over the asymptotic range: points whose error is a small fraction of the
+case's length (not saturated) and well above any error floor.
+
+Expected orders come from MuJoCo's documentation, never from a measurement
+(doc/computation/index.rst, "Numerical integration" and "Integrators"):
+
+- ``Euler``: semi-implicit Euler, v⁺ = v + h a, q⁺ = q + h v⁺ (eq_semimplicit);
+  with no joint damping the implicit-damping variant reduces to it. 1st order.
+- ``implicit``, ``implicitfast``: one Newton step of implicit-in-velocity
+  Euler, v⁺ = v + h M̂⁻¹ M a, q⁺ = q + h v⁺ (eq_implicit_update). 1st order.
+- ``discrete``: "the same implicit update inside the constraint solve"
+  (eq_discrete_update), qacc "as h → 0 converges to the continuous
+  acceleration", and "the specified damping ratio is recovered as h → 0":
+  an Euler-type one-step method, 1st order. Absent before MuJoCo 4; where it
+  is absent the study says so in its rows, table and plot.
+- ``RK4``: "the fixed-step 4th-order Runge-Kutta method". 4th order.
+
+Error floors. An error that stops decreasing with h is a floor, not an order:
+the two smallest-h points decide (a local slope below ``PLATEAU_SLOPE``);
+the floor is then the smallest error, and only points above
+``FLOOR_FACTOR`` × floor are fitted, so the floor biases the slope by at most
+log2((9·2ᵖ + 1)/10)/p − 1 (0.14 for p = 4, 0.07 for p = 1). Known floors:
+the point-mass inertia (diaginertia ~1e-10 of m l²), the reference tolerance
+(rtol 1e-12) and, for equality constraints, softness.
+
+Softness. A soft equality (solimp d < 1) sags by r = a_u (1 − d) timeconst²
+dampratio² (modeling.rst, "Solver parameters"), and with the refsafe flag
+MuJoCo enforces timeconst ≥ 2h, so the sag and the error it causes scale as
+h² once 2h exceeds the authored timeconst, and stay constant below. With d at
+its maximum 0.9999 (mjMAXIMP) no stiffer setting exists, and that O(h²) term
+hides RK4's 4th order on the pendulum at every stable h. The rigid limit
+removes it: the deviation caused by softness is linear in ε = 1 − d
+(the forcing (1 − d) a_u of the constraint dynamics), so each constrained run
+is repeated at 2ε and extrapolated, x₀ = 2 x(ε) − x(2ε) (Richardson in ε). The
+verdict of a constrained case judges ``position@rigid``; ``position`` (as
+authored), ``softness`` (|x(ε) − x(2ε)|, the softness part) and ``force``
+are shown beside it, not gated.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from harness.cases import Case
+from harness.core.errors import SimulationDiverged
+from harness.core.figures import Figure, FigureName
+from harness.core.trajectory import Trajectory
+from harness.engine.compat import joint_types, known_defect
+from harness.engine.integrators import available_integrators
+from harness.engine.models import compile_model
+from harness.engine.simulate import simulate
+from harness.reference import solutions as refmod
+
+# Documented order of accuracy (see the module docstring for the doc passages).
+EXPECTED_ORDER: Mapping[str, int] = {"Euler": 1, "implicit": 1, "implicitfast": 1, "RK4": 4, "discrete": 1}
+ORDER_TOLERANCE = 0.3   # pass when observed ≥ expected − 0.3 (floor bias ≤ 0.14, see above)
+FLOOR_FACTOR = 10.0     # fit only errors above 10 × the detected floor
+PLATEAU_SLOPE = 0.5     # a local slope below this at the smallest h marks a floor
+SATURATION = 0.05       # errors above 5 % of the case's length are not asymptotic
+
+# Timestep ladders, as multiples of the case's timestep (largest first). The
+# full study goes far into the asymptotic range; the fast subset (run by
+# `mjharness check`) is three points where every registered case is asymptotic.
+FULL_LADDER: Mapping[int, tuple[float, ...]] = {1: (8, 4, 2, 1, 0.5, 0.25), 4: (32, 16, 8, 4, 2, 1)}
+FAST_LADDER: Mapping[int, tuple[float, ...]] = {1: (4, 2, 1), 4: (32, 16, 8)}
+FAST_HORIZON = 0.5      # s; the fast subset's horizon (or the case's, if shorter)
+
+VERDICT_QUANTITY = {False: "position", True: "position@rigid"}
+
+
+# ----------------------------------------------------------------- fitting
+@dataclass(frozen=True)
+class OrderFit:
+    """Slope of log(error) vs log(h) over the asymptotic range.
+
+    Attributes:
+        order: fitted slope; nan when fewer than two points are usable.
+        floor: detected error floor (the smallest error), or None when the
+            errors still fall at the smallest h.
+        status: per point, ``used``, ``floor`` (≤ FLOOR_FACTOR × floor),
+            ``saturated`` (above the saturation level), ``diverged`` or ``zero``.
+        local: slopes between neighbouring finite points, largest h first.
+    """
+
+    order: float
+    floor: float | None
+    status: tuple[str, ...]
+    local: tuple[float, ...]
+
+    @property
+    def n_used(self) -> int:
+        return self.status.count("used")
+
+
+def fit_order(dts: Sequence[float], errors: Sequence[float], *, saturation: float = math.inf,
+              floor_factor: float = FLOOR_FACTOR, plateau_slope: float = PLATEAU_SLOPE) -> OrderFit:
+    """Fit the observed order, detecting a floor first so it is never fitted as an order."""
+    h = np.asarray(dts, dtype=float)
+    e = np.asarray(errors, dtype=float)
+    if h.shape != e.shape or h.ndim != 1 or h.size < 2:
+        raise ValueError(f"dts and errors must be 1-D of one length ≥ 2, got {h.shape} and {e.shape}")
+    if not np.all(h > 0) or len(set(h.tolist())) != h.size:
+        raise ValueError(f"dts must be positive and distinct, got {h.tolist()}")
+    finite = np.isfinite(e) & (e > 0)
+    by_h = [i for i in np.argsort(h) if finite[i]]  # smallest h first
+    floor = None
+    if len(by_h) >= 2:
+        i0, i1 = by_h[0], by_h[1]
+        if math.log(e[i1] / e[i0]) / math.log(h[i1] / h[i0]) < plateau_slope:
+            floor = float(np.min(e[finite]))
+    status = []
+    for i in range(h.size):
+        if not np.isfinite(e[i]):
+            status.append("diverged")
+        elif e[i] <= 0:
+            status.append("zero")
+        elif e[i] > saturation:
+            status.append("saturated")
+        elif floor is not None and e[i] <= floor_factor * floor:
+            status.append("floor")
+        else:
+            status.append("used")
+    used = np.array([s == "used" for s in status])
+    order = float(np.polyfit(np.log(h[used]), np.log(e[used]), 1)[0]) if used.sum() >= 2 else math.nan
+    desc = by_h[::-1]
+    local = tuple(math.log(e[a] / e[b]) / math.log(h[a] / h[b]) for a, b in itertools.pairwise(desc))
+    return OrderFit(order=order, floor=floor, status=tuple(status), local=local)
+
+
+# ----------------------------------------------------------------- results
+@dataclass(frozen=True)
+class Series:
+    """One error-vs-h series of one integrator, with its fit and (if gated) its verdict.
+
+    ``expected`` is None for series shown for information only.
+    """
+
+    integrator: str
+    quantity: str
+    unit: str
+    dts: tuple[float, ...]
+    errors: tuple[float, ...]
+    fit: OrderFit
+    expected: float | None = None
+    tolerance: float = ORDER_TOLERANCE
+    note: str = ""
+    predicted_floor: float | None = None
+
+    @property
+    def shortfall(self) -> float | None:
+        """max(0, expected − observed); the whole expected order when none was observed."""
+        if self.expected is None:
+            return None
+        if not math.isfinite(self.fit.order):
+            return float(self.expected)
+        return max(0.0, self.expected - self.fit.order)
+
+    @property
+    def passed(self) -> bool | None:
+        return None if self.shortfall is None else self.shortfall <= self.tolerance
+
+    @property
+    def verdict(self) -> str:
+        if self.passed is None:
+            return f"n/a: {self.note}" if self.note else "info"
+        if self.passed:
+            return "pass"
+        if self.fit.n_used < 2:
+            return "FAIL (no asymptotic range above the floor)" if self.fit.floor else "FAIL (< 2 usable points)"
+        return "FAIL"
+
+
+@dataclass(frozen=True)
+class ConvergenceStudy:
+    """Every series of one case, the integrators this MuJoCo lacks, and the plot."""
+
+    case: str
+    horizon: float
+    fast: bool
+    constrained: bool
+    series: tuple[Series, ...]
+    unavailable: Mapping[str, str] = field(default_factory=dict)
+    plot_png: bytes | None = None
+    mujoco_version: str = mujoco.__version__
+    joints: frozenset[int] = frozenset()  # the model's joint types, which known defects match
+
+    @property
+    def verdicts(self) -> tuple[Series, ...]:
+        return tuple(s for s in self.series if s.expected is not None)
+
+    def known_defect(self, s: Series) -> str:
+        """The documented defect of this MuJoCo that explains a failed verdict ('' if none)."""
+        return "" if s.passed is not False else known_defect(self.joints, FigureName.converge(s.integrator,
+                                                                                               "order_shortfall"))
+
+    @property
+    def passed(self) -> bool:
+        """Every verdict passes, or fails for a documented defect of this MuJoCo version."""
+        return all(s.passed or self.known_defect(s) for s in self.verdicts)
+
+
+# ----------------------------------------------------------------- running
+def unavailable_integrators() -> dict[str, str]:
+    """Documented integrators this MuJoCo lacks, each with the reason (shown, never skipped)."""
+    return {name: f"not in MuJoCo {mujoco.__version__} (no mjINT_{name.upper()})"
+            for name in EXPECTED_ORDER if name not in available_integrators()}
+
+
+def double_softness(spec: mujoco.MjSpec) -> None:
+    """Double ε = 1 − d of every equality's impedance (solimp d0 and d_width)."""
+    for eq in spec.equalities:
+        imp = [float(x) for x in eq.solimp]
+        for k in (0, 1):
+            eps = 1.0 - imp[k]
+            if not 0 < eps < 0.5:
+                raise ValueError(f"equality {eq.name!r}: solimp[{k}] = {imp[k]} leaves no room to double "
+                                 "1 − d; accepted: 0.5 < d < 1")
+            imp[k] = 1.0 - 2.0 * eps
+        eq.solimp = imp
+
+
+def polynomial_degree(reference: refmod.Reference, horizon: float, *, max_degree: int) -> int | None:
+    """Lowest degree ≤ ``max_degree`` of a polynomial in t that every reference point follows
+    over [0, horizon] to 1e-9 of the length scale; None if there is none.
+
+    A one-step method of order p integrates linear dynamics whose solution is a
+    polynomial of degree ≤ p without truncation error (uniform acceleration:
+    Atwood's machine, a ramp), so its order cannot be observed there.
+    """
+    t = np.linspace(0.0, horizon, 257)
+    q, _ = reference.solution.state(t)
+    pts = reference.dynamics.points(q).reshape(len(t), -1)
+    for degree in range(max_degree + 1):
+        coef = np.polynomial.chebyshev.chebfit(t / horizon, pts, degree)
+        resid = pts - np.polynomial.chebyshev.chebval(t / horizon, coef).T
+        if np.max(np.abs(resid)) <= 1e-9 * reference.scales.length:
+            return degree
+    return None
+
+
+def initial_force_floor(model: mujoco.MjModel, reference: refmod.Reference) -> float:
+    """Documented force error of the soft equalities at t = 0, / force scale.
+
+    At r = 0, v = 0 the reference acceleration a_r = −b v − k r vanishes, so
+    the force is f = (A + R)⁻¹(−a_u) against the ideal f* = A⁻¹(−a_u), i.e.
+    f − f* = −(A + R)⁻¹ R f*, with A = J M⁻¹ Jᵀ and R_ii = (1 − d)/d · A_ii
+    (computation chapter, "Parameters", eq. impedance_R, taking MuJoCo's
+    diagonal approximation as exact, which diagexact makes it). For one row this
+    is the familiar (1 − d)|λ(0)|; coupled rows (Atwood's two strings) mix.
+    No timestep removes it: it is a floor of the force error.
+    """
+    dyn = reference.dynamics
+    q0 = reference.q0()[None]
+    rows = [k for k, c in enumerate(dyn.constraint_names)
+            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, c) >= 0]
+    if not rows:
+        return 0.0
+    jac = dyn.jacobian(q0)[0][rows]
+    lam = reference.solution.multipliers([0.0])[0][rows]
+    a = jac @ np.linalg.solve(dyn.mass_matrix(q0)[0], jac.T)
+    d = np.array([float(model.eq_solimp[model.equality(dyn.constraint_names[k]).id, 0]) for k in rows])
+    r = np.diag((1.0 - d) / d * np.diag(a))
+    return float(np.max(np.abs(np.linalg.solve(a + r, r @ lam)))) / reference.scales.force
+
+
+def _compose(*edits: Callable[[mujoco.MjSpec], None] | None) -> Callable[[mujoco.MjSpec], None]:
+    def edit(spec: mujoco.MjSpec) -> None:
+        for e in edits:
+            if e is not None:
+                e(spec)
+    return edit
+
+
+def _ladder(integrator: str, fast: bool) -> tuple[float, ...]:
+    table = FAST_LADDER if fast else FULL_LADDER
+    return table[4 if EXPECTED_ORDER[integrator] >= 4 else 1]
+
+
+def _point_error(a: Mapping[str, np.ndarray], b: Mapping[str, np.ndarray]) -> float:
+    return max(float(np.max(np.linalg.norm(a[p] - b[p], axis=1))) for p in b)
+
+
+def _force_error(sim: Trajectory, ref: Trajectory) -> float:
+    names = [c for c in ref.multipliers if c in sim.multipliers]
+    return max(float(np.max(np.abs(sim.multipliers[c] - ref.multipliers[c]))) for c in names)
+
+
+def convergence_study(
+    case: Case,
+    *,
+    fast: bool = False,
+    integrators: Sequence[str] | None = None,
+    mjcf: Path | str | None = None,
+    timestep: float | None = None,
+    edit: Callable[[mujoco.MjSpec], None] | None = None,
+    reference: refmod.Reference | None = None,
+) -> ConvergenceStudy:
+    """Error vs timestep for each integrator of ``case``, with fitted and expected orders.
+
+    ``fast`` runs the three-point subset on a horizon of at most FAST_HORIZON
+    (what `mjharness check` gates); ``mjcf``, ``timestep`` and ``edit`` change
+    the model as in ``run_case`` (the ladder scales with ``timestep``), while
+    the reference keeps the shipped parameters. ``reference`` reuses a solved
+    reference whose horizon covers the study's. The study carries no plot
+    (:func:`harness.studies.convergence.convergence_study` adds one).
+    """
+    available = available_integrators()
+    chosen = list(integrators) if integrators is not None else list(available)
+    for name in chosen:
+        if name not in available:
+            raise ValueError(f"unknown integrator {name!r}; this MuJoCo offers {list(available)}")
+    shipped = compile_model(case.mjcf)
+    path = Path(mjcf) if mjcf is not None else case.mjcf
+    base = compile_model(path, timestep=timestep, edit=edit)
+    h0 = float(base.opt.timestep)
+    h_max = h0 * max(max(_ladder(n, fast)) for n in chosen)
+    span = min(case.horizon, FAST_HORIZON) if fast else case.horizon
+    horizon = max(1, math.floor(span / h_max + 1e-9)) * h_max  # at least one largest step
+    if reference is None or reference.solution.t_end < horizon - 1e-12:
+        reference = case.reference(shipped, t_end=horizon)
+    probe = case.probe(reference.dynamics)
+    constrained = bool(probe.constraints)
+    scales = reference.scales
+    grids: dict[int, Trajectory] = {}
+    force_floor = initial_force_floor(base, reference) if constrained else None
+
+    def run(name: str, h: float, extra: Callable[[mujoco.MjSpec], None] | None) -> Trajectory | None:
+        model = compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra))
+        try:
+            return simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=round(horizon / h))
+        except SimulationDiverged:
+            return None
+
+    series: list[Series] = []
+    for name in chosen:
+        dts = tuple(h0 * k for k in _ladder(name, fast))
+        errs: dict[str, list[float]] = {"position": [], "position@rigid": [], "softness": [], "force": []}
+        for h in dts:
+            sim = run(name, h, None)
+            soft = run(name, h, double_softness) if constrained else None
+            if sim is None or (constrained and soft is None):
+                for v in errs.values():
+                    v.append(math.nan)
+                continue
+            steps = len(sim.t) - 1
+            if steps not in grids:
+                grids[steps] = refmod.trajectory(reference, sim.t)
+            ref = grids[steps]
+            errs["position"].append(_point_error(sim.positions, ref.positions))
+            if constrained:
+                rigid = {p: 2 * sim.positions[p] - soft.positions[p] for p in ref.positions}
+                errs["position@rigid"].append(_point_error(rigid, ref.positions))
+                errs["softness"].append(_point_error(sim.positions, soft.positions))
+                errs["force"].append(_force_error(sim, ref) / scales.force)
+        sat = SATURATION * scales.length
+        gated = VERDICT_QUANTITY[constrained]
+        degree = polynomial_degree(reference, horizon, max_degree=EXPECTED_ORDER[name])
+        exact = "" if degree is None else (
+            f"exact: the reference is a degree-{degree} polynomial in t, which an order-"
+            f"{EXPECTED_ORDER[name]} method integrates without truncation error")
+        quantities = [("position", "m", sat)]
+        if constrained:
+            quantities = [("position@rigid", "m", sat), *quantities, ("softness", "m", sat), ("force", "1", SATURATION)]
+        for quantity, unit, saturation in quantities:
+            values = tuple(errs[quantity])
+            series.append(Series(
+                integrator=name, quantity=quantity, unit=unit, dts=dts, errors=values,
+                fit=fit_order(dts, values, saturation=saturation),
+                expected=float(EXPECTED_ORDER[name]) if quantity == gated and not exact else None,
+                note=exact if quantity == gated else "",
+                predicted_floor=force_floor if quantity == "force" else None))
+    unavailable = unavailable_integrators() if integrators is None else {}
+    return ConvergenceStudy(case=case.name, horizon=horizon, fast=fast, constrained=constrained,
+                            series=tuple(series), unavailable=unavailable, joints=joint_types(base))
+
+
+# ----------------------------------------------------------------- outputs
+def order_figures(study: ConvergenceStudy) -> list[Figure]:
+    """``converge.INTEGRATOR.order_shortfall`` = max(0, expected − observed), gated ≤ tolerance."""
+    figs = []
+    for s in study.verdicts:
+        used = [f"{h * 1e3:g}" for h, st in zip(s.dts, s.fit.status, strict=True) if st == "used"]
+        floor = f"; floor {s.fit.floor:.2e} {s.unit}" if s.fit.floor is not None else ""
+        figs.append(Figure(
+            FigureName.converge(s.integrator, "order_shortfall"), float(s.shortfall), "1",
+            f"max(0, documented order {s.expected:g} − observed {s.fit.order:.2f}) of the {s.quantity} error "
+            f"over T = {study.horizon:g} s, fitted on h = {', '.join(used) or 'none'} ms{floor}"))
+    return figs

@@ -1,0 +1,77 @@
+"""The run as one JSON document (report.json, ``check --json``, baselines): every figure, check and setting.
+
+The schema is documented in docs/report-json.md; :data:`SCHEMA` is bumped when
+a consumer (``mjharness diff``) must change.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+from collections.abc import Mapping, Sequence
+from importlib.metadata import version
+
+import mujoco
+import numpy as np
+
+from harness import __version__
+from harness.core.checks import Check
+from harness.pipeline.run import CaseResult
+
+SCHEMA = 1
+
+
+def versions() -> dict[str, str]:
+    """The versions a run's figures depend on (sympy's read from its metadata: no import)."""
+    return {"mjharness": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
+            "sympy": version("sympy"), "matplotlib": version("matplotlib"), "python": platform.python_version()}
+
+
+def all_passed(checks: Mapping[str, Sequence[Check]]) -> bool:
+    return all(c.passed for cs in checks.values() for c in cs)
+
+
+def json_doc(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+             appendix: Mapping[str, object] | None = None) -> dict:
+    """Every figure, every check and the settings, per case (the schema ``mjharness diff`` reads);
+    ``appendix`` adds further top-level entries (the studies, the seed audit)."""
+    doc: dict = {"schema": SCHEMA, "versions": versions(), "passed": all_passed(checks), "cases": {},
+                 **(appendix or {})}
+    for r in results:
+        cs = checks[r.case.name]
+        doc["cases"][r.case.name] = {
+            "passed": all(c.passed for c in cs),
+            "figures": {f.name: f.as_dict() for f in r.figures},
+            "checks": {c.name: {"value": c.value, "threshold": c.threshold, "unit": c.unit,
+                                "passed": c.passed, **({"note": c.note} if c.note else {})} for c in cs},
+            "settings": r.settings,
+        }
+    return doc
+
+
+def _jsonable(value: object) -> object:
+    """Plain JSON: numpy scalars and arrays unwrapped, non-finite floats as the strings
+    "nan", "inf", "-inf" (strict JSON has no NaN; ``float()`` reads them back)."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float):
+        return value if np.isfinite(value) else str(value)
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if value is None or isinstance(value, bool | int | str):
+        return value
+    return str(value)
+
+
+def dumps(doc: object) -> str:
+    """JSON text for report documents: strict JSON, stable key order."""
+    return json.dumps(_jsonable(doc), indent=1, sort_keys=True, allow_nan=False) + "\n"
+
+
+def render_json(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+                appendix: Mapping[str, object] | None = None) -> str:
+    return dumps(json_doc(results, checks, appendix=appendix))

@@ -1,0 +1,99 @@
+"""What the report draws besides its tables — layer 4 studies, the seed audit and each case's plots —
+run serially, or on a process pool forked after the cases, so that the workers hold every reference
+the cases solved. The results are those of a serial run, in the same order (pinned in
+tests/test_speed_paths.py)."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Sequence
+
+from harness import cases
+from harness.outputs.plots import section_plots
+from harness.pipeline.matrix import progress
+from harness.pipeline.pool import cpus, run_tasks
+from harness.pipeline.run import CaseResult
+from harness.studies import Studies, audit, contact, convergence, html_section, softness, solvers
+
+
+def study_calls(selected: Sequence[cases.Case]) -> list[tuple[str, str]]:
+    """Layer 4 and the seed audit as (kind, name) calls, the costliest kinds first (measured: a seed
+    audit of a system 0.3-1.5 s, a convergence study 0.3-1.5 s, the rest 0.2-1 s)."""
+    systems = list(dict.fromkeys(c.system for c in selected))
+    claimed = {c.frame.system for c in audit.all_claims()}
+    return ([("audit", s) for s in systems if s in claimed]
+            + [("convergence", c.name) for c in selected]
+            + [("softness", c.name) for c in softness.equality_cases(selected)]
+            + [("solvers", c.name) for c in solvers.constrained_cases(selected)]
+            + [("contact", c.name) for c in selected if "slip" in c.mujoco_series])
+
+
+def study(kind: str, name: str):
+    """One call of :func:`study_calls` (module-level: a worker runs it). An audit's rows come back
+    without their claims, which hold closures; the parent puts them back."""
+    if kind == "audit":
+        return [dataclasses.replace(row, claim=None)
+                for row in audit.audit([c for c in audit.all_claims() if c.frame.system == name])]
+    case = cases.get(name)
+    run = {"convergence": lambda: convergence.convergence_study(case, fast=False),
+           "softness": lambda: softness.softness_study(case, fast=False),
+           "solvers": lambda: solvers.solver_study(case, fast=False),
+           "contact": lambda: contact.contact_study(name)}[kind]
+    return run()
+
+
+def case_plots(name: str, result: CaseResult) -> str:
+    """A case's report plots (module-level: a worker runs it), from its result sent without the Case,
+    which holds closures."""
+    return section_plots(dataclasses.replace(result, case=cases.get(name)))
+
+
+def report_parts(selected: Sequence[cases.Case], results: Sequence[CaseResult], *, jobs: int | None,
+                 studies: bool) -> tuple[list[str], dict[str, object] | None, dict[str, str]]:
+    """What the report draws besides its tables: layer 4 and the seed audit (HTML sections and JSON
+    entries, when ``studies``) and each case's plots. With more than one worker the calls share a
+    process pool forked now, so the workers hold the references the cases solved; the results are
+    those of a serial run, in the same order."""
+    start = time.perf_counter()
+    layer4 = study_calls(selected) if studies else []
+    calls = ([(study, call) for call in layer4]
+             + [(case_plots, (r.case.name, dataclasses.replace(r, case=None))) for r in results])
+    labels = [" ".join(c) for c in layer4] + [f"plots {r.case.name}" for r in results]
+    workers = min(jobs or cpus(), len(calls))
+    bar = progress(calls, "report", unit="part")
+
+    def note(i: int, _result: object) -> None:
+        bar.set_postfix_str(labels[i], refresh=False)
+        bar.update()
+
+    done = run_tasks(calls, workers, on_done=note)
+    bar.close()
+    drawn = {r.case.name: html for r, html in zip(results, done[len(layer4):], strict=True)}
+    if not studies:
+        return [], None, drawn
+    extras, appendix = _studies_html(selected, dict(zip(layer4, done, strict=False)),
+                                     elapsed=time.perf_counter() - start)
+    return extras, appendix, drawn
+
+
+def _studies_html(selected: Sequence[cases.Case], done: dict, *, elapsed: float
+                  ) -> tuple[list[str], dict[str, object]]:
+    """The studies' and the audit's HTML sections and JSON entries, from their calls' results."""
+    claims = audit.all_claims()
+    rows = []
+    for system in dict.fromkeys(c.system for c in selected):  # each in all_claims() order
+        system_claims = [c for c in claims if c.frame.system == system]
+        rows += [dataclasses.replace(row, claim=claim)
+                 for row, claim in zip(done.get(("audit", system), []), system_claims, strict=True)]
+    order = {c.id: k for k, c in enumerate(claims)}
+    rows.sort(key=lambda row: order[row.claim.id])  # the order of one audit of every claim
+    by_kind = {kind: tuple(r for (k, _), r in done.items() if k == kind)
+               for kind in ("convergence", "softness", "solvers", "contact")}
+    found = Studies(convergence=by_kind["convergence"], softness=by_kind["softness"],
+                    solvers=by_kind["solvers"], elapsed=elapsed)
+    contact_results = list(by_kind["contact"])
+    html = [html_section(found), contact.html_section(contact_results), audit.html_section(rows)]
+    appendix = {"audit": audit.json_rows(rows),
+                "contact_study": {r.case: [dict(row) for row in r.rows] for r in contact_results}}
+    return [h for h in html if h], appendix

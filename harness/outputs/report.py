@@ -1,0 +1,309 @@
+"""Reports: one self-contained HTML page and a Markdown summary (the JSON: :mod:`.jsondoc`).
+
+A builder collects independent sections; each section is a function of one
+CaseResult (plus its checks) returning HTML. Images (plots, the derived
+equations, a still of each model) are PNGs embedded as data URIs and there is
+no script or stylesheet from the network, so the page opens offline. Nothing
+time-dependent is written, so identical inputs give byte-identical files.
+Files are written to a temporary directory and moved into place, so a failed
+run never leaves a half-written report.
+
+Layout of the page: verdict banner, how to read it, summary table (one row per
+case), then per case: model still and equations of motion, gated checks
+grouped by layer (figure, threshold, the share of the threshold used),
+plots, figures measured but not gated, settings; versions at the top.
+"""
+
+from __future__ import annotations
+
+import base64
+import functools
+import html
+from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from harness import __version__
+from harness.core.checks import Check
+from harness.outputs.equations import equations, png_data_uri
+from harness.outputs.files import prepare_output, write_atomic
+from harness.outputs.jsondoc import render_json, versions
+from harness.outputs.plots import section_plots, shipped_integrator
+from harness.outputs.stills import Request, Still, stills
+from harness.outputs.table import closest as closest_check
+from harness.outputs.table import fmt_value, ratio, ratio_text
+from harness.pipeline.run import CaseResult
+from harness.reference.derivations import derivation
+
+
+def _esc(value: object) -> str:
+    return html.escape(str(value), quote=True)
+
+
+def _setting(value: object) -> str:
+    if isinstance(value, Mapping):
+        return ", ".join(f"{k} = {_setting(v)}" for k, v in value.items())
+    if isinstance(value, list | tuple):
+        return " ".join(_setting(v) for v in value)
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+# -------------------------------------------------------------- sections
+def section_banner(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]]) -> str:
+    total = sum(len(checks[r.case.name]) for r in results)
+    failed = [c for r in results for c in checks[r.case.name] if not c.passed]
+    bad_cases = len({c.case for c in failed})
+    if not failed:
+        text = f"PASS — {len(results)} case(s), all {total} checks within their thresholds"
+    else:
+        text = (f"FAIL — {len(failed)} of {total} checks over their thresholds, "
+                f"in {bad_cases} of {len(results)} case(s)")
+    return f"<p class='banner {'pass' if not failed else 'fail'}'>{_esc(text)}</p>"
+
+
+_HOW_TO_READ = """
+<details class='howto' open><summary>How to read this report (one minute)</summary><ul>
+<li>Every <b>check</b> is one measured <b>figure</b> beside its <b>threshold</b>; it passes when the figure
+is finite and ≤ the threshold. <b>used</b> is figure ÷ threshold: 40% means 2.5× headroom.</li>
+<li>Thresholds are a measured value times a stated margin (2–3×) or a bound from theory, kept with their
+basis in <code>mjcf/CASE.limits.toml</code> (<code>mjharness limits CASE</code> lists them).</li>
+<li>Figure names are <code>LAYER.QUANTITY[.DETAIL]</code>: <code>instant.*</code> compares MuJoCo and the
+analytic equations at sampled states without integrating (a failure there is in the model);
+<code>reference.*</code> judges our own solution; <code>INTEGRATOR.*</code> (RK4, Euler, …) compares a MuJoCo run
+over the case's horizon with the reference; <code>converge.*</code> compares the observed order of accuracy
+with the documented one. Errors are maxima over the horizon; “1” means relative to the case's scale (m·g for
+forces, m·g·l for energy).</li>
+<li>Constraint forces follow M q̈ = F + Jᵀλ, which is MuJoCo's <code>qfrc_constraint = Jᵀ efc_force</code>.</li>
+</ul></details>
+"""
+
+
+def section_summary(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]]) -> str:
+    """One row per case: verdict, checks passed, the check closest to its limit, the failures."""
+    rows = []
+    for r in results:
+        cs = checks[r.case.name]
+        failed = [c for c in cs if not c.passed]
+        verdict = "PASS" if not failed else "FAIL"
+        tight = closest_check(cs)
+        closest = (f"{_esc(tight.name)} <span class='dim'>({ratio_text(ratio(tight))})</span>"
+                   if tight else "no gates")
+        fails = "<br>".join(f"{_esc(c.name)}: {fmt_value(c.value)} &gt; {fmt_value(c.threshold)} {_esc(c.unit)}"
+                            for c in failed)
+        rows.append(f"<tr class='{verdict.lower()}'><td><a href='#{_esc(r.case.name)}'>{_esc(r.case.name)}</a></td>"
+                    f"<td class='verdict'>{verdict}</td><td>{len(cs) - len(failed)}/{len(cs)}</td>"
+                    f"<td>{closest}</td><td>{fails}</td></tr>")
+    return ("<h2>Summary</h2><table class='summary'><tr><th>case</th><th>verdict</th><th>checks passed</th>"
+            "<th>closest to its limit (used)</th><th>failed: figure &gt; threshold</th></tr>"
+            f"{''.join(rows)}</table>")
+
+
+def _bar(r: float) -> str:
+    if np.isnan(r):
+        return "n/a"
+    width = 100.0 if not np.isfinite(r) else min(100.0, 100.0 * r)
+    return (f"<span class='bar'><span class='{'over' if not r <= 1 else 'ok'}' "
+            f"style='width:{width:.0f}%'></span></span>{ratio_text(r)}")
+
+
+def _group_title(group: str, result: CaseResult) -> str:
+    if group == "instant":
+        return "Layer 2 — instantaneous dynamics at sampled states (no time integration)"
+    if group == "reference":
+        return "Reference quality — our own DAE/ODE solution"
+    if group == "converge":
+        return "Layer 4 — observed convergence order vs the documented one (error vs timestep)"
+    if group not in result.simulations:
+        return group
+    shipped = " (the model's own integrator)" if group == shipped_integrator(result) else ""
+    return f"MuJoCo {group}{shipped} — {_setting(result.settings.get('horizon', ''))} s against the reference"
+
+
+def _status(c: Check) -> str:
+    """PASS / FAIL, or n/a / KNOWN DEFECT with the reason (harness.compat)."""
+    if c.note:
+        return f"n/a: {c.note}"
+    return f"known defect: {c.known}" if c.known else c.status.upper()
+
+
+def _checks_table(result: CaseResult, checks: Sequence[Check]) -> str:
+    meaning = {f.name: f.description for f in result.figures}
+    groups: dict[str, list[Check]] = {}
+    for c in checks:
+        groups.setdefault(c.name.group, []).append(c)
+    body = []
+    for group, cs in groups.items():
+        body.append(f"<tr class='group'><td colspan='7'>{_esc(_group_title(group, result))}</td></tr>")
+        body += [f"<tr class='{'na' if c.note else 'pass' if c.passed else 'fail'}'><td>{_esc(c.name)}</td>"
+                 f"<td class='num'>{fmt_value(c.value)}</td><td class='num'>{fmt_value(c.threshold)}</td>"
+                 f"<td>{_esc(c.unit)}</td><td class='used'>{_bar(ratio(c))}</td>"
+                 f"<td class='verdict'>{_esc(_status(c))}</td>"
+                 f"<td class='dim'>{_esc(meaning.get(c.name, ''))}</td></tr>" for c in cs]
+    return ("<table class='checks'><tr><th>check</th><th>figure</th><th>threshold</th><th>unit</th>"
+            f"<th>used</th><th>verdict</th><th>meaning</th></tr>{''.join(body)}</table>")
+
+
+def section_model(result: CaseResult, still: Still | None) -> str:
+    """The model still (or why there is none) beside the derived equations of motion."""
+    if still is not None and still.png is not None:
+        uri = "data:image/png;base64," + base64.b64encode(still.png).decode("ascii")
+        image = (f"<figure><img src='{uri}' alt='{_esc(result.case.name)} model at its initial state'>"
+                 f"<figcaption>{_esc(Path(str(result.settings.get('mjcf', ''))).name)} at the initial "
+                 f"state (rendered headless, MUJOCO_GL={_esc(still.backend)})</figcaption></figure>")
+    else:
+        note = still.note if still is not None else "model image not rendered"
+        image = f"<p class='note'>{_esc(note)}</p>"
+    return f"<div class='model'><div>{image}</div>{equations_html(result.case.system)}</div>"
+
+
+@functools.cache
+def equations_html(system: str) -> str:
+    """The system's equations of motion as typeset images, once per system (a system's cases share
+    them; sympy's simplification and mathtext cost about 0.2 s)."""
+    rows = []
+    for eq in equations(derivation(system)):
+        uri = png_data_uri(eq.latex)
+        shown = (f"<img class='eq' src='{uri}' alt='{_esc(eq.latex)}'>" if uri
+                 else f"<code>{_esc(eq.latex)}</code>")
+        rows.append(f"<tr><td class='dim'>{_esc(eq.label)}</td><td>{shown}</td></tr>")
+    return ("<div><h3>Equations of motion (derived by sympy)</h3>"
+            "<p class='dim'>Lagrange's equations M q̈ − F − Jᵀλ = 0, one per coordinate, with the "
+            "constraints f(q) = 0. The LaTeX of each line is the image's alt text.</p>"
+            f"<table class='eqs'>{''.join(rows)}</table></div>")
+
+
+_UNITS = {"timestep": "s", "horizon": "s", "tolerance": ""}
+
+
+def section_case(result: CaseResult, checks: Sequence[Check], still: Still | None, *, plots: str) -> str:
+    """One case: model and equations, gated checks, plots (already drawn: :func:`section_plots`), the
+    rest."""
+    c = result.case
+    failed = sum(not ch.passed for ch in checks)
+    verdict = "PASS" if not failed else "FAIL"
+    gated = {ch.name for ch in checks}
+    info = "".join(f"<tr><td>{_esc(f.name)}</td><td class='num'>{fmt_value(f.value)}</td>"
+                   f"<td>{_esc(f.unit)}</td><td class='dim'>{_esc(f.description)}</td></tr>"
+                   for f in result.figures if f.name not in gated)
+    settings = "".join(f"<tr><td>{_esc(k)}</td><td>{_esc(_setting(v))} {_UNITS.get(k, '')}</td></tr>"
+                       for k, v in result.settings.items())
+    return (f"<section id='{_esc(c.name)}'><h2>{_esc(c.name)} <span class='badge {verdict.lower()}'>"
+            f"{verdict} {len(checks) - failed}/{len(checks)}</span></h2><p>{_esc(c.description)}</p>"
+            f"{section_model(result, still)}"
+            f"<h3>Gated checks</h3>{_checks_table(result, checks)}"
+            f"<h3>Plots</h3><div class='plots'>{plots}</div>"
+            f"<h3>Other figures (measured, not gated)</h3><table><tr><th>figure</th><th>value</th>"
+            f"<th>unit</th><th>meaning</th></tr>{info}</table>"
+            f"<h3>Settings used</h3><table class='settings'>{settings}</table></section>")
+
+
+_STYLE = """
+tr.shipped td{font-weight:bold} tr.ambiguous td{background:#fff6d5}
+body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;max-width:74em;margin:1em auto;padding:0 1em;
+color:#222;line-height:1.35}
+h1{margin-bottom:.2em} h2{border-bottom:2px solid #ddd;padding-bottom:.15em;margin-top:1.6em}
+h3{margin:1.1em 0 .3em}
+table{border-collapse:collapse;margin:.4em 0;font-size:.85em}
+td,th{border:1px solid #d4d4d4;padding:2px 7px;text-align:left;vertical-align:middle}
+th{background:#f3f3f3} td.num{font-family:ui-monospace,monospace;text-align:right;white-space:nowrap}
+tr.fail td{background:#fde4e4} td.verdict{font-weight:bold} tr.pass td.verdict{color:#17701d}
+tr.fail td.verdict{color:#b00000} tr.na td{color:#888} tr.group td{background:#eef2f7;font-weight:bold;font-size:.95em}
+.dim{color:#666} .note{background:#fff6d6;border:1px solid #e7c75a;padding:.6em;border-radius:4px}
+.banner{font-size:1.25em;font-weight:bold;padding:.5em .8em;border-radius:5px;margin:.6em 0}
+.banner.pass{background:#e3f4e4;color:#17701d;border:1px solid #9ad09e}
+.banner.fail{background:#fde4e4;color:#b00000;border:1px solid #e8a0a0}
+.badge{font-size:.6em;padding:2px 8px;border-radius:10px;vertical-align:middle}
+.badge.pass{background:#e3f4e4;color:#17701d} .badge.fail{background:#fde4e4;color:#b00000}
+.bar{display:inline-block;width:60px;height:9px;background:#eee;margin-right:5px;vertical-align:middle}
+.bar span{display:block;height:100%} .bar .ok{background:#6aa86f} .bar .over{background:#d33}
+td.used{white-space:nowrap;font-family:ui-monospace,monospace}
+.model{display:grid;grid-template-columns:minmax(0,480px) minmax(0,1fr);gap:1.5em;align-items:start}
+.model figure{margin:0} .model figure img{width:100%;border:1px solid #ccc}
+figcaption{font-size:.8em;color:#666} table.eqs td{border:none;padding:3px 6px}
+img.eq{max-width:100%;display:block}
+.plots{display:grid;grid-template-columns:repeat(auto-fit,minmax(440px,1fr));gap:.6em}
+.plots img{width:100%} .howto{background:#f7f9fc;border:1px solid #dde3ec;padding:.4em .8em;border-radius:5px}
+.howto summary{font-weight:bold;cursor:pointer} .howto li{margin:.25em 0}
+footer{margin-top:2em;font-size:.8em;color:#666}
+"""
+
+
+def model_stills(results: Sequence[CaseResult]) -> dict[str, Still]:
+    """A still of each case's model (the file actually run), rendered in a child process."""
+    return stills([Request(case=r.case.name, mjcf=str(r.settings["mjcf"]),
+                           coordinates=tuple(q.name for q in derivation(r.case.system).system.q))
+                   for r in results])
+
+
+def render_html(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+                stills: Mapping[str, Still] | None = None, config_source: str | None = None,
+                extras: Sequence[str] = (), plots: Mapping[str, str] | None = None) -> str:
+    """The whole page. ``stills`` defaults to rendering each model now (see harness.render);
+    ``extras`` are further sections (studies, audit) appended after the cases; ``plots``, each case's
+    :func:`section_plots` by case name, are drawn now where not given."""
+    with ThreadPoolExecutor(max_workers=1) as pool:  # the stills render in a child process meanwhile
+        pending = pool.submit(model_stills, results) if stills is None else None
+        plots = {r.case.name: (plots or {}).get(r.case.name) or section_plots(r) for r in results}
+        for system in dict.fromkeys(r.case.system for r in results):
+            equations_html(system)  # typeset while the stills render
+        shown = pending.result() if pending is not None else stills or {}
+    ver = ", ".join(f"{k} {v}" for k, v in versions().items())
+    source = f" Thresholds from {_esc(config_source)}." if config_source else ""
+    body = section_summary(results, checks) + "".join(
+        section_case(r, checks[r.case.name], shown.get(r.case.name), plots=plots[r.case.name])
+        for r in results) + "".join(extras)
+    return (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>mjharness report</title>"
+            f"<style>{_STYLE}</style></head><body><h1>mjharness report</h1>"
+            f"<p class='dim'>MuJoCo checked against analytical mechanics. Versions: {_esc(ver)}.{source}</p>"
+            f"{section_banner(results, checks)}{_HOW_TO_READ}{body}"
+            f"<footer>Generated by mjharness {_esc(__version__)}; the same figures are in report.json, "
+            f"a summary in summary.md.</footer></body></html>\n")
+
+
+def render_markdown(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]]) -> str:
+    """A CI job summary: the verdict, one row per case, the failures, every check folded away."""
+    total = sum(len(checks[r.case.name]) for r in results)
+    failed = [c for r in results for c in checks[r.case.name] if not c.passed]
+    head = (f"**PASS**: {len(results)} case(s), all {total} checks within their thresholds" if not failed
+            else f"**FAIL**: {len(failed)} of {total} checks over their thresholds")
+    lines = ["# mjharness summary", "", head, "",
+             "| case | verdict | checks passed | closest to its limit (used) |", "|---|---|---|---|"]
+    for r in results:
+        cs = checks[r.case.name]
+        bad = sum(not c.passed for c in cs)
+        tight = closest_check(cs)
+        closest = f"{tight.name} ({ratio_text(ratio(tight))})" if tight else "no gates"
+        lines.append(f"| {r.case.name} | {'pass' if not bad else '**FAIL**'} | {len(cs) - bad}/{len(cs)} "
+                     f"| {closest} |")
+    if failed:
+        lines += ["", "## Failed checks", "", "| case | check | figure | threshold | unit |",
+                  "|---|---|---|---|---|"]
+        lines += [f"| {c.case} | {c.name} | {fmt_value(c.value)} | {fmt_value(c.threshold)} | {c.unit} |"
+                  for c in failed]
+    lines += ["", "<details><summary>Every check</summary>", "",
+              "| case | check | figure | threshold | used | verdict |", "|---|---|---|---|---|---|"]
+    for r in results:
+        for c in checks[r.case.name]:
+            lines.append(f"| {r.case.name} | {c.name} | {fmt_value(c.value)} | {fmt_value(c.threshold)} | "
+                         f"{ratio_text(ratio(c))} | {c.status if c.passed else '**FAIL**'} |")
+    lines += ["", "</details>"]
+    return "\n".join(lines) + "\n"
+
+
+def write_report(out: Path | str, results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+                 stills: Mapping[str, Still] | None = None, config_source: str | None = None,
+                 extras: Sequence[str] = (), appendix: Mapping[str, object] | None = None,
+                 plots: Mapping[str, str] | None = None) -> list[Path]:
+    """Write report.html, report.json and summary.md into ``out`` (all rendered before anything is
+    written, then moved into place). ``extras``/``appendix``: further HTML sections and JSON entries;
+    ``plots``: each case's plots, already drawn (see :func:`render_html`)."""
+    files = {"report.html": render_html(results, checks, stills=stills, config_source=config_source,
+                                        extras=extras, plots=plots),
+             "report.json": render_json(results, checks, appendix=appendix),
+             "summary.md": render_markdown(results, checks)}
+    out = prepare_output(out)
+    return write_atomic({out / name: text for name, text in files.items()})

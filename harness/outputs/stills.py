@@ -1,0 +1,174 @@
+"""Still images of MJCF models for the report, rendered headless in a child process.
+
+OpenGL initialisation can abort the whole process (a segfault in a driver, a
+missing library), which no ``try`` can catch. So the parent never touches GL:
+it starts ``python -m harness.outputs.stills``, hands it the models as JSON on stdin and
+reads PNGs back on stdout. Backends are tried in order — the user's
+``MUJOCO_GL`` if set (only that), else ``egl`` then ``osmesa`` — and when none
+works the caller gets a one-line reason to show in the page instead of an
+image. The model is posed at the case's initial state.
+
+Identical inputs give identical PNG bytes on one machine and backend (no
+timestamps; pinned in tests/test_report.py).
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import subprocess
+import sys
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+from harness import cases
+from harness.engine.bindings import JointBinding
+
+WIDTH, HEIGHT = 480, 360
+BACKENDS = ("egl", "osmesa")
+TIMEOUT_S = 120.0
+
+
+@dataclass(frozen=True)
+class Still:
+    """A rendered model (``png`` bytes) or the reason there is none (``note``)."""
+
+    png: bytes | None
+    note: str
+    backend: str = ""
+
+
+@dataclass(frozen=True)
+class Request:
+    """One model to render: which case (for its binding and initial state) and which file."""
+
+    case: str
+    mjcf: str
+    coordinates: tuple[str, ...]
+
+
+def stills(requests: Sequence[Request], *, timeout: float = TIMEOUT_S) -> dict[str, Still]:
+    """A still per request's case; never raises for GL trouble (the reason goes in ``note``)."""
+    if not requests:
+        return {}
+    payload = json.dumps([{"case": r.case, "mjcf": r.mjcf, "coordinates": list(r.coordinates)}
+                          for r in requests])
+    user = os.environ.get("MUJOCO_GL")
+    reasons = []
+    for backend in ([user] if user else BACKENDS):
+        env = dict(os.environ, MUJOCO_GL=backend)
+        if backend in ("egl", "osmesa") and "PYOPENGL_PLATFORM" not in os.environ:
+            env["PYOPENGL_PLATFORM"] = backend
+        try:
+            proc = subprocess.run([sys.executable, "-m", "harness.outputs.stills"], input=payload, env=env,
+                                  capture_output=True, text=True, timeout=timeout, check=False)
+        except (OSError, subprocess.TimeoutExpired) as exc:
+            reasons.append(f"{backend}: {type(exc).__name__}")
+            continue
+        if proc.returncode == 0:
+            try:
+                return _parse(proc.stdout, backend)
+            except (ValueError, KeyError, TypeError) as exc:
+                reasons.append(f"{backend}: unreadable renderer output ({exc})")
+                continue
+        reasons.append(f"{backend}: {_last_line(proc.stderr) or f'exit {proc.returncode}'}")
+    note = "model image unavailable: no headless OpenGL backend worked (" + "; ".join(reasons) + ")"
+    return {r.case: Still(png=None, note=note) for r in requests}
+
+
+def _parse(stdout: str, backend: str) -> dict[str, Still]:
+    out = {}
+    for case, item in json.loads(stdout).items():
+        if item.get("png"):
+            out[case] = Still(png=base64.b64decode(item["png"]), note="", backend=backend)
+        else:
+            out[case] = Still(png=None, note=f"model image unavailable: {item['error']}", backend=backend)
+    return out
+
+
+def _last_line(text: str) -> str:
+    lines = [ln.strip() for ln in text.strip().splitlines() if ln.strip()]
+    return lines[-1][:200] if lines else ""
+
+
+# ------------------------------------------------------------------ child
+def _pose(model, data, case_name: str, coordinates: Sequence[str]) -> None:
+    """Put the model in the case's initial state (left at qpos0 if the case does not fit)."""
+    case = cases.get(case_name)
+    binding = (case.binding or JointBinding)(tuple(coordinates))
+    binding.validate(model)
+    binding.set_state(model, data, [case.q0[c] for c in coordinates], [0.0] * len(coordinates))
+
+
+def _camera(model, data):
+    """A free camera framing the bodies, sites and geoms (not the floor), looking along +y."""
+    import mujoco
+    import numpy as np
+
+    planes = {int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_HFIELD)}
+    solid = np.array([int(t) not in planes for t in model.geom_type], dtype=bool)
+    centers, radii = data.geom_xpos[solid], model.geom_rbound[solid][:, None]
+    pts = np.concatenate([np.zeros((1, 3)), data.xpos[1:], data.site_xpos.reshape(-1, 3),
+                          (centers - radii).reshape(-1, 3), (centers + radii).reshape(-1, 3)])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    span = max(float(np.max(hi - lo)), 0.3)
+    cam = mujoco.MjvCamera()
+    mujoco.mjv_defaultFreeCamera(model, cam)
+    cam.lookat[:] = (lo + hi) / 2
+    cam.distance = 1.7 * span  # the span fills ~3/4 of the default 45° field of view
+    cam.azimuth, cam.elevation = 90.0, -15.0  # x to the right, z up, seen slightly from above
+    return cam
+
+
+def _render_one(item: Mapping[str, object]) -> bytes:
+    import io
+
+    import mujoco
+    from PIL import Image
+
+    model = mujoco.MjModel.from_xml_path(str(item["mjcf"]))
+    data = mujoco.MjData(model)
+    _pose(model, data, str(item["case"]), list(item["coordinates"]))  # type: ignore[arg-type]
+    mujoco.mj_forward(model, data)
+    model.vis.headlight.ambient[:] = 0.35
+    model.vis.headlight.diffuse[:] = 0.6
+    cam = _camera(model, data)
+    width = min(WIDTH, int(model.vis.global_.offwidth))
+    height = min(HEIGHT, int(model.vis.global_.offheight))
+    with mujoco.Renderer(model, height, width) as renderer:
+        renderer.update_scene(data, camera=cam)
+        pixels = renderer.render()
+    buf = io.BytesIO()
+    Image.fromarray(pixels).save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def _probe_gl() -> None:
+    """Create and free a GL context; any failure here is the backend's, not a model's."""
+    import mujoco
+
+    ctx = mujoco.GLContext(1, 1)
+    ctx.make_current()
+    ctx.free()
+
+
+def _child() -> int:
+    items = json.loads(sys.stdin.read())
+    try:
+        _probe_gl()
+    except Exception as exc:
+        print(f"OpenGL unavailable: {type(exc).__name__}: {' '.join(str(exc).split())[:160]}", file=sys.stderr)
+        return 3
+    out: dict[str, dict[str, str]] = {}
+    for item in items:
+        try:
+            out[item["case"]] = {"png": base64.b64encode(_render_one(item)).decode("ascii")}
+        except Exception as exc:  # a model-specific problem: report it, render the rest
+            out[item["case"]] = {"error": " ".join(str(exc).split())[:200]}
+    sys.stdout.write(json.dumps(out))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(_child())

@@ -1,0 +1,133 @@
+"""Running the case matrix, serially or on a process pool (``--jobs``), and judging it.
+
+``run_all`` runs the cases (a system's cases in one worker, so that its
+derivation, dynamics and reference are made once) and judges them. Either way
+the results are those of a serial run, in registry order (pinned in
+tests/test_speed_paths.py). Each case's measured cost is kept for the next
+run's scheduling (:mod:`harness.core.costs`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from collections.abc import Callable, Sequence
+from concurrent.futures import as_completed
+from pathlib import Path
+
+from harness import cases
+from harness.core import costs
+from harness.core.checks import Check
+from harness.pipeline.limits import Limits, load_limits
+from harness.pipeline.pool import cpus, fork_pool
+from harness.pipeline.run import CaseResult, run_case
+from harness.pipeline.verdict import judge
+from harness.reference import derivations
+from harness.reference import solutions as refmod
+
+COLD = ("derivation",)  # the timings of run_case that a warm run (derivations cached) does not pay
+
+
+def progress(items: Sequence, desc: str, unit: str = "case"):
+    """A tqdm bar on stderr, silent when stderr is not a terminal (CI logs, pipes)."""
+    from tqdm import tqdm  # lazy: 0.03 s, only where a bar is drawn
+
+    return tqdm(items, desc=desc, unit=unit, file=sys.stderr, leave=False,
+                disable=not sys.stderr.isatty())
+
+
+def run_all(selected: Sequence[cases.Case], config_path: Path | None, mjcf: Path | None = None, *,
+            jobs: int | None = None, figures_only: bool = False
+            ) -> tuple[list[CaseResult], dict[str, list[Check]], Limits]:
+    """run_case for each case, then its verdict; (results, checks by case, limits).
+
+    ``jobs`` worker processes (default: one per CPU) share the cases; every
+    case is computed by the same code from the same inputs wherever it runs, so
+    the results are those of a serial run, in registry order, for any ``jobs``.
+    ``figures_only``: the caller reads figures and settings alone (``check``,
+    ``baseline``), so workers send back no trajectories (several MB a case,
+    which the parent would unpickle while the workers wait on the pipe) and no
+    reference solutions (for studies).
+    """
+    limits = load_limits(config_path)
+    workers = min(jobs or cpus(), len(selected))
+    bar = progress(selected, "mjharness")
+    if workers <= 1 or mjcf is not None:
+        results = []
+        for case in bar:
+            bar.set_postfix_str(case.name)
+            results.append(run_case(case, mjcf=mjcf))
+    else:
+        results = _run_parallel(selected, workers, bar, figures_only=figures_only)
+    bar.close()
+    if mjcf is None:
+        costs.record({r.case.name: sum(v for k, v in r.timings.items() if k not in COLD) for r in results})
+    checks = {r.case.name: judge(r, limits.for_case(r.case.name)) for r in results}
+    return results, checks, limits
+
+
+def groups(selected: Sequence[cases.Case], *, derived: Callable[[str], bool] | None = None) -> list[list[int]]:
+    """Indices of the selected cases by system, each group in registry order, costliest group first.
+
+    A system's cases run in one worker, so that its derivation, dynamics and reference are made once.
+    A group costs its cases' measured warm costs plus, where ``derived(system)`` is False (default: its
+    derivation is not in the on-disk cache), the system's measured cold derivation; what was never
+    measured counts :data:`harness.core.costs.UNKNOWN`.
+    """
+    derived = derived or derivations.derivation_stored
+    measured = costs.case_costs()
+    by_system: dict[str, list[int]] = {}
+    for i, case in enumerate(selected):
+        by_system.setdefault(case.system, []).append(i)
+
+    def cost(system: str, group: list[int]) -> float:
+        deriving = 0.0 if derived(system) else (derivations.derivation_cost(system) or costs.UNKNOWN)
+        return deriving + sum(measured.get(selected[i].name, costs.UNKNOWN) for i in group)
+
+    return sorted(by_system.values(), key=lambda group: -cost(selected[group[0]].system, group))
+
+
+def _run_group(names: Sequence[str], figures_only: bool):
+    """A group's cases in a worker, in order, until one fails: per case (its result without the
+    unpicklable Case, or its error), then the references this worker solved (none if
+    ``figures_only``, when the results carry no trajectories either)."""
+    outcomes = []
+    for name in names:
+        try:
+            result = run_case(cases.get(name))
+        except Exception as exc:  # returned, raised by the parent in registry order
+            outcomes.append((None, exc))
+            break
+        if figures_only:
+            result = dataclasses.replace(result, reference=None, simulations={})
+        outcomes.append((dataclasses.replace(result, case=None), None))
+    return outcomes, ({} if figures_only else refmod.export_solutions())
+
+
+def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_only: bool) -> list[CaseResult]:
+    """run_case on a process pool, a system's cases in one worker; results in registry order. A
+    case's error is raised once every case before it in the registry has finished, as a serial run
+    would raise it."""
+    stored = {system: derivations.derivation_stored(system) for system in dict.fromkeys(c.system for c in selected)}
+    if not all(stored.values()):  # the workers derive: sympy and its lazily loaded parts, once, before the fork
+        from analytic.lagrangian import preload  # lazy: sympy (0.15 s), only when the workers will derive
+
+        preload()
+    outcomes: dict[int, tuple] = {}
+    with fork_pool(workers) as pool:
+        futures = {pool.submit(_run_group, [selected[i].name for i in group], figures_only): group
+                   for group in groups(selected, derived=stored.__getitem__)}
+        next_in_order = 0
+        for future in as_completed(futures):
+            group = futures[future]
+            done, seeds = future.result()
+            refmod.import_solutions(seeds)  # the run's studies reuse these solves
+            outcomes.update(zip(group, done, strict=False))  # cases after a failure never ran
+            bar.set_postfix_str(", ".join(selected[i].name for i in group[:len(done)]), refresh=False)
+            bar.update(len(done))
+            while next_in_order in outcomes:
+                error = outcomes[next_in_order][1]
+                if error is not None:
+                    raise error
+                next_in_order += 1
+    return [dataclasses.replace(outcomes[i][0], case=case) for i, case in enumerate(selected)]

@@ -1,0 +1,102 @@
+"""Worker processes for the CLI: cases and studies on every CPU, results as a serial run gives them.
+
+Workers are forked (on Linux), so they start with the parent's imports and
+with every reference solution the parent holds: forked after the cases ran,
+the studies' workers reuse the cases' solves instead of repeating them. Each
+worker runs MuJoCo on one thread (the workers, not MuJoCo's threads, share
+the cores) and ignores Ctrl-C, which is the parent's: it stops them all.
+
+:func:`run_tasks` returns results in the order the calls were given, and
+raises a call's error once every earlier call has finished, as a serial
+loop would raise its first error; the other workers are stopped at once.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import gc
+import multiprocessing
+import os
+import signal
+import sys
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from typing import Any
+
+from harness.engine import simulate
+
+
+def cpus() -> int:
+    """CPUs this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _worker_init() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops the workers
+    simulate.set_threads(1)  # one worker per CPU: the workers, not MuJoCo's threads, share the cores
+
+
+@contextlib.contextmanager
+def fork_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
+    """A process pool of ``workers``, forked where the platform can (spawn re-imports everything,
+    about 1 s a worker). On an error or an interrupt in the ``with`` body the workers are terminated
+    at once rather than after their current call.
+
+    Everything this process holds is frozen out of the garbage collector while the pool lives
+    (``gc.freeze``, as Python's docs advise before a fork): a worker's collections would otherwise
+    walk every inherited object (sympy's expressions, the modules) and write to it, copying its
+    memory page by page in each worker; measured 0.04 s of a 2.5 s cold check on 2 workers.
+    """
+    context = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else None)
+    gc.freeze()
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_worker_init)
+    try:
+        yield pool
+    except BaseException:
+        for process in list(getattr(pool, "_processes", {}).values()):
+            process.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    else:
+        pool.shutdown()
+    finally:
+        gc.unfreeze()
+
+
+def run_tasks(calls: Sequence[tuple[Callable[..., Any], tuple]], workers: int, *,
+              on_done: Callable[[int, Any], None] | None = None) -> list:
+    """``fn(*args)`` for every call on ``workers`` processes; results in the order of ``calls``.
+
+    Calls are submitted in the given order (put the costliest first). ``on_done(i, result)`` runs in
+    this process as call i finishes (progress). ``fn`` must be a module-level function and its result
+    picklable. With one worker (or fewer) the calls run here, one after another, with no pool.
+    """
+    if workers <= 1:
+        done = []
+        for i, (fn, args) in enumerate(calls):
+            done.append(fn(*args))
+            if on_done is not None:
+                on_done(i, done[-1])
+        return done
+    results: dict[int, Any] = {}
+    errors: dict[int, BaseException] = {}
+    with fork_pool(workers) as pool:
+        futures: dict[Future, int] = {pool.submit(fn, *args): i for i, (fn, args) in enumerate(calls)}
+        next_in_order = 0
+        for future in as_completed(futures):
+            i = futures[future]
+            try:
+                results[i] = future.result()
+            except Exception as exc:  # raised once every call before it has finished
+                errors[i] = exc
+            else:
+                if on_done is not None:
+                    on_done(i, results[i])
+            while next_in_order in results or next_in_order in errors:
+                if next_in_order in errors:
+                    raise errors[next_in_order]
+                next_in_order += 1
+    return [results[i] for i in range(len(calls))]

@@ -1,0 +1,2 @@
+"""The analytic side as the harness uses it: derivations and numeric dynamics, cached on disk, and
+references solved once per process (:mod:`.derivations`, :mod:`.solutions`)."""

@@ -1,0 +1,120 @@
+"""Derivations and the numeric dynamics made from them, cached on disk and per process.
+
+Derivations are cached on disk (:mod:`harness.core.cache`), keyed by the source
+of the system module and of ``analytic/lagrangian.py``, so a run derives only
+what was edited since the last one; within a process each is loaded once. So
+are the numeric functions made from them at a model's parameter values
+(:class:`analytic.dynamics.Compiled`, keyed also by ``analytic/dynamics.py`` and
+the values): a run that finds them cached needs no derivation and never
+imports sympy.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from analytic import systems
+from analytic.dynamics import Compiled, Dynamics
+from harness.core import cache
+
+if TYPE_CHECKING:
+    from analytic.lagrangian import Derivation, LagrangianSystem
+
+# Derivation's lazily computed results, all evaluated before a derivation is cached on disk
+SYMBOLIC = ("mass_matrix", "forcing", "constraint_rows", "jacobian", "gamma", "holonomic_residual", "energy",
+            "momenta", "cyclic", "equations", "multiplier_symbols")
+
+
+def _module_file(module: str) -> Path:
+    """Where ``module``'s source is, found without importing it (analytic.lagrangian loads sympy)."""
+    spec = importlib.util.find_spec(module)
+    if spec is None or spec.origin is None:
+        raise ImportError(f"cannot find the source of {module}")
+    return Path(spec.origin)
+
+
+def _sources(system: str) -> list[Path]:
+    """The files a derivation of ``system`` depends on (the package's ``symbols`` makes its symbols)."""
+    return [Path(str(systems.load(system).__file__)), _module_file("analytic.systems"),
+            _module_file("analytic.lagrangian")]
+
+
+def _derived(system_of: LagrangianSystem) -> Derivation:
+    result = system_of.derive()
+    for name in SYMBOLIC:
+        getattr(result, name)
+    return result
+
+
+def _derivation_type() -> type:
+    from analytic.lagrangian import Derivation  # lazy: sympy (0.15 s), only when a derivation is loaded
+
+    return Derivation
+
+
+@functools.cache
+def derivation(system: str) -> Derivation:
+    """The derivation of ``system`` with every symbolic result evaluated (cached on disk and per process)."""
+    digest = cache.source_key(_sources(system))
+    return cache.cached("derivation", system, digest, lambda: _derived(systems.build(system)), _derivation_type())
+
+
+def derivation_stored(system: str) -> bool:
+    """Whether the on-disk cache holds ``system``'s derivation for its current source (no loading)."""
+    return cache.has("derivation", system, cache.source_key(_sources(system)))
+
+
+def derivation_cost(system: str) -> float | None:
+    """Seconds the last cold derivation of ``system`` at its current source took (None if never
+    measured): recorded by the cache when it computed the entry."""
+    return cache.cost("derivation", system, cache.source_key(_sources(system)))
+
+
+@functools.cache
+def minimal_derivation(system: str) -> Derivation | None:
+    """The derivation of the system's minimal-coordinate form (``minimal()``), or None if it has none."""
+    if not systems.has_minimal(system):
+        return None
+    digest = cache.source_key(_sources(system))
+    return cache.cached("minimal", system, digest, lambda: _derived(systems.build(system, minimal=True)),
+                        _derivation_type())
+
+
+def _compiled(kind: str, system: str, params: tuple[tuple[str, float], ...],
+              deriving: Callable[[str], Derivation | None]) -> Dynamics:
+    """Dynamics from the on-disk entry for (system, params), made from ``deriving(system)`` if absent
+    or if its code does not run here (e.g. a numpy that lacks a function it names)."""
+    digest = cache.key(cache.source_key([*_sources(system), _module_file("analytic.dynamics")]), repr(params))
+    return cache.cached(kind, system, digest, lambda: Compiled.of(deriving(system), dict(params)), Compiled,
+                        lambda compiled: Dynamics.load(compiled).checked())
+
+
+@functools.cache
+def _minimal_dynamics(system: str, params: tuple[tuple[str, float], ...]) -> Dynamics | None:
+    if not systems.has_minimal(system):
+        return None
+    return _compiled("minimal-dynamics", system, params, minimal_derivation)
+
+
+def minimal_dynamics(system: str, params: Mapping[str, float]) -> Dynamics | None:
+    """Numeric dynamics of the minimal-coordinate form at ``params`` (cached), or None."""
+    return _minimal_dynamics(system, tuple(sorted(params.items())))
+
+
+@functools.cache
+def _dynamics(system: str, params: tuple[tuple[str, float], ...]) -> Dynamics:
+    return _compiled("dynamics", system, params, derivation)
+
+
+def dynamics(system: str, params: Mapping[str, float]) -> Dynamics:
+    """Numeric dynamics of ``system`` at ``params`` (cached on disk and per process)."""
+    return _dynamics(system, tuple(sorted(params.items())))
+
+
+def dynamics_of(system: str, model) -> Dynamics:
+    """Numeric dynamics of ``system`` at the parameters read from the compiled ``model``."""
+    return dynamics(system, systems.load(system).params_from_model(model))

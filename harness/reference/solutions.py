@@ -1,0 +1,136 @@
+"""Solved references: a system's motion integrated once per process and sampled as a Trajectory.
+
+A reference is solved once per process over the motion's horizon (or a
+longer one asked for) and reused, through its dense output, by every
+integrator, timestep, setting and study that asks for that horizon or a
+shorter one. The solve is keyed by everything it depends on (system,
+parameters, initial state, tolerance, horizon), never by call order, so a
+result does not depend on which case or study ran first. Solutions solved in a
+worker process can be handed to the parent (:func:`export_solutions`,
+:func:`import_solutions`), so that a run's studies reuse its cases' solves.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from analytic import systems
+from analytic.dynamics import Dynamics
+from analytic.solvers import DEFAULT_RTOL, Solution, solve
+from analytic.systems import Scales
+from harness.core.trajectory import Trajectory
+from harness.reference.derivations import dynamics
+
+
+@dataclass(frozen=True)
+class Reference:
+    """A solved motion of ``system``: its parameters, scales and dense solution from (q0, qd0)."""
+
+    system: str
+    params: Mapping[str, float]
+    scales: Scales
+    solution: Solution
+    initial: tuple[tuple[float, ...], tuple[float, ...]]
+
+    @property
+    def dynamics(self) -> Dynamics:
+        return self.solution.dynamics
+
+    def q0(self) -> np.ndarray:
+        return np.array(self.initial[0], dtype=float)
+
+    def qd0(self) -> np.ndarray:
+        return np.array(self.initial[1], dtype=float)
+
+
+def ordered(values: Mapping[str, float], order: tuple[str, ...], label: str) -> np.ndarray:
+    """``values`` by coordinate name, in the dynamics' coordinate order; ValueError unless they name
+    exactly those coordinates."""
+    if set(values) != set(order):
+        raise ValueError(f"{label} must give exactly the coordinates {order}, got {tuple(values)}")
+    return np.array([values[k] for k in order], dtype=float)
+
+
+# solutions by (system, params, q0, qd0, rtol, horizon); seeds (exported by another process) wait
+# there without their dynamics until asked for
+_solutions: dict[tuple, Solution] = {}
+_seeds: dict[tuple, tuple[float, float, int, object]] = {}
+_exported: set[tuple] = set()
+
+
+def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, float], qd0: Mapping[str, float],
+                    horizon: float, rtol: float = DEFAULT_RTOL, t_end: float | None = None) -> Reference:
+    """``system`` solved from (q0, qd0) with the parameters read from ``model``, over at least
+    ``t_end`` (default: ``horizon``).
+
+    One solve over max(t_end, horizon) serves every request up to it: a shorter
+    ``t_end`` gets the horizon's solution, whose dense output covers it.
+    """
+    module = systems.load(system)
+    params = module.params_from_model(model)
+    dyn = dynamics(system, params)
+    q = ordered(q0, dyn.coordinates, "q0")
+    qd = ordered(qd0, dyn.coordinates, "qd0")
+    span = max(float(t_end or horizon), float(horizon))
+    key = (system, tuple(sorted(params.items())), tuple(q.tolist()), tuple(qd.tolist()), float(rtol), span)
+    sol = _solutions.get(key)
+    if sol is None and key in _seeds:
+        end, tol, nfev, dense = _seeds.pop(key)
+        sol = Solution(dynamics=dyn, t_end=end, rtol=tol, nfev=nfev, _dense=dense)
+    if sol is None:
+        sol = solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, atol=rtol)
+    _solutions[key] = sol
+    return Reference(system=system, params=params, scales=module.scales(params), solution=sol,
+                     initial=(tuple(q.tolist()), tuple(qd.tolist())))
+
+
+def export_solutions() -> dict[tuple, tuple[float, float, int, object]]:
+    """The solutions of this process not exported before, in a picklable form (no dynamics)."""
+    out = {k: (s.t_end, s.rtol, s.nfev, s._dense) for k, s in _solutions.items() if k not in _exported}
+    _exported.update(out)
+    return out
+
+
+def import_solutions(seeds: Mapping[tuple, tuple[float, float, int, object]]) -> None:
+    """Solutions exported by another process: :func:`build_reference` uses them instead of solving."""
+    for key, seed in seeds.items():
+        if key not in _solutions:
+            _seeds[key] = seed
+
+
+def clear_caches() -> None:
+    """Forget this process's solutions (derivations stay: they depend on source code only)."""
+    _solutions.clear()
+    _seeds.clear()
+    _exported.clear()
+
+
+def trajectory(ref: Reference, t: np.ndarray) -> Trajectory:
+    """The reference sampled at times t, in the common schema."""
+    dyn = ref.dynamics
+    q, qd = ref.solution.state(t)
+    _, lam = dyn.accelerations(q, qd)
+    pts = dyn.points(q)
+    vels = dyn.point_velocities(q, qd)
+    jac = dyn.jacobian(q)
+    gen = np.einsum("nmk,nm->nk", jac, lam)
+    pos_res = dyn.position_residual(q)
+    invariants = {"energy": dyn.energy(q, qd)}
+    momenta = dyn.momenta(q, qd)
+    for k, name in enumerate(dyn.coordinates):
+        if name in dyn.cyclic:
+            invariants[f"p_{name}"] = momenta[:, k]
+    return Trajectory(
+        t=np.asarray(t, dtype=float),
+        positions={p: pts[:, i] for i, p in enumerate(dyn.point_names)},
+        velocities={p: vels[:, i] for i, p in enumerate(dyn.point_names)},
+        multipliers={c: lam[:, j] for j, c in enumerate(dyn.constraint_names)},
+        generalized_force=gen,
+        invariants=invariants,
+        violations={c: pos_res[:, j] for j, c in enumerate(dyn.constraint_names)},
+        source="reference",
+    )

@@ -1,0 +1,131 @@
+"""The spherical_pendulum_ball case: the spherical pendulum on one ball joint (quaternion state).
+
+Its system is ``spherical_pendulum`` (the same orbit as the two-hinge model);
+what this model needs beyond the generic wiring is the binding below, a ball
+joint standing in for the spherical angles (θ, φ), and the axial angular
+momentum p_φ read from MuJoCo's own state.
+
+The analytic convention (analytic/systems/spherical_pendulum.py) turns the bob
+first by φ about +z, then by θ about the turned −y axis::
+
+    R(θ, φ) = R_z(φ) R_−y(θ),        rod direction R·(0, 0, −1) = (sinθ cosφ, sinθ sinφ, −cosθ)
+
+which is exactly the two-hinge model's body frame. The ball joint's qpos is the
+quaternion of R (MuJoCo order w, x, y, z) and its qvel is the angular velocity
+in the child body's LOCAL frame, ω_local = Rᵀ ω_world with
+ω_world = φ̇ ẑ + θ̇ R_z(φ)(−ŷ) (pinned numerically against mj_integratePos and
+against the two-hinge model in tests/test_spherical_pendulum.py).
+
+No constant matrix relates qvel to (θ̇, φ̇), so :meth:`dof_matrix` is None and
+the harness compares observables only.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from harness.cases import Wiring
+from harness.core.errors import ModelMismatch
+from harness.engine.readings.momentum import axial_angular_momentum
+
+AZIMUTH_AXIS = np.array([0.0, 0.0, 1.0])   # φ, about world +z
+POLAR_AXIS = np.array([0.0, -1.0, 0.0])    # θ, about −y of the frame turned by φ
+COORDINATES = ("theta", "phi")
+
+
+def _axis_quat(axis: np.ndarray, angle: float) -> np.ndarray:
+    quat = np.zeros(4)
+    mujoco.mju_axisAngle2Quat(quat, axis, angle)
+    return quat
+
+
+def _rotate(vec: np.ndarray, quat: np.ndarray) -> np.ndarray:
+    out = np.zeros(3)
+    mujoco.mju_rotVecQuat(out, vec, quat)
+    return out
+
+
+def orientation(theta: float, phi: float) -> np.ndarray:
+    """Quaternion (w, x, y, z) of R_z(φ) R_−y(θ)."""
+    out = np.zeros(4)
+    mujoco.mju_mulQuat(out, _axis_quat(AZIMUTH_AXIS, phi), _axis_quat(POLAR_AXIS, theta))
+    return out
+
+
+def world_angular_velocity(theta_d: float, phi: float, phi_d: float) -> np.ndarray:
+    """ω_world = φ̇ ẑ + θ̇ (R_z(φ) applied to the polar axis)."""
+    return phi_d * AZIMUTH_AXIS + theta_d * _rotate(POLAR_AXIS, _axis_quat(AZIMUTH_AXIS, phi))
+
+
+@dataclass(frozen=True)
+class BallBinding:
+    """Analytic (theta, phi) in the order ``coordinates`` ↔ the ball joint ``joint``."""
+
+    coordinates: tuple[str, ...]
+    joint: str = "ball"
+
+    def __post_init__(self) -> None:
+        if sorted(self.coordinates) != sorted(COORDINATES):
+            raise ValueError(f"BallBinding binds the coordinates {COORDINATES}, got {self.coordinates}")
+
+    def _split(self, values: Sequence[float]) -> tuple[float, float]:
+        if len(values) != 2:
+            raise ValueError(f"expected 2 values for {self.coordinates}, got {len(values)}")
+        named = dict(zip(self.coordinates, values, strict=True))
+        return float(named["theta"]), float(named["phi"])
+
+    def validate(self, model: mujoco.MjModel) -> None:
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, self.joint)
+        if jid < 0:
+            known = [model.joint(i).name for i in range(model.njnt)]
+            raise ModelMismatch(f"model has no joint {self.joint!r} (joints: {known})")
+        if int(model.jnt_type[jid]) != int(mujoco.mjtJoint.mjJNT_BALL):
+            raise ModelMismatch(f"joint {self.joint!r} must be a ball joint")
+
+    def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
+                  q: Sequence[float], qd: Sequence[float]) -> None:
+        """qpos ← quaternion of R(θ, φ); qvel ← Rᵀ ω_world (local angular velocity)."""
+        theta, phi = self._split(q)
+        theta_d, phi_d = self._split(qd)
+        quat = orientation(theta, phi)
+        inverse = np.zeros(4)
+        mujoco.mju_negQuat(inverse, quat)
+        jnt = model.joint(self.joint)
+        data.qpos[jnt.qposadr[0]:jnt.qposadr[0] + 4] = quat
+        data.qvel[jnt.dofadr[0]:jnt.dofadr[0] + 3] = _rotate(world_angular_velocity(theta_d, phi, phi_d), inverse)
+
+    def read_state(self, model: mujoco.MjModel, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """(q, q̇) in ``coordinates`` order from the rod direction and its rate.
+
+        Inverse of :meth:`set_state` up to a twist about the rod, which does not
+        move the bob. Valid for 0 < θ < π (φ and φ̇ are undefined on the axis).
+        """
+        jnt = model.joint(self.joint)
+        quat = np.array(data.qpos[jnt.qposadr[0]:jnt.qposadr[0] + 4])
+        quat /= np.linalg.norm(quat)
+        rod = _rotate(np.array([0.0, 0.0, -1.0]), quat)
+        rod_rate = np.cross(_rotate(np.array(data.qvel[jnt.dofadr[0]:jnt.dofadr[0] + 3]), quat), rod)
+        theta = float(np.arccos(np.clip(-rod[2], -1.0, 1.0)))
+        phi = float(np.arctan2(rod[1], rod[0]))
+        e_theta = np.array([np.cos(theta) * np.cos(phi), np.cos(theta) * np.sin(phi), np.sin(theta)])
+        e_phi = np.array([-np.sin(phi), np.cos(phi), 0.0])
+        rates = {"theta": float(rod_rate @ e_theta), "phi": float(rod_rate @ e_phi) / np.sin(theta)}
+        angles = {"theta": theta, "phi": phi}
+        return (np.array([angles[c] for c in self.coordinates]),
+                np.array([rates[c] for c in self.coordinates]))
+
+    def dof_matrix(self, model: mujoco.MjModel) -> None:
+        """None: the local angular velocity is not a constant linear map of (θ̇, φ̇)."""
+        return None
+
+
+WIRING = Wiring(
+    system="spherical_pendulum",
+    description="spherical pendulum on one ball joint (quaternion state); same orbit as spherical_pendulum",
+    binding=BallBinding,
+    invariants={"p_phi": axial_angular_momentum(body="bob", site="pivot")},
+)
