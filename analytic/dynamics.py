@@ -71,7 +71,8 @@ class Compiled:
     """A system's numeric functions at bound parameter values, as lambdify's Python source: what a
     :class:`Dynamics` is made of, small, picklable, and loaded without sympy.
 
-    ``functions``: (name, source, rows, cols) per quantity, source "" for an empty matrix.
+    ``functions``: (name, source, rows, cols) per quantity, source "" for an empty matrix;
+    ``constraint_sizes``: the number of rows of each constraint, in ``constraint_names`` order.
     """
 
     coordinates: tuple[str, ...]
@@ -80,6 +81,7 @@ class Compiled:
     cyclic: tuple[str, ...]
     params: tuple[tuple[str, float], ...]
     functions: tuple[tuple[str, str, int, int], ...]
+    constraint_sizes: tuple[int, ...] = ()
 
     @classmethod
     def of(cls, derivation: Derivation, params: Mapping[str, float]) -> Compiled:
@@ -124,6 +126,7 @@ class Compiled:
         return cls(
             coordinates=tuple(c.name for c in s.q),
             constraint_names=tuple(c.name for c in s.constraints),
+            constraint_sizes=tuple(c.size for c in s.constraints),
             point_names=tuple(s.points),
             cyclic=tuple(c.name for c in derivation.cyclic),
             params=tuple((p.name, float(params[p.name])) for p in s.params),
@@ -136,7 +139,10 @@ class Dynamics:
     """Numeric M, F, J, γ, energy, momenta and observables at bound parameter values.
 
     Shapes: q, qd are (..., n); matrices come back (..., rows, cols) and
-    vectors (..., k).
+    vectors (..., k). Constraint quantities (J, γ, λ, residuals) have one
+    entry per constraint row; ``constraint_names`` name the constraints, each
+    a block of ``constraint_sizes`` rows (one for most: a connect has three),
+    and :meth:`by_constraint` splits a row-indexed array into them.
     """
 
     coordinates: tuple[str, ...]
@@ -145,6 +151,14 @@ class Dynamics:
     cyclic: tuple[str, ...]
     params: Mapping[str, float]
     _funcs: Mapping[str, Callable[..., Array]]
+    constraint_sizes: tuple[int, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.constraint_sizes:
+            object.__setattr__(self, "constraint_sizes", (1,) * len(self.constraint_names))
+        if len(self.constraint_sizes) != len(self.constraint_names) or min(self.constraint_sizes, default=1) < 1:
+            raise ValueError(f"constraint_sizes {self.constraint_sizes} do not fit the constraints "
+                             f"{self.constraint_names}")
 
     @classmethod
     def build(cls, derivation: Derivation, params: Mapping[str, float]) -> Dynamics:
@@ -161,6 +175,7 @@ class Dynamics:
             cyclic=compiled.cyclic,
             params=dict(compiled.params),
             _funcs={name: _vectorized(src, rows, cols) for name, src, rows, cols in compiled.functions},
+            constraint_sizes=compiled.constraint_sizes,
         )
 
     def checked(self) -> Dynamics:
@@ -175,6 +190,29 @@ class Dynamics:
     @property
     def n(self) -> int:
         return len(self.coordinates)
+
+    @property
+    def rows(self) -> int:
+        """The number of constraint rows (the length of λ)."""
+        return sum(self.constraint_sizes)
+
+    @property
+    def blocks(self) -> dict[str, slice]:
+        """Each constraint's rows, as a slice of the row-indexed arrays (λ, J, residuals)."""
+        ends = np.cumsum((0, *self.constraint_sizes))
+        return {c: slice(int(a), int(b)) for c, a, b in zip(self.constraint_names, ends[:-1], ends[1:], strict=True)}
+
+    @property
+    def row_labels(self) -> tuple[str, ...]:
+        """A label per row: the constraint's name, or ``NAME[I]`` for row I of a block."""
+        return tuple(c if k == 1 else f"{c}[{i}]" for c, k in zip(self.constraint_names, self.constraint_sizes,
+                                                                   strict=True) for i in range(k))
+
+    def by_constraint(self, rows: Array) -> dict[str, Array]:
+        """A row-indexed array (..., rows) split into its constraints: (...) for a one-row constraint,
+        (..., k) for a block of k rows (the convention of every multiplier and violation by name)."""
+        rows = np.asarray(rows)
+        return {c: rows[..., s.start] if s.stop - s.start == 1 else rows[..., s] for c, s in self.blocks.items()}
 
     def _call(self, key: str, q: Array, qd: Array) -> Array:
         q = np.asarray(q, dtype=float)
@@ -235,7 +273,7 @@ class Dynamics:
         qd = np.asarray(qd, dtype=float)
         mass = self.mass_matrix(q)
         force = self.forcing(q, qd)
-        m = len(self.constraint_names)
+        m = self.rows
         if m == 0:
             return np.linalg.solve(mass, force[..., None])[..., 0], np.zeros((*q.shape[:-1], 0))
         jac = self.jacobian(q)

@@ -60,16 +60,31 @@ def coordinates(names: str) -> tuple[tuple[sp.Symbol, ...], tuple[sp.Symbol, ...
 
 @dataclass(frozen=True)
 class Constraint:
-    """One named constraint row.
+    """One named constraint: a single row, or a block of rows held together.
 
     holonomic: ``expr`` is f(q), held at f = 0; J = ∂f/∂q.
     pfaffian:  ``expr`` is A(q)·q̇ + b(q), linear in the velocities; J = A.
-    The name is the one the MJCF equality (or contact) carries.
+    ``expr`` may be a sequence: a block of rows under one name, each with its
+    own multiplier, as MuJoCo keeps one equality's rows together (a
+    ``connect`` has 3: the world x, y, z components of anchor1 − anchor2, in
+    that order; a ``weld`` 6). The name is the one the MJCF equality (or
+    contact) carries; it may not contain a dot (it is part of figure names).
     """
 
     name: str
-    expr: sp.Expr
+    expr: sp.Expr | Sequence[sp.Expr]
     kind: ConstraintKind = "holonomic"
+
+    @property
+    def rows(self) -> tuple[sp.Expr, ...]:
+        """The constraint's rows, each a scalar expression (one for a scalar ``expr``)."""
+        if isinstance(self.expr, sp.MatrixBase | list | tuple):
+            return tuple(sp.sympify(e) for e in self.expr)
+        return (sp.sympify(self.expr),)
+
+    @property
+    def size(self) -> int:
+        return len(self.rows)
 
 
 class LagrangianSystem:
@@ -110,6 +125,9 @@ class LagrangianSystem:
         names = [c.name for c in constraints]
         if len(set(names)) != len(names):
             raise ValueError(f"constraint names must be unique, got {names}")
+        for label in names:
+            if not label or "." in label:
+                raise ValueError(f"a constraint name must be non-empty and contain no dot, got {label!r}")
         for c in constraints:
             _validate_constraint(c, q, qd)
         self.name = name
@@ -151,7 +169,7 @@ class LagrangianSystem:
         vel = [sum(sp.diff(p, s) * sd for s, sd in zip(q, qd, strict=True)) for p in phi]
         subs = dict(zip(self.q, phi, strict=True)) | dict(zip(self.qd, vel, strict=True))
         for c in self.constraints:
-            if c.kind != "holonomic" or sp.simplify(c.expr.subs(subs)) != 0:
+            if c.kind != "holonomic" or any(sp.simplify(row.subs(subs)) != 0 for row in c.rows):
                 raise ValueError(f"constraint {c.name!r} does not vanish identically under the embedding")
         return LagrangianSystem(
             name=name or f"{self.name}_minimal",
@@ -165,16 +183,15 @@ class LagrangianSystem:
 
 
 def _validate_constraint(c: Constraint, q: Sequence[sp.Symbol], qd: Sequence[sp.Symbol]) -> None:
-    expr = sp.sympify(c.expr)
-    if c.kind == "holonomic":
-        if expr.free_symbols & set(qd):
-            raise ValueError(f"holonomic constraint {c.name!r} must not involve velocities")
-    elif c.kind == "pfaffian":
-        for v in qd:
-            if sp.diff(expr, v, 2) != 0:
-                raise ValueError(f"Pfaffian constraint {c.name!r} must be linear in velocities")
-    else:
+    if c.kind not in ("holonomic", "pfaffian"):
         raise ValueError(f"constraint kind must be 'holonomic' or 'pfaffian', got {c.kind!r}")
+    if not c.rows:
+        raise ValueError(f"constraint {c.name!r} has no rows")
+    for expr in c.rows:
+        if c.kind == "holonomic" and expr.free_symbols & set(qd):
+            raise ValueError(f"holonomic constraint {c.name!r} must not involve velocities")
+        if c.kind == "pfaffian" and any(sp.diff(expr, v, 2) != 0 for v in qd):
+            raise ValueError(f"Pfaffian constraint {c.name!r} must be linear in velocities")
 
 
 class Derivation:
@@ -204,10 +221,11 @@ class Derivation:
         s = self.system
         rows = []
         for c in s.constraints:
-            if c.kind == "holonomic":
-                rows.append(sum(sp.diff(c.expr, qi) * vi for qi, vi in zip(s.q, s.qd, strict=True)))
-            else:
-                rows.append(sp.sympify(c.expr))
+            for expr in c.rows:
+                if c.kind == "holonomic":
+                    rows.append(sum(sp.diff(expr, qi) * vi for qi, vi in zip(s.q, s.qd, strict=True)))
+                else:
+                    rows.append(expr)
         return sp.Matrix(rows) if rows else sp.zeros(0, 1)
 
     @cached_property
@@ -231,7 +249,7 @@ class Derivation:
         s = self.system
         if not s.constraints:
             return sp.zeros(0, 1)
-        return sp.Matrix([c.expr if c.kind == "holonomic" else 0 for c in s.constraints])
+        return sp.Matrix([expr if c.kind == "holonomic" else 0 for c in s.constraints for expr in c.rows])
 
     @cached_property
     def energy(self) -> sp.Expr:
@@ -267,4 +285,11 @@ class Derivation:
 
     @cached_property
     def multiplier_symbols(self) -> tuple[sp.Symbol, ...]:
-        return tuple(sp.Symbol(f"lambda_{c.name}", real=True) for c in self.system.constraints)
+        """One per row: ``lambda_NAME`` for a one-row constraint, ``lambda_NAME_I`` (I = 0, 1, …) for a
+        block's rows."""
+        return tuple(sp.Symbol(f"lambda_{label}", real=True) for label in row_labels(self.system.constraints))
+
+
+def row_labels(constraints: Sequence[Constraint]) -> tuple[str, ...]:
+    """Every constraint row's label: the constraint's name, or ``NAME_I`` for row I of a block."""
+    return tuple(c.name if c.size == 1 else f"{c.name}_{i}" for c in constraints for i in range(c.size))

@@ -102,7 +102,7 @@ def solve(
 def _check_consistent(dynamics: Dynamics, q0: Array, qd0: Array, tol: float = 1e-9) -> None:
     pos = dynamics.position_residual(q0)
     vel = dynamics.velocity_residual(q0, qd0)
-    bad = [(name, p, v) for name, p, v in zip(dynamics.constraint_names, pos, vel, strict=True)
+    bad = [(name, p, v) for name, p, v in zip(dynamics.row_labels, pos, vel, strict=True)
            if abs(p) > tol or abs(v) > tol]
     if bad:
         detail = ", ".join(f"{n}: f={p:.3g}, Jq̇+b={v:.3g}" for n, p, v in bad)

@@ -20,13 +20,14 @@ class Trajectory:
         t: times, shape (N,).
         positions, velocities: world position / linear velocity of named
             points (bodies), each (N, 3).
-        multipliers: constraint forces by constraint name, each (N,), in the
-            analytic sign convention (M q̈ = F + Jᵀλ).
+        multipliers: constraint forces by constraint name, each (N,), or (N, k)
+            for a constraint that is a block of k rows (a connect equality: 3),
+            in the analytic sign convention (M q̈ = F + Jᵀλ).
         generalized_force: Jᵀλ in the analytic coordinates, (N, n), or None
             where the coordinates of the two sides are not linearly related.
         invariants: conserved quantities by name (``energy``, ``p_phi``), (N,).
-        violations: constraint violation by constraint name, (N,), in the
-            constraint's own units (f(q) for holonomic rows).
+        violations: constraint violation by constraint name, (N,) or (N, k),
+            in the constraint's own units (f(q) for holonomic rows).
         series: one producer's own series with no counterpart on the other
             side (a contact's slip velocity), by name, (N,).
         source: who produced it ("reference" or "mujoco:RK4", ...).

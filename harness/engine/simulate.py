@@ -58,7 +58,7 @@ import numpy as np
 from harness.core.errors import SimulationDiverged
 from harness.core.trajectory import Trajectory
 from harness.engine.bindings import ONE_DOF
-from harness.engine.constraints import equality_force
+from harness.engine.constraints import equality_block, equality_size
 from harness.engine.integrators import STEP_FUNCTIONS, integrator_name
 from harness.engine.probe import Probe
 from harness.engine.readings import fields_of
@@ -127,6 +127,18 @@ def point_state(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> tuple[
     return data.xipos[bid].copy(), velocity
 
 
+def _rows(model: mujoco.MjModel, name: str, n: int) -> np.ndarray:
+    """Zeros for ``n`` samples of equality ``name``: (n,) for one row, (n, k) for a block of k rows."""
+    size = equality_size(model, name)
+    return np.zeros(n) if size == 1 else np.zeros((n, size))
+
+
+def _block(model: mujoco.MjModel, data: mujoco.MjData, name: str) -> tuple[np.ndarray | float, np.ndarray | float]:
+    """(efc_force, efc_pos) of equality ``name`` at this state: floats for one row, (k,) for a block."""
+    force, pos = equality_block(model, data, name)
+    return (float(force[0]), float(pos[0])) if force.size == 1 else (force, pos)
+
+
 def _check_warnings(counts: np.ndarray, time: float) -> None:
     raised = [mujoco.mjtWarning(i).name for i in range(len(counts)) if counts[i] > 0]
     if raised:
@@ -142,8 +154,8 @@ class _Run:
     t: np.ndarray                           # (N,)
     positions: dict[str, np.ndarray]        # (N, 3) per point
     velocities: dict[str, np.ndarray]       # (N, 3) per point
-    lam: dict[str, np.ndarray]              # efc_force per equality, (N,)
-    viol: dict[str, np.ndarray]             # efc_pos per equality, (N,)
+    lam: dict[str, np.ndarray]              # efc_force per equality, (N,) or (N, k) for a k-row block
+    viol: dict[str, np.ndarray]             # efc_pos per equality, likewise
     energy: np.ndarray                      # (N,)
     qfrc: np.ndarray                        # (N, nv) qfrc_constraint
     readings: dict[str, np.ndarray]         # Probe.readings() keys, (N,)
@@ -229,8 +241,8 @@ def _record_loop(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
     t = np.zeros(n)
     pos = {p: np.zeros((n, 3)) for p in probe.points}
     vel = {p: np.zeros((n, 3)) for p in probe.points}
-    lam = {c: np.zeros(n) for c in probe.constraints}
-    viol = {c: np.zeros(n) for c in probe.constraints}
+    lam = {c: _rows(model, c, n) for c in probe.constraints}
+    viol = {c: _rows(model, c, n) for c in probe.constraints}
     energy = np.zeros(n)
     extra = fields_of(probe.readings())
     recorded = {f: np.zeros((n, *np.shape(getattr(data, f)))) for f in extra}
@@ -243,7 +255,7 @@ def _record_loop(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
         for p in probe.points:
             pos[p][k], vel[p][k] = point_state(model, data, p)
         for c in probe.constraints:
-            lam[c][k], viol[c][k] = equality_force(model, data, c)
+            lam[c][k], viol[c][k] = _block(model, data, c)
         energy[k] = data.energy[0] + data.energy[1]
         qpos[k], qvel[k] = data.qpos, data.qvel
         for f in extra:
@@ -638,11 +650,11 @@ def _read_at_states(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, ru
         return
     n = len(run.states)
     for c in equalities:
-        run.lam[c], run.viol[c] = np.zeros(n), np.zeros(n)
+        run.lam[c], run.viol[c] = _rows(model, c, n), _rows(model, c, n)
     for k in range(n):
         _forward_at(model, data, run.states[k])
         for c in equalities:
-            run.lam[c][k], run.viol[c][k] = equality_force(model, data, c)
+            run.lam[c][k], run.viol[c][k] = _block(model, data, c)
 
 
 def _verify(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run) -> list[str]:
@@ -655,5 +667,6 @@ def _verify(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run)
     bad += [f"velocity of {p!r}" for p in probe.points
             if not np.array_equal(point_state(model, data, p)[1], run.velocities[p][k])]
     bad += [f"equality {c!r}" for c in probe.constraints
-            if equality_force(model, data, c) != (run.lam[c][k], run.viol[c][k])]
+            if not all(np.array_equal(a, b) for a, b in zip(_block(model, data, c), (run.lam[c][k], run.viol[c][k]),
+                                                             strict=True))]
     return bad

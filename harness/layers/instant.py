@@ -5,6 +5,12 @@ At each state the analytic M(q), F(q, q̇), q̈ and λ are compared with MuJoCo'
 ``efc_force``. A fault shows up here before any trajectory is run, and the
 figure that fails says where it is (inertia, forces, or the constraint).
 
+A constraint may be a block of rows (a ``connect`` equality has three): its
+``force.NAME`` figure compares every row with its multiplier (the worst row
+decides), and a block of several rows also gets ``generalized_force.NAME``,
+its own Jᵀλ against D ᵀ J_mjᵀ efc_force over its rows — the force on the
+coordinates, which does not depend on how the rows are scaled or ordered.
+
 Those four go through the binding's constant dof matrix D; a binding without
 one (a ball joint) gets only the observable figures, which every case has:
 the kinetic energy ½ qvelᵀ M_mj qvel vs ½ q̇ᵀ M q̇ (inertia along the sampled
@@ -23,7 +29,7 @@ import numpy as np
 
 from harness.core.figures import Figure, FigureName
 from harness.engine.compat import full_mass_matrix, jac_dot
-from harness.engine.constraints import equality_force
+from harness.engine.constraints import equality_block, equality_jacobian
 from harness.engine.probe import Probe
 from harness.reference.solutions import Reference
 
@@ -71,7 +77,7 @@ def instantaneous_figures(model: mujoco.MjModel, probe: Probe, ref: Reference,
     qdd, lam = dyn.accelerations(q, qd)
     mass = dyn.mass_matrix(q)
     forcing = dyn.forcing(q, qd)
-    gen = np.einsum("nmk,nm->nk", dyn.jacobian(q), lam)
+    gen = np.einsum("nmk,nm->nk", dyn.jacobian(q), lam)  # Jᵀλ over every row
     pts = dyn.points(q)
     acc = dyn.point_accelerations(q, qd, qdd)
     kinetic = 0.5 * np.einsum("ni,nij,nj->n", qd, mass, qd)
@@ -79,6 +85,7 @@ def instantaneous_figures(model: mujoco.MjModel, probe: Probe, ref: Reference,
     data = mujoco.MjData(model)
     got = {k: [] for k in ("mass", "forcing", "qacc", "gen", "pts", "acc", "kinetic")}
     got_lam = {c: [] for c in probe.constraints}
+    got_block_gen = {c: [] for c in probe.constraints}
     for i in range(len(q)):
         mujoco.mj_resetData(model, data)
         probe.binding.set_state(model, data, q[i], qd[i])
@@ -93,7 +100,10 @@ def instantaneous_figures(model: mujoco.MjModel, probe: Probe, ref: Reference,
             got["qacc"].append(np.linalg.lstsq(dof, data.qacc, rcond=None)[0])
             got["gen"].append(dof.T @ data.qfrc_constraint)
         for c in probe.constraints:
-            got_lam[c].append(equality_force(model, data, c)[0])
+            force = equality_block(model, data, c)[0]
+            got_lam[c].append(force)
+            if dof is not None and force.size > 1:
+                got_block_gen[c].append(dof.T @ (equality_jacobian(model, data, c).T @ force))
     n = len(q)
     figs = [
         Figure(FigureName.instant("kinematics"), float(np.max(np.abs(np.array(got["pts"]) - pts))), "m",
@@ -116,9 +126,18 @@ def instantaneous_figures(model: mujoco.MjModel, probe: Probe, ref: Reference,
     if probe.constraints and dof is not None:
         figs.append(Figure(FigureName.instant("generalized_force"), _relative(np.array(got["gen"]) - gen, gen), "1",
                            "max |Dᵀ qfrc_constraint − Jᵀλ| / max |Jᵀλ|"))
-    for j, c in enumerate(dyn.constraint_names):
-        if c in got_lam:
-            err = float(np.max(np.abs(np.array(got_lam[c]) - lam[:, j]))) / ref.scales.force
-            figs.append(Figure(FigureName.instant("force", c), err, "1",
-                               f"max |efc_force − λ_{c}| / force scale ({ref.scales.force:.4g} N)"))
+    jac = dyn.jacobian(q)
+    for c, rows in dyn.blocks.items():
+        if c not in got_lam:
+            continue
+        err = float(np.max(np.abs(np.array(got_lam[c]) - lam[:, rows]))) / ref.scales.force
+        size = rows.stop - rows.start
+        figs.append(Figure(FigureName.instant("force", c), err, "1",
+                           f"max |efc_force − λ_{c}|{' over its ' + str(size) + ' rows' if size > 1 else ''} / force "
+                           f"scale ({ref.scales.force:.4g} N)"))
+        if got_block_gen[c]:
+            block_gen = np.einsum("nmk,nm->nk", jac[:, rows], lam[:, rows])
+            figs.append(Figure(FigureName.instant("generalized_force", c),
+                               _relative(np.array(got_block_gen[c]) - block_gen, block_gen), "1",
+                               f"max |Dᵀ J_mjᵀ efc_force − Jᵀλ| over the rows of {c!r} / max |Jᵀλ|"))
     return figs

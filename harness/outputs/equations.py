@@ -30,7 +30,7 @@ class Equation:
 def symbol_names(derivation: Derivation) -> dict[sp.Symbol, str]:
     """LaTeX for q̇, q̈ and λ symbols, matched by name (their assumptions may differ)."""
     system = derivation.system
-    exprs = [*derivation.equations, system.kinetic, system.potential, *(c.expr for c in system.constraints)]
+    exprs = [*derivation.equations, system.kinetic, system.potential, *(r for c in system.constraints for r in c.rows)]
     free = set().union(*(sp.sympify(e).free_symbols for e in exprs))
     coords = {q.name: sp.latex(q) for q in system.q}
     lams = {lam.name for lam in derivation.multiplier_symbols}
@@ -56,10 +56,10 @@ def equations(derivation: Derivation) -> list[Equation]:
     out = [Equation("kinetic energy", f"T = {tex(sp.simplify(system.kinetic))}"),
            Equation("potential energy", f"V = {tex(sp.simplify(system.potential))}")]
     for c in system.constraints:
-        if c.kind == "holonomic":
-            out.append(Equation(f"constraint {c.name}", f"{tex(c.expr)} = 0"))
-        else:
-            out.append(Equation(f"constraint {c.name} (velocity level)", f"{tex(sp.sympify(c.expr))} = 0"))
+        level = "" if c.kind == "holonomic" else " (velocity level)"
+        for i, row in enumerate(c.rows):
+            label = f"constraint {c.name}" + (f" row {i}" if c.size > 1 else "")
+            out.append(Equation(f"{label}{level}", f"{tex(row)} = 0"))
     for q, eq in zip(system.q, derivation.equations, strict=True):
         out.append(Equation(f"equation for {q.name}", f"{tex(eq)} = 0"))
     return out

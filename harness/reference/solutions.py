@@ -128,9 +128,9 @@ def trajectory(ref: Reference, t: np.ndarray) -> Trajectory:
         t=np.asarray(t, dtype=float),
         positions={p: pts[:, i] for i, p in enumerate(dyn.point_names)},
         velocities={p: vels[:, i] for i, p in enumerate(dyn.point_names)},
-        multipliers={c: lam[:, j] for j, c in enumerate(dyn.constraint_names)},
+        multipliers=dyn.by_constraint(lam),
         generalized_force=gen,
         invariants=invariants,
-        violations={c: pos_res[:, j] for j, c in enumerate(dyn.constraint_names)},
+        violations=dyn.by_constraint(pos_res),
         source="reference",
     )

@@ -32,7 +32,7 @@ from analytic.claims import Claim, all_claims
 from analytic.claims.view import T_SYMBOL, DocView, symbolic_check
 from harness import cases
 from harness.engine.bindings import JointBinding
-from harness.engine.constraints import equality_force
+from harness.engine.constraints import equality_block
 from harness.engine.models import compile_model
 from harness.reference.derivations import derivation
 
@@ -108,8 +108,10 @@ def sample(case_name: str, small_motion: float = 1.0, scaled: str = "") -> Sampl
             rows["q"].append([data.qpos[model.joint(c).qposadr[0]] for c in dyn.coordinates])
             rows["qd"].append(dof.T @ data.qvel)
             rows["qdd"].append(dof.T @ data.qacc)
-            rows["lam"].append([case.mujoco_forces[c](model, data) if c in case.mujoco_forces
-                                else equality_force(model, data, c)[0] for c in dyn.constraint_names])
+            # one value per constraint row, in the order of the multiplier symbols (a block: all its rows)
+            rows["lam"].append(np.concatenate([[], *(np.atleast_1d(case.mujoco_forces[c](model, data))
+                                                    if c in case.mujoco_forces else equality_block(model, data, c)[0]
+                                                    for c in dyn.constraint_names)]))
             rows["kin"].append(data.energy[1])
             rows["pot"].append(data.energy[0])
             for name, read in case.mujoco_invariants.items():
