@@ -32,8 +32,8 @@ Array = np.ndarray
 def _source(exprs: sp.Matrix, args: list[sp.Symbol]) -> str:
     """The source of ``lambdify(args, entries of exprs)`` (empty for an empty matrix), every numpy
     function written ``numpy.<name>`` so that the code runs with numpy alone in its namespace."""
-    import sympy as sp
-    from sympy.printing.numpy import NumPyPrinter
+    import sympy as sp  # lazy: sympy (0.15 s), only when code is made from a derivation
+    from sympy.printing.numpy import NumPyPrinter  # lazy: as above
 
     flat = list(exprs)
     if not flat:
@@ -86,7 +86,7 @@ class Compiled:
     @classmethod
     def of(cls, derivation: Derivation, params: Mapping[str, float]) -> Compiled:
         """Substitute the parameter values into every quantity and lambdify it (needs sympy)."""
-        import sympy as sp
+        import sympy as sp  # lazy: sympy (0.15 s); a run with cached code never gets here
 
         s = derivation.system
         missing = {p.name for p in s.params} - set(params)

@@ -21,6 +21,7 @@ properties of the returned :class:`Derivation`.
 from __future__ import annotations
 
 import contextlib
+import importlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -41,8 +42,6 @@ def preload() -> None:
     """Import what a first derivation would import on its way (see ``_LAZY``), so that a process that
     forks workers to derive pays for it once instead of in every worker side by side. A name a
     later sympy no longer has is skipped: this only moves work earlier."""
-    import importlib
-
     for name in _LAZY:
         with contextlib.suppress(ImportError):
             importlib.import_module(name)

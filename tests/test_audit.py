@@ -5,7 +5,8 @@ from __future__ import annotations
 import pytest
 
 from analytic import systems
-from analytic.claims import Claim, all_claims, doc_frame
+from analytic.claims import Claim, doc_frame
+from analytic.claims.documents import all_claims
 from harness.studies.audit import audit, audit_claim, consistent, format_table
 
 P = systems.symbols("spring")  # the parameters as sympy symbols

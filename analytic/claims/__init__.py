@@ -103,9 +103,3 @@ def doc_frame(system: str, names: str, to_ours: Mapping[str, str | sp.Expr] | No
     lams = {k: sp.Symbol(v, real=True) for k, v in (lam or {}).items()}
     return Frame(system=system, q=q, qd=qd, qdd=qdd, to_ours=mapping, lam=lams,
                  reading=reading or "the document's coordinates are ours")
-
-
-def all_claims() -> tuple[Claim, ...]:
-    from analytic.claims import lecture15, simulations
-
-    return (*simulations.claims(), *lecture15.claims())

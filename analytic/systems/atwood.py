@@ -43,7 +43,7 @@ from analytic.systems import Motion, Scales
 if TYPE_CHECKING:
     from types import SimpleNamespace
 
-    from analytic.lagrangian import LagrangianSystem
+    from analytic.lagrangian import LagrangianSystem  # lazy: loads sympy
 
 PARAMETERS = "m1 m2 m_p a g h"
 
@@ -57,7 +57,7 @@ MOTION = Motion(
 
 
 def build(p: SimpleNamespace) -> LagrangianSystem:
-    from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
+    from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
 
     m1, m2, m_p, a, g, h = p.m1, p.m2, p.m_p, p.a, p.g, p.h
     (z1, z2, theta), (z1_d, z2_d, theta_d) = coordinates("z1 z2 theta")
@@ -75,7 +75,7 @@ def build(p: SimpleNamespace) -> LagrangianSystem:
 
 def minimal(p: SimpleNamespace) -> LagrangianSystem:
     """z1 alone, with z2 = −z1 and θ = z1/a substituted: (m1 + m2 + m_p) z̈1 = −(m1 − m2) g."""
-    from analytic.lagrangian import coordinates
+    from analytic.lagrangian import coordinates  # lazy: loads sympy
 
     a = p.a
     full = build(p)

@@ -53,7 +53,7 @@ from analytic.systems import Motion, Scales
 if TYPE_CHECKING:
     from types import SimpleNamespace
 
-    from analytic.lagrangian import LagrangianSystem
+    from analytic.lagrangian import LagrangianSystem  # lazy: loads sympy
 
 PARAMETERS = "m g a"
 
@@ -69,9 +69,9 @@ MOTION = Motion(
 
 
 def build(p: SimpleNamespace) -> LagrangianSystem:
-    import sympy as sp
+    import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
-    from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
+    from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
 
     m, g, a = p.m, p.g, p.a
     (x, y, z, theta, phi), qd = coordinates("x y z theta phi")

@@ -58,7 +58,7 @@ from analytic.systems import Motion, Scales
 if TYPE_CHECKING:
     from types import SimpleNamespace
 
-    from analytic.lagrangian import LagrangianSystem
+    from analytic.lagrangian import LagrangianSystem  # lazy: loads sympy
 
 PARAMETERS = "m g a alpha"
 
@@ -76,9 +76,9 @@ RollForm = Literal["holonomic", "pfaffian"]
 
 def build(p: SimpleNamespace, *, form: RollForm = "holonomic") -> LagrangianSystem:
     """The hoop in (x, s, φ); ``form`` writes ``roll`` as x − aφ = 0 or as ẋ − aφ̇ = 0."""
-    import sympy as sp
+    import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
-    from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
+    from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
 
     m, g, a, alpha = p.m, p.g, p.a, p.alpha
     (x, s, phi), (x_d, s_d, phi_d) = coordinates("x s phi")
@@ -107,7 +107,7 @@ def build(p: SimpleNamespace, *, form: RollForm = "holonomic") -> LagrangianSyst
 
 def minimal(p: SimpleNamespace) -> LagrangianSystem:
     """x alone, with s = a and φ = x/a substituted: 2m ẍ = m g sin α."""
-    from analytic.lagrangian import coordinates
+    from analytic.lagrangian import coordinates  # lazy: loads sympy
 
     a = p.a
     full = build(p)

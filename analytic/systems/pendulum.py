@@ -29,7 +29,7 @@ from analytic.systems import Motion, Scales
 if TYPE_CHECKING:
     from types import SimpleNamespace
 
-    from analytic.lagrangian import LagrangianSystem
+    from analytic.lagrangian import LagrangianSystem  # lazy: loads sympy
 
 PARAMETERS = "m g l"
 
@@ -43,9 +43,9 @@ MOTION = Motion(
 
 
 def build(p: SimpleNamespace) -> LagrangianSystem:
-    import sympy as sp
+    import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
-    from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
+    from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
 
     m, g, l = p.m, p.g, p.l
     (theta, r), (theta_d, r_d) = coordinates("theta r")
@@ -65,7 +65,7 @@ def build(p: SimpleNamespace) -> LagrangianSystem:
 
 def minimal(p: SimpleNamespace) -> LagrangianSystem:
     """θ alone, with r = l substituted: the textbook pendulum ODE."""
-    from analytic.lagrangian import coordinates
+    from analytic.lagrangian import coordinates  # lazy: loads sympy
 
     l = p.l
     full = build(p)

@@ -51,7 +51,7 @@ from analytic.systems import Motion, Scales
 if TYPE_CHECKING:
     from types import SimpleNamespace
 
-    from analytic.lagrangian import LagrangianSystem
+    from analytic.lagrangian import LagrangianSystem  # lazy: loads sympy
 
 PARAMETERS = "m g l"
 
@@ -66,9 +66,9 @@ BOB = "bob"
 
 
 def build(p: SimpleNamespace) -> LagrangianSystem:
-    import sympy as sp
+    import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
-    from analytic.lagrangian import LagrangianSystem, coordinates
+    from analytic.lagrangian import LagrangianSystem, coordinates  # lazy: loads sympy
 
     m, g, l = p.m, p.g, p.l
     (theta, phi), (theta_d, phi_d) = coordinates("theta phi")

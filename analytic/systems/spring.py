@@ -30,7 +30,7 @@ from analytic.systems import Motion, Scales
 if TYPE_CHECKING:
     from types import SimpleNamespace
 
-    from analytic.lagrangian import LagrangianSystem
+    from analytic.lagrangian import LagrangianSystem  # lazy: loads sympy
 
 PARAMETERS = "m k l0"
 
@@ -43,7 +43,7 @@ MOTION = Motion(
 
 
 def build(p: SimpleNamespace) -> LagrangianSystem:
-    from analytic.lagrangian import LagrangianSystem, coordinates
+    from analytic.lagrangian import LagrangianSystem, coordinates  # lazy: loads sympy
 
     m, k, l0 = p.m, p.k, p.l0
     (x,), (x_d,) = coordinates("x")

@@ -16,6 +16,7 @@ Library use (``from harness import ...``, tests) goes through neither.
 
 from __future__ import annotations
 
+import ctypes
 import os
 import sys
 
@@ -27,7 +28,7 @@ def import_mujoco_without_gl() -> None:
     user = os.environ.get("MUJOCO_GL")
     os.environ["MUJOCO_GL"] = "disable"
     try:
-        import mujoco  # noqa: F401
+        import mujoco  # noqa: F401  # lazy: the point of this function is the environment it imports in
     finally:
         if user is None:
             del os.environ["MUJOCO_GL"]
@@ -38,8 +39,6 @@ def import_mujoco_without_gl() -> None:
 def exit_now(code: int) -> None:
     """Exit with ``code`` after flushing Python's and C's output buffers, without teardown. MuJoCo
     writes its warnings with C's printf, which a pipe (a CI log) buffers apart from Python."""
-    import ctypes
-
     sys.stdout.flush()
     sys.stderr.flush()
     ctypes.CDLL(None).fflush(None)  # every C stdio stream
@@ -49,7 +48,7 @@ def exit_now(code: int) -> None:
 def entry() -> None:
     """``mjharness``: MuJoCo without GL, :func:`harness.cli.commands.main`, then :func:`exit_now` with its code."""
     import_mujoco_without_gl()
-    from harness.cli.commands import main
+    from harness.cli.commands import main  # lazy: after MuJoCo, which it imports, is imported without GL
 
     exit_now(main())
 

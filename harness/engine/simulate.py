@@ -50,6 +50,7 @@ import itertools
 import os
 import time
 from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import mujoco
@@ -453,8 +454,6 @@ def _rollout_recomputed(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record
         _give_back_batch(model, b)
         _forward_all(model, data, rec.states, rec.fields)
         return
-    from concurrent.futures import ThreadPoolExecutor
-
     def recompute(start: int, stop: int) -> None:  # states start..stop−1, on the other thread
         _forward_all(model, helper, rec.states[start:stop], {f: v[start:stop] for f, v in rec.fields.items()},
                      threads=1)

@@ -14,7 +14,7 @@ from importlib.metadata import version
 import mujoco
 import numpy as np
 
-from harness import __version__
+from harness.core import VERSION as __version__
 from harness.core.checks import Check
 from harness.pipeline.run import CaseResult
 

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from harness import __version__
+from harness.core import VERSION as __version__
 from harness.core.checks import Check
 from harness.outputs.equations import equations, png_data_uri
 from harness.outputs.files import prepare_output, write_atomic

@@ -15,12 +15,16 @@ timestamps; pinned in tests/test_report.py).
 from __future__ import annotations
 
 import base64
+import io
 import json
 import os
 import subprocess
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+
+import mujoco
+import numpy as np
 
 from harness import cases
 from harness.engine.bindings import JointBinding
@@ -103,9 +107,6 @@ def _pose(model, data, case_name: str, coordinates: Sequence[str]) -> None:
 
 def _camera(model, data):
     """A free camera framing the bodies, sites and geoms (not the floor), looking along +y."""
-    import mujoco
-    import numpy as np
-
     planes = {int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_HFIELD)}
     solid = np.array([int(t) not in planes for t in model.geom_type], dtype=bool)
     centers, radii = data.geom_xpos[solid], model.geom_rbound[solid][:, None]
@@ -122,10 +123,7 @@ def _camera(model, data):
 
 
 def _render_one(item: Mapping[str, object]) -> bytes:
-    import io
-
-    import mujoco
-    from PIL import Image
+    from PIL import Image  # lazy: Pillow, in the render child only
 
     model = mujoco.MjModel.from_xml_path(str(item["mjcf"]))
     data = mujoco.MjData(model)
@@ -146,8 +144,6 @@ def _render_one(item: Mapping[str, object]) -> bytes:
 
 def _probe_gl() -> None:
     """Create and free a GL context; any failure here is the backend's, not a model's."""
-    import mujoco
-
     ctx = mujoco.GLContext(1, 1)
     ctx.make_current()
     ctx.free()

@@ -28,7 +28,8 @@ import mujoco
 import numpy as np
 import sympy as sp
 
-from analytic.claims import Claim, all_claims
+from analytic.claims import Claim
+from analytic.claims.documents import all_claims
 from analytic.claims.view import T_SYMBOL, DocView, symbolic_check
 from harness import cases
 from harness.engine.bindings import JointBinding

@@ -20,6 +20,8 @@ case's ``settle`` time, / m g), the position error and MuJoCo's energy drift.
 
 from __future__ import annotations
 
+import base64
+import html
 import itertools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -167,9 +169,6 @@ def contact_study(
 
 def html_section(results: Sequence[StudyResult]) -> str:
     """The contact-settings studies as a report section: a table per case (shipped row marked) and its plot."""
-    import base64
-    import html
-
     keys = ("cone", "impratio", "noslip_iterations", "softness", "slip_late", "force_error", "position")
     parts = []
     for r in results:

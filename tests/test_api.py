@@ -1,0 +1,119 @@
+"""The Python API (harness.validate) and the pytest plugin, used as a user's own code and test suite would."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+import sys
+
+import pytest
+
+import harness
+from harness.cases import get
+from harness.engine.compat import set_damping
+from harness.outputs.jsondoc import dumps
+
+RK4 = ["RK4"]  # one integrator keeps these runs short; the others are judged by the generic tests
+
+
+@pytest.fixture(scope="module")
+def shipped():
+    return harness.validate("pendulum", integrators=RK4)
+
+
+@pytest.fixture(scope="module")
+def damped():
+    return harness.validate("pendulum", integrators=RK4, edit=lambda spec: set_damping(spec.joint("theta"), 0.01))
+
+
+def test_import_harness_loads_nothing_heavy():
+    """`import harness` must stay light: the mjharness command imports it before MuJoCo (without GL)."""
+    code = "import sys, harness; print(sorted({'mujoco', 'numpy', 'sympy'} & set(sys.modules)), harness.__version__)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["[]", harness.__version__]
+    assert set(harness.__all__) <= set(dir(harness))
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        harness.nope  # noqa: B018
+
+
+def test_a_shipped_case_validates(shipped):
+    assert isinstance(shipped, harness.Validation) and shipped.passed and shipped.failures == ()
+    assert shipped.case == "pendulum" and shipped.mjcf.endswith("pendulum.xml")
+    assert {c.name.integrator for c in shipped.checks} <= {"", "RK4"}  # the other integrators' limits are left
+    assert shipped.check("RK4.position").value == shipped.figure("RK4.position").value
+    assert shipped.summary().splitlines()[-1] == f"{len(shipped.checks)} passed, 0 failed"
+    shipped.raise_for_failures()  # nothing to raise
+    with pytest.raises(KeyError, match="measured: "):
+        shipped.figure("RK4.nothing")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        shipped.case = "other"  # type: ignore[misc]
+
+
+def test_a_fault_fails_with_every_failure_listed(damped):
+    assert not damped.passed and damped.failures
+    with pytest.raises(harness.ValidationFailed) as err:
+        damped.raise_for_failures()
+    assert isinstance(err.value, AssertionError) and err.value.validation is damped
+    message = str(err.value)
+    assert f"{len(damped.failures)} of {len(damped.checks)} checks failed" in message
+    assert all(c.name in message for c in damped.failures) and "RK4.position" in message
+
+
+def test_the_json_is_the_report_schema(shipped):
+    doc = json.loads(dumps(shipped.to_json()))
+    assert doc["schema"] == 1 and list(doc["cases"]) == ["pendulum"]
+    entry = doc["cases"]["pendulum"]
+    assert set(entry) == {"passed", "figures", "checks", "settings"} and entry["passed"] is True
+    assert entry["checks"]["RK4.position"]["threshold"] == shipped.check("RK4.position").threshold
+
+
+def test_limits_and_cases_can_be_given(shipped):
+    tight = harness.validate(get("pendulum"), integrators=RK4,
+                             limits={"RK4.position": shipped.figure("RK4.position").value / 2})
+    assert [c.name for c in tight.failures] == ["RK4.position"] and "validate()" in tight.limits
+    assert "pendulum" in harness.case_names()
+
+
+@pytest.mark.parametrize("kwargs, needle", [
+    ({"case": "pendulumm"}, "known cases: atwood"),
+    ({"case": 3}, "case must be a case name"),
+    ({"case": "pendulum", "integrators": []}, "at least one integrator"),
+    ({"case": "pendulum", "integrators": ["Verlet"]}, "unknown integrator 'Verlet'"),
+])
+def test_bad_arguments_are_one_line_value_errors(kwargs, needle):
+    with pytest.raises(ValueError, match=needle) as err:
+        harness.validate(**kwargs)
+    assert "\n" not in str(err.value)
+
+
+USER_TESTS = '''
+from pathlib import Path
+
+MODEL = Path(__file__).parent / "my_pendulum.xml"
+BROKEN = Path(__file__).parent / "my_damped_pendulum.xml"
+
+
+def test_my_pendulum_is_valid(mjharness):
+    result = mjharness.assert_valid("pendulum", mjcf=MODEL, integrators=["RK4"])
+    assert result.figure("RK4.position").value < 1e-6
+
+
+def test_my_damped_pendulum(mjharness):
+    mjharness.assert_valid("pendulum", mjcf=BROKEN, integrators=["RK4"])
+'''
+
+
+def test_the_plugin_validates_a_users_variant_in_their_own_suite(pytester):
+    """An outside test file, run by pytest in a fresh process with only the installed plugin: the fixture
+    passes the user's faithful copy of the model and fails their damped one, naming the failed checks."""
+    shipped = get("pendulum").mjcf.read_text()
+    assert 'damping="0"' in shipped
+    pytester.makefile(".xml", my_pendulum=shipped,
+                      my_damped_pendulum=shipped.replace('damping="0"', 'damping="0.01"', 1))
+    pytester.makepyfile(test_user=USER_TESTS)
+    result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-v")
+    result.assert_outcomes(passed=1, failed=1)
+    result.stdout.fnmatch_lines(["*mjharness 0.1.0, MuJoCo *", "*test_my_pendulum_is_valid PASSED*",
+                                 "*ValidationFailed: case 'pendulum' (*my_damped_pendulum.xml): * checks failed*",
+                                 "*RK4.position = * > limit *"])
