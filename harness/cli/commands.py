@@ -199,7 +199,7 @@ def cmd_baseline(args: argparse.Namespace) -> int:
             print(checks_table(checks))
             print(f"mjharness: refusing to write a baseline while {len(failing)} check(s) fail", file=sys.stderr)
             return EXIT_FAIL
-        written = baseline.write(args.write, baseline.merge(old, baseline.baseline_doc(results, checks)))
+        written = baseline.write(args.write, baseline.baseline_doc(results, checks), old)
         count = sum(len(c["figures"]) for c in written["cases"].values())
         print(f"wrote {args.write}: {len(written['cases'])} case(s), {count} gated figures")
         return EXIT_OK

@@ -99,17 +99,22 @@ def exists(path: Path) -> bool:
     return Path(path).is_file() if _is_file(path) else Path(path).is_dir() and any(Path(path).glob("*.json"))
 
 
-def write(path: Path, doc: Mapping) -> dict:
-    """Write ``doc`` to ``path``: one file, or (a directory) one file per case, each a whole baseline
-    document with that case alone; returns ``doc``."""
+def write(path: Path, new: Mapping, old: Mapping | None = None) -> dict:
+    """Write the baseline ``new`` (one run's cases) to ``path`` and return what ``path`` then holds.
+
+    A directory gets one file per case of ``new``, each a whole baseline document with that case
+    alone; the other cases' files are left as they are. A single file gets ``new`` merged with
+    ``old`` (its previous content: a partial refresh keeps the other cases). Either way the two must
+    come from one MuJoCo version (:func:`merge` refuses otherwise)."""
     path = Path(path)
+    merged = merge(old, new)
     prepare_output(output_dir(path))
     if _is_file(path):
-        write_atomic({path: dumps(doc)})
+        write_atomic({path: dumps(merged)})
     else:
-        write_atomic({path / f"{case}.json": dumps({**doc, "passed": entry["passed"], "cases": {case: entry}})
-                      for case, entry in doc["cases"].items()})
-    return dict(doc)
+        write_atomic({path / f"{case}.json": dumps({**new, "passed": entry["passed"], "cases": {case: entry}})
+                      for case, entry in new["cases"].items()})
+    return merged
 
 
 def limit(old: float, threshold: float) -> float:

@@ -163,15 +163,20 @@ def format_diff(diff: Diff, *, show_all: bool = False) -> str:
 
 
 def _merged(directory: Path) -> dict:
-    """The run documents ``directory/*.json`` as one: every case, the versions they all share."""
+    """The run documents ``directory/*.json`` as one: every case, and every package version any of them
+    records (ValueError where two record different versions of one package)."""
     docs = [load_run(p) for p in sorted(directory.glob("*.json"))]
     if not docs:
         raise ValueError(f"{str(directory)!r} holds no run documents (*.json)")
     merged = dict(docs[0])
-    merged["cases"] = {}
-    for doc in docs:
-        if doc.get("versions") != docs[0].get("versions"):
-            raise ValueError(f"the documents in {str(directory)!r} were recorded with different versions")
+    merged["cases"], merged["versions"] = {}, {}
+    for path, doc in zip(sorted(directory.glob("*.json")), docs, strict=True):
+        versions = doc.get("versions", {})
+        clash = sorted(k for k, v in versions.items() if merged["versions"].get(k, v) != v)
+        if clash:
+            raise ValueError(f"{str(path)!r} was recorded with other versions of {', '.join(clash)} than the "
+                             f"other documents in {str(directory)!r}")
+        merged["versions"].update(versions)
         merged["cases"].update(doc["cases"])
     merged["passed"] = all(bool(c.get("passed", True)) for c in merged["cases"].values())
     return merged

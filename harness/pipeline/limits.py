@@ -41,6 +41,7 @@ from typing import Literal
 from harness.cases import all_cases
 from harness.core.errors import ConfigError
 from harness.core.figures import Figure, FigureName
+from harness.layers.orders import ORDER_TOLERANCE
 
 Basis = Literal["theory", "measured", "user"]
 BASES = ("theory", "measured")
@@ -203,16 +204,29 @@ def measured_limit(measured: float, margin: float, reason: str = "") -> Limit:
     return Limit(value=value, basis="measured", measured=measured, margin=margin, reason=reason)
 
 
+ORDER_REASON = ("max(0, documented − observed order) ≤ 0.3: a floor at 1/10 of the smallest fitted error biases the "
+                "fitted slope by ≤ 0.14 (harness/layers/orders.py)")
+
+
+def theory_limit(name: FigureName) -> Limit | None:
+    """The limit theory sets for a figure whatever the case (None where only a measurement can): a
+    convergence order's shortfall, which the fit's floor bias bounds."""
+    if name.layer == "converge" and name.quantity == "order_shortfall":
+        return Limit(value=ORDER_TOLERANCE, basis="theory", reason=ORDER_REASON)
+    return None
+
+
 def remeasured(case: str, old: CaseLimits | None, figures: Iterable[Figure], *, constrained: bool,
                skip: Iterable[str] = ()) -> CaseLimits:
     """New limits from freshly measured ``figures``: each measured limit of ``old`` set again from its
     figure with its own margin, theory limits kept as they are; with no ``old``, a limit for every
-    figure :data:`DEFAULT_GATED` picks, at :data:`DEFAULT_MARGIN`. Figures in ``skip`` (integrators
-    this MuJoCo lacks) keep their old limits."""
+    figure :data:`DEFAULT_GATED` picks: its theory limit where one applies to any case
+    (:func:`theory_limit`), else the measurement at :data:`DEFAULT_MARGIN`. Figures in ``skip``
+    (integrators this MuJoCo lacks) keep their old limits."""
     measured = {f.name: f.value for f in figures}
     skip = set(skip)
     if old is None:
-        limits = {name: measured_limit(value, DEFAULT_MARGIN, "default rule for a new case")
+        limits = {name: theory_limit(FigureName(name)) or measured_limit(value, DEFAULT_MARGIN, "default rule")
                   for name, value in measured.items() if DEFAULT_GATED(FigureName(name), constrained)}
         return CaseLimits(case=case, limits=limits)
     out = {}
