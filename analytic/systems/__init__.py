@@ -38,6 +38,9 @@ if TYPE_CHECKING:
 
 REQUIRED = ("PARAMETERS", "MOTION", "build", "params_from_model", "scales")
 
+Parameters = SimpleNamespace
+"""What ``build(p)`` and ``minimal(p)`` receive: the system's parameters as positive sympy symbols, by name."""
+
 
 @dataclass(frozen=True)
 class Scales:
@@ -47,6 +50,13 @@ class Scales:
     force: float
     energy: float
     momentum: float = 1.0
+
+    @classmethod
+    def gravity(cls, *, mass: float, g: float, length: float) -> Scales:
+        """The scales of a mass moving over a length under gravity: force m g, energy m g L,
+        (angular) momentum m √(g L) L."""
+        force = mass * g
+        return cls(length=length, force=force, energy=force * length, momentum=mass * (g * length) ** 0.5 * length)
 
 
 @dataclass(frozen=True)
@@ -96,7 +106,7 @@ def parameter_names(system: str) -> tuple[str, ...]:
     return tuple(load(system).PARAMETERS.split())
 
 
-def symbols(system: str) -> SimpleNamespace:
+def symbols(system: str) -> Parameters:
     """The parameters of ``system`` as positive sympy symbols, by name (``symbols("pendulum").m``).
     Symbols are equal by name and assumptions, so every call gives the same ones."""
     import sympy as sp  # lazy: sympy (0.15 s), only where a derivation is made

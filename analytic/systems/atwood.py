@@ -38,12 +38,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from analytic.systems import Motion, Scales
+from analytic.systems import Motion, Parameters, Scales
 
 if TYPE_CHECKING:
-    from types import SimpleNamespace
-
-    from analytic.lagrangian import LagrangianSystem  # lazy: loads sympy
+    from analytic.lagrangian import LagrangianSystem
 
 PARAMETERS = "m1 m2 m_p a g h"
 
@@ -56,7 +54,7 @@ MOTION = Motion(
 )
 
 
-def build(p: SimpleNamespace) -> LagrangianSystem:
+def build(p: Parameters) -> LagrangianSystem:
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
 
     m1, m2, m_p, a, g, h = p.m1, p.m2, p.m_p, p.a, p.g, p.h
@@ -73,7 +71,7 @@ def build(p: SimpleNamespace) -> LagrangianSystem:
     )
 
 
-def minimal(p: SimpleNamespace) -> LagrangianSystem:
+def minimal(p: Parameters) -> LagrangianSystem:
     """z1 alone, with z2 = −z1 and θ = z1/a substituted: (m1 + m2 + m_p) z̈1 = −(m1 − m2) g."""
     from analytic.lagrangian import coordinates  # lazy: loads sympy
 
@@ -100,7 +98,4 @@ def params_from_model(model) -> dict[str, float]:
 
 def scales(params: dict[str, float]) -> Scales:
     """Forces against the hanging weight (m1 + m2) g, lengths against the radius a."""
-    weight = (params["m1"] + params["m2"]) * params["g"]
-    a_ = params["a"]
-    return Scales(length=a_, force=weight, energy=weight * a_,
-                  momentum=(params["m1"] + params["m2"]) * (params["g"] * a_) ** 0.5 * a_)
+    return Scales.gravity(mass=params["m1"] + params["m2"], g=params["g"], length=params["a"])

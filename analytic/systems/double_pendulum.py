@@ -45,11 +45,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from analytic.systems import Motion, Scales
+from analytic.systems import Motion, Parameters, Scales
 
 if TYPE_CHECKING:
-    from types import SimpleNamespace
-
     from analytic.lagrangian import LagrangianSystem
 
 PARAMETERS = "m1 m2 l1 l2 g"
@@ -64,7 +62,7 @@ MOTION = Motion(
 BODIES = ("bob1", "bob2")
 
 
-def build(p: SimpleNamespace) -> LagrangianSystem:
+def build(p: Parameters) -> LagrangianSystem:
     import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
     from analytic.lagrangian import LagrangianSystem, coordinates  # lazy: loads sympy
@@ -107,6 +105,4 @@ def params_from_model(model) -> dict[str, float]:
 
 def scales(params: dict[str, float]) -> Scales:
     """Length l1 + l2, force (m1 + m2) g, energy (m1 + m2) g (l1 + l2), momentum (m1 + m2) √(g L) L."""
-    mass, length = params["m1"] + params["m2"], params["l1"] + params["l2"]
-    return Scales(length=length, force=mass * params["g"], energy=mass * params["g"] * length,
-                  momentum=mass * (params["g"] * length) ** 0.5 * length)
+    return Scales.gravity(mass=params["m1"] + params["m2"], g=params["g"], length=params["l1"] + params["l2"])

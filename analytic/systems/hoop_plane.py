@@ -48,12 +48,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from analytic.systems import Motion, Scales
+from analytic.systems import Motion, Parameters, Scales
 
 if TYPE_CHECKING:
-    from types import SimpleNamespace
-
-    from analytic.lagrangian import LagrangianSystem  # lazy: loads sympy
+    from analytic.lagrangian import LagrangianSystem
 
 PARAMETERS = "m g a"
 
@@ -68,7 +66,7 @@ MOTION = Motion(
 )
 
 
-def build(p: SimpleNamespace) -> LagrangianSystem:
+def build(p: Parameters) -> LagrangianSystem:
     import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
@@ -112,6 +110,5 @@ def params_from_model(model) -> dict[str, float]:
 
 
 def scales(params: dict[str, float]) -> Scales:
-    mg = params["m"] * params["g"]
-    a_ = params["a"]
-    return Scales(length=a_, force=mg, energy=mg * a_, momentum=params["m"] * (params["g"] * a_) ** 0.5 * a_)
+    """Length a (the radius), force m g, energy m g a, momentum m √(g a) a."""
+    return Scales.gravity(mass=params["m"], g=params["g"], length=params["a"])

@@ -53,12 +53,10 @@ from typing import TYPE_CHECKING, Literal
 
 import mujoco
 
-from analytic.systems import Motion, Scales
+from analytic.systems import Motion, Parameters, Scales
 
 if TYPE_CHECKING:
-    from types import SimpleNamespace
-
-    from analytic.lagrangian import LagrangianSystem  # lazy: loads sympy
+    from analytic.lagrangian import LagrangianSystem
 
 PARAMETERS = "m g a alpha"
 
@@ -74,7 +72,7 @@ MOTION = Motion(
 RollForm = Literal["holonomic", "pfaffian"]
 
 
-def build(p: SimpleNamespace, *, form: RollForm = "holonomic") -> LagrangianSystem:
+def build(p: Parameters, *, form: RollForm = "holonomic") -> LagrangianSystem:
     """The hoop in (x, s, φ); ``form`` writes ``roll`` as x − aφ = 0 or as ẋ − aφ̇ = 0."""
     import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
@@ -105,7 +103,7 @@ def build(p: SimpleNamespace, *, form: RollForm = "holonomic") -> LagrangianSyst
     )
 
 
-def minimal(p: SimpleNamespace) -> LagrangianSystem:
+def minimal(p: Parameters) -> LagrangianSystem:
     """x alone, with s = a and φ = x/a substituted: 2m ẍ = m g sin α."""
     from analytic.lagrangian import coordinates  # lazy: loads sympy
 
@@ -131,6 +129,5 @@ def params_from_model(model: mujoco.MjModel) -> dict[str, float]:
 
 
 def scales(params: dict[str, float]) -> Scales:
-    mg = params["m"] * params["g"]
-    a_ = params["a"]
-    return Scales(length=a_, force=mg, energy=mg * a_, momentum=params["m"] * (params["g"] * a_) ** 0.5 * a_)
+    """Length a (the radius), force m g, energy m g a, momentum m √(g a) a."""
+    return Scales.gravity(mass=params["m"], g=params["g"], length=params["a"])

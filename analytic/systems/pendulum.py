@@ -24,12 +24,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from analytic.systems import Motion, Scales
+from analytic.systems import Motion, Parameters, Scales
 
 if TYPE_CHECKING:
-    from types import SimpleNamespace
-
-    from analytic.lagrangian import LagrangianSystem  # lazy: loads sympy
+    from analytic.lagrangian import LagrangianSystem
 
 PARAMETERS = "m g l"
 
@@ -42,7 +40,7 @@ MOTION = Motion(
 )
 
 
-def build(p: SimpleNamespace) -> LagrangianSystem:
+def build(p: Parameters) -> LagrangianSystem:
     import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
@@ -63,7 +61,7 @@ def build(p: SimpleNamespace) -> LagrangianSystem:
     )
 
 
-def minimal(p: SimpleNamespace) -> LagrangianSystem:
+def minimal(p: Parameters) -> LagrangianSystem:
     """θ alone, with r = l substituted: the textbook pendulum ODE."""
     from analytic.lagrangian import coordinates  # lazy: loads sympy
 
@@ -84,6 +82,5 @@ def params_from_model(model) -> dict[str, float]:
 
 
 def scales(params: dict[str, float]) -> Scales:
-    mg = params["m"] * params["g"]
-    return Scales(length=params["l"], force=mg, energy=mg * params["l"],
-                  momentum=params["m"] * (params["g"] * params["l"]) ** 0.5 * params["l"])
+    """Length l, force m g, energy m g l, momentum m √(g l) l."""
+    return Scales.gravity(mass=params["m"], g=params["g"], length=params["l"])

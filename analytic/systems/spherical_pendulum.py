@@ -46,12 +46,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from analytic.systems import Motion, Scales
+from analytic.systems import Motion, Parameters, Scales
 
 if TYPE_CHECKING:
-    from types import SimpleNamespace
-
-    from analytic.lagrangian import LagrangianSystem  # lazy: loads sympy
+    from analytic.lagrangian import LagrangianSystem
 
 PARAMETERS = "m g l"
 
@@ -65,7 +63,7 @@ MOTION = Motion(
 BOB = "bob"
 
 
-def build(p: SimpleNamespace) -> LagrangianSystem:
+def build(p: Parameters) -> LagrangianSystem:
     import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
     from analytic.lagrangian import LagrangianSystem, coordinates  # lazy: loads sympy
@@ -114,6 +112,4 @@ def params_from_model(model) -> dict[str, float]:
 
 def scales(params: dict[str, float]) -> Scales:
     """Length l, force m g, energy m g l, angular momentum m l √(g l)."""
-    mg = params["m"] * params["g"]
-    return Scales(length=params["l"], force=mg, energy=mg * params["l"],
-                  momentum=params["m"] * params["l"] * (params["g"] * params["l"]) ** 0.5)
+    return Scales.gravity(mass=params["m"], g=params["g"], length=params["l"])

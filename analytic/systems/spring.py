@@ -25,12 +25,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from analytic.systems import Motion, Scales
+from analytic.systems import Motion, Parameters, Scales
 
 if TYPE_CHECKING:
-    from types import SimpleNamespace
-
-    from analytic.lagrangian import LagrangianSystem  # lazy: loads sympy
+    from analytic.lagrangian import LagrangianSystem
 
 PARAMETERS = "m k l0"
 
@@ -42,7 +40,7 @@ MOTION = Motion(
 )
 
 
-def build(p: SimpleNamespace) -> LagrangianSystem:
+def build(p: Parameters) -> LagrangianSystem:
     from analytic.lagrangian import LagrangianSystem, coordinates  # lazy: loads sympy
 
     m, k, l0 = p.m, p.k, p.l0

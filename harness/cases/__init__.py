@@ -92,42 +92,69 @@ class Wiring:
 
 @dataclass(frozen=True)
 class Case:
-    """One validation case: a model, the system it models and the motion it runs.
+    """One validation case: a model, the system it models, the motion it runs and how it is wired.
 
     Attributes:
         name: case id (the model's file name; CLI name, test id, report section).
         system: analytic module under ``analytic.systems``.
         mjcf: path of the shipped model.
-        description: one line for ``mjharness list`` and the report.
-        q0, qd0: initial state in the analytic coordinates, by name; it must
-            satisfy the constraints (the reference refuses otherwise).
-        horizon: simulated time in seconds.
-        tags: selection tags (``fast``, ``ci``, ``constrained`` ...).
-        binding, mujoco_invariants, mujoco_forces, mujoco_series, settle: the
-            model's :class:`Wiring`.
+        motion: the initial state (in the analytic coordinates, by name; it must
+            satisfy the constraints) and the horizon it runs for.
+        wiring: the model's MuJoCo-side wiring (:class:`Wiring`).
+
+    The motion's and the wiring's parts are read through the properties below
+    (``case.q0``, ``case.binding``, ``case.mujoco_forces``, …).
     """
 
     name: str
     system: str
     mjcf: Path
-    description: str
-    q0: Mapping[str, float]
-    qd0: Mapping[str, float]
-    horizon: float
-    tags: frozenset[str] = field(default_factory=frozenset)
-    binding: Callable[[tuple[str, ...]], Any] | None = None
-    mujoco_invariants: Mapping[str, Reading] = field(default_factory=dict)
-    mujoco_forces: Mapping[str, Reading] = field(default_factory=dict)
-    mujoco_series: Mapping[str, Series] = field(default_factory=dict)
-    settle: float = 0.0
+    motion: Motion
+    wiring: Wiring = field(default_factory=Wiring)
 
     def __post_init__(self) -> None:
-        if set(self.q0) != set(self.qd0):
-            raise ValueError(f"case {self.name!r}: q0 and qd0 must name the same coordinates")
-        if not self.horizon > 0:
-            raise ValueError(f"case {self.name!r}: horizon must be positive, got {self.horizon}")
         if not 0 <= self.settle < self.horizon:
             raise ValueError(f"case {self.name!r}: settle must be in [0, horizon), got {self.settle}")
+
+    @property
+    def description(self) -> str:
+        return self.wiring.description or self.motion.description
+
+    @property
+    def q0(self) -> Mapping[str, float]:
+        return self.motion.q0
+
+    @property
+    def qd0(self) -> Mapping[str, float]:
+        return self.motion.qd0
+
+    @property
+    def horizon(self) -> float:
+        return self.motion.horizon
+
+    @property
+    def tags(self) -> frozenset[str]:
+        return self.motion.tags | self.wiring.tags
+
+    @property
+    def binding(self) -> Callable[[tuple[str, ...]], Any] | None:
+        return self.wiring.binding
+
+    @property
+    def mujoco_invariants(self) -> Mapping[str, Reading]:
+        return self.wiring.invariants
+
+    @property
+    def mujoco_forces(self) -> Mapping[str, Reading]:
+        return self.wiring.forces
+
+    @property
+    def mujoco_series(self) -> Mapping[str, Series]:
+        return self.wiring.series
+
+    @property
+    def settle(self) -> float:
+        return self.wiring.settle
 
     def reference(self, model: mujoco.MjModel, *, t_end: float | None = None, **solve: float) -> Reference:
         """The case's motion solved with the parameters of ``model`` (over at least ``t_end``)."""
@@ -171,11 +198,8 @@ def _case(path: Path) -> Case:
     if system not in systems.names():
         raise ValueError(f"model {path.name} has no analytic system: add analytic/systems/{system}.py, or "
                          f"name the system it models in mjcf/{name}.py (WIRING = Wiring(system=...))")
-    motion = wiring.motion or systems.load(system).MOTION
-    return Case(name=name, system=system, mjcf=path, description=wiring.description or motion.description,
-                q0=motion.q0, qd0=motion.qd0, horizon=motion.horizon, tags=motion.tags | wiring.tags,
-                binding=wiring.binding, mujoco_invariants=wiring.invariants, mujoco_forces=wiring.forces,
-                mujoco_series=wiring.series, settle=wiring.settle)
+    return Case(name=name, system=system, mjcf=path, motion=wiring.motion or systems.load(system).MOTION,
+                wiring=wiring)
 
 
 @functools.cache

@@ -199,9 +199,10 @@ def cmd_baseline(args: argparse.Namespace) -> int:
             print(checks_table(checks))
             print(f"mjharness: refusing to write a baseline while {len(failing)} check(s) fail", file=sys.stderr)
             return EXIT_FAIL
-        written = baseline.write(args.write, baseline.baseline_doc(results, checks), old)
-        count = sum(len(c["figures"]) for c in written["cases"].values())
-        print(f"wrote {args.write}: {len(written['cases'])} case(s), {count} gated figures")
+        new = baseline.baseline_doc(results, checks)
+        baseline.write(args.write, new, old)
+        count = sum(len(c["figures"]) for c in new["cases"].values())
+        print(f"wrote {args.write}: {', '.join(new['cases'])} ({count} gated figures)")
         return EXIT_OK
     reference = load_run(args.compare)
     mismatch = baseline.version_mismatch(reference, source=str(args.compare))
