@@ -22,7 +22,7 @@ import sympy as sp
 from analytic import systems
 from analytic.systems import atwood
 from harness import cases
-from harness.engine import compat
+from harness.engine import compat, models
 from harness.engine.bindings import JointBinding
 from harness.engine.constraints import equality_force
 from harness.engine.models import compile_model, mjcf_path
@@ -289,7 +289,7 @@ def _default_diagonal_on_any_version(monkeypatch: pytest.MonkeyPatch) -> None:
     compile without the harness's emulation of it (harness.compat.after_compile), so the
     model has MuJoCo's own default diagonal there too. Nothing to do where the flag exists."""
     if not HAS_DIAGEXACT:
-        monkeypatch.setattr(compat, "after_compile", lambda model, path: None)
+        monkeypatch.setattr(models, "after_compile", lambda model, path: None)  # where compile_model calls it
 
 
 def _each(*figures: str) -> set[str]:

@@ -7,7 +7,7 @@ import pytest
 
 from harness import cases
 from harness.pipeline.run import run_case
-from harness.pipeline.verdict import verdict
+from harness.pipeline.verdict import judge
 from tests.conftest import case_ids, shipped_run
 
 
@@ -30,7 +30,7 @@ def test_runs_are_bit_identical(name):
 def test_every_case_has_gates_and_they_pass_at_shipped_settings(name, config):
     thresholds = config.for_case(name)
     assert thresholds, f"case {name!r} has no thresholds in [tool.mjharness.thresholds.{name}]"
-    checks = verdict(name, shipped_run(name).figures, thresholds)
+    checks = judge(shipped_run(name), thresholds)
     failed = [(c.name, c.value, c.threshold) for c in checks if not c.passed]
     assert not failed
 

@@ -127,6 +127,11 @@ def _version() -> tuple[int, ...]:
     return tuple(int(p) for p in re.findall(r"\d+", mujoco.__version__)[:3])
 
 
+def version() -> tuple[int, ...]:
+    """This MuJoCo's version as numbers, e.g. (4, 0, 0)."""
+    return _version()
+
+
 def jac_dot(model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarray, body: int) -> np.ndarray:
     """Translational J̇ (3 × nv) of a point moving with ``body``, after ``mj_forward``.
 
