@@ -223,7 +223,7 @@ def _general_claims() -> list[Claim]:
                                 text="d/dt ∂L/∂q̇_i − ∂L/∂q_i − Σ_j λ_j ∂f_j/∂q_i = 0"),
                         Reading("λ of the opposite sign, S = ∫(L − Σλf) dt (λ = +tension)", flipped,
                                 lambda v: v.lagrange() + v.xi.T * v.multipliers,
-                                text="d/dt ∂L/∂q̇_i − ∂L/∂q_i + Σ_j λ_j ∂f_j/∂q_i = 0 (as printed)")),
+                                text="d/dt ∂L/∂q̇_i − ∂L/∂q_i + Σ_j λ_j ∂f_j/∂q_i = 0")),
               note="instance: the r-pendulum, our L"),
     ]
 
