@@ -140,6 +140,23 @@ def test_markdown_summary_for_ci(run):
     assert any(line.startswith("| pendulum | RK4.position |") for line in md.splitlines())
 
 
+def test_summary_md_carries_the_seed_audit_from_the_report_appendix(tmp_path, run, monkeypatch):
+    """write_report hands report.json's "audit" entry to summary.md (a hand-made entry: the audit's own
+    rendering is tested in tests/test_audit.py)."""
+    results, checks = run
+    entry = {"counts": {"claims": 2, "of": 2, "confirmed": 1, "refuted": 1, "ambiguous": 0, "errors": 0,
+                        "transcription slips": 1},
+             "claims": {"x.ok": {"verdict": "confirmed", "cause": "", "lines": "3", "corrected": "", "readings": []},
+                        "x.bad": {"verdict": "refuted", "cause": "transcription slip", "lines": "7",
+                                  "corrected": "λ₂ = g m₂", "readings": []}}}
+    monkeypatch.setattr(report, "render_html", lambda *_a, **_k: "<html></html>")
+    report.write_report(tmp_path / "out", results, checks, stills={}, appendix={"audit": entry})
+    md = (tmp_path / "out" / "summary.md").read_text(encoding="utf-8")
+    assert "## Seed audit" in md and "2 claims: 1 confirmed, 1 refuted (0 errors, 1 transcription slips)" in md
+    assert "| x.bad | 7 | refuted (transcription slip) | λ₂ = g m₂ |" in md and "x.ok" not in md
+    assert "Seed audit" not in report.render_markdown(results, checks)  # no audit entry, no section
+
+
 def test_json_has_every_figure_and_is_strict_json(run):
     results, checks = run
     text = jsondoc.render_json(results, checks)

@@ -1,10 +1,12 @@
-"""The seed documents' derived results, as named claims the audit checks.
+"""The seed documents' displays and statements of fact, as named claims the audit checks.
 
-Each :class:`Claim` is a formula as the document prints it, transcribed
-faithfully in the document's own variables (its :class:`Frame`), with where it
-stands. The audit (``harness/audit.py``) checks it symbolically against our
+Each :class:`Claim` is a formula or statement as the document prints it,
+transcribed faithfully in the document's own variables (its :class:`Frame`).
+The audit (``harness/studies/audit.py``) checks it symbolically against our
 sympy derivation (expressed in the same variables) and numerically against
-MuJoCo at sampled states.
+MuJoCo at sampled states. Which lines of which document each claim comes from,
+and why the remaining lines hold no claim, is the coverage list
+(:mod:`analytic.claims.coverage`).
 
 Kinds of claim and what "true" means:
 
@@ -16,23 +18,36 @@ Kinds of claim and what "true" means:
   potential measured from another zero).
 - ``equation``: the document asserts ``claimed`` = 0 on motions; true iff it
   vanishes identically once q̈ and λ take their solved values (so a multiple
-  or a combination of Lagrange's equations is accepted).
-- ``statement``: not a formula; ``check`` returns (holds, reason).
+  or a combination of Lagrange's equations is accepted). ``claimed`` may be a
+  column (one equation per coordinate, as a general display Σ_k [...]_k δq_k = 0
+  with independent δq_k asserts).
+- ``statement``: not a formula about one quantity; ``check`` returns
+  (holds, reason).
+
+A general display (the multiplier method, the calculus of variations) is
+checked on an instance: ``claimed`` may be a function of the
+:class:`~analytic.claims.view.DocView`, applying the display's operations to
+our derived L, T, V and constraint rows in the document's variables.
 
 ``manifold``: substitutions the document makes that hold on the constraint
-manifold (e.g. r = l, ṙ = 0); ``approximation``: substitutions of an
-approximation the claim states (e.g. sin θ → θ), with ``approx_symbol`` the
-small quantity, compared to first order. ``slip`` marks a display with an
-evident typographic slip (the next line contradicts it) and gives the intended
-formula in ``intended``; ``ambiguity`` names a convention the document leaves
-open.
+manifold (e.g. r = l, ṙ = 0); ``projection``: the same, used only to allow
+numerically for MuJoCo's soft constraint leaving the manifold (where the
+claim must not be checked on it symbolically); ``approximation``:
+substitutions of an approximation the claim states (e.g. sin θ → θ), with
+``approx_symbol`` the small quantity, compared to first order. A refuted
+claim's corrected form is ``intended`` (a formula in the document's notation;
+``aliases`` names the document's own symbols such as a tension T = −λ) or, for
+a statement, ``corrected_text`` with ``intended_check``; ``slip`` marks an
+evident typographic slip (the document's next lines contradict the display).
+``readings`` lists the readings of an ambiguous claim, each with the formula
+that holds under it; ``note`` is shown with the verdict whatever it is.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Literal, Union
 
 import sympy as sp
 
@@ -40,6 +55,8 @@ if TYPE_CHECKING:
     from analytic.claims.view import DocView
 
 ClaimKind = Literal["value", "value_up_to_constant", "equation", "statement"]
+Formula = Union[sp.Expr, sp.Matrix, "Callable[[DocView], sp.Expr | sp.Matrix]"]
+StatementCheck = Callable[["DocView"], tuple[bool, str]]
 
 
 @dataclass(frozen=True)
@@ -49,8 +66,9 @@ class Frame:
     ``q``, ``qd``, ``qdd``: the document's coordinates and their rates;
     ``to_ours``: each of our coordinates as an expression in the document's
     (e.g. θ_ours = π − θ_doc); ``lam``: the document's multipliers by our
-    constraint names. ``reading`` says in words which convention the mapping
-    encodes.
+    constraint names, ``lam_sign``: −1 where the document's multiplier is minus
+    ours (λ_ours = lam_sign · λ_doc). ``reading`` says in words which
+    convention the mapping encodes.
     """
 
     system: str
@@ -60,6 +78,25 @@ class Frame:
     to_ours: Mapping[str, sp.Expr]
     lam: Mapping[str, sp.Symbol] = field(default_factory=dict)
     reading: str = "the document's coordinates are ours"
+    lam_sign: Mapping[str, int] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Reading:
+    """One reading of an ambiguous claim, and the formula that holds under it.
+
+    Either a ``frame`` (the reading as a convention: which vertical θ is measured
+    from, which sign λ has) with ``formula``, the claim as it must read in that
+    convention (checked symbolically; the printed claim is checked too), or a
+    ``check`` that says whether the printed claim holds under the reading, with
+    ``text``, the reading's formula in words.
+    """
+
+    label: str
+    frame: Frame | None = None
+    formula: Formula | None = None
+    text: str = ""
+    check: StatementCheck | None = None
 
 
 @dataclass(frozen=True)
@@ -70,20 +107,28 @@ class Claim:
     quote: str
     frame: Frame
     kind: ClaimKind
-    claimed: sp.Expr | None = None
+    claimed: Formula | None = None
     truth: Callable[[DocView], sp.Expr] | None = None
-    check: Callable[[DocView], tuple[bool, str]] | None = None
-    measure: str | None = None  # MuJoCo's own reading: "kinetic", "potential", "lagrangian",
-    # "force:NAME", "qacc:COORD", "invariant:NAME", "coordinate:COORD" (for solutions), or None
+    check: StatementCheck | None = None
+    measure: str | None = None  # what MuJoCo reading the numeric check uses (harness/studies/audit_numbers.py)
     manifold: Mapping[sp.Symbol, sp.Expr] = field(default_factory=dict)
+    projection: Mapping[sp.Symbol, sp.Expr] = field(default_factory=dict)
     approximation: Mapping[sp.Expr, sp.Expr] = field(default_factory=dict)
     approx_symbol: sp.Symbol | None = None
     slip: str = ""
-    intended: sp.Expr | None = None
+    intended: Formula | None = None
+    aliases: Mapping[sp.Symbol, sp.Expr] = field(default_factory=dict)
+    lhs: str = ""  # a value claim's quantity in the document's notation ("λ₂"), for its corrected form
+    corrected_text: str = ""
+    project_text: str = ""
+    intended_check: StatementCheck | None = None
     ambiguity: str = ""
+    readings: tuple[Reading, ...] = ()
     note: str = ""
     numeric_blind: str = ""  # why motions cannot show the difference (e.g. it lies off the manifold)
     small_motion: float = 1.0  # numeric check from the case's initial state scaled by this
+    window: float = 0.0  # action claims: the interval [0, window] of the motion (0: the case's horizon)
+    no_numbers: str = ""  # why no motion can test the claim, where it is a formula
 
 
 def doc_frame(system: str, names: str, to_ours: Mapping[str, str | sp.Expr] | None = None,
@@ -92,7 +137,8 @@ def doc_frame(system: str, names: str, to_ours: Mapping[str, str | sp.Expr] | No
 
     ``to_ours`` maps each of our coordinate names to an expression in the
     document's names (strings are sympified with the document's symbols);
-    identity by name when omitted.
+    identity by name when omitted. ``lam`` names the document's multiplier for
+    each of our constraints; a leading "-" says it is minus ours.
     """
     q = tuple(sp.Symbol(n, real=True) for n in names.split())
     qd = tuple(sp.Symbol(f"{s.name}_dot", real=True) for s in q)
@@ -100,6 +146,7 @@ def doc_frame(system: str, names: str, to_ours: Mapping[str, str | sp.Expr] | No
     local = {s.name: s for s in q}
     mapping = {k: sp.sympify(v, locals=local) if isinstance(v, str) else v
                for k, v in (to_ours or {s.name: s for s in q}).items()}
-    lams = {k: sp.Symbol(v, real=True) for k, v in (lam or {}).items()}
+    lams = {k: sp.Symbol(v.lstrip("-"), real=True) for k, v in (lam or {}).items()}
+    signs = {k: -1 for k, v in (lam or {}).items() if v.startswith("-")}
     return Frame(system=system, q=q, qd=qd, qdd=qdd, to_ours=mapping, lam=lams,
-                 reading=reading or "the document's coordinates are ours")
+                 reading=reading or "the document's coordinates are ours", lam_sign=signs)

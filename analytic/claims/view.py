@@ -44,7 +44,7 @@ class DocView:
             subs[self.ours_qd[name]] = vel
             subs[self.ours_qdd[name]] = self.ddt(vel)
         for name, sym in self.ours_lam.items():
-            subs[sym] = self.frame.lam.get(name, sym)
+            subs[sym] = self.frame.lam_sign.get(name, 1) * self.frame.lam.get(name, sym)
         return subs
 
     @cached_property
@@ -65,7 +65,7 @@ class DocView:
             acc += sum(sp.diff(vel, c) * self.ours_qd[n] for n, c in self.ours_q.items())
             subs[qd], subs[qdd] = vel, acc
         for name, sym in f.lam.items():
-            subs[sym] = self.ours_lam[name]
+            subs[sym] = f.lam_sign.get(name, 1) * self.ours_lam[name]
         return subs
 
     def doc(self, expr: sp.Expr) -> sp.Expr:
@@ -102,8 +102,41 @@ class DocView:
         acc = sp.solve(acc_eqs, self.frame.qdd, dict=True)
         out.update({k: sp.simplify(v) for k, v in acc[0].items()})
         for name, sym in self.frame.lam.items():
-            out[sym] = sp.simplify(self.doc(ours[self.ours_lam[name]]))
+            out[sym] = sp.simplify(self.frame.lam_sign.get(name, 1) * self.doc(ours[self.ours_lam[name]]))
         return out
+
+    # --- the pieces a general display is made of, in the document's variables
+    @cached_property
+    def rows(self) -> sp.Matrix:
+        """Our constraint rows J q̇ + b, in the document's variables."""
+        return sp.Matrix([sp.simplify(self.doc(r)) for r in self.derivation.constraint_rows])
+
+    @cached_property
+    def xi(self) -> sp.Matrix:
+        """The coefficients Ξ_jk of the document's velocities in our constraint rows (row j, column k)."""
+        if not self.rows:
+            return sp.zeros(0, len(self.frame.q))
+        return sp.simplify(self.rows.jacobian(self.frame.qd))
+
+    @property
+    def multipliers(self) -> sp.Matrix:
+        """The document's multipliers, in the order of our constraints."""
+        names = [c.name for c in self.derivation.system.constraints]
+        missing = [n for n in names if n not in self.frame.lam]
+        if missing:
+            raise ValueError(f"frame for {self.frame.system!r} names no multiplier for {missing}")
+        return sp.Matrix([self.frame.lam[n] for n in names])
+
+    def lagrange(self, lagrangian: sp.Expr | None = None) -> sp.Matrix:
+        """d/dt ∂L/∂q̇_k − ∂L/∂q_k for every document coordinate k (our L unless one is given)."""
+        lag = self.L if lagrangian is None else lagrangian
+        f = self.frame
+        return sp.Matrix([self.ddt(sp.diff(lag, v)) - sp.diff(lag, c) for c, v in zip(f.q, f.qd, strict=True)])
+
+    @property
+    def forces(self) -> sp.Matrix:
+        """The generalized forces Q_k = −∂V/∂q_k of the potential (the systems have no other forces)."""
+        return sp.Matrix([-sp.diff(self.V, c) for c in self.frame.q])
 
     def on_motion(self, expr: sp.Expr, claim: Claim) -> sp.Expr:
         """Replace q̈, λ by their solved values, then the claim's manifold and approximation."""
@@ -115,30 +148,46 @@ class DocView:
         return out
 
 
+def resolve(formula: object, view: DocView) -> sp.Expr | sp.Matrix:
+    """A claim's formula: as given, or made from the view where it is a general display's instance."""
+    if callable(formula) and not isinstance(formula, sp.Basic | sp.MatrixBase):
+        return formula(view)
+    return formula  # type: ignore[return-value]
+
+
 @dataclass(frozen=True)
 class SymbolicResult:
     holds: bool
-    residual: sp.Expr | None
+    residual: sp.Expr | sp.Matrix | None
     reason: str = ""
 
 
-def _vanishes(expr: sp.Expr) -> bool:
+def _vanishes(expr: sp.Expr | sp.Matrix) -> bool:
+    if isinstance(expr, sp.MatrixBase):
+        return all(_vanishes(e) for e in expr)
     expr = sp.simplify(sp.expand_trig(sp.simplify(expr)))
     return expr == 0
 
 
-def symbolic_check(claim: Claim, view: DocView, formula: sp.Expr | None = None) -> SymbolicResult:
+def _simplified(expr: sp.Expr | sp.Matrix) -> sp.Expr | sp.Matrix:
+    return expr.applyfunc(sp.simplify) if isinstance(expr, sp.MatrixBase) else sp.simplify(expr)
+
+
+def symbolic_check(claim: Claim, view: DocView, formula: object = None) -> SymbolicResult:
     """Does ``formula`` (default: the claim as printed) hold against our derivation?"""
     if claim.kind == "statement":
         holds, reason = claim.check(view)  # type: ignore[misc]
         return SymbolicResult(holds, None, reason)
-    claimed = claim.claimed if formula is None else formula
+    claimed = resolve(claim.claimed if formula is None else formula, view)
+    if isinstance(claimed, sp.Equality):
+        claimed = claimed.lhs - claimed.rhs
+    claimed = sp.sympify(claimed).subs(claim.aliases, simultaneous=True) if claim.aliases else claimed
     if claim.kind == "equation":
         residual = view.on_motion(claimed, claim)
-        return SymbolicResult(_vanishes(residual), sp.simplify(residual))
+        return SymbolicResult(_vanishes(residual), _simplified(residual))
     truth = claim.truth(view)  # type: ignore[misc]
     residual = view.on_motion(claimed - truth, claim)
     if claim.kind == "value_up_to_constant":
         variables = [*view.frame.q, *view.frame.qd]
-        return SymbolicResult(all(_vanishes(sp.diff(residual, v)) for v in variables), sp.simplify(residual))
-    return SymbolicResult(_vanishes(residual), sp.simplify(residual))
+        return SymbolicResult(all(_vanishes(sp.diff(residual, v)) for v in variables), _simplified(residual))
+    return SymbolicResult(_vanishes(residual), _simplified(residual))

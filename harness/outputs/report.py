@@ -264,8 +264,10 @@ def render_html(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Che
             f"a summary in summary.md.</footer></body></html>\n")
 
 
-def render_markdown(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]]) -> str:
-    """A CI job summary: the verdict, one row per case, the failures, every check folded away."""
+def render_markdown(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+                    audit: Mapping[str, object] | None = None) -> str:
+    """A CI job summary: the verdict, one row per case, the failures, every check folded away; then the
+    seed audit's counts and flagged claims where ``audit`` (report.json's "audit" entry) is given."""
     total = sum(len(checks[r.case.name]) for r in results)
     failed = [c for r in results for c in checks[r.case.name] if not c.passed]
     head = (f"**PASS**: {len(results)} case(s), all {total} checks within their thresholds" if not failed
@@ -291,6 +293,25 @@ def render_markdown(results: Sequence[CaseResult], checks: Mapping[str, Sequence
             lines.append(f"| {r.case.name} | {c.name} | {fmt_value(c.value)} | {fmt_value(c.threshold)} | "
                          f"{ratio_text(ratio(c))} | {c.status if c.passed else '**FAIL**'} |")
     lines += ["", "</details>"]
+    return "\n".join(lines) + "\n" + (audit_markdown(audit) if audit else "")
+
+
+def audit_markdown(audit: Mapping[str, object]) -> str:
+    """summary.md's part of the seed audit, from its JSON (harness.studies.audit.json_rows): the counts and
+    the refuted, slip and ambiguous claims with their corrected forms or readings."""
+    c: Mapping = audit["counts"]  # type: ignore[assignment]
+    claims: Mapping[str, Mapping] = audit["claims"]  # type: ignore[assignment]
+    scope = "" if c["claims"] == c.get("of", c["claims"]) else f" (of {c['of']}: those about the systems run here)"
+    lines = ["", "## Seed audit", "",
+             f"{c['claims']} claims{scope}: {c['confirmed']} confirmed, {c['refuted']} refuted ({c['errors']} "
+             f"errors, {c['transcription slips']} transcription slips), {c['ambiguous']} ambiguous", ""]
+    flagged = {k: v for k, v in claims.items() if v["verdict"] != "confirmed"}
+    if flagged:
+        lines += ["| claim | line | verdict | corrected (document's notation) or readings |", "|---|---|---|---|"]
+        for cid, v in flagged.items():
+            fix = v["corrected"] or "; ".join(f"{x['label']}: {x['formula']}" for x in v["readings"])
+            verdict = v["verdict"] + (f" ({v['cause']})" if v["cause"] else "")
+            lines.append(f"| {cid} | {v['lines']} | {verdict} | {str(fix).replace('|', '∣')} |")
     return "\n".join(lines) + "\n"
 
 
@@ -304,6 +325,6 @@ def write_report(out: Path | str, results: Sequence[CaseResult], checks: Mapping
     files = {"report.html": render_html(results, checks, stills=stills, config_source=config_source,
                                         extras=extras, plots=plots),
              "report.json": render_json(results, checks, appendix=appendix),
-             "summary.md": render_markdown(results, checks)}
+             "summary.md": render_markdown(results, checks, audit=(appendix or {}).get("audit"))}  # type: ignore[arg-type]
     out = prepare_output(out)
     return write_atomic({out / name: text for name, text in files.items()})

@@ -1,4 +1,5 @@
-"""Every claim of the seed documents, in the order the audit reports them (one module per document)."""
+"""Every claim of the seed documents, in the order the audit reports them (each document's claims live in its own
+modules: simulations for 001, lecture15 and lecture15_method for 000)."""
 
 from __future__ import annotations
 
