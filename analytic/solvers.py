@@ -107,3 +107,41 @@ def _check_consistent(dynamics: Dynamics, q0: Array, qd0: Array, tol: float = 1e
     if bad:
         detail = ", ".join(f"{n}: f={p:.3g}, Jq̇+b={v:.3g}" for n, p, v in bad)
         raise ValueError(f"initial state violates constraints ({detail}); give q0, qd0 on the manifold")
+
+
+def project(dynamics: Dynamics, q0: Array, qd0: Array, *, tol: float = 1e-13, iterations: int = 50,
+            polish: bool = False) -> tuple[Array, Array]:
+    """The state on the constraint manifold nearest (q0, q̇0): q by Gauss-Newton, each step the
+    smallest change Δq with J Δq = −f(q) (so a coordinate the constraints do not involve keeps its
+    value: a pendulum's angle stays, its radius becomes the rod's length), then q̇ less its
+    smallest change that makes J q̇ + b = 0 (exact in one step: the rows are linear in q̇). A state
+    already on the manifold (to ``tol``) is returned unchanged.
+
+    "Smallest" is in the coordinates' own units (the Euclidean norm of Δq), which is what a user who
+    wrote the state in those coordinates means by "nearest". ValueError where the constraints cannot
+    be met from (q0, q̇0) within ``iterations`` steps. ``polish`` goes on past ``tol`` while the
+    residual still falls (to round-off), for states whose every last bit of violation matters.
+    """
+    q = np.array(q0, dtype=float)
+    qd = np.array(qd0, dtype=float)
+    if dynamics.rows == 0:
+        return q, qd
+    for _ in range(iterations):
+        residual = dynamics.position_residual(q)
+        if np.max(np.abs(residual)) <= tol * max(1.0, float(np.max(np.abs(q)))):
+            break
+        q = q - np.linalg.lstsq(dynamics.jacobian(q), residual, rcond=None)[0]
+    else:
+        raise ValueError(f"the initial state cannot be brought onto the constraints (residual "
+                         f"{np.max(np.abs(dynamics.position_residual(q))):.3g} after {iterations} steps)")
+    for _ in range(4 if polish else 0):
+        step = q - np.linalg.lstsq(dynamics.jacobian(q), dynamics.position_residual(q), rcond=None)[0]
+        if not np.max(np.abs(dynamics.position_residual(step))) < np.max(np.abs(dynamics.position_residual(q))):
+            break
+        q = step
+    velocity = dynamics.velocity_residual(q, qd)
+    if np.max(np.abs(velocity)) > tol * max(1.0, float(np.max(np.abs(qd)))):
+        qd = qd - np.linalg.lstsq(dynamics.jacobian(q), velocity, rcond=None)[0]
+        if polish:
+            qd = qd - np.linalg.lstsq(dynamics.jacobian(q), dynamics.velocity_residual(q, qd), rcond=None)[0]
+    return q, qd

@@ -19,9 +19,11 @@ CLI, pytest and CI all select from :func:`all_cases`.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib
 import importlib.util
+import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -155,6 +157,28 @@ class Case:
     @property
     def settle(self) -> float:
         return self.wiring.settle
+
+    def with_motion(self, *, q0: Mapping[str, float] | None = None, qd0: Mapping[str, float] | None = None,
+                    horizon: float | None = None) -> Case:
+        """The case with its initial state or horizon changed: ``q0``/``qd0`` set the coordinates they
+        name (the others keep the motion's values), ``horizon`` replaces the motion's. ValueError naming
+        the coordinates accepted for an unknown one, or for a horizon that is not positive or leaves no
+        time after ``settle``."""
+        coordinates = tuple(self.q0)
+        for label, given in (("q0", q0), ("qd0", qd0)):
+            unknown = sorted(set(given or {}) - set(coordinates))
+            if unknown:
+                raise ValueError(f"{label} names unknown coordinate(s) {', '.join(unknown)} of case {self.name!r}; "
+                                 f"accepted: {', '.join(coordinates)}")
+            bad = [k for k, v in (given or {}).items() if not math.isfinite(v)]
+            if bad:
+                raise ValueError(f"{label} must be finite numbers, got {', '.join(f'{k}={given[k]}' for k in bad)}")
+        if horizon is not None and not (math.isfinite(horizon) and horizon > self.settle):
+            raise ValueError(f"horizon must be a number of seconds above the case's settle time "
+                             f"({self.settle:g} s), got {horizon}")
+        motion = dataclasses.replace(self.motion, q0={**self.q0, **(q0 or {})}, qd0={**self.qd0, **(qd0 or {})},
+                                     horizon=self.horizon if horizon is None else float(horizon))
+        return dataclasses.replace(self, motion=motion)
 
     def reference(self, model: mujoco.MjModel, *, t_end: float | None = None, **solve: float) -> Reference:
         """The case's motion solved with the parameters of ``model`` (over at least ``t_end``)."""

@@ -1,19 +1,41 @@
-"""A Check: one figure beside its limit, and the verdict it gets."""
+"""A Check: one figure beside its limit, and the verdict it gets.
+
+A gated figure is judged one of two ways (its limit's basis, :mod:`harness.pipeline.limits`):
+
+- by its error **budget** (:class:`~harness.core.budget.Budget`): what the
+  model's own settings explain is removed, and the unexplained residual must
+  lie within the limit the estimates' accuracy sets. ``threshold`` is that
+  limit, and ``value`` the figure as measured;
+- by a fixed limit from **theory** (or a user's config): ``value`` ≤ ``threshold``.
+"""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
+from harness.core.budget import Budget
 from harness.core.figures import FigureName
 
 
 @dataclass(frozen=True)
 class Check:
-    """A figure beside its limit. A non-empty ``note`` marks a check this MuJoCo cannot
-    measure (an integrator it lacks): shown as n/a with the note, and not a failure. A
-    non-empty ``known`` marks a failure explained by a documented defect of this MuJoCo
-    version: shown with the reason, and not a failure of the run."""
+    """A figure beside its limit.
+
+    Attributes:
+        value: the figure as measured.
+        threshold: the limit: on the budget's unexplained residual where ``budget`` is set, else on
+            ``value``.
+        note: non-empty for a check this MuJoCo cannot measure (an integrator it lacks): n/a, with the
+            note; not a failure.
+        known: non-empty for a failure that shows the signature of a documented defect of this MuJoCo
+            (harness.engine.compat.KNOWN_DEFECTS): still a failure, shown with the reason; a run passes
+            the gate despite it only where the user accepts known defects (:func:`gate`).
+        budget: the figure's error budget, where it is judged by one.
+        reason: why the check failed where the numbers alone do not say (a diverged run, a MuJoCo
+            warning).
+    """
 
     case: str
     name: FigureName
@@ -22,16 +44,41 @@ class Check:
     unit: str
     note: str = ""
     known: str = ""
+    budget: Budget | None = None
+    reason: str = ""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "name", FigureName(self.name))
 
     @property
+    def judged(self) -> float:
+        """What the limit applies to: the unexplained residual of the budget, or the figure itself."""
+        return self.budget.unexplained if self.budget is not None else self.value
+
+    @property
     def passed(self) -> bool:
-        return bool(self.note or self.known) or (math.isfinite(self.value) and self.value <= self.threshold)
+        if self.note:
+            return True
+        return not self.known and not self.reason and math.isfinite(self.judged) and self.judged <= self.threshold
 
     @property
     def status(self) -> str:
-        """``pass``, ``FAIL``, ``n/a`` (not measurable here) or ``known defect`` (fails on this
-        MuJoCo for a reason documented upstream, harness.engine.compat.KNOWN_DEFECTS)."""
-        return "n/a" if self.note else "known defect" if self.known else "pass" if self.passed else "FAIL"
+        """``pass``, ``FAIL``, ``FAIL (known defect)`` or ``n/a`` (not measurable here)."""
+        if self.note:
+            return "n/a"
+        if self.known:
+            return "FAIL (known defect)"
+        return "pass" if self.passed else "FAIL"
+
+    @property
+    def ratio(self) -> float:
+        """judged / threshold: below 1 passes (nan where not measured)."""
+        if self.note or not self.threshold > 0:
+            return math.nan
+        return self.judged / self.threshold
+
+
+def gate(checks: Iterable[Check], *, accept_known_defects: bool = False) -> bool:
+    """Whether a run passes: every check passes, or (with ``accept_known_defects``) every failure is a
+    documented defect of this MuJoCo whose signature the figure shows."""
+    return all(c.passed or (accept_known_defects and c.known) for c in checks)

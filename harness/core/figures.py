@@ -97,6 +97,12 @@ class FigureName(str):
         return cls._of("converge", integrator, quantity)
 
     @property
+    def measure(self) -> str:
+        """``QUANTITY[.DETAIL]``: what the figure measures, whichever integrator (``drift.energy``,
+        ``force.rod``)."""
+        return f"{self.quantity}.{self.detail}" if self.detail else self.quantity
+
+    @property
     def group(self) -> str:
         """What a report groups the figure under: its integrator in the trajectory layer, else its layer."""
         return self.integrator if self.layer == "trajectory" else self.layer

@@ -133,23 +133,36 @@ def version() -> tuple[int, ...]:
 
 
 def jac_dot(model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarray, body: int) -> np.ndarray:
-    """Translational J̇ (3 × nv) of a point moving with ``body``, after ``mj_forward``.
-
-    MuJoCo 3.3.0's ``mj_jacDot`` missed the motion of the point itself (fixed in
-    3.3.1, changelog "mj_jacDot was missing a term that accounts for the motion
-    of the point"): each column lacks ω_j × ṗ, with ω_j the rotational Jacobian
-    column and ṗ = J qvel. The fallback adds it (pinned against finite
-    differences in tests/test_convergence.py).
-    """
+    """Translational J̇ (3 × nv) of a point moving with ``body``, after ``mj_forward``: ``mj_jacDot``,
+    corrected where this MuJoCo's is wrong (:func:`jac_dot_missing`)."""
     jacp_dot = np.zeros((3, model.nv))
     mujoco.mj_jacDot(model, data, jacp_dot, None, point, body)
-    if _version() < (3, 3, 1):
-        jacp = np.zeros((3, model.nv))
-        jacr = np.zeros((3, model.nv))
-        mujoco.mj_jac(model, data, jacp, jacr, point, body)
-        pdot = jacp @ data.qvel
-        jacp_dot += np.cross(jacr.T, pdot).T  # column j += ω_j × ṗ
-    return jacp_dot
+    missing = jac_dot_missing(model, data, point, body)
+    return jacp_dot if missing is None else jacp_dot + missing
+
+
+JAC_DOT_DEFECT = ("mj_jacDot of MuJoCo < 3.3.1 misses the motion of the point itself (changelog 3.3.1: "
+                  "\"mj_jacDot was missing a term that accounts for the motion of the point\"): each column "
+                  "lacks ω_j × ṗ")
+
+
+def jac_dot_missing(model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarray, body: int) -> np.ndarray | None:
+    """What this MuJoCo's ``mj_jacDot`` leaves out of J̇ (3 × nv), or None where it is right.
+
+    MuJoCo 3.3.0's ``mj_jacDot`` missed the motion of the point itself (fixed in
+    3.3.1, :data:`JAC_DOT_DEFECT`): each column lacks ω_j × ṗ, with ω_j the
+    rotational Jacobian column and ṗ = J qvel (pinned against finite differences
+    in tests/test_compat.py). The harness adds it to take its own measurement
+    and reports the engine's disagreement as a finding
+    (:func:`harness.layers.instant.engine_findings`).
+    """
+    if _version() >= (3, 3, 1):
+        return None
+    jacp = np.zeros((3, model.nv))
+    jacr = np.zeros((3, model.nv))
+    mujoco.mj_jac(model, data, jacp, jacr, point, body)
+    pdot = jacp @ data.qvel
+    return np.cross(jacr.T, pdot).T  # column j: ω_j × ṗ
 
 
 def after_compile(model: mujoco.MjModel, path: str) -> None:
@@ -223,34 +236,46 @@ def set_stiffness(joint, value: float) -> None:
 
 
 # Defects of older MuJoCo versions that the harness measures, documented upstream. A check that
-# fails on such a version for such a model is shown as a known defect with the reason (it does
-# not fail the run); the same check on a fixed version is an ordinary gate.
+# fails on such a version, on such a model, and shows the defect's signature (harness.pipeline.verdict:
+# the integrator's observed order is the defect's, and the budget at that order explains the figure)
+# is a failure shown as the known defect, with the reason; the same check on a fixed version is an
+# ordinary gate.
 @dataclass(frozen=True)
 class KnownDefect:
+    """A documented defect: the version that fixed it, the integrator and joint types it affects, the
+    convergence order it degrades that integrator to (its signature), and the reason, with its source."""
+
     fixed_in: tuple[int, int, int]
     integrator: str
     joint_types: tuple[int, ...]
+    order: float
     reason: str
 
 
 KNOWN_DEFECTS: tuple[KnownDefect, ...] = (
-    KnownDefect((4, 0, 0), "RK4", (int(mujoco.mjtJoint.mjJNT_BALL), int(mujoco.mjtJoint.mjJNT_FREE)),
+    KnownDefect((4, 0, 0), "RK4", (int(mujoco.mjtJoint.mjJNT_BALL), int(mujoco.mjtJoint.mjJNT_FREE)), 2.0,
                 "MuJoCo < 4.0.0: RK4 combined its stages' angular velocities without the Runge-Kutta-Munthe-Kaas "
                 "correction, so ball/free-joint orientations converge at 2nd order (changelog 4.0.0, item 5)"),
 )
 
 
 def joint_types(model: mujoco.MjModel) -> frozenset[int]:
-    """The joint types a model has (what :func:`known_defect` matches defects against)."""
+    """The joint types a model has (what :func:`applicable_defect` matches defects against)."""
     return frozenset(int(t) for t in model.jnt_type)
 
 
-def known_defect(joints: frozenset[int], figure: str) -> str:
-    """The documented defect of this MuJoCo that explains ``figure`` failing on a model with the joint
-    types ``joints`` (:func:`joint_types`), or ''."""
-    integrator = FigureName(figure).integrator
+def applicable_defect(joints: frozenset[int], integrator: str) -> KnownDefect | None:
+    """The documented defect of this MuJoCo that affects ``integrator`` on a model with the joint types
+    ``joints`` (:func:`joint_types`), or None. Whether a failing figure shows it is the verdict's
+    question (its signature)."""
     for defect in KNOWN_DEFECTS:
-        affected = _version() < defect.fixed_in and defect.integrator == integrator
-        if affected and joints & set(defect.joint_types):
-            return defect.reason
-    return ""
+        if _version() < defect.fixed_in and defect.integrator == integrator and joints & set(defect.joint_types):
+            return defect
+    return None
+
+
+def known_defect(joints: frozenset[int], figure: str) -> str:
+    """The reason of the documented defect of this MuJoCo that may explain ``figure`` failing on a model
+    with the joint types ``joints``, or '' (the defect applies; its signature is not checked here)."""
+    defect = applicable_defect(joints, FigureName(figure).integrator)
+    return defect.reason if defect else ""

@@ -27,18 +27,25 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from analytic.solvers import project
+from harness.core.deviation import Deviation
 from harness.core.figures import Figure, FigureName
-from harness.engine.compat import full_mass_matrix, jac_dot
+from harness.core.findings import Finding
+from harness.engine.compat import JAC_DOT_DEFECT, full_mass_matrix, jac_dot, jac_dot_missing
 from harness.engine.constraints import equality_block, equality_jacobian
 from harness.engine.probe import Probe
 from harness.reference.solutions import Reference
 
 DEFAULT_SAMPLES = 24
+STATE_TOLERANCE = 1e-14
 
 
 def sample_states(ref: Reference, count: int = DEFAULT_SAMPLES, seed: int = 0
                   ) -> tuple[np.ndarray, np.ndarray]:
-    """``count`` states (q, q̇) on the manifold, deterministic for a seed."""
+    """``count`` states (q, q̇) on the manifold, deterministic for a seed: along the reference, each
+    also with its velocity rescaled, every one projected onto the constraints to round-off
+    (:func:`analytic.solvers.project`). The reference's own residual (up to 1e-10) would otherwise
+    meet MuJoCo's constraint feedback −b v − k r, which no softness setting removes."""
     if count < 2:
         raise ValueError(f"count must be >= 2, got {count}")
     half = count // 2
@@ -46,16 +53,18 @@ def sample_states(ref: Reference, count: int = DEFAULT_SAMPLES, seed: int = 0
     q, qd = ref.solution.state(t)
     scale = np.random.default_rng(seed).uniform(-2.0, 2.0, size=(count - half, 1))
     idx = np.arange(count - half) % half
-    return np.vstack([q, q[idx]]), np.vstack([qd, qd[idx] * scale])
+    states = [project(ref.dynamics, qi, qdi, tol=STATE_TOLERANCE, polish=True)
+              for qi, qdi in zip(np.vstack([q, q[idx]]), np.vstack([qd, qd[idx] * scale]), strict=True)]
+    return np.array([s[0] for s in states]), np.array([s[1] for s in states])
 
 
-def _relative(err: np.ndarray, ref: np.ndarray) -> float:
-    denom = float(np.max(np.abs(ref))) if ref.size else 0.0
-    return float(np.max(np.abs(err))) / denom if denom > 0 else float(np.max(np.abs(err), initial=0.0))
-
-
-def _norms(vectors: np.ndarray) -> np.ndarray:
-    return np.linalg.norm(vectors, axis=-1)
+def _scale(expected: np.ndarray, *, vector: bool = False) -> float:
+    """What a relative figure divides by: the largest entry (vector norm) of the analytic quantity, or
+    1 where it is 0 (the figure is then absolute)."""
+    if not expected.size:
+        return 1.0
+    largest = float(np.max(np.linalg.norm(expected, axis=-1) if vector else np.abs(expected)))
+    return largest if largest > 0 else 1.0
 
 
 def point_acceleration(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> np.ndarray:
@@ -64,13 +73,14 @@ def point_acceleration(model: mujoco.MjModel, data: mujoco.MjData, body: str) ->
     bid = model.body(body).id
     jacp = np.zeros((3, model.nv))
     mujoco.mj_jacBodyCom(model, data, jacp, None, bid)
-    jacp_dot = jac_dot(model, data, data.xipos[bid], bid)  # mj_jacDot, fixed on MuJoCo 3.3.0
+    jacp_dot = jac_dot(model, data, data.xipos[bid], bid)  # mj_jacDot, corrected on MuJoCo 3.3.0 (a finding)
     return jacp @ data.qacc + jacp_dot @ data.qvel
 
 
-def instantaneous_figures(model: mujoco.MjModel, probe: Probe, ref: Reference,
-                          *, count: int = DEFAULT_SAMPLES) -> list[Figure]:
-    """Compare MuJoCo's instantaneous dynamics with the analytic ones at sampled states."""
+def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, count: int = DEFAULT_SAMPLES
+                       ) -> list[Deviation]:
+    """MuJoCo's instantaneous dynamics against the analytic ones at :func:`sample_states`, one
+    :class:`~harness.core.deviation.Deviation` per figure (a row per state)."""
     probe.validate(model)
     dyn = ref.dynamics
     q, qd = sample_states(ref, count)
@@ -105,39 +115,84 @@ def instantaneous_figures(model: mujoco.MjModel, probe: Probe, ref: Reference,
             if dof is not None and force.size > 1:
                 got_block_gen[c].append(dof.T @ (equality_jacobian(model, data, c).T @ force))
     n = len(q)
-    figs = [
-        Figure(FigureName.instant("kinematics"), float(np.max(np.abs(np.array(got["pts"]) - pts))), "m",
-               f"max |MuJoCo body position − analytic point| over {n} states"),
-        Figure(FigureName.instant("kinetic_energy"), _relative(np.array(got["kinetic"]) - kinetic, kinetic), "1",
-               "max |½ qvelᵀ M_mj qvel − ½ q̇ᵀ M q̇| / max ½ q̇ᵀ M q̇"),
-        Figure(FigureName.instant("point_acceleration"),
-               _relative(_norms(np.reshape(got["acc"], acc.shape) - acc), _norms(acc)), "1",
-               "max |J qacc + J̇ qvel − ẍ| / max |ẍ| over named points (world acceleration of the body com)"),
+    length = ref.scales.length
+
+    def relative(name: FigureName, got_: list, expected: np.ndarray, description: str, *,
+                 vector: bool = False) -> Deviation:
+        return Deviation(name, np.reshape(got_, expected.shape) - expected, "vector" if vector else "scalar", "1",
+                         description, scale=_scale(expected, vector=vector))
+
+    out = [
+        Deviation(FigureName.instant("kinematics"), np.array(got["pts"]) - pts, "scalar", "m",
+                  f"max |MuJoCo body position − analytic point| over {n} states", size=length),
+        relative(FigureName.instant("kinetic_energy"), got["kinetic"], kinetic,
+                 "max |½ qvelᵀ M_mj qvel − ½ q̇ᵀ M q̇| / max ½ q̇ᵀ M q̇"),
+        relative(FigureName.instant("point_acceleration"), got["acc"], acc,
+                 "max |J qacc + J̇ qvel − ẍ| / max |ẍ| over named points (world acceleration of the body com)",
+                 vector=True),
     ]
     if dof is not None:
-        figs += [
-            Figure(FigureName.instant("mass_matrix"), _relative(np.array(got["mass"]) - mass, mass), "1",
-                   "max |Dᵀ M_mj D − M(q)| / max |M(q)|"),
-            Figure(FigureName.instant("forcing"), _relative(np.array(got["forcing"]) - forcing, forcing), "1",
-                   "max |Dᵀ(qfrc_passive − qfrc_bias) − F| / max |F|"),
-            Figure(FigureName.instant("qacc"), _relative(np.array(got["qacc"]) - qdd, qdd), "1",
-                   "max |qacc − q̈| / max |q̈|"),
+        out += [
+            relative(FigureName.instant("mass_matrix"), got["mass"], mass, "max |Dᵀ M_mj D − M(q)| / max |M(q)|"),
+            relative(FigureName.instant("forcing"), got["forcing"], forcing,
+                     "max |Dᵀ(qfrc_passive − qfrc_bias) − F| / max |F|"),
+            relative(FigureName.instant("qacc"), got["qacc"], qdd, "max |qacc − q̈| / max |q̈|"),
         ]
     if probe.constraints and dof is not None:
-        figs.append(Figure(FigureName.instant("generalized_force"), _relative(np.array(got["gen"]) - gen, gen), "1",
-                           "max |Dᵀ qfrc_constraint − Jᵀλ| / max |Jᵀλ|"))
+        out.append(relative(FigureName.instant("generalized_force"), got["gen"], gen,
+                            "max |Dᵀ qfrc_constraint − Jᵀλ| / max |Jᵀλ|"))
     jac = dyn.jacobian(q)
+    force_scale = ref.scales.force
     for c, rows in dyn.blocks.items():
         if c not in got_lam:
             continue
-        err = float(np.max(np.abs(np.array(got_lam[c]) - lam[:, rows]))) / ref.scales.force
         size = rows.stop - rows.start
-        figs.append(Figure(FigureName.instant("force", c), err, "1",
-                           f"max |efc_force − λ_{c}|{' over its ' + str(size) + ' rows' if size > 1 else ''} / force "
-                           f"scale ({ref.scales.force:.4g} N)"))
+        expected = lam[:, rows]
+        out.append(Deviation(FigureName.instant("force", c), np.reshape(got_lam[c], expected.shape) - expected,
+                             "scalar", "1",
+                             f"max |efc_force − λ_{c}|{' over its ' + str(size) + ' rows' if size > 1 else ''} / "
+                             f"force scale ({force_scale:.4g} N)", scale=force_scale,
+                             size=max(float(np.max(np.abs(expected), initial=0.0)) / force_scale, 1.0)))
         if got_block_gen[c]:
             block_gen = np.einsum("nmk,nm->nk", jac[:, rows], lam[:, rows])
-            figs.append(Figure(FigureName.instant("generalized_force", c),
-                               _relative(np.array(got_block_gen[c]) - block_gen, block_gen), "1",
-                               f"max |Dᵀ J_mjᵀ efc_force − Jᵀλ| over the rows of {c!r} / max |Jᵀλ|"))
-    return figs
+            out.append(relative(FigureName.instant("generalized_force", c), got_block_gen[c], block_gen,
+                                f"max |Dᵀ J_mjᵀ efc_force − Jᵀλ| over the rows of {c!r} / max |Jᵀλ|"))
+    return out
+
+
+def instantaneous_figures(model: mujoco.MjModel, probe: Probe, ref: Reference,
+                          *, count: int = DEFAULT_SAMPLES) -> list[Figure]:
+    """Compare MuJoCo's instantaneous dynamics with the analytic ones at sampled states (the figures
+    of :func:`instant_deviations`)."""
+    return [d.figure() for d in instant_deviations(model, probe, ref, count=count)]
+
+
+def engine_findings(model: mujoco.MjModel, probe: Probe, ref: Reference, *, count: int = DEFAULT_SAMPLES
+                    ) -> list[Finding]:
+    """Where this layer corrects an engine function to take its measurement, how far the engine's own
+    answer is off, at the same states (:class:`~harness.core.findings.Finding`): ``mj_jacDot`` on a
+    MuJoCo that misses a term (:func:`harness.engine.compat.jac_dot_missing`), as the error it alone
+    would make in the named points' world acceleration."""
+    dyn = ref.dynamics
+    q, qd = sample_states(ref, count)
+    qdd, _ = dyn.accelerations(q, qd)
+    expected = np.linalg.norm(dyn.point_accelerations(q, qd, qdd), axis=-1)
+    data = mujoco.MjData(model)
+    worst = 0.0
+    for i in range(len(q)):
+        mujoco.mj_resetData(model, data)
+        probe.binding.set_state(model, data, q[i], qd[i])
+        mujoco.mj_forward(model, data)
+        for p in dyn.point_names:
+            bid = model.body(p).id
+            missing = jac_dot_missing(model, data, data.xipos[bid], bid)
+            if missing is None:
+                return []
+            worst = max(worst, float(np.linalg.norm(missing @ data.qvel)))
+    scale = float(np.max(expected)) if expected.size and np.max(expected) > 0 else 1.0
+    if worst <= 0:
+        return []
+    return [Finding("mj_jacDot", worst / scale, "1",
+                    "max |J̇ qvel| that mj_jacDot leaves out / max |ẍ| of the named points at the sampled states "
+                    "(the error it alone would make in their world acceleration; the harness adds the term)",
+                    JAC_DOT_DEFECT)]

@@ -303,6 +303,20 @@ def _force_error(sim: Trajectory, ref: Trajectory) -> float:
     return max(float(np.max(np.abs(sim.multipliers[c] - ref.multipliers[c]))) for c in names)
 
 
+def softness_floor(fit: OrderFit, softness: Sequence[float]) -> str:
+    """Why an order cannot be measured, where the rigid-limit errors sit on a floor (fewer than two points
+    above it) no higher than the softness effect the extrapolation removed (|x(ε) − x(2ε)| at some step
+    of the ladder): what is left is the extrapolation's own residue, which hides the integrator's
+    truncation error at these settings (MuJoCo's default solimp, say), not a fault. '' otherwise (a
+    floor above every softness effect is a fault the verdict must show)."""
+    largest = max((v for v in softness if math.isfinite(v)), default=0.0)
+    if fit.n_used >= 2 or fit.floor is None or not fit.floor <= largest:
+        return ""
+    return (f"not measurable at these settings: the rigid-limit error sits on a floor ({fit.floor:.2e} m) below "
+            f"the softness effect it was extrapolated from (up to {largest:.2e} m), which hides the "
+            "truncation error")
+
+
 def convergence_study(
     case: Case,
     *,
@@ -317,8 +331,10 @@ def convergence_study(
 
     ``fast`` runs the three-point subset on a horizon of at most FAST_HORIZON
     (what `mjharness check` gates); ``mjcf``, ``timestep`` and ``edit`` change
-    the model as in ``run_case`` (the ladder scales with ``timestep``), while
-    the reference keeps the shipped parameters. ``reference`` reuses a solved
+    the model as in ``run_case`` (the ladder is the case's: multiples of the
+    shipped model's timestep, whatever timestep is tested; ``timestep`` only
+    sets the model the reference and softness are read from), while
+    the reference is built from the model so made. ``reference`` reuses a solved
     reference whose horizon covers the study's. The study carries no plot
     (:func:`harness.studies.convergence.convergence_study` adds one).
     """
@@ -327,15 +343,14 @@ def convergence_study(
     for name in chosen:
         if name not in available:
             raise ValueError(f"unknown integrator {name!r}; this MuJoCo offers {list(available)}")
-    shipped = compile_model(case.mjcf)
     path = Path(mjcf) if mjcf is not None else case.mjcf
     base = compile_model(path, timestep=timestep, edit=edit)
-    h0 = float(base.opt.timestep)
+    h0 = float(compile_model(case.mjcf).opt.timestep)  # the ladder is the case's, whatever timestep is tested
     h_max = h0 * max(max(_ladder(n, fast)) for n in chosen)
     span = min(case.horizon, FAST_HORIZON) if fast else case.horizon
     horizon = max(1, math.floor(span / h_max + 1e-9)) * h_max  # at least one largest step
     if reference is None or reference.solution.t_end < horizon - 1e-12:
-        reference = case.reference(shipped, t_end=horizon)
+        reference = case.reference(base, t_end=horizon)
     probe = case.probe(reference.dynamics)
     constrained = bool(probe.constraints)
     scales = reference.scales
@@ -381,11 +396,14 @@ def convergence_study(
             quantities = [("position@rigid", "m", sat), *quantities, ("softness", "m", sat), ("force", "1", SATURATION)]
         for quantity, unit, saturation in quantities:
             values = tuple(errs[quantity])
+            fit = fit_order(dts, values, saturation=saturation)
+            note = exact
+            if quantity == gated and not exact and constrained:
+                note = softness_floor(fit, errs["softness"])
             series.append(Series(
-                integrator=name, quantity=quantity, unit=unit, dts=dts, errors=values,
-                fit=fit_order(dts, values, saturation=saturation),
-                expected=float(EXPECTED_ORDER[name]) if quantity == gated and not exact else None,
-                note=exact if quantity == gated else "",
+                integrator=name, quantity=quantity, unit=unit, dts=dts, errors=values, fit=fit,
+                expected=float(EXPECTED_ORDER[name]) if quantity == gated and not note else None,
+                note=note if quantity == gated else "",
                 predicted_floor=force_floor if quantity == "force" else None))
     unavailable = unavailable_integrators() if integrators is None else {}
     return ConvergenceStudy(case=case.name, horizon=horizon, fast=fast, constrained=constrained,

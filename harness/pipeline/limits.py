@@ -1,31 +1,40 @@
-"""Limits: the largest value each gated figure of a case may take, each with its basis.
+"""Limits: which figures of a case are gated, and how each is judged, with its basis.
 
 A case's limits are data shipped with its model, ``mjcf/NAME.limits.toml``
 (package data, so editable, regular and ``--user`` installs all find them)::
 
-    notes = ["what holds for the whole case: parameters, scales, floors"]
+    notes = ["what holds for the whole case: why a figure is gated or not"]
 
     [limits]
-    "instant.mass_matrix" = { value = 2e-10, basis = "theory", reason = "point-mass floor ... = 1e-10; ×2" }
-    "Euler.position" = { value = 4e-3, basis = "measured", measured = 2.0e-3, margin = 2.0, reason = "..." }
+    "RK4.position" = { basis = "budget" }
+    "converge.RK4.order_shortfall" = { value = 0.3, basis = "theory", reason = "..." }
 
 Every limit carries its basis:
 
-- ``theory``: a bound derived from the model (the ``reason`` gives the
-  formula and the margin applied), or a round-off floor;
-- ``measured``: the figure measured at the shipped settings (``measured``)
-  times a stated ``margin``; ``value`` ≥ measured × margin, rounded up.
+- ``budget``: the figure is judged by its error budget (:mod:`harness.budget`):
+  what the model's own settings explain — integration error, softness, the
+  point masses' inertia floors — is removed, and the unexplained residual must
+  lie within the limit the estimates' own accuracy sets, computed for each run
+  from the model under test. No number is stored: a user's timestep, softness
+  or parameters change the budget, not the verdict;
+- ``theory``: a fixed bound derived without the model's settings (the
+  ``reason`` gives the formula and its margin): a convergence order's
+  shortfall, the reference's own accuracy at its tolerance;
+- ``user``: a value from a user's ``--config`` (below), on the figure as measured.
 
-``mjharness limits --write [CASE ...]`` rewrites the measured limits from a
-fresh run (theory limits are kept), and writes a case that has no file yet
-with the default gating rule (:data:`DEFAULT_GATED`, margin
-:data:`DEFAULT_MARGIN`). A figure passes when its value is finite and ≤ its
-limit.
+``mjharness limits --write [CASE ...]`` writes the file of a case that has none,
+by the default rule (:data:`DEFAULT_GATED`). Nothing is measured into a limit:
+what the shipped settings give is the regression baseline's business
+(``reports/baseline``), a separate question.
 
-A user's ``--config FILE`` overrides limits key by key; its schema is::
+A user's ``--config FILE`` overrides limits key by key with fixed values on
+the measured figures; its schema is::
 
     [thresholds.CASE]          # or [tool.mjharness.thresholds.CASE] in a pyproject.toml
     "FIGURE" = LIMIT
+
+    [require]                  # fitness for purpose, judged on each model's own integrator
+    position = 1e-3            # (see harness.pipeline.require)
 """
 
 from __future__ import annotations
@@ -38,30 +47,21 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
+from analytic.solvers import DEFAULT_RTOL
+from harness.budget.trajectory import REFERENCE
 from harness.cases import all_cases
 from harness.core.errors import ConfigError
-from harness.core.figures import Figure, FigureName
+from harness.core.figures import FigureName
 from harness.layers.orders import ORDER_TOLERANCE
 
-Basis = Literal["theory", "measured", "user"]
-BASES = ("theory", "measured")
-CONFIG_KEYS = {"thresholds"}
-
-DEFAULT_MARGIN = 3.0
-"""Margin of a limit set from a measurement at the shipped settings, for a case that has none yet:
-the top of the 2–3× the shipped cases use. Runs are bit-identical on one machine; across platforms
-round-off and solver jitter move trajectory figures by percents, a real change by factors."""
-
-ROUNDOFF_FLOOR = 1e-13
-"""No measured limit is set below this (in the figure's unit, relative or SI at the case's O(1)
-scale): a figure at double-precision round-off (1e-16 a step, ~1e-14 accumulated over thousands of
-steps) may grow by an order of magnitude across platforms and libraries without meaning anything.
-The lowest measured limit the shipped cases set by hand was 2e-13."""
+Basis = Literal["budget", "theory", "user"]
+BASES = ("budget", "theory")
+CONFIG_KEYS = {"thresholds", "require"}
 
 
 def _default_gated(name: FigureName, constrained: bool) -> bool:
-    """Which measured figures a new case gates: every instantaneous figure; the reference's quality
-    (its residual only where it has constraints); per integrator the position, the drifts, forces,
+    """Which figures a new case gates: every instantaneous figure; the reference's quality (its
+    residual only where it has constraints); per integrator the position, the drifts, forces,
     violations and MuJoCo-only series, and each conserved momentum against the reference; every
     convergence order. Not gated: position at the horizon, velocity, energy against the reference
     (the drift is gated) and the generalized force (its rows are gated as forces)."""
@@ -77,30 +77,30 @@ DEFAULT_GATED = _default_gated
 
 @dataclass(frozen=True)
 class Limit:
-    """One figure's limit and its basis (see the module docstring)."""
+    """One figure's limit and its basis (see the module docstring): ``value`` for a theory or user
+    limit (on the figure), none for a budget (computed per run)."""
 
-    value: float
     basis: Basis
+    value: float | None = None
     reason: str = ""
-    measured: float | None = None
-    margin: float | None = None
 
     def __post_init__(self) -> None:
+        if self.basis not in (*BASES, "user"):
+            raise ValueError(f"a limit's basis must be {', '.join(BASES)} or user, got {self.basis!r}")
+        if self.basis == "budget":
+            if self.value is not None:
+                raise ValueError("a budget limit has no value: the budget computes it for each run")
+            return
         if isinstance(self.value, bool) or not isinstance(self.value, int | float) or not math.isfinite(self.value) \
                 or self.value <= 0:
-            raise ValueError(f"a limit must be a positive number, got {self.value!r}")
-        if self.basis == "measured":
-            if self.measured is None or self.margin is None:
-                raise ValueError("a measured limit needs the measured value and the margin")
-            if not self.margin >= 1 or self.value < self.measured * self.margin * (1 - 1e-9):
-                raise ValueError(f"a measured limit must be ≥ measured × margin with margin ≥ 1, got "
-                                 f"{self.value:g} for {self.measured:g} × {self.margin:g}")
+            raise ValueError(f"a {self.basis} limit must be a positive number, got {self.value!r}")
+        if self.basis == "theory" and not self.reason:
+            raise ValueError("a theory limit must say what bound it is (reason)")
 
     def describe(self) -> str:
         """One line: the basis and its reason."""
-        if self.basis == "measured":
-            measured = f"measured {self.measured:.3g} × margin {self.margin:g}"
-            return f"{measured}; {self.reason}" if self.reason else measured
+        if self.basis == "budget":
+            return "budget: the unexplained residual within the estimates' accuracy (harness/budget)"
         return f"{self.basis}: {self.reason}" if self.reason else self.basis
 
 
@@ -142,9 +142,9 @@ def read_case_limits(case: str, path: Path) -> CaseLimits:
             raise ConfigError(f"{where}: {exc}") from None
         if not isinstance(entry, dict) or entry.get("basis") not in BASES:
             raise ConfigError(f"{where} must be a table with basis {' or '.join(BASES)}")
-        unknown = set(entry) - {"value", "basis", "reason", "measured", "margin"}
+        unknown = set(entry) - {"value", "basis", "reason"}
         if unknown:
-            raise ConfigError(f"{where}: unknown key(s) {sorted(unknown)}")
+            raise ConfigError(f"{where}: unknown key(s) {sorted(unknown)}; accepted: basis, value, reason")
         try:
             limits[name] = Limit(**entry)
         except (TypeError, ValueError) as exc:
@@ -166,79 +166,54 @@ def _toml_number(value: float) -> str:
 
 def format_case_limits(limits: CaseLimits) -> str:
     """The TOML text of a limits file (what :func:`read_case_limits` reads back)."""
-    lines = [f"# Limits of the {limits.case} case's gated figures, each with its basis: \"theory\" (the reason",
-             "# gives the bound) or \"measured\" (the figure at the shipped settings × margin). Measured ones are",
-             f"# rewritten from a fresh run by `mjharness limits --write {limits.case}`; see",
-             "# harness/pipeline/limits.py.",
+    lines = [f"# The {limits.case} case's gated figures, each with its basis: \"budget\" (judged by its error",
+             "# budget, computed for each run from the model under test) or \"theory\" (a fixed bound; the",
+             "# reason gives it). See harness/pipeline/limits.py.",
              "", "notes = ["]
     lines += [f"    {_toml_string(n)}," for n in limits.notes]
     lines += ["]", "", "[limits]"]
     for name, lim in limits.limits.items():
-        parts = [f"value = {_toml_number(lim.value)}", f"basis = {_toml_string(lim.basis)}"]
-        if lim.measured is not None:
-            parts.append(f"measured = {_toml_number(lim.measured)}")
-        if lim.margin is not None:
-            parts.append(f"margin = {_toml_number(lim.margin)}")
+        parts = [] if lim.value is None else [f"value = {_toml_number(lim.value)}"]
+        parts.append(f"basis = {_toml_string(lim.basis)}")
         if lim.reason:
             parts.append(f"reason = {_toml_string(lim.reason)}")
         lines.append(f"{_toml_string(name)} = {{ {', '.join(parts)} }}")
     return "\n".join(lines) + "\n"
 
 
-def round_up(value: float, digits: int = 2) -> float:
-    """``value`` rounded up to ``digits`` significant digits (a limit never ends below its product)."""
-    if value <= 0:
-        return value
-    exponent = math.floor(math.log10(value)) - digits + 1
-    mantissa = math.ceil(value / 10.0**exponent - 1e-9)  # 1e-9 of a 2-digit mantissa: float noise only
-    return float(f"{mantissa}e{exponent}")
-
-
-def measured_limit(measured: float, margin: float, reason: str = "") -> Limit:
-    """A limit set from a measurement: round_up(measured × margin), never below the round-off floor."""
-    value = round_up(measured * margin)
-    if not value >= ROUNDOFF_FLOOR:
-        floor = f"round-off floor {ROUNDOFF_FLOOR:g} (measured × margin = {measured * margin:.2g})"
-        return Limit(value=ROUNDOFF_FLOOR, basis="measured", measured=measured, margin=margin,
-                     reason=f"{reason}; {floor}" if reason else floor)
-    return Limit(value=value, basis="measured", measured=measured, margin=margin, reason=reason)
-
-
 ORDER_REASON = ("max(0, documented − observed order) ≤ 0.3: a floor at 1/10 of the smallest fitted error biases the "
                 "fitted slope by ≤ 0.14 (harness/layers/orders.py)")
+RESIDUAL_LIMIT = 1000 * DEFAULT_RTOL
+RESIDUAL_REASON = (f"each step of the DAE solve injects ≤ rtol·|y| (rtol {DEFAULT_RTOL:g}) into f(q) and Jq̇ + b; "
+                   "Baumgarte stabilization (ω = 10/s) removes it over 1/ω ≈ 0.1 s, about 100 steps: ≲ 100 rtol at "
+                   "the cases' O(1) scales; × 10")
+ODE_VS_DAE_LIMIT = 2 * REFERENCE * DEFAULT_RTOL * 10.0
+ODE_VS_DAE_REASON = (f"each solution within {REFERENCE:g} rtol × L of the truth (harness/budget/trajectory.py, "
+                     f"REFERENCE), rtol {DEFAULT_RTOL:g}, L ≤ 10 m: their distance ≤ {ODE_VS_DAE_LIMIT:g} m")
 
 
 def theory_limit(name: FigureName) -> Limit | None:
-    """The limit theory sets for a figure whatever the case (None where only a measurement can): a
-    convergence order's shortfall, which the fit's floor bias bounds."""
+    """The limit theory sets for a figure whatever the case (None where a budget judges it): a
+    convergence order's shortfall, which the fit's floor bias bounds; the reference's residual and
+    its distance from the minimal-coordinate ODE, which its tolerance bounds."""
     if name.layer == "converge" and name.quantity == "order_shortfall":
-        return Limit(value=ORDER_TOLERANCE, basis="theory", reason=ORDER_REASON)
+        return Limit("theory", ORDER_TOLERANCE, ORDER_REASON)
+    if name == "reference.residual":
+        return Limit("theory", RESIDUAL_LIMIT, RESIDUAL_REASON)
+    if name == "reference.ode_vs_dae":
+        return Limit("theory", ODE_VS_DAE_LIMIT, ODE_VS_DAE_REASON)
     return None
 
 
-def remeasured(case: str, old: CaseLimits | None, figures: Iterable[Figure], *, constrained: bool,
-               skip: Iterable[str] = ()) -> CaseLimits:
-    """New limits from freshly measured ``figures``: each measured limit of ``old`` set again from its
-    figure with its own margin, theory limits kept as they are; with no ``old``, a limit for every
-    figure :data:`DEFAULT_GATED` picks: its theory limit where one applies to any case
-    (:func:`theory_limit`), else the measurement at :data:`DEFAULT_MARGIN`. Figures in ``skip``
-    (integrators this MuJoCo lacks) keep their old limits."""
-    measured = {f.name: f.value for f in figures}
-    skip = set(skip)
-    if old is None:
-        limits = {name: theory_limit(FigureName(name)) or measured_limit(value, DEFAULT_MARGIN, "default rule")
-                  for name, value in measured.items() if DEFAULT_GATED(FigureName(name), constrained)}
-        return CaseLimits(case=case, limits=limits)
-    out = {}
-    for name, lim in old.limits.items():
-        if lim.basis != "measured" or name in skip:
-            out[name] = lim
-            continue
-        if name not in measured or not math.isfinite(measured[name]):
-            raise ValueError(f"case {case!r}: figure {name!r} was not measured (or is not finite); "
-                             "cannot rewrite its limit")
-        out[name] = measured_limit(measured[name], float(lim.margin), lim.reason)  # type: ignore[arg-type]
-    return CaseLimits(case=case, limits=out, notes=old.notes)
+def default_limits(case: str, figures: Iterable[str], *, constrained: bool) -> CaseLimits:
+    """The limits a case without a file gets: for every figure :data:`DEFAULT_GATED` picks, its theory
+    limit where one applies (:func:`theory_limit`), else its budget."""
+    limits = {}
+    for name in figures:
+        figure = FigureName(name)
+        if DEFAULT_GATED(figure, constrained):
+            limits[str(figure)] = theory_limit(figure) or Limit("budget")
+    return CaseLimits(case=case, limits=limits)
 
 
 @dataclass(frozen=True)
@@ -250,18 +225,18 @@ class Limits:
     source: str
     overrides: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
 
-    def for_case(self, case: str) -> dict[str, float]:
-        """The limit values of ``case`` by figure name (what a verdict uses)."""
+    def for_case(self, case: str) -> dict[str, Limit]:
+        """The limits of ``case`` by figure name (what a verdict uses): the shipped ones, a user's
+        override as basis ``user``."""
         shipped = self.cases.get(case)
-        values = {name: lim.value for name, lim in shipped.limits.items()} if shipped else {}
-        return values | dict(self.overrides.get(case, {}))
+        limits = dict(shipped.limits) if shipped else {}
+        for name, value in self.overrides.get(case, {}).items():
+            limits[name] = Limit("user", value, f"set by {self.source}")
+        return limits
 
     def limit(self, case: str, figure: str) -> Limit | None:
         """The limit of one figure with its basis (a user override is basis ``user``)."""
-        if figure in self.overrides.get(case, {}):
-            return Limit(value=self.overrides[case][figure], basis="user", reason=f"set by {self.source}")
-        shipped = self.cases.get(case)
-        return shipped.limits.get(figure) if shipped else None
+        return self.for_case(case).get(figure)
 
 
 def _config_section(path: Path) -> dict:

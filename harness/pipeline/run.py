@@ -1,39 +1,70 @@
-"""Run one case through every layer: reference, instantaneous checks, trajectories, orders.
+"""Run one case through every layer: reference, instantaneous checks, trajectories, orders, budgets.
 
 Pure function of its inputs: the CLI, the Python API, the tests and the CI
 gate all call :func:`run_case` and differ only in what they do with the result.
+
+The reference describes the model under test: its parameters are read from
+that model (shipped or the user's ``mjcf``), its initial state is brought onto
+the constraints at those parameters, and what differs from the shipped model
+is listed in the settings (``changed``). Every figure gets its error budget
+from runs of the same model with one setting changed (:mod:`harness.budget`).
 """
 
 from __future__ import annotations
 
+import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
+from analytic import systems
+from harness.budget import variants
+from harness.budget.measure import (
+    ModelUnderTest,
+    Settings,
+    TrajectoryRuns,
+    instant_budget,
+    trajectory_budget,
+    trajectory_runs,
+)
 from harness.cases import Case
-from harness.core.figures import Figure
+from harness.core.budget import Budget
+from harness.core.figures import Figure, FigureName
+from harness.core.findings import Finding
 from harness.core.trajectory import Trajectory
-from harness.engine.compat import fallbacks, joint_types, unavailable_reason
+from harness.engine.compat import applicable_defect, fallbacks, joint_types, unavailable_reason
 from harness.engine.integrators import available_integrators, integrator_name
 from harness.engine.models import compile_model
 from harness.engine.simulate import recorder, simulate
 from harness.engine.simulate import recorder_notes as simulate_notes
-from harness.layers.instant import instantaneous_figures
-from harness.layers.orders import convergence_study, order_figures
+from harness.layers.instant import engine_findings, instant_deviations
+from harness.layers.orders import EXPECTED_ORDER, VERDICT_QUANTITY, convergence_study, order_figures
 from harness.layers.reference import reference_figures
-from harness.layers.trajectory import series_figures, trajectory_figures
+from harness.layers.trajectory import deviations
 from harness.reference import derivations
 from harness.reference import solutions as refmod
 
 
 @dataclass(frozen=True)
 class CaseResult:
-    """Everything one case produced: figures, trajectories and the settings used (``reference`` None
-    and ``simulations`` empty where a parallel run sent back figures only: ``check``, ``baseline``)."""
+    """Everything one case produced: figures, their budgets, trajectories and the settings used
+    (``reference`` None and ``simulations`` empty where a parallel run sent back figures only:
+    ``check``, ``baseline``).
+
+    Attributes:
+        budgets: each instantaneous and trajectory figure's error budget, by figure name.
+        defect_budgets: for an integrator a documented defect of this MuJoCo affects on this model, each
+            of its figures' budget at the order the defect degrades it to (the defect's signature).
+        orders: each integrator's observed convergence order (the converge layer's fit).
+        findings: engine functions found to disagree while measuring.
+        unmeasured: figures that could not be measured at these settings, each with the reason (a
+            convergence order hidden under a softness floor): their checks are n/a, with the reason.
+        joints: the joint types of the model run (known defects match them).
+    """
 
     case: Case
     figures: tuple[Figure, ...]
@@ -41,7 +72,12 @@ class CaseResult:
     simulations: dict[str, Trajectory]
     settings: dict[str, object]
     timings: dict[str, float] = field(default_factory=dict)
-    joints: frozenset[int] = frozenset()  # the joint types of the model run (known defects match them)
+    joints: frozenset[int] = frozenset()
+    budgets: Mapping[str, Budget] = field(default_factory=dict)
+    defect_budgets: Mapping[str, Budget] = field(default_factory=dict)
+    orders: Mapping[str, float] = field(default_factory=dict)
+    findings: tuple[Finding, ...] = ()
+    unmeasured: Mapping[str, str] = field(default_factory=dict)
 
     def figure(self, name: str) -> Figure:
         for f in self.figures:
@@ -73,70 +109,144 @@ def model_settings(model: mujoco.MjModel) -> dict[str, object]:
     return out
 
 
+def changed_settings(shipped: Mapping[str, object], tested: Mapping[str, object]) -> dict[str, dict[str, object]]:
+    """Every setting or parameter whose value differs between the shipped model and the one tested:
+    ``{name: {"shipped": a, "tested": b}}`` (a name only one has shows None on the other side)."""
+    return {k: {"shipped": shipped.get(k), "tested": tested.get(k)}
+            for k in dict.fromkeys([*shipped, *tested]) if shipped.get(k) != tested.get(k)}
+
+
+def settle_time(case: Case, model: mujoco.MjModel, horizon: float) -> tuple[float, str]:
+    """When the force and MuJoCo-only figures start counting: the case's ``settle``, or
+    :data:`~harness.budget.variants.SETTLE_TIMECONSTS` response times of the model's slowest contact
+    if longer (a softer contact settles later), at most half the horizon; with a note where capped."""
+    wanted = max(case.settle, variants.SETTLE_TIMECONSTS * variants.contact_timeconst(model))
+    if wanted <= horizon / 2:
+        return wanted, ""
+    return horizon / 2, (f"settle: the contacts' response time asks for {wanted:g} s before force figures count; "
+                         f"capped at half the horizon ({horizon / 2:g} s): what remains of the transient is "
+                         "not in any budget")
+
+
 def run_case(
     case: Case,
     *,
     mjcf: Path | str | None = None,
     integrators: Sequence[str] | None = None,
     timestep: float | None = None,
+    horizon: float | None = None,
+    q0: Mapping[str, float] | None = None,
+    qd0: Mapping[str, float] | None = None,
     edit: Callable[[mujoco.MjSpec], None] | None = None,
 ) -> CaseResult:
-    """All layers for ``case``. ``mjcf`` replaces the shipped model (the reference
-    keeps the shipped parameters); ``edit`` modifies the model through MjSpec."""
+    """All layers and budgets for ``case``.
+
+    ``mjcf`` replaces the shipped model and ``edit`` modifies the model through MjSpec; the reference
+    is built from the model so made. ``timestep`` and ``integrators`` change how it runs, ``horizon``,
+    ``q0`` and ``qd0`` the motion (the coordinates they name; see :meth:`Case.with_motion`).
+    """
+    if horizon is not None or q0 or qd0:
+        case = case.with_motion(q0=q0, qd0=qd0, horizon=horizon)
+    chosen = tuple(integrators) if integrators is not None else available_integrators()
+    for name in chosen:
+        if name not in available_integrators():
+            raise ValueError(f"unknown integrator {name!r}; this MuJoCo offers {', '.join(available_integrators())}")
     timings: dict[str, float] = {}
     recorder_notes = len(simulate_notes())
     clock = time.perf_counter()
-    shipped = compile_model(case.mjcf)
     path = Path(mjcf) if mjcf is not None else case.mjcf
-    model = compile_model(path, timestep=timestep, edit=edit)
-    compiling = time.perf_counter() - clock  # counted with the reference, which reads the shipped model
+    mut = ModelUnderTest(path=path, timestep=timestep, edit=edit)
+    model = mut.compile()
+    shipped = compile_model(case.mjcf)
+    compiling = time.perf_counter() - clock  # counted with the reference, which reads the model
     clock = time.perf_counter()
     # numeric dynamics at the model's parameters: loaded from the on-disk cache, or derived (and cached)
-    dyn = derivations.dynamics_of(case.system, shipped)
-    derivations.minimal_dynamics(case.system, dict(dyn.params))
+    params = systems.load(case.system).params_from_model(model)
+    derivations.dynamics(case.system, params)
+    derivations.minimal_dynamics(case.system, params)
     timings["derivation"] = time.perf_counter() - clock
     clock = time.perf_counter()
-    ref = case.reference(shipped)
+    ref = case.reference(model)
     timings["reference"] = compiling + (time.perf_counter() - clock)
     probe = case.probe(ref.dynamics)
     figures: list[Figure] = []
+    budgets: dict[str, Budget] = {}
 
     clock = time.perf_counter()
-    instant_model = model
+    instant_integrator = None
     if integrator_name(model) == "discrete":  # qacc is the step map there; use continuous time
-        instant_model = compile_model(path, timestep=timestep, edit=edit, integrator="Euler")
-    figures += instantaneous_figures(instant_model, probe, ref)
+        instant_integrator = "Euler"
+    instant_model = mut.compile(integrator=instant_integrator)
+    as_is = instant_deviations(instant_model, probe, ref)
+    figures += [d.figure() for d in as_is]
+    budgets |= instant_budget(mut, instant_model, probe, ref, as_is, integrator=instant_integrator)
+    findings = tuple(engine_findings(instant_model, probe, ref))
     timings["instant"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
     sims: dict[str, Trajectory] = {}
     steps = round(case.horizon / model.opt.timestep)
-    for name in integrators or available_integrators():
-        m = compile_model(path, timestep=timestep, edit=edit, integrator=name)
-        sims[name] = simulate(m, probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
+    for name in chosen:
+        sims[name] = simulate(mut.compile(integrator=name), probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
     timings["mujoco"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
     grid = next(iter(sims.values())).t
     ref_traj = refmod.trajectory(ref, grid)
+    settle, settle_note = settle_time(case, model, case.horizon)
     figures += reference_figures(ref, grid)
     for name, sim in sims.items():
-        figures += trajectory_figures(ref_traj, sim, ref.scales, prefix=name, settle=case.settle)
-        figures += series_figures(sim, case.mujoco_series, prefix=name)
+        figures += [d.figure() for d in deviations(ref_traj, sim, ref.scales, prefix=name, settle=settle,
+                                                   series=case.mujoco_series)]
     timings["compare"] = time.perf_counter() - clock
 
     clock = time.perf_counter()  # layer 4, fast subset: observed vs documented order per integrator
-    figures += order_figures(convergence_study(case, fast=True, integrators=list(sims), mjcf=path,
-                                               timestep=timestep, edit=edit, reference=ref))
+    study = convergence_study(case, fast=True, integrators=list(sims), mjcf=path, timestep=timestep, edit=edit,
+                              reference=ref)
+    figures += order_figures(study)
+    orders = {s.integrator: s.fit.order for s in study.verdicts}
+    gated = VERDICT_QUANTITY[study.constrained]
+    unmeasured = {str(FigureName.converge(s.integrator, "order_shortfall")): s.note for s in study.series
+                  if s.quantity == gated and s.expected is None and s.note}
     timings["converge"] = time.perf_counter() - clock
-    settings = model_settings(model) | {"mjcf": str(path), "horizon": case.horizon,
-                                        "params": dict(ref.params), "recorder": recorder()}
+
+    clock = time.perf_counter()
+    target = TrajectoryRuns(reference=ref_traj, scales=ref.scales, settle=settle, series=case.mujoco_series,
+                            q0=ref.q0(), qd0=ref.qd0(), rtol=ref.solution.rtol)
+    runs = trajectory_runs(mut, probe, target, sims, orders=EXPECTED_ORDER)
+    settings_here = Settings.of(model, ref.scales)
+    notes = (*settings_here.notes, *((settle_note,) if settle_note else ()))
+    budgets |= trajectory_budget(runs, orders=EXPECTED_ORDER, rtol=ref.solution.rtol,
+                                 solver_tolerance=settings_here.solver_tolerance, notes=notes)
+    joints = joint_types(model)
+    defects = {name: d for name in runs if (d := applicable_defect(joints, name)) is not None}
+    defect_budgets = trajectory_budget({n: runs[n] for n in defects}, orders={n: d.order for n, d in defects.items()},
+                                       rtol=ref.solution.rtol, solver_tolerance=settings_here.solver_tolerance,
+                                       notes=notes) if defects else {}
+    timings["budget"] = time.perf_counter() - clock
+
+    tested = model_settings(model) | {f"param.{k}": v for k, v in ref.params.items()}
+    original = model_settings(shipped) | {f"param.{k}": v for k, v in
+                                          systems.load(case.system).params_from_model(shipped).items()}
+    settings: dict[str, object] = model_settings(model) | {
+        "mjcf": str(path), "horizon": case.horizon, "settle": settle, "params": dict(ref.params),
+        "q0": dict(zip(ref.dynamics.coordinates, ref.initial[0], strict=True)),
+        "qd0": dict(zip(ref.dynamics.coordinates, ref.initial[1], strict=True)),
+        "integrators": list(sims), "recorder": recorder()}
+    changed = changed_settings(original, tested)
+    if changed:
+        settings["changed"] = changed
+    if ref.projected:
+        settings["projected"] = list(ref.projected)
     fallbacks_here = tuple(dict.fromkeys(simulate_notes()[recorder_notes:]))
     if fallbacks_here:  # the batch recorder handed some runs to the loop: shown, never silent
         settings["recorder_fallbacks"] = list(fallbacks_here)
     missing = [n for n in ("discrete",) if unavailable_reason(f"{n}.position")]  # shown, never silently skipped
-    notes = [*fallbacks(str(path)), *(unavailable_reason(f"{n}.position") for n in missing)]
-    if notes:
-        settings["compat"] = notes
+    compat_notes = [*fallbacks(str(path)), *(unavailable_reason(f"{n}.position") for n in missing)]
+    if compat_notes:
+        settings["compat"] = compat_notes
     return CaseResult(case=case, figures=tuple(figures), reference=ref_traj, simulations=sims,
-                      settings=settings, timings=timings, joints=joint_types(model))
+                      settings=settings, timings=timings, joints=joints, budgets=budgets,
+                      defect_budgets=defect_budgets, orders={k: v for k, v in orders.items() if math.isfinite(v)},
+                      findings=findings, unmeasured=unmeasured)
+

@@ -1,36 +1,88 @@
-"""Judge figures against limits: pass/fail per check, with the figure beside its limit."""
+"""Judge a case's figures: each gated figure by its error budget or its fixed limit, and a failure
+matched, narrowly, against the documented defects of this MuJoCo.
+
+A failure counts as a known defect only when the figure shows the defect's
+signature, so that a new regression in the same figures is not absorbed:
+
+- the defect applies (this MuJoCo predates its fix, the integrator and a joint
+  type of the model are the ones it affects: :func:`harness.engine.compat.applicable_defect`);
+- the integrator's observed convergence order (the converge layer's fit) is the
+  order the defect degrades it to, within the order tolerance;
+- for a trajectory figure, the budget computed at that order explains it: the
+  size the degraded order predicts is the size measured.
+"""
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 
 from harness.core.checks import Check
 from harness.core.errors import ConfigError
-from harness.core.figures import Figure
-from harness.engine.compat import known_defect, unavailable_reason
+from harness.core.figures import FigureName
+from harness.engine.compat import applicable_defect, unavailable_reason
+from harness.layers.orders import ORDER_TOLERANCE
+from harness.pipeline.limits import Limit
 from harness.pipeline.run import CaseResult
 
 
-def verdict(case: str, figures: Iterable[Figure], thresholds: Mapping[str, float], *,
-            joints: frozenset[int] = frozenset()) -> list[Check]:
-    """One Check per limit; a limit naming no measured figure is a config error, unless it belongs to
-    an integrator this MuJoCo lacks (harness.engine.compat), which gives an n/a Check. ``joints``, the
-    joint types of the model run, decide which documented defects of this MuJoCo apply."""
-    by_name = {f.name: f for f in figures}
-    missing = {n: unavailable_reason(n) for n in set(thresholds) - set(by_name)}
-    unknown = sorted(n for n, why in missing.items() if not why)
+def defect_signature(result: CaseResult, name: FigureName) -> str:
+    """The known defect a failed figure of ``result`` shows the signature of, with the evidence, or ''."""
+    defect = applicable_defect(result.joints, name.integrator) if name.integrator else None
+    if defect is None:
+        return ""
+    observed = result.orders.get(name.integrator, math.nan)
+    if not abs(observed - defect.order) <= ORDER_TOLERANCE:
+        return ""
+    evidence = f"observed order {observed:.2f}"
+    if name.layer == "trajectory":
+        at_order = result.defect_budgets.get(name)
+        if at_order is None or not at_order.passed:
+            return ""
+        evidence += (f", and at order {defect.order:g} the budget explains the figure (unexplained "
+                     f"{at_order.unexplained:.2g} ≤ {at_order.limit:.2g})")
+    return f"{defect.reason}; {evidence}"
+
+
+def judge(result: CaseResult, limits: Mapping[str, Limit]) -> list[Check]:
+    """One Check per limit of ``result``'s case.
+
+    A ``budget`` limit judges the figure's unexplained residual against the limit its budget computes;
+    a ``theory`` or ``user`` limit the figure itself against its value. A limit naming no measured
+    figure is a config error, unless it belongs to an integrator this MuJoCo lacks (n/a) or one the run
+    left out (not judged).
+    """
+    case = result.case.name
+    by_name = {f.name: f for f in result.figures}
+    ran = set(result.settings.get("integrators", ())) if "integrators" in result.settings else None
+    checks = []
+    unknown = []
+    for name, limit in limits.items():
+        figure_name = FigureName(name)
+        if name not in by_name:
+            why = unavailable_reason(name) or result.unmeasured.get(name, "")
+            if why:
+                checks.append(Check(case, figure_name, math.nan, math.nan, "", note=why))
+            elif ran is not None and figure_name.integrator and figure_name.integrator not in ran:
+                continue  # an integrator this run was asked to leave out
+            else:
+                unknown.append(name)
+            continue
+        figure = by_name[name]
+        if limit.basis == "budget":
+            budget = result.budgets.get(name)
+            if budget is None:
+                checks.append(Check(case, figure_name, figure.value, math.nan, figure.unit,
+                                    reason="no budget was computed for this figure"))
+                continue
+            check = Check(case, figure_name, figure.value, budget.limit, figure.unit, budget=budget)
+        else:
+            check = Check(case, figure_name, figure.value, float(limit.value), figure.unit)  # type: ignore[arg-type]
+        if not check.passed and (known := defect_signature(result, figure_name)):
+            check = Check(case, figure_name, check.value, check.threshold, check.unit, known=known,
+                          budget=check.budget)
+        checks.append(check)
     if unknown:
-        raise ConfigError(f"thresholds for case {case!r} name unmeasured figure(s) {unknown}; "
+        raise ConfigError(f"limits for case {case!r} name unmeasured figure(s) {sorted(unknown)}; "
                           f"measured: {', '.join(sorted(by_name))}")
-    checks = [Check(case, name, math.nan, limit, "", note=missing[name]) if name in missing
-              else Check(case, name, by_name[name].value, limit, by_name[name].unit)
-              for name, limit in thresholds.items()]
-    return [dataclasses.replace(c, known=why) if not c.passed and (why := known_defect(joints, c.name)) else c
-            for c in checks]
-
-
-def judge(result: CaseResult, thresholds: Mapping[str, float]) -> list[Check]:
-    """:func:`verdict` of one case's result, with the joint types of the model it ran."""
-    return verdict(result.case.name, result.figures, thresholds, joints=result.joints)
+    return checks

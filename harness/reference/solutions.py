@@ -20,7 +20,7 @@ import numpy as np
 
 from analytic import systems
 from analytic.dynamics import Dynamics
-from analytic.solvers import DEFAULT_RTOL, Solution, solve
+from analytic.solvers import DEFAULT_RTOL, Solution, project, solve
 from analytic.systems import Scales
 from harness.core.trajectory import Trajectory
 from harness.reference.derivations import dynamics
@@ -28,13 +28,18 @@ from harness.reference.derivations import dynamics
 
 @dataclass(frozen=True)
 class Reference:
-    """A solved motion of ``system``: its parameters, scales and dense solution from (q0, qd0)."""
+    """A solved motion of ``system``: its parameters, scales and dense solution from (q0, qd0).
+
+    ``initial`` is the state solved from: the one asked for, brought onto the constraints of these
+    parameters where it was not on them (``projected`` says which coordinates moved, and how).
+    """
 
     system: str
     params: Mapping[str, float]
     scales: Scales
     solution: Solution
     initial: tuple[tuple[float, ...], tuple[float, ...]]
+    projected: tuple[str, ...] = ()
 
     @property
     def dynamics(self) -> Dynamics:
@@ -67,14 +72,24 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     """``system`` solved from (q0, qd0) with the parameters read from ``model``, over at least
     ``t_end`` (default: ``horizon``).
 
+    The state is first brought onto the constraints at these parameters
+    (:func:`analytic.solvers.project`): a motion written for the shipped model
+    (a pendulum's r = 1) starts a model of other dimensions on its own
+    constraints (r = 2), and the changes are listed in ``Reference.projected``.
+
     One solve over max(t_end, horizon) serves every request up to it: a shorter
     ``t_end`` gets the horizon's solution, whose dense output covers it.
     """
     module = systems.load(system)
     params = module.params_from_model(model)
     dyn = dynamics(system, params)
-    q = ordered(q0, dyn.coordinates, "q0")
-    qd = ordered(qd0, dyn.coordinates, "qd0")
+    asked_q = ordered(q0, dyn.coordinates, "q0")
+    asked_qd = ordered(qd0, dyn.coordinates, "qd0")
+    q, qd = project(dyn, asked_q, asked_qd)
+    projected = tuple(f"{label} {name}: {a:.10g} → {b:.10g}" for label, asked, got in
+                      (("q0", asked_q, q), ("qd0", asked_qd, qd))
+                      for name, a, b in zip(dyn.coordinates, asked, got, strict=True)
+                      if abs(b - a) > 1e-12 * max(1.0, abs(a)))
     span = max(float(t_end or horizon), float(horizon))
     key = (system, tuple(sorted(params.items())), tuple(q.tolist()), tuple(qd.tolist()), float(rtol), span)
     sol = _solutions.get(key)
@@ -85,7 +100,7 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
         sol = solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, atol=rtol)
     _solutions[key] = sol
     return Reference(system=system, params=params, scales=module.scales(params), solution=sol,
-                     initial=(tuple(q.tolist()), tuple(qd.tolist())))
+                     initial=(tuple(q.tolist()), tuple(qd.tolist())), projected=projected)
 
 
 def export_solutions() -> dict[tuple, tuple[float, float, int, object]]:

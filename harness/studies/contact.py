@@ -34,7 +34,7 @@ from harness.core.plotting import png_bytes, pyplot
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
 from harness.engine.simulate import simulate
-from harness.layers.trajectory import series_figures, trajectory_figures
+from harness.layers.trajectory import trajectory_figures
 from harness.reference import solutions as refmod
 
 CONES = ("pyramidal", "elliptic")
@@ -147,8 +147,8 @@ def contact_study(
         sim = simulate(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
         ref_traj = refmod.trajectory(ref, sim.t)
         figs = {f.name.removeprefix("sim."): f.value
-                for f in trajectory_figures(ref_traj, sim, ref.scales, prefix="sim", settle=case.settle)
-                + series_figures(sim, case.mujoco_series, prefix="sim")}
+                for f in trajectory_figures(ref_traj, sim, ref.scales, prefix="sim", settle=case.settle,
+                                            series=case.mujoco_series)}
         forces = {f"force.{c}": figs[f"force.{c}"] for c in case.mujoco_forces}
         slip = sim.series["slip"]
         rows.append({

@@ -1,0 +1,74 @@
+"""The budget of the instantaneous figures: MuJoCo at the sampled states, extrapolated to the ideal limits.
+
+The instantaneous layer evaluates MuJoCo at states on the constraint manifold
+(:func:`harness.layers.instant.sample_states`), so nothing is integrated and
+no integration error enters. Two settings of the model still move its figures
+(:mod:`harness.budget.variants`): the constraints' impedance and the point
+masses' inertia floors. The same states are evaluated on the model as it is (A),
+with every ε = 1 − d × s (C: s = 1/2, or 2 at the stiffest ε;
+:func:`~harness.budget.variants.softness_factor`) and with the floors doubled
+(D), and state by state
+
+- softness = A − (the levels A, C (and C₂, ε × s²) extrapolated to ε → 0, as in
+  :mod:`harness.budget.trajectory`): at a consistent state (f = 0, J q̇ = 0) a soft equality's
+  force is −(A + R)⁻¹Rλ off the rigid one and its acceleration follows, with
+  R = (1 − d)/d · Â (computation/index.rst, "Soft constraints"): linear in
+  1 − d up to relative terms O(1 − d);
+- floors = D − A: linear in the inertia;
+- ideal = A − softness − floors,
+
+each reduced as the figure is. The tolerances: 1/4 of the softness part (the
+O(1 − d) terms for 1 − d up to 1/4), 1/10 of the floors', float round-off
+(:data:`ROUNDOFF` × the quantity's size: the analytic side is a closed-form
+evaluation and one KKT solve, MuJoCo's a forward pass) and the constraint
+solver's tolerance (:data:`~harness.budget.trajectory.SOLVER` × tolerance × size),
+both × the noise gain of the extrapolation (Σ|w| of the evaluations' weights).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from harness.budget.extrapolate import gain, to_zero
+from harness.budget.trajectory import FLOOR_UNCERTAINTY, SOFTNESS_UNCERTAINTY, SOLVER
+from harness.core.budget import Budget
+from harness.core.deviation import Deviation
+from harness.core.figures import FigureName
+
+ROUNDOFF = 1e4 * float(np.finfo(float).eps)
+"""Round-off of one evaluation, relative to the quantity's size: ~2e-12. Measured at the shipped
+settings: at most 4e-16 (kinetic energy, mass matrix, forcing); the margin covers an ill-conditioned
+mass matrix (condition number up to 1e4)."""
+
+
+def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation]] = (),
+                    heavier: Sequence[Deviation] | None = None, eps_factor: float = 2.0,
+                    solver_tolerance: float = 0.0, notes: Sequence[str] = ()) -> dict[FigureName, Budget]:
+    """Every instantaneous figure's budget from the model's deviations at the sampled states (A) and,
+    where they apply, the model's with every ε × s, s² (``softness``, s = ``eps_factor``) and with
+    heavier floors (D) at the same states."""
+    levels = [{d.name: d.values for d in group} for group in softness]
+    floors = {d.name: d.values for d in heavier or ()}
+    noise = (gain(len(levels) + 1, eps_factor) if levels else 1.0) + (2.0 if floors else 0.0)
+    out = {}
+    for dev in as_is:
+        parts = {}
+        softness_unc = None
+        if levels:
+            ideal_eps, uncertainty = to_zero([dev.values, *(level[dev.name] for level in levels)], eps_factor)
+            parts["softness"] = dev.values - ideal_eps
+            softness_unc = None if uncertainty is None else dev.magnitude(uncertainty)
+        if dev.name in floors:
+            parts["floors"] = floors[dev.name] - dev.values
+        ideal = dev.values - sum(parts.values()) if parts else dev.values
+        explained = {part: dev.magnitude(values) for part, values in parts.items()}
+        tolerance = {"softness": SOFTNESS_UNCERTAINTY * explained.get("softness", 0.0) if softness_unc is None
+                     else softness_unc,
+                     "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),
+                     "roundoff": noise * ROUNDOFF * dev.size,
+                     "solver": noise * SOLVER * solver_tolerance * dev.size}
+        out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
+                               tolerance=tolerance, notes=tuple(notes))
+    return out

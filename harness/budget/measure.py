@@ -1,0 +1,179 @@
+"""Run the model variants a budget needs and turn them into budgets (the arithmetic is in
+:mod:`.instant` and :mod:`.trajectory`, the variants in :mod:`.variants`).
+
+Cost: per integrator the run at h/2 (2 units of the run at h) and, where the
+model has soft constraints, the softer run at h and at h/2 (3 more), and with
+contacts two more runs at h; the floors' run once per case. The
+instantaneous budget evaluates the sampled states twice more.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from analytic.systems import Scales
+from harness.budget import variants as V
+from harness.budget.instant import instant_budgets
+from harness.budget.trajectory import Runs, budgets, every_nth, past_asymptotic
+from harness.cases import Series
+from harness.core.budget import Budget
+from harness.core.deviation import Deviation
+from harness.core.figures import FigureName
+from harness.core.trajectory import Trajectory
+from harness.engine.integrators import integrator_name
+from harness.engine.models import compile_model
+from harness.engine.probe import Probe
+from harness.engine.simulate import simulate
+from harness.layers.instant import instant_deviations
+from harness.layers.trajectory import deviations
+from harness.reference.solutions import Reference
+
+
+@dataclass(frozen=True)
+class ModelUnderTest:
+    """How the model under test is compiled (its file, the timestep asked for, the edit applied), so
+    that each variant is the same model with one more change."""
+
+    path: Path
+    timestep: float | None = None
+    edit: Callable[[mujoco.MjSpec], None] | None = None
+
+    def compile(self, *, integrator: str | None = None, timestep: float | None = None,
+                variant: V.SpecEdit | None = None) -> mujoco.MjModel:
+        return compile_model(self.path, integrator=integrator, timestep=timestep or self.timestep,
+                             edit=V.compose(self.edit, variant))
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What the budget reads from the model under test once per case."""
+
+    soft: bool
+    contacts: bool
+    point_masses: tuple[str, ...]
+    solver_tolerance: float
+    notes: tuple[str, ...]
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, scales: Scales) -> Settings:
+        constrained = model.neq > 0 or V.has_contacts(model)
+        bodies = V.point_masses(model, scales.length)
+        notes = [*V.softness_notes(model)]
+        if bodies:
+            notes.append(f"floors: the rotational inertia of the point mass(es) {', '.join(bodies)} "
+                         f"(≤ {V.POINT_MASS:g} m L²), doubled and extrapolated to 0")
+        return cls(soft=V.has_soft_constraints(model), contacts=V.has_contacts(model), point_masses=bodies,
+                   solver_tolerance=float(model.opt.tolerance) if constrained else 0.0, notes=tuple(notes))
+
+
+def instant_budget(mut: ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref: Reference,
+                   as_is: Sequence[Deviation], *, integrator: str | None = None) -> dict[FigureName, Budget]:
+    """The instantaneous figures' budgets: ``as_is`` (the deviations of ``model``, compiled from ``mut``
+    with ``integrator``) beside the same states on the softer and heavier-floor variants."""
+    settings = Settings.of(model, ref.scales)
+    softness: tuple[list[Deviation], ...] = ()
+    heavier = None
+    eps_factor = 2.0
+    if settings.soft:
+        eps_factor = V.softness_factor(model)
+        levels = (eps_factor, eps_factor**2) if eps_factor < 1 else (eps_factor,)
+        softness = tuple(instant_deviations(mut.compile(integrator=integrator, variant=V.variant(model, eps_factor=f)),
+                                            probe, ref) for f in levels)
+    if settings.point_masses:
+        heavier = instant_deviations(mut.compile(integrator=integrator,
+                                                 variant=V.heavier_floors(settings.point_masses)), probe, ref)
+    return instant_budgets(as_is, softness=softness, heavier=heavier, eps_factor=eps_factor,
+                           solver_tolerance=settings.solver_tolerance, notes=settings.notes)
+
+
+@dataclass(frozen=True)
+class TrajectoryRuns:
+    """What the trajectory budget compares: the reference on the runs' grid, the case's settle time and
+    MuJoCo-only series, and the state every run starts from."""
+
+    reference: Trajectory
+    scales: Scales
+    settle: float
+    series: Mapping[str, Series]
+    q0: np.ndarray
+    qd0: np.ndarray
+    rtol: float
+
+
+def _deviations(target: TrajectoryRuns, sim: Trajectory, prefix: str) -> list[Deviation]:
+    return deviations(target.reference, sim, target.scales, prefix=prefix, settle=target.settle,
+                      series=target.series)
+
+
+def _variant_run(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int,
+                 split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0) -> list[Deviation]:
+    """One variant of ``model`` (:func:`~harness.budget.variants.variant`) run over the horizon, as its
+    deviations on the grid of the run at h."""
+    edit = V.variant(model, split=split, eps_factor=eps_factor, tc_factor=tc_factor)
+    name = integrator_name(model)
+    h = float(model.opt.timestep)
+    m = mut.compile(integrator=name, timestep=h / split if split > 1 else None, variant=edit)
+    sim = simulate(m, probe, q0=target.q0, qd0=target.qd0, steps=split * steps)
+    return _deviations(target, every_nth(sim, split), name)
+
+
+def trajectory_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, sims: Mapping[str, Trajectory],
+                    *, orders: Mapping[str, float]) -> dict[str, Runs]:
+    """Every integrator's :class:`~harness.budget.trajectory.Runs`: ``sims`` (the runs at the model's
+    settings, by integrator) and the variants, each run from the same state over the same horizon; an
+    integrator past the asymptotic range (at its documented order in ``orders``) also at h/4."""
+    runs: dict[str, Runs] = {}
+    floors: dict[str, np.ndarray] | None = None
+    first = next(iter(sims))
+    settings = Settings.of(mut.compile(integrator=first), target.scales)
+    if settings.point_masses:  # physics, not integration: one run serves every integrator (the cheapest)
+        floor_integrator = next((n for n in ("Euler", "implicitfast", "implicit") if n in sims), first)
+        steps = len(sims[floor_integrator].t) - 1
+        heavier = simulate(mut.compile(integrator=floor_integrator, variant=V.heavier_floors(settings.point_masses)),
+                           probe, q0=target.q0, qd0=target.qd0, steps=steps)
+        as_is = {d.name.measure: d.values for d in _deviations(target, sims[floor_integrator], floor_integrator)}
+        floors = {d.name.measure: d.values - as_is[d.name.measure]
+                  for d in _deviations(target, heavier, floor_integrator)}
+    for name, sim in sims.items():
+        model = mut.compile(integrator=name)
+        steps = len(sim.t) - 1
+        eps = V.softness_factor(model)
+        slow = V.TIMECONST_FACTOR
+        levels = (eps, eps * eps) if eps < 1 else (eps,)
+
+        def run(split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0, *, model: mujoco.MjModel = model,
+                steps: int = steps) -> list[Deviation]:
+            return _variant_run(mut, probe, target, model, steps=steps, split=split, eps_factor=eps_factor,
+                                tc_factor=tc_factor)
+
+        as_is = _deviations(target, sim, name)
+        half_step = run(2)
+        soft, contacts = settings.soft, settings.contacts
+        runs[name] = Runs(
+            as_is=as_is,
+            half_step=half_step,
+            quarter_step=run(4) if past_asymptotic(as_is, half_step, orders[name])
+            or V.steps_per_timeconst(model) > 0.5 else None,
+            softness=tuple(run(1, f) for f in levels) if soft else (),
+            softness_half_step=run(2, eps) if soft else None,
+            slower=tuple(run(1, f, slow) for f in (1.0, *levels)) if contacts else (),
+            floors=floors,
+            eps_factor=eps, tc_factor=slow,
+        )
+    return runs
+
+
+def trajectory_budget(runs: Mapping[str, Runs], *, orders: Mapping[str, float], rtol: float,
+                      solver_tolerance: float, notes: Sequence[str] = ()) -> dict[FigureName, Budget]:
+    """Every trajectory figure's budget, each integrator's with its documented order in ``orders``."""
+    out: dict[FigureName, Budget] = {}
+    for name, r in runs.items():
+        steps = len(r.as_is[0].values) - 1 if r.as_is else 0
+        out |= budgets(r, order=orders[name], steps=steps, rtol=rtol, solver_tolerance=solver_tolerance,
+                       notes=notes)
+    return out

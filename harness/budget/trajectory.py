@@ -1,0 +1,258 @@
+"""The budget of the trajectory figures: MuJoCo's run extrapolated to the ideal limits, against the reference.
+
+For one integrator the model runs several ways (:mod:`harness.budget.variants`),
+each a :class:`~harness.core.deviation.Deviation` per figure (MuJoCo minus the
+reference, sample by sample, on the grid of the run at the model's timestep h).
+With s the softness factor (1/2, or 2 at the stiffest ε;
+:func:`~harness.budget.variants.softness_factor`) and r the contacts'
+time-constant factor (1.5):
+
+=====  ======================================  ====================================
+run    timestep, effective ε, contacts' τ       where
+=====  ======================================  ====================================
+A      h, ε, τ  (the model as it is)
+B      h/2, ε, τ                                always
+h/4    h/4, ε, τ                                past the asymptotic range
+C      h, sε, τ                                 soft constraints
+E      h/2, sε, τ                               soft constraints
+C₂     h, s²ε, τ                                soft, ε above the stiffest (s = 1/2)
+C′…    h, ε (sε, s²ε), rτ                       contacts
+D      h, floors doubled                        point masses (one run, shared)
+=====  ======================================  ====================================
+
+x(h, ε, τ) is smooth in each setting near the ideal (h → 0, ε → 0, τ → 0), so
+sample by sample, with κ = 2ᵖ/(2ᵖ − 1) (Richardson; p the integrator's
+documented order):
+
+- integration = κ(A − B), the truncation error at the model's own softness;
+  at each softness level the same correction, κ(C − E) at sε, and for s²ε the
+  line through those two (the bilinear model: integration error linear in ε);
+- softness: the levels at h → 0 (x₀(ε) = A − κ(A − B), …) extrapolated to
+  ε → 0 (:func:`~harness.budget.extrapolate.to_zero`): linearly from two
+  levels (the documented sag a_u ε τ² and force error −(A + R)⁻¹Rλ, R ∝
+  ε/(1 − ε), are linear near the rigid limit), quadratically from three —
+  from MuJoCo's default solimp (ε = 0.1, 0.05 over a 1 mm width) the effect
+  grows like ε/(1 − ε)² with d varying over the width, and a line through ε
+  and ε/2 leaves a third of it; plus, for contacts, the part linear in τ,
+  (y(rτ) − y(τ))/(r − 1), y the levels at h extrapolated to ε → 0 (a contact's
+  friction rows give the slip v ≈ γ τ/2 that no impedance removes);
+- floors = D − A (linear in the point masses' inertia);
+- ideal = A − integration − softness − floors,
+
+and each part and the residual ``|ideal − reference|`` are reduced as the
+figure is. Estimating the softness at h → 0 (run E) matters: under ``discrete``
+a constraint's response depends on h/τ (the row is folded into the implicit
+step), and without E that interaction would be counted twice — once in each part.
+
+What bounds the residual is each estimate's own accuracy (the tolerances, in
+the figure's unit):
+
+- integration: Richardson removes the leading term; what remains is the next
+  order, relatively O(ω h) of the correction: :data:`INTEGRATION_UNCERTAINTY`
+  = 1/4 of it allows ω h up to about 1/2. Where the correction exceeds
+  :data:`ASYMPTOTIC` of the quantity's size, or a soft constraint gets fewer
+  than two steps per time constant
+  (:func:`~harness.budget.variants.steps_per_timeconst`), the run is past the
+  asymptotic range and the integrator also runs at h/4: the next order is then measured,
+  as twice the distance between the extrapolations from (h, h/2) and
+  (h/2, h/4), and the larger of the two bounds holds;
+- softness: from two levels (at the stiffest ε, 1e-4) linear up to relative
+  terms O(ε) and O(h/τ): :data:`SOFTNESS_UNCERTAINTY` = 1/4 of it; from three,
+  measured: the distance between the quadratic and the linear estimate (the
+  last level's correction), plus 1/4 of the contacts' τ part;
+- floors: an inertia of at most 1e-6 m L² acts linearly: :data:`FLOOR_UNCERTAINTY`;
+- round-off: :data:`ROUNDOFF` a step, accumulating as a random walk over the
+  run's N steps, × the quantity's size, × the noise gain of the combination
+  (:func:`noise_gain`: Σ|wᵢ| of the runs' weights in the ideal estimate, from
+  1.1 for RK4 alone to about 30 with contacts and three softness levels);
+- the reference: :data:`REFERENCE` × its rtol × the quantity's size (its global
+  error; measured 11 rtol on the spherical pendulum over 5 s);
+- the constraint solver: :data:`SOLVER` × its tolerance × the quantity's size
+  × the noise gain, where the model has constraints (the solver stops when the
+  relative improvement falls below its tolerance, independently in each run).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from harness.budget.extrapolate import richardson, to_zero
+from harness.core.budget import Budget
+from harness.core.deviation import Deviation
+from harness.core.figures import FigureName
+from harness.core.trajectory import Trajectory
+
+INTEGRATION_UNCERTAINTY = 0.25
+SOFTNESS_UNCERTAINTY = 0.25
+FLOOR_UNCERTAINTY = 0.1
+ROUNDOFF = 64 * float(np.finfo(float).eps)
+REFERENCE = 50.0
+SOLVER = 10.0
+ASYMPTOTIC = 0.01
+
+
+@dataclass(frozen=True)
+class Runs:
+    """One integrator's runs of the model (see the module docstring), each as its deviations from the
+    reference on the grid of the run at h.
+
+    Attributes:
+        as_is: A (h, ε, τ).
+        half_step: B (h/2).
+        quarter_step: h/4, only past the asymptotic range.
+        softness: at h with ε × s (C) and, where ε is not at the stiffest, also × s² (C₂).
+        softness_half_step: E (h/2, ε × s).
+        slower: with contacts, at h with τ × r and ε, ε × s (and ε × s²): C′, C″ (and C‴).
+        floors: D − A per figure (:attr:`FigureName.measure`), shared by the integrators: a point
+            mass's floor is physics, not integration.
+        eps_factor, tc_factor: s and r.
+    """
+
+    as_is: Sequence[Deviation]
+    half_step: Sequence[Deviation]
+    quarter_step: Sequence[Deviation] | None = None
+    softness: Sequence[Sequence[Deviation]] = ()
+    softness_half_step: Sequence[Deviation] | None = None
+    slower: Sequence[Sequence[Deviation]] = ()
+    floors: Mapping[str, np.ndarray] | None = None
+    eps_factor: float = 2.0
+    tc_factor: float = 1.5
+
+
+def every_nth(sim: Trajectory, n: int) -> Trajectory:
+    """A run at h/n on the grid of the run at h (every n-th sample)."""
+    if n == 1:
+        return sim
+
+    def take(group: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return {k: v[::n] for k, v in group.items()}
+
+    return Trajectory(t=sim.t[::n], positions=take(sim.positions), velocities=take(sim.velocities),
+                      multipliers=take(sim.multipliers),
+                      generalized_force=None if sim.generalized_force is None else sim.generalized_force[::n],
+                      invariants=take(sim.invariants), violations=take(sim.violations), source=sim.source,
+                      series=take(sim.series))
+
+
+def past_asymptotic(as_is: Sequence[Deviation], half_step: Sequence[Deviation], order: float) -> bool:
+    """Whether any figure's Richardson correction κ(A − B) exceeds :data:`ASYMPTOTIC` of its quantity's
+    size (a relative figure's size is 1)."""
+    kappa = richardson(order)
+    b = _by_name(half_step)
+    return any(d.magnitude(kappa * (d.values - b[d.name])) > ASYMPTOTIC * d.size for d in as_is)
+
+
+def _by_name(group: Sequence[Deviation] | None) -> dict[str, np.ndarray]:
+    return {d.name: d.values for d in group or ()}
+
+
+@dataclass(frozen=True)
+class Parts:
+    """One figure's explained parts, sample by sample, and the uncertainties measured for them (None
+    where only theory bounds them): the integration's from the run at h/4, the softness's from a third
+    level of ε; ``timeconst`` is the contacts' τ part (inside ``explained["softness"]``)."""
+
+    explained: dict[str, np.ndarray]
+    integration_uncertainty: np.ndarray | None = None
+    softness_uncertainty: np.ndarray | None = None
+    timeconst: np.ndarray | None = None
+
+
+def parts(runs: Runs, dev: Deviation, *, order: float) -> Parts:
+    """The explained parts of one figure, sample by sample (see the module docstring)."""
+    kappa = richardson(order)
+    s, r = runs.eps_factor, runs.tc_factor
+    a = dev.values
+    b = _by_name(runs.half_step)[dev.name]
+    explained = {"integration": kappa * (a - b)}
+    integration_unc = None
+    if runs.quarter_step is not None:
+        q = _by_name(runs.quarter_step)[dev.name]
+        integration_unc = 2.0 * ((a - kappa * (a - b)) - (b - kappa * (b - q)))
+    softness_unc = timeconst = None
+    if runs.softness and runs.softness_half_step is not None:
+        levels = [a, *(_by_name(group)[dev.name] for group in runs.softness)]
+        corrections = [explained["integration"], kappa * (levels[1] - _by_name(runs.softness_half_step)[dev.name])]
+        for k in range(2, len(levels)):  # the integration error is linear in ε (bilinear model)
+            corrections.append(corrections[0] + (corrections[1] - corrections[0]) * (s**k - 1.0) / (s - 1.0))
+        at_zero_h = [x - c for x, c in zip(levels, corrections, strict=True)]
+        ideal, uncertainty = to_zero(at_zero_h, s)
+        softness = at_zero_h[0] - ideal
+        softness_unc = None if uncertainty is None else np.abs(uncertainty)
+        if runs.slower:
+            y_tau, unc_tau = to_zero(levels, s)
+            y_slow, unc_slow = to_zero([_by_name(group)[dev.name] for group in runs.slower], s)
+            timeconst = (y_slow - y_tau) / (r - 1.0)
+            softness = softness + timeconst
+            if softness_unc is not None and unc_tau is not None and unc_slow is not None:
+                softness_unc = softness_unc + (r * np.abs(unc_tau) + np.abs(unc_slow)) / (r - 1.0)
+        explained["softness"] = softness
+    if runs.floors is not None and dev.name.measure in runs.floors:
+        explained["floors"] = runs.floors[dev.name.measure]
+    return Parts(explained, integration_unc, softness_unc, timeconst)
+
+
+def noise_gain(runs: Runs, *, order: float) -> float:
+    """Σ |wᵢ|: how much the ideal estimate (a linear combination Σ wᵢ xᵢ of the runs, Σ wᵢ = 1) can
+    amplify noise that is independent from run to run (round-off, the constraint solver stopping at its
+    tolerance). Found by linearity: the estimate with one run's values 1 and every other's 0 is its
+    weight. The floors' part D − A adds 2 (its two runs, each with weight ±1)."""
+    name = FigureName("x.position")
+    groups = {"as_is": 1, "half_step": 1, "quarter_step": int(runs.quarter_step is not None),
+              "softness": len(runs.softness), "softness_half_step": int(runs.softness_half_step is not None),
+              "slower": len(runs.slower)}
+
+    def unit(hot: tuple[str, int], label: str, index: int = 0) -> list[Deviation]:
+        return [Deviation(name, np.array([1.0 if hot == (label, index) else 0.0]), "scalar", "1", "")]
+
+    gain = 0.0
+    for label, count in groups.items():
+        for index in range(count):
+            hot = (label, index)
+            probe = Runs(as_is=unit(hot, "as_is"), half_step=unit(hot, "half_step"),
+                         quarter_step=unit(hot, "quarter_step") if groups["quarter_step"] else None,
+                         softness=tuple(unit(hot, "softness", k) for k in range(groups["softness"])),
+                         softness_half_step=unit(hot, "softness_half_step") if groups["softness_half_step"]
+                         else None,
+                         slower=tuple(unit(hot, "slower", k) for k in range(groups["slower"])),
+                         eps_factor=runs.eps_factor, tc_factor=runs.tc_factor)
+            dev = probe.as_is[0]
+            found = parts(probe, dev, order=order)
+            gain += float(abs((dev.values - sum(found.explained.values()))[0]))
+    return gain + (2.0 if runs.floors is not None else 0.0)
+
+
+def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_tolerance: float,
+            notes: Sequence[str] = ()) -> dict[FigureName, Budget]:
+    """Every figure's budget from one integrator's runs (see the module docstring): round-off and the
+    tolerances are relative to each quantity's size (``Deviation.size``); ``solver_tolerance`` is 0
+    where the model has no constraints."""
+    walk = math.sqrt(max(steps, 1))
+    gain = noise_gain(runs, order=order)
+    out = {}
+    for dev in runs.as_is:
+        found = parts(runs, dev, order=order)
+        ideal = dev.values - sum(found.explained.values())
+        explained = {part: dev.magnitude(values) for part, values in found.explained.items()}
+        integration = INTEGRATION_UNCERTAINTY * explained["integration"]
+        if found.integration_uncertainty is not None:  # measured: never below what theory allows
+            integration = max(integration, dev.magnitude(found.integration_uncertainty))
+        if found.softness_uncertainty is None:
+            softness = SOFTNESS_UNCERTAINTY * explained.get("softness", 0.0)
+        else:
+            softness = dev.magnitude(found.softness_uncertainty)
+            if found.timeconst is not None:
+                softness += SOFTNESS_UNCERTAINTY * dev.magnitude(found.timeconst)
+        tolerance = {"integration": integration,
+                     "softness": softness,
+                     "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),
+                     "roundoff": gain * ROUNDOFF * walk * dev.size,
+                     "reference": REFERENCE * rtol * dev.size,
+                     "solver": gain * SOLVER * solver_tolerance * dev.size}
+        out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
+                               tolerance=tolerance, notes=tuple(notes))
+    return out

@@ -1,0 +1,308 @@
+"""The model variants a budget runs: each changes one setting whose effect the budget extrapolates away.
+
+A variant is the model under test with, for every constraint it has (every
+equality, every contact pair and colliding geom), three effective settings
+set: the timestep h, the time constant τ of its solref spring-damper and its
+impedance softness ε = 1 − d (solimp's d0 and d_width). :func:`variant` makes
+one with any of them changed, each *as MuJoCo applies it*:
+
+- τ in effect: under the ``refsafe`` flag MuJoCo raises a time constant below
+  2h to 2h; under ``discrete`` it instead replaces a contact row the step
+  cannot resolve (:func:`effective_timeconst`). A run at h/2 therefore holds
+  every τ at the value in effect at h, or halving h would also stiffen the
+  constraints and mix softness into the integration estimate;
+- ε in effect: every integrator but ``discrete`` uses solimp's d as authored
+  (within [mjMINIMP, mjMAXIMP]); ``discrete`` evaluates the spring-damper at
+  the end of the step and folds it into the impedance, which divides ε by
+  F = 1 + h b + h² k (b = 2/τ, k = 1/(τ ζ)², ζ the damping ratio), and caps d
+  at mjMAXIMP, so ε never goes below 1 − mjMAXIMP (:func:`effective_softness`;
+  measured: ε/F to 4 digits at h/τ = 1/8 … 1/2, tests/test_budget.py). A variant
+  sets the authored ε that gives the effective ε it wants.
+
+The variants (:mod:`harness.budget.trajectory` and :mod:`.instant` combine them):
+
+- ``split``: h/2 (or h/4), with τ and ε held at their effective values at h;
+- ``eps_factor``: every effective ε multiplied by :func:`softness_factor`
+  (1/2, or 2 at the stiffest). MuJoCo's documented softness (modeling.rst,
+  "Solver parameters") is linear in ε near the rigid limit — the sag
+  a_u ε τ², the force error −(A + R)⁻¹Rλ at a consistent state, R ∝ ε/(1 − ε)
+  — so two runs extrapolate it to ε → 0, where an equality is held exactly
+  (its feedback then only corrects integration error);
+- ``tc_factor``: every contact's effective τ multiplied by
+  :data:`TIMECONST_FACTOR` (equalities keep theirs). A contact's friction rows
+  ask J q̈ = −b v without J̇ q̇, so it rolls with a slip v ≈ γ τ/2 that no ε
+  removes: linear in τ, extrapolated to 0;
+- :func:`heavier_floors`: the rotational inertia of every point mass doubled.
+  The analytic systems have point masses; MuJoCo needs some inertia, and a
+  body whose rotational inertia is at most :data:`POINT_MASS` × m L² (L the
+  case's length scale) is a point mass carrying that floor. A body with more
+  is a rigid body the analytic system must model itself: extra inertia on a
+  point mass is a fault, not a floor.
+
+Softness in solref's direct format (negative stiffness, damping) is left as it
+is, and said so (:func:`softness_notes`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Sequence
+from typing import Literal
+
+import mujoco
+import numpy as np
+
+from harness.engine.integrators import integrator_name
+
+POINT_MASS = 1e-6
+"""The largest rotational inertia, relative to m L², a body may carry and still count as a point mass."""
+
+SpecEdit = Callable[[mujoco.MjSpec], None]
+Row = Literal["equality", "contact", "friction"]
+
+SOFTEST = 1.0 - float(mujoco.mjMINIMP)
+STIFFEST = 1.0 - float(mujoco.mjMAXIMP)
+"""The range of ε = 1 − d MuJoCo accepts (solimp's d is clamped to [mjMINIMP, mjMAXIMP])."""
+
+
+def refsafe(model: mujoco.MjModel) -> bool:
+    return not int(model.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_REFSAFE)
+
+
+def _discrete(model: mujoco.MjModel) -> bool:
+    return integrator_name(model) == "discrete"
+
+
+def effective_timeconst(model: mujoco.MjModel, solref: Sequence[float], *, row: Row) -> float:
+    """The time constant MuJoCo uses for a standard-format ``solref`` (timeconst, dampratio) on a row
+    of kind ``row`` of ``model`` (its timestep h, integrator and refsafe flag): XMLreference.rst,
+    "refsafe", and computation/index.rst, "Discrete-time".
+
+    - every integrator but ``discrete``: max(timeconst, 2h) under refsafe, for every row;
+    - ``discrete``: equality and friction rows as authored; a contact row whose spring the step cannot
+      resolve (timeconst · dampratio < h) is replaced by "the stiffest zero-restitution row for the
+      timestep, keeping the authored damping ratio", taken here as timeconst = h / dampratio (the
+      threshold itself).
+    """
+    tc, ratio = float(solref[0]), float(solref[1])
+    h = float(model.opt.timestep)
+    if not refsafe(model):
+        return tc
+    if not _discrete(model):
+        return max(tc, 2.0 * h)
+    if row == "contact" and tc * ratio < h:
+        return h / ratio
+    return tc
+
+
+def fold(timestep: float, timeconst: float, dampratio: float) -> float:
+    """F = 1 + h b + h² k: what ``discrete`` divides a row's ε by, with b = 2/τ, k = 1/(τ ζ)²."""
+    u = timestep / timeconst
+    return 1.0 + 2.0 * u + (u / dampratio) ** 2
+
+
+def effective_softness(model: mujoco.MjModel, eps: float, solref: Sequence[float], *, row: Row) -> float:
+    """The ε = 1 − d in effect for an authored ε on a row with standard-format ``solref``: clamped to
+    MuJoCo's range, and under ``discrete`` divided by :func:`fold` and kept ≥ 1 − mjMAXIMP."""
+    eps = min(max(eps, STIFFEST), SOFTEST)
+    if not _discrete(model):
+        return eps
+    tc = effective_timeconst(model, solref, row=row)
+    return max(eps / fold(float(model.opt.timestep), tc, float(solref[1])), STIFFEST)
+
+
+def _authored_softness(eps_effective: float, *, discrete: bool, timestep: float, timeconst: float,
+                       dampratio: float) -> float:
+    """The authored ε that gives ``eps_effective`` (the inverse of :func:`effective_softness`), within
+    MuJoCo's range."""
+    eps = eps_effective * fold(timestep, timeconst, dampratio) if discrete else eps_effective
+    return min(max(eps, STIFFEST), SOFTEST)
+
+
+def _standard(solref: Sequence[float]) -> bool:
+    return float(solref[0]) > 0  # the direct format (−stiffness, −damping) is negative
+
+
+def _overridden(spec: mujoco.MjSpec) -> bool:
+    """Whether every contact uses option's o_solref/o_solimp (the override flag)."""
+    return bool(int(spec.option.enableflags) & int(mujoco.mjtEnableBit.mjENBL_OVERRIDE))
+
+
+def _friction_solref(holder: object) -> list[float]:
+    """A pair's friction solref: its solreffriction, or its solref where that is unset (0 0)."""
+    friction = [float(x) for x in holder.solreffriction]
+    return friction if any(friction) else [float(x) for x in holder.solref]
+
+
+def _contact_elements(spec: mujoco.MjSpec) -> Iterator[object]:
+    """Every element whose solref/solimp make contacts': pairs and geoms."""
+    yield from spec.pairs
+    yield from spec.geoms
+
+
+TIMECONST_FACTOR = 1.5
+"""What the ``slower`` variant multiplies every contact's effective τ by. A contact's force and slip
+reach their steady values, linear in τ, through a transient f(t/τ) that no extrapolation in τ
+follows; 1.5 keeps the variant's transient at (1 + 26.7) e^(−26.7) ≈ 1e-10 of its start after the
+model's settle time (:data:`SETTLE_TIMECONSTS` = 40 τ), where 2 would leave 4e-8."""
+
+
+def _soft_rows(model: mujoco.MjModel) -> Iterator[tuple[list[float], list[float], Row]]:
+    """(solref, solimp, row kind) of every constraint the budget softens: equalities, colliding geoms,
+    pairs (or option's override)."""
+    for i in range(model.neq):
+        yield [float(x) for x in model.eq_solref[i]], [float(x) for x in model.eq_solimp[i]], "equality"
+    if not has_contacts(model):
+        return
+    if int(model.opt.enableflags) & int(mujoco.mjtEnableBit.mjENBL_OVERRIDE):
+        yield [float(x) for x in model.opt.o_solref], [float(x) for x in model.opt.o_solimp], "contact"
+        return
+    colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    for i in np.flatnonzero(colliding):
+        yield [float(x) for x in model.geom_solref[i]], [float(x) for x in model.geom_solimp[i]], "contact"
+    for i in range(model.npair):
+        yield [float(x) for x in model.pair_solref[i]], [float(x) for x in model.pair_solimp[i]], "contact"
+
+
+def softness_factor(model: mujoco.MjModel) -> float:
+    """What the ``softer`` variant multiplies every effective ε by: 1/2 where every constraint's ε is at
+    least twice the stiffest MuJoCo allows (halving moves toward the rigid limit, so the linear
+    extrapolation spans ε, not 2ε: MuJoCo's softness grows like ε/(1 − ε)², and from ε = 0.1 — its
+    default solimp — a step to 0.2 would leave half the effect unexplained, a step to 0.05 a tenth);
+    else 2 (at ε = 1e-4, the stiffest, doubling is linear to 1e-4)."""
+    smallest = min((effective_softness(model, 1.0 - d, solref, row=row)
+                    for solref, solimp, row in _soft_rows(model) if _standard(solref) for d in solimp[:2]),
+                   default=1.0)
+    return 0.5 if smallest >= 2.0 * STIFFEST * (1 + 1e-9) else 2.0
+
+
+def variant(model: mujoco.MjModel, *, split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0
+            ) -> SpecEdit:
+    """The spec edit that makes ``model`` (compiled with the integrator the variant runs) into the variant
+    with its timestep divided by ``split`` (compile the result at h/split), every effective ε multiplied
+    by ``eps_factor`` and every contact's effective τ by ``tc_factor``, everything else in effect held.
+    See the module docstring."""
+    h = float(model.opt.timestep)
+    h_new = h / split
+    discrete = _discrete(model)
+
+    def set_element(holder: object, solref_attr: str, solimp_attr: str, row: Row) -> None:
+        solref = [float(x) for x in getattr(holder, solref_attr)]
+        if not _standard(solref):
+            return
+        tc = effective_timeconst(model, solref, row=row) * (tc_factor if row == "contact" else 1.0)
+        imp = [float(x) for x in getattr(holder, solimp_attr)]
+        authored = [1.0 - _authored_softness(eps_factor * effective_softness(model, 1.0 - d, solref, row=row),
+                                             discrete=discrete, timestep=h_new, timeconst=tc, dampratio=solref[1])
+                    for d in imp[:2]]
+        setattr(holder, solref_attr, [tc, solref[1]])
+        setattr(holder, solimp_attr, [*authored, imp[2] * eps_factor, *imp[3:]])
+
+    def edit(spec: mujoco.MjSpec) -> None:
+        for eq in spec.equalities:
+            set_element(eq, "solref", "solimp", "equality")
+        for element in _contact_elements(spec):
+            if hasattr(element, "solreffriction"):
+                friction = _friction_solref(element)
+                if _standard(friction):
+                    element.solreffriction = [tc_factor * effective_timeconst(model, friction, row="friction"),
+                                              friction[1]]
+            set_element(element, "solref", "solimp", "contact")
+        if _overridden(spec):
+            set_element(spec.option, "o_solref", "o_solimp", "contact")
+    return edit
+
+
+def has_contacts(model: mujoco.MjModel) -> bool:
+    """Whether the model can make contacts: a pair or a colliding geom, with contacts enabled."""
+    colliding = bool(np.any(model.geom_contype) or np.any(model.geom_conaffinity))
+    contacts_on = not int(model.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    return contacts_on and (model.npair > 0 or colliding)
+
+
+def contact_timeconst(model: mujoco.MjModel) -> float:
+    """The slowest response time among the model's contacts (standard-format solref of its colliding
+    geoms and pairs, or option's override; normal and friction rows), 0 where it has none. A row's
+    spring-damper has natural period tc · dampratio and damping ratio ≈ dampratio (b = 2/tc,
+    k = 1/(tc dampratio)²): critically damped or under, it decays with τ = tc · dampratio; overdamped,
+    its slow mode with τ ≈ 2 tc dampratio². A contact's force and slip settle over a few τ
+    (:data:`SETTLE_TIMECONSTS`)."""
+    if not has_contacts(model):
+        return 0.0
+    rows: list[tuple[list[float], Row]] = []
+    if int(model.opt.enableflags) & int(mujoco.mjtEnableBit.mjENBL_OVERRIDE):
+        rows.append(([float(x) for x in model.opt.o_solref], "contact"))
+    else:
+        colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+        rows += [([float(x) for x in r], "contact") for r in model.geom_solref[colliding]]
+        for i in range(model.npair):
+            rows.append(([float(x) for x in model.pair_solref[i]], "contact"))
+            friction = [float(x) for x in model.pair_solreffriction[i]]
+            rows.append((friction if any(friction) else rows[-1][0], "friction"))
+
+    def tau(solref: list[float], row: Row) -> float:
+        tc, ratio = effective_timeconst(model, solref, row=row), solref[1]
+        return tc * ratio if ratio <= 1 else 2.0 * tc * ratio**2
+
+    return max((tau(r, kind) for r, kind in rows if _standard(r)), default=0.0)
+
+
+SETTLE_TIMECONSTS = 40.0
+"""A contact builds its force from slip or penetration as a critically damped response, (1 + t/τ) e^(−t/τ)
+of its start; after 40 τ of the model (26.7 τ of the budget's run with τ × :data:`TIMECONST_FACTOR`)
+what remains is below 1e-10 of it, and from there on slip and force are the steady ones that are linear
+in τ. Force, velocity and MuJoCo-only figures count samples after that long (or the case's ``settle``,
+if longer; :func:`harness.pipeline.run.settle_time`)."""
+
+
+def steps_per_timeconst(model: mujoco.MjModel) -> float:
+    """The largest h/τ among the model's soft constraints (τ in effect, standard format), 0 with none.
+    Above 1/2 — possible only under ``discrete``, or with refsafe off — a constraint's own dynamics are
+    resolved by fewer than two steps per time constant, past the range where a run at h/2 tells the
+    integration error (:func:`harness.budget.trajectory.past_asymptotic`)."""
+    h = float(model.opt.timestep)
+    return max((h / effective_timeconst(model, solref, row=row) for solref, _, row in _soft_rows(model)
+                if _standard(solref)), default=0.0)
+
+
+def has_soft_constraints(model: mujoco.MjModel) -> bool:
+    """Whether softening changes anything the analytic system has: an equality, or a contact."""
+    return model.neq > 0 or has_contacts(model)
+
+
+def softness_notes(model: mujoco.MjModel) -> tuple[str, ...]:
+    """What softening cannot extrapolate (solref's direct format)."""
+    direct = [model.equality(i).name or str(i) for i in range(model.neq) if model.eq_solref[i, 0] <= 0]
+    direct += [model.pair(i).name or str(i) for i in range(model.npair) if model.pair_solref[i, 0] <= 0]
+    return (f"softness: solref in the direct format (negative) is not extrapolated for {', '.join(direct)}",) \
+        if direct else ()
+
+
+def point_masses(model: mujoco.MjModel, length: float) -> tuple[str, ...]:
+    """The bodies that are point masses carrying a rotational-inertia floor (see :data:`POINT_MASS`)."""
+    out = []
+    for b in range(1, model.nbody):
+        mass = float(model.body_mass[b])
+        if mass > 0 and 0 < float(np.max(model.body_inertia[b])) <= POINT_MASS * mass * length**2:
+            out.append(model.body(b).name)
+    return tuple(out)
+
+
+def heavier_floors(bodies: tuple[str, ...]) -> SpecEdit:
+    """Double the rotational inertia of ``bodies`` (their explicit <inertial>)."""
+    def edit(spec: mujoco.MjSpec) -> None:
+        for name in bodies:
+            body = spec.body(name)
+            full = [float(x) for x in body.fullinertia]
+            if np.isfinite(full[0]):
+                body.fullinertia = [2.0 * x for x in full]
+            else:
+                body.inertia = [2.0 * float(x) for x in body.inertia]
+    return edit
+
+
+def compose(*edits: SpecEdit | None) -> SpecEdit:
+    def edit(spec: mujoco.MjSpec) -> None:
+        for e in edits:
+            if e is not None:
+                e(spec)
+    return edit

@@ -1,0 +1,64 @@
+"""An error budget: what a figure's size is made of, and what nothing explains.
+
+Every gated figure measures how far MuJoCo is from the physics. Part of that
+distance is expected from the model's own settings, and the budget names it:
+
+- ``integration``: the integrator's truncation error at the model's timestep
+  (Richardson: the same run at h/2 and the integrator's documented order);
+- ``softness``: MuJoCo's soft constraints (solref/solimp), from a run with every
+  constraint softened twofold, extrapolated to the rigid limit;
+- ``floors``: a point mass's tiny rotational inertia (MuJoCo needs some), from a
+  run with it doubled, extrapolated to zero.
+
+What remains after removing those parts from MuJoCo's run — the run
+extrapolated to the ideal limits, compared with the reference — is the
+``unexplained`` residual. The verdict judges it against the ``limit``: the sum
+of the uncertainties of the estimates themselves (``tolerance``: each part's
+own accuracy, float round-off, the reference's tolerance, the constraint
+solver's tolerance). A fault (damping, armature, a wrong coefficient) leaves a
+residual no part explains; a legitimate setting (another timestep, softer
+constraints) moves the parts, not the residual.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+PARTS = ("integration", "softness", "floors")
+TOLERANCES = ("integration", "softness", "floors", "roundoff", "reference", "solver")
+
+
+@dataclass(frozen=True)
+class Budget:
+    """One figure's budget, in the figure's unit.
+
+    Attributes:
+        measured: the figure itself (MuJoCo's run against the reference).
+        explained: the size of each part (:data:`PARTS`) that the model's settings explain.
+        unexplained: the residual after the parts are removed.
+        tolerance: each source of uncertainty of the residual (:data:`TOLERANCES`); they sum to the limit.
+        notes: how the parts were obtained, where that is not the standard way (e.g. "softness: not
+            applicable, no soft constraints").
+    """
+
+    measured: float
+    explained: Mapping[str, float] = field(default_factory=dict)
+    unexplained: float = math.nan
+    tolerance: Mapping[str, float] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+
+    @property
+    def limit(self) -> float:
+        """The largest residual the estimates' own uncertainty allows."""
+        return float(sum(self.tolerance.values()))
+
+    @property
+    def passed(self) -> bool:
+        return math.isfinite(self.unexplained) and self.unexplained <= self.limit
+
+    def as_dict(self) -> dict[str, object]:
+        return {"measured": self.measured, "explained": dict(self.explained), "unexplained": self.unexplained,
+                "tolerance": dict(self.tolerance), "limit": self.limit, **({"notes": list(self.notes)}
+                                                                            if self.notes else {})}
