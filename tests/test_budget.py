@@ -1,0 +1,163 @@
+"""The error budget's parts: extrapolation arithmetic, the variants as MuJoCo applies them, and a budget
+that passes a model whose error its settings explain and fails one whose error they do not."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from harness import cases
+from harness.budget import variants as V
+from harness.budget.extrapolate import gain, richardson, to_zero
+from harness.budget.trajectory import Runs, budgets, noise_gain
+from harness.core.deviation import Deviation
+from harness.core.figures import FigureName
+from harness.engine.models import compile_model
+
+NAME = FigureName("Euler.position")
+
+
+def _dev(values, name: FigureName = NAME) -> list[Deviation]:
+    return [Deviation(name, np.asarray(values, dtype=float), "scalar", "m", "", size=1.0)]
+
+
+# ---------------------------------------------------------------- arithmetic
+@pytest.mark.parametrize("order, kappa", [(1, 2.0), (2, 4 / 3), (4, 16 / 15)])
+def test_richardson_factor(order, kappa):
+    assert richardson(order) == pytest.approx(kappa)
+
+
+@pytest.mark.parametrize("s", [2.0, 0.5])
+def test_two_levels_extrapolate_a_line_exactly_and_three_a_parabola(s):
+    eps = 0.1
+    line = lambda e: 3.0 + 7.0 * e  # noqa: E731
+    parabola = lambda e: 3.0 + 7.0 * e - 40.0 * e * e  # noqa: E731
+    value, uncertainty = to_zero([np.array([line(eps)]), np.array([line(s * eps)])], s)
+    assert value[0] == pytest.approx(3.0) and uncertainty is None
+    levels = [np.array([parabola(eps * s**k)]) for k in range(3)]
+    value, uncertainty = to_zero(levels, s)
+    assert value[0] == pytest.approx(3.0)
+    # the uncertainty is the last level's correction: quadratic minus the line through the two nearest 0
+    near = (parabola(s * s * eps) - s * parabola(s * eps)) / (1 - s)
+    assert uncertainty[0] == pytest.approx(3.0 - near)
+
+
+def test_noise_gain_is_the_sum_of_the_weights_magnitudes():
+    assert gain(2, 2.0) == pytest.approx(3.0) and gain(3, 0.5) == pytest.approx(1 / 3 + 2 + 8 / 3)
+    d = _dev([0.0])
+    assert noise_gain(Runs(d, d), order=1) == pytest.approx(3.0)  # 2κ − 1
+    assert noise_gain(Runs(d, d), order=4) == pytest.approx(2 * 16 / 15 - 1)
+
+
+# ---------------------------------------------------------------- budgets on known series
+def _runs(model, *, h: float, eps: float, s: float = 2.0, fault: float = 0.0) -> Runs:
+    """The runs of a figure whose value is ``model(h, eps) + fault`` at every sample."""
+    t = np.linspace(0.0, 1.0, 11)
+
+    def run(hh: float, ee: float) -> list[Deviation]:
+        return _dev(model(hh, ee) * (1 + t) + fault)
+
+    return Runs(as_is=run(h, eps), half_step=run(h / 2, eps), softness=(run(h, s * eps),),
+                softness_half_step=run(h / 2, s * eps), eps_factor=s)
+
+
+def test_a_budget_explains_integration_and_softness_and_their_interaction():
+    bilinear = lambda h, e: 0.3 * h + 0.02 * e + 5.0 * h * e  # noqa: E731  (first order in h)
+    budget = budgets(_runs(bilinear, h=1e-3, eps=1e-4), order=1, steps=1000, rtol=1e-12, solver_tolerance=0)[NAME]
+    assert budget.unexplained < 1e-15 and budget.passed
+    assert budget.explained["integration"] == pytest.approx(2 * (0.3 * 1e-3 + 5.0 * 1e-3 * 1e-4))
+    assert budget.measured == pytest.approx(bilinear(1e-3, 1e-4) * 2)
+
+
+def test_a_budget_fails_what_no_setting_explains():
+    bilinear = lambda h, e: 0.3 * h + 0.02 * e  # noqa: E731
+    budget = budgets(_runs(bilinear, h=1e-3, eps=1e-4, fault=1e-3), order=1, steps=1000, rtol=1e-12,
+                     solver_tolerance=0)[NAME]
+    assert budget.unexplained == pytest.approx(1e-3) and not budget.passed
+    # below the estimates' own accuracy (1/4 of the integration part here) a fault hides: its sensitivity
+    hidden = budgets(_runs(bilinear, h=1e-3, eps=1e-4, fault=1e-4), order=1, steps=1000, rtol=1e-12,
+                     solver_tolerance=0)[NAME]
+    assert hidden.unexplained == pytest.approx(1e-4) and hidden.passed
+
+
+def test_an_integrator_of_lower_order_than_documented_is_not_explained():
+    second = lambda h, e: 50.0 * h * h  # noqa: E731  (a "fourth-order" method that is second order)
+    budget = budgets(_runs(second, h=1e-2, eps=1e-4), order=4, steps=100, rtol=1e-12, solver_tolerance=0)[NAME]
+    assert budget.unexplained == pytest.approx(0.2 * budget.measured, rel=1e-6)  # 1 − κ·3/4 of it is left
+    as_documented = budgets(_runs(second, h=1e-2, eps=1e-4), order=2, steps=100, rtol=1e-12,
+                            solver_tolerance=0)[NAME]
+    assert as_documented.unexplained < 1e-15
+
+
+# ---------------------------------------------------------------- variants as MuJoCo applies them
+def _pendulum(edit=None, **kw) -> mujoco.MjModel:
+    return compile_model(cases.get("pendulum").mjcf, edit=edit, **kw)
+
+
+def test_refsafe_raises_a_time_constant_to_twice_the_timestep():
+    model = _pendulum(timestep=0.004)
+    assert V.effective_timeconst(model, [0.002, 1.0], row="equality") == pytest.approx(0.008)
+    off = _pendulum(timestep=0.004, edit=lambda s: setattr(s.option, "disableflags",
+                                                            int(mujoco.mjtDisableBit.mjDSBL_REFSAFE)))
+    assert V.effective_timeconst(off, [0.002, 1.0], row="equality") == pytest.approx(0.002)
+
+
+@pytest.mark.skipif("discrete" not in __import__("harness.engine.integrators", fromlist=["x"]).available_integrators(),
+                    reason="no discrete integrator in this MuJoCo")
+@pytest.mark.parametrize("timeconst, dampratio, timestep, d", [
+    (0.002, 1.0, 0.001, 0.999), (0.002, 0.5, 0.001, 0.999), (0.004, 2.0, 0.001, 0.99), (0.01, 0.7, 0.002, 0.9),
+    (0.002, 1.0, 0.001, 0.9999),  # capped: ε/F < 1 − mjMAXIMP
+])
+def test_discrete_folds_the_spring_damper_into_the_impedance_as_the_budget_assumes(timeconst, dampratio, timestep,
+                                                                                    d):
+    """Under ``discrete`` a row's ε is ε / (1 + 2h/τ + (h/(τζ))²), at least 1 − mjMAXIMP: measured as the
+    relative force error −(A + R)⁻¹Rλ = ε at a consistent state (the exact diagonal makes R/(A + R) = ε)."""
+    case = cases.get("pendulum")
+    ref = case.reference(_pendulum())
+    probe = case.probe(ref.dynamics)
+    lam = ref.solution.multipliers([0.0])[0][0]
+
+    def edit(spec: mujoco.MjSpec) -> None:
+        for eq in spec.equalities:
+            eq.solimp, eq.solref = [d, d, 0.001, 0.5, 2.0], [timeconst, dampratio]
+
+    model = _pendulum(edit, integrator="discrete", timestep=timestep)
+    data = mujoco.MjData(model)
+    probe.binding.set_state(model, data, ref.q0(), ref.qd0())
+    mujoco.mj_forward(model, data)
+    measured = -(data.efc_force[0] - lam) / lam
+    assert measured == pytest.approx(V.effective_softness(model, 1 - d, [timeconst, dampratio], row="equality"),
+                                     rel=1e-6)
+
+
+def test_a_variant_holds_what_it_does_not_change():
+    model = _pendulum(timestep=0.004)  # τ in effect 8 ms (refsafe), ε 1e-4
+    half = _pendulum(timestep=0.002, edit=V.variant(model, split=2))
+    assert half.eq_solref[0][0] == pytest.approx(0.008) and 1 - half.eq_solimp[0][0] == pytest.approx(1e-4)
+    softer = _pendulum(timestep=0.004, edit=V.variant(model, eps_factor=2.0))
+    assert 1 - softer.eq_solimp[0][0] == pytest.approx(2e-4) and softer.eq_solimp[0][2] == pytest.approx(0.002)
+
+
+def test_the_softness_factor_halves_where_it_can_and_doubles_at_the_stiffest():
+    assert V.softness_factor(_pendulum()) == 2.0  # shipped: ε = 1e-4, the stiffest MuJoCo allows
+
+    def soft(spec: mujoco.MjSpec) -> None:
+        for eq in spec.equalities:
+            eq.solimp = [0.9, 0.95, 0.001, 0.5, 2.0]
+    assert V.softness_factor(_pendulum(soft)) == 0.5
+
+
+def test_point_masses_are_bodies_whose_inertia_is_a_floor():
+    assert V.point_masses(_pendulum(), 1.0) == ("bob",)
+    heavier = _pendulum(lambda s: setattr(s.body("bob"), "inertia", [1e-3, 1e-3, 1e-3]))
+    assert V.point_masses(heavier, 1.0) == ()
+
+
+def test_contacts_settle_over_forty_response_times():
+    model = compile_model(cases.get("hoop_plane").mjcf)
+    assert V.contact_timeconst(model) == pytest.approx(0.002)
+    assert V.SETTLE_TIMECONSTS * V.contact_timeconst(model) == pytest.approx(0.08)
+    assert (1 + 40 / V.TIMECONST_FACTOR) * math.exp(-40 / V.TIMECONST_FACTOR) < 1e-10
