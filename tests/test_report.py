@@ -66,9 +66,9 @@ def test_page_has_every_section(page, run):
     for heading in ("Summary", "Equations of motion", "Gated checks", "Plots", "Other figures", "Settings used"):
         assert f">{heading}" in page, heading
     assert f"mujoco {mujoco.__version__}" in page and "mjharness 0.1.0" in page
-    assert "PASS — 1 case(s), all" in page
+    assert f"PASS — all {len(run[1][CASE])} checks of 1 case(s) within their thresholds" in page
     for c in run[1][CASE]:
-        assert f"<td>{c.name}</td>" in page and f"{c.threshold:.3e}" in page
+        assert f"<td class='name'>{c.name}</td>" in page and f"{c.threshold:.3e}" in page
     assert "timestep</td><td>0.001 s" in page
 
 
@@ -127,7 +127,33 @@ def test_failures_are_flagged_in_banner_summary_and_table(run):
     assert "FAIL — 1 of" in report.section_banner(results, checks)
     assert "RK4.position: " in report.section_summary(results, checks)
     section = report.section_case(results[0], checks[CASE], None, plots="")
-    assert "<tr class='fail'><td>RK4.position</td>" in section and "model image not rendered" in section
+    assert "<tr class='fail'><td class='name'>RK4.position</td>" in section and "model image not rendered" in section
+
+
+def test_closest_to_its_limit_is_the_tightest_passing_check_not_the_worst_failure(run):
+    """A failing case's failures have their own column; "closest to its limit" is the headroom left."""
+    results, checks = run
+    broken = {CASE: [dataclasses.replace(c, threshold=c.value / 1e6) if c.name == "RK4.position" else c
+                     for c in checks[CASE]]}
+    tightest = closest([c for c in broken[CASE] if c.passed])
+    row = report.section_summary(results, broken).split("<tr class='fail'>")[1]
+    closest_cell = row.split("</td>")[3]
+    assert tightest.name in closest_cell and "RK4.position" not in closest_cell
+    md_row = next(line for line in report.render_markdown(results, broken).splitlines()
+                  if line.startswith(f"| {CASE} | **FAIL**"))
+    assert tightest.name in md_row and "RK4.position" not in md_row
+
+
+def test_the_gated_checks_table_is_driven_by_its_list_of_columns(run):
+    """Adding a column (issue 14 adds several) is one more entry: a header and a cell in every row."""
+    results, checks = run
+    extra = report.Column("headroom", lambda c, r: f"{c.threshold / max(c.value, 1e-300):.1f}×", "num")
+    table = report._checks_table(results[0], checks[CASE], (*report.CHECK_COLUMNS, extra))
+    rows = table.split("<tr")[1:]
+    assert "<th>headroom</th>" in rows[0]
+    data = [r for r in rows if "class='group'" not in r][1:]
+    assert len(data) == len(checks[CASE]) and all(r.count("<td") == len(report.CHECK_COLUMNS) + 1 for r in data)
+    assert all("colspan='8'" in r for r in rows if "class='group'" in r)
 
 
 # ------------------------------------------------------- Markdown, JSON
@@ -336,7 +362,7 @@ def test_checks_this_mujoco_cannot_measure_are_na_not_failures(run, monkeypatch)
     na = [dataclasses.replace(c, value=math.nan, unit="", note="integrator X is not in MuJoCo 3.3")
           if c.name == tightest else c for c in checks[CASE]]
     section = report.section_case(results[0], na, None, plots="")
-    assert f"<tr class='na'><td>{tightest}</td>" in section and "n/a: integrator X" in section
+    assert f"<tr class='na'><td class='name'>{tightest}</td>" in section and "n/a: integrator X" in section
     assert closest(na).name != tightest
     assert f"{tightest} <span" not in report.section_summary(results, {CASE: na})
     monkeypatch.setattr(baseline, "unavailable_reason", lambda name: "absent" if name == "X.position" else "")

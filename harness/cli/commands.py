@@ -78,7 +78,7 @@ def _print_checks(checks: dict[str, list[Check]], *, quiet: bool, written: str =
     failures = failures_table(checks)
     parts = ([] if quiet else [checks_table(checks)]) + ([failures] if failures else [])
     parts += [written] if written and not quiet else []
-    print("\n\n".join(parts + [verdict_line(checks)]))
+    print("\n\n".join([*parts, verdict_line(checks)]))
 
 
 def _add_selection(p: argparse.ArgumentParser, *, mjcf: bool = True) -> None:
