@@ -11,6 +11,7 @@ import copy
 import dataclasses
 import json
 import math
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -181,6 +182,23 @@ def test_summary_md_carries_the_seed_audit_from_the_report_appendix(tmp_path, ru
     assert "## Seed audit" in md and "2 claims: 1 confirmed, 1 refuted (0 errors, 1 transcription slips)" in md
     assert "| x.bad | 7 | refuted (transcription slip) | λ₂ = g m₂ |" in md and "x.ok" not in md
     assert "Seed audit" not in report.render_markdown(results, checks)  # no audit entry, no section
+
+
+def test_every_key_report_json_writes_is_documented(run):
+    """docs/report-json.md names every key of the document: top level, a case, a check, the audit and a
+    claim (the audit of one claim stands for all: every claim has the same keys)."""
+    from harness.studies import audit  # lazy: sympy and the claims, for this test only
+
+    doc_text = (ROOT / "docs" / "report-json.md").read_text(encoding="utf-8")
+    documented = {
+        name for pair in re.findall(r"`([A-Za-z_ ]+)`|\"([A-Za-z_ ]+)\"", doc_text) for name in pair if name}
+    results, checks = run
+    doc = jsondoc.json_doc(results, checks)
+    rows = audit.json_rows(audit.audit([c for c in audit.all_claims() if c.id == "000.atwood.lambda2"]))
+    claim = rows["claims"]["000.atwood.lambda2"]
+    keys = {*doc, "audit", "contact_study", *doc["cases"][CASE], *doc["cases"][CASE]["checks"]["RK4.position"],
+            *rows, *rows["counts"], *claim, *claim["symbolic"], *claim["numeric"], *rows["not_checkable"][0]}
+    assert keys - documented == set()
 
 
 def test_json_has_every_figure_and_is_strict_json(run):
