@@ -124,7 +124,7 @@ def test_bare_command_and_help_list_each_command_on_one_line_and_the_exit_codes(
 def test_check_ends_with_the_verdict_and_repeats_the_failures_above_it(strict, capsys, cached_runs):
     assert main(["check", CASE, "--config", str(strict)]) == 1
     lines = capsys.readouterr().out.strip().splitlines()
-    assert lines[-1].startswith("FAIL — 1 of ") and lines[-1].endswith(f"in 1 of 1 case(s): {CASE} (1)")
+    assert lines[-1].startswith("FAIL — 1 of ") and f"in 1 of 1 case(s): {CASE} (1)" in lines[-1]
     failures = lines[lines.index("") + 1:]  # after the table of every check: the failures, then the verdict
     assert failures[0].split()[:2] == ["case", "failed"] and "RK4.position" in failures[1]
 
@@ -136,8 +136,7 @@ def test_quiet_prints_the_failures_and_the_verdict_only(tight, strict, capsys, c
     if tight:
         assert len(lines) == 4 and "RK4.position" in lines[1] and lines[2] == "" and lines[3].startswith("FAIL")
     else:
-        assert lines == [f"PASS — all {len(load_limits().for_case(CASE))} checks of 1 case(s) within their "
-                         "thresholds"]
+        assert len(lines) == 1 and lines[0].startswith("PASS — ") and "checks of 1 case(s) within" in lines[0]
 
 
 def test_figures_lists_every_figure_with_its_unit_meaning_and_limit_basis(capsys, cached_runs):
@@ -300,7 +299,7 @@ def test_run_writes_complete_deterministic_report(tmp_path, cached_runs, capsys)
     assert "http://" not in page and "https://" not in page  # self-contained
     assert page.count("data:image/png;base64,") >= 4
     out = capsys.readouterr().out.strip().splitlines()
-    assert out[-3].startswith("wrote ") and out[-1].startswith("PASS — all ")  # the verdict last
+    assert out[-3].startswith("wrote ") and out[-1].startswith("PASS — ")  # the verdict last
     assert main(["run", CASE, "--out", str(out2), "--quiet"]) == 0
     assert capsys.readouterr().out.strip().splitlines() == [out[-1]]
 

@@ -18,13 +18,14 @@ from pathlib import Path
 import mujoco
 import pytest
 
+from harness.core.checks import Check
 from harness.core.figures import Figure
 from harness.outputs import baseline, files, jsondoc, report
 from harness.outputs.diff import diff_runs, format_diff, load_run
 from harness.outputs.equations import equations, png_data_uri
 from harness.outputs.junit import junit_xml
 from harness.outputs.stills import Request, stills
-from harness.outputs.table import closest
+from harness.outputs.table import closest, verdict_line
 from harness.pipeline.verdict import judge
 from harness.reference.derivations import derivation
 from tests.conftest import case_ids, shipped_run
@@ -67,10 +68,23 @@ def test_page_has_every_section(page, run):
     for heading in ("Summary", "Equations of motion", "Gated checks", "Plots", "Other figures", "Settings used"):
         assert f">{heading}" in page, heading
     assert f"mujoco {mujoco.__version__}" in page and "mjharness 0.1.0" in page
-    assert f"PASS — all {len(run[1][CASE])} checks of 1 case(s) within their thresholds" in page
+    assert "<p class='banner pass'>PASS — " in page and "checks of 1 case(s) within their thresholds" in page
     for c in run[1][CASE]:
         assert f"<td class='name'>{c.name}</td>" in page and f"{c.threshold:.3e}" in page
     assert "timestep</td><td>0.001 s" in page
+
+
+def test_the_verdict_line_counts_what_was_judged_and_names_where_it_failed():
+    ok = Check("a", "RK4.position", 1.0, 2.0, "m")
+    na = Check("a", "Euler.position", math.nan, 2.0, "m", note="not in this MuJoCo")
+    known = Check("b", "RK4.force.rod", 3.0, 2.0, "1", known="a documented defect")
+    bad = Check("b", "RK4.position", 3.0, 2.0, "m")
+    assert verdict_line({"a": [ok, ok]}) == "PASS — all 2 checks of 1 case(s) within their thresholds"
+    assert verdict_line({"a": [ok, na], "b": [known]}) == (
+        "PASS — 1 of 3 checks of 2 case(s) within their thresholds; 1 n/a (not in this MuJoCo), "
+        "1 known defect(s) of this MuJoCo")
+    assert verdict_line({"a": [ok, Check("a", "RK4.velocity", 9.0, 2.0, "m")], "b": [bad, bad]}) == (
+        "FAIL — 3 of 4 checks over their thresholds, in 2 of 2 case(s): a (1), b (2)")
 
 
 def test_page_shows_sympy_equations_with_readable_symbols(page):

@@ -68,10 +68,12 @@ def verdict_line(checks: Mapping[str, Sequence[Check]]) -> str:
     failed = [c for c in everything if not c.passed]
     na = sum(bool(c.note) for c in everything)
     known = sum(bool(c.known) for c in everything)
-    aside = [f"{na} n/a: not in this MuJoCo"] * bool(na) + [f"{known} known defect(s) of this MuJoCo"] * bool(known)
-    tail = f" ({'; '.join(aside)})" if aside else ""
+    aside = [f"{na} n/a (not in this MuJoCo)"] * bool(na) + [f"{known} known defect(s) of this MuJoCo"] * bool(known)
+    tail = f"; {', '.join(aside)}" if aside else ""
     if not failed:
-        return f"PASS — all {len(everything)} checks of {len(checks)} case(s) within their thresholds{tail}"
+        within = len(everything) - na - known
+        share = f"{within} of {len(everything)}" if aside else f"all {within}"
+        return f"PASS — {share} checks of {len(checks)} case(s) within their thresholds{tail}"
     where = {c.case: 0 for c in failed}
     for c in failed:
         where[c.case] += 1
