@@ -1,7 +1,8 @@
 """report.html in a real browser: headless Chromium (Debian's, installed by .ci/run) loads the page at
 1000 px and a script in the page reports what a reader would meet:
 
-- an image that does not decode, or is shrunk below 3/4 of its drawn size (its text illegible);
+- an image that does not decode, or is shown below 3/4 of its drawn size (its text illegible), above 4/3
+  (blurred) or stretched out of its proportions;
 - a table-of-contents link that resolves to nothing, a section the contents do not reach, no way back;
 - anything wider than the 1000 px window (the page, an element, a scrolling box);
 - raw LaTeX in the visible text (``\\frac``, ``$...$``, ``^{``);
@@ -39,9 +40,12 @@ CHECK_PAGE = r"""
       found.images.push(name(img) + ' ' + (img.alt || '').slice(0, 80));
       continue;
     }
-    const shown = img.getBoundingClientRect().width;
-    if (!img.classList.contains('still') && shown < MIN_SCALE * img.naturalWidth)
-      found.scaled.push(`${name(img)}: ${Math.round(shown)} px of ${img.naturalWidth}`);
+    const box = img.getBoundingClientRect();
+    const sx = box.width / img.naturalWidth, sy = box.height / img.naturalHeight;
+    const bad = Math.min(sx, sy) < MIN_SCALE || Math.max(sx, sy) > 1 / MIN_SCALE + 0.01 || Math.abs(sx / sy - 1) > 0.05;
+    if (bad && !img.classList.contains('still'))
+      found.scaled.push(`${name(img)}: shown ${Math.round(box.width)}×${Math.round(box.height)} px, drawn `
+                        + `${img.naturalWidth}×${img.naturalHeight}`);
   }
   const toc = document.querySelector('nav.toc');
   const linked = new Set();
@@ -124,10 +128,12 @@ BROKEN = """<!DOCTYPE html><html><head><meta charset='utf-8'><style>body{margin:
 <nav class='toc' id='contents'><a href='#one'>one</a> <a href='#nowhere'>dangling</a></nav>
 <section id='one'><h2>one</h2><p>$\\frac{a}{b}$ and \\theta</p>
 <img src='data:image/png;base64,iVBORw0KGgo=' alt='not a png'>
+<img src='ONE_PIXEL' style='width:50px;height:20px' alt='a 1×1 PNG stretched'>
 <div style='width:1400px'>too wide</div>
 <p style='width:9ch;font-family:monospace'>xx 4.99e-04</p></section>
 <section id='two'><h2>two</h2></section>
-</body></html>"""
+</body></html>""".replace("ONE_PIXEL", "data:image/png;base64,iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQ"
+                           "VR42mNk+M9QDwADhgGAWjR9awAAAABJRU5ErkJggg==")
 
 
 def test_the_page_checks_find_each_kind_of_fault(tmp_path):
@@ -137,7 +143,8 @@ def test_the_page_checks_find_each_kind_of_fault(tmp_path):
     page.write_text(BROKEN)
     with Browser(binary, width=WIDTH) as browser:
         found = problems(browser, page)
-    assert set(found) == {"images", "toc", "unreached", "overflow", "latex", "wrapped"}, found
+    assert set(found) == {"images", "scaled", "toc", "unreached", "overflow", "latex", "wrapped"}, found
+    assert found["scaled"] == ["img in one: shown 50×20 px, drawn 1×1"]
     assert any("#nowhere" in t for t in found["toc"]) and any("back" in t for t in found["toc"])
     assert found["unreached"] == ["two"]
     assert "$\\frac{a}{b}$" in found["latex"][0] and any("\\theta" in t for t in found["latex"])

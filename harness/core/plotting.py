@@ -99,7 +99,7 @@ def formula_png(latex: str | Sequence[str], *, fontsize: float = 13.0, dpi: int 
     buf = io.BytesIO()
     try:
         fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight", pad_inches=0.04,
-                    metadata={"Software": None}, transparent=False, facecolor="white")
+                    metadata={"Software": None}, transparent=True)  # on a card, a tinted row or white
     except ValueError:  # mathtext's parse error
         return None
     finally:

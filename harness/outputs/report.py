@@ -263,7 +263,7 @@ td.used{white-space:nowrap;font-family:ui-monospace,monospace}
 figcaption{font-size:.8em;color:#666} .model h3{margin-top:0}
 dl.eqs{margin:0} dl.eqs dt{font-size:.8em;color:#666;margin-top:.45em} dl.eqs dd{margin:0 0 0 .5em}
 img.eq,img.formula{max-width:100%;display:block}
-.plots{display:flex;flex-wrap:wrap;gap:8px 10px} .plots img{max-width:100%;display:block}
+.plots{display:flex;flex-wrap:wrap;align-items:flex-start;gap:8px 10px} .plots img{max-width:100%;display:block}
 section img{max-width:100%}
 .howto{background:#f7f9fc;border:1px solid #dde3ec;padding:.4em .8em;border-radius:5px;margin:.6em 0}
 .howto summary{font-weight:bold;cursor:pointer} .howto li{margin:.25em 0}
