@@ -4,7 +4,7 @@
 - an image that does not decode, or is shown below 3/4 of its drawn size (its text illegible), above 4/3
   (blurred) or stretched out of its proportions;
 - a table-of-contents link that resolves to nothing, a section the contents do not reach, no way back;
-- anything wider than the 1000 px window (the page, an element, a scrolling box);
+- anything wider than the window, 1000 px or a laptop's 1366 (the page, an element, a scrolling box);
 - raw LaTeX in the visible text (``\\frac``, ``$...$``, ``^{``);
 - a number broken across two lines (``4.99e-`` / ``04``).
 
@@ -26,6 +26,7 @@ import pytest
 from tests.chromium import Browser, find_chromium, section_screenshots
 
 WIDTH = 1000
+LAPTOP = 1366  # a common laptop screen's width: the page must read there too
 MIN_SCALE = 0.75  # an image shown below 3/4 of its drawn size: 9 px text becomes < 7 px
 
 CHECK_PAGE = r"""
@@ -120,6 +121,8 @@ def test_the_full_report_reads_in_a_browser(tmp_path):
     with Browser(binary, width=WIDTH) as browser:
         found = problems(browser, out / "report.html")
         shots = section_screenshots(browser, _artifacts(tmp_path) / "screenshots")
+    with Browser(binary, width=LAPTOP) as browser:
+        found |= {f"{kind} at {LAPTOP} px": items for kind, items in problems(browser, out / "report.html").items()}
     assert len(shots) >= 3
     assert found == {}, "\n".join(f"{kind}: {len(items)}: {items[:8]}" for kind, items in found.items())
 
