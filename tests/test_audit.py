@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 
 import pytest
 import sympy as sp
@@ -29,6 +30,7 @@ from harness.studies.audit import (
     json_rows,
     numeric_check,
 )
+from harness.studies.formulas import is_display
 
 # Hand analysis of both documents, read line by line (the closing note of issue 17 has the reasons):
 # claim id -> (verdict, cause). Everything not listed here is "confirmed".
@@ -328,6 +330,20 @@ def test_the_report_section_and_summary_show_counts_and_flagged_claims(rows):
     assert "T_rod = -λ" in md  # corrected forms in the document's notation
     v_row = next(line for line in md.splitlines() if line.startswith("| 000.spherical.V |"))
     assert all(x.formula in v_row for x in rows["000.spherical.V"].readings)  # each reading's formula
+
+
+def test_the_report_section_typesets_each_printed_display_and_shows_no_raw_latex(rows):
+    """Flagged claims show their display as printed, typeset (mathtext), and every formula and text in
+    Unicode: no LaTeX command, ``$`` or ``_{`` reaches what a reader sees (alt texts may keep the LaTeX)."""
+    listed = list(rows.values())
+    page = html_section(listed)
+    visible = re.sub(r"<[^>]*>", " ", page)  # tags and their attributes (alt, src) are not read
+    assert not re.findall(r"\\[A-Za-z]+|\$|[_^]\{", visible), re.findall(r".{20}(?:\\[A-Za-z]+|\$).{20}", visible)
+    for cid in FLAGGED:
+        card = page.split(f"<b>{cid}</b>")[1].split("</div>")[0]
+        quote = rows[cid].claim.quote
+        typeset = "<img class='formula' src='data:image/png;base64," in card.split("<dt>corrected")[0]
+        assert typeset == is_display(quote) or "<span class='formula'>" in card, cid
 
 
 def test_the_audit_is_deterministic():

@@ -93,6 +93,66 @@ def test_check_passes_and_prints_each_figure_beside_its_threshold(capsys, config
     assert "0 failed" in out
 
 
+def test_version_names_the_package_and_mujoco(capsys):
+    import mujoco
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("mjharness 0.1.0 ") and f"MuJoCo {mujoco.__version__}" in out
+
+
+@pytest.mark.parametrize("argv", [[], ["--help"]])
+def test_bare_command_and_help_list_each_command_on_one_line_and_the_exit_codes(argv, capsys):
+    if argv:
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        code = exc.value.code
+    else:
+        code = main(argv)
+    assert code == (0 if argv else 2)  # a bare command did nothing: a usage error, with the help shown
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    for name, command in COMMANDS.items():
+        assert any(line.split() == [name, *command.help.split()] for line in lines), (name, out)
+    assert "{" not in out  # no argparse {list,run,...} choice list
+    codes = lines[lines.index("exit codes:") + 1:]
+    assert [c.split()[0] for c in codes if c.startswith("  ") and not c.startswith("   ")][:3] == ["0", "1", "2"]
+
+
+def test_check_ends_with_the_verdict_and_repeats_the_failures_above_it(strict, capsys, cached_runs):
+    assert main(["check", CASE, "--config", str(strict)]) == 1
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines[-1].startswith("FAIL — 1 of ") and f"in 1 of 1 case(s): {CASE} (1)" in lines[-1]
+    failures = lines[lines.index("") + 1:]  # after the table of every check: the failures, then the verdict
+    assert failures[0].split()[:2] == ["case", "failed"] and "RK4.position" in failures[1]
+
+
+@pytest.mark.parametrize("tight", [False, True])
+def test_quiet_prints_the_failures_and_the_verdict_only(tight, strict, capsys, cached_runs):
+    assert main(["check", CASE, "--quiet", *(["--config", str(strict)] if tight else [])]) == int(tight)
+    lines = capsys.readouterr().out.strip().splitlines()
+    if tight:
+        assert len(lines) == 4 and "RK4.position" in lines[1] and lines[2] == "" and lines[3].startswith("FAIL")
+    else:
+        assert len(lines) == 1 and lines[0].startswith("PASS — ") and "checks of 1 case(s) within" in lines[0]
+
+
+def test_figures_lists_every_figure_with_its_unit_meaning_and_limit_basis(capsys, cached_runs):
+    assert main(["figures", CASE]) == 0
+    out = capsys.readouterr().out
+    limits = load_limits()
+    run = shipped_run(CASE)
+    lines = out.splitlines()
+    for f in run.figures:
+        (k,) = [i for i, line in enumerate(lines) if line.split()[:1] == [f.name]]
+        assert f"[{f.unit}]" in lines[k] and f.description in lines[k]
+        lim = limits.limit(CASE, f.name)
+        assert lines[k + 1].strip() == (f"limit {lim.value:.3g}: {lim.describe()}" if lim else "not gated")
+    assert any("theory:" in line for line in lines) and any("× margin" in line for line in lines)
+
+
 def test_check_fails_with_exit_1_when_a_threshold_is_tightened(strict):
     proc = _run("check", CASE, "--config", str(strict))
     assert proc.returncode == 1
@@ -238,7 +298,10 @@ def test_run_writes_complete_deterministic_report(tmp_path, cached_runs, capsys)
     page = (out1 / "report.html").read_text()
     assert "http://" not in page and "https://" not in page  # self-contained
     assert page.count("data:image/png;base64,") >= 4
-    assert "wrote " in capsys.readouterr().out
+    out = capsys.readouterr().out.strip().splitlines()
+    assert out[-3].startswith("wrote ") and out[-1].startswith("PASS — ")  # the verdict last
+    assert main(["run", CASE, "--out", str(out2), "--quiet"]) == 0
+    assert capsys.readouterr().out.strip().splitlines() == [out[-1]]
 
 
 def test_run_user_variant_against_the_case(tmp_path, capsys, config):

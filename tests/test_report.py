@@ -11,19 +11,21 @@ import copy
 import dataclasses
 import json
 import math
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import mujoco
 import pytest
 
+from harness.core.checks import Check
 from harness.core.figures import Figure
 from harness.outputs import baseline, files, jsondoc, report
 from harness.outputs.diff import diff_runs, format_diff, load_run
 from harness.outputs.equations import equations, png_data_uri
 from harness.outputs.junit import junit_xml
 from harness.outputs.stills import Request, stills
-from harness.outputs.table import closest
+from harness.outputs.table import closest, verdict_line
 from harness.pipeline.verdict import judge
 from harness.reference.derivations import derivation
 from tests.conftest import case_ids, shipped_run
@@ -66,10 +68,23 @@ def test_page_has_every_section(page, run):
     for heading in ("Summary", "Equations of motion", "Gated checks", "Plots", "Other figures", "Settings used"):
         assert f">{heading}" in page, heading
     assert f"mujoco {mujoco.__version__}" in page and "mjharness 0.1.0" in page
-    assert "PASS — 1 case(s), all" in page
+    assert "<p class='banner pass'>PASS — " in page and "checks of 1 case(s) within their thresholds" in page
     for c in run[1][CASE]:
-        assert f"<td>{c.name}</td>" in page and f"{c.threshold:.3e}" in page
+        assert f"<td class='name'>{c.name}</td>" in page and f"{c.threshold:.3e}" in page
     assert "timestep</td><td>0.001 s" in page
+
+
+def test_the_verdict_line_counts_what_was_judged_and_names_where_it_failed():
+    ok = Check("a", "RK4.position", 1.0, 2.0, "m")
+    na = Check("a", "Euler.position", math.nan, 2.0, "m", note="not in this MuJoCo")
+    known = Check("b", "RK4.force.rod", 3.0, 2.0, "1", known="a documented defect")
+    bad = Check("b", "RK4.position", 3.0, 2.0, "m")
+    assert verdict_line({"a": [ok, ok]}) == "PASS — all 2 checks of 1 case(s) within their thresholds"
+    assert verdict_line({"a": [ok, na], "b": [known]}) == (
+        "PASS — 1 of 3 checks of 2 case(s) within their thresholds; 1 n/a (not in this MuJoCo), "
+        "1 known defect(s) of this MuJoCo")
+    assert verdict_line({"a": [ok, Check("a", "RK4.velocity", 9.0, 2.0, "m")], "b": [bad, bad]}) == (
+        "FAIL — 3 of 4 checks over their thresholds, in 2 of 2 case(s): a (1), b (2)")
 
 
 def test_page_shows_sympy_equations_with_readable_symbols(page):
@@ -127,7 +142,33 @@ def test_failures_are_flagged_in_banner_summary_and_table(run):
     assert "FAIL — 1 of" in report.section_banner(results, checks)
     assert "RK4.position: " in report.section_summary(results, checks)
     section = report.section_case(results[0], checks[CASE], None, plots="")
-    assert "<tr class='fail'><td>RK4.position</td>" in section and "model image not rendered" in section
+    assert "<tr class='fail'><td class='name'>RK4.position</td>" in section and "model image not rendered" in section
+
+
+def test_closest_to_its_limit_is_the_tightest_passing_check_not_the_worst_failure(run):
+    """A failing case's failures have their own column; "closest to its limit" is the headroom left."""
+    results, checks = run
+    broken = {CASE: [dataclasses.replace(c, threshold=c.value / 1e6) if c.name == "RK4.position" else c
+                     for c in checks[CASE]]}
+    tightest = closest([c for c in broken[CASE] if c.passed])
+    row = report.section_summary(results, broken).split("<tr class='fail'>")[1]
+    closest_cell = row.split("</td>")[3]
+    assert tightest.name in closest_cell and "RK4.position" not in closest_cell
+    md_row = next(line for line in report.render_markdown(results, broken).splitlines()
+                  if line.startswith(f"| {CASE} | **FAIL**"))
+    assert tightest.name in md_row and "RK4.position" not in md_row
+
+
+def test_the_gated_checks_table_is_driven_by_its_list_of_columns(run):
+    """Adding a column (issue 14 adds several) is one more entry: a header and a cell in every row."""
+    results, checks = run
+    extra = report.Column("headroom", lambda c, r: f"{c.threshold / max(c.value, 1e-300):.1f}×", "num")
+    table = report._checks_table(results[0], checks[CASE], (*report.CHECK_COLUMNS, extra))
+    rows = table.split("<tr")[1:]
+    assert "<th>headroom</th>" in rows[0]
+    data = [r for r in rows if "class='group'" not in r][1:]
+    assert len(data) == len(checks[CASE]) and all(r.count("<td") == len(report.CHECK_COLUMNS) + 1 for r in data)
+    assert all("colspan='8'" in r for r in rows if "class='group'" in r)
 
 
 # ------------------------------------------------------- Markdown, JSON
@@ -155,6 +196,23 @@ def test_summary_md_carries_the_seed_audit_from_the_report_appendix(tmp_path, ru
     assert "## Seed audit" in md and "2 claims: 1 confirmed, 1 refuted (0 errors, 1 transcription slips)" in md
     assert "| x.bad | 7 | refuted (transcription slip) | λ₂ = g m₂ |" in md and "x.ok" not in md
     assert "Seed audit" not in report.render_markdown(results, checks)  # no audit entry, no section
+
+
+def test_every_key_report_json_writes_is_documented(run):
+    """docs/report-json.md names every key of the document: top level, a case, a check, the audit and a
+    claim (the audit of one claim stands for all: every claim has the same keys)."""
+    from harness.studies import audit  # lazy: sympy and the claims, for this test only
+
+    doc_text = (ROOT / "docs" / "report-json.md").read_text(encoding="utf-8")
+    documented = {
+        name for pair in re.findall(r"`([A-Za-z_ ]+)`|\"([A-Za-z_ ]+)\"", doc_text) for name in pair if name}
+    results, checks = run
+    doc = jsondoc.json_doc(results, checks)
+    rows = audit.json_rows(audit.audit([c for c in audit.all_claims() if c.id == "000.atwood.lambda2"]))
+    claim = rows["claims"]["000.atwood.lambda2"]
+    keys = {*doc, "audit", "contact_study", *doc["cases"][CASE], *doc["cases"][CASE]["checks"]["RK4.position"],
+            *rows, *rows["counts"], *claim, *claim["symbolic"], *claim["numeric"], *rows["not_checkable"][0]}
+    assert keys - documented == set()
 
 
 def test_json_has_every_figure_and_is_strict_json(run):
@@ -336,7 +394,7 @@ def test_checks_this_mujoco_cannot_measure_are_na_not_failures(run, monkeypatch)
     na = [dataclasses.replace(c, value=math.nan, unit="", note="integrator X is not in MuJoCo 3.3")
           if c.name == tightest else c for c in checks[CASE]]
     section = report.section_case(results[0], na, None, plots="")
-    assert f"<tr class='na'><td>{tightest}</td>" in section and "n/a: integrator X" in section
+    assert f"<tr class='na'><td class='name'>{tightest}</td>" in section and "n/a: integrator X" in section
     assert closest(na).name != tightest
     assert f"{tightest} <span" not in report.section_summary(results, {CASE: na})
     monkeypatch.setattr(baseline, "unavailable_reason", lambda name: "absent" if name == "X.position" else "")

@@ -1,11 +1,13 @@
 """``mjharness``: a thin argparse layer over pure functions.
 
-Exit codes: 0 all checks pass, 1 a check fails (or, for ``baseline
---compare``, a figure regressed), 2 bad usage or input (unknown case, invalid
-MJCF or config, a model that does not fit its case, unwritable output,
-diverging simulation). User mistakes give one line on stderr, never a
-traceback, and never a half-written file. ``diff`` is informational: 0 unless
-its input is bad (2).
+Exit codes (:data:`EXIT_CODES`, printed by ``--help`` and a bare ``mjharness``): 0 all checks pass,
+1 a check fails (or, for ``baseline --compare``, a figure regressed), 2 bad usage or input (unknown
+case, invalid MJCF or config, a model that does not fit its case, unwritable output, diverging
+simulation). User mistakes give one line on stderr, never a traceback, and never a half-written file.
+``diff`` is informational: 0 unless its input is bad (2).
+
+``run`` and ``check`` print every check, then the failures again and a verdict line last, where a
+person sees it without scrolling; ``--quiet`` prints the failures and the verdict only.
 
 Each subcommand is one entry in ``COMMANDS``: a function adding its arguments
 and a ``cmd_NAME(args) -> int`` doing the work. The commands that draw
@@ -17,12 +19,14 @@ from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from harness import cases
+from harness.core import VERSION
 from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
 from harness.engine.compat import unavailable_reason
@@ -31,12 +35,17 @@ from harness.outputs.diff import diff_runs, format_diff, load_run
 from harness.outputs.files import check_output, prepare_output, write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
 from harness.outputs.junit import junit_xml
-from harness.outputs.table import checks_table
+from harness.outputs.table import checks_table, failures_table, verdict_line
 from harness.pipeline import limits as limits_data
 from harness.pipeline.matrix import run_all
 from harness.pipeline.pool import cpus
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
+EXIT_CODES = {EXIT_OK: "every check passes",
+              EXIT_FAIL: "a check fails (baseline --compare: a figure regressed or a case is missing; "
+                         "converge: an order falls short)",
+              EXIT_USAGE: "bad usage or input: unknown case, unreadable or invalid MJCF or config, a model "
+                          "that does not fit its case, a diverging simulation, an unwritable output"}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -57,6 +66,19 @@ def _selected(args: argparse.Namespace) -> tuple[cases.Case, ...]:
 
 def _exit(checks: dict[str, list[Check]]) -> int:
     return EXIT_OK if all(c.passed for cs in checks.values() for c in cs) else EXIT_FAIL
+
+
+def _add_quiet(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--quiet", "-q", action="store_true", help="print the failures and the verdict line only")
+
+
+def _print_checks(checks: dict[str, list[Check]], *, quiet: bool, written: str = "") -> None:
+    """Every check (unless ``quiet``), the failures again, ``written`` (what was written, unless
+    ``quiet``) and the verdict line last."""
+    failures = failures_table(checks)
+    parts = ([] if quiet else [checks_table(checks)]) + ([failures] if failures else [])
+    parts += [written] if written and not quiet else []
+    print("\n\n".join([*parts, verdict_line(checks)]))
 
 
 def _add_selection(p: argparse.ArgumentParser, *, mjcf: bool = True) -> None:
@@ -123,6 +145,7 @@ def _args_run(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-studies", dest="studies", action="store_false",
                    help="skip layer 4 (convergence, softness, solver and contact studies) and the seed audit")
     _add_junit(p)
+    _add_quiet(p)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -139,8 +162,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     paths = write_report(args.out, results, checks, config_source=limits.source, extras=extras,
                          appendix=appendix, plots=plots)
     paths += _write_junit(args.junit, checks)
-    print(checks_table(checks))
-    print(f"wrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - start:.1f} s")
+    _print_checks(checks, quiet=args.quiet,
+                  written=f"wrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - start:.1f} s")
     return _exit(checks)
 
 
@@ -149,6 +172,7 @@ def _args_check(p: argparse.ArgumentParser) -> None:
     _add_junit(p)
     p.add_argument("--json", action="store_true", help="print the run as JSON (report.json schema) "
                                                        "instead of the table")
+    _add_quiet(p)
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -158,7 +182,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     if args.json:
         sys.stdout.write(dumps(json_doc(results, checks)))
     else:
-        print(checks_table(checks))
+        _print_checks(checks, quiet=args.quiet)
     return _exit(checks)
 
 
@@ -253,6 +277,32 @@ def cmd_limits(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _args_figures(p: argparse.ArgumentParser) -> None:
+    p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    p.add_argument("--config", type=Path, metavar="FILE", help="TOML overriding the shipped limits (shown as "
+                                                               "basis 'user')")
+    p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
+
+
+def cmd_figures(args: argparse.Namespace) -> int:
+    """Every figure a case measures, with its unit, what it measures and its limit with the basis. The
+    descriptions are those the code that measures the figures gives them, so the cases run (as ``check``
+    does: seconds, no report)."""
+    results, _, limits = run_all(cases.select(args.cases), args.config, jobs=args.jobs, figures_only=True)
+    print("unit 1 = relative to the case's scale (m·g for forces, m·g·l for energy); a figure passes when it "
+          "is finite and ≤ its limit")
+    for r in results:
+        print(f"\n{r.case.name} — {r.case.description}")
+        width = max(len(f.name) for f in r.figures)
+        units = max(len(f.unit) for f in r.figures) + 2
+        for f in r.figures:
+            lim = limits.limit(r.case.name, f.name)
+            gate = f"limit {lim.value:.3g}: {lim.describe()}" if lim else "not gated"
+            print(f"  {f.name.ljust(width)}  {f'[{f.unit}]'.ljust(units)}  {f.description}")
+            print(f"  {' ' * (width + units + 2)}  {gate}")
+    return EXIT_OK
+
+
 def _args_converge(p: argparse.ArgumentParser) -> None:
     p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
     p.add_argument("--fast", action="store_true", help="the 3-timestep subset `check` gates (T ≤ 0.5 s)")
@@ -292,37 +342,79 @@ def cmd_audit(args: argparse.Namespace) -> int:
 
 @dataclass(frozen=True)
 class Command:
+    """A subcommand: ``help``, one line for the command list (``mjharness --help``); ``description``, more
+    for ``mjharness NAME --help`` (``help`` when empty)."""
+
     help: str
     add_arguments: Callable[[argparse.ArgumentParser], None]
     run: Callable[[argparse.Namespace], int]
+    description: str = ""
 
 
 COMMANDS: dict[str, Command] = {
     "list": Command("list the cases", _args_list, cmd_list),
-    "run": Command("run cases and write the report (report.html, report.json, summary.md)", _args_run, cmd_run),
-    "check": Command("CI gate: figures vs limits (exit 0 pass, 1 fail, 2 bad input)", _args_check, cmd_check),
-    "diff": Command("what changed between two runs' JSON, figure by figure", _args_diff, cmd_diff),
-    "baseline": Command("write or compare the regression baseline (reports/baseline/)",
-                        _args_baseline, cmd_baseline),
-    "limits": Command("list each case's limits with their basis; --write rewrites the measured ones",
-                      _args_limits, cmd_limits),
-    "converge": Command("convergence order per integrator vs the documented one (exit 1 if one falls "
-                        "short); --softness, --solvers: constraint studies", _args_converge, cmd_converge),
-    "audit": Command("the seed documents' claims: confirmed, refuted (with the correction) or ambiguous",
-                     _args_audit, cmd_audit),
+    "run": Command("run cases, write report.html, report.json and summary.md", _args_run, cmd_run),
+    "check": Command("the CI gate: every figure against its limit, no report", _args_check, cmd_check,
+                     "the CI gate: run the cases and judge every gated figure against its limit (exit 0 "
+                     "pass, 1 fail, 2 bad input); draws nothing"),
+    "figures": Command("every figure: what it measures, its unit, its limit's basis", _args_figures,
+                       cmd_figures, "every figure each case measures: what it measures, its unit, and its "
+                                    "limit with the basis (theory, measured × margin, or your config); runs the "
+                                    "cases as check does"),
+    "diff": Command("what changed between two runs, figure by figure", _args_diff, cmd_diff,
+                    "what changed between two runs' JSON (report.json, check --json, a baseline), figure "
+                    "by figure; flipped verdicts first"),
+    "baseline": Command("write or compare the regression baseline", _args_baseline, cmd_baseline,
+                        "write or compare the regression baseline (reports/baseline/)"),
+    "limits": Command("each case's limits with their basis (--write: from a run)", _args_limits, cmd_limits,
+                      "list each case's limits with their basis; --write rewrites the measured ones from a run"),
+    "converge": Command("convergence orders and constraint studies (layer 4)", _args_converge, cmd_converge,
+                        "convergence order per integrator vs the documented one (exit 1 if one falls "
+                        "short); --softness, --solvers: constraint studies"),
+    "audit": Command("the seed documents' claims, checked", _args_audit, cmd_audit,
+                     "the seed documents' claims: confirmed, refuted (with the correction) or ambiguous"),
 }
 
 
+def _exit_codes_text() -> str:
+    return "exit codes:\n" + "\n".join(textwrap.fill(text, width=96, initial_indent=f"  {code}  ",
+                                                      subsequent_indent=" " * 5) for code, text in EXIT_CODES.items())
+
+
+class _Help(argparse.RawDescriptionHelpFormatter):
+    """argparse's help with the commands listed one a line, without the ``{list,run,...}`` line above them."""
+
+    def _format_action(self, action: argparse.Action) -> str:
+        if isinstance(action, argparse._SubParsersAction):
+            return "".join(self._format_action(a) for a in action._get_subactions())
+        return super()._format_action(action)
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="mjharness", description="Validate MuJoCo against analytical mechanics.")
-    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    p = _Parser(prog="mjharness", description="Validate MuJoCo against analytical mechanics.",
+                epilog=_exit_codes_text() + "\n\n'mjharness COMMAND --help' gives each command's options.",
+                formatter_class=_Help)
+    p.add_argument("--version", action="version", version=_version())
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser, title="commands",
+                           metavar="COMMAND")
     for name, command in COMMANDS.items():
-        command.add_arguments(sub.add_parser(name, help=command.help, description=command.help))
+        command.add_arguments(sub.add_parser(name, help=command.help, description=command.description
+                                             or command.help))
     return p
 
 
+def _version() -> str:
+    import mujoco  # lazy: already imported by harness.cases; named here for its version
+
+    return f"mjharness {VERSION} (MuJoCo {mujoco.__version__}, Python {sys.version.split()[0]})"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    if not (sys.argv[1:] if argv is None else list(argv)):  # a bare `mjharness`: what it can do
+        parser.print_help()
+        return EXIT_USAGE
+    args = parser.parse_args(argv)
     try:
         return COMMANDS[args.command].run(args)
     except SimulationDiverged as exc:

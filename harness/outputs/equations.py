@@ -4,27 +4,40 @@ The LaTeX is sympy's own printer (``sp.latex``) applied to the Derivation,
 with readable names for the symbols the derivation invents (``theta_ddot`` →
 θ̈, ``lambda_rod`` → λ_rod). Images are drawn by matplotlib's mathtext, which
 needs no TeX installation and no network (no MathJax), and are byte-identical
-for identical inputs.
+for identical inputs. A formula wider than :data:`MAX_WIDTH_PX` is broken
+between the terms of its sum onto several lines, so that the page shows it at
+its drawn size (a shrunk image is illegible).
 """
 
 from __future__ import annotations
 
 import base64
-import io
+import functools
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import sympy as sp
 
 from analytic.lagrangian import Derivation
-from harness.core.plotting import pyplot
+from harness.core.plotting import formula_png, pyplot
+
+DPI, FONTSIZE = 110, 13.0
+MAX_WIDTH_PX = 540
+"""The widest line drawn: beside the model still at a 1000 px window there are about 560 px."""
 
 
 @dataclass(frozen=True)
 class Equation:
-    """One displayed line: what it is (``label``) and its LaTeX, without dollar signs."""
+    """One displayed formula: what it is (``label``), its LaTeX on one line without dollar signs, and
+    the lines it is drawn on (the same LaTeX broken between terms where it is too wide)."""
 
     label: str
     latex: str
+    lines: tuple[str, ...] = ()
+
+    @property
+    def shown(self) -> tuple[str, ...]:
+        return self.lines or (self.latex,)
 
 
 def symbol_names(derivation: Derivation) -> dict[sp.Symbol, str]:
@@ -53,29 +66,58 @@ def equations(derivation: Derivation) -> list[Equation]:
     def tex(expr: sp.Expr) -> str:  # display-size fractions (mathtext's \frac is script-size)
         return sp.latex(expr, symbol_names=names).replace(r"\frac{", r"\dfrac{")
 
-    out = [Equation("kinetic energy", f"T = {tex(sp.simplify(system.kinetic))}"),
-           Equation("potential energy", f"V = {tex(sp.simplify(system.potential))}")]
+    def equation(label: str, lhs: str, expr: sp.Expr, rhs: str) -> Equation:
+        return Equation(label, f"{lhs}{tex(expr)}{rhs}", broken(lhs, expr, rhs, tex))
+
+    out = [equation("kinetic energy", "T = ", sp.simplify(system.kinetic), ""),
+           equation("potential energy", "V = ", sp.simplify(system.potential), "")]
     for c in system.constraints:
         level = "" if c.kind == "holonomic" else " (velocity level)"
         for i, row in enumerate(c.rows):
             label = f"constraint {c.name}" + (f" row {i}" if c.size > 1 else "")
-            out.append(Equation(f"{label}{level}", f"{tex(row)} = 0"))
+            out.append(equation(f"{label}{level}", "", row, " = 0"))
     for q, eq in zip(system.q, derivation.equations, strict=True):
-        out.append(Equation(f"equation for {q.name}", f"{tex(eq)} = 0"))
+        out.append(equation(f"equation for {q.name}", "", eq, " = 0"))
     return out
 
 
-def png_data_uri(latex: str, *, fontsize: float = 13.0) -> str | None:
-    """The formula as a PNG data URI, or None if mathtext cannot typeset it."""
-    plt = pyplot()
-    fig = plt.figure(figsize=(0.01, 0.01))
-    fig.text(0, 0, f"${latex}$", fontsize=fontsize)
-    buf = io.BytesIO()
-    try:
-        fig.savefig(buf, format="png", dpi=110, bbox_inches="tight", pad_inches=0.04,
-                    metadata={"Software": None}, transparent=False, facecolor="white")
-    except ValueError:  # mathtext's parse error
-        return None
-    finally:
-        plt.close(fig)
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+@functools.cache
+def width_px(latex: str) -> float:
+    """The drawn width of one line of LaTeX in pixels (without the image's margin)."""
+    pyplot()  # selects the Agg backend before mathtext is used
+    from matplotlib.font_manager import FontProperties  # lazy: matplotlib, loaded by pyplot() above
+    from matplotlib.mathtext import MathTextParser  # lazy: as above
+
+    return float(MathTextParser("path").parse(f"${latex}$", dpi=DPI, prop=FontProperties(size=FONTSIZE))[0])
+
+
+def broken(lhs: str, expr: sp.Expr, rhs: str, tex: Callable[[sp.Expr], str], *,
+           width: Callable[[str], float] = width_px, limit: float = MAX_WIDTH_PX) -> tuple[str, ...]:
+    """``lhs expr rhs`` as lines no wider than ``limit`` where it can be: one line when it fits, else the
+    terms of the sum packed line by line, each line after the first starting with its sign. The sum is
+    ``expr`` as it is where each of its terms fits a line, else expanded; a term wider than ``limit``
+    still keeps a line of its own."""
+    whole = f"{lhs}{tex(expr)}{rhs}"
+    if width(whole) <= limit:
+        return (whole,)
+    sums = [e for e in (expr, sp.expand(expr)) if isinstance(e, sp.Add)]
+    if not sums:
+        return (whole,)
+    form = next((e for e in sums if all(width(rf"\qquad + {tex(t)}") <= limit for t in e.args)), sums[-1])
+    lines: list[str] = []
+    current = lhs.rstrip()
+    for k, term in enumerate(form.as_ordered_terms()):
+        piece = tex(term) if k == 0 else (f"- {tex(-term)}" if term.could_extract_minus_sign() else f"+ {tex(term)}")
+        candidate = f"{current} {piece}".strip()
+        if k > 0 and width(candidate) > limit:
+            lines.append(current)
+            candidate = rf"\qquad {piece}"
+        current = candidate
+    return (*lines, f"{current}{rhs}")
+
+
+def png_data_uri(latex: str | Sequence[str], *, fontsize: float = FONTSIZE) -> str | None:
+    """The formula (a line of LaTeX, or several drawn one under the other) as a PNG data URI, or None if
+    mathtext cannot typeset it."""
+    png = formula_png(latex, fontsize=fontsize, dpi=DPI)
+    return None if png is None else "data:image/png;base64," + base64.b64encode(png).decode("ascii")

@@ -8,6 +8,15 @@ reads PNGs back on stdout. Backends are tried in order — the user's
 works the caller gets a one-line reason to show in the page instead of an
 image. The model is posed at the case's initial state.
 
+The scene is staged for a reader, without touching the physics: a pale sky
+(a gradient skybox) and a checkered floor are added to the model through
+``MjSpec`` before it is compiled, the headlight is brightened, and the joints
+are drawn (a hinge as an arrow along its axis, a ball joint as a sphere), and
+so are contacts with their forces — so two models of one system, such as the
+two-hinge and the ball-joint spherical pendulum, or the hoop held on its ramp
+by equalities and by a contact, show how they differ. The camera looks at a planar
+system face on and at any other from an oblique angle.
+
 Identical inputs give identical PNG bytes on one machine and backend (no
 timestamps; pinned in tests/test_report.py).
 """
@@ -105,37 +114,88 @@ def _pose(model, data, case_name: str, coordinates: Sequence[str]) -> None:
     binding.set_state(model, data, [case.q0[c] for c in coordinates], [0.0] * len(coordinates))
 
 
-def _camera(model, data):
-    """A free camera framing the bodies, sites and geoms (not the floor), looking along +y."""
+def planar(model, data) -> bool:
+    """Whether every joint moves the model in the world's x-z plane: hinges about ±y, slides across y, no
+    ball or free joint (then it is seen face on, else obliquely)."""
+    for j in range(model.njnt):
+        kind, along_y = int(model.jnt_type[j]), abs(float(data.xaxis[j][1]))
+        if kind == int(mujoco.mjtJoint.mjJNT_HINGE) and along_y < 0.999:
+            return False
+        if kind == int(mujoco.mjtJoint.mjJNT_SLIDE) and along_y > 1e-3:
+            return False
+        if kind in (int(mujoco.mjtJoint.mjJNT_BALL), int(mujoco.mjtJoint.mjJNT_FREE)):
+            return False
+    return True
+
+
+def _extent(model, data) -> tuple[np.ndarray, np.ndarray, float]:
+    """The box holding the bodies, sites and geoms (not the floor), and its largest side (at least 0.3 m)."""
     planes = {int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_HFIELD)}
     solid = np.array([int(t) not in planes for t in model.geom_type], dtype=bool)
     centers, radii = data.geom_xpos[solid], model.geom_rbound[solid][:, None]
     pts = np.concatenate([np.zeros((1, 3)), data.xpos[1:], data.site_xpos.reshape(-1, 3),
                           (centers - radii).reshape(-1, 3), (centers + radii).reshape(-1, 3)])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
-    span = max(float(np.max(hi - lo)), 0.3)
+    return lo, hi, max(float(np.max(hi - lo)), 0.3)
+
+
+def _camera(model, data):
+    """A free camera framing the bodies, sites and geoms (not the floor): along +y for a planar model,
+    else from the front right and above, so that depth shows."""
+    lo, hi, span = _extent(model, data)
     cam = mujoco.MjvCamera()
     mujoco.mjv_defaultFreeCamera(model, cam)
     cam.lookat[:] = (lo + hi) / 2
     cam.distance = 1.7 * span  # the span fills ~3/4 of the default 45° field of view
-    cam.azimuth, cam.elevation = 90.0, -15.0  # x to the right, z up, seen slightly from above
+    if planar(model, data):
+        cam.azimuth, cam.elevation = 90.0, -12.0  # x to the right, z up, seen slightly from above
+    else:
+        cam.azimuth, cam.elevation = 125.0, -24.0
+        cam.distance *= 1.1
     return cam
+
+
+def _staged(path: str) -> mujoco.MjModel:
+    """The model with a sky and a checkered floor added (visual assets only; see the module docstring)."""
+    spec = mujoco.MjSpec.from_file(path)
+    spec.add_texture(name="mjharness_sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.96, 0.97, 0.99], rgb2=[0.62, 0.7, 0.8],
+                     width=256, height=1536)
+    spec.add_texture(name="mjharness_grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.95, 0.95, 0.96], rgb2=[0.82, 0.84, 0.87],
+                     width=256, height=256)
+    floor = spec.add_material(name="mjharness_floor", texrepeat=[4, 4], texuniform=True)
+    floor.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "mjharness_grid"
+    for geom in spec.geoms:
+        if geom.type == mujoco.mjtGeom.mjGEOM_PLANE and not geom.material:
+            geom.material = "mjharness_floor"
+    return spec.compile()
 
 
 def _render_one(item: Mapping[str, object]) -> bytes:
     from PIL import Image  # lazy: Pillow, in the render child only
 
-    model = mujoco.MjModel.from_xml_path(str(item["mjcf"]))
+    model = _staged(str(item["mjcf"]))
     data = mujoco.MjData(model)
     _pose(model, data, str(item["case"]), list(item["coordinates"]))  # type: ignore[arg-type]
     mujoco.mj_forward(model, data)
-    model.vis.headlight.ambient[:] = 0.35
-    model.vis.headlight.diffuse[:] = 0.6
+    model.vis.headlight.ambient[:] = 0.45
+    model.vis.headlight.diffuse[:] = 0.55
+    model.vis.headlight.specular[:] = 0.1
+    span = _extent(model, data)[2]  # joints drawn at a size set by the model, not by its mean body size
+    model.vis.scale.jointlength = 0.36 * span / float(model.stat.meansize)
+    model.vis.scale.jointwidth = 0.02 * span / float(model.stat.meansize)
+    model.vis.map.znear = 0.01
     cam = _camera(model, data)
+    options = mujoco.MjvOption()
+    for flag in (mujoco.mjtVisFlag.mjVIS_JOINT, mujoco.mjtVisFlag.mjVIS_CONTACTPOINT,
+                 mujoco.mjtVisFlag.mjVIS_CONTACTFORCE):
+        options.flags[flag] = True
+    model.vis.map.force = 0.3 * span / max(float(np.sum(model.body_mass)) * 9.81, 1e-9)  # m·g drawn 0.3 × span
     width = min(WIDTH, int(model.vis.global_.offwidth))
     height = min(HEIGHT, int(model.vis.global_.offheight))
     with mujoco.Renderer(model, height, width) as renderer:
-        renderer.update_scene(data, camera=cam)
+        renderer.update_scene(data, camera=cam, scene_option=options)
         pixels = renderer.render()
     buf = io.BytesIO()
     Image.fromarray(pixels).save(buf, format="PNG")

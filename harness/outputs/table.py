@@ -49,3 +49,33 @@ def checks_table(checks: Mapping[str, Sequence[Check]]) -> str:
             + f"{total - failed - na - known} passed, {failed} failed"
             + (f", {na} n/a (not in this MuJoCo)" if na else "")
             + (f", {known} known defect(s) of this MuJoCo" if known else ""))
+
+
+def failures_table(checks: Mapping[str, Sequence[Check]]) -> str:
+    """The failed checks as an aligned table ("" when none failed)."""
+    failed = [c for cs in checks.values() for c in cs if not c.passed]
+    if not failed:
+        return ""
+    rows = [(c.case, c.name, fmt_value(c.value), fmt_value(c.threshold), c.unit, ratio_text(ratio(c)))
+            for c in failed]
+    return text_table(("case", "failed check", "figure", "threshold", "unit", "used"), rows)
+
+
+def verdict_line(checks: Mapping[str, Sequence[Check]]) -> str:
+    """One line a person reads first: PASS or FAIL, how many checks of how many cases, and where the
+    failures are (case and count) or what was not judged (n/a, known defects)."""
+    everything = [c for cs in checks.values() for c in cs]
+    failed = [c for c in everything if not c.passed]
+    na = sum(bool(c.note) for c in everything)
+    known = sum(bool(c.known) for c in everything)
+    aside = [f"{na} n/a (not in this MuJoCo)"] * bool(na) + [f"{known} known defect(s) of this MuJoCo"] * bool(known)
+    tail = f"; {', '.join(aside)}" if aside else ""
+    if not failed:
+        within = len(everything) - na - known
+        share = f"{within} of {len(everything)}" if aside else f"all {within}"
+        return f"PASS — {share} checks of {len(checks)} case(s) within their thresholds{tail}"
+    where = {c.case: 0 for c in failed}
+    for c in failed:
+        where[c.case] += 1
+    return (f"FAIL — {len(failed)} of {len(everything)} checks over their thresholds, in {len(where)} of "
+            f"{len(checks)} case(s): " + ", ".join(f"{case} ({n})" for case, n in where.items()) + tail)

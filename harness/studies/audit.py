@@ -40,6 +40,7 @@ from harness.studies.audit_numbers import (  # re-exported: the audit's public n
     numeric_check,
     sample,
 )
+from harness.studies.formulas import quote_html, text_html
 
 __all__ = ["AGREEMENT", "KINDS", "SAMPLES", "AuditRow", "Numbers", "ReadingRow", "Samples", "audit", "audit_claim",
            "case_for", "consistent", "counts", "format_table", "html_section", "json_rows", "numeric_check",
@@ -324,20 +325,30 @@ def _esc(text: str) -> str:
     return html.escape(text)
 
 
+def _claim_html(r: AuditRow) -> str:
+    """A refuted or ambiguous claim as a card: as printed (typeset), the corrected forms or the readings,
+    and why."""
+    where = f"{r.claim.document} line {r.lines} · {r.claim.location}" if r.claim else f"line {r.lines}"
+    terms = [("as printed", quote_html(r.claim.quote) if r.claim else "")]
+    if r.corrected:
+        terms += [("corrected", f"{text_html(r.corrected)} <small class='dim'>(the document's notation and sign "
+                                "convention)</small>"),
+                  ("ours", f"{text_html(r.corrected_project)} <small class='dim'>(the project's variables, "
+                           "M q̈ = F + Jᵀλ)</small>")]
+    terms += [("reading", f"<i>{text_html(x.label)}</i>: {text_html(x.formula)} <small class='dim'>(as printed "
+                          f"it {'holds' if x.printed_holds else 'fails'})</small>") for x in r.readings]
+    terms.append(("why", text_html(r.why)))
+    verdict = r.verdict + (f" — {r.cause}" if r.cause else "")
+    return (f"<div class='claim {'fail' if r.verdict == 'refuted' else 'ambiguous'}'><p><b>{_esc(r.claim_id)}</b> "
+            f"<span class='verdict'>{_esc(verdict)}</span> <span class='dim'>{_esc(where)}</span></p><dl>"
+            + "".join(f"<dt>{_esc(term)}</dt><dd>{body}</dd>" for term, body in terms) + "</dl></div>")
+
+
 def html_section(rows: Sequence[AuditRow]) -> str:
     """The audit as an HTML section for the report: the counts, the refuted, slip and ambiguous claims with
-    their corrected forms, then every claim (formulas as text, no network assets)."""
-    flagged = []
-    for r in rows:
-        if r.verdict == "confirmed":
-            continue
-        fix = (f"{_esc(r.corrected)}<br><small>ours: {_esc(r.corrected_project)}</small>" if r.corrected else
-               "<br>".join(f"{_esc(x.label)}: <code>{_esc(x.formula)}</code> "
-                           f"({'holds' if x.printed_holds else 'fails'})" for x in r.readings))
-        flagged.append(f"<tr class='{'fail' if r.verdict == 'refuted' else 'ambiguous'}'><td>{_esc(r.claim_id)}<br>"
-                       f"<small>line {_esc(r.lines)}</small></td><td><code>{_esc(r.claim.quote if r.claim else '')}"
-                       f"</code></td><td>{r.verdict}{'<br><small>' + r.cause + '</small>' if r.cause else ''}</td>"
-                       f"<td>{fix}</td><td>{_esc(r.why)}</td></tr>")
+    their corrected forms (each display typeset as printed, formulas never as raw LaTeX), then every claim;
+    no network assets."""
+    flagged = "".join(_claim_html(r) for r in rows if r.verdict != "confirmed")
     cells = []
     for r in rows:
         cls = {"confirmed": "pass", "refuted": "fail"}.get(r.verdict, "ambiguous")
@@ -345,17 +356,18 @@ def html_section(rows: Sequence[AuditRow]) -> str:
         numbers = (f"[{n.kind}] {_num(n.error)} / {_num(n.floor)} ({_agrees(r)})" if n.error is not None
                    else f"none: {_esc(n.error_is)}")
         cells.append(f"<tr class='{cls}'><td>{_esc(r.claim_id)}</td><td>{_esc(r.lines)}</td><td>{r.verdict}</td>"
-                     f"<td class='num'>{numbers}</td><td>{_esc(r.note)}</td></tr>")
+                     f"<td>{numbers}</td><td>{text_html(r.note)}</td></tr>")
     legend = "".join(f"<li><b>{k}</b>: error = {_esc(e)}; floor = {_esc(f)}</li>" for k, (e, f) in KINDS.items())
     return ("<section id='audit'><h2>Audit of the seed documents</h2>"
             f"<p><b>{_esc(counts_line(rows))}</b>. Every display and statement of both lecture notes, checked "
             "symbolically against our sympy derivation and numerically against MuJoCo; lines with no claim are "
             f"listed with the reason in analytic/claims/coverage.py ({_esc('; '.join(coverage.summary()))}).</p>"
-            "<h3>Refuted and ambiguous claims</h3><table><tr><th>claim</th><th>as printed</th><th>verdict</th>"
-            f"<th>corrected (document's notation; ours) or readings</th><th>why</th></tr>{''.join(flagged)}</table>"
-            "<h3>Every claim</h3><table><tr><th>claim</th><th>lines</th><th>verdict</th>"
-            f"<th>numbers: error / floor (agrees)</th><th>note</th></tr>{''.join(cells)}</table>"
-            f"<h4>What the numbers are</h4><ul>{legend}</ul></section>")
+            "<section id='audit-flagged'><h3>Refuted and ambiguous claims</h3><p class='dim'>Each display as the "
+            "document prints it, typeset; the corrected form in the document's notation and in ours.</p>"
+            f"<div class='claims'>{flagged}</div></section>"
+            "<section id='audit-claims'><h3>Every claim</h3><table class='audit'><tr><th>claim</th><th>lines</th>"
+            f"<th>verdict</th><th>numbers: error / floor (agrees)</th><th>note</th></tr>{''.join(cells)}</table>"
+            f"<h4>What the numbers are</h4><ul>{legend}</ul></section></section>")
 
 
 def _row_json(r: AuditRow) -> dict[str, object]:

@@ -30,7 +30,7 @@ import mujoco
 import numpy as np
 
 from harness import cases
-from harness.core.plotting import png_bytes, pyplot
+from harness.core.plotting import FULL_WIDTH, png_bytes, pyplot
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
 from harness.engine.simulate import simulate
@@ -64,29 +64,38 @@ class StudyResult:
         raise ValueError(f"the study did not include the shipped settings {dict(self.shipped)}")
 
     def plot_png(self) -> bytes:
-        """Steady slip, worst force error and position error per setting, as PNG bytes."""
+        """Steady slip, worst force error and position error per setting, as PNG bytes: one horizontal bar
+        a setting in three panels side by side, labelled in the table's order (the shipped row in bold)."""
         plt = pyplot()
         from matplotlib.patches import Patch  # lazy: matplotlib loads only to draw
 
-        labels = [f"{r['cone'][0].upper()} i{r['impratio']:g} n{r['noslip_iterations']}\n{r['softness']}"
+        shipped = self.shipped_row()
+        labels = [f"{r['cone']}, impratio {r['impratio']:g}, noslip {r['noslip_iterations']}, {r['softness']}"
                   for r in self.rows]
         colours = ["tab:blue" if r["cone"] == "elliptic" else "tab:orange" for r in self.rows]
-        panels = [("slip_late", "steady slip, max over 2nd half (m/s)"),
-                  ("force_error", "worst contact force error / m g"),
-                  ("position", "position error (m)")]
-        fig, axes = plt.subplots(len(panels), 1, figsize=(max(8.0, 0.45 * len(self.rows)), 9), sharex=True)
-        x = np.arange(len(self.rows))
+        panels = [("slip_late", "steady slip [m/s]\n(max over the 2nd half)"),
+                  ("force_error", "worst contact force\nerror / m g"),
+                  ("position", "position error [m]")]
+        fig, axes = plt.subplots(1, len(panels), figsize=(FULL_WIDTH, 1.4 + 0.19 * len(self.rows)), sharey=True,
+                                 layout="constrained")
+        y = np.arange(len(self.rows))
         for ax, (key, title) in zip(axes, panels, strict=True):
             values = np.array([max(float(r[key]), 1e-16) for r in self.rows])
-            ax.bar(x, values, color=colours)
-            ax.set_yscale("log")
-            ax.set_ylabel(title, fontsize=8)
-            ax.grid(True, axis="y", alpha=0.3)
-        axes[-1].set_xticks(x, labels, rotation=90, fontsize=6)
-        axes[0].legend(handles=[Patch(color="tab:orange", label="pyramidal"),
-                                Patch(color="tab:blue", label="elliptic")], fontsize=7)
+            ax.barh(y, values, color=colours, height=0.7)
+            ax.set_xscale("log")  # whole decades, labelled at the decades only (minor labels would collide)
+            ax.set_xlim(10 ** np.floor(np.log10(values.min())), 10 ** np.ceil(np.log10(values.max())))
+            ax.tick_params(axis="x", which="minor", labelbottom=False)
+            ax.set_title(title)
+            ax.grid(True, axis="x", alpha=0.3)
+        axes[0].set_yticks(y, labels)
+        axes[0].invert_yaxis()  # the table's order, top to bottom
+        for tick, row in zip(axes[0].get_yticklabels(), self.rows, strict=True):
+            tick.set_fontweight("bold" if row is shipped else "normal")
+        fig.legend(handles=[Patch(color="tab:orange", label="pyramidal cone"),
+                            Patch(color="tab:blue", label="elliptic cone")], loc="outside lower center", ncol=2,
+                   frameon=False)
         fig.suptitle(f"{self.case}: contact settings ({self.integrator}, h = {self.timestep:g} s; "
-                     "P/E = pyramidal/elliptic, i = impratio, n = noslip iterations)", fontsize=9)
+                     "the shipped settings in bold)")
         return png_bytes(fig)
 
 
@@ -179,10 +188,12 @@ def html_section(results: Sequence[StudyResult]) -> str:
             + "".join(f"<td>{row[k]:.3g}</td>" if isinstance(row[k], float) else f"<td>{html.escape(str(row[k]))}</td>"
                       for k in keys) + "</tr>" for row in r.rows)
         img = base64.b64encode(r.plot_png()).decode("ascii")
-        parts.append(f"<h3>{html.escape(r.case)}: cone, impratio, noslip ({html.escape(r.integrator)}, "
+        parts.append(f"<section id='contact-{html.escape(r.case)}'>"
+                     f"<h3>{html.escape(r.case)}: cone, impratio, noslip ({html.escape(r.integrator)}, "
                      f"h = {r.timestep:g} s)</h3><p>Shipped settings: {html.escape(str(dict(r.shipped)))} "
                      f"(bold row). slip_late: steady slip velocity (m/s), max over the second half; "
                      f"force_error: worst contact force error / m g; position: max position error (m).</p>"
-                     f"<table><tr>{head}</tr>{rows}</table><img src='data:image/png;base64,{img}' alt='study'>")
+                     f"<table><tr>{head}</tr>{rows}</table><img src='data:image/png;base64,{img}' "
+                     f"alt='contact settings of {html.escape(r.case)}'></section>")
     return (f"<section id='contact-study'><h2>Contact settings study</h2>{''.join(parts)}</section>"
             if parts else "")

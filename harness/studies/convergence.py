@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from harness.core.plotting import png_bytes, png_data_uri, pyplot
+from harness.core.plotting import FULL_WIDTH, coinciding, png_bytes, png_data_uri, pyplot, style
 from harness.core.tables import fmt, html_table, text_table
 from harness.layers.orders import (
     EXPECTED_ORDER,
@@ -73,42 +73,47 @@ def text(study: ConvergenceStudy) -> str:
 
 
 def plot_study(study: ConvergenceStudy) -> bytes:
-    """Log-log error vs h: the gated series per integrator (filled: fitted), the as-authored
-    series for constrained cases (dashed), fitted lines and detected floors."""
+    """Log-log error vs h across the page: the gated series per integrator (filled: fitted), the
+    as-authored series for constrained cases (thin dashes), fitted lines and detected floors; integrators
+    whose errors coincide drawn once and named together; the legend below the data."""
     plt = pyplot()
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig, ax = plt.subplots(figsize=(FULL_WIDTH, 4.6), layout="constrained")
     gated = VERDICT_QUANTITY[study.constrained]
-    for k, name in enumerate(dict.fromkeys(s.integrator for s in study.series)):
-        c = colours[k % len(colours)]
-        for s in study.series:
-            if s.integrator != name or s.quantity not in (gated, "position"):
-                continue
-            h, e = np.array(s.dts), np.array(s.errors)
-            ok = np.isfinite(e) & (e > 0)
-            if s.quantity == gated:
-                ax.loglog(h[ok], e[ok], "-", color=c, lw=1,
-                          label=f"{name}: order {_order(s)} (expected "
-                                f"{'exact' if s.note else format(s.expected, 'g')})")
-                used = np.array([st == "used" for st in s.fit.status])
-                ax.loglog(h[used], e[used], "o", color=c, ms=5)
-                ax.loglog(h[ok & ~used], e[ok & ~used], "o", mfc="none", color=c, ms=5)
-                if used.sum() >= 2:
-                    p = np.polyfit(np.log(h[used]), np.log(e[used]), 1)
-                    hh = np.array([h[used].min(), h[used].max()])
-                    ax.loglog(hh, np.exp(np.polyval(p, np.log(hh))), ":", color="k", lw=0.8)
-                if s.fit.floor is not None:
-                    ax.axhline(s.fit.floor, color=c, ls="--", lw=0.6)
-            elif study.constrained:
-                ax.loglog(h[ok], e[ok], "--", color=c, lw=0.8, alpha=0.6)
+    series = {s.integrator: s for s in study.series if s.quantity == gated}
+    authored = {s.integrator: s for s in study.series if s.quantity == "position" and study.constrained}
+    groups = coinciding({name: np.array(s.errors) for name, s in series.items()})
+    for k, (names, together) in enumerate(groups):
+        s, look = series[names[0]], style(names[0], k)
+        h, e = np.array(s.dts), np.array(s.errors)
+        ok = np.isfinite(e) & (e > 0)
+        used = np.array([st == "used" for st in s.fit.status])
+        orders = "; ".join(f"order {_order(series[n])}" for n in names) if len(set(map(_order, (
+            series[n] for n in names)))) > 1 else f"order {_order(s)}"
+        ax.loglog(h[ok], e[ok], color=look["color"], linestyle=look["linestyle"], lw=1.3,
+                  label=f"{together}: {orders} (expected {'exact' if s.note else format(s.expected, 'g')})")
+        ax.loglog(h[used], e[used], look["marker"], color=look["color"], ms=6)
+        ax.loglog(h[ok & ~used], e[ok & ~used], look["marker"], mfc="none", color=look["color"], ms=6)
+        if used.sum() >= 2:
+            p = np.polyfit(np.log(h[used]), np.log(e[used]), 1)
+            hh = np.array([h[used].min(), h[used].max()])
+            ax.loglog(hh, np.exp(np.polyval(p, np.log(hh))), ":", color="k", lw=0.8)
+        if s.fit.floor is not None:
+            ax.axhline(s.fit.floor, color=look["color"], ls="--", lw=0.6)
+        for name in names:
+            if name in authored:
+                a = np.array(authored[name].errors)
+                fine = np.isfinite(a) & (a > 0)
+                ax.loglog(np.array(authored[name].dts)[fine], a[fine], "--", color=look["color"], lw=0.8, alpha=0.6)
     for name, why in study.unavailable.items():
         ax.plot([], [], " ", label=f"{name}: {why}")
-    what = "rigid-limit position error (dashed: as authored)" if study.constrained else "position error"
+    ax.plot([], [], "o", color="0.4", label="filled: fitted; open: not fitted (floor, saturated)")
+    ax.plot([], [], ":", color="k", lw=0.8, label="fitted slope")
+    what = "rigid-limit position error (thin dashes: as authored)" if study.constrained else "position error"
     ax.set(xlabel="timestep h [s]", ylabel="max |x_mj − x_ref| over [0, T] [m]",
            title=f"{study.case}: {what}, T = {study.horizon:g} s")
-    ax.legend(fontsize=7)
     ax.grid(True, which="both", lw=0.3)
+    fig.legend(loc="outside lower center", ncol=2, frameon=False)
     return png_bytes(fig)
 
 

@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 
 from harness.cases import Case, all_cases
-from harness.core.plotting import png_bytes, png_data_uri, pyplot
+from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, style
 from harness.core.tables import fmt, html_table, text_table
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
@@ -220,27 +220,28 @@ def plot_softness(study: SoftnessStudy) -> bytes:
     lines documented."""
     plt = pyplot()
 
-    fig, axes = plt.subplots(1, 2, figsize=(8.8, 3.4))
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig, axes = plt.subplots(1, 2, figsize=(FULL_WIDTH, 3.9), layout="constrained")
     for k, tc in enumerate(dict.fromkeys(r.timeconst for r in study.rows)):
         rs = [r for r in study.rows if r.timeconst == tc]
         eps = [1 - r.impedance for r in rs]
-        c = colours[k % len(colours)]
-        axes[0].loglog(eps, [r.violation for r in rs], "o", color=c, label=f"timeconst {tc:g} s")
+        look = style("", k)
+        c, marker = look["color"], look["marker"]
+        axes[0].loglog(eps, [r.violation for r in rs], marker, color=c, label=f"timeconst {tc:g} s: measured")
         axes[0].loglog(eps, [r.violation_doc for r in rs], "-", color=c, lw=0.8)
-        axes[1].loglog(eps, [r.force_t0 for r in rs], "o", color=c, label=f"t = 0, timeconst {tc:g} s")
+        axes[1].loglog(eps, [r.force_t0 for r in rs], marker, color=c)
         axes[1].loglog(eps, [r.force_t0_doc for r in rs], "-", color=c, lw=0.8)
         settled = [(e, r.force_settled) for e, r in zip(eps, rs, strict=True) if np.isfinite(r.force_settled)]
         if settled:
-            axes[1].loglog(*zip(*settled, strict=True), "x", color=c)
-    axes[0].set(xlabel="1 − d", ylabel="max |violation| [m]", title="violation (o) vs documented sag (line)")
+            axes[1].loglog(*zip(*settled, strict=True), "x", color=c, ms=7)
+    axes[0].plot([], [], "-", color="0.3", lw=0.8, label="documented (line)")
+    axes[0].plot([], [], "x", color="0.3", label="force error once settled (right)")
+    axes[0].set(xlabel="1 − d", ylabel="max |violation| [m]", title="violation vs documented sag")
     axes[1].set(xlabel="1 − d", ylabel="|λ_mj − λ_ref| / force scale",
-                title="force error at t = 0 (o, line: doc); settled (x)")
+                title="force error at t = 0 vs documented; settled (x)")
     for ax in axes:
         ax.grid(True, which="both", lw=0.3)
-        ax.legend(fontsize=6)
-    fig.suptitle(f"{study.case}: softness of the equalities ({study.integrator}, h = {study.timestep:g} s)",
-                 fontsize=9)
+    fig.legend(loc="outside lower center", ncol=3, frameon=False)
+    fig.suptitle(f"{study.case}: softness of the equalities ({study.integrator}, h = {study.timestep:g} s)")
     return png_bytes(fig)
 
 

@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from harness.cases import Case
-from harness.core.plotting import png_bytes, png_data_uri, pyplot
+from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, style
 from harness.core.tables import fmt, html_table, text_table
 from harness.engine.compat import SOLVER_ITERATIONS
 from harness.engine.integrators import integrator_name
@@ -135,15 +135,19 @@ def text(study: SolverStudy) -> str:
 def _plot(study: SolverStudy, series: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]) -> bytes:
     plt = pyplot()
 
-    fig, axes = plt.subplots(2, 1, figsize=(6.4, 4.4), sharex=True)
-    for name, (t, force, iters) in series.items():
-        axes[0].semilogy(t, np.maximum(force, 1e-16), lw=0.8, label=name)
-        axes[1].plot(t, iters, lw=0.8, label=name)
+    fig, axes = plt.subplots(2, 1, figsize=(FULL_WIDTH, 4.8), sharex=True, layout="constrained")
+    every = max(1, min(len(t) for t, _, _ in series.values()) // 12) if series else 1
+    for k, (name, (t, force, iters)) in enumerate(series.items()):
+        look = style("", k)
+        axes[0].semilogy(t, np.maximum(force, 1e-16), lw=1, ms=4, markevery=(k * every // 4, every), label=name,
+                         **look)
+        axes[1].plot(t, iters, lw=1, ms=4, markevery=(k * every // 4, every), **look)
     axes[0].set(ylabel="|λ_mj − λ_ref| / force scale", title=f"{study.case}: solvers ({study.integrator}, "
                 f"h = {study.timestep:g} s)")
     axes[1].set(xlabel="t [s]", ylabel="solver iterations")
     for ax in axes:
-        ax.legend(fontsize=7)
+        ax.grid(True, which="major", lw=0.3)
+    fig.legend(loc="outside right upper", frameon=False)
     return png_bytes(fig)
 
 
