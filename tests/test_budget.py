@@ -161,3 +161,18 @@ def test_contacts_settle_over_forty_response_times():
     assert V.contact_timeconst(model) == pytest.approx(0.002)
     assert V.SETTLE_TIMECONSTS * V.contact_timeconst(model) == pytest.approx(0.08)
     assert (1 + 40 / V.TIMECONST_FACTOR) * math.exp(-40 / V.TIMECONST_FACTOR) < 1e-10
+
+
+@pytest.mark.parametrize("threshold, expected", [(3e-4, 5e-4), (1e-4, 1e-4), (1.5e-7, 2e-7), (2.0, math.nan)])
+def test_the_sensitivity_search_finds_the_smallest_detected_size(threshold, expected):
+    from harness.studies.sensitivity import smallest_detected
+
+    calls = []
+
+    def detects(size: float) -> str:
+        calls.append(size)
+        return "RK4.position" if size >= threshold else ""
+
+    size, deciding = smallest_detected(detects)
+    assert (math.isnan(size) and math.isnan(expected)) or size == pytest.approx(expected)
+    assert len(calls) <= 6
