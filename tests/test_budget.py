@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from harness import cases
-from harness.budget import variants as V
 from harness.budget.extrapolate import gain, richardson, to_zero
 from harness.budget.trajectory import Runs, budgets, noise_gain
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
+from harness.engine import variants as V
 from harness.engine.models import compile_model
 
 NAME = FigureName("Euler.position")
@@ -175,4 +175,5 @@ def test_the_sensitivity_search_finds_the_smallest_detected_size(threshold, expe
 
     size, deciding = smallest_detected(detects)
     assert (math.isnan(size) and math.isnan(expected)) or size == pytest.approx(expected)
+    assert deciding == ("" if math.isnan(expected) else "RK4.position")
     assert len(calls) <= 6

@@ -16,10 +16,10 @@ import mujoco
 import pytest
 
 from harness import cases
-from harness.budget.variants import compose
 from harness.cli.commands import main
 from harness.engine.compat import spec_from_file
 from harness.engine.models import compile_model
+from harness.engine.variants import compose
 from harness.studies.faults import COARSE, FAULTS, SETTINGS, Change
 
 pytestmark = pytest.mark.slow

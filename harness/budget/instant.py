@@ -3,10 +3,10 @@
 The instantaneous layer evaluates MuJoCo at states on the constraint manifold
 (:func:`harness.layers.instant.sample_states`), so nothing is integrated and
 no integration error enters. Two settings of the model still move its figures
-(:mod:`harness.budget.variants`): the constraints' impedance and the point
+(:mod:`harness.engine.variants`): the constraints' impedance and the point
 masses' inertia floors. The same states are evaluated on the model as it is (A),
 with every ε = 1 − d × s (C: s = 1/2, or 2 at the stiffest ε;
-:func:`~harness.budget.variants.softness_factor`) and with the floors doubled
+:func:`~harness.engine.variants.softness_factor`) and with the floors doubled
 (D), and state by state
 
 - softness = A − (the levels A, C (and C₂, ε × s²) extrapolated to ε → 0, as in

@@ -17,7 +17,6 @@ import mujoco
 import numpy as np
 
 from analytic.systems import Scales
-from harness.budget import variants as V
 from harness.budget.instant import instant_budgets
 from harness.budget.trajectory import Runs, budgets, every_nth, past_asymptotic
 from harness.cases import Series
@@ -25,6 +24,7 @@ from harness.core.budget import Budget
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.core.trajectory import Trajectory
+from harness.engine import variants as V
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
@@ -112,7 +112,7 @@ def _deviations(target: TrajectoryRuns, sim: Trajectory, prefix: str) -> list[De
 
 def _variant_run(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int,
                  split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0) -> list[Deviation]:
-    """One variant of ``model`` (:func:`~harness.budget.variants.variant`) run over the horizon, as its
+    """One variant of ``model`` (:func:`~harness.engine.variants.variant`) run over the horizon, as its
     deviations on the grid of the run at h."""
     edit = V.variant(model, split=split, eps_factor=eps_factor, tc_factor=tc_factor)
     name = integrator_name(model)

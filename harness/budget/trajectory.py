@@ -1,10 +1,10 @@
 """The budget of the trajectory figures: MuJoCo's run extrapolated to the ideal limits, against the reference.
 
-For one integrator the model runs several ways (:mod:`harness.budget.variants`),
+For one integrator the model runs several ways (:mod:`harness.engine.variants`),
 each a :class:`~harness.core.deviation.Deviation` per figure (MuJoCo minus the
 reference, sample by sample, on the grid of the run at the model's timestep h).
 With s the softness factor (1/2, or 2 at the stiffest ε;
-:func:`~harness.budget.variants.softness_factor`) and r the contacts'
+:func:`~harness.engine.variants.softness_factor`) and r the contacts'
 time-constant factor (1.5):
 
 =====  ======================================  ====================================
@@ -52,7 +52,7 @@ the figure's unit):
   = 1/4 of it allows ω h up to about 1/2. Where the correction exceeds
   :data:`ASYMPTOTIC` of the quantity's size, or a soft constraint gets fewer
   than two steps per time constant
-  (:func:`~harness.budget.variants.steps_per_timeconst`), the run is past the
+  (:func:`~harness.engine.variants.steps_per_timeconst`), the run is past the
   asymptotic range and the integrator also runs at h/4: the next order is then measured,
   as twice the distance between the extrapolations from (h, h/2) and
   (h/2, h/4), and the larger of the two bounds holds;

@@ -67,6 +67,7 @@ from harness.engine.compat import joint_types, known_defect
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
 from harness.engine.simulate import simulate
+from harness.engine.variants import heavier_floors, point_masses
 from harness.reference import solutions as refmod
 
 # Documented order of accuracy (see the module docstring for the doc passages).
@@ -303,18 +304,21 @@ def _force_error(sim: Trajectory, ref: Trajectory) -> float:
     return max(float(np.max(np.abs(sim.multipliers[c] - ref.multipliers[c]))) for c in names)
 
 
-def softness_floor(fit: OrderFit, softness: Sequence[float]) -> str:
-    """Why an order cannot be measured, where the rigid-limit errors sit on a floor (fewer than two points
-    above it) no higher than the softness effect the extrapolation removed (|x(ε) − x(2ε)| at some step
-    of the ladder): what is left is the extrapolation's own residue, which hides the integrator's
-    truncation error at these settings (MuJoCo's default solimp, say), not a fault. '' otherwise (a
-    floor above every softness effect is a fault the verdict must show)."""
-    largest = max((v for v in softness if math.isfinite(v)), default=0.0)
-    if fit.n_used >= 2 or fit.floor is None or not fit.floor <= largest:
+def explained_floor(fit: OrderFit, effects: Mapping[str, float]) -> str:
+    """Why an order cannot be measured, where the errors sit on a floor (fewer than two points above
+    it) no higher than an effect the model's settings explain — the softness the rigid-limit
+    extrapolation removed (|x(ε) − x(2ε)| at some step of the ladder), or a point mass's inertia
+    floor (the change doubling it makes): what is left then hides the integrator's truncation error at
+    these settings (MuJoCo's default solimp, a floor of 1e-7 m L²), and is not a fault. '' otherwise (a
+    floor above every explained effect is a fault the verdict must show)."""
+    if fit.n_used >= 2 or fit.floor is None:
         return ""
-    return (f"not measurable at these settings: the rigid-limit error sits on a floor ({fit.floor:.2e} m) below "
-            f"the softness effect it was extrapolated from (up to {largest:.2e} m), which hides the "
-            "truncation error")
+    finite = {k: v for k, v in effects.items() if math.isfinite(v)}
+    name, largest = max(finite.items(), key=lambda kv: kv[1], default=("", 0.0))
+    if not fit.floor <= largest:
+        return ""
+    return (f"not measurable at these settings: the error sits on a floor ({fit.floor:.2e} m) below the "
+            f"{name} effect ({largest:.2e} m), which hides the truncation error")
 
 
 def convergence_study(
@@ -364,6 +368,15 @@ def convergence_study(
         except SimulationDiverged:
             return None
 
+    bodies = point_masses(base, scales.length)
+
+    def floor_effect(name: str, h: float) -> float:
+        """How far doubling the point masses' inertia floors moves the run at ``h`` (nan: none)."""
+        if not bodies:
+            return math.nan
+        sim, heavy = run(name, h, None), run(name, h, heavier_floors(bodies))
+        return math.nan if sim is None or heavy is None else _point_error(sim.positions, heavy.positions)
+
     series: list[Series] = []
     for name in chosen:
         dts = tuple(h0 * k for k in _ladder(name, fast))
@@ -398,8 +411,9 @@ def convergence_study(
             values = tuple(errs[quantity])
             fit = fit_order(dts, values, saturation=saturation)
             note = exact
-            if quantity == gated and not exact and constrained:
-                note = softness_floor(fit, errs["softness"])
+            if quantity == gated and not exact:
+                note = explained_floor(fit, {"softness": max(errs["softness"], default=math.nan),
+                                             "inertia floor": floor_effect(name, dts[-1])})
             series.append(Series(
                 integrator=name, quantity=quantity, unit=unit, dts=dts, errors=values, fit=fit,
                 expected=float(EXPECTED_ORDER[name]) if quantity == gated and not note else None,

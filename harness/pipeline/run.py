@@ -22,7 +22,6 @@ import mujoco
 import numpy as np
 
 from analytic import systems
-from harness.budget import variants
 from harness.budget.measure import (
     ModelUnderTest,
     Settings,
@@ -36,6 +35,7 @@ from harness.core.budget import Budget
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
 from harness.core.trajectory import Trajectory
+from harness.engine import variants
 from harness.engine.compat import applicable_defect, fallbacks, joint_types, unavailable_reason
 from harness.engine.integrators import available_integrators, integrator_name
 from harness.engine.models import compile_model
@@ -118,7 +118,7 @@ def changed_settings(shipped: Mapping[str, object], tested: Mapping[str, object]
 
 def settle_time(case: Case, model: mujoco.MjModel, horizon: float) -> tuple[float, str]:
     """When the force and MuJoCo-only figures start counting: the case's ``settle``, or
-    :data:`~harness.budget.variants.SETTLE_TIMECONSTS` response times of the model's slowest contact
+    :data:`~harness.engine.variants.SETTLE_TIMECONSTS` response times of the model's slowest contact
     if longer (a softer contact settles later), at most half the horizon; with a note where capped."""
     wanted = max(case.settle, variants.SETTLE_TIMECONSTS * variants.contact_timeconst(model))
     if wanted <= horizon / 2:

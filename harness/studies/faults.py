@@ -26,11 +26,11 @@ from typing import Literal
 import mujoco
 import numpy as np
 
-from harness.budget.variants import point_masses
 from harness.cases import Case
 from harness.engine.compat import set_damping, set_stiffness
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
+from harness.engine.variants import point_masses
 
 SpecEdit = Callable[[mujoco.MjSpec], None]
 Kind = Literal["setting", "fault"]
@@ -340,9 +340,13 @@ def _joint_limit(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
 
 
 def _friction(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+    """Every contact pair's sliding friction × (1 − ``size``): the fault's size is the share of the
+    friction removed, so that a larger size is a larger fault (a rolling hoop slides once what is left
+    is below what rolling needs: μ ≥ v θ̇/g on the plane, tan α / 2 on the ramp)."""
     def edit(spec: mujoco.MjSpec) -> None:
         for pair in spec.pairs:
-            pair.friction = [size, size, 0.0, 0.0, 0.0]
+            mu = (1.0 - size) * float(pair.friction[0])
+            pair.friction = [mu, mu, 0.0, 0.0, 0.0]
     return edit
 
 
@@ -379,8 +383,8 @@ FAULTS: tuple[Change, ...] = (
            applies=_gravity_does_work, sizes=(1e-2, 1e-2)),
     Change("joint-limit", "fault", "joint limits the motion reaches", make=_joint_limit,
            applies=_has("hinge_or_slide"), sizes=(1.0, 1.0)),
-    Change("low-friction", "fault", "contact friction {size}, too little to roll", make=_friction,
-           applies=_has("pair"), sizes=(1e-2, 1e-2)),
+    Change("low-friction", "fault", "contact friction less {size} of it (relative), too little to roll",
+           make=_friction, applies=_has("pair"), sizes=(0.99, 0.99)),
 )
 
 COARSE = Change("coarse", "setting", "2 × the timestep and MuJoCo's default softness", make=_default_softness,

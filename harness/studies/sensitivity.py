@@ -22,10 +22,10 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from harness.budget.variants import compose
 from harness.cases import Case
 from harness.core.tables import text_table
 from harness.engine.models import compile_model
+from harness.engine.variants import compose
 from harness.pipeline.limits import load_limits
 from harness.pipeline.run import run_case
 from harness.pipeline.verdict import judge
