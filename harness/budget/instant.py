@@ -32,7 +32,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from harness.budget.extrapolate import gain, to_zero
-from harness.budget.trajectory import FLOOR_UNCERTAINTY, SOFTNESS_UNCERTAINTY, SOLVER
+from harness.budget.trajectory import FLOOR_UNCERTAINTY, SOFTNESS_UNCERTAINTY, SOLVER, SOLVER_PART_UNCERTAINTY
 from harness.core.budget import Budget
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
@@ -44,31 +44,40 @@ mass matrix (condition number up to 1e4)."""
 
 
 def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation]] = (),
-                    heavier: Sequence[Deviation] | None = None, eps_factor: float = 2.0,
-                    solver_tolerance: float = 0.0, notes: Sequence[str] = ()) -> dict[FigureName, Budget]:
+                    heavier: Sequence[Deviation] | None = None, converged: Sequence[Deviation] | None = None,
+                    eps_factor: float = 2.0, solver_tolerance: float = 0.0, notes: Sequence[str] = ()
+                    ) -> dict[FigureName, Budget]:
     """Every instantaneous figure's budget from the model's deviations at the sampled states (A) and,
     where they apply, the model's with every ε × s, s² (``softness``, s = ``eps_factor``) and with
-    heavier floors (D) at the same states."""
+    heavier floors (D) at the same states. ``converged``: A with the constraints solved exactly, where
+    the model's own solver does not converge (the other evaluations are then made that way too)."""
     levels = [{d.name: d.values for d in group} for group in softness]
     floors = {d.name: d.values for d in heavier or ()}
-    noise = (gain(len(levels) + 1, eps_factor) if levels else 1.0) + (2.0 if floors else 0.0)
+    exact = {d.name: d.values for d in converged or ()}
+    noise = (gain(len(levels) + 1, eps_factor) if levels else 1.0) + (2.0 if floors else 0.0) \
+        + (2.0 if exact else 0.0)
     out = {}
     for dev in as_is:
         parts = {}
+        a = dev.values
+        if dev.name in exact:
+            a = exact[dev.name]
+            parts["solver"] = dev.values - a
         softness_unc = None
         if levels:
-            ideal_eps, uncertainty = to_zero([dev.values, *(level[dev.name] for level in levels)], eps_factor)
-            parts["softness"] = dev.values - ideal_eps
+            ideal_eps, uncertainty = to_zero([a, *(level[dev.name] for level in levels)], eps_factor)
+            parts["softness"] = a - ideal_eps
             softness_unc = None if uncertainty is None else dev.magnitude(uncertainty)
         if dev.name in floors:
-            parts["floors"] = floors[dev.name] - dev.values
+            parts["floors"] = floors[dev.name] - a
         ideal = dev.values - sum(parts.values()) if parts else dev.values
         explained = {part: dev.magnitude(values) for part, values in parts.items()}
         tolerance = {"softness": SOFTNESS_UNCERTAINTY * explained.get("softness", 0.0) if softness_unc is None
                      else softness_unc,
                      "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),
+                     "solver": SOLVER_PART_UNCERTAINTY * explained.get("solver", 0.0),
                      "roundoff": noise * ROUNDOFF * dev.size,
-                     "solver": noise * SOLVER * solver_tolerance * dev.size}
+                     "convergence": noise * SOLVER * solver_tolerance * dev.size}
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
                                tolerance=tolerance, notes=tuple(notes))
     return out

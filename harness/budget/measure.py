@@ -74,21 +74,22 @@ class Settings:
 def instant_budget(mut: ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref: Reference,
                    as_is: Sequence[Deviation], *, integrator: str | None = None) -> dict[FigureName, Budget]:
     """The instantaneous figures' budgets: ``as_is`` (the deviations of ``model``, compiled from ``mut``
-    with ``integrator``) beside the same states on the softer and heavier-floor variants."""
+    with ``integrator``) beside the same states on the variants: softer, heavier floors, and with the
+    constraints solved exactly where the model's own solver does not converge."""
     settings = Settings.of(model, ref.scales)
-    softness: tuple[list[Deviation], ...] = ()
-    heavier = None
-    eps_factor = 2.0
-    if settings.soft:
-        eps_factor = V.softness_factor(model)
-        levels = (eps_factor, eps_factor**2) if eps_factor < 1 else (eps_factor,)
-        softness = tuple(instant_deviations(mut.compile(integrator=integrator, variant=V.variant(model, eps_factor=f)),
-                                            probe, ref) for f in levels)
-    if settings.point_masses:
-        heavier = instant_deviations(mut.compile(integrator=integrator,
-                                                 variant=V.heavier_floors(settings.point_masses)), probe, ref)
-    return instant_budgets(as_is, softness=softness, heavier=heavier, eps_factor=eps_factor,
-                           solver_tolerance=settings.solver_tolerance, notes=settings.notes)
+    exact = None if V.solver_converges(model) else V.converged_solver(model)
+
+    def evaluate(variant: V.SpecEdit | None) -> list[Deviation]:
+        return instant_deviations(mut.compile(integrator=integrator, variant=V.compose(exact, variant)), probe, ref)
+
+    eps_factor = V.softness_factor(model)
+    levels = (eps_factor, eps_factor**2) if eps_factor < 1 else (eps_factor,)
+    softness = tuple(evaluate(V.variant(model, eps_factor=f)) for f in levels) if settings.soft else ()
+    heavier = evaluate(V.heavier_floors(settings.point_masses)) if settings.point_masses else None
+    converged = evaluate(None) if exact is not None else None
+    return instant_budgets(as_is, softness=softness, heavier=heavier, converged=converged, eps_factor=eps_factor,
+                           solver_tolerance=V.CONVERGED_TOLERANCE if exact is not None else settings.solver_tolerance,
+                           notes=settings.notes)
 
 
 @dataclass(frozen=True)
@@ -113,8 +114,10 @@ def _deviations(target: TrajectoryRuns, sim: Trajectory, prefix: str) -> list[De
 def _variant_run(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int,
                  split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0) -> list[Deviation]:
     """One variant of ``model`` (:func:`~harness.engine.variants.variant`) run over the horizon, as its
-    deviations on the grid of the run at h."""
-    edit = V.variant(model, split=split, eps_factor=eps_factor, tc_factor=tc_factor)
+    deviations on the grid of the run at h; its constraints solved exactly where the model's own solver
+    does not converge."""
+    exact = None if V.solver_converges(model) else V.converged_solver(model)
+    edit = V.compose(exact, V.variant(model, split=split, eps_factor=eps_factor, tc_factor=tc_factor))
     name = integrator_name(model)
     h = float(model.opt.timestep)
     m = mut.compile(integrator=name, timestep=h / split if split > 1 else None, variant=edit)
@@ -131,12 +134,18 @@ def trajectory_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, s
     floors: dict[str, np.ndarray] | None = None
     first = next(iter(sims))
     settings = Settings.of(mut.compile(integrator=first), target.scales)
-    if settings.point_masses:  # physics, not integration: one run serves every integrator (the cheapest)
-        floor_integrator = next((n for n in ("Euler", "implicitfast", "implicit") if n in sims), first)
+    if settings.point_masses:  # physics, not integration: one run serves every integrator, the most accurate
+        # one's (a floor moves an explicit integrator's error too: a ball joint's spin carries the floor alone)
+        floor_integrator = "RK4" if "RK4" in sims else first
         steps = len(sims[floor_integrator].t) - 1
-        heavier = simulate(mut.compile(integrator=floor_integrator, variant=V.heavier_floors(settings.point_masses)),
+        floor_model = mut.compile(integrator=floor_integrator)
+        exact = None if V.solver_converges(floor_model) else V.converged_solver(floor_model)
+        heavier = simulate(mut.compile(integrator=floor_integrator,
+                                       variant=V.compose(exact, V.heavier_floors(settings.point_masses))),
                            probe, q0=target.q0, qd0=target.qd0, steps=steps)
-        as_is = {d.name.measure: d.values for d in _deviations(target, sims[floor_integrator], floor_integrator)}
+        base = sims[floor_integrator] if exact is None else simulate(
+            mut.compile(integrator=floor_integrator, variant=exact), probe, q0=target.q0, qd0=target.qd0, steps=steps)
+        as_is = {d.name.measure: d.values for d in _deviations(target, base, floor_integrator)}
         floors = {d.name.measure: d.values - as_is[d.name.measure]
                   for d in _deviations(target, heavier, floor_integrator)}
     for name, sim in sims.items():
@@ -154,10 +163,12 @@ def trajectory_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, s
         as_is = _deviations(target, sim, name)
         half_step = run(2)
         soft, contacts = settings.soft, settings.contacts
+        converged = None if V.solver_converges(model) else run()
         runs[name] = Runs(
             as_is=as_is,
             half_step=half_step,
-            quarter_step=run(4) if past_asymptotic(as_is, half_step, orders[name])
+            converged=converged,
+            quarter_step=run(4) if past_asymptotic(converged or as_is, half_step, orders[name])
             or V.steps_per_timeconst(model) > 0.5 else None,
             softness=tuple(run(1, f) for f in levels) if soft else (),
             softness_half_step=run(2, eps) if soft else None,

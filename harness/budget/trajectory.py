@@ -67,9 +67,15 @@ the figure's unit):
   1.1 for RK4 alone to about 30 with contacts and three softness levels);
 - the reference: :data:`REFERENCE` × its rtol × the quantity's size (its global
   error; measured 11 rtol on the spherical pendulum over 5 s);
-- the constraint solver: :data:`SOLVER` × its tolerance × the quantity's size
-  × the noise gain, where the model has constraints (the solver stops when the
-  relative improvement falls below its tolerance, independently in each run).
+- the constraint solver's convergence: :data:`SOLVER` × its tolerance × the
+  quantity's size × the noise gain, where the model has constraints (the solver
+  stops when the relative improvement falls below its tolerance, independently
+  in each run). Where the model's own solver does not converge (CG or PGS
+  stopped by its iteration cap, a loose tolerance), every run above is made with
+  the constraints solved exactly (Newton,
+  :func:`~harness.engine.variants.converged_solver`) and the difference the
+  model's own solver makes is the ``solver`` part, known to
+  :data:`SOLVER_PART_UNCERTAINTY` of itself (it feeds back into the motion).
 """
 
 from __future__ import annotations
@@ -93,6 +99,7 @@ ROUNDOFF = 64 * float(np.finfo(float).eps)
 REFERENCE = 50.0
 SOLVER = 10.0
 ASYMPTOTIC = 0.01
+SOLVER_PART_UNCERTAINTY = 0.1
 
 
 @dataclass(frozen=True)
@@ -109,6 +116,9 @@ class Runs:
         slower: with contacts, at h with τ × r and ε, ε × s (and ε × s²): C′, C″ (and C‴).
         floors: D − A per figure (:attr:`FigureName.measure`), shared by the integrators: a point
             mass's floor is physics, not integration.
+        converged: where the model's own constraint solver does not converge (CG, PGS, a loose
+            tolerance), A with the constraints solved exactly (Newton); every other run is then made
+            that way too, and A − converged is the ``solver`` part.
         eps_factor, tc_factor: s and r.
     """
 
@@ -119,6 +129,7 @@ class Runs:
     softness_half_step: Sequence[Deviation] | None = None
     slower: Sequence[Sequence[Deviation]] = ()
     floors: Mapping[str, np.ndarray] | None = None
+    converged: Sequence[Deviation] | None = None
     eps_factor: float = 2.0
     tc_factor: float = 1.5
 
@@ -166,9 +177,13 @@ def parts(runs: Runs, dev: Deviation, *, order: float) -> Parts:
     """The explained parts of one figure, sample by sample (see the module docstring)."""
     kappa = richardson(order)
     s, r = runs.eps_factor, runs.tc_factor
+    explained: dict[str, np.ndarray] = {}
     a = dev.values
+    if runs.converged is not None:  # the other runs solve their constraints exactly; so does this one
+        a = _by_name(runs.converged)[dev.name]
+        explained["solver"] = dev.values - a
     b = _by_name(runs.half_step)[dev.name]
-    explained = {"integration": kappa * (a - b)}
+    explained["integration"] = kappa * (a - b)
     integration_unc = None
     if runs.quarter_step is not None:
         q = _by_name(runs.quarter_step)[dev.name]
@@ -202,7 +217,8 @@ def noise_gain(runs: Runs, *, order: float) -> float:
     tolerance). Found by linearity: the estimate with one run's values 1 and every other's 0 is its
     weight. The floors' part D − A adds 2 (its two runs, each with weight ±1)."""
     name = FigureName("x.position")
-    groups = {"as_is": 1, "half_step": 1, "quarter_step": int(runs.quarter_step is not None),
+    groups = {"as_is": 1, "converged": int(runs.converged is not None), "half_step": 1,
+              "quarter_step": int(runs.quarter_step is not None),
               "softness": len(runs.softness), "softness_half_step": int(runs.softness_half_step is not None),
               "slower": len(runs.slower)}
 
@@ -214,6 +230,7 @@ def noise_gain(runs: Runs, *, order: float) -> float:
         for index in range(count):
             hot = (label, index)
             probe = Runs(as_is=unit(hot, "as_is"), half_step=unit(hot, "half_step"),
+                         converged=unit(hot, "converged") if groups["converged"] else None,
                          quarter_step=unit(hot, "quarter_step") if groups["quarter_step"] else None,
                          softness=tuple(unit(hot, "softness", k) for k in range(groups["softness"])),
                          softness_half_step=unit(hot, "softness_half_step") if groups["softness_half_step"]
@@ -249,10 +266,11 @@ def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_toleran
                 softness += SOFTNESS_UNCERTAINTY * dev.magnitude(found.timeconst)
         tolerance = {"integration": integration,
                      "softness": softness,
+                     "solver": SOLVER_PART_UNCERTAINTY * explained.get("solver", 0.0),
                      "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),
                      "roundoff": gain * ROUNDOFF * walk * dev.size,
                      "reference": REFERENCE * rtol * dev.size,
-                     "solver": gain * SOLVER * solver_tolerance * dev.size}
+                     "convergence": gain * SOLVER * solver_tolerance * dev.size}
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
                                tolerance=tolerance, notes=tuple(notes))
     return out

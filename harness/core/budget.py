@@ -8,14 +8,16 @@ distance is expected from the model's own settings, and the budget names it:
 - ``softness``: MuJoCo's soft constraints (solref/solimp), from a run with every
   constraint softened twofold, extrapolated to the rigid limit;
 - ``floors``: a point mass's tiny rotational inertia (MuJoCo needs some), from a
-  run with it doubled, extrapolated to zero.
+  run with it doubled, extrapolated to zero;
+- ``solver``: where the model's constraint solver stops short of the solution
+  (CG or PGS at their iteration cap), the difference a converged solve makes.
 
 What remains after removing those parts from MuJoCo's run — the run
 extrapolated to the ideal limits, compared with the reference — is the
 ``unexplained`` residual. The verdict judges it against the ``limit``: the sum
 of the uncertainties of the estimates themselves (``tolerance``: each part's
 own accuracy, float round-off, the reference's tolerance, the constraint
-solver's tolerance). A fault (damping, armature, a wrong coefficient) leaves a
+solver's convergence). A fault (damping, armature, a wrong coefficient) leaves a
 residual no part explains; a legitimate setting (another timestep, softer
 constraints) moves the parts, not the residual.
 """
@@ -26,8 +28,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-PARTS = ("integration", "softness", "floors")
-TOLERANCES = ("integration", "softness", "floors", "roundoff", "reference", "solver")
+PARTS = ("integration", "softness", "floors", "solver")
+TOLERANCES = ("integration", "softness", "floors", "solver", "roundoff", "reference", "convergence")
 
 
 @dataclass(frozen=True)
@@ -36,7 +38,8 @@ class Budget:
 
     Attributes:
         measured: the figure itself (MuJoCo's run against the reference).
-        explained: the size of each part (:data:`PARTS`) that the model's settings explain.
+        explained: the size of each part (:data:`PARTS`) that the model's settings explain (the parts
+            that apply: no softness without soft constraints).
         unexplained: the residual after the parts are removed.
         tolerance: each source of uncertainty of the residual (:data:`TOLERANCES`); they sum to the limit.
         notes: how the parts were obtained, where that is not the standard way (e.g. "softness: not

@@ -43,16 +43,17 @@ def compile_model(
     timestep: float | None = None,
     edit: Callable[[mujoco.MjSpec], None] | None = None,
 ) -> mujoco.MjModel:
-    """Compile ``path`` with optional integrator/timestep overrides and a spec edit."""
+    """Compile ``path`` with a spec edit and optional integrator/timestep overrides (applied after the
+    edit, so that they hold whatever the edit sets)."""
     spec = load_spec(path)
+    if edit is not None:
+        edit(spec)
     if integrator is not None:
         spec.option.integrator = integrator_enum(integrator)
     if timestep is not None:
         if not timestep > 0:
             raise ValueError(f"timestep must be positive, got {timestep}")
         spec.option.timestep = timestep
-    if edit is not None:
-        edit(spec)
     try:
         model = spec.compile()
     except Exception as exc:

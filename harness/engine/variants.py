@@ -212,6 +212,33 @@ def variant(model: mujoco.MjModel, *, split: int = 1, eps_factor: float = 1.0, t
     return edit
 
 
+CONVERGED_TOLERANCE = 1e-12
+"""The Newton solver's tolerance in the converged variant (:func:`converged_solver`): its relative
+improvement per iteration; Newton converges quadratically, so the solution is then exact to round-off."""
+
+
+def solver_converges(model: mujoco.MjModel) -> bool:
+    """Whether the model's own constraint solver is Newton at a tolerance at most
+    :data:`CONVERGED_TOLERANCE` × 1e4 (quadratic convergence: stopped at 1e-8, its error is ~1e-16): then
+    its solution is the exact one to round-off, and no converged variant is needed."""
+    newton = int(model.opt.solver) == int(mujoco.mjtSolver.mjSOL_NEWTON)
+    return newton and float(model.opt.tolerance) <= 1e4 * CONVERGED_TOLERANCE
+
+
+def converged_solver(model: mujoco.MjModel) -> SpecEdit:
+    """The model with its constraints solved to convergence: Newton at :data:`CONVERGED_TOLERANCE`, with
+    at least the model's iterations (100). The constraint problem is strictly convex (soft constraints),
+    so any solver converges to the one solution this one finds; what the model's own solver leaves of it
+    (CG or PGS stopped by their iteration cap) is the budget's ``solver`` part."""
+    iterations = max(int(model.opt.iterations), 100)
+
+    def edit(spec: mujoco.MjSpec) -> None:
+        spec.option.solver = mujoco.mjtSolver.mjSOL_NEWTON
+        spec.option.tolerance = CONVERGED_TOLERANCE
+        spec.option.iterations = iterations
+    return edit
+
+
 def has_contacts(model: mujoco.MjModel) -> bool:
     """Whether the model can make contacts: a pair or a colliding geom, with contacts enabled."""
     colliding = bool(np.any(model.geom_contype) or np.any(model.geom_conaffinity))
