@@ -25,6 +25,7 @@ from pathlib import Path
 from harness import cases
 from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
+from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
 from harness.engine.compat import unavailable_reason
 from harness.outputs import baseline
 from harness.outputs.diff import diff_runs, format_diff, load_run
@@ -324,16 +325,18 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
-        return COMMANDS[args.command].run(args)
+        with sigterm_as_interrupt():
+            return COMMANDS[args.command].run(args)
     except SimulationDiverged as exc:
         print(f"mjharness: error: simulation diverged: {exc}", file=sys.stderr)
     except ValueError as exc:  # ConfigError, ModelError, ModelMismatch and every input check
         print(f"mjharness: error: {' '.join(str(exc).split())}", file=sys.stderr)
     except OSError as exc:
         print(f"mjharness: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "), file=sys.stderr)
-    except KeyboardInterrupt:
-        print("mjharness: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (harness.core.lifetime.Terminated)
+        print("mjharness: terminated (SIGTERM)" if isinstance(exc, Terminated) else "mjharness: interrupted",
+              file=sys.stderr)
+        return exit_code(exc)
     return EXIT_USAGE
 
 
