@@ -26,6 +26,7 @@ from harness import cases
 from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
 from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
+from harness.engine import messages
 from harness.engine.compat import unavailable_reason
 from harness.outputs import baseline
 from harness.outputs.diff import diff_runs, format_diff, load_run
@@ -324,6 +325,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    messages.keep()  # MuJoCo's own warnings: read from its counters, never printed before our one line
     try:
         with sigterm_as_interrupt():
             return COMMANDS[args.command].run(args)
