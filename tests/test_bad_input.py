@@ -8,8 +8,11 @@ prints its warnings from C, past pytest's capture) and what is left in the worki
 
 from __future__ import annotations
 
+import json
+import math
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
@@ -83,3 +86,95 @@ def test_mjcf_that_is_not_a_file_says_what_it_is(tmp_path, capsys, target, needl
     err = capsys.readouterr().err
     _one_line(err, needle)
     assert "accepted: an MJCF (XML) file" in err
+
+
+# ------------------------------------------------------------- divergence
+def _stiff_damping(tmp_path: Path, case: str = CASE, joint: str = "theta") -> Path:
+    """The case's model with a hinge damping of 1e6 N m s: rate 1e6 /s against a unit inertia, far past
+    the explicit RK4's stability at 1 ms (h·rate ≈ 1000 > 2.8), so its run diverges within steps; the
+    reference, which reads no damping, is the shipped one."""
+    source = MJCF.parent / f"{case}.xml"
+    text = source.read_text()
+    old = f'<joint name="{joint}" type="hinge"'
+    assert old in text and 'damping="0"' in text
+    start = text.index(old)
+    end = text.index("/>", start)
+    path = tmp_path / f"{case}_damped.xml"
+    path.write_text(text[:start] + text[start:end].replace('damping="0"', 'damping="1e6"') + text[end:])
+    return path
+
+
+def test_a_diverged_run_is_a_failed_check_with_its_reason_everywhere(tmp_path, capsys):
+    """Every run diverges (gravity 1e12): exit 1, and each gated figure of those runs is a failed check
+    reading "diverged: WARNING at t = …" in the table, report.json, report.html, summary.md and JUnit,
+    never a number."""
+    path = _variant(tmp_path, 'gravity="0 0 -9.81"', 'gravity="0 0 -1e12"')
+    out, junit = tmp_path / "report", tmp_path / "junit.xml"
+    assert main(["run", "--case", CASE, "--mjcf", str(path), "--out", str(out), "--junit", str(junit)]) == 1
+    reason = "diverged: mjWARN_BADQACC at t = 0.001 s"
+    assert f"FAIL: {reason}" in capsys.readouterr().out
+    checks = json.loads((out / "report.json").read_text())["cases"][CASE]["checks"]
+    runs = [name for name in checks if not name.startswith(("instant.", "reference."))]
+    assert runs and all(checks[n]["diverged"] == reason and checks[n]["value"] == "nan"
+                        and checks[n]["passed"] is False for n in runs)
+    assert not any("diverged" in checks[n] for n in checks if n not in runs)
+    assert reason in (out / "report.html").read_text() and reason in (out / "summary.md").read_text()
+    failures = ET.parse(junit).getroot().findall(".//failure[@type='Diverged']")
+    assert len(failures) == len(runs) and all(reason in f.get("message") for f in failures)
+
+
+def test_a_timestep_of_one_second_is_reported_as_diverged(tmp_path, capsys):
+    """The issue's input: timestep 1 s. The runs over the horizon stay finite (and fail by numbers), but
+    RK4's convergence ladder reaches h = 32 s and MuJoCo warns: that order's verdict is the warning,
+    not the order a fit of the remaining points would give."""
+    path = _variant(tmp_path, 'timestep="0.001"', 'timestep="1.0"')
+    assert main(["check", "--case", CASE, "--mjcf", str(path), "--json"]) == 1
+    check = json.loads(capsys.readouterr().out)["cases"][CASE]["checks"]["converge.RK4.order_shortfall"]
+    assert check["diverged"].startswith("diverged: mjWARN_") and "(h = 32 s)" in check["diverged"]
+    assert check["value"] == "nan"
+
+
+def test_a_ladder_that_diverges_anywhere_is_its_series_verdict(tmp_path):
+    from harness import cases
+    from harness.layers.orders import convergence_study
+
+    study = convergence_study(cases.get(CASE), fast=True, integrators=["RK4", "implicit"],
+                              mjcf=_stiff_damping(tmp_path))
+    rk4 = [s for s in study.verdicts if s.integrator == "RK4"]
+    assert rk4 and all(s.verdict.startswith("diverged: mjWARN_") and s.passed is False for s in rk4)
+    assert not study.passed
+    assert all(not s.diverged for s in study.series if s.integrator == "implicit")  # damping is implicit's
+
+
+@pytest.mark.parametrize("study", ["softness", "solvers"])
+def test_a_study_states_a_diverged_setting_instead_of_failing_the_run(tmp_path, study):
+    import dataclasses
+
+    from harness import cases
+    from harness.studies import softness, solvers
+
+    case = dataclasses.replace(cases.get(CASE), mjcf=_stiff_damping(tmp_path))
+    if study == "softness":
+        result = softness.softness_study(case, fast=True, plot=False)
+        text = softness.text(result)
+    else:
+        result = solvers.solver_study(case, fast=True, solvers=("Newton", "CG"), plot=False)
+        text = solvers.text(result)
+    assert result.rows and all(r.diverged.startswith("diverged: mjWARN_") for r in result.rows)
+    assert result.rows[0].diverged in text
+
+
+def test_the_contact_study_states_a_diverged_setting(tmp_path, monkeypatch):
+    import dataclasses
+
+    from harness import cases
+    from harness.studies import contact
+
+    name = "hoop_ramp_contact"
+    damped = dataclasses.replace(cases.get(name), mjcf=_stiff_damping(tmp_path, name, "phi"))
+    monkeypatch.setattr(contact.cases, "get", lambda n: damped if n == name else cases.get(n))
+    result = contact.contact_study(name, cones=("elliptic",), impratios=(10.0,), noslip_iterations=(0,),
+                                   softness=("shipped",))
+    (row,) = result.rows
+    assert row["diverged"].startswith("diverged: mjWARN_") and math.isnan(row["position"])
+    assert row["diverged"] in contact.html_section([result])

@@ -31,7 +31,7 @@ from analytic import systems
 from harness import cases
 from harness.cli import commands as cli
 from harness.core import cache, costs
-from harness.core.errors import SimulationDiverged
+from harness.core.errors import ModelMismatch
 from harness.engine.models import compile_model, mjcf_path
 from harness.outputs import parts
 from harness.pipeline import matrix as runner
@@ -296,13 +296,13 @@ def test_a_failing_case_in_a_pool_is_the_one_line_exit_2(monkeypatch, capsys):
 
     def run_case(case, **kw):  # the forked workers inherit this
         if case.name == "atwood":
-            raise SimulationDiverged("MuJoCo warnings ['mjWARN_BADQACC'] at t=0.25 s")
+            raise ModelMismatch("model has no equality 'string1'")
         return real(case, **kw)
 
     monkeypatch.setattr(runner, "run_case", run_case)
     assert cli.main(["check", "spring", "atwood", "--jobs", "2"]) == 2
     err = capsys.readouterr().err
-    assert err.strip() == "mjharness: error: simulation diverged: MuJoCo warnings ['mjWARN_BADQACC'] at t=0.25 s"
+    assert err.strip() == "mjharness: error: model has no equality 'string1'"
 
 
 def test_the_progress_bar_counts_cases_done_in_workers(monkeypatch):

@@ -1,9 +1,9 @@
 """``mjharness``: a thin argparse layer over pure functions.
 
-Exit codes: 0 all checks pass, 1 a check fails (or, for ``baseline
---compare``, a figure regressed), 2 bad usage or input (unknown case, invalid
-MJCF or config, a model that does not fit its case, unwritable output,
-diverging simulation). User mistakes give one line on stderr, never a
+Exit codes: 0 all checks pass, 1 a check fails (a run that diverged fails its
+checks with the reason; for ``baseline --compare``, a figure regressed), 2 bad
+usage or input (unknown case, invalid MJCF or config, a model that does not fit
+its case, unwritable output). User mistakes give one line on stderr, never a
 traceback, and never a half-written file. ``diff`` is informational: 0 unless
 its input is bad (2).
 

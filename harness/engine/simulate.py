@@ -143,7 +143,7 @@ def _block(model: mujoco.MjModel, data: mujoco.MjData, name: str) -> tuple[np.nd
 def _check_warnings(counts: np.ndarray, time: float) -> None:
     raised = [mujoco.mjtWarning(i).name for i in range(len(counts)) if counts[i] > 0]
     if raised:
-        raise SimulationDiverged(f"MuJoCo warnings {raised} at t={time:.6g} s")
+        raise SimulationDiverged(", ".join(raised), time)
 
 
 # ---------------------------------------------------------------- recorded run
@@ -399,7 +399,7 @@ def _step(b: _batch.Batch, nstep: int, record: Sequence, out: dict) -> None:
     try:
         b.rollout(nstep, record=record, out=out)
     except _batch.SimulationError as exc:
-        raise SimulationDiverged(f"MuJoCo raised an error: {exc}") from None
+        raise SimulationDiverged(f"MuJoCo error {' '.join(str(exc).split())!r}", float(b.state[0, 0])) from None
     counts = b.warning[0, :, 1]
     if counts.max() > 0:
         _check_warnings(counts, float(b.state[0, 0]))
@@ -506,7 +506,7 @@ def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
     if not np.isfinite(states.sum()):
         finite = np.isfinite(states).all(axis=1)
         if not finite.all():
-            raise SimulationDiverged(f"non-finite state at t={states[np.argmin(finite), 0]:.6g} s")
+            raise SimulationDiverged("non-finite state", float(states[np.argmin(finite), 0]))
     run = _assemble(model, probe, states, fields)
     clock = time.perf_counter()
     run.readings = _evaluate_readings(model, probe, run.t, states[:, 1:1 + model.nq],

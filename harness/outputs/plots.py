@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import html
+
 import numpy as np
 
 from harness.core.plotting import png_bytes, png_data_uri, pyplot
@@ -79,5 +81,11 @@ def plot_invariants(result: CaseResult) -> str:
 
 
 def section_plots(result: CaseResult) -> str:
+    """The case's plots, of every run that did not diverge, and a note naming those that did."""
+    diverged = {run: why for run, why in result.diverged.items() if run not in result.simulations}
+    note = ("<p class='note'>Not plotted: " + "; ".join(f"{html.escape(run)} {html.escape(why)}"
+                                                        for run, why in diverged.items()) + "</p>") if diverged else ""
+    if not result.simulations:
+        return note
     plots = [plot_overlay(result), plot_errors(result), plot_forces(result), plot_invariants(result)]
-    return "".join(f"<img src='{p}' alt='plot'>" for p in plots if p)
+    return note + "".join(f"<img src='{p}' alt='plot'>" for p in plots if p)

@@ -60,9 +60,14 @@ def section_banner(results: Sequence[CaseResult], checks: Mapping[str, Sequence[
     if not failed:
         text = f"PASS — {len(results)} case(s), all {total} checks within their thresholds"
     else:
-        text = (f"FAIL — {len(failed)} of {total} checks over their thresholds, "
+        text = (f"FAIL — {len(failed)} of {total} checks over their thresholds{_diverged(failed)}, "
                 f"in {bad_cases} of {len(results)} case(s)")
     return f"<p class='banner {'pass' if not failed else 'fail'}'>{_esc(text)}</p>"
+
+
+def _diverged(failed: Sequence[Check]) -> str:
+    count = sum(bool(c.diverged) for c in failed)
+    return f" ({count} on a run that diverged)" if count else ""
 
 
 _HOW_TO_READ = """
@@ -92,7 +97,8 @@ def section_summary(results: Sequence[CaseResult], checks: Mapping[str, Sequence
         tight = closest_check(cs)
         closest = (f"{_esc(tight.name)} <span class='dim'>({ratio_text(ratio(tight))})</span>"
                    if tight else "no gates")
-        fails = "<br>".join(f"{_esc(c.name)}: {fmt_value(c.value)} &gt; {fmt_value(c.threshold)} {_esc(c.unit)}"
+        fails = "<br>".join(f"{_esc(c.name)}: {_esc(c.diverged)}" if c.diverged else
+                            f"{_esc(c.name)}: {fmt_value(c.value)} &gt; {fmt_value(c.threshold)} {_esc(c.unit)}"
                             for c in failed)
         rows.append(f"<tr class='{verdict.lower()}'><td><a href='#{_esc(r.case.name)}'>{_esc(r.case.name)}</a></td>"
                     f"<td class='verdict'>{verdict}</td><td>{len(cs) - len(failed)}/{len(cs)}</td>"
@@ -127,6 +133,8 @@ def _status(c: Check) -> str:
     """PASS / FAIL, or n/a / KNOWN DEFECT with the reason (harness.compat)."""
     if c.note:
         return f"n/a: {c.note}"
+    if c.diverged:
+        return f"FAIL, {c.diverged}"
     return f"known defect: {c.known}" if c.known else c.status.upper()
 
 
@@ -271,7 +279,7 @@ def render_markdown(results: Sequence[CaseResult], checks: Mapping[str, Sequence
     total = sum(len(checks[r.case.name]) for r in results)
     failed = [c for r in results for c in checks[r.case.name] if not c.passed]
     head = (f"**PASS**: {len(results)} case(s), all {total} checks within their thresholds" if not failed
-            else f"**FAIL**: {len(failed)} of {total} checks over their thresholds")
+            else f"**FAIL**: {len(failed)} of {total} checks over their thresholds{_diverged(failed)}")
     lines = ["# mjharness summary", "", head, "",
              "| case | verdict | checks passed | closest to its limit (used) |", "|---|---|---|---|"]
     for r in results:
@@ -284,14 +292,15 @@ def render_markdown(results: Sequence[CaseResult], checks: Mapping[str, Sequence
     if failed:
         lines += ["", "## Failed checks", "", "| case | check | figure | threshold | unit |",
                   "|---|---|---|---|---|"]
-        lines += [f"| {c.case} | {c.name} | {fmt_value(c.value)} | {fmt_value(c.threshold)} | {c.unit} |"
+        lines += [f"| {c.case} | {c.name} | {c.diverged or fmt_value(c.value)} | {fmt_value(c.threshold)} | {c.unit} |"
                   for c in failed]
     lines += ["", "<details><summary>Every check</summary>", "",
               "| case | check | figure | threshold | used | verdict |", "|---|---|---|---|---|---|"]
     for r in results:
         for c in checks[r.case.name]:
             lines.append(f"| {r.case.name} | {c.name} | {fmt_value(c.value)} | {fmt_value(c.threshold)} | "
-                         f"{ratio_text(ratio(c))} | {c.status if c.passed else '**FAIL**'} |")
+                         f"{ratio_text(ratio(c))} | {c.status if c.passed else '**FAIL**'}"
+                         f"{', ' + c.diverged if c.diverged else ''} |")
     lines += ["", "</details>"]
     return "\n".join(lines) + "\n" + (audit_markdown(audit) if audit else "")
 

@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 
 from harness.cases import Case
+from harness.core.errors import SimulationDiverged
 from harness.core.figures import Figure
 from harness.core.trajectory import Trajectory
 from harness.engine.compat import fallbacks, joint_types, unavailable_reason
@@ -42,6 +43,7 @@ class CaseResult:
     settings: dict[str, object]
     timings: dict[str, float] = field(default_factory=dict)
     joints: frozenset[int] = frozenset()  # the joint types of the model run (known defects match them)
+    diverged: dict[str, str] = field(default_factory=dict)  # run (INTEGRATOR, converge.INTEGRATOR) -> reason
 
     def figure(self, name: str) -> Figure:
         for f in self.figures:
@@ -110,14 +112,18 @@ def run_case(
 
     clock = time.perf_counter()
     sims: dict[str, Trajectory] = {}
+    diverged: dict[str, str] = {}  # a diverged run is a verdict of its own, never a number (pipeline.verdict)
     steps = round(case.horizon / model.opt.timestep)
     for name in integrators or available_integrators():
         m = compile_model(path, timestep=timestep, edit=edit, integrator=name)
-        sims[name] = simulate(m, probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
+        try:
+            sims[name] = simulate(m, probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
+        except SimulationDiverged as exc:
+            diverged[name] = exc.reason
     timings["mujoco"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
-    grid = next(iter(sims.values())).t
+    grid = next(iter(sims.values())).t if sims else np.arange(steps + 1) * model.opt.timestep
     ref_traj = refmod.trajectory(ref, grid)
     figures += reference_figures(ref, grid)
     for name, sim in sims.items():
@@ -126,8 +132,11 @@ def run_case(
     timings["compare"] = time.perf_counter() - clock
 
     clock = time.perf_counter()  # layer 4, fast subset: observed vs documented order per integrator
-    figures += order_figures(convergence_study(case, fast=True, integrators=list(sims), mjcf=path,
-                                               timestep=timestep, edit=edit, reference=ref))
+    if sims:  # an integrator whose run diverged has no ladder: its order's verdict is that run's
+        study = convergence_study(case, fast=True, integrators=list(sims), mjcf=path, timestep=timestep,
+                                  edit=edit, reference=ref)
+        figures += order_figures(study)
+        diverged |= {f"converge.{s.integrator}": s.diverged for s in study.verdicts if s.diverged}
     timings["converge"] = time.perf_counter() - clock
     settings = model_settings(model) | {"mjcf": str(path), "horizon": case.horizon,
                                         "params": dict(ref.params), "recorder": recorder()}
@@ -139,4 +148,4 @@ def run_case(
     if notes:
         settings["compat"] = notes
     return CaseResult(case=case, figures=tuple(figures), reference=ref_traj, simulations=sims,
-                      settings=settings, timings=timings, joints=joint_types(model))
+                      settings=settings, timings=timings, joints=joint_types(model), diverged=diverged)
