@@ -44,7 +44,8 @@ class ValidationFailed(AssertionError):
 
     def __init__(self, validation: Validation) -> None:
         self.validation = validation
-        lines = [f"{c.name} = {c.value:.3e} {c.unit} > limit {c.threshold:.3e}" for c in validation.failures]
+        lines = [f"{c.name}: {c.diverged}" if c.diverged else f"{c.name} = {c.value:.3e} {c.unit} > limit "
+                 f"{c.threshold:.3e}" for c in validation.failures]
         super().__init__(f"case {validation.case!r} ({validation.mjcf}): {len(lines)} of "
                          f"{len(validation.checks)} checks failed\n  " + "\n  ".join(lines))
 

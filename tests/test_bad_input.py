@@ -178,3 +178,12 @@ def test_the_contact_study_states_a_diverged_setting(tmp_path, monkeypatch):
     (row,) = result.rows
     assert row["diverged"].startswith("diverged: mjWARN_") and math.isnan(row["position"])
     assert row["diverged"] in contact.html_section([result])
+
+
+def test_the_python_api_names_a_diverged_run(tmp_path):
+    import harness
+
+    result = harness.validate(CASE, mjcf=_stiff_damping(tmp_path), integrators=["RK4"])
+    assert not result.passed
+    with pytest.raises(AssertionError, match=r"RK4\.position: diverged: mjWARN_\w+ at t = "):
+        result.raise_for_failures()
