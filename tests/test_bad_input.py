@@ -187,3 +187,67 @@ def test_the_python_api_names_a_diverged_run(tmp_path):
     assert not result.passed
     with pytest.raises(AssertionError, match=r"RK4\.position: diverged: mjWARN_\w+ at t = "):
         result.raise_for_failures()
+
+
+# ----------------------------------------------------------------- outputs
+@pytest.fixture
+def cached_runs(monkeypatch):
+    """run_case of a shipped case returns the session's cached run (variants still run for real)."""
+    from harness.pipeline import matrix
+    from harness.pipeline import run as pipeline
+    from tests.conftest import shipped_run
+
+    real = pipeline.run_case
+    monkeypatch.setattr(matrix, "run_case", lambda case, **kw: real(case, **kw) if kw else shipped_run(case.name))
+
+
+REPORT = ("report.html", "report.json", "summary.md", "junit.xml")
+
+
+def _report(tmp_path: Path, *extra: str) -> tuple[int, Path]:
+    out = tmp_path / "report"
+    return main(["run", CASE, "--no-studies", "--out", str(out), "--junit", str(out / "junit.xml"), *extra]), out
+
+
+def _strict(tmp_path: Path) -> str:
+    path = tmp_path / "strict.toml"
+    path.write_text(f'[thresholds.{CASE}]\n"RK4.position" = 1e-12\n')
+    return str(path)
+
+
+def test_a_report_set_is_replaced_whole_or_not_at_all(tmp_path, cached_runs, capsys):
+    """The second run's summary.md cannot be written (a directory is in its way): none of its files may
+    replace the first run's, and the first run's, no longer this run's verdict, are marked stale."""
+    code, out = _report(tmp_path)
+    assert code == 0
+    first = {name: (out / name).read_bytes() for name in REPORT}
+    (out / "summary.md").unlink()
+    (out / "summary.md").mkdir()
+    code, _ = _report(tmp_path, "--config", _strict(tmp_path))  # would FAIL: every file differs
+    assert code == 2
+    _one_line(capsys.readouterr().err, "summary.md")
+    left = {p.name for p in out.iterdir()}
+    assert left == {"summary.md", *(f"{n}.stale" for n in REPORT if n != "summary.md")}, left
+    assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT if n != "summary.md")
+
+
+@pytest.mark.parametrize("failure", ["unknown case", "interrupted"])
+def test_a_failed_run_marks_the_earlier_report_stale(tmp_path, cached_runs, capsys, monkeypatch, failure):
+    """After an exit 2 or an interrupt the directory holds no report a CI step (``if: always()``) could
+    publish as this run's: the earlier one is renamed NAME.stale."""
+    code, out = _report(tmp_path)
+    assert code == 0
+    first = {name: (out / name).read_bytes() for name in REPORT}
+    if failure == "unknown case":
+        code = main(["run", "nosuchcase", "--out", str(out), "--junit", str(out / "junit.xml")])
+        assert code == 2
+    else:
+        from harness.pipeline import matrix
+
+        def interrupt(*_a, **_k):
+            raise KeyboardInterrupt
+
+        monkeypatch.setattr(matrix, "run_case", interrupt)
+        assert _report(tmp_path)[0] == 130
+    assert sorted(p.name for p in out.iterdir()) == sorted(f"{n}.stale" for n in REPORT)
+    assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT)

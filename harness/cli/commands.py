@@ -16,6 +16,7 @@ matplotlib and sympy, when they run; the gate (``check``) never loads them.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -30,7 +31,7 @@ from harness.engine import messages
 from harness.engine.compat import unavailable_reason
 from harness.outputs import baseline
 from harness.outputs.diff import diff_runs, format_diff, load_run
-from harness.outputs.files import check_output, prepare_output, write_atomic
+from harness.outputs.files import REPORT_FILES, check_output, mark_stale, prepare_output, write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
 from harness.outputs.junit import junit_xml
 from harness.outputs.table import checks_table
@@ -39,6 +40,7 @@ from harness.pipeline.matrix import run_all
 from harness.pipeline.pool import cpus
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
+INTERRUPTED = (128 + signal.SIGINT, 128 + signal.SIGTERM)  # Ctrl-C, SIGTERM
 
 
 class _Parser(argparse.ArgumentParser):
@@ -111,11 +113,12 @@ def _check_junit(path: Path | None) -> None:
         check_output(path.parent)
 
 
-def _write_junit(path: Path | None, checks: dict[str, list[Check]]) -> list[Path]:
+def _junit(path: Path | None, checks: dict[str, list[Check]]) -> dict[Path, str]:
+    """The JUnit file to write with the command's other outputs (none without --junit)."""
     if path is None:
-        return []
+        return {}
     prepare_output(path.parent)
-    return write_atomic({path: junit_xml(checks)})
+    return {path: junit_xml(checks)}
 
 
 def _args_run(p: argparse.ArgumentParser) -> None:
@@ -129,7 +132,7 @@ def _args_run(p: argparse.ArgumentParser) -> None:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from harness.outputs.parts import report_parts  # lazy: studies and plots load sympy and matplotlib
-    from harness.outputs.report import write_report  # lazy: as above
+    from harness.outputs.report import report_files  # lazy: as above
 
     start = time.perf_counter()
     check_output(args.out)  # fail before minutes of work, not after
@@ -138,9 +141,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     results, checks, limits = run_all(selected, args.config, args.mjcf, jobs=args.jobs)
     extras, appendix, plots = report_parts(selected, results, jobs=args.jobs,
                                            studies=args.studies and args.mjcf is None)
-    paths = write_report(args.out, results, checks, config_source=limits.source, extras=extras,
+    files = report_files(args.out, results, checks, config_source=limits.source, extras=extras,
                          appendix=appendix, plots=plots)
-    paths += _write_junit(args.junit, checks)
+    prepare_output(args.out)
+    paths = write_atomic(files | _junit(args.junit, checks))  # the report and its JUnit: all or none
     print(checks_table(checks))
     print(f"wrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - start:.1f} s")
     return _exit(checks)
@@ -156,7 +160,7 @@ def _args_check(p: argparse.ArgumentParser) -> None:
 def cmd_check(args: argparse.Namespace) -> int:
     _check_junit(args.junit)
     results, checks, _ = run_all(_selected(args), args.config, args.mjcf, jobs=args.jobs, figures_only=True)
-    _write_junit(args.junit, checks)
+    write_atomic(_junit(args.junit, checks))
     if args.json:
         sys.stdout.write(dumps(json_doc(results, checks)))
     else:
@@ -323,9 +327,23 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _outputs(args: argparse.Namespace) -> list[Path]:
+    """The report files the command writes: those a failed or interrupted run marks stale."""
+    paths = [args.out / name for name in REPORT_FILES] if args.command == "run" else []
+    return paths + [p for p in (getattr(args, "junit", None), getattr(args, "html", None)) if p is not None]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     messages.keep()  # MuJoCo's own warnings: read from its counters, never printed before our one line
+    code = _main(args)
+    if code == EXIT_USAGE or code in INTERRUPTED:  # no earlier report may pass for this run's
+        mark_stale(_outputs(args))
+    return code
+
+
+def _main(args: argparse.Namespace) -> int:
+    """The command, its errors as one line on stderr and their exit code."""
     try:
         with sigterm_as_interrupt():
             return COMMANDS[args.command].run(args)

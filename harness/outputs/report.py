@@ -28,7 +28,7 @@ import numpy as np
 from harness.core import VERSION as __version__
 from harness.core.checks import Check
 from harness.outputs.equations import equations, png_data_uri
-from harness.outputs.files import prepare_output, write_atomic
+from harness.outputs.files import REPORT_FILES, prepare_output, write_atomic
 from harness.outputs.jsondoc import render_json, versions
 from harness.outputs.plots import section_plots, shipped_integrator
 from harness.outputs.stills import Request, Still, stills
@@ -324,16 +324,23 @@ def audit_markdown(audit: Mapping[str, object]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_report(out: Path | str, results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+def report_files(out: Path | str, results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
                  stills: Mapping[str, Still] | None = None, config_source: str | None = None,
                  extras: Sequence[str] = (), appendix: Mapping[str, object] | None = None,
-                 plots: Mapping[str, str] | None = None) -> list[Path]:
-    """Write report.html, report.json and summary.md into ``out`` (all rendered before anything is
-    written, then moved into place). ``extras``/``appendix``: further HTML sections and JSON entries;
-    ``plots``: each case's plots, already drawn (see :func:`render_html`)."""
-    files = {"report.html": render_html(results, checks, stills=stills, config_source=config_source,
-                                        extras=extras, plots=plots),
-             "report.json": render_json(results, checks, appendix=appendix),
-             "summary.md": render_markdown(results, checks, audit=(appendix or {}).get("audit"))}  # type: ignore[arg-type]
-    out = prepare_output(out)
-    return write_atomic({out / name: text for name, text in files.items()})
+                 plots: Mapping[str, str] | None = None) -> dict[Path, str]:
+    """report.html, report.json and summary.md in ``out``, rendered, by path (:data:`REPORT_FILES`).
+    ``extras``/``appendix``: further HTML sections and JSON entries; ``plots``: each case's plots, already
+    drawn (see :func:`render_html`)."""
+    texts = (render_html(results, checks, stills=stills, config_source=config_source, extras=extras, plots=plots),
+             render_json(results, checks, appendix=appendix),
+             render_markdown(results, checks, audit=(appendix or {}).get("audit")))  # type: ignore[arg-type]
+    return {Path(out) / name: text for name, text in zip(REPORT_FILES, texts, strict=True)}
+
+
+def write_report(out: Path | str, results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]],
+                 **options) -> list[Path]:
+    """Write :func:`report_files` into ``out``: all rendered before anything is written, then the set
+    replaced as a whole or not at all (:func:`harness.outputs.files.write_atomic`)."""
+    files = report_files(out, results, checks, **options)
+    prepare_output(out)
+    return write_atomic(files)
