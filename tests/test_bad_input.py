@@ -251,3 +251,15 @@ def test_a_failed_run_marks_the_earlier_report_stale(tmp_path, cached_runs, caps
         assert _report(tmp_path)[0] == 130
     assert sorted(p.name for p in out.iterdir()) == sorted(f"{n}.stale" for n in REPORT)
     assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT)
+
+
+@pytest.mark.parametrize("args", [["list"], ["check", CASE, "--json"]])
+def test_a_closed_output_pipe_ends_the_command_quietly(args):
+    """``mjharness check | head -1``: the reader is gone before the command writes. It stops as a Unix
+    tool stopped by SIGPIPE reads in a shell (141), with nothing on stderr."""
+    proc = subprocess.Popen([sys.executable, "-m", "harness.cli", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.close()
+    err = proc.stderr.read()
+    proc.wait(timeout=300)
+    assert (proc.returncode, err) == (141, b"")

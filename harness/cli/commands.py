@@ -5,7 +5,9 @@ checks with the reason; for ``baseline --compare``, a figure regressed), 2 bad
 usage or input (unknown case, invalid MJCF or config, a model that does not fit
 its case, unwritable output). User mistakes give one line on stderr, never a
 traceback, and never a half-written file. ``diff`` is informational: 0 unless
-its input is bad (2).
+its input is bad (2). A command whose stdout is closed (``| head -1``) stops
+quietly with 141 (128 + SIGPIPE); one interrupted exits 130 (Ctrl-C) or 143
+(SIGTERM), and marks stale the report files it would have written.
 
 Each subcommand is one entry in ``COMMANDS``: a function adding its arguments
 and a ``cmd_NAME(args) -> int`` doing the work. The commands that draw
@@ -16,6 +18,7 @@ matplotlib and sympy, when they run; the gate (``check``) never loads them.
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import time
@@ -41,6 +44,7 @@ from harness.pipeline.pool import cpus
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 INTERRUPTED = (128 + signal.SIGINT, 128 + signal.SIGTERM)  # Ctrl-C, SIGTERM
+EXIT_PIPE = 128 + signal.SIGPIPE  # stdout's reader went away: what a shell reports for a tool SIGPIPE stopped
 
 
 class _Parser(argparse.ArgumentParser):
@@ -327,6 +331,17 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _discard_stdout() -> None:
+    """Send what is left of stdout (Python's buffer, written at exit) to /dev/null: its reader is gone."""
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # not a file (captured, replaced)
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, fd)
+    os.close(devnull)
+
+
 def _outputs(args: argparse.Namespace) -> list[Path]:
     """The report files the command writes: those a failed or interrupted run marks stale."""
     paths = [args.out / name for name in REPORT_FILES] if args.command == "run" else []
@@ -346,7 +361,12 @@ def _main(args: argparse.Namespace) -> int:
     """The command, its errors as one line on stderr and their exit code."""
     try:
         with sigterm_as_interrupt():
-            return COMMANDS[args.command].run(args)
+            code = COMMANDS[args.command].run(args)
+            sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+            return code
+    except BrokenPipeError:  # the reader went away (`| head -1`): stop quietly, as Unix tools do
+        _discard_stdout()
+        return EXIT_PIPE
     except SimulationDiverged as exc:
         print(f"mjharness: error: simulation diverged: {exc}", file=sys.stderr)
     except ValueError as exc:  # ConfigError, ModelError, ModelMismatch and every input check
