@@ -263,3 +263,41 @@ def test_a_closed_output_pipe_ends_the_command_quietly(args):
     err = proc.stderr.read()
     proc.wait(timeout=300)
     assert (proc.returncode, err) == (141, b"")
+
+
+# ------------------------------------------------------- baselines, reports
+def _baseline(tmp_path: Path) -> tuple[Path, dict]:
+    """The committed baseline of the case, copied: a valid document to break one entry of."""
+    doc = json.loads((MJCF.parent.parent / "reports" / "baseline" / f"{CASE}.json").read_text())
+    return tmp_path / "baseline.json", doc
+
+
+BROKEN_DOCUMENTS = [
+    ("figure entry a string", lambda d: d["cases"][CASE]["figures"].__setitem__("RK4.position", "big"),
+     "cases.pendulum.figures['RK4.position'] must be an object with a numeric 'value'", "a string 'big'"),
+    ("figure entry null", lambda d: d["cases"][CASE]["figures"].__setitem__("RK4.position", None),
+     "cases.pendulum.figures['RK4.position'] must be an object with a numeric 'value'", "got null"),
+    ("value a string", lambda d: d["cases"][CASE]["figures"]["RK4.position"].__setitem__("value", "1e-7"),
+     "cases.pendulum.figures['RK4.position'] must be an object with a numeric 'value'", "'nan', 'inf', '-inf'"),
+    ("unknown schema", lambda d: d.__setitem__("schema", 2), "has schema 2; this mjharness reads schema 1",
+     "docs/report-json.md"),
+    ("no schema", lambda d: d.pop("schema"), "has no schema number", "reads schema 1"),
+    ("check without passed", lambda d: d["cases"][CASE]["checks"]["RK4.position"].pop("passed"),
+     "cases.pendulum.checks['RK4.position'] must be an object", "boolean 'passed'"),
+    ("malformed figure name", lambda d: d["cases"][CASE]["figures"].__setitem__("RK4", {"value": 1}),
+     "cases.pendulum.figures: malformed figure name 'RK4'", "accepted:"),
+]
+
+
+@pytest.mark.parametrize("command", ["baseline", "diff"])
+@pytest.mark.parametrize("label, damage, needle, accepted", BROKEN_DOCUMENTS, ids=[b[0] for b in BROKEN_DOCUMENTS])
+def test_a_run_document_off_its_schema_is_one_line_exit_2(tmp_path, capsys, cached_runs, command, label, damage,
+                                                          needle, accepted):
+    path, doc = _baseline(tmp_path)
+    damage(doc)
+    path.write_text(json.dumps(doc))
+    args = ["baseline", CASE, "--compare", str(path)] if command == "baseline" else ["diff", str(path), str(path)]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    _one_line(err, needle)
+    assert accepted in err

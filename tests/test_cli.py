@@ -306,7 +306,7 @@ def test_baseline_write_then_compare(tmp_path, cached_runs, capsys):
 
 def test_baseline_compare_fails_on_a_case_missing_from_it(tmp_path, cached_runs, capsys):
     path = tmp_path / "baseline.json"
-    path.write_text(json.dumps({"cases": {}}))
+    path.write_text(json.dumps({"schema": 1, "cases": {}}))
     assert main(["baseline", CASE, "--compare", str(path)]) == 1
     assert "case 'pendulum' is not in the baseline" in capsys.readouterr().out
 
