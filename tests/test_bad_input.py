@@ -301,3 +301,31 @@ def test_a_run_document_off_its_schema_is_one_line_exit_2(tmp_path, capsys, cach
     err = capsys.readouterr().err
     _one_line(err, needle)
     assert accepted in err
+
+
+# ------------------------------------------------------------------ config
+def test_a_typo_for_a_case_that_is_not_run_is_refused(tmp_path, capsys, monkeypatch):
+    from harness.pipeline import matrix
+
+    monkeypatch.setattr(matrix, "run_case", lambda *a, **k: pytest.fail("ran before checking the config"))
+    config = tmp_path / "limits.toml"
+    config.write_text('[thresholds.spring]\n"RK4.positon" = 1e-6\n')
+    assert main(["check", CASE, "--config", str(config)]) == 2
+    _one_line(capsys.readouterr().err, "thresholds for case 'spring' name figure(s) it does not have ['RK4.positon']")
+
+
+@pytest.mark.parametrize("name", ["RK4.velocity", "converge.Euler.order_shortfall", "discrete.drift.energy"])
+def test_a_real_figure_of_a_case_that_is_not_run_is_accepted(tmp_path, capsys, cached_runs, name):
+    config = tmp_path / "limits.toml"
+    config.write_text(f'[thresholds.spring]\n"{name}" = 1e-6\n')
+    assert main(["check", CASE, "--config", str(config)]) == 0
+
+
+def test_every_figure_a_shipped_case_measures_is_among_its_names():
+    from harness import cases
+    from harness.pipeline.vocabulary import figure_names
+    from tests.conftest import shipped_run
+
+    for case in cases.all_cases():
+        measured = {f.name for f in shipped_run(case.name).figures}
+        assert measured <= figure_names(case), (case.name, sorted(measured - figure_names(case)))
