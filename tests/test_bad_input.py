@@ -329,3 +329,20 @@ def test_every_figure_a_shipped_case_measures_is_among_its_names():
     for case in cases.all_cases():
         measured = {f.name for f in shipped_run(case.name).figures}
         assert measured <= figure_names(case), (case.name, sorted(measured - figure_names(case)))
+
+
+def test_an_error_is_the_only_line_on_stderr_even_after_a_python_warning():
+    """On MuJoCo 3.3 the fallback for a flag it lacks is a Python warning (and in the run's settings,
+    "compat"): printed, it put lines before the error. Here a warning is raised the same way."""
+    code = ("import sys, warnings\n"
+            "from harness import cases\n"
+            "from harness.cli import commands\n"
+            "real = cases.select\n"
+            "def select(names, **kw):\n"
+            "    warnings.warn('<flag diagexact> is not in this MuJoCo: removed', stacklevel=2)\n"
+            "    return real(names, **kw)\n"
+            "cases.select = select\n"
+            "sys.exit(commands.main(['check', 'nosuchcase']))\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    _one_line(proc.stderr, "unknown case 'nosuchcase'")

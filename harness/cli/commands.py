@@ -22,6 +22,7 @@ import os
 import signal
 import sys
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -351,7 +352,9 @@ def _outputs(args: argparse.Namespace) -> list[Path]:
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     messages.keep()  # MuJoCo's own warnings: read from its counters, never printed before our one line
-    code = _main(args)
+    with warnings.catch_warnings():  # nor Python's: a MuJoCo fallback is in the run's settings ("compat")
+        warnings.simplefilter("ignore")
+        code = _main(args)
     if code == EXIT_USAGE or code in INTERRUPTED:  # no earlier report may pass for this run's
         mark_stale(_outputs(args))
     return code
