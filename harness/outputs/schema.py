@@ -30,6 +30,10 @@ def check_run(doc: object, source: str) -> dict:
     if not isinstance(doc, dict) or not isinstance(doc.get("cases"), dict):
         raise SchemaError(f"{source} is not an mjharness run (expected report.json, the output of "
                           "`mjharness check --json` or a baseline: an object with 'schema' and 'cases')")
+    for case, entry in doc["cases"].items():
+        if not isinstance(entry, dict) or not isinstance(entry.get("figures"), dict):
+            raise SchemaError(f"{source} is not an mjharness run: cases.{case} must be an object with "
+                              "'figures' (an object by figure name)")
     schema = doc.get("schema")
     if isinstance(schema, bool) or schema not in SCHEMAS:
         found = "no schema number" if "schema" not in doc else f"schema {schema!r}"
@@ -43,9 +47,7 @@ def check_run(doc: object, source: str) -> dict:
     return doc
 
 
-def _check_case(entry: object, where: str) -> None:
-    if not isinstance(entry, dict) or not isinstance(entry.get("figures"), dict):
-        raise SchemaError(f"{where} must be an object with 'figures' (an object by figure name)")
+def _check_case(entry: dict, where: str) -> None:
     for name, figure in entry["figures"].items():
         _name(name, f"{where}.figures")
         if not isinstance(figure, dict) or not _number(figure.get("value")):
