@@ -311,7 +311,7 @@ def test_a_typo_for_a_case_that_is_not_run_is_refused(tmp_path, capsys, monkeypa
     config = tmp_path / "limits.toml"
     config.write_text('[thresholds.spring]\n"RK4.positon" = 1e-6\n')
     assert main(["check", CASE, "--config", str(config)]) == 2
-    _one_line(capsys.readouterr().err, "thresholds for case 'spring' name figure(s) it does not have ['RK4.positon']")
+    _one_line(capsys.readouterr().err, "thresholds for case 'spring' name unmeasured figure(s) ['RK4.positon']")
 
 
 @pytest.mark.parametrize("name", ["RK4.velocity", "converge.Euler.order_shortfall", "discrete.drift.energy"])
@@ -346,3 +346,13 @@ def test_an_error_is_the_only_line_on_stderr_even_after_a_python_warning():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     _one_line(proc.stderr, "unknown case 'nosuchcase'")
+
+
+def test_the_python_api_checks_every_case_its_config_names(tmp_path):
+    import harness
+    from harness.core.errors import ConfigError
+
+    config = tmp_path / "limits.toml"
+    config.write_text('[thresholds.spring]\n"RK4.positon" = 1e-6\n')
+    with pytest.raises(ConfigError, match=r"case 'spring' name unmeasured figure\(s\) \['RK4.positon'\]"):
+        harness.validate(CASE, config=config)

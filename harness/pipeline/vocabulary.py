@@ -14,7 +14,7 @@ measures is in it. It needs the model alone: no derivation, no sympy.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 
 from harness.cases import Case
 from harness.core.errors import ConfigError
@@ -46,16 +46,15 @@ def figure_names(case: Case) -> frozenset[str]:
     return frozenset(names)
 
 
-def check_config(overrides: Mapping[str, Mapping[str, float]], cases: Iterable[Case], *, source: str,
-                 skip: Sequence[str] = ()) -> None:
-    """ConfigError naming the first figure of ``overrides`` (limits by case) that its case cannot have;
-    the cases in ``skip`` (those that run, judged against what they measure) are left to the verdict."""
+def check_config(overrides: Mapping[str, Mapping[str, float]], cases: Iterable[Case], *, source: str) -> None:
+    """ConfigError naming the first figure of ``overrides`` (limits by case) that its case cannot have,
+    before any case runs (a case that runs is judged against what it measured after, exactly)."""
     by_name = {c.name: c for c in cases}
     for case, limits in overrides.items():
-        if case in skip or case not in by_name:
+        if case not in by_name:
             continue
         known = figure_names(by_name[case])
         unknown = sorted(set(limits) - known)
         if unknown:
-            raise ConfigError(f"config {source}: thresholds for case {case!r} name figure(s) it does not have "
-                              f"{unknown}; its figures: {', '.join(sorted(known))}")
+            raise ConfigError(f"config {source}: thresholds for case {case!r} name unmeasured figure(s) {unknown}, "
+                              f"which it does not have; its figures: {', '.join(sorted(known))}")
