@@ -34,6 +34,7 @@ from harness.outputs.table import checks_table
 from harness.pipeline.limits import load_limits
 from harness.pipeline.run import CaseResult, run_case
 from harness.pipeline.verdict import judge
+from harness.pipeline.vocabulary import check_config
 
 __all__ = ["Validation", "ValidationFailed", "case_names", "validate"]
 
@@ -44,7 +45,8 @@ class ValidationFailed(AssertionError):
 
     def __init__(self, validation: Validation) -> None:
         self.validation = validation
-        lines = [f"{c.name} = {c.value:.3e} {c.unit} > limit {c.threshold:.3e}" for c in validation.failures]
+        lines = [f"{c.name}: {c.diverged}" if c.diverged else f"{c.name} = {c.value:.3e} {c.unit} > limit "
+                 f"{c.threshold:.3e}" for c in validation.failures]
         super().__init__(f"case {validation.case!r} ({validation.mjcf}): {len(lines)} of "
                          f"{len(validation.checks)} checks failed\n  " + "\n  ".join(lines))
 
@@ -152,6 +154,7 @@ def validate(
     if integrators is not None and not list(integrators):
         raise ValueError("integrators must name at least one integrator (None: every one)")
     shipped = load_limits(config)
+    check_config(shipped.overrides, cases.all_cases(), source=repr(str(config)))  # every case it names
     merged = shipped.for_case(chosen.name) | {str(FigureName(k)): float(v) for k, v in (limits or {}).items()}
     result = run_case(chosen, mjcf=mjcf, integrators=integrators, timestep=timestep, edit=edit)
     checks = judge(result, _restricted(merged, integrators))

@@ -1,8 +1,10 @@
 """The speed paths give the slow paths' answers: derivation cache, reused references, parallel cases.
 
 - Derivations cached on disk load as the derivation itself; a corrupt,
-  truncated or foreign entry and an unwritable cache directory fall back to
-  deriving, silently and correctly; editing a system's source changes the key.
+  truncated or foreign entry, one altered since it was written (a constant
+  changed), another system's entry in a system's slot and an unwritable cache
+  directory fall back to deriving, silently and correctly; editing a system's
+  source changes the key.
 - Numeric dynamics cached on disk (lambdify's source at the model's
   parameters) give the freshly lambdified values, per parameter values; a
   check that finds them cached never imports sympy.
@@ -29,7 +31,7 @@ from analytic import systems
 from harness import cases
 from harness.cli import commands as cli
 from harness.core import cache, costs
-from harness.core.errors import SimulationDiverged
+from harness.core.errors import ModelMismatch
 from harness.engine.models import compile_model, mjcf_path
 from harness.outputs import parts
 from harness.pipeline import matrix as runner
@@ -60,6 +62,12 @@ def _entry(root, kind: str = "derivation"):
     entries = sorted((root / kind).glob(f"{SYSTEM}-*.pickle"))
     assert len(entries) == 1, entries
     return entries[0]
+
+
+def _stored(entry, kind: str = "derivation"):
+    """The value the entry file ``entry`` holds, read through the cache (None where it is unusable)."""
+    header = cache.read_header(entry)
+    return None if header is None else cache.load(kind, SYSTEM, header["key"], object)
 
 
 def _same(a, b) -> bool:
@@ -107,7 +115,48 @@ def test_a_damaged_entry_is_recomputed_silently(cache_home, damage):
     derivations.derivation.cache_clear()
     again = derivations.derivation(SYSTEM)
     assert _same(again, good)
-    assert isinstance(pickle.loads(entry.read_bytes()), type(good))  # rewritten
+    assert isinstance(_stored(entry), type(good))  # rewritten
+
+
+def _pendulum_params() -> dict[str, float]:
+    return systems.load(SYSTEM).params_from_model(compile_model(mjcf_path(SYSTEM)))
+
+
+def _forcing(dyn, params) -> np.ndarray:
+    q, qd = np.array([[0.3, params["l"]]]), np.array([[0.7, 0.0]])
+    return dyn.forcing(q, qd)
+
+
+def test_a_stored_constant_altered_since_it_was_written_is_recomputed(cache_home):
+    """The numeric code is lambdify's source with the parameter values in it: an entry whose g was
+    changed still unpickles and runs, and would give a wrong reference on every run. Its checksum
+    no longer matches, so it is made anew and stored over."""
+    params = _pendulum_params()
+    good = _forcing(derivations.dynamics(SYSTEM, params), params)
+    entry = _entry(cache_home, "dynamics")
+    data = entry.read_bytes()
+    g = repr(params["g"]).encode()
+    assert g == b"9.81" and data.count(g) >= 1
+    entry.write_bytes(data.replace(g, b"9.18"))  # same length: the pickle stays valid
+    assert pickle.loads(entry.read_bytes().partition(b"\n")[2])  # still loads as a pickle
+    _clear()
+    assert np.array_equal(_forcing(derivations.dynamics(SYSTEM, params), params), good)
+    assert entry.read_bytes() == data  # stored over with the right value
+
+
+def test_another_systems_entry_in_a_systems_slot_is_recomputed(cache_home):
+    """An entry copied into another system's slot holds that other system; its header says so, and the
+    slot's own system is made anew instead of being served the wrong one (or a confusing error)."""
+    params = _pendulum_params()
+    spring = systems.load("spring").params_from_model(compile_model(mjcf_path("spring")))
+    derivations.dynamics(SYSTEM, params)
+    own = derivations.dynamics("spring", spring)
+    (slot,) = (cache_home / "dynamics").glob("spring-*.pickle")
+    slot.write_bytes(_entry(cache_home, "dynamics").read_bytes())
+    _clear()
+    again = derivations.dynamics("spring", spring)
+    assert again.coordinates == own.coordinates != derivations.dynamics(SYSTEM, params).coordinates
+    assert cache.read_header(slot)["name"] == "spring"
 
 
 def test_an_unwritable_cache_still_derives(cache_home):
@@ -157,10 +206,11 @@ def test_stored_numeric_code_that_does_not_run_is_made_anew(cache_home):
     params = systems.load(SYSTEM).params_from_model(compile_model(mjcf_path(SYSTEM)))
     good = derivations.dynamics(SYSTEM, params)
     entry = _entry(cache_home, "dynamics")
-    compiled = pickle.loads(entry.read_bytes())
+    compiled = _stored(entry, "dynamics")
     broken = [(n, src.replace("numpy.sin", "numpy.no_such_function"), r, c) for n, src, r, c in compiled.functions]
     assert broken != list(compiled.functions)
-    entry.write_bytes(pickle.dumps(Compiled(**{**vars(compiled), "functions": tuple(broken)})))
+    assert cache.store("dynamics", SYSTEM, cache.read_header(entry)["key"],  # a valid entry: its code fails
+                       Compiled(**{**vars(compiled), "functions": tuple(broken)}))
     _clear()
     again = derivations.dynamics(SYSTEM, params)
     q = np.array([[0.3, params["l"]]])
@@ -246,13 +296,13 @@ def test_a_failing_case_in_a_pool_is_the_one_line_exit_2(monkeypatch, capsys):
 
     def run_case(case, **kw):  # the forked workers inherit this
         if case.name == "atwood":
-            raise SimulationDiverged("MuJoCo warnings ['mjWARN_BADQACC'] at t=0.25 s")
+            raise ModelMismatch("model has no equality 'string1'")
         return real(case, **kw)
 
     monkeypatch.setattr(runner, "run_case", run_case)
     assert cli.main(["check", "spring", "atwood", "--jobs", "2"]) == 2
     err = capsys.readouterr().err
-    assert err.strip() == "mjharness: error: simulation diverged: MuJoCo warnings ['mjWARN_BADQACC'] at t=0.25 s"
+    assert err.strip() == "mjharness: error: model has no equality 'string1'"
 
 
 def test_the_progress_bar_counts_cases_done_in_workers(monkeypatch):

@@ -22,6 +22,7 @@ from harness.budget.trajectory import Runs, budgets, every_nth, past_asymptotic
 from harness.cases import Series
 from harness.core.budget import Budget
 from harness.core.deviation import Deviation
+from harness.core.errors import SimulationDiverged
 from harness.core.figures import FigureName
 from harness.core.trajectory import Trajectory
 from harness.engine import variants as V
@@ -125,58 +126,78 @@ def _variant_run(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, mode
     return _deviations(target, every_nth(sim, split), name)
 
 
+def _floors(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, sims: Mapping[str, Trajectory],
+            bodies: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """D − A per figure measure: the point masses' floors doubled, run once with the most accurate
+    integrator (a floor moves an explicit integrator's error too: a ball joint's spin carries the floor
+    alone), shared by every integrator: a floor is physics, not integration."""
+    name = "RK4" if "RK4" in sims else next(iter(sims))
+    steps = len(sims[name].t) - 1
+    model = mut.compile(integrator=name)
+    exact = None if V.solver_converges(model) else V.converged_solver(model)
+    heavier = simulate(mut.compile(integrator=name, variant=V.compose(exact, V.heavier_floors(bodies))),
+                       probe, q0=target.q0, qd0=target.qd0, steps=steps)
+    base = sims[name] if exact is None else simulate(mut.compile(integrator=name, variant=exact), probe,
+                                                     q0=target.q0, qd0=target.qd0, steps=steps)
+    as_is = {d.name.measure: d.values for d in _deviations(target, base, name)}
+    return {d.name.measure: d.values - as_is[d.name.measure] for d in _deviations(target, heavier, name)}
+
+
+def _integrator_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, sim: Trajectory, name: str, *,
+                     order: float, settings: Settings, floors: Mapping[str, np.ndarray] | None) -> Runs:
+    model = mut.compile(integrator=name)
+    steps = len(sim.t) - 1
+    eps = V.softness_factor(model)
+    slow = V.TIMECONST_FACTOR
+    levels = (eps, eps * eps) if eps < 1 else (eps,)
+
+    def run(split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0) -> list[Deviation]:
+        return _variant_run(mut, probe, target, model, steps=steps, split=split, eps_factor=eps_factor,
+                            tc_factor=tc_factor)
+
+    as_is = _deviations(target, sim, name)
+    half_step = run(2)
+    converged = None if V.solver_converges(model) else run()
+    asymptotic = not past_asymptotic(converged or as_is, half_step, order) and V.steps_per_timeconst(model) <= 0.5
+    return Runs(
+        as_is=as_is,
+        half_step=half_step,
+        converged=converged,
+        quarter_step=None if asymptotic else run(4),
+        softness=tuple(run(1, f) for f in levels) if settings.soft else (),
+        softness_half_step=run(2, eps) if settings.soft else None,
+        slower=tuple(run(1, f, slow) for f in (1.0, *levels)) if settings.contacts else (),
+        floors=floors,
+        eps_factor=eps, tc_factor=slow,
+    )
+
+
 def trajectory_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, sims: Mapping[str, Trajectory],
-                    *, orders: Mapping[str, float]) -> dict[str, Runs]:
+                    *, orders: Mapping[str, float]) -> tuple[dict[str, Runs], dict[str, str]]:
     """Every integrator's :class:`~harness.budget.trajectory.Runs`: ``sims`` (the runs at the model's
     settings, by integrator) and the variants, each run from the same state over the same horizon; an
-    integrator past the asymptotic range (at its documented order in ``orders``) also at h/4."""
+    integrator past the asymptotic range (at its documented order in ``orders``) also at h/4. The second
+    result says, by integrator, why its budget could not be made (a variant run that diverged: then its
+    figures cannot be judged, and fail with that reason)."""
     runs: dict[str, Runs] = {}
-    floors: dict[str, np.ndarray] | None = None
-    first = next(iter(sims))
-    settings = Settings.of(mut.compile(integrator=first), target.scales)
-    if settings.point_masses:  # physics, not integration: one run serves every integrator, the most accurate
-        # one's (a floor moves an explicit integrator's error too: a ball joint's spin carries the floor alone)
-        floor_integrator = "RK4" if "RK4" in sims else first
-        steps = len(sims[floor_integrator].t) - 1
-        floor_model = mut.compile(integrator=floor_integrator)
-        exact = None if V.solver_converges(floor_model) else V.converged_solver(floor_model)
-        heavier = simulate(mut.compile(integrator=floor_integrator,
-                                       variant=V.compose(exact, V.heavier_floors(settings.point_masses))),
-                           probe, q0=target.q0, qd0=target.qd0, steps=steps)
-        base = sims[floor_integrator] if exact is None else simulate(
-            mut.compile(integrator=floor_integrator, variant=exact), probe, q0=target.q0, qd0=target.qd0, steps=steps)
-        as_is = {d.name.measure: d.values for d in _deviations(target, base, floor_integrator)}
-        floors = {d.name.measure: d.values - as_is[d.name.measure]
-                  for d in _deviations(target, heavier, floor_integrator)}
+    failed: dict[str, str] = {}
+    if not sims:
+        return runs, failed
+    settings = Settings.of(mut.compile(integrator=next(iter(sims))), target.scales)
+    floors = None
+    if settings.point_masses:
+        try:
+            floors = _floors(mut, probe, target, sims, settings.point_masses)
+        except SimulationDiverged as exc:
+            return runs, {name: f"the budget's run with the point masses' floors doubled {exc.reason}"
+                          for name in sims}
     for name, sim in sims.items():
-        model = mut.compile(integrator=name)
-        steps = len(sim.t) - 1
-        eps = V.softness_factor(model)
-        slow = V.TIMECONST_FACTOR
-        levels = (eps, eps * eps) if eps < 1 else (eps,)
-
-        def run(split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0, *, model: mujoco.MjModel = model,
-                steps: int = steps) -> list[Deviation]:
-            return _variant_run(mut, probe, target, model, steps=steps, split=split, eps_factor=eps_factor,
-                                tc_factor=tc_factor)
-
-        as_is = _deviations(target, sim, name)
-        half_step = run(2)
-        soft, contacts = settings.soft, settings.contacts
-        converged = None if V.solver_converges(model) else run()
-        runs[name] = Runs(
-            as_is=as_is,
-            half_step=half_step,
-            converged=converged,
-            quarter_step=run(4) if past_asymptotic(converged or as_is, half_step, orders[name])
-            or V.steps_per_timeconst(model) > 0.5 else None,
-            softness=tuple(run(1, f) for f in levels) if soft else (),
-            softness_half_step=run(2, eps) if soft else None,
-            slower=tuple(run(1, f, slow) for f in (1.0, *levels)) if contacts else (),
-            floors=floors,
-            eps_factor=eps, tc_factor=slow,
-        )
-    return runs
+        try:
+            runs[name] = _integrator_runs(mut, probe, target, sim, name, order=orders[name], settings=settings,
+                                          floors=floors)
+        except SimulationDiverged as exc:
+            failed[name] = f"a run of its budget (a variant at h/2, h/4 or softer) {exc.reason}"
+    return runs, failed
 
 
 def trajectory_budget(runs: Mapping[str, Runs], *, orders: Mapping[str, float], rtol: float,

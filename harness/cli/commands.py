@@ -1,10 +1,12 @@
 """``mjharness``: a thin argparse layer over pure functions.
 
 Exit codes (:data:`EXIT_CODES`, printed by ``--help`` and a bare ``mjharness``): 0 all checks pass,
-1 a check fails (or, for ``baseline --compare``, a figure regressed), 2 bad usage or input (unknown
-case, invalid MJCF or config, a model that does not fit its case, unwritable output, diverging
-simulation). User mistakes give one line on stderr, never a traceback, and never a half-written file.
-``diff`` is informational: 0 unless its input is bad (2).
+1 a check fails (a run that diverged fails its checks with the reason; for ``baseline --compare``, a
+figure regressed), 2 bad usage or input (unknown case, invalid MJCF or config, a model that does not
+fit its case, unwritable output). User mistakes give one line on stderr, never a traceback, and never a
+half-written file. ``diff`` is informational: 0 unless its input is bad (2). A command whose stdout is
+closed (``| head -1``) stops quietly with 141 (128 + SIGPIPE); one interrupted exits 130 (Ctrl-C) or
+143 (SIGTERM), and marks stale the report files it would have written.
 
 ``run`` and ``check`` print every check, then the failures again and a verdict line last, where a
 person sees it without scrolling; ``--quiet`` prints the failures and the verdict only.
@@ -18,9 +20,12 @@ matplotlib and sympy, when they run; the gate (``check``) never loads them.
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
 import textwrap
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,10 +34,12 @@ from harness import cases
 from harness.core import VERSION
 from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
+from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
+from harness.engine import messages
 from harness.engine.compat import unavailable_reason
 from harness.outputs import baseline
 from harness.outputs.diff import diff_runs, format_diff, load_run
-from harness.outputs.files import check_output, prepare_output, write_atomic
+from harness.outputs.files import REPORT_FILES, check_output, mark_stale, prepare_output, write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
 from harness.outputs.junit import junit_xml
 from harness.outputs.table import checks_table, failures_table, verdict_line
@@ -42,10 +49,15 @@ from harness.pipeline.pool import cpus
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 EXIT_CODES = {EXIT_OK: "every check passes",
-              EXIT_FAIL: "a check fails (baseline --compare: a figure regressed or a case is missing; "
-                         "converge: an order falls short)",
+              EXIT_FAIL: "a check fails, a run diverged included (baseline --compare: a figure regressed or a "
+                         "case is missing; converge: an order falls short)",
               EXIT_USAGE: "bad usage or input: unknown case, unreadable or invalid MJCF or config, a model "
-                          "that does not fit its case, a diverging simulation, an unwritable output"}
+                          "that does not fit its case, an unwritable output",
+              141: "stdout closed (| head): stopped quietly",
+              130: "interrupted (Ctrl-C); 143: terminated (SIGTERM); the report files it would have written "
+                   "are marked stale"}
+INTERRUPTED = (128 + signal.SIGINT, 128 + signal.SIGTERM)  # Ctrl-C, SIGTERM
+EXIT_PIPE = 128 + signal.SIGPIPE  # stdout's reader went away: what a shell reports for a tool SIGPIPE stopped
 
 
 class _Parser(argparse.ArgumentParser):
@@ -131,11 +143,12 @@ def _check_junit(path: Path | None) -> None:
         check_output(path.parent)
 
 
-def _write_junit(path: Path | None, checks: dict[str, list[Check]]) -> list[Path]:
+def _junit(path: Path | None, checks: dict[str, list[Check]]) -> dict[Path, str]:
+    """The JUnit file to write with the command's other outputs (none without --junit)."""
     if path is None:
-        return []
+        return {}
     prepare_output(path.parent)
-    return write_atomic({path: junit_xml(checks)})
+    return {path: junit_xml(checks)}
 
 
 def _args_run(p: argparse.ArgumentParser) -> None:
@@ -150,7 +163,7 @@ def _args_run(p: argparse.ArgumentParser) -> None:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from harness.outputs.parts import report_parts  # lazy: studies and plots load sympy and matplotlib
-    from harness.outputs.report import write_report  # lazy: as above
+    from harness.outputs.report import report_files  # lazy: as above
 
     start = time.perf_counter()
     check_output(args.out)  # fail before minutes of work, not after
@@ -159,9 +172,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     results, checks, limits = run_all(selected, args.config, args.mjcf, jobs=args.jobs)
     extras, appendix, plots = report_parts(selected, results, jobs=args.jobs,
                                            studies=args.studies and args.mjcf is None)
-    paths = write_report(args.out, results, checks, config_source=limits.source, extras=extras,
+    files = report_files(args.out, results, checks, config_source=limits.source, extras=extras,
                          appendix=appendix, plots=plots)
-    paths += _write_junit(args.junit, checks)
+    prepare_output(args.out)
+    paths = write_atomic(files | _junit(args.junit, checks))  # the report and its JUnit: all or none
     _print_checks(checks, quiet=args.quiet,
                   written=f"wrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - start:.1f} s")
     return _exit(checks)
@@ -178,7 +192,7 @@ def _args_check(p: argparse.ArgumentParser) -> None:
 def cmd_check(args: argparse.Namespace) -> int:
     _check_junit(args.junit)
     results, checks, _ = run_all(_selected(args), args.config, args.mjcf, jobs=args.jobs, figures_only=True)
-    _write_junit(args.junit, checks)
+    write_atomic(_junit(args.junit, checks))
     if args.json:
         sys.stdout.write(dumps(json_doc(results, checks)))
     else:
@@ -409,23 +423,58 @@ def _version() -> str:
     return f"mjharness {VERSION} (MuJoCo {mujoco.__version__}, Python {sys.version.split()[0]})"
 
 
+def _discard_stdout() -> None:
+    """Send what is left of stdout (Python's buffer, written at exit) to /dev/null: its reader is gone."""
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # not a file (captured, replaced)
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, fd)
+    os.close(devnull)
+
+
+def _outputs(args: argparse.Namespace) -> list[Path]:
+    """The report files the command writes: those a failed or interrupted run marks stale."""
+    paths = [args.out / name for name in REPORT_FILES] if args.command == "run" else []
+    return paths + [p for p in (getattr(args, "junit", None), getattr(args, "html", None)) if p is not None]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = _parser()
     if not (sys.argv[1:] if argv is None else list(argv)):  # a bare `mjharness`: what it can do
         parser.print_help()
         return EXIT_USAGE
     args = parser.parse_args(argv)
+    messages.keep()  # MuJoCo's own warnings: read from its counters, never printed before our one line
+    with warnings.catch_warnings():  # nor Python's: a MuJoCo fallback is in the run's settings ("compat")
+        warnings.simplefilter("ignore")
+        code = _main(args)
+    if code == EXIT_USAGE or code in INTERRUPTED:  # no earlier report may pass for this run's
+        mark_stale(_outputs(args))
+    return code
+
+
+def _main(args: argparse.Namespace) -> int:
+    """The command, its errors as one line on stderr and their exit code."""
     try:
-        return COMMANDS[args.command].run(args)
+        with sigterm_as_interrupt():
+            code = COMMANDS[args.command].run(args)
+            sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+            return code
+    except BrokenPipeError:  # the reader went away (`| head -1`): stop quietly, as Unix tools do
+        _discard_stdout()
+        return EXIT_PIPE
     except SimulationDiverged as exc:
         print(f"mjharness: error: simulation diverged: {exc}", file=sys.stderr)
     except ValueError as exc:  # ConfigError, ModelError, ModelMismatch and every input check
         print(f"mjharness: error: {' '.join(str(exc).split())}", file=sys.stderr)
     except OSError as exc:
         print(f"mjharness: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "), file=sys.stderr)
-    except KeyboardInterrupt:
-        print("mjharness: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (harness.core.lifetime.Terminated)
+        print("mjharness: terminated (SIGTERM)" if isinstance(exc, Terminated) else "mjharness: interrupted",
+              file=sys.stderr)
+        return exit_code(exc)
     return EXIT_USAGE
 
 

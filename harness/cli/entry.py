@@ -16,6 +16,7 @@ Library use (``from harness import ...``, tests) goes through neither.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import os
 import sys
@@ -39,8 +40,9 @@ def import_mujoco_without_gl() -> None:
 def exit_now(code: int) -> None:
     """Exit with ``code`` after flushing Python's and C's output buffers, without teardown. MuJoCo
     writes its warnings with C's printf, which a pipe (a CI log) buffers apart from Python."""
-    sys.stdout.flush()
-    sys.stderr.flush()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError):  # a reader gone since: nothing left to tell it
+            stream.flush()
     ctypes.CDLL(None).fflush(None)  # every C stdio stream
     os._exit(code)
 

@@ -16,11 +16,19 @@ and the parameter values), the sympy and Python versions and :data:`FORMAT`.
 Editing a system, the Lagrangian machinery or upgrading sympy changes the key,
 so a stale entry is never read; old entries are simply left behind.
 
+An entry is a one-line JSON header, then the pickled value. The header names
+what the entry holds (its kind, its system's name and the full key) and the
+SHA-256 of the pickled bytes, so an entry whose bytes changed since they were
+written (a constant altered in lambdify's source still unpickles, and would
+give a wrong reference on every run) or that holds another entry's value (a
+file copied into another system's slot) is never used.
+
 The cache is an optimisation only: an entry that cannot be read (missing,
-corrupt, truncated, of the wrong type) or used (see :func:`cached`) is recomputed, and a directory that
-cannot be written is skipped, both silently, because the recomputed value is
-the correct one. Entries are written to a temporary file and renamed into
-place, so concurrent writers never leave a half-written entry.
+corrupt, truncated, altered, another's, of the wrong type) or used (see
+:func:`cached`) is recomputed and stored over, and a directory that cannot be
+written is skipped, both silently, because the recomputed value is the
+correct one. Entries are written to a temporary file and renamed into place,
+so concurrent writers never leave a half-written entry.
 ``MJHARNESS_NO_CACHE=1`` turns the cache off.
 """
 
@@ -29,6 +37,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import importlib.util
+import json
 import os
 import pickle
 import sys
@@ -41,7 +50,7 @@ from typing import TypeVar
 T = TypeVar("T")
 R = TypeVar("R")
 
-FORMAT = "1"  # bump when what is pickled changes shape
+FORMAT = "2"  # bump when what is stored changes shape (2: a header with identity and checksum)
 
 
 def cache_dir() -> Path | None:
@@ -109,14 +118,37 @@ def has(kind: str, name: str, digest: str) -> bool:
     return path is not None and path.is_file()
 
 
+def _identity(kind: str, name: str, digest: str, payload: bytes) -> dict[str, str]:
+    """What an entry's header says: what it holds, and the checksum of its pickled bytes."""
+    return {"format": FORMAT, "kind": kind, "name": name, "key": digest,
+            "sha256": hashlib.sha256(payload).hexdigest()}
+
+
+def _entry_bytes(kind: str, name: str, digest: str, payload: bytes) -> bytes:
+    return json.dumps(_identity(kind, name, digest, payload), sort_keys=True).encode() + b"\n" + payload
+
+
+def read_header(path: Path) -> dict | None:
+    """The header of the entry stored at ``path`` (None if there is none that reads)."""
+    try:
+        with path.open("rb") as fh:
+            header = json.loads(fh.readline())
+    except (OSError, ValueError):
+        return None
+    return header if isinstance(header, dict) else None
+
+
 def load(kind: str, name: str, digest: str, expected: type) -> object | None:
-    """The entry, or None when it is absent or unusable for any reason."""
+    """The entry, or None when it is absent, not the entry of (kind, name, digest), altered since it was
+    written, or unusable for any other reason."""
     path = _path(kind, name, digest)
     if path is None:
         return None
     try:
-        with path.open("rb") as fh:
-            value = pickle.load(fh)
+        head, _, payload = path.read_bytes().partition(b"\n")
+        if json.loads(head) != _identity(kind, name, digest, payload):
+            return None  # another entry's, or bytes changed since they were written
+        value = pickle.loads(payload)
     except Exception:  # missing, unreadable, truncated, corrupt, from an incompatible version
         return None
     return value if isinstance(value, expected) else None
@@ -150,7 +182,7 @@ def store(kind: str, name: str, digest: str, value: object, *, seconds: float | 
         data = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
     except Exception:  # a value that does not pickle
         return False
-    stored = write_atomic(path, data)
+    stored = write_atomic(path, _entry_bytes(kind, name, digest, data))
     if stored and seconds is not None:
         write_atomic(path.with_suffix(".seconds"), f"{seconds:.6f}".encode())
     return stored

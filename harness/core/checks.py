@@ -33,8 +33,8 @@ class Check:
             (harness.engine.compat.KNOWN_DEFECTS): still a failure, shown with the reason; a run passes
             the gate despite it only where the user accepts known defects (:func:`gate`).
         budget: the figure's error budget, where it is judged by one.
-        reason: why the check failed where the numbers alone do not say (a diverged run, a MuJoCo
-            warning).
+        diverged: non-empty where the run the figure comes from could not be measured ("diverged:
+            mjWARN_BADQACC at t = 0.25 s"): a failure with that reason and no number.
     """
 
     case: str
@@ -45,7 +45,7 @@ class Check:
     note: str = ""
     known: str = ""
     budget: Budget | None = None
-    reason: str = ""
+    diverged: str = ""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "name", FigureName(self.name))
@@ -59,7 +59,13 @@ class Check:
     def passed(self) -> bool:
         if self.note:
             return True
-        return not self.known and not self.reason and math.isfinite(self.judged) and self.judged <= self.threshold
+        return not self.known and not self.diverged and math.isfinite(self.judged) and self.judged <= self.threshold
+
+    @property
+    def reason(self) -> str:
+        """What a verdict says beside its status: why it is n/a, the known defect, or why the run could
+        not be measured ('' if none)."""
+        return self.note or self.known or self.diverged
 
     @property
     def status(self) -> str:

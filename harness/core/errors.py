@@ -22,4 +22,17 @@ class ModelMismatch(ValueError):
 
 
 class SimulationDiverged(RuntimeError):
-    """MuJoCo produced non-finite values or raised warnings (instability)."""
+    """MuJoCo produced non-finite values or raised warnings (instability): ``what`` (the warnings' names,
+    e.g. ``mjWARN_BADQACC``) at time ``t``. A finding, never a number: :attr:`reason` is the verdict a
+    run that raised it gets ("diverged: mjWARN_BADQACC at t = 0.25 s")."""
+
+    def __init__(self, what: str, t: float) -> None:
+        super().__init__(f"{what} at t = {t:.6g} s")
+        self.what, self.t = what, float(t)
+
+    def __reduce__(self):  # pickled with its parts (a worker sends it to the parent)
+        return (type(self), (self.what, self.t))
+
+    @property
+    def reason(self) -> str:
+        return f"diverged: {self}"

@@ -2,11 +2,15 @@
 
 Paths resolve from the installed ``mjcf`` package, never the working
 directory, so editable and regular installs behave the same. Settings are
-changed through ``mujoco.MjSpec``, never by editing XML text.
+changed through ``mujoco.MjSpec``, never by editing XML text. A compiled model
+is checked before it is returned (:mod:`harness.engine.validity`): a model
+with a non-finite number, a timestep that is not positive or a solref mixing
+its formats is a :class:`ModelError` naming the attribute.
 """
 
 from __future__ import annotations
 
+import stat
 from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
@@ -16,6 +20,7 @@ import mujoco
 from harness.core.errors import ModelError
 from harness.engine.compat import after_compile, spec_from_file
 from harness.engine.integrators import integrator_enum
+from harness.engine.validity import InvalidModel, check_model, check_spec
 
 
 def mjcf_path(name: str) -> Path:
@@ -29,7 +34,7 @@ def mjcf_path(name: str) -> Path:
 def load_spec(path: Path | str) -> mujoco.MjSpec:
     path = Path(path)
     if not path.is_file():
-        raise ModelError(f"cannot read MJCF {str(path)!r}: no such file")
+        raise ModelError(f"cannot read MJCF {str(path)!r}: {_not_a_file(path)}; accepted: an MJCF (XML) file")
     try:
         return spec_from_file(str(path))  # MjSpec.from_file, with fallbacks for an older MuJoCo
     except Exception as exc:  # MuJoCo raises ValueError with the parser's message
@@ -57,9 +62,32 @@ def compile_model(
     try:
         model = spec.compile()
     except Exception as exc:
+        try:
+            check_spec(spec)  # what a MuJoCo that fails on it while compiling does not name
+        except InvalidModel as invalid:
+            raise ModelError(f"invalid MJCF {str(path)!r}: {invalid}") from None
         raise ModelError(f"invalid MJCF {str(path)!r}: {_one_line(exc)}") from None
+    try:
+        check_model(model)
+    except InvalidModel as exc:
+        raise ModelError(f"invalid MJCF {str(path)!r}: {exc}") from None
     after_compile(model, str(path))  # fallbacks for an older MuJoCo (harness.compat)
     return model
+
+
+def _not_a_file(path: Path) -> str:
+    """What ``path``, which is not a regular file, is instead."""
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        return "no such file"
+    except OSError as exc:
+        return exc.strerror or "cannot be read"
+    if stat.S_ISDIR(mode):
+        return "it is a directory"
+    kinds = {stat.S_ISCHR: "a character device", stat.S_ISBLK: "a block device", stat.S_ISFIFO: "a pipe",
+             stat.S_ISSOCK: "a socket"}
+    return f"it is {next((k for test, k in kinds.items() if test(mode)), 'not a regular file')}, not a file"
 
 
 def _one_line(exc: Exception) -> str:

@@ -143,7 +143,7 @@ def _block(model: mujoco.MjModel, data: mujoco.MjData, name: str) -> tuple[np.nd
 def _check_warnings(counts: np.ndarray, time: float) -> None:
     raised = [mujoco.mjtWarning(i).name for i in range(len(counts)) if counts[i] > 0]
     if raised:
-        raise SimulationDiverged(f"MuJoCo warnings {raised} at t={time:.6g} s")
+        raise SimulationDiverged(", ".join(raised), time)
 
 
 # ---------------------------------------------------------------- recorded run
@@ -393,23 +393,33 @@ def _forward_all(model: mujoco.MjModel, data: mujoco.MjData, states: np.ndarray,
         into[f][...] = np.asarray(v).reshape(into[f].shape)
 
 
-def _step(b: _batch.Batch, nstep: int, record: Sequence, out: dict) -> None:
-    """``nstep`` steps of batch ``b``'s one simulation, recording into ``out``; SimulationDiverged on an
-    error or a warning (after which the rollout stopped stepping and its records repeat the last state)."""
+def _step(b: _batch.Batch, nstep: int, record: Sequence, out: dict, states: np.ndarray) -> None:
+    """``nstep`` steps of batch ``b``'s one simulation, recording into ``out`` (``states``: the recorded
+    states, the first step's start included); SimulationDiverged on an error or a warning, at the time of
+    the state it was raised at, as the loop recorder reads it (:func:`_warning_time`)."""
     try:
         b.rollout(nstep, record=record, out=out)
     except _batch.SimulationError as exc:
-        raise SimulationDiverged(f"MuJoCo raised an error: {exc}") from None
+        raise SimulationDiverged(f"MuJoCo error {' '.join(str(exc).split())!r}", _warning_time(states)) from None
     counts = b.warning[0, :, 1]
     if counts.max() > 0:
-        _check_warnings(counts, float(b.state[0, 0]))
+        _check_warnings(counts, _warning_time(states))
+
+
+def _warning_time(states: np.ndarray) -> float:
+    """The time of the state a rollout's warning was raised at. MuJoCo resets the data in that step (and
+    steps on from time 0), then the rollout stops and its records repeat the step's result: the warning's
+    state is the one before the first repeated record (the last but one where nothing repeats)."""
+    repeated = np.flatnonzero((states[1:] == states[:-1]).all(axis=1))
+    after = int(repeated[0]) if repeated.size else len(states) - 1
+    return float(states[max(after - 1, 0), 0])
 
 
 def _rollout(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record, steps: int) -> None:
     """States 1..steps and the fields mj_step computed at states 0..steps−1, into ``rec``."""
     b = _take_batch(model, data)
     b.state[0] = rec.states[0]
-    _step(b, steps, [_STATE, *rec.fields], rec.out(0, steps, with_fields=True))
+    _step(b, steps, [_STATE, *rec.fields], rec.out(0, steps, with_fields=True), rec.states)
     _give_back_batch(model, b)  # not after an error: its warning counters would stop the next run
 
 
@@ -450,7 +460,7 @@ def _rollout_recomputed(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record
     b = _take_batch(model, data)
     b.state[0] = rec.states[0]
     if _threads_allowed() < 2 or len(sizes) < 2:
-        _step(b, steps, [_STATE], rec.out(0, steps, with_fields=False))
+        _step(b, steps, [_STATE], rec.out(0, steps, with_fields=False), rec.states)
         _give_back_batch(model, b)
         _forward_all(model, data, rec.states, rec.fields)
         return
@@ -464,7 +474,8 @@ def _rollout_recomputed(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record
         with ThreadPoolExecutor(max_workers=1) as pool:
             pending = []
             for start, stop in itertools.pairwise(bounds):
-                _step(b, int(stop - start), [_STATE], rec.out(int(start), int(stop), with_fields=False))
+                _step(b, int(stop - start), [_STATE], rec.out(int(start), int(stop), with_fields=False),
+                      rec.states[int(start):int(stop) + 1])
                 pending.append(pool.submit(recompute, int(start), int(stop)))
             _give_back_batch(model, b)
             pending.append(pool.submit(recompute, steps, steps + 1))
@@ -506,7 +517,7 @@ def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
     if not np.isfinite(states.sum()):
         finite = np.isfinite(states).all(axis=1)
         if not finite.all():
-            raise SimulationDiverged(f"non-finite state at t={states[np.argmin(finite), 0]:.6g} s")
+            raise SimulationDiverged("non-finite state", float(states[np.argmin(finite), 0]))
     run = _assemble(model, probe, states, fields)
     clock = time.perf_counter()
     run.readings = _evaluate_readings(model, probe, run.t, states[:, 1:1 + model.nq],

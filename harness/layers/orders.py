@@ -164,6 +164,7 @@ class Series:
     tolerance: float = ORDER_TOLERANCE
     note: str = ""
     predicted_floor: float | None = None
+    diverged: str = ""  # the first run of the ladder that diverged ("diverged: WARNING at t = … (h = …)")
 
     @property
     def shortfall(self) -> float | None:
@@ -176,10 +177,15 @@ class Series:
 
     @property
     def passed(self) -> bool | None:
+        """False where the ladder diverged anywhere; None for a series shown for information."""
+        if self.diverged:
+            return False
         return None if self.shortfall is None else self.shortfall <= self.tolerance
 
     @property
     def verdict(self) -> str:
+        if self.diverged:
+            return self.diverged
         if self.passed is None:
             return f"n/a: {self.note}" if self.note else "info"
         if self.passed:
@@ -205,12 +211,15 @@ class ConvergenceStudy:
 
     @property
     def verdicts(self) -> tuple[Series, ...]:
-        return tuple(s for s in self.series if s.expected is not None)
+        """The gated series: those with a documented order, and an exact one whose ladder diverged."""
+        gated = VERDICT_QUANTITY[self.constrained]
+        return tuple(s for s in self.series if s.expected is not None or (s.diverged and s.quantity == gated))
 
     def known_defect(self, s: Series) -> str:
         """The documented defect of this MuJoCo that explains a failed verdict ('' if none)."""
-        return "" if s.passed is not False else known_defect(self.joints, FigureName.converge(s.integrator,
-                                                                                               "order_shortfall"))
+        if s.passed is not False or s.diverged:  # a diverged run is no defect's signature
+            return ""
+        return known_defect(self.joints, FigureName.converge(s.integrator, "order_shortfall"))
 
     @property
     def passed(self) -> bool:
@@ -361,11 +370,15 @@ def convergence_study(
     grids: dict[int, Trajectory] = {}
     force_floor = initial_force_floor(base, reference) if constrained else None
 
+    diverged: dict[str, str] = {}  # per integrator, the first run of its ladder that diverged
+
     def run(name: str, h: float, extra: Callable[[mujoco.MjSpec], None] | None) -> Trajectory | None:
         model = compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra))
         try:
             return simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=round(horizon / h))
-        except SimulationDiverged:
+        except SimulationDiverged as exc:
+            softer = " with 1 − d doubled" if extra is not None else ""
+            diverged.setdefault(name, f"{exc.reason} (h = {h:g} s{softer})")
             return None
 
     bodies = point_masses(base, scales.length)
@@ -374,8 +387,13 @@ def convergence_study(
         """How far doubling the point masses' inertia floors moves the run at ``h`` (nan: none)."""
         if not bodies:
             return math.nan
-        sim, heavy = run(name, h, None), run(name, h, heavier_floors(bodies))
-        return math.nan if sim is None or heavy is None else _point_error(sim.positions, heavy.positions)
+        try:
+            runs = [simulate(compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra)), probe,
+                             q0=reference.q0(), qd0=reference.qd0(), steps=round(horizon / h))
+                    for extra in (None, heavier_floors(bodies))]
+        except SimulationDiverged:
+            return math.nan
+        return _point_error(runs[0].positions, runs[1].positions)
 
     series: list[Series] = []
     for name in chosen:
@@ -384,7 +402,7 @@ def convergence_study(
         for h in dts:
             sim = run(name, h, None)
             soft = run(name, h, double_softness) if constrained else None
-            if sim is None or (constrained and soft is None):
+            if sim is None or (constrained and soft is None):  # the series says why (Series.diverged)
                 for v in errs.values():
                     v.append(math.nan)
                 continue
@@ -411,14 +429,16 @@ def convergence_study(
             values = tuple(errs[quantity])
             fit = fit_order(dts, values, saturation=saturation)
             note = exact
-            if quantity == gated and not exact:
-                note = explained_floor(fit, {"softness": max(errs["softness"], default=math.nan),
+            if quantity == gated and not exact and fit.n_used < 2 and fit.floor is not None:
+                softness = [v for v in errs["softness"] if math.isfinite(v)]
+                note = explained_floor(fit, {"softness": max(softness, default=math.nan),
                                              "inertia floor": floor_effect(name, dts[-1])})
             series.append(Series(
                 integrator=name, quantity=quantity, unit=unit, dts=dts, errors=values, fit=fit,
                 expected=float(EXPECTED_ORDER[name]) if quantity == gated and not note else None,
                 note=note if quantity == gated else "",
-                predicted_floor=force_floor if quantity == "force" else None))
+                predicted_floor=force_floor if quantity == "force" else None,
+                diverged=diverged.get(name, "")))
     unavailable = unavailable_integrators() if integrators is None else {}
     return ConvergenceStudy(case=case.name, horizon=horizon, fast=fast, constrained=constrained,
                             series=tuple(series), unavailable=unavailable, joints=joint_types(base))
@@ -426,9 +446,12 @@ def convergence_study(
 
 # ----------------------------------------------------------------- outputs
 def order_figures(study: ConvergenceStudy) -> list[Figure]:
-    """``converge.INTEGRATOR.order_shortfall`` = max(0, expected − observed), gated ≤ tolerance."""
+    """``converge.INTEGRATOR.order_shortfall`` = max(0, expected − observed), gated ≤ tolerance; none for a
+    series whose ladder diverged (its verdict is that reason, :attr:`Series.diverged`, never a number)."""
     figs = []
     for s in study.verdicts:
+        if s.diverged:
+            continue
         used = [f"{h * 1e3:g}" for h, st in zip(s.dts, s.fit.status, strict=True) if st == "used"]
         floor = f"; floor {s.fit.floor:.2e} {s.unit}" if s.fit.floor is not None else ""
         figs.append(Figure(

@@ -14,6 +14,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+from harness.outputs.schema import check_run
+
 
 @dataclass(frozen=True)
 class Row:
@@ -70,8 +72,9 @@ class Diff:
 
 
 def load_run(path: Path | str) -> dict:
-    """A run's JSON document; ValueError (one line) if missing, unreadable or of another shape. A
-    directory (a baseline with one file per case) is read as one document holding every case."""
+    """A run's JSON document; ValueError (one line) if missing, unreadable or not of the documented schema
+    (:func:`harness.outputs.schema.check_run`). A directory (a baseline with one file per case) is read as
+    one document holding every case."""
     path = Path(path)
     if path.is_dir():
         return _merged(path)
@@ -81,12 +84,7 @@ def load_run(path: Path | str) -> dict:
         raise ValueError(f"cannot read {str(path)!r}: {exc.strerror}") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ValueError(f"{str(path)!r} is not JSON: {exc}") from None
-    cases = doc.get("cases") if isinstance(doc, dict) else None
-    if not isinstance(cases, dict) or not all(
-            isinstance(c, dict) and isinstance(c.get("figures"), dict) for c in cases.values()):
-        raise ValueError(f"{str(path)!r} is not an mjharness run (expected report.json, the output of "
-                         "`mjharness check --json` or a baseline)")
-    return doc
+    return check_run(doc, repr(str(path)))  # the documented schema: one line naming what does not fit
 
 
 def _value(entry: object) -> float:

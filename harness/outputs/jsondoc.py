@@ -43,7 +43,8 @@ def json_doc(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]
             "passed": all(c.passed for c in cs),
             "figures": {f.name: f.as_dict() for f in r.figures},
             "checks": {c.name: {"value": c.value, "threshold": c.threshold, "unit": c.unit,
-                                "passed": c.passed, **({"note": c.note} if c.note else {})} for c in cs},
+                                "passed": c.passed, **({"note": c.note} if c.note else {}),
+                                **({"diverged": c.diverged} if c.diverged else {})} for c in cs},
             "settings": r.settings,
         }
     return doc

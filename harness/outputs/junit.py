@@ -35,6 +35,9 @@ def junit_xml(checks: Mapping[str, Sequence[Check]]) -> str:
                 ET.SubElement(tc, "skipped", message=c.note or c.known)
             elif c.passed:
                 ET.SubElement(tc, "system-out").text = figure
+            elif c.diverged:  # no figure: the run it comes from diverged
+                fail = ET.SubElement(tc, "failure", type="Diverged", message=f"{c.name}: {c.diverged}")
+                fail.text = f"{case} {c.name}: {c.diverged} (threshold {_fmt(c.threshold)} {c.unit})"
             else:
                 fail = ET.SubElement(tc, "failure", type="ThresholdExceeded",
                                      message=f"{c.name}: {figure}")

@@ -8,6 +8,8 @@ are drawn once and named together ("Euler = implicitfast = discrete (identical)"
 
 from __future__ import annotations
 
+import html
+
 import numpy as np
 
 from harness.core.plotting import HALF_WIDTH, coinciding, png_bytes, png_data_uri, pyplot, style
@@ -133,6 +135,12 @@ PLOTS = (("overlay", plot_overlay), ("errors", plot_errors), ("forces", plot_for
 
 
 def section_plots(result: CaseResult) -> str:
+    """The case's plots, of every run that did not diverge, and a note naming those that did."""
+    diverged = {run: why for run, why in result.diverged.items() if run not in result.simulations}
+    note = ("<p class='note'>Not plotted: " + "; ".join(f"{html.escape(run)} {html.escape(why)}"
+                                                        for run, why in diverged.items()) + "</p>") if diverged else ""
+    if not result.simulations:
+        return note
     drawn = [(name, fn(result)) for name, fn in PLOTS]
-    return "".join(f"<img class='plot' src='{uri}' alt='{name} plot of {result.case.name}'>"
-                   for name, uri in drawn if uri)
+    return note + "".join(f"<img class='plot' src='{uri}' alt='{name} plot of {result.case.name}'>"
+                          for name, uri in drawn if uri)

@@ -34,7 +34,7 @@ from analytic.claims.notation import latex_text
 from harness.core import VERSION as __version__
 from harness.core.checks import Check
 from harness.outputs.equations import equations, png_data_uri
-from harness.outputs.files import prepare_output, write_atomic
+from harness.outputs.files import REPORT_FILES, prepare_output, write_atomic
 from harness.outputs.jsondoc import render_json, versions
 from harness.outputs.page import table_of_contents, unbroken_numbers
 from harness.outputs.plots import section_plots, shipped_integrator
@@ -68,6 +68,11 @@ def section_banner(results: Sequence[CaseResult], checks: Mapping[str, Sequence[
     return f"<p class='banner {'fail' if failed else 'pass'}'>{_esc(verdict_line(judged))}</p>"
 
 
+def _diverged(failed: Sequence[Check]) -> str:
+    count = sum(bool(c.diverged) for c in failed)
+    return f" ({count} on a run that diverged)" if count else ""
+
+
 _HOW_TO_READ = """
 <details class='howto' open><summary>How to read this report (one minute)</summary><ul>
 <li>Every <b>check</b> is one measured <b>figure</b> beside its <b>threshold</b>; it passes when the figure
@@ -96,7 +101,8 @@ def section_summary(results: Sequence[CaseResult], checks: Mapping[str, Sequence
         tight = closest_check([c for c in cs if c.passed and not c.known])
         closest = (f"{_esc(tight.name)} <span class='dim'>({ratio_text(ratio(tight))})</span>"
                    if tight else "no passing gates" if cs else "no gates")
-        fails = "<br>".join(f"{_esc(c.name)}: {fmt_value(c.value)} &gt; {fmt_value(c.threshold)} {_esc(c.unit)}"
+        fails = "<br>".join(f"{_esc(c.name)}: {_esc(c.diverged)}" if c.diverged else
+                            f"{_esc(c.name)}: {fmt_value(c.value)} &gt; {fmt_value(c.threshold)} {_esc(c.unit)}"
                             for c in failed)
         rows.append(f"<tr class='{verdict.lower()}'><td><a href='#{_esc(r.case.name)}'>{_esc(r.case.name)}</a></td>"
                     f"<td class='verdict'>{verdict}</td><td>{len(cs) - len(failed)}/{len(cs)}</td>"
@@ -131,6 +137,8 @@ def _status(c: Check) -> str:
     """PASS / FAIL, or n/a / KNOWN DEFECT with the reason (harness.compat)."""
     if c.note:
         return f"n/a: {c.note}"
+    if c.diverged:
+        return f"FAIL, {c.diverged}"
     return f"known defect: {c.known}" if c.known else c.status.upper()
 
 
@@ -327,7 +335,7 @@ def render_markdown(results: Sequence[CaseResult], checks: Mapping[str, Sequence
     total = sum(len(checks[r.case.name]) for r in results)
     failed = [c for r in results for c in checks[r.case.name] if not c.passed]
     head = (f"**PASS**: {len(results)} case(s), all {total} checks within their thresholds" if not failed
-            else f"**FAIL**: {len(failed)} of {total} checks over their thresholds")
+            else f"**FAIL**: {len(failed)} of {total} checks over their thresholds{_diverged(failed)}")
     lines = ["# mjharness summary", "", head, "",
              "| case | verdict | checks passed | closest to its limit among those passing (used) |",
              "|---|---|---|---|"]
@@ -341,14 +349,15 @@ def render_markdown(results: Sequence[CaseResult], checks: Mapping[str, Sequence
     if failed:
         lines += ["", "## Failed checks", "", "| case | check | figure | threshold | unit |",
                   "|---|---|---|---|---|"]
-        lines += [f"| {c.case} | {c.name} | {fmt_value(c.value)} | {fmt_value(c.threshold)} | {c.unit} |"
+        lines += [f"| {c.case} | {c.name} | {c.diverged or fmt_value(c.value)} | {fmt_value(c.threshold)} | {c.unit} |"
                   for c in failed]
     lines += ["", "<details><summary>Every check</summary>", "",
               "| case | check | figure | threshold | used | verdict |", "|---|---|---|---|---|---|"]
     for r in results:
         for c in checks[r.case.name]:
             lines.append(f"| {r.case.name} | {c.name} | {fmt_value(c.value)} | {fmt_value(c.threshold)} | "
-                         f"{ratio_text(ratio(c))} | {c.status if c.passed else '**FAIL**'} |")
+                         f"{ratio_text(ratio(c))} | {c.status if c.passed else '**FAIL**'}"
+                         f"{', ' + c.diverged if c.diverged else ''} |")
     lines += ["", "</details>"]
     return "\n".join(lines) + "\n" + (audit_markdown(audit) if audit else "")
 
@@ -372,16 +381,23 @@ def audit_markdown(audit: Mapping[str, object]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_report(out: Path | str, results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+def report_files(out: Path | str, results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
                  stills: Mapping[str, Still] | None = None, config_source: str | None = None,
                  extras: Sequence[str] = (), appendix: Mapping[str, object] | None = None,
-                 plots: Mapping[str, str] | None = None) -> list[Path]:
-    """Write report.html, report.json and summary.md into ``out`` (all rendered before anything is
-    written, then moved into place). ``extras``/``appendix``: further HTML sections and JSON entries;
-    ``plots``: each case's plots, already drawn (see :func:`render_html`)."""
-    files = {"report.html": render_html(results, checks, stills=stills, config_source=config_source,
-                                        extras=extras, plots=plots),
-             "report.json": render_json(results, checks, appendix=appendix),
-             "summary.md": render_markdown(results, checks, audit=(appendix or {}).get("audit"))}  # type: ignore[arg-type]
-    out = prepare_output(out)
-    return write_atomic({out / name: text for name, text in files.items()})
+                 plots: Mapping[str, str] | None = None) -> dict[Path, str]:
+    """report.html, report.json and summary.md in ``out``, rendered, by path (:data:`REPORT_FILES`).
+    ``extras``/``appendix``: further HTML sections and JSON entries; ``plots``: each case's plots, already
+    drawn (see :func:`render_html`)."""
+    texts = (render_html(results, checks, stills=stills, config_source=config_source, extras=extras, plots=plots),
+             render_json(results, checks, appendix=appendix),
+             render_markdown(results, checks, audit=(appendix or {}).get("audit")))  # type: ignore[arg-type]
+    return {Path(out) / name: text for name, text in zip(REPORT_FILES, texts, strict=True)}
+
+
+def write_report(out: Path | str, results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]],
+                 **options) -> list[Path]:
+    """Write :func:`report_files` into ``out``: all rendered before anything is written, then the set
+    replaced as a whole or not at all (:func:`harness.outputs.files.write_atomic`)."""
+    files = report_files(out, results, checks, **options)
+    prepare_output(out)
+    return write_atomic(files)

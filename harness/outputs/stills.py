@@ -36,6 +36,7 @@ import mujoco
 import numpy as np
 
 from harness import cases
+from harness.core.lifetime import die_with_parent
 from harness.engine.bindings import JointBinding
 
 WIDTH, HEIGHT = 480, 360
@@ -210,6 +211,7 @@ def _probe_gl() -> None:
 
 
 def _child() -> int:
+    die_with_parent(os.getppid())  # a renderer outlives no command that was killed
     items = json.loads(sys.stdin.read())
     try:
         _probe_gl()

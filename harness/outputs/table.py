@@ -37,16 +37,18 @@ def ratio_text(r: float) -> str:
 
 def checks_table(checks: Mapping[str, Sequence[Check]]) -> str:
     """Every check as an aligned row, then one line counting passed, failed, n/a and known defects."""
-    rows = [(c.case, c.name, f"{c.value:.3e}", f"{c.threshold:.3e}", c.unit, ratio_text(ratio(c)),
-             f"{c.status}: {c.note or c.known}" if c.note or c.known else c.status)
+    rows = [(c.case, c.name, "—" if c.diverged else f"{c.value:.3e}", f"{c.threshold:.3e}", c.unit,
+             ratio_text(ratio(c)), f"{c.status}: {c.reason}" if c.reason else c.status)
             for cs in checks.values() for c in cs]
     header = ("case", "check", "figure", "threshold", "unit", "used", "verdict")
     failed = sum(not c.passed for cs in checks.values() for c in cs)
     total = sum(len(cs) for cs in checks.values())
     na = sum(bool(c.note) for cs in checks.values() for c in cs)
     known = sum(bool(c.known) for cs in checks.values() for c in cs)
+    diverged = sum(bool(c.diverged) for cs in checks.values() for c in cs)
     return (text_table(header, rows) + "\n"
             + f"{total - failed - na - known} passed, {failed} failed"
+            + (f" ({diverged} of them on a diverged run)" if diverged else "")
             + (f", {na} n/a (not in this MuJoCo)" if na else "")
             + (f", {known} known defect(s) of this MuJoCo" if known else ""))
 

@@ -22,6 +22,7 @@ from harness.pipeline.limits import Limits, load_limits
 from harness.pipeline.pool import cpus, fork_pool
 from harness.pipeline.run import CaseResult, run_case
 from harness.pipeline.verdict import judge
+from harness.pipeline.vocabulary import check_config
 from harness.reference import derivations
 from harness.reference import solutions as refmod
 
@@ -50,6 +51,7 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, mjcf: Path
     reference solutions (for studies).
     """
     limits = load_limits(config_path)
+    check_config(limits.overrides, cases.all_cases(), source=repr(str(config_path)))  # the cases not run too
     workers = min(jobs or cpus(), len(selected))
     bar = progress(selected, "mjharness")
     if workers <= 1 or mjcf is not None:

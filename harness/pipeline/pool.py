@@ -4,7 +4,10 @@ Workers are forked (on Linux), so they start with the parent's imports and
 with every reference solution the parent holds: forked after the cases ran,
 the studies' workers reuse the cases' solves instead of repeating them. Each
 worker runs MuJoCo on one thread (the workers, not MuJoCo's threads, share
-the cores) and ignores Ctrl-C, which is the parent's: it stops them all.
+the cores) and ignores Ctrl-C, which is the parent's: it stops them all. A
+worker dies with its parent whatever ends the parent, SIGKILL included
+(:func:`harness.core.lifetime.die_with_parent`), and a SIGTERM sent to a
+worker alone ends it.
 
 :func:`run_tasks` returns results in the order the calls were given, and
 raises a call's error once every earlier call has finished, as a serial
@@ -23,6 +26,7 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from typing import Any
 
+from harness.core.lifetime import die_with_parent
 from harness.engine import simulate
 
 
@@ -34,8 +38,10 @@ def cpus() -> int:
         return os.cpu_count() or 1
 
 
-def _worker_init() -> None:
+def _worker_init(parent: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops the workers
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler, inherited by the fork
+    die_with_parent(parent)
     simulate.set_threads(1)  # one worker per CPU: the workers, not MuJoCo's threads, share the cores
 
 
@@ -52,7 +58,8 @@ def fork_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     """
     context = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else None)
     gc.freeze()
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_worker_init)
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_worker_init,
+                               initargs=(os.getpid(),))
     try:
         yield pool
     except BaseException:

@@ -32,6 +32,7 @@ from harness.budget.measure import (
 )
 from harness.cases import Case
 from harness.core.budget import Budget
+from harness.core.errors import SimulationDiverged
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
 from harness.core.trajectory import Trajectory
@@ -78,6 +79,7 @@ class CaseResult:
     orders: Mapping[str, float] = field(default_factory=dict)
     findings: tuple[Finding, ...] = ()
     unmeasured: Mapping[str, str] = field(default_factory=dict)
+    diverged: dict[str, str] = field(default_factory=dict)  # run (INTEGRATOR, converge.INTEGRATOR) -> reason
 
     def figure(self, name: str) -> Figure:
         for f in self.figures:
@@ -185,13 +187,17 @@ def run_case(
 
     clock = time.perf_counter()
     sims: dict[str, Trajectory] = {}
+    diverged: dict[str, str] = {}  # a diverged run is a verdict of its own, never a number (pipeline.verdict)
     steps = round(case.horizon / model.opt.timestep)
     for name in chosen:
-        sims[name] = simulate(mut.compile(integrator=name), probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
+        try:
+            sims[name] = simulate(mut.compile(integrator=name), probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
+        except SimulationDiverged as exc:
+            diverged[name] = exc.reason
     timings["mujoco"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
-    grid = next(iter(sims.values())).t
+    grid = next(iter(sims.values())).t if sims else np.arange(steps + 1) * model.opt.timestep
     ref_traj = refmod.trajectory(ref, grid)
     settle, settle_note = settle_time(case, model, case.horizon)
     figures += reference_figures(ref, grid)
@@ -201,19 +207,24 @@ def run_case(
     timings["compare"] = time.perf_counter() - clock
 
     clock = time.perf_counter()  # layer 4, fast subset: observed vs documented order per integrator
-    study = convergence_study(case, fast=True, integrators=list(sims), mjcf=path, timestep=timestep, edit=edit,
-                              reference=ref)
-    figures += order_figures(study)
-    orders = {s.integrator: s.fit.order for s in study.verdicts}
-    gated = VERDICT_QUANTITY[study.constrained]
-    unmeasured = {str(FigureName.converge(s.integrator, "order_shortfall")): s.note for s in study.series
-                  if s.quantity == gated and s.expected is None and s.note}
+    orders: dict[str, float] = {}
+    unmeasured: dict[str, str] = {}
+    if sims:  # an integrator whose run diverged has no ladder: its order's verdict is that run's
+        study = convergence_study(case, fast=True, integrators=list(sims), mjcf=path, timestep=timestep,
+                                  edit=edit, reference=ref)
+        figures += order_figures(study)
+        diverged |= {f"converge.{s.integrator}": s.diverged for s in study.verdicts if s.diverged}
+        orders = {s.integrator: s.fit.order for s in study.verdicts}
+        gated = VERDICT_QUANTITY[study.constrained]
+        unmeasured = {str(FigureName.converge(s.integrator, "order_shortfall")): s.note for s in study.series
+                      if s.quantity == gated and s.expected is None and s.note and not s.diverged}
     timings["converge"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
     target = TrajectoryRuns(reference=ref_traj, scales=ref.scales, settle=settle, series=case.mujoco_series,
                             q0=ref.q0(), qd0=ref.qd0(), rtol=ref.solution.rtol)
-    runs = trajectory_runs(mut, probe, target, sims, orders=EXPECTED_ORDER)
+    runs, unbudgeted = trajectory_runs(mut, probe, target, sims, orders=EXPECTED_ORDER)
+    diverged |= {f"budget.{name}": why for name, why in unbudgeted.items()}
     settings_here = Settings.of(model, ref.scales)
     solver_tolerance = settings_here.solver_tolerance  # the runs' solver: the model's, or Newton converged
     if solver_tolerance and not variants.solver_converges(model):
@@ -251,5 +262,4 @@ def run_case(
     return CaseResult(case=case, figures=tuple(figures), reference=ref_traj, simulations=sims,
                       settings=settings, timings=timings, joints=joints, budgets=budgets,
                       defect_budgets=defect_budgets, orders={k: v for k, v in orders.items() if math.isfinite(v)},
-                      findings=findings, unmeasured=unmeasured)
-
+                      findings=findings, unmeasured=unmeasured, diverged=diverged)

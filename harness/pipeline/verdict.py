@@ -60,6 +60,10 @@ def judge(result: CaseResult, limits: Mapping[str, Limit]) -> list[Check]:
     for name, limit in limits.items():
         figure_name = FigureName(name)
         if name not in by_name:
+            why_diverged = diverged_run(name, result.diverged)
+            if why_diverged:
+                checks.append(Check(case, figure_name, math.nan, math.nan, "", diverged=why_diverged))
+                continue
             why = unavailable_reason(name) or result.unmeasured.get(name, "")
             if why:
                 checks.append(Check(case, figure_name, math.nan, math.nan, "", note=why))
@@ -72,8 +76,8 @@ def judge(result: CaseResult, limits: Mapping[str, Limit]) -> list[Check]:
         if limit.basis == "budget":
             budget = result.budgets.get(name)
             if budget is None:
-                checks.append(Check(case, figure_name, figure.value, math.nan, figure.unit,
-                                    reason="no budget was computed for this figure"))
+                why = result.diverged.get(f"budget.{figure_name.integrator}", "") or "no budget was computed"
+                checks.append(Check(case, figure_name, figure.value, math.nan, figure.unit, diverged=why))
                 continue
             check = Check(case, figure_name, figure.value, budget.limit, figure.unit, budget=budget)
         else:
@@ -86,3 +90,15 @@ def judge(result: CaseResult, limits: Mapping[str, Limit]) -> list[Check]:
         raise ConfigError(f"limits for case {case!r} name unmeasured figure(s) {sorted(unknown)}; "
                           f"measured: {', '.join(sorted(by_name))}")
     return checks
+
+
+def diverged_run(name: str, diverged: Mapping[str, str]) -> str:
+    """Why the figure ``name`` was not measured where the run it comes from diverged ('' otherwise): its
+    integrator's run over the horizon (key ``INTEGRATOR``) or, for an order, that run or its ladder's
+    (``converge.INTEGRATOR``)."""
+    figure = FigureName(name)
+    if figure.layer == "trajectory":
+        return diverged.get(figure.integrator, "")
+    if figure.layer == "converge":
+        return diverged.get(figure.integrator, "") or diverged.get(f"converge.{figure.integrator}", "")
+    return ""

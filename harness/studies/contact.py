@@ -30,6 +30,7 @@ import mujoco
 import numpy as np
 
 from harness import cases
+from harness.core.errors import SimulationDiverged
 from harness.core.plotting import FULL_WIDTH, png_bytes, pyplot
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
@@ -44,6 +45,10 @@ SOFTNESS: Mapping[str, tuple[tuple[float, ...], tuple[float, ...]] | None] = {
     "shipped": None,
     "mujoco_default": ((0.02, 1.0), (0.9, 0.95, 0.001, 0.5, 2.0)),
 }
+
+
+# a row's figures, nan where its run diverged (the row's "diverged" says why)
+DIVERGED_NAN = ("slip_max", "slip_late", "penetration", "force_error", "position", "drift.energy")
 
 
 @dataclass(frozen=True)
@@ -153,7 +158,14 @@ def contact_study(
     rows = []
     for soft, cone, imp, ns in itertools.product(softness, cones, impratios, noslip_iterations):
         model = compile_model(path, edit=_edit(cone, float(imp), int(ns), SOFTNESS[soft]))
-        sim = simulate(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
+        setting = {"softness": soft, "cone": cone, "impratio": float(imp), "noslip_iterations": int(ns),
+                   "solref": [float(x) for x in model.pair_solref[0]]}
+        try:
+            sim = simulate(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
+        except SimulationDiverged as exc:  # a finding of the sweep, never a number
+            rows.append({**setting, **dict.fromkeys(DIVERGED_NAN + tuple(f"force.{c}" for c in case.mujoco_forces),
+                                                    float("nan")), "diverged": exc.reason})
+            continue
         ref_traj = refmod.trajectory(ref, sim.t)
         figs = {f.name.removeprefix("sim."): f.value
                 for f in trajectory_figures(ref_traj, sim, ref.scales, prefix="sim", settle=case.settle,
@@ -161,8 +173,7 @@ def contact_study(
         forces = {f"force.{c}": figs[f"force.{c}"] for c in case.mujoco_forces}
         slip = sim.series["slip"]
         rows.append({
-            "softness": soft, "cone": cone, "impratio": float(imp), "noslip_iterations": int(ns),
-            "solref": [float(x) for x in model.pair_solref[0]],
+            **setting,
             "slip_max": float(np.max(np.abs(slip))),
             "slip_late": float(np.max(np.abs(slip[len(slip) // 2:]))),
             "penetration": figs.get("series.penetration", float("nan")),
@@ -178,15 +189,16 @@ def contact_study(
 
 def html_section(results: Sequence[StudyResult]) -> str:
     """The contact-settings studies as a report section: a table per case (shipped row marked) and its plot."""
-    keys = ("cone", "impratio", "noslip_iterations", "softness", "slip_late", "force_error", "position")
     parts = []
     for r in results:
+        keys = ("cone", "impratio", "noslip_iterations", "softness", "slip_late", "force_error", "position",
+                *(("diverged",) if any("diverged" in row for row in r.rows) else ()))
         shipped = r.shipped_row()
         head = "".join(f"<th>{k}</th>" for k in keys)
         rows = "".join(
             "<tr" + (" class='shipped'" if row is shipped else "") + ">"
-            + "".join(f"<td>{row[k]:.3g}</td>" if isinstance(row[k], float) else f"<td>{html.escape(str(row[k]))}</td>"
-                      for k in keys) + "</tr>" for row in r.rows)
+            + "".join(f"<td>{row[k]:.3g}</td>" if isinstance(row.get(k), float)
+                      else f"<td>{html.escape(str(row.get(k, '')))}</td>" for k in keys) + "</tr>" for row in r.rows)
         img = base64.b64encode(r.plot_png()).decode("ascii")
         parts.append(f"<section id='contact-{html.escape(r.case)}'>"
                      f"<h3>{html.escape(r.case)}: cone, impratio, noslip ({html.escape(r.integrator)}, "

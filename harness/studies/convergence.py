@@ -120,7 +120,7 @@ def plot_study(study: ConvergenceStudy) -> bytes:
 def html_section(study: ConvergenceStudy) -> str:
     """An HTML section (table + plot) for the report; self-contained (PNG as data URI)."""
     body = rows(study) + rows(study, gated=False)
-    classes = ["fail" if r[-1].startswith("FAIL") else "pass" if r[-1] == "pass" else "" for r in body]
+    classes = ["fail" if r[-1].startswith(("FAIL", "diverged")) else "pass" if r[-1] == "pass" else "" for r in body]
     img = f"<img src='{png_data_uri(study.plot_png)}' alt='convergence plot'>" if study.plot_png else ""
     gated = VERDICT_QUANTITY[study.constrained]
     return (f"<section id='converge-{study.case}'><h3>Convergence: {study.case}</h3>"

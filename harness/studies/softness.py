@@ -37,6 +37,7 @@ import mujoco
 import numpy as np
 
 from harness.cases import Case, all_cases
+from harness.core.errors import SimulationDiverged
 from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, style
 from harness.core.tables import fmt, html_table, text_table
 from harness.engine.integrators import integrator_name
@@ -71,6 +72,7 @@ class SoftnessRow:
     force_t0_doc: float
     force_settled: float
     position: float
+    diverged: str = ""  # the setting's run diverged: its reason, and nan for every measured number
 
 
 @dataclass(frozen=True)
@@ -153,11 +155,18 @@ def softness_study(case: Case, *, fast: bool = False, timeconsts: Sequence[float
     for tc in timeconsts:
         for d in impedances:
             model = compile_model(path, edit=set_softness(tc, d))
-            sim = simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps)
-            if ref_traj is None:
-                ref_traj = refmod.trajectory(reference, sim.t)
             tc_eff = max(tc, 2 * h) if refsafe else tc
             dr = float(model.eq_solref[model.equality(probe.constraints[0]).id, 1])
+            try:
+                sim = simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps)
+            except SimulationDiverged as exc:  # a finding of the sweep, never a number
+                rows.append(SoftnessRow(timeconst=tc, effective_timeconst=tc_eff, dampratio=dr, impedance=d,
+                                        violation=math.nan, violation_doc=math.nan, force_t0=math.nan,
+                                        force_t0_doc=math.nan, force_settled=math.nan, position=math.nan,
+                                        diverged=exc.reason))
+                continue
+            if ref_traj is None:
+                ref_traj = refmod.trajectory(reference, sim.t)
             force = np.max(np.abs(np.stack([sim.multipliers[c] - ref_traj.multipliers[c]
                                             for c in probe.constraints])), axis=0) / scale
             settled = sim.t >= SETTLE * tc_eff
@@ -175,6 +184,7 @@ def softness_study(case: Case, *, fast: bool = False, timeconsts: Sequence[float
 
 
 def _fit(rows: Sequence[SoftnessRow]) -> SoftnessFit | None:
+    rows = [r for r in rows if not r.diverged]
     eps = np.log([1 - r.impedance for r in rows])
     tcs = np.log([r.effective_timeconst for r in rows])
     if len(set(eps)) < 2 or len(set(tcs)) < 2:
@@ -190,16 +200,24 @@ HEADER = ("case", "timeconst [s]", "eff. [s]", "d", "violation [m]", "doc", "rat
 
 
 def table_rows(study: SoftnessStudy) -> list[tuple[str, ...]]:
+    """One row per setting; a setting whose run diverged says so where its violation would be."""
     return [(study.case, f"{r.timeconst:g}", f"{r.effective_timeconst:g}", f"{r.impedance:g}",
-             fmt(r.violation, ".2e"), fmt(r.violation_doc, ".2e"),
-             fmt(r.violation / r.violation_doc if r.violation_doc else math.nan, ".2f"),
-             fmt(r.force_t0, ".2e"), fmt(r.force_t0_doc, ".2e"), fmt(r.force_settled, ".2e"),
-             fmt(r.position, ".2e")) for r in study.rows]
+             *((r.diverged, *["-"] * 6) if r.diverged else (
+                 fmt(r.violation, ".2e"), fmt(r.violation_doc, ".2e"),
+                 fmt(r.violation / r.violation_doc if r.violation_doc else math.nan, ".2f"),
+                 fmt(r.force_t0, ".2e"), fmt(r.force_t0_doc, ".2e"), fmt(r.force_settled, ".2e"),
+                 fmt(r.position, ".2e")))) for r in study.rows]
 
 
 def summary(study: SoftnessStudy) -> str:
-    """One paragraph: the fitted exponents against the documented ones, and the best setting."""
-    best = min(study.rows, key=lambda r: r.violation)
+    """One paragraph: the fitted exponents against the documented ones, the best setting, the settings whose
+    runs diverged."""
+    diverged = [r for r in study.rows if r.diverged]
+    tail = "".join(f" timeconst {r.timeconst:g} s, d {r.impedance:g}: {r.diverged}." for r in diverged)
+    ran = [r for r in study.rows if not r.diverged]
+    if not ran:
+        return f"{study.case}: every setting diverged:{tail}"
+    best = min(ran, key=lambda r: r.violation)
     text = (f"{study.case}: {study.integrator} at h = {study.timestep:g} s over {study.horizon:g} s, "
             f"equalities {', '.join(study.constraints)}. Forces are |λ_mj − λ_ref| / force scale "
             f"(worst constraint); 'force settled' from t = {SETTLE:g} × effective timeconst. ")
@@ -208,7 +226,7 @@ def summary(study: SoftnessStudy) -> str:
                  f"{study.fit.timeconst_exponent:.2f} (documented: 1 and 2). ")
     return text + (f"Stiffest: timeconst {best.timeconst:g} s, d {best.impedance:g}: violation "
                    f"{best.violation:.1e} m, force error {best.force_t0:.1e} at t = 0, "
-                   f"{fmt(best.force_settled, '.1e')} settled.")
+                   f"{fmt(best.force_settled, '.1e')} settled.") + tail
 
 
 def text(study: SoftnessStudy) -> str:

@@ -22,6 +22,7 @@ import mujoco
 import numpy as np
 
 from harness.cases import Case
+from harness.core.errors import SimulationDiverged
 from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, style
 from harness.core.tables import fmt, html_table, text_table
 from harness.engine.compat import SOLVER_ITERATIONS
@@ -43,6 +44,7 @@ class SolverRow:
     iterations_mean: float
     iterations_max: int
     iteration_limit: int
+    diverged: str = ""  # the solver's run diverged: its reason, and nan (0 iterations) for the rest
 
 
 @dataclass(frozen=True)
@@ -86,13 +88,19 @@ def solver_study(case: Case, *, fast: bool = False, solvers: Sequence[str] = SOL
     steps = round(horizon / shipped.opt.timestep)
     names = [*base.constraints, *base.forces]
     rows, series, ref_traj, newton = [], {}, None, None
-    for name in solvers:
+    for k, name in enumerate(solvers):
         model = compile_model(path, edit=_solver(name))
-        sim = simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps)
+        try:
+            sim = simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps)
+        except SimulationDiverged as exc:  # a finding of the comparison, never a number
+            rows.append(SolverRow(solver=name, force=np.nan, force_vs_first=np.nan, position=np.nan,
+                                  iterations_mean=np.nan, iterations_max=0,
+                                  iteration_limit=int(model.opt.iterations), diverged=exc.reason))
+            continue
         if ref_traj is None:
             ref_traj = refmod.trajectory(reference, sim.t)
         lam = np.stack([sim.multipliers[c] for c in names])
-        newton = lam if newton is None else newton
+        newton = lam if k == 0 else newton  # the first solver's forces ('vs first'; nan if it diverged)
         force = np.max(np.abs(lam - np.stack([ref_traj.multipliers[c] for c in names])), axis=0)
         force = force / reference.scales.force
         iters = sim.series["solver_niter"]
@@ -100,7 +108,8 @@ def solver_study(case: Case, *, fast: bool = False, solvers: Sequence[str] = SOL
         settled = sim.t >= case.settle
         rows.append(SolverRow(
             solver=name, force=float(np.max(force[settled])),
-            force_vs_first=float(np.max(np.abs(lam - newton)[:, settled])) / reference.scales.force,
+            force_vs_first=np.nan if newton is None else float(np.max(np.abs(lam - newton)[:, settled]))
+            / reference.scales.force,
             position=max(float(np.max(np.linalg.norm(sim.positions[p] - ref_traj.positions[p], axis=1)))
                          for p in ref_traj.positions),
             iterations_mean=float(np.mean(iters)), iterations_max=int(np.max(iters)),
@@ -114,10 +123,11 @@ HEADER = ("case", "solver", "force error", "vs first", "position [m]", "iteratio
 
 
 def table_rows(study: SolverStudy) -> list[tuple[str, ...]]:
-    return [(study.case, r.solver, fmt(r.force, ".2e"), fmt(r.force_vs_first, ".1e"), fmt(r.position, ".2e"),
-             f"{r.iterations_mean:.2f}",
-             str(r.iterations_max), str(r.iteration_limit),
-             "hit the iteration limit" if r.iterations_max >= r.iteration_limit else "")
+    """One row per solver; a solver whose run diverged says so in its note."""
+    return [(study.case, r.solver, *(["-"] * 6 if r.diverged else [
+                fmt(r.force, ".2e"), fmt(r.force_vs_first, ".1e"), fmt(r.position, ".2e"),
+                f"{r.iterations_mean:.2f}", str(r.iterations_max), str(r.iteration_limit)]),
+             r.diverged or ("hit the iteration limit" if r.iterations_max >= r.iteration_limit else ""))
             for r in study.rows]
 
 

@@ -1,0 +1,148 @@
+"""What a compiled model must hold before anything runs: finite numbers, a usable timestep, solref in one format.
+
+MuJoCo compiles a ``timestep="nan"``, a ``solref="nan 1"`` or a NaN gravity
+(it warns that the XML contains a NaN) and then runs: a NaN timestep fails
+far from its cause, a NaN solref is replaced at every constraint row by
+MuJoCo's default with a warning each time (tens of thousands of lines) while
+the report shows "nan". A ``solref`` mixing its two formats (timeconst and
+dampratio positive, or −stiffness and −damping: XMLreference "solref") is
+replaced by the default the same way. So a model is refused before running,
+naming the first attribute that is wrong and what is accepted: the options,
+then each element's inputs (position, mass, solref, …), then the reference
+configuration.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import mujoco
+import numpy as np
+
+# MjModel field prefixes of the elements a message names: (kind, mjtObj, the MjModel count of them)
+ELEMENTS: dict[str, tuple[str, mujoco.mjtObj, str]] = {
+    "body_": ("body", mujoco.mjtObj.mjOBJ_BODY, "nbody"), "jnt_": ("joint", mujoco.mjtObj.mjOBJ_JOINT, "njnt"),
+    "dof_": ("dof", mujoco.mjtObj.mjOBJ_DOF, "nv"), "geom_": ("geom", mujoco.mjtObj.mjOBJ_GEOM, "ngeom"),
+    "site_": ("site", mujoco.mjtObj.mjOBJ_SITE, "nsite"), "eq_": ("equality", mujoco.mjtObj.mjOBJ_EQUALITY, "neq"),
+    "pair_": ("pair", mujoco.mjtObj.mjOBJ_PAIR, "npair"),
+    "actuator_": ("actuator", mujoco.mjtObj.mjOBJ_ACTUATOR, "nu"),
+    "tendon_": ("tendon", mujoco.mjtObj.mjOBJ_TENDON, "ntendon"),
+}
+# the elements' inputs, in the order they are looked at; what MuJoCo derives from them (a subtree mass,
+# an inverse weight) is finite when they are, or makes the run diverge, which its verdict says
+INPUTS = ("pos", "quat", "ipos", "iquat", "mass", "inertia", "solref", "solimp", "solreffriction", "solimpfriction",
+          "solref_lim", "solimp_lim", "solref_fri", "solimp_fri", "solmix", "friction", "damping", "armature",
+          "stiffness", "frictionloss", "springref", "lengthspring", "range", "margin", "gap", "size", "axis",
+          "data", "gear", "gravcomp", "gainprm", "biasprm", "dynprm", "ctrlrange", "forcerange", "actrange")
+
+
+class InvalidModel(ValueError):
+    """A compiled model holding a number MuJoCo would run with but that makes no sense."""
+
+
+def check_model(model: mujoco.MjModel) -> None:
+    """:class:`InvalidModel` naming the first non-finite number (options, then the elements' inputs, then
+    the reference configuration), a timestep that is not positive or a solref mixing its two formats."""
+    for name in _option_fields(type(model.opt)):
+        value = np.asarray(getattr(model.opt, name), dtype=float)
+        if not np.isfinite(value).all():
+            raise _non_finite_option(name, value)
+    if not model.opt.timestep > 0:
+        raise InvalidModel(f"option timestep = {model.opt.timestep:g} s; accepted: a timestep > 0 s")
+    present = [f for f, count in _element_fields(type(model)) if count is None or getattr(model, count)]
+    arrays = [getattr(model, f) for f in present]
+    if not np.isfinite(np.concatenate([a.ravel() for a in arrays])).all():  # one test (a compile costs 0.5 ms)
+        field, values = next((f, a) for f, a in zip(present, arrays, strict=True) if not np.isfinite(a).all())
+        row = int(np.argwhere(~np.isfinite(values.reshape(len(values), -1)))[0, 0])
+        raise InvalidModel(f"{_where(model, field, row)} = {_shown(values[row])} is not finite; "
+                           "accepted: finite numbers")
+    for field, values in zip(present, arrays, strict=True):
+        if "solref" in field and values.size:
+            mixed = np.flatnonzero((values[:, 0] > 0) != (values[:, 1] > 0))
+            if mixed.size:
+                _check_solref(_where(model, field, int(mixed[0])), values[mixed[0]])
+
+
+# what a spec's elements always hold (a spec marks unset attributes such as a geom's mass with NaN)
+SPEC_INPUTS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "bodies": ("body", ("pos", "quat", "mass", "inertia", "gravcomp")),
+    "joints": ("joint", ("pos", "axis", "range", "damping", "armature", "stiffness", "frictionloss", "springref",
+                         "ref", "margin", "solref_limit", "solimp_limit", "solref_friction", "solimp_friction")),
+    "geoms": ("geom", ("pos", "quat", "size", "friction", "solref", "solimp", "solmix", "margin", "gap")),
+    "equalities": ("equality", ("data", "solref", "solimp")),
+    "pairs": ("pair", ("friction", "solref", "solimp", "solreffriction", "margin", "gap")),
+}
+
+
+def check_spec(spec: mujoco.MjSpec) -> None:
+    """:class:`InvalidModel` for a spec that did not compile, where what failed is a non-finite option, a
+    non-finite input of an element (:data:`SPEC_INPUTS`) or a solref mixing its formats.
+
+    MuJoCo before 4 runs a forward pass while compiling and fails on what it warns about ("Nan, Inf or
+    huge value in QACC", "mixed solref format"), naming no attribute; this says which."""
+    for name in _option_fields(type(mujoco.MjModel.from_xml_string("<mujoco/>").opt)):
+        value = np.asarray(getattr(spec.option, name, 0.0), dtype=float)
+        if not np.isfinite(value).all():
+            raise _non_finite_option(name, value)
+    for kinds, (kind, attributes) in SPEC_INPUTS.items():
+        for element in getattr(spec, kinds, ()):
+            for attribute in attributes:
+                raw = getattr(element, attribute, None)
+                value = np.asarray(raw if raw is not None else 0.0, dtype=float)
+                where = f"{kind} {element.name!r} {attribute}"
+                if not np.isfinite(value).all():
+                    raise InvalidModel(f"{where} = {_shown(value)} is not finite; accepted: finite numbers")
+                if "solref" in attribute:
+                    _check_solref(where, value)
+
+
+def _check_solref(where: str, value: np.ndarray) -> None:
+    """MuJoCo's own test (engine_core_constraint.c, getsolparam): mixed formats are replaced by the default."""
+    first, second = np.ravel(value)[:2]
+    if (first > 0) != (second > 0):
+        raise InvalidModel(f"{where} = {_shown(value)} mixes solref's two formats (MuJoCo would replace it by its "
+                           "default); accepted: timeconst and dampratio both > 0, or −stiffness and −damping "
+                           "both ≤ 0")
+
+
+def _non_finite_option(name: str, value: np.ndarray) -> InvalidModel:
+    accepted = "a timestep > 0 s" if name == "timestep" else "finite numbers"
+    return InvalidModel(f"option {name} = {_shown(value)} is not finite; accepted: {accepted}")
+
+
+def _shown(value: np.ndarray) -> str:
+    flat = np.atleast_1d(value).ravel()
+    text = " ".join(f"{float(x):g}" for x in flat)
+    return text if flat.size == 1 else f"[{text}]"
+
+
+@functools.cache
+def _option_fields(options: type) -> tuple[str, ...]:
+    """The floating-point fields of MjOption (scalars and vectors), in name order."""
+    probe = mujoco.MjModel.from_xml_string("<mujoco/>").opt
+    return tuple(n for n in dir(options) if not n.startswith("_")
+                 and np.asarray(getattr(probe, n)).dtype.kind == "f")
+
+
+@functools.cache
+def _element_fields(model_type: type) -> tuple[tuple[str, str | None], ...]:
+    """The floating-point MjModel fields holding the elements' :data:`INPUTS` (in that order), each with
+    the count of its elements (a field of an element the model has none of is not looked at), then the
+    reference configurations."""
+    probe = mujoco.MjModel.from_xml_string("<mujoco/>")
+    fields = [(n, count) for n in dir(model_type) for prefix, (_, _, count) in ELEMENTS.items()
+              if n.startswith(prefix) and n.removeprefix(prefix) in INPUTS
+              and isinstance(getattr(probe, n, None), np.ndarray) and getattr(probe, n).dtype.kind == "f"]
+    fields.sort(key=lambda f: (INPUTS.index(f[0].split("_", 1)[1]), f[0]))
+    return (*fields, *((n, None) for n in ("qpos0", "qpos_spring") if hasattr(probe, n)))
+
+
+def _where(model: mujoco.MjModel, field: str, row: int) -> str:
+    """``equality 'rod' solref`` for row ``row`` of MjModel field ``field``."""
+    for prefix, (kind, obj, _) in ELEMENTS.items():
+        if field.startswith(prefix):
+            if kind == "dof":
+                kind, obj, row = "joint", mujoco.mjtObj.mjOBJ_JOINT, int(model.dof_jntid[row])
+            name = mujoco.mj_id2name(model, obj, row)
+            return f"{kind} {repr(name) if name else f'#{row}'} {field.removeprefix(prefix)}"
+    return f"{field} (entry {row})"

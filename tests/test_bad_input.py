@@ -1,0 +1,359 @@
+"""Hostile input: each is refused before any work with one line naming what is wrong and what is accepted
+(exit 2), or judged as what it is; never a traceback, a number standing for a diverged run, or MuJoCo's
+own warnings on stderr.
+
+Subprocess tests pin what only a real process shows: the exit status, every byte on stderr (MuJoCo
+prints its warnings from C, past pytest's capture) and what is left in the working directory.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+from harness.cli.commands import main
+from harness.core.errors import ModelError
+from harness.engine.models import compile_model
+
+CASE = "pendulum"
+MJCF = Path(__file__).resolve().parent.parent / "mjcf" / f"{CASE}.xml"
+
+
+def _variant(tmp_path: Path, old: str, new: str, name: str = "variant.xml") -> Path:
+    text = MJCF.read_text()
+    assert old in text
+    path = tmp_path / name
+    path.write_text(text.replace(old, new))
+    return path
+
+
+def _cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True,
+                          timeout=300, cwd=cwd)
+
+
+def _one_line(err: str, needle: str) -> None:
+    assert err.endswith("\n") and err.count("\n") == 1, repr(err)  # exactly one line, nothing before it
+    assert needle in err and "Traceback" not in err, err
+
+
+# ------------------------------------------------------------------ models
+BAD_ATTRIBUTES = [
+    ('timestep="0.001"', 'timestep="nan"', "option timestep = nan is not finite; accepted: a timestep > 0 s"),
+    ('timestep="0.001"', 'timestep="0"', "option timestep = 0 s; accepted: a timestep > 0 s"),
+    ('timestep="0.001"', 'timestep="-0.001"', "option timestep = -0.001 s; accepted: a timestep > 0 s"),
+    ('gravity="0 0 -9.81"', 'gravity="0 0 nan"', "option gravity = [0 0 nan] is not finite"),
+    ('solref="0.002 1"', 'solref="nan 1"', "equality 'rod' solref = [nan 1] is not finite"),
+    ('solref="0.002 1"', 'solref="0.002 -1"', "equality 'rod' solref = [0.002 -1] mixes solref's two formats"),
+    ('mass="1" diaginertia', 'mass="nan" diaginertia', "'bob'"),
+    ('damping="0" armature="0"/>\n      <joint name="r"', 'damping="inf" armature="0"/>\n      <joint name="r"',
+     "joint 'theta' damping = inf is not finite"),
+]
+
+
+@pytest.mark.parametrize("old, new, needle", BAD_ATTRIBUTES, ids=[b[1].split("=")[0] + ":" + b[1].split('"')[1]
+                                                                  for b in BAD_ATTRIBUTES])
+def test_a_model_with_a_senseless_number_is_refused_naming_it(tmp_path, old, new, needle):
+    path = _variant(tmp_path, old, new)
+    with pytest.raises(ModelError, match="invalid MJCF") as info:
+        compile_model(path)
+    assert needle in str(info.value)
+
+
+def test_a_refused_model_prints_one_line_and_leaves_no_log(tmp_path):
+    """MuJoCo warns about the NaN while parsing (and, at every constraint row, about the solref it
+    replaces), on stderr from C and into MUJOCO_LOG.TXT in the working directory: none of it shows."""
+    path = _variant(tmp_path, 'solref="0.002 1"', 'solref="nan 1"')
+    proc = _cli("check", "--case", CASE, "--mjcf", str(path), cwd=tmp_path)
+    assert proc.returncode == 2 and proc.stdout == ""
+    _one_line(proc.stderr, "equality 'rod' solref = [nan 1] is not finite; accepted: finite numbers")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["variant.xml"]
+
+
+@pytest.mark.parametrize("target, needle", [
+    (lambda tmp: tmp, "it is a directory"),
+    (lambda tmp: Path("/dev/zero"), "it is a character device, not a file"),
+    (lambda tmp: tmp / "missing.xml", "no such file"),
+])
+def test_mjcf_that_is_not_a_file_says_what_it_is(tmp_path, capsys, target, needle):
+    assert main(["check", "--case", CASE, "--mjcf", str(target(tmp_path))]) == 2
+    err = capsys.readouterr().err
+    _one_line(err, needle)
+    assert "accepted: an MJCF (XML) file" in err
+
+
+# ------------------------------------------------------------- divergence
+def _stiff_damping(tmp_path: Path, case: str = CASE, joint: str = "theta") -> Path:
+    """The case's model with a hinge damping of 1e6 N m s: rate 1e6 /s against a unit inertia, far past
+    the explicit RK4's stability at 1 ms (h·rate ≈ 1000 > 2.8), so its run diverges within steps; the
+    reference, which reads no damping, is the shipped one."""
+    source = MJCF.parent / f"{case}.xml"
+    text = source.read_text()
+    old = f'<joint name="{joint}" type="hinge"'
+    assert old in text and 'damping="0"' in text
+    start = text.index(old)
+    end = text.index("/>", start)
+    path = tmp_path / f"{case}_damped.xml"
+    path.write_text(text[:start] + text[start:end].replace('damping="0"', 'damping="1e6"') + text[end:])
+    return path
+
+
+def test_a_diverged_run_is_a_failed_check_with_its_reason_everywhere(tmp_path, capsys):
+    """Every run diverges (gravity 1e12): exit 1, and each gated figure of those runs is a failed check
+    reading "diverged: WARNING at t = …" in the table, report.json, report.html, summary.md and JUnit,
+    never a number."""
+    path = _variant(tmp_path, 'gravity="0 0 -9.81"', 'gravity="0 0 -1e12"')
+    out, junit = tmp_path / "report", tmp_path / "junit.xml"
+    assert main(["run", "--case", CASE, "--mjcf", str(path), "--out", str(out), "--junit", str(junit)]) == 1
+    reason = "diverged: mjWARN_BADQACC at t = 0 s"  # qacc over mjMAXVAL at the first state
+    assert f"FAIL: {reason}" in capsys.readouterr().out
+    checks = json.loads((out / "report.json").read_text())["cases"][CASE]["checks"]
+    runs = [name for name in checks if not name.startswith(("instant.", "reference."))
+            and "note" not in checks[name]]  # (n/a: an integrator this MuJoCo lacks)
+    assert runs and all(checks[n]["diverged"] == reason and checks[n]["value"] == "nan"
+                        and checks[n]["passed"] is False for n in runs)
+    assert not any("diverged" in checks[n] for n in checks if n not in runs)
+    assert reason in (out / "report.html").read_text() and reason in (out / "summary.md").read_text()
+    failures = ET.parse(junit).getroot().findall(".//failure[@type='Diverged']")
+    assert len(failures) == len(runs) and all(reason in f.get("message") for f in failures)
+
+
+def test_a_timestep_of_one_second_is_reported_as_diverged(tmp_path, capsys):
+    """The issue's input: timestep 1 s. The runs over the horizon stay finite (and fail by numbers), but
+    RK4's convergence ladder reaches h = 32 s and MuJoCo warns: that order's verdict is the warning,
+    not the order a fit of the remaining points would give."""
+    path = _variant(tmp_path, 'timestep="0.001"', 'timestep="1.0"')
+    assert main(["check", "--case", CASE, "--mjcf", str(path), "--json"]) == 1
+    check = json.loads(capsys.readouterr().out)["cases"][CASE]["checks"]["converge.RK4.order_shortfall"]
+    assert check["diverged"].startswith("diverged: mjWARN_") and "(h = 32 s)" in check["diverged"]
+    assert check["value"] == "nan"
+
+
+def test_a_ladder_that_diverges_anywhere_is_its_series_verdict(tmp_path):
+    from harness import cases
+    from harness.layers.orders import convergence_study
+
+    study = convergence_study(cases.get(CASE), fast=True, integrators=["RK4", "implicit"],
+                              mjcf=_stiff_damping(tmp_path))
+    rk4 = [s for s in study.verdicts if s.integrator == "RK4"]
+    assert rk4 and all(s.verdict.startswith("diverged: mjWARN_") and s.passed is False for s in rk4)
+    assert not study.passed
+    assert all(not s.diverged for s in study.series if s.integrator == "implicit")  # damping is implicit's
+
+
+@pytest.mark.parametrize("study", ["softness", "solvers"])
+def test_a_study_states_a_diverged_setting_instead_of_failing_the_run(tmp_path, study):
+    import dataclasses
+
+    from harness import cases
+    from harness.studies import softness, solvers
+
+    case = dataclasses.replace(cases.get(CASE), mjcf=_stiff_damping(tmp_path))
+    if study == "softness":
+        result = softness.softness_study(case, fast=True, plot=False)
+        text = softness.text(result)
+    else:
+        result = solvers.solver_study(case, fast=True, solvers=("Newton", "CG"), plot=False)
+        text = solvers.text(result)
+    assert result.rows and all(r.diverged.startswith("diverged: mjWARN_") for r in result.rows)
+    assert result.rows[0].diverged in text
+
+
+def test_the_contact_study_states_a_diverged_setting(tmp_path, monkeypatch):
+    import dataclasses
+
+    from harness import cases
+    from harness.studies import contact
+
+    name = "hoop_ramp_contact"
+    damped = dataclasses.replace(cases.get(name), mjcf=_stiff_damping(tmp_path, name, "phi"))
+    monkeypatch.setattr(contact.cases, "get", lambda n: damped if n == name else cases.get(n))
+    result = contact.contact_study(name, cones=("elliptic",), impratios=(10.0,), noslip_iterations=(0,),
+                                   softness=("shipped",))
+    (row,) = result.rows
+    assert row["diverged"].startswith("diverged: mjWARN_") and math.isnan(row["position"])
+    assert row["diverged"] in contact.html_section([result])
+
+
+def test_the_python_api_names_a_diverged_run(tmp_path):
+    import harness
+
+    result = harness.validate(CASE, mjcf=_stiff_damping(tmp_path), integrators=["RK4"])
+    assert not result.passed
+    with pytest.raises(AssertionError, match=r"RK4\.position: diverged: mjWARN_\w+ at t = "):
+        result.raise_for_failures()
+
+
+# ----------------------------------------------------------------- outputs
+@pytest.fixture
+def cached_runs(monkeypatch):
+    """run_case of a shipped case returns the session's cached run (variants still run for real)."""
+    from harness.pipeline import matrix
+    from harness.pipeline import run as pipeline
+    from tests.conftest import shipped_run
+
+    real = pipeline.run_case
+    monkeypatch.setattr(matrix, "run_case", lambda case, **kw: real(case, **kw) if kw else shipped_run(case.name))
+
+
+REPORT = ("report.html", "report.json", "summary.md", "junit.xml")
+
+
+def _report(tmp_path: Path, *extra: str) -> tuple[int, Path]:
+    out = tmp_path / "report"
+    return main(["run", CASE, "--no-studies", "--out", str(out), "--junit", str(out / "junit.xml"), *extra]), out
+
+
+def _strict(tmp_path: Path) -> str:
+    path = tmp_path / "strict.toml"
+    path.write_text(f'[thresholds.{CASE}]\n"RK4.position" = 1e-12\n')
+    return str(path)
+
+
+def test_a_report_set_is_replaced_whole_or_not_at_all(tmp_path, cached_runs, capsys):
+    """The second run's summary.md cannot be written (a directory is in its way): none of its files may
+    replace the first run's, and the first run's, no longer this run's verdict, are marked stale."""
+    code, out = _report(tmp_path)
+    assert code == 0
+    first = {name: (out / name).read_bytes() for name in REPORT}
+    (out / "summary.md").unlink()
+    (out / "summary.md").mkdir()
+    code, _ = _report(tmp_path, "--config", _strict(tmp_path))  # would FAIL: every file differs
+    assert code == 2
+    _one_line(capsys.readouterr().err, "summary.md")
+    left = {p.name for p in out.iterdir()}
+    assert left == {"summary.md", *(f"{n}.stale" for n in REPORT if n != "summary.md")}, left
+    assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT if n != "summary.md")
+
+
+@pytest.mark.parametrize("failure", ["unknown case", "interrupted"])
+def test_a_failed_run_marks_the_earlier_report_stale(tmp_path, cached_runs, capsys, monkeypatch, failure):
+    """After an exit 2 or an interrupt the directory holds no report a CI step (``if: always()``) could
+    publish as this run's: the earlier one is renamed NAME.stale."""
+    code, out = _report(tmp_path)
+    assert code == 0
+    first = {name: (out / name).read_bytes() for name in REPORT}
+    if failure == "unknown case":
+        code = main(["run", "nosuchcase", "--out", str(out), "--junit", str(out / "junit.xml")])
+        assert code == 2
+    else:
+        from harness.pipeline import matrix
+
+        def interrupt(*_a, **_k):
+            raise KeyboardInterrupt
+
+        monkeypatch.setattr(matrix, "run_case", interrupt)
+        assert _report(tmp_path)[0] == 130
+    assert sorted(p.name for p in out.iterdir()) == sorted(f"{n}.stale" for n in REPORT)
+    assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT)
+
+
+@pytest.mark.parametrize("args", [["list"], ["check", CASE, "--json"]])
+def test_a_closed_output_pipe_ends_the_command_quietly(args):
+    """``mjharness check | head -1``: the reader is gone before the command writes. It stops as a Unix
+    tool stopped by SIGPIPE reads in a shell (141), with nothing on stderr."""
+    proc = subprocess.Popen([sys.executable, "-m", "harness.cli", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.close()
+    err = proc.stderr.read()
+    proc.wait(timeout=300)
+    assert (proc.returncode, err) == (141, b"")
+
+
+# ------------------------------------------------------- baselines, reports
+def _baseline(tmp_path: Path) -> tuple[Path, dict]:
+    """The committed baseline of the case, copied: a valid document to break one entry of."""
+    doc = json.loads((MJCF.parent.parent / "reports" / "baseline" / f"{CASE}.json").read_text())
+    return tmp_path / "baseline.json", doc
+
+
+BROKEN_DOCUMENTS = [
+    ("figure entry a string", lambda d: d["cases"][CASE]["figures"].__setitem__("RK4.position", "big"),
+     "cases.pendulum.figures['RK4.position'] must be an object with a numeric 'value'", "a string 'big'"),
+    ("figure entry null", lambda d: d["cases"][CASE]["figures"].__setitem__("RK4.position", None),
+     "cases.pendulum.figures['RK4.position'] must be an object with a numeric 'value'", "got null"),
+    ("value a string", lambda d: d["cases"][CASE]["figures"]["RK4.position"].__setitem__("value", "1e-7"),
+     "cases.pendulum.figures['RK4.position'] must be an object with a numeric 'value'", "'nan', 'inf', '-inf'"),
+    ("unknown schema", lambda d: d.__setitem__("schema", 2), "has schema 2; this mjharness reads schema 1",
+     "docs/report-json.md"),
+    ("no schema", lambda d: d.pop("schema"), "has no schema number", "reads schema 1"),
+    ("check without passed", lambda d: d["cases"][CASE]["checks"]["RK4.position"].pop("passed"),
+     "cases.pendulum.checks['RK4.position'] must be an object", "boolean 'passed'"),
+    ("malformed figure name", lambda d: d["cases"][CASE]["figures"].__setitem__("RK4", {"value": 1}),
+     "cases.pendulum.figures: malformed figure name 'RK4'", "accepted:"),
+]
+
+
+@pytest.mark.parametrize("command", ["baseline", "diff"])
+@pytest.mark.parametrize("label, damage, needle, accepted", BROKEN_DOCUMENTS, ids=[b[0] for b in BROKEN_DOCUMENTS])
+def test_a_run_document_off_its_schema_is_one_line_exit_2(tmp_path, capsys, cached_runs, command, label, damage,
+                                                          needle, accepted):
+    path, doc = _baseline(tmp_path)
+    damage(doc)
+    path.write_text(json.dumps(doc))
+    args = ["baseline", CASE, "--compare", str(path)] if command == "baseline" else ["diff", str(path), str(path)]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    _one_line(err, needle)
+    assert accepted in err
+
+
+# ------------------------------------------------------------------ config
+def test_a_typo_for_a_case_that_is_not_run_is_refused(tmp_path, capsys, monkeypatch):
+    from harness.pipeline import matrix
+
+    monkeypatch.setattr(matrix, "run_case", lambda *a, **k: pytest.fail("ran before checking the config"))
+    config = tmp_path / "limits.toml"
+    config.write_text('[thresholds.spring]\n"RK4.positon" = 1e-6\n')
+    assert main(["check", CASE, "--config", str(config)]) == 2
+    _one_line(capsys.readouterr().err, "thresholds for case 'spring' name unmeasured figure(s) ['RK4.positon']")
+
+
+@pytest.mark.parametrize("name", ["RK4.velocity", "converge.Euler.order_shortfall", "discrete.drift.energy"])
+def test_a_real_figure_of_a_case_that_is_not_run_is_accepted(tmp_path, capsys, cached_runs, name):
+    config = tmp_path / "limits.toml"
+    config.write_text(f'[thresholds.spring]\n"{name}" = 1e-6\n')
+    assert main(["check", CASE, "--config", str(config)]) == 0
+
+
+def test_every_figure_a_shipped_case_measures_is_among_its_names():
+    from harness import cases
+    from harness.pipeline.vocabulary import figure_names
+    from tests.conftest import shipped_run
+
+    for case in cases.all_cases():
+        measured = {f.name for f in shipped_run(case.name).figures}
+        assert measured <= figure_names(case), (case.name, sorted(measured - figure_names(case)))
+
+
+def test_an_error_is_the_only_line_on_stderr_even_after_a_python_warning():
+    """On MuJoCo 3.3 the fallback for a flag it lacks is a Python warning (and in the run's settings,
+    "compat"): printed, it put lines before the error. Here a warning is raised the same way."""
+    code = ("import sys, warnings\n"
+            "from harness import cases\n"
+            "from harness.cli import commands\n"
+            "real = cases.select\n"
+            "def select(names, **kw):\n"
+            "    warnings.warn('<flag diagexact> is not in this MuJoCo: removed', stacklevel=2)\n"
+            "    return real(names, **kw)\n"
+            "cases.select = select\n"
+            "sys.exit(commands.main(['check', 'nosuchcase']))\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    _one_line(proc.stderr, "unknown case 'nosuchcase'")
+
+
+def test_the_python_api_checks_every_case_its_config_names(tmp_path):
+    import harness
+    from harness.core.errors import ConfigError
+
+    config = tmp_path / "limits.toml"
+    config.write_text('[thresholds.spring]\n"RK4.positon" = 1e-6\n')
+    with pytest.raises(ConfigError, match=r"case 'spring' name unmeasured figure\(s\) \['RK4.positon'\]"):
+        harness.validate(CASE, config=config)
