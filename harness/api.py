@@ -5,15 +5,18 @@ result you can inspect or turn into a failing assertion::
 
     from harness import validate
 
-    result = validate("pendulum", mjcf="my_pendulum.xml", integrators=["RK4"])
-    result.passed                 # every check within its limit
+    result = validate("pendulum", mjcf="my_pendulum.xml", integrators=["RK4"], timestep=0.002)
+    result.passed                 # every check's unexplained error within its budget's limit
     result.failures               # the checks that are not
+    result.check("RK4.position").budget   # measured, explained (integration, softness, …), unexplained
     result.figure("RK4.position") # any measured figure, gated or not
+    result.fit                    # the requirements met (require={"position": 1e-3})
     result.raise_for_failures()   # ValidationFailed (an AssertionError) listing the failures
 
 It runs exactly what ``mjharness check --case CASE --mjcf FILE`` runs (every
-layer of :func:`harness.pipeline.run.run_case`, judged by the case's limits,
-overridden by ``config`` and ``limits``), in this process.
+layer of :func:`harness.pipeline.run.run_case` and every figure's error
+budget, judged by the case's limits, overridden by ``config`` and
+``limits``), in this process.
 """
 
 from __future__ import annotations
@@ -26,17 +29,31 @@ import mujoco
 
 from harness import cases
 from harness.cases import Case
-from harness.core.checks import Check
+from harness.core.checks import Check, gate
 from harness.core.figures import Figure, FigureName
-from harness.engine.integrators import DOCUMENTED_INTEGRATORS
+from harness.core.findings import Finding
 from harness.outputs.jsondoc import json_doc
 from harness.outputs.table import checks_table
-from harness.pipeline.limits import load_limits
+from harness.pipeline.limits import Limit, load_limits
+from harness.pipeline.outcome import Outcome
+from harness.pipeline.require import Fitness, check_known, judge_fitness
+from harness.pipeline.require import requirement as requirement_of
 from harness.pipeline.run import CaseResult, run_case
 from harness.pipeline.verdict import judge
 from harness.pipeline.vocabulary import check_config
 
 __all__ = ["Validation", "ValidationFailed", "case_names", "validate"]
+
+
+def _failure(c: Check) -> str:
+    if c.diverged:
+        return c.diverged
+    if c.budget is not None:
+        text = (f"measured {c.value:.3e} {c.unit}, unexplained {c.budget.unexplained:.3e} > limit "
+                f"{c.budget.limit:.3e}")
+    else:
+        text = f"{c.value:.3e} {c.unit} > limit {c.threshold:.3e}"
+    return f"{text} (known defect: {c.known})" if c.known else text
 
 
 class ValidationFailed(AssertionError):
@@ -45,10 +62,13 @@ class ValidationFailed(AssertionError):
 
     def __init__(self, validation: Validation) -> None:
         self.validation = validation
-        lines = [f"{c.name}: {c.diverged}" if c.diverged else f"{c.name} = {c.value:.3e} {c.unit} > limit "
-                 f"{c.threshold:.3e}" for c in validation.failures]
+        lines = [f"{c.name}: {_failure(c)}" for c in validation.failures]
+        unmet = [f"{f.figure} = {f.value:.3e} {f.unit} > required {f.requirement.value:g} (requirement not met)"
+                 for f in validation.unmet]
         super().__init__(f"case {validation.case!r} ({validation.mjcf}): {len(lines)} of "
-                         f"{len(validation.checks)} checks failed\n  " + "\n  ".join(lines))
+                         f"{len(validation.checks)} checks failed" + (f", {len(unmet)} requirement(s) not met"
+                                                                      if unmet else "")
+                         + "\n  " + "\n  ".join([*lines, *unmet]))
 
 
 @dataclass(frozen=True)
@@ -60,8 +80,12 @@ class Validation:
         mjcf: the model file that ran (the shipped model, or yours).
         checks: each gated figure beside its limit.
         figures: every figure measured, gated or not.
-        settings: timestep, integrator, solver, softness, parameters, … as the report lists them.
+        settings: timestep, integrator, solver, softness, parameters, … as the report lists them (what
+            differs from the shipped model under ``changed``).
         limits: where the limits came from.
+        fitness: each figure of the model's own integrator a requirement judged.
+        findings: engine functions found to disagree while measuring.
+        accept_known_defects: whether a failure with a documented defect's signature passes the gate.
     """
 
     case: str
@@ -70,16 +94,29 @@ class Validation:
     figures: tuple[Figure, ...]
     settings: Mapping[str, object] = field(default_factory=dict)
     limits: str = ""
+    fitness: tuple[Fitness, ...] = ()
+    findings: tuple[Finding, ...] = ()
+    accept_known_defects: bool = False
     result: CaseResult | None = field(default=None, repr=False, compare=False)
 
     @property
     def passed(self) -> bool:
-        """Every check within its limit (an n/a check or a documented defect of this MuJoCo counts)."""
-        return all(c.passed for c in self.checks)
+        """The gate: every check passes (an n/a check counts), or — with ``accept_known_defects`` — fails
+        only as a documented defect of this MuJoCo."""
+        return gate(self.checks, accept_known_defects=self.accept_known_defects)
 
     @property
     def failures(self) -> tuple[Check, ...]:
         return tuple(c for c in self.checks if not c.passed)
+
+    @property
+    def unmet(self) -> tuple[Fitness, ...]:
+        return tuple(f for f in self.fitness if not f.met)
+
+    @property
+    def fit(self) -> bool:
+        """Every requirement given to :func:`validate` met (true where none was)."""
+        return not self.unmet
 
     def figure(self, name: str) -> Figure:
         """The measured figure called ``name``; KeyError listing the measured ones otherwise."""
@@ -103,11 +140,19 @@ class Validation:
         """This case in the report.json schema (docs/report-json.md)."""
         if self.result is None:
             raise ValueError("this Validation carries no run to write (it was built by hand)")
-        return json_doc([self.result], {self.case: list(self.checks)})
+        return json_doc([self.result], self.outcome)
+
+    @property
+    def outcome(self) -> Outcome:
+        return Outcome(checks={self.case: list(self.checks)}, fitness={self.case: list(self.fitness)},
+                       findings={self.case: list(self.findings)} if self.findings else {},
+                       requirements=tuple(dict.fromkeys(f.requirement for f in self.fitness)),
+                       accept_known_defects=self.accept_known_defects)
 
     def raise_for_failures(self) -> None:
-        """Raise :class:`ValidationFailed`, listing every failed check, unless all passed."""
-        if not self.passed:
+        """Raise :class:`ValidationFailed`, listing every failed check and unmet requirement, unless the
+        gate passed and every requirement is met."""
+        if not self.passed or not self.fit:
             raise ValidationFailed(self)
 
 
@@ -116,23 +161,19 @@ def case_names() -> tuple[str, ...]:
     return cases.names()
 
 
-def _restricted(limits: Mapping[str, float], integrators: Sequence[str] | None) -> dict[str, float]:
-    """The limits of the figures a run of ``integrators`` measures (all when None)."""
-    if integrators is None:
-        return dict(limits)
-    chosen = set(integrators)
-    return {name: value for name, value in limits.items()
-            if FigureName(name).integrator not in DOCUMENTED_INTEGRATORS or FigureName(name).integrator in chosen}
-
-
 def validate(
     case: str | Case,
     *,
     mjcf: str | Path | None = None,
     integrators: Sequence[str] | None = None,
     timestep: float | None = None,
+    horizon: float | None = None,
+    q0: Mapping[str, float] | None = None,
+    qd0: Mapping[str, float] | None = None,
     config: str | Path | None = None,
     limits: Mapping[str, float] | None = None,
+    require: Mapping[str, float] | None = None,
+    accept_known_defects: bool = False,
     edit: Callable[[mujoco.MjSpec], None] | None = None,
 ) -> Validation:
     """Run ``case`` (a name, or a :class:`~harness.cases.Case`) through every layer and judge it.
@@ -140,12 +181,19 @@ def validate(
     Args:
         case: which case; ValueError listing the known ones for an unknown name.
         mjcf: your model file to run instead of the shipped one (it must fit the case: the same joint,
-            body and equality names); the reference keeps the shipped model's parameters.
-        integrators: run only these (default: every integrator this MuJoCo has); the limits of the
-            others are not applied.
+            body and equality names); the reference is built from its parameters.
+        integrators: run only these (default: every integrator this MuJoCo has); the checks of the
+            others are not judged.
         timestep: run at this timestep instead of the model's.
-        config: a TOML file overriding limits (``[thresholds.CASE] "FIGURE" = LIMIT``), as ``--config``.
-        limits: limits by figure name, overriding the shipped ones and ``config``'s.
+        horizon: simulate this long instead of the case's horizon (s).
+        q0, qd0: initial coordinates and velocities by name (the others as the case has them); the state
+            is brought onto the model's constraints.
+        config: a TOML file as ``--config``: limits (``[thresholds.CASE] "FIGURE" = LIMIT``),
+            requirements (``[require]``), ``accept_known_defects``.
+        limits: fixed limits by figure name, overriding the shipped ones and ``config``'s.
+        require: the accuracy you need by measure (``{"position": 1e-3}``), judged on the model's own
+            integrator: :attr:`Validation.fit`.
+        accept_known_defects: let a failure with a documented defect's signature pass the gate.
         edit: a function changing the model through ``mujoco.MjSpec`` before it is compiled.
     """
     chosen = cases.get(case) if isinstance(case, str) else case
@@ -155,9 +203,16 @@ def validate(
         raise ValueError("integrators must name at least one integrator (None: every one)")
     shipped = load_limits(config)
     check_config(shipped.overrides, cases.all_cases(), source=repr(str(config)))  # every case it names
-    merged = shipped.for_case(chosen.name) | {str(FigureName(k)): float(v) for k, v in (limits or {}).items()}
-    result = run_case(chosen, mjcf=mjcf, integrators=integrators, timestep=timestep, edit=edit)
-    checks = judge(result, _restricted(merged, integrators))
+    merged = shipped.for_case(chosen.name) | {str(FigureName(k)): Limit("user", float(v), "given to validate()")
+                                              for k, v in (limits or {}).items()}
+    requirements = (*shipped.requirements,
+                    *(requirement_of(str(k), v, source="validate(require=...)") for k, v in (require or {}).items()))
+    result = run_case(chosen, mjcf=mjcf, integrators=tuple(integrators) if integrators is not None else None,
+                      timestep=timestep, horizon=horizon, q0=q0, qd0=qd0, edit=edit)
+    checks = judge(result, merged)
+    check_known(requirements, [result])
     source = shipped.source + (" + limits given to validate()" if limits else "")
     return Validation(case=chosen.name, mjcf=str(result.settings.get("mjcf", chosen.mjcf)), checks=tuple(checks),
-                      figures=result.figures, settings=dict(result.settings), limits=source, result=result)
+                      figures=result.figures, settings=dict(result.settings), limits=source,
+                      fitness=tuple(judge_fitness(result, requirements)), findings=tuple(result.findings),
+                      accept_known_defects=accept_known_defects or shipped.accept_known_defects, result=result)

@@ -20,6 +20,7 @@ matplotlib and sympy, when they run; the gate (``check``) never loads them.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import signal
 import sys
@@ -36,23 +37,28 @@ from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
 from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
 from harness.engine import messages
-from harness.engine.compat import unavailable_reason
+from harness.engine.integrators import available_integrators
 from harness.outputs import baseline
 from harness.outputs.diff import diff_runs, format_diff, load_run
 from harness.outputs.files import REPORT_FILES, check_output, mark_stale, prepare_output, write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
 from harness.outputs.junit import junit_xml
-from harness.outputs.table import checks_table, failures_table, verdict_line
+from harness.outputs.table import checks_table, failures_table, fitness_line, fitness_table, verdict_line
 from harness.pipeline import limits as limits_data
+from harness.pipeline import require
 from harness.pipeline.matrix import run_all
+from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
 from harness.pipeline.pool import cpus
+from harness.pipeline.run import RunOptions
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
-EXIT_CODES = {EXIT_OK: "every check passes",
-              EXIT_FAIL: "a check fails, a run diverged included (baseline --compare: a figure regressed or a "
-                         "case is missing; converge: an order falls short)",
+EXIT_CODES = {EXIT_OK: "every check passes (and every --require is met)",
+              EXIT_FAIL: "a check fails: an error its budget does not explain, a run that could not be measured, "
+                         "or a known defect of this MuJoCo not accepted (baseline --compare: a figure regressed or "
+                         "a case is missing; converge: an order falls short)",
               EXIT_USAGE: "bad usage or input: unknown case, unreadable or invalid MJCF or config, a model "
                           "that does not fit its case, an unwritable output",
+              EXIT_UNFIT: "every check passes, but these settings do not meet a --require",
               141: "stdout closed (| head): stopped quietly",
               130: "interrupted (Ctrl-C); 143: terminated (SIGTERM); the report files it would have written "
                    "are marked stale"}
@@ -76,21 +82,91 @@ def _selected(args: argparse.Namespace) -> tuple[cases.Case, ...]:
     return selected
 
 
-def _exit(checks: dict[str, list[Check]]) -> int:
-    return EXIT_OK if all(c.passed for cs in checks.values() for c in cs) else EXIT_FAIL
-
-
 def _add_quiet(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", "-q", action="store_true", help="print the failures and the verdict line only")
 
 
-def _print_checks(checks: dict[str, list[Check]], *, quiet: bool, written: str = "") -> None:
-    """Every check (unless ``quiet``), the failures again, ``written`` (what was written, unless
-    ``quiet``) and the verdict line last."""
-    failures = failures_table(checks)
-    parts = ([] if quiet else [checks_table(checks)]) + ([failures] if failures else [])
+def _print_checks(outcome: Outcome, *, quiet: bool, written: str = "") -> None:
+    """Every check (unless ``quiet``), the failures again, the requirements judged, ``written`` (what was
+    written, unless ``quiet``), and the verdict line last (and the requirements' line, where stated)."""
+    failures = failures_table(outcome.checks)
+    fitness = fitness_table(outcome)
+    parts = ([] if quiet else [checks_table(outcome.checks)]) + ([failures] if failures else [])
+    parts += [fitness] if fitness and not quiet else []
     parts += [written] if written and not quiet else []
-    print("\n\n".join([*parts, verdict_line(checks)]))
+    last = "\n".join(line for line in (verdict_line(outcome), fitness_line(outcome)) if line)
+    print("\n\n".join([*parts, last]))
+
+
+def _add_run_options(p: argparse.ArgumentParser) -> None:
+    """How the cases run and what decides the exit code (run, check)."""
+    g = p.add_argument_group("how the cases run (default: as shipped)")
+    g.add_argument("--timestep", type=_seconds, metavar="SECONDS", help="run every model at this timestep")
+    g.add_argument("--horizon", type=_seconds, metavar="SECONDS", help="simulate this long (default: the case's)")
+    g.add_argument("--integrators", type=_names, metavar="NAMES",
+                   help=f"run only these, comma-separated (default: every one: {', '.join(available_integrators())})")
+    g.add_argument("--q0", type=_state, metavar="NAME=VALUE,...",
+                   help="initial coordinates (the case's names; needs one case); the rest as the case has them, "
+                        "then brought onto the constraints")
+    g.add_argument("--qd0", type=_state, metavar="NAME=VALUE,...", help="initial velocities, as --q0")
+    g = p.add_argument_group("verdict")
+    g.add_argument("--require", action="append", default=[], metavar="MEASURE=VALUE",
+                   help="the accuracy you need, judged on each model's own integrator (e.g. position=1e-3, "
+                        "drift.energy=1e-4, force=1e-3; repeatable): exit 3 where the checks pass and it is not met")
+    g.add_argument("--accept-known-defects", action="store_true",
+                   help="let a failure that shows the signature of a documented defect of this MuJoCo (shown as "
+                        "FAIL, known defect) not fail the exit code")
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text!r}")
+    return value
+
+
+def _names(text: str) -> tuple[str, ...]:
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    unknown = [n for n in names if n not in available_integrators()]
+    if not names or unknown:
+        raise argparse.ArgumentTypeError(f"unknown integrator(s) {', '.join(unknown) or repr(text)}; this MuJoCo "
+                                         f"offers {', '.join(available_integrators())}")
+    return names
+
+
+def _state(text: str) -> dict[str, float]:
+    out = {}
+    for item in text.split(","):
+        name, sep, value = item.partition("=")
+        try:
+            number = float(value)
+        except ValueError:
+            number = math.nan
+        if not sep or not name.strip() or not math.isfinite(number):
+            raise argparse.ArgumentTypeError(f"expected NAME=VALUE,... with finite numbers, got {item!r}")
+        out[name.strip()] = number
+    return out
+
+
+def _options(args: argparse.Namespace, selected: Sequence[cases.Case]) -> RunOptions:
+    """The run options the flags ask for; --q0/--qd0 name one case's coordinates, so need one case."""
+    if (args.q0 or args.qd0) and len(selected) != 1:
+        raise ValueError("--q0 and --qd0 name one case's coordinates; name exactly one case "
+                         f"(known cases: {', '.join(cases.names())})")
+    for case in selected:
+        case.with_motion(q0=args.q0, qd0=args.qd0, horizon=args.horizon)  # ValueError naming what is wrong
+    return RunOptions(mjcf=args.mjcf, timestep=args.timestep, integrators=args.integrators, horizon=args.horizon,
+                      q0=args.q0, qd0=args.qd0)
+
+
+def _outcome(args: argparse.Namespace, results: Sequence, checks: dict[str, list[Check]], limits) -> Outcome:
+    requirements = (*limits.requirements, *require.parse(args.require))
+    require.check_known(requirements, results)
+    return outcome_of(results, checks, requirements=requirements,
+                      accept_known_defects=args.accept_known_defects or limits.accept_known_defects)
 
 
 def _add_selection(p: argparse.ArgumentParser, *, mjcf: bool = True) -> None:
@@ -143,12 +219,12 @@ def _check_junit(path: Path | None) -> None:
         check_output(path.parent)
 
 
-def _junit(path: Path | None, checks: dict[str, list[Check]]) -> dict[Path, str]:
+def _junit(path: Path | None, outcome: Outcome) -> dict[Path, str]:
     """The JUnit file to write with the command's other outputs (none without --junit)."""
     if path is None:
         return {}
     prepare_output(path.parent)
-    return {path: junit_xml(checks)}
+    return {path: junit_xml(outcome.checks, accept_known_defects=outcome.accept_known_defects)}
 
 
 def _args_run(p: argparse.ArgumentParser) -> None:
@@ -159,6 +235,7 @@ def _args_run(p: argparse.ArgumentParser) -> None:
                    help="skip layer 4 (convergence, softness, solver and contact studies) and the seed audit")
     _add_junit(p)
     _add_quiet(p)
+    _add_run_options(p)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -169,16 +246,18 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_output(args.out)  # fail before minutes of work, not after
     _check_junit(args.junit)
     selected = _selected(args)
-    results, checks, limits = run_all(selected, args.config, args.mjcf, jobs=args.jobs)
+    options = _options(args, selected)
+    results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs)
+    outcome = _outcome(args, results, checks, limits)
     extras, appendix, plots = report_parts(selected, results, jobs=args.jobs,
-                                           studies=args.studies and args.mjcf is None)
-    files = report_files(args.out, results, checks, config_source=limits.source, extras=extras,
+                                           studies=args.studies and options.shipped)
+    files = report_files(args.out, results, outcome, config_source=limits.source, extras=extras,
                          appendix=appendix, plots=plots)
     prepare_output(args.out)
-    paths = write_atomic(files | _junit(args.junit, checks))  # the report and its JUnit: all or none
-    _print_checks(checks, quiet=args.quiet,
+    paths = write_atomic(files | _junit(args.junit, outcome))  # the report and its JUnit: all or none
+    _print_checks(outcome, quiet=args.quiet,
                   written=f"wrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - start:.1f} s")
-    return _exit(checks)
+    return outcome.exit_code
 
 
 def _args_check(p: argparse.ArgumentParser) -> None:
@@ -187,17 +266,21 @@ def _args_check(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print the run as JSON (report.json schema) "
                                                        "instead of the table")
     _add_quiet(p)
+    _add_run_options(p)
 
 
 def cmd_check(args: argparse.Namespace) -> int:
     _check_junit(args.junit)
-    results, checks, _ = run_all(_selected(args), args.config, args.mjcf, jobs=args.jobs, figures_only=True)
-    write_atomic(_junit(args.junit, checks))
+    selected = _selected(args)
+    results, checks, limits = run_all(selected, args.config, _options(args, selected), jobs=args.jobs,
+                                      figures_only=True)
+    outcome = _outcome(args, results, checks, limits)
+    write_atomic(_junit(args.junit, outcome))
     if args.json:
-        sys.stdout.write(dumps(json_doc(results, checks)))
+        sys.stdout.write(dumps(json_doc(results, outcome)))
     else:
-        _print_checks(checks, quiet=args.quiet)
-    return _exit(checks)
+        _print_checks(outcome, quiet=args.quiet)
+    return outcome.exit_code
 
 
 def _args_diff(p: argparse.ArgumentParser) -> None:
@@ -232,7 +315,8 @@ def cmd_baseline(args: argparse.Namespace) -> int:
         partial = bool(args.cases or args.case)
         old = load_run(args.write) if partial and baseline.exists(args.write) else None
         results, checks, _ = run_all(selected, args.config, jobs=args.jobs, figures_only=True)
-        failing = [c for cs in checks.values() for c in cs if not c.passed]
+        failing = [c for cs in checks.values() for c in cs if not c.passed and not c.known]  # a known defect is
+        # what this MuJoCo does, documented: a baseline of this version records it
         if failing:
             print(checks_table(checks))
             print(f"mjharness: refusing to write a baseline while {len(failing)} check(s) fail", file=sys.stderr)
@@ -246,21 +330,22 @@ def cmd_baseline(args: argparse.Namespace) -> int:
     mismatch = baseline.version_mismatch(reference, source=str(args.compare))
     if mismatch:  # a baseline is per MuJoCo version: refuse before any work
         raise ValueError(mismatch)
-    results, checks, limits = run_all(selected, args.config, jobs=args.jobs, figures_only=True)
+    results, checks, _ = run_all(selected, args.config, jobs=args.jobs, figures_only=True)
     findings = [f for r in results for f in baseline.compare(
-        reference, r.case.name, r.figures, limits.for_case(r.case.name), source=str(args.compare))]
+        reference, r.case.name, r.figures, checks[r.case.name], source=str(args.compare))]
     for f in findings:
         print(f.message)
     print(f"{len(findings)} regression(s) or missing entries against {args.compare} "
-          f"(rule: new > {baseline.FACTOR:g} × max(old, {baseline.FLOOR:g} × threshold))")
+          f"(rule: new > {baseline.FACTOR:g} × max(old, {baseline.FLOOR:g} × limit))")
     return EXIT_FAIL if findings else EXIT_OK
 
 
 def _args_limits(p: argparse.ArgumentParser) -> None:
     p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
     p.add_argument("--write", action="store_true",
-                   help="run the cases and rewrite their measured limits (theory limits are kept); a case "
-                        "without a limits file gets one by the default rule")
+                   help="run the cases that have no limits file and write one by the default rule (the "
+                        "figures it gates, each judged by its budget or its theory limit); files that exist "
+                        "are left as they are")
     p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
 
 
@@ -271,21 +356,24 @@ def cmd_limits(args: argparse.Namespace) -> int:
         for case in selected:
             entry = shipped.cases.get(case.name)
             print(f"{case.name} ({limits_data.limits_path(case.mjcf)}): "
-                  + (f"{len(entry.limits)} limits" if entry else "no limits file"))
+                  + (f"{len(entry.limits)} gated figures" if entry else "no limits file"))
             for name, lim in (entry.limits.items() if entry else ()):
-                print(f"  {name:42s} {lim.value:.3e}  {lim.describe()}")
+                value = "" if lim.value is None else f"{lim.value:.3e}"
+                print(f"  {name:42s} {value:>10s}  {lim.describe()}")
         return EXIT_OK
-    for case in selected:  # every file must be writable before minutes of work
+    missing = [case for case in selected if not limits_data.limits_path(case.mjcf).is_file()]
+    for case in missing:  # every file must be writable before the work
         check_output(limits_data.limits_path(case.mjcf).parent)
-    results, _, _ = run_all(selected, None, jobs=args.jobs, figures_only=True)
+    if not missing:
+        print("every case named has its limits file; budgets are computed for each run, so there is nothing "
+              "to rewrite (edit a file to gate another figure)")
+        return EXIT_OK
+    results, _, _ = run_all(missing, None, jobs=args.jobs, figures_only=True)
     files = {}
     for r in results:
-        path = limits_data.limits_path(r.case.mjcf)
-        old = limits_data.read_case_limits(r.case.name, path) if path.is_file() else None
         constrained = bool(r.case.dynamics().constraint_names)
-        new = limits_data.remeasured(r.case.name, old, r.figures, constrained=constrained,
-                                     skip=[n for n in (old.limits if old else {}) if unavailable_reason(n)])
-        files[path] = limits_data.format_case_limits(new)
+        new = limits_data.default_limits(r.case.name, [f.name for f in r.figures], constrained=constrained)
+        files[limits_data.limits_path(r.case.mjcf)] = limits_data.format_case_limits(new)
     for path in write_atomic(files):
         print(f"wrote {path}")
     return EXIT_OK
@@ -303,15 +391,17 @@ def cmd_figures(args: argparse.Namespace) -> int:
     descriptions are those the code that measures the figures gives them, so the cases run (as ``check``
     does: seconds, no report)."""
     results, _, limits = run_all(cases.select(args.cases), args.config, jobs=args.jobs, figures_only=True)
-    print("unit 1 = relative to the case's scale (m·g for forces, m·g·l for energy); a figure passes when it "
-          "is finite and ≤ its limit")
+    print("unit 1 = relative to the case's scale (m·g for forces, m·g·l for energy); a budget-gated figure "
+          "passes when what its budget does not explain is within the limit the budget computes, a figure "
+          "with a fixed limit when it is finite and ≤ it")
     for r in results:
         print(f"\n{r.case.name} — {r.case.description}")
         width = max(len(f.name) for f in r.figures)
         units = max(len(f.unit) for f in r.figures) + 2
         for f in r.figures:
             lim = limits.limit(r.case.name, f.name)
-            gate = f"limit {lim.value:.3g}: {lim.describe()}" if lim else "not gated"
+            gate = ("not gated" if lim is None else lim.describe() if lim.value is None
+                    else f"limit {lim.value:.3g}: {lim.describe()}")
             print(f"  {f.name.ljust(width)}  {f'[{f.unit}]'.ljust(units)}  {f.description}")
             print(f"  {' ' * (width + units + 2)}  {gate}")
     return EXIT_OK

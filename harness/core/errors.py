@@ -36,3 +36,13 @@ class SimulationDiverged(RuntimeError):
     @property
     def reason(self) -> str:
         return f"diverged: {self}"
+
+
+class UnmodelledElement(RuntimeError):
+    """The model has an element its analytic system lacks where a reading must tell it apart (a limit or
+    friction loss on the slide a contact force is read along): a finding about the model, like a
+    divergence — its figures fail with :attr:`reason` — not a mistake in the input."""
+
+    @property
+    def reason(self) -> str:
+        return f"not measurable: {self}"

@@ -4,23 +4,25 @@ The baseline is a directory with one file per case (``reports/baseline/NAME.json
 each in the report.json schema), so a new case adds its own file and edits no
 other; a single ``.json`` file holding every case works too.
 
-A threshold is a figure's measured value times a 2–3× margin, so a figure can
-get almost that much worse and still pass. The baseline catches that: a gated
-figure regresses when
+The verdict asks whether MuJoCo is right: a figure passes while its error
+budget explains it, however large the explained parts grow. The baseline asks
+a separate question, what changed since it was recorded: a gated figure
+regresses when
 
-    new > FACTOR × max(old, FLOOR × threshold)      (or new is not finite)
+    new > FACTOR × max(old, FLOOR × limit)      (or new is not finite)
+
+with ``limit`` the check's limit in this run (its budget's, or its fixed one).
 
 FACTOR = 2. Runs are bit-identical on one machine and MuJoCo version, so any
 change comes from code, MuJoCo or the platform. Roundoff and solver jitter
 across platforms move trajectory figures by percents; a real change in
 behaviour moves them by factors (halving the accuracy of a first-order method
 is 2×, of RK4 16×). 2× is the smallest factor that such a change trips while
-staying far above jitter, and it is no larger than the gates' own 2–3×
-margins, so no figure can creep up to its limit unnoticed.
+staying far above jitter.
 
-FLOOR = 0.01: a figure at roundoff level (1e-16 against a 1e-12 threshold)
+FLOOR = 0.01: a figure at roundoff level (1e-16 against a 1e-12 limit)
 may double across platforms without meaning anything; only growth beyond 2%
-of the threshold (FACTOR × FLOOR) counts there.
+of the limit (FACTOR × FLOOR) counts there.
 
 Refresh deliberately, after checking that the change is wanted, with
 ``mjharness baseline --write reports/baseline`` (all cases) or naming
@@ -36,6 +38,7 @@ from pathlib import Path
 
 import mujoco
 
+from harness.core.checks import Check
 from harness.core.figures import Figure
 from harness.engine.compat import unavailable_reason
 from harness.outputs.files import prepare_output, write_atomic
@@ -118,8 +121,9 @@ def write(path: Path, new: Mapping, old: Mapping | None = None) -> dict:
 
 
 def limit(old: float, threshold: float) -> float:
-    """The largest value a figure may take before it counts as a regression."""
-    return FACTOR * max(old, FLOOR * threshold)
+    """The largest value a figure may take before it counts as a regression (``threshold``: the check's
+    limit in this run; nan where it has none, when the floor does not apply)."""
+    return FACTOR * max(old, FLOOR * threshold) if math.isfinite(threshold) else FACTOR * old
 
 
 def version_mismatch(baseline: Mapping, *, source: str = DEFAULT_PATH) -> str:
@@ -138,8 +142,10 @@ def version_mismatch(baseline: Mapping, *, source: str = DEFAULT_PATH) -> str:
 
 
 def compare(baseline: Mapping, case: str, figures: Iterable[Figure],
-            thresholds: Mapping[str, float], *, source: str = DEFAULT_PATH) -> list[Finding]:
-    """Findings for one case: missing from the baseline, a gated figure missing, or regressed."""
+            checks: Sequence[Check] | Mapping[str, float], *, source: str = DEFAULT_PATH) -> list[Finding]:
+    """Findings for one case: missing from the baseline, a gated figure missing, or regressed. ``checks``:
+    the case's checks in this run (or its limits by figure), whose limits set the floor."""
+    thresholds = checks if isinstance(checks, Mapping) else {c.name: c.threshold for c in checks}
     refresh = f"mjharness baseline --write {source}"
     entry = baseline.get("cases", {}).get(case)
     if entry is None:
@@ -162,6 +168,6 @@ def compare(baseline: Mapping, case: str, figures: Iterable[Figure],
         if not (math.isfinite(new) and new <= limit(old, threshold)):
             found.append(Finding(case, name, f"{case} {name} regressed: {new:.3e} against baseline {old:.3e} "
                                              f"(allowed up to {limit(old, threshold):.3e} = {FACTOR:g}× "
-                                             f"max(baseline, {FLOOR:g}×threshold)); if intended, refresh "
+                                             f"max(baseline, {FLOOR:g}×limit)); if intended, refresh "
                                              f"with `{refresh}`"))
     return found

@@ -16,9 +16,10 @@ import numpy as np
 
 from harness.core import VERSION as __version__
 from harness.core.checks import Check
+from harness.pipeline.outcome import Outcome
 from harness.pipeline.run import CaseResult
 
-SCHEMA = 1
+SCHEMA = 2
 
 
 def versions() -> dict[str, str]:
@@ -27,26 +28,46 @@ def versions() -> dict[str, str]:
             "sympy": version("sympy"), "matplotlib": version("matplotlib"), "python": platform.python_version()}
 
 
-def all_passed(checks: Mapping[str, Sequence[Check]]) -> bool:
-    return all(c.passed for cs in checks.values() for c in cs)
+def _check_entry(c: Check) -> dict:
+    entry: dict = {"value": c.value, "threshold": c.threshold, "unit": c.unit, "passed": c.passed,
+                   "status": c.status, "basis": "budget" if c.budget is not None else "limit"}
+    if c.budget is not None:
+        entry["budget"] = c.budget.as_dict()
+    if c.note:
+        entry["note"] = c.note
+    if c.known:
+        entry["known_defect"] = c.known
+    if c.diverged:
+        entry["diverged"] = c.diverged
+    return entry
 
 
-def json_doc(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+def json_doc(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]], *,
              appendix: Mapping[str, object] | None = None) -> dict:
-    """Every figure, every check and the settings, per case (the schema ``mjharness diff`` reads);
-    ``appendix`` adds further top-level entries (the studies, the seed audit)."""
-    doc: dict = {"schema": SCHEMA, "versions": versions(), "passed": all_passed(checks), "cases": {},
-                 **(appendix or {})}
+    """Every figure, every check (with its budget) and the settings, per case, the verdict of the run and
+    of the requirements (the schema ``mjharness diff`` reads); ``appendix`` adds further top-level entries
+    (the studies, the seed audit)."""
+    if not isinstance(outcome, Outcome):
+        outcome = Outcome(checks=outcome)
+    doc: dict = {"schema": SCHEMA, "versions": versions(), "passed": outcome.passed,
+                 "gate": {"passed": outcome.gate_passed, "accept_known_defects": outcome.accept_known_defects,
+                          "known_defects": len(outcome.known_defects), "exit_code": outcome.exit_code},
+                 "cases": {}, **(appendix or {})}
+    if outcome.requirements:
+        doc["requirements"] = {"stated": {r.measure: r.value for r in outcome.requirements}, "met": outcome.fit}
     for r in results:
-        cs = checks[r.case.name]
-        doc["cases"][r.case.name] = {
+        cs = outcome.checks[r.case.name]
+        entry = {
             "passed": all(c.passed for c in cs),
             "figures": {f.name: f.as_dict() for f in r.figures},
-            "checks": {c.name: {"value": c.value, "threshold": c.threshold, "unit": c.unit,
-                                "passed": c.passed, **({"note": c.note} if c.note else {}),
-                                **({"diverged": c.diverged} if c.diverged else {})} for c in cs},
+            "checks": {c.name: _check_entry(c) for c in cs},
             "settings": r.settings,
         }
+        if r.findings:
+            entry["findings"] = [f.as_dict() for f in r.findings]
+        if outcome.requirements:
+            entry["fitness"] = [f.as_dict() for f in outcome.fitness.get(r.case.name, ())]
+        doc["cases"][r.case.name] = entry
     return doc
 
 
@@ -73,6 +94,6 @@ def dumps(doc: object) -> str:
     return json.dumps(_jsonable(doc), indent=1, sort_keys=True, allow_nan=False) + "\n"
 
 
-def render_json(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+def render_json(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]], *,
                 appendix: Mapping[str, object] | None = None) -> str:
-    return dumps(json_doc(results, checks, appendix=appendix))
+    return dumps(json_doc(results, outcome, appendix=appendix))

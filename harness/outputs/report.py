@@ -21,6 +21,7 @@ across lines, and plots and formulas are shown at the size they are drawn
 from __future__ import annotations
 
 import base64
+import dataclasses
 import functools
 import html
 from collections.abc import Callable, Mapping, Sequence
@@ -32,6 +33,7 @@ import numpy as np
 
 from analytic.claims.notation import latex_text
 from harness.core import VERSION as __version__
+from harness.core.budget import PARTS
 from harness.core.checks import Check
 from harness.outputs.equations import equations, png_data_uri
 from harness.outputs.files import REPORT_FILES, prepare_output, write_atomic
@@ -40,7 +42,9 @@ from harness.outputs.page import table_of_contents, unbroken_numbers
 from harness.outputs.plots import section_plots, shipped_integrator
 from harness.outputs.stills import Request, Still, stills
 from harness.outputs.table import closest as closest_check
-from harness.outputs.table import fmt_value, ratio, ratio_text, verdict_line
+from harness.outputs.table import fitness_line, fmt_value, parts_shown, ratio, ratio_text, verdict_line
+from harness.pipeline.outcome import Outcome
+from harness.pipeline.require import Fitness
 from harness.pipeline.run import CaseResult
 from harness.reference.derivations import derivation
 from harness.studies.formulas import text_html
@@ -61,24 +65,36 @@ def _setting(value: object) -> str:
 
 
 # -------------------------------------------------------------- sections
-def section_banner(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]]) -> str:
-    """The verdict line, as the command line prints it last."""
-    judged = {r.case.name: checks[r.case.name] for r in results}
-    failed = any(not c.passed for cs in judged.values() for c in cs)
-    return f"<p class='banner {'fail' if failed else 'pass'}'>{_esc(verdict_line(judged))}</p>"
+def _outcome(outcome: Outcome | Mapping[str, Sequence[Check]]) -> Outcome:
+    return outcome if isinstance(outcome, Outcome) else Outcome(checks=outcome)
 
 
-def _diverged(failed: Sequence[Check]) -> str:
-    count = sum(bool(c.diverged) for c in failed)
-    return f" ({count} on a run that diverged)" if count else ""
+def section_banner(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]]) -> str:
+    """The verdict line, as the command line prints it last, and the requirements' line where stated."""
+    outcome = _outcome(outcome)
+    judged = dataclasses.replace(outcome, checks={r.case.name: outcome.checks[r.case.name] for r in results})
+    banner = (f"<p class='banner {'pass' if judged.passed else 'fail'}'>{_esc(verdict_line(judged))}</p>")
+    fitness = fitness_line(judged)
+    if fitness:
+        banner += f"<p class='banner {'pass' if judged.fit else 'fail'}'>{_esc(fitness)}</p>"
+    return banner
 
 
 _HOW_TO_READ = """
 <details class='howto' open><summary>How to read this report (one minute)</summary><ul>
-<li>Every <b>check</b> is one measured <b>figure</b> beside its <b>threshold</b>; it passes when the figure
-is finite and ≤ the threshold. <b>used</b> is figure ÷ threshold: 40% means 2.5× headroom.</li>
-<li>Thresholds are a measured value times a stated margin (2–3×) or a bound from theory, kept with their
-basis in <code>mjcf/CASE.limits.toml</code> (<code>mjharness limits CASE</code> lists them).</li>
+<li>Every <b>check</b> is one <b>measured</b> figure — how far MuJoCo is from the analytic reference — and
+its <b>error budget</b>: the part the model's own settings explain (<b>integration</b> error at its timestep,
+from a run at h/2; constraint <b>softness</b>, from runs with solimp's 1 − d changed, extrapolated to the
+rigid limit; the point masses' inertia <b>floors</b>; a constraint <b>solver</b> stopped short), and what
+nothing explains: <b>unexplained</b>. A check passes when the unexplained part is within its <b>limit</b>,
+the accuracy of those estimates themselves (and float round-off, the reference's tolerance, the solver's
+convergence). <b>used</b> is unexplained ÷ limit: 40% means 2.5× headroom. Another timestep or softness
+moves the explained parts, not the verdict; a fault (damping, armature, a wrong coefficient) is
+unexplained.</li>
+<li>A few checks have a fixed limit from theory (a convergence order's shortfall, the reference's own
+accuracy), kept with their basis in <code>mjcf/CASE.limits.toml</code> (<code>mjharness limits CASE</code>
+lists them). <b>FAIL (known defect)</b> is a failure that shows the signature of a documented defect of
+this MuJoCo version; it fails the run unless <code>--accept-known-defects</code> is given.</li>
 <li>Figure names are <code>LAYER.QUANTITY[.DETAIL]</code>: <code>instant.*</code> compares MuJoCo and the
 analytic equations at sampled states without integrating (a failure there is in the model);
 <code>reference.*</code> judges our own solution; <code>INTEGRATOR.*</code> (RK4, Euler, …) compares a MuJoCo run
@@ -90,9 +106,10 @@ forces, m·g·l for energy).</li>
 """
 
 
-def section_summary(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]]) -> str:
+def section_summary(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]]) -> str:
     """One row per case: verdict, checks passed, the passing check closest to its limit (the headroom
     left; the failures have their own column), the failures."""
+    checks = _outcome(outcome).checks
     rows = []
     for r in results:
         cs = checks[r.case.name]
@@ -101,15 +118,25 @@ def section_summary(results: Sequence[CaseResult], checks: Mapping[str, Sequence
         tight = closest_check([c for c in cs if c.passed and not c.known])
         closest = (f"{_esc(tight.name)} <span class='dim'>({ratio_text(ratio(tight))})</span>"
                    if tight else "no passing gates" if cs else "no gates")
-        fails = "<br>".join(f"{_esc(c.name)}: {_esc(c.diverged)}" if c.diverged else
-                            f"{_esc(c.name)}: {fmt_value(c.value)} &gt; {fmt_value(c.threshold)} {_esc(c.unit)}"
-                            for c in failed)
+        fails = "<br>".join(f"{_esc(c.name)}: {_esc(_failure_text(c))}" for c in failed)
         rows.append(f"<tr class='{verdict.lower()}'><td><a href='#{_esc(r.case.name)}'>{_esc(r.case.name)}</a></td>"
                     f"<td class='verdict'>{verdict}</td><td>{len(cs) - len(failed)}/{len(cs)}</td>"
                     f"<td>{closest}</td><td>{fails}</td></tr>")
     return ("<section id='summary'><h2>Summary</h2><table class='summary'><tr><th>case</th><th>verdict</th>"
             "<th>checks passed</th><th>closest to its limit among those passing (used)</th>"
-            f"<th>failed: figure &gt; threshold</th></tr>{''.join(rows)}</table></section>")
+            f"<th>failed: why</th></tr>{''.join(rows)}</table></section>")
+
+
+def _failure_text(c: Check) -> str:
+    """Why a check failed, in one line: what could not be measured, or what is unexplained beside its
+    limit (and the known defect it shows)."""
+    if c.diverged:
+        return c.diverged
+    if c.budget is not None:
+        text = f"unexplained {fmt_value(c.budget.unexplained)} > limit {fmt_value(c.budget.limit)} {c.unit}"
+    else:
+        text = f"{fmt_value(c.value)} > limit {fmt_value(c.threshold)} {c.unit}"
+    return f"{text} (known defect: {c.known})" if c.known else text
 
 
 def _bar(r: float) -> str:
@@ -134,12 +161,12 @@ def _group_title(group: str, result: CaseResult) -> str:
 
 
 def _status(c: Check) -> str:
-    """PASS / FAIL, or n/a / KNOWN DEFECT with the reason (harness.compat)."""
+    """PASS / FAIL, FAIL (known defect: the reason, harness.engine.compat), or n/a with the reason."""
     if c.note:
         return f"n/a: {c.note}"
     if c.diverged:
         return f"FAIL, {c.diverged}"
-    return f"known defect: {c.known}" if c.known else c.status.upper()
+    return f"FAIL (known defect: {c.known})" if c.known else c.status.upper()
 
 
 def _meaning(result: CaseResult, check: Check) -> str:
@@ -156,19 +183,49 @@ class Column:
     css: str = ""
 
 
+def _measured(c: Check) -> str:
+    return "—" if c.diverged or c.note else fmt_value(c.value)
+
+
+def _part(name: str) -> Callable[[Check, CaseResult], str]:
+    def cell(c: Check, r: CaseResult) -> str:
+        value = None if c.budget is None else c.budget.explained.get(name)
+        return "" if value is None else f"{value:.2e}"
+    return cell
+
+
+def _unexplained(c: Check) -> str:
+    return "" if c.budget is None or c.diverged else fmt_value(c.budget.unexplained)
+
+
+def _limit(c: Check) -> str:
+    return "—" if c.note or c.diverged else fmt_value(c.threshold)
+
+
 CHECK_COLUMNS: tuple[Column, ...] = (
     Column("check", lambda c, r: _esc(c.name), "name"),
-    Column("figure", lambda c, r: fmt_value(c.value), "num"),
-    Column("threshold", lambda c, r: fmt_value(c.threshold), "num"),
+    Column("measured", lambda c, r: _measured(c), "num"),
+    *(Column(f"{part}", _part(part), "num part") for part in PARTS),
+    Column("unexplained", lambda c, r: _unexplained(c), "num"),
+    Column("limit", lambda c, r: _limit(c), "num"),
     Column("unit", lambda c, r: _esc(c.unit)),
     Column("used", lambda c, r: _bar(ratio(c)), "used"),
     Column("verdict", lambda c, r: _esc(_status(c)), "verdict"),
     Column("meaning", lambda c, r: _esc(_meaning(r, c)), "dim meaning"),
 )
-"""The gated-checks table, left to right: a new column is one more entry."""
+"""The gated-checks table, left to right: a new column is one more entry. The budget's parts
+(integration, softness, floors, solver) appear where some check of the case has them; for a check with
+a fixed limit the measured figure is what the limit applies to."""
+
+
+def _columns(checks: Sequence[Check], columns: Sequence[Column]) -> list[Column]:
+    """``columns`` less the budget parts no check of ``checks`` has."""
+    shown = set(parts_shown(checks))
+    return [col for col in columns if "part" not in col.css.split() or col.header in shown]
 
 
 def _checks_table(result: CaseResult, checks: Sequence[Check], columns: Sequence[Column] = CHECK_COLUMNS) -> str:
+    columns = _columns(checks, columns)
     groups: dict[str, list[Check]] = {}
     for c in checks:
         groups.setdefault(c.name.group, []).append(c)
@@ -215,10 +272,50 @@ def equations_html(system: str) -> str:
 _UNITS = {"timestep": "s", "horizon": "s", "tolerance": ""}
 
 
-def section_case(result: CaseResult, checks: Sequence[Check], still: Still | None, *, plots: str) -> str:
-    """One case: model and equations, gated checks, plots (already drawn: :func:`section_plots`), the
-    rest."""
+def _differences(result: CaseResult) -> str:
+    """What the model run differs in from the shipped one (its parameters the reference was built with,
+    its settings) and how the initial state was brought onto its constraints: '' where nothing."""
+    changed = result.settings.get("changed") or {}
+    projected = result.settings.get("projected") or []
+    if not changed and not projected:
+        return ""
+    rows = "".join(f"<tr><td>{_esc(k)}</td><td class='num'>{_esc(_setting(v.get('shipped')))}</td>"
+                   f"<td class='num'>{_esc(_setting(v.get('tested')))}</td></tr>" for k, v in changed.items())
+    table = (f"<table class='settings'><tr><th>parameter or setting</th><th>shipped</th><th>this run</th></tr>"
+             f"{rows}</table>") if rows else ""
+    moved = (f"<p class='dim'>Initial state brought onto the constraints of these parameters: "
+             f"{_esc('; '.join(projected))}.</p>") if projected else ""
+    return (f"<h3>What differs from the shipped model</h3><p class='dim'>The reference is built from the "
+            f"model run: these parameters are its own.</p>{table}{moved}")
+
+
+def _findings(result: CaseResult) -> str:
+    """Engine functions that disagree with what they should compute, found while measuring: '' if none."""
+    if not result.findings:
+        return ""
+    items = "".join(f"<li><b>{_esc(f.function)}</b>: {_esc(f.measure)} = {fmt_value(f.value)} {_esc(f.unit)}. "
+                    f"{_esc(f.detail)}.</li>" for f in result.findings)
+    return (f"<div class='note'><b>Engine finding{'s' * (len(result.findings) > 1)}</b> (the harness "
+            f"corrects for it to take its own measurement):<ul>{items}</ul></div>")
+
+
+def _fitness_table(fitness: Sequence[Fitness]) -> str:
+    if not fitness:
+        return ""
+    rows = "".join(f"<tr class='{'pass' if f.met else 'fail'}'><td class='name'>{_esc(f.figure)}</td>"
+                   f"<td class='num'>{fmt_value(f.value)}</td><td class='num'>{f.requirement.value:g}</td>"
+                   f"<td>{_esc(f.unit)}</td><td class='verdict'>{'met' if f.met else 'NOT MET'}</td></tr>"
+                   for f in fitness)
+    return ("<h3>Fitness for purpose (the model's own integrator)</h3><table class='checks'><tr><th>figure</th>"
+            f"<th>measured</th><th>required</th><th>unit</th><th>verdict</th></tr>{rows}</table>")
+
+
+def section_case(result: CaseResult, checks: Sequence[Check], still: Still | None, *, plots: str,
+                 fitness: Sequence[Fitness] = ()) -> str:
+    """One case: model and equations, what differs from the shipped model, engine findings, fitness
+    for the stated requirements, gated checks, plots (already drawn: :func:`section_plots`), the rest."""
     c = result.case
+    fitness = _fitness_table(fitness)
     failed = sum(not ch.passed for ch in checks)
     verdict = "PASS" if not failed else "FAIL"
     gated = {ch.name for ch in checks}
@@ -226,10 +323,10 @@ def section_case(result: CaseResult, checks: Sequence[Check], still: Still | Non
                    f"<td>{_esc(f.unit)}</td><td class='dim'>{_esc(f.description)}</td></tr>"
                    for f in result.figures if f.name not in gated)
     settings = "".join(f"<tr><td>{_esc(k)}</td><td>{_esc(_setting(v))} {_UNITS.get(k, '')}</td></tr>"
-                       for k, v in result.settings.items())
+                       for k, v in result.settings.items() if k not in ("changed", "projected"))
     return (f"<section id='{_esc(c.name)}'><h2>{_esc(c.name)} <span class='badge {verdict.lower()}'>"
             f"{verdict} {len(checks) - failed}/{len(checks)}</span></h2><p>{_esc(c.description)}</p>"
-            f"{section_model(result, still)}"
+            f"{section_model(result, still)}{_differences(result)}{_findings(result)}{fitness}"
             f"<h3>Gated checks</h3>{_checks_table(result, checks)}"
             f"<h3>Plots</h3><div class='plots'>{plots}</div>"
             f"<details class='more'><summary><h3>Other figures (measured, not gated)</h3> "
@@ -301,7 +398,7 @@ def model_stills(results: Sequence[CaseResult]) -> dict[str, Still]:
                    for r in results])
 
 
-def render_html(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+def render_html(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]], *,
                 stills: Mapping[str, Still] | None = None, config_source: str | None = None,
                 extras: Sequence[str] = (), plots: Mapping[str, str] | None = None) -> str:
     """The whole page. ``stills`` defaults to rendering each model now (see harness.render);
@@ -313,30 +410,36 @@ def render_html(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Che
         for system in dict.fromkeys(r.case.system for r in results):
             equations_html(system)  # typeset while the stills render
         shown = pending.result() if pending is not None else stills or {}
+    outcome = _outcome(outcome)
     ver = ", ".join(f"{k} {v}" for k, v in versions().items())
-    source = f" Thresholds from {_esc(config_source)}." if config_source else ""
-    body = section_summary(results, checks) + "".join(
-        section_case(r, checks[r.case.name], shown.get(r.case.name), plots=plots[r.case.name])
+    source = f" Limits from {_esc(config_source)}." if config_source else ""
+    body = section_summary(results, outcome) + "".join(
+        section_case(r, outcome.checks[r.case.name], shown.get(r.case.name), plots=plots[r.case.name],
+                     fitness=outcome.fitness.get(r.case.name, ()))
         for r in results) + "".join(extras)
     page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
             f"<meta name='viewport' content='width=device-width, initial-scale=1'><title>mjharness report</title>"
             f"<style>{_STYLE}</style></head><body><h1>mjharness report</h1>"
             f"<p class='dim'>MuJoCo checked against analytical mechanics. Versions: {_esc(ver)}.{source}</p>"
-            f"{section_banner(results, checks)}{table_of_contents(body)}{_HOW_TO_READ}{body}"
+            f"{section_banner(results, outcome)}{table_of_contents(body)}{_HOW_TO_READ}{body}"
             f"<footer>Generated by mjharness {_esc(__version__)}; the same figures are in report.json, "
             f"a summary in summary.md.</footer></body></html>\n")
     return unbroken_numbers(page)
 
 
-def render_markdown(results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+def render_markdown(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]], *,
                     audit: Mapping[str, object] | None = None) -> str:
-    """A CI job summary: the verdict, one row per case, the failures, every check folded away; then the
-    seed audit's counts and flagged claims where ``audit`` (report.json's "audit" entry) is given."""
-    total = sum(len(checks[r.case.name]) for r in results)
+    """A CI job summary: the verdict (and the requirements'), one row per case, the failures with their
+    budgets, the engine findings, every check folded away; then the seed audit's counts and flagged
+    claims where ``audit`` (report.json's "audit" entry) is given."""
+    outcome = _outcome(outcome)
+    judged = dataclasses.replace(outcome, checks={r.case.name: outcome.checks[r.case.name] for r in results})
+    checks = judged.checks
     failed = [c for r in results for c in checks[r.case.name] if not c.passed]
-    head = (f"**PASS**: {len(results)} case(s), all {total} checks within their thresholds" if not failed
-            else f"**FAIL**: {len(failed)} of {total} checks over their thresholds{_diverged(failed)}")
-    lines = ["# mjharness summary", "", head, "",
+    head = [f"**{verdict_line(judged)}**"]
+    if fitness_line(judged):
+        head.append(f"**{fitness_line(judged)}**")
+    lines = ["# mjharness summary", "", *head, "",
              "| case | verdict | checks passed | closest to its limit among those passing (used) |",
              "|---|---|---|---|"]
     for r in results:
@@ -347,17 +450,29 @@ def render_markdown(results: Sequence[CaseResult], checks: Mapping[str, Sequence
         lines.append(f"| {r.case.name} | {'pass' if not bad else '**FAIL**'} | {len(cs) - bad}/{len(cs)} "
                      f"| {closest} |")
     if failed:
-        lines += ["", "## Failed checks", "", "| case | check | figure | threshold | unit |",
-                  "|---|---|---|---|---|"]
-        lines += [f"| {c.case} | {c.name} | {c.diverged or fmt_value(c.value)} | {fmt_value(c.threshold)} | {c.unit} |"
+        lines += ["", "## Failed checks", "", "| case | check | measured | why |", "|---|---|---|---|"]
+        lines += [f"| {c.case} | {c.name} | {_measured(c)} {c.unit} | {_failure_text(c).replace('|', '∣')} |"
                   for c in failed]
+    findings = [(r.case.name, f) for r in results for f in r.findings]
+    if findings:
+        lines += ["", "## Engine findings", ""]
+        lines += [f"- {case}: **{f.function}** — {f.measure} = {fmt_value(f.value)} {f.unit}. {f.detail}."
+                  for case, f in findings]
+    unmet = judged.unmet
+    if unmet:
+        lines += ["", "## Requirements not met", "", "| case | figure | measured | required | unit |",
+                  "|---|---|---|---|---|"]
+        lines += [f"| {f.case} | {f.figure} | {fmt_value(f.value)} | {f.requirement.value:g} | {f.unit} |"
+                  for f in unmet]
     lines += ["", "<details><summary>Every check</summary>", "",
-              "| case | check | figure | threshold | used | verdict |", "|---|---|---|---|---|---|"]
+              "| case | check | measured | explained | unexplained | limit | used | verdict |",
+              "|---|---|---|---|---|---|---|---|"]
     for r in results:
         for c in checks[r.case.name]:
-            lines.append(f"| {r.case.name} | {c.name} | {fmt_value(c.value)} | {fmt_value(c.threshold)} | "
-                         f"{ratio_text(ratio(c))} | {c.status if c.passed else '**FAIL**'}"
-                         f"{', ' + c.diverged if c.diverged else ''} |")
+            explained = "" if c.budget is None else ", ".join(f"{k} {v:.2e}" for k, v in c.budget.explained.items())
+            lines.append(f"| {r.case.name} | {c.name} | {_measured(c)} | {explained} | {_unexplained(c)} | "
+                         f"{_limit(c)} | {ratio_text(ratio(c))} | {c.status if c.passed else '**' + c.status + '**'}"
+                         f"{', ' + c.reason if c.reason and not c.passed else ''} |")
     lines += ["", "</details>"]
     return "\n".join(lines) + "\n" + (audit_markdown(audit) if audit else "")
 
@@ -381,23 +496,23 @@ def audit_markdown(audit: Mapping[str, object]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def report_files(out: Path | str, results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]], *,
+def report_files(out: Path | str, results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]], *,
                  stills: Mapping[str, Still] | None = None, config_source: str | None = None,
                  extras: Sequence[str] = (), appendix: Mapping[str, object] | None = None,
                  plots: Mapping[str, str] | None = None) -> dict[Path, str]:
     """report.html, report.json and summary.md in ``out``, rendered, by path (:data:`REPORT_FILES`).
     ``extras``/``appendix``: further HTML sections and JSON entries; ``plots``: each case's plots, already
     drawn (see :func:`render_html`)."""
-    texts = (render_html(results, checks, stills=stills, config_source=config_source, extras=extras, plots=plots),
-             render_json(results, checks, appendix=appendix),
-             render_markdown(results, checks, audit=(appendix or {}).get("audit")))  # type: ignore[arg-type]
+    texts = (render_html(results, outcome, stills=stills, config_source=config_source, extras=extras, plots=plots),
+             render_json(results, outcome, appendix=appendix),
+             render_markdown(results, outcome, audit=(appendix or {}).get("audit")))  # type: ignore[arg-type]
     return {Path(out) / name: text for name, text in zip(REPORT_FILES, texts, strict=True)}
 
 
-def write_report(out: Path | str, results: Sequence[CaseResult], checks: Mapping[str, Sequence[Check]],
+def write_report(out: Path | str, results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]],
                  **options) -> list[Path]:
     """Write :func:`report_files` into ``out``: all rendered before anything is written, then the set
     replaced as a whole or not at all (:func:`harness.outputs.files.write_atomic`)."""
-    files = report_files(out, results, checks, **options)
+    files = report_files(out, results, outcome, **options)
     prepare_output(out)
     return write_atomic(files)

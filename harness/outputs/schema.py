@@ -16,7 +16,7 @@ from collections.abc import Mapping
 
 from harness.core.figures import FigureName
 
-SCHEMAS = (1,)  # the schema numbers this version reads (harness.outputs.jsondoc.SCHEMA writes the last)
+SCHEMAS = (1, 2)  # the schema numbers this version reads (harness.outputs.jsondoc.SCHEMA writes the last)
 NON_FINITE = ("nan", "inf", "-inf")  # how strict JSON holds a non-finite number
 
 

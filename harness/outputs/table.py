@@ -1,4 +1,11 @@
-"""Checks for a terminal: each figure beside its limit, the share of the limit it uses, the verdict."""
+"""Checks for a terminal: each figure, what its budget explains, the rest beside its limit, the verdict.
+
+A check judged by its error budget shows the figure as measured, the parts the
+model's settings explain (integration, softness, the point masses' floors, a
+constraint solver stopped short), the unexplained residual and the limit the
+estimates' accuracy sets for it; ``used`` is unexplained ÷ limit. A check with
+a fixed limit (theory, or a user's config) shows the figure beside its limit.
+"""
 
 from __future__ import annotations
 
@@ -6,24 +13,34 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from harness.core.budget import PARTS
 from harness.core.checks import Check
 from harness.core.tables import text_table
+from harness.pipeline.outcome import Outcome
 
 
 def fmt_value(value: float) -> str:
     return f"{value:.3e}" if np.isfinite(value) else str(value)
 
 
+def fmt_part(value: float | None) -> str:
+    """A budget part: '' where it does not apply, else 2 significant digits."""
+    return "" if value is None else f"{value:.2e}"
+
+
 def ratio(check: Check) -> float:
-    """Share of the threshold a figure uses: ≤ 1 passes (non-finite figures fail: inf);
-    nan for a check this MuJoCo cannot measure (n/a)."""
+    """Share of its limit a check uses (the unexplained residual's, for a budget): ≤ 1 passes (a
+    non-finite figure fails: inf); nan for a check this MuJoCo cannot measure (n/a)."""
     if check.note:
         return float("nan")
-    return check.value / check.threshold if np.isfinite(check.value) else float("inf")
+    judged = check.judged
+    if not np.isfinite(judged) or not check.threshold > 0:
+        return float("inf")
+    return judged / check.threshold
 
 
 def closest(checks: Sequence[Check]) -> Check | None:
-    """The measurable check using the largest share of its threshold."""
+    """The measurable check using the largest share of its limit."""
     return max((c for c in checks if not c.note), key=ratio, default=None)
 
 
@@ -35,22 +52,44 @@ def ratio_text(r: float) -> str:
     return f"{100 * r:.0f}%" if r <= 1 else f"{r:.3g}× over"
 
 
+def parts_shown(checks: Sequence[Check]) -> tuple[str, ...]:
+    """The budget parts any of ``checks`` has (integration, softness, floors, solver: in that order)."""
+    present = {p for c in checks if c.budget is not None for p in c.budget.explained}
+    return tuple(p for p in PARTS if p in present)
+
+
+def _cells(c: Check, parts: Sequence[str]) -> tuple[str, ...]:
+    if c.diverged or c.note:
+        return ("—", *("" for _ in parts), "—", "—" if c.diverged else "n/a")
+    if c.budget is None:
+        return (fmt_value(c.value), *("" for _ in parts), "", fmt_value(c.threshold))
+    b = c.budget
+    return (fmt_value(b.measured), *(fmt_part(b.explained.get(p)) for p in parts), fmt_value(b.unexplained),
+            fmt_value(b.limit))
+
+
+def _status(c: Check) -> str:
+    return f"{c.status}: {c.reason}" if c.reason else c.status
+
+
 def checks_table(checks: Mapping[str, Sequence[Check]]) -> str:
     """Every check as an aligned row, then one line counting passed, failed, n/a and known defects."""
-    rows = [(c.case, c.name, "—" if c.diverged else f"{c.value:.3e}", f"{c.threshold:.3e}", c.unit,
-             ratio_text(ratio(c)), f"{c.status}: {c.reason}" if c.reason else c.status)
-            for cs in checks.values() for c in cs]
-    header = ("case", "check", "figure", "threshold", "unit", "used", "verdict")
-    failed = sum(not c.passed for cs in checks.values() for c in cs)
-    total = sum(len(cs) for cs in checks.values())
-    na = sum(bool(c.note) for cs in checks.values() for c in cs)
-    known = sum(bool(c.known) for cs in checks.values() for c in cs)
-    diverged = sum(bool(c.diverged) for cs in checks.values() for c in cs)
-    return (text_table(header, rows) + "\n"
-            + f"{total - failed - na - known} passed, {failed} failed"
-            + (f" ({diverged} of them on a diverged run)" if diverged else "")
-            + (f", {na} n/a (not in this MuJoCo)" if na else "")
-            + (f", {known} known defect(s) of this MuJoCo" if known else ""))
+    everything = [c for cs in checks.values() for c in cs]
+    parts = parts_shown(everything)
+    rows = [(c.case, c.name, *_cells(c, parts), c.unit, ratio_text(ratio(c)), _status(c)) for c in everything]
+    header = ("case", "check", "measured", *parts, "unexplained", "limit", "unit", "used", "verdict")
+    return text_table(header, rows) + "\n" + counts_line(everything)
+
+
+def counts_line(everything: Sequence[Check]) -> str:
+    failed = [c for c in everything if not c.passed]
+    na = sum(bool(c.note) for c in everything)
+    known = sum(bool(c.known) for c in everything)
+    diverged = sum(bool(c.diverged) for c in everything)
+    return (f"{len(everything) - len(failed) - na} passed, {len(failed)} failed"
+            + (f" ({known} of them known defects of this MuJoCo)" if known else "")
+            + (f" ({diverged} of them on a run that could not be measured)" if diverged else "")
+            + (f", {na} n/a (not in this MuJoCo, or not measurable at these settings)" if na else ""))
 
 
 def failures_table(checks: Mapping[str, Sequence[Check]]) -> str:
@@ -58,26 +97,71 @@ def failures_table(checks: Mapping[str, Sequence[Check]]) -> str:
     failed = [c for cs in checks.values() for c in cs if not c.passed]
     if not failed:
         return ""
-    rows = [(c.case, c.name, fmt_value(c.value), fmt_value(c.threshold), c.unit, ratio_text(ratio(c)))
-            for c in failed]
-    return text_table(("case", "failed check", "figure", "threshold", "unit", "used"), rows)
+    parts = parts_shown(failed)
+    rows = [(c.case, c.name, *_cells(c, parts), c.unit, ratio_text(ratio(c)), _status(c)) for c in failed]
+    return text_table(("case", "failed check", "measured", *parts, "unexplained", "limit", "unit", "used",
+                       "verdict"), rows)
 
 
-def verdict_line(checks: Mapping[str, Sequence[Check]]) -> str:
-    """One line a person reads first: PASS or FAIL, how many checks of how many cases, and where the
-    failures are (case and count) or what was not judged (n/a, known defects)."""
-    everything = [c for cs in checks.values() for c in cs]
+def _known_text(known: Sequence[Check]) -> str:
+    reasons = list(dict.fromkeys(c.known.split(";")[0] for c in known))
+    return "; ".join(reasons)
+
+
+def verdict_line(outcome: Outcome | Mapping[str, Sequence[Check]]) -> str:
+    """One line a person reads first: PASS or FAIL, how many checks of how many cases, where the
+    failures are (case and count), which of them are documented defects of this MuJoCo, what was not
+    judged (n/a), and the engine findings."""
+    if not isinstance(outcome, Outcome):
+        outcome = Outcome(checks=outcome)
+    checks = outcome.checks
+    everything = outcome.all_checks
     failed = [c for c in everything if not c.passed]
     na = sum(bool(c.note) for c in everything)
-    known = sum(bool(c.known) for c in everything)
-    aside = [f"{na} n/a (not in this MuJoCo)"] * bool(na) + [f"{known} known defect(s) of this MuJoCo"] * bool(known)
-    tail = f"; {', '.join(aside)}" if aside else ""
+    known = [c for c in failed if c.known]
+    findings = sorted({f.function for fs in outcome.findings.values() for f in fs})
+    aside = [f"{na} n/a"] * bool(na)
+    aside += [f"engine finding{'s' * (len(findings) > 1)}: {', '.join(findings)} disagrees with what it should "
+              "compute (see the report)"] * bool(findings)
+    tail = f"; {'; '.join(aside)}" if aside else ""
     if not failed:
-        within = len(everything) - na - known
-        share = f"{within} of {len(everything)}" if aside else f"all {within}"
-        return f"PASS — {share} checks of {len(checks)} case(s) within their thresholds{tail}"
-    where = {c.case: 0 for c in failed}
+        within = len(everything) - na
+        share = f"{within} of {len(everything)}" if na else f"all {within}"
+        return f"PASS — {share} checks of {len(checks)} case(s) within what their budgets explain{tail}"
+    where: dict[str, int] = {}
     for c in failed:
-        where[c.case] += 1
-    return (f"FAIL — {len(failed)} of {len(everything)} checks over their thresholds, in {len(where)} of "
-            f"{len(checks)} case(s): " + ", ".join(f"{case} ({n})" for case, n in where.items()) + tail)
+        where[c.case] = where.get(c.case, 0) + 1
+    head = "FAIL"
+    if len(known) == len(failed) and outcome.accept_known_defects:
+        head = "FAIL, known defects accepted (exit 0)"
+    text = (f"{head} — {len(failed)} of {len(everything)} checks fail, in {len(where)} of {len(checks)} "
+            f"case(s): " + ", ".join(f"{case} ({n})" for case, n in where.items()))
+    if known:
+        share = "all of them" if len(known) == len(failed) else f"{len(known)} of them"
+        text += f"; {share} known defects of this MuJoCo ({_known_text(known)})"
+        if len(known) == len(failed) and not outcome.accept_known_defects:
+            text += "; --accept-known-defects accepts them"
+    return text + tail
+
+
+def fitness_line(outcome: Outcome) -> str:
+    """The requirements' verdict, one line ('' where none was stated)."""
+    if not outcome.requirements:
+        return ""
+    stated = ", ".join(f"{r.measure} ≤ {r.value:g}" for r in outcome.requirements)
+    unmet = outcome.unmet
+    if not unmet:
+        judged = sum(len(fs) for fs in outcome.fitness.values())
+        return f"REQUIREMENTS MET — {stated}: {judged} figure(s) of the models' own integrators within them"
+    worst = ", ".join(f"{f.case} {f.figure} {f.value:.3g} {f.unit} > {f.requirement.value:g}" for f in unmet[:4])
+    more = f" and {len(unmet) - 4} more" if len(unmet) > 4 else ""
+    return f"REQUIREMENTS NOT MET — {stated}: {worst}{more}"
+
+
+def fitness_table(outcome: Outcome) -> str:
+    """Every figure a requirement judged ('' where none was stated)."""
+    rows = [(f.case, str(f.figure), fmt_value(f.value), f"{f.requirement.value:g}", f.unit,
+             "met" if f.met else "NOT MET") for fs in outcome.fitness.values() for f in fs]
+    if not rows:
+        return ""
+    return text_table(("case", "figure (own integrator)", "measured", "required", "unit", "verdict"), rows)

@@ -35,6 +35,8 @@ the measured figures; its schema is::
 
     [require]                  # fitness for purpose, judged on each model's own integrator
     position = 1e-3            # (see harness.pipeline.require)
+
+    accept_known_defects = true   # a failure with a documented defect's signature does not fail the gate
 """
 
 from __future__ import annotations
@@ -53,10 +55,11 @@ from harness.cases import all_cases
 from harness.core.errors import ConfigError
 from harness.core.figures import FigureName
 from harness.layers.orders import ORDER_TOLERANCE
+from harness.pipeline.require import Requirement, from_config
 
 Basis = Literal["budget", "theory", "user"]
 BASES = ("budget", "theory")
-CONFIG_KEYS = {"thresholds", "require"}
+CONFIG_KEYS = {"thresholds", "require", "accept_known_defects"}
 
 
 def _default_gated(name: FigureName, constrained: bool) -> bool:
@@ -224,6 +227,8 @@ class Limits:
     cases: Mapping[str, CaseLimits]
     source: str
     overrides: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    requirements: tuple[Requirement, ...] = ()
+    accept_known_defects: bool = False
 
     def for_case(self, case: str) -> dict[str, Limit]:
         """The limits of ``case`` by figure name (what a verdict uses): the shipped ones, a user's
@@ -289,8 +294,16 @@ def load_limits(config: Path | str | None = None) -> Limits:
             cases[case] = read_case_limits(case, path)
     source = "the shipped limits (mjcf/CASE.limits.toml)"
     overrides: dict[str, dict[str, float]] = {}
+    requirements: tuple[Requirement, ...] = ()
+    accept = False
     if config is not None:
         config = Path(config)
-        overrides = _overrides(_config_section(config).get("thresholds", {}), config, set(models))
+        section = _config_section(config)
+        overrides = _overrides(section.get("thresholds", {}), config, set(models))
+        requirements = from_config(section.get("require", {}), source=f"config {str(config)!r}")
+        accept = section.get("accept_known_defects", False)
+        if not isinstance(accept, bool):
+            raise ConfigError(f"config {str(config)!r}: accept_known_defects must be true or false, got {accept!r}")
         source = f"{source} + {config}"
-    return Limits(cases=cases, source=source, overrides=overrides)
+    return Limits(cases=cases, source=source, overrides=overrides, requirements=requirements,
+                  accept_known_defects=accept)

@@ -20,7 +20,7 @@ from harness.core import costs
 from harness.core.checks import Check
 from harness.pipeline.limits import Limits, load_limits
 from harness.pipeline.pool import cpus, fork_pool
-from harness.pipeline.run import CaseResult, run_case
+from harness.pipeline.run import CaseResult, RunOptions
 from harness.pipeline.verdict import judge
 from harness.pipeline.vocabulary import check_config
 from harness.reference import derivations
@@ -37,10 +37,10 @@ def progress(items: Sequence, desc: str, unit: str = "case"):
                 disable=not sys.stderr.isatty())
 
 
-def run_all(selected: Sequence[cases.Case], config_path: Path | None, mjcf: Path | None = None, *,
+def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: RunOptions | None = None, *,
             jobs: int | None = None, figures_only: bool = False
             ) -> tuple[list[CaseResult], dict[str, list[Check]], Limits]:
-    """run_case for each case, then its verdict; (results, checks by case, limits).
+    """run_case for each case (as ``options`` ask), then its verdict; (results, checks by case, limits).
 
     ``jobs`` worker processes (default: one per CPU) share the cases; every
     case is computed by the same code from the same inputs wherever it runs, so
@@ -50,19 +50,20 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, mjcf: Path
     which the parent would unpickle while the workers wait on the pipe) and no
     reference solutions (for studies).
     """
+    options = options or RunOptions()
     limits = load_limits(config_path)
     check_config(limits.overrides, cases.all_cases(), source=repr(str(config_path)))  # the cases not run too
     workers = min(jobs or cpus(), len(selected))
     bar = progress(selected, "mjharness")
-    if workers <= 1 or mjcf is not None:
+    if workers <= 1 or options.mjcf is not None:
         results = []
         for case in bar:
             bar.set_postfix_str(case.name)
-            results.append(run_case(case, mjcf=mjcf))
+            results.append(options.run(case))
     else:
-        results = _run_parallel(selected, workers, bar, figures_only=figures_only)
+        results = _run_parallel(selected, workers, bar, figures_only=figures_only, options=options)
     bar.close()
-    if mjcf is None:
+    if options.shipped:
         costs.record({r.case.name: sum(v for k, v in r.timings.items() if k not in COLD) for r in results})
     checks = {r.case.name: judge(r, limits.for_case(r.case.name)) for r in results}
     return results, checks, limits
@@ -89,14 +90,14 @@ def groups(selected: Sequence[cases.Case], *, derived: Callable[[str], bool] | N
     return sorted(by_system.values(), key=lambda group: -cost(selected[group[0]].system, group))
 
 
-def _run_group(names: Sequence[str], figures_only: bool):
+def _run_group(names: Sequence[str], figures_only: bool, options: RunOptions):
     """A group's cases in a worker, in order, until one fails: per case (its result without the
     unpicklable Case, or its error), then the references this worker solved (none if
     ``figures_only``, when the results carry no trajectories either)."""
     outcomes = []
     for name in names:
         try:
-            result = run_case(cases.get(name))
+            result = options.run(cases.get(name))
         except Exception as exc:  # returned, raised by the parent in registry order
             outcomes.append((None, exc))
             break
@@ -106,7 +107,8 @@ def _run_group(names: Sequence[str], figures_only: bool):
     return outcomes, ({} if figures_only else refmod.export_solutions())
 
 
-def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_only: bool) -> list[CaseResult]:
+def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_only: bool,
+                  options: RunOptions) -> list[CaseResult]:
     """run_case on a process pool, a system's cases in one worker; results in registry order. A
     case's error is raised once every case before it in the registry has finished, as a serial run
     would raise it."""
@@ -117,7 +119,7 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_
         preload()
     outcomes: dict[int, tuple] = {}
     with fork_pool(workers) as pool:
-        futures = {pool.submit(_run_group, [selected[i].name for i in group], figures_only): group
+        futures = {pool.submit(_run_group, [selected[i].name for i in group], figures_only, options): group
                    for group in groups(selected, derived=stored.__getitem__)}
         next_in_order = 0
         for future in as_completed(futures):

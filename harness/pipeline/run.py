@@ -32,7 +32,7 @@ from harness.budget.measure import (
 )
 from harness.cases import Case
 from harness.core.budget import Budget
-from harness.core.errors import SimulationDiverged
+from harness.core.errors import SimulationDiverged, UnmodelledElement
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
 from harness.core.trajectory import Trajectory
@@ -86,6 +86,28 @@ class CaseResult:
             if f.name == name:
                 return f
         raise KeyError(name)
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """What a user may change of how a case runs (CLI flags, the API's keywords; picklable, so workers get
+    them): the model file, the timestep, the integrators run, the horizon and the initial state (the
+    coordinates named; a case's motion gives the rest). All None: the case as shipped."""
+
+    mjcf: Path | None = None
+    timestep: float | None = None
+    integrators: tuple[str, ...] | None = None
+    horizon: float | None = None
+    q0: Mapping[str, float] | None = None
+    qd0: Mapping[str, float] | None = None
+
+    @property
+    def shipped(self) -> bool:
+        return self == RunOptions()
+
+    def run(self, case: Case, *, edit: Callable[[mujoco.MjSpec], None] | None = None) -> CaseResult:
+        return run_case(case, mjcf=self.mjcf, integrators=self.integrators, timestep=self.timestep,
+                        horizon=self.horizon, q0=self.q0, qd0=self.qd0, edit=edit)
 
 
 def model_settings(model: mujoco.MjModel) -> dict[str, object]:
@@ -192,7 +214,7 @@ def run_case(
     for name in chosen:
         try:
             sims[name] = simulate(mut.compile(integrator=name), probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
-        except SimulationDiverged as exc:
+        except (SimulationDiverged, UnmodelledElement) as exc:
             diverged[name] = exc.reason
     timings["mujoco"] = time.perf_counter() - clock
 

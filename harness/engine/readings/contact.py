@@ -17,9 +17,11 @@ Jacobian column is its axis at every point of the bodies it moves, so Jᵀ f
 there sums every constraint force on those bodies along the axis, which is
 the contact's force alone when nothing else can push them along it (no limit
 or friction loss on the slide, no equality on the bodies it moves, no other
-colliding geom among them; :func:`slide_force` refuses a model where
-something could). Read that way it is recorded with the run, at no cost per
-sample; it equals the sum over contacts of ``mj_contactForce`` above to
+colliding geom among them; :func:`slide_force` raises
+:class:`~harness.core.errors.UnmodelledElement` for a model where something
+could: an element the analytic system lacks, so a failed verdict). Read that
+way it is recorded with the run, at no cost per sample; it equals the sum over
+contacts of ``mj_contactForce`` above to
 rounding (pinned in tests/test_hoop_ramp.py and tests/test_hoop_plane.py).
 
 What a contact can be checked against. MuJoCo's soft contact answers to its
@@ -46,6 +48,7 @@ from typing import Literal
 import mujoco
 import numpy as np
 
+from harness.core.errors import UnmodelledElement
 from harness.engine.readings import Reading
 from harness.engine.readings.momentum import subtree
 from harness.reference.derivations import dynamics_of
@@ -115,9 +118,9 @@ def slide_force(*, geom: str, joint: str) -> Reading:
                 raise ValueError(f"slide {joint!r} does not move geom {geom!r}")
             others = _other_pushers(model, gid, jid)
             if others:
-                raise ValueError(f"contact force on {geom!r} along slide {joint!r} is read as qfrc_constraint "
-                                 f"there, which would also include {', '.join(others)}; accepted: a model "
-                                 f"where only contacts on {geom!r} push the bodies {joint!r} moves")
+                raise UnmodelledElement(f"the model has {', '.join(others)}, which the analytic system has not "
+                                        f"and which would be read as contact force on {geom!r} along slide "
+                                        f"{joint!r} (qfrc_constraint there)")
             checked.update(model=model, dof=int(model.jnt_dofadr[jid]))
         return rec["qfrc_constraint"][:, checked["dof"]]  # the recorder copies what it keeps
 
