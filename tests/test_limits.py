@@ -114,6 +114,20 @@ def _run(python: str, *args: str, **env: str) -> subprocess.CompletedProcess:
                           env={k: v for k, v in {**os.environ, **env}.items() if v is not None})
 
 
+OURS = ("harness", "analytic", "mjcf", "mjharness")
+
+
+def _dependencies_only(site_packages: str, tmp_path: Path) -> str:
+    """A folder of links to the venv's packages without ours: PYTHONPATH comes before the user site, so
+    where the venv holds a regular install of mjharness (CI's), the venv's copy would be found instead."""
+    deps = tmp_path / "deps"
+    deps.mkdir()
+    for entry in Path(site_packages).iterdir():
+        if not entry.name.startswith(OURS) and not entry.name.startswith("__editable__"):
+            (deps / entry.name).symlink_to(entry)
+    return str(deps)
+
+
 FIND = ("from harness.pipeline.limits import load_limits, limits_path; from harness import cases; "
         "print(limits_path(cases.get('pendulum').mjcf)); print(len(load_limits().for_case('pendulum')))")
 
@@ -131,7 +145,8 @@ def test_an_installed_package_finds_its_limits(tmp_path, kind):
     else:  # a venv has no user site: install for, and run, the interpreter the venv was made from
         python = str(Path(sys.base_prefix) / "bin" / Path(sys.executable).name)
         pip, target = ["--python", python], ["--user"]
-        env = {"PYTHONUSERBASE": str(tmp_path / "user"), "PYTHONPATH": site_packages, "PYTHONNOUSERSITE": None}
+        env = {"PYTHONUSERBASE": str(tmp_path / "user"), "PYTHONPATH": _dependencies_only(site_packages, tmp_path),
+               "PYTHONNOUSERSITE": None}
     install = _run(sys.executable, "-m", "pip", *pip, "install", "--quiet", "--no-deps", *target, str(ROOT),
                    PIP_USER=None, **env)
     assert install.returncode == 0, install.stderr
