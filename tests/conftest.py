@@ -7,6 +7,7 @@ import functools
 import pytest
 
 from harness import cases
+from harness.core.checks import Check
 from harness.engine.compat import joint_types, known_defect, unavailable_reason
 from harness.engine.models import compile_model
 from harness.pipeline.limits import load_limits
@@ -28,12 +29,15 @@ def config():
     return load_limits()
 
 
+def judged(result: CaseResult) -> dict[str, Check]:
+    """Every gated figure's check, by name (the gates of integrators the run left out are not judged; those
+    of a diverged or unmeasurable run are failures)."""
+    return {c.name: c for c in judge(result, load_limits().for_case(result.case.name))}
+
+
 def failing(result: CaseResult) -> set[str]:
-    """Gated figures over their limit (limits restricted to the figures this run measured)."""
-    limits = load_limits().for_case(result.case.name)
-    measured = {f.name for f in result.figures}
-    checks = judge(result, {k: v for k, v in limits.items() if k in measured})
-    return {c.name for c in checks if not c.passed}
+    """Gated figures that fail."""
+    return {name for name, check in judged(result).items() if not check.passed}
 
 
 def breakable(case: str, names) -> set[str]:

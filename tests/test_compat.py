@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from harness import cases
+from harness.core.budget import Budget
+from harness.core.checks import gate
 from harness.core.figures import Figure
 from harness.engine import compat
 from harness.engine.models import compile_model, mjcf_path
-from harness.core.budget import Budget
-from harness.core.checks import gate
 from harness.pipeline.limits import Limit
 from harness.pipeline.run import CaseResult
 from harness.pipeline.verdict import judge

@@ -1,6 +1,7 @@
 """Vertical hoop rolling on a plane (case ``hoop_plane``): Pfaffian rolling rows, closed
 forms against the sympy derivation and the reference, the circular path, MuJoCo's contact
-forces and slip, the slip theory behind the gates, and broken models that trip them.
+forces and slip, the slip theory behind the gates, the faults that trip them and the
+legitimate settings that pass them.
 
 Closed forms (by hand). With the contact force (Fx, Fy, N) on the hoop and the rolling
 rows ẋ = a φ̇ cos θ, ẏ = a φ̇ sin θ:
@@ -213,7 +214,7 @@ def test_p_theta_is_conserved_by_both() -> None:
         np.testing.assert_allclose(sim.invariants["p_theta"], expected, rtol=1e-12)
 
 
-# --- the study and broken models --------------------------------------------------------------
+# --- the study, faults and legitimate settings --------------------------------------------------------------
 
 @pytest.mark.slow
 def test_study_finds_slip_independent_of_cone_impratio_noslip() -> None:
@@ -229,19 +230,27 @@ def test_study_finds_slip_independent_of_cone_impratio_noslip() -> None:
     assert study.shipped_row()["cone"] == "elliptic"
 
 
+# faults of the contact: too little friction to roll (the analytic system rolls without slipping) and a
+# rim of another radius than the hoop's (the analytic one): slip, penetration, forces, motion
 @pytest.mark.parametrize(("label", "kwargs", "expected"), [
     ("μ = 0.05 < v θ̇ / g: skids", {"edit": friction(0.05)},
      {"RK4.series.slip", "RK4.force.roll_x", "RK4.force.roll_y", "RK4.position", "RK4.velocity"}),
-    ("soft contact", {"edit": mujoco_default_softness},
-     {"RK4.series.slip", "RK4.series.penetration", "RK4.force.normal", "RK4.force.roll_y", "RK4.position"}),
     ("rim radius 0.9 a", {"edit": rim_radius(0.9)},
      {"RK4.series.slip", "RK4.series.penetration", "RK4.position", "RK4.drift.energy"}),
-    ("timestep 10 ms", {"timestep": 0.01},
-     {"RK4.series.slip", "RK4.series.penetration", "RK4.position", "RK4.force.roll_y"}),
 ])
-def test_broken_contact_trips_its_gates(label, kwargs, expected) -> None:
+def test_a_contact_fault_trips_its_gates(label, kwargs, expected) -> None:
     result = pipeline.run_case(CASE, integrators=["RK4"], **kwargs)
     assert expected <= failing(result), label
+
+
+# legitimate settings of the contact: MuJoCo's default softness and a 10 ms step simulate the same rolling
+# hoop less accurately; the budget's softness and integration parts explain it, and every gate passes
+@pytest.mark.parametrize(("label", "kwargs"), [
+    ("MuJoCo's default contact softness", {"edit": mujoco_default_softness}),
+    ("timestep 10 ms", {"timestep": 0.01}),
+])
+def test_a_legitimate_contact_setting_passes_every_gate(label, kwargs) -> None:
+    assert failing(pipeline.run_case(CASE, **kwargs)) == set(), label
 
 
 def test_p_theta_gates_fail_when_the_heading_is_damped() -> None:

@@ -15,7 +15,7 @@ approximates rolling without slipping:
 The figures per row: the largest slip speed (J q̇ + b of the rolling rows at
 MuJoCo's state) over the horizon and over its second half (the steady, slow
 slippage), the penetration, the error of every contact multiplier (after the
-case's ``settle`` time, / m g), the position error and MuJoCo's energy drift.
+settle time run_case uses, / m g), the position error and MuJoCo's energy drift.
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
 from harness.engine.simulate import simulate
 from harness.layers.trajectory import trajectory_figures
+from harness.pipeline.run import settle_time
 from harness.reference import solutions as refmod
 
 CONES = ("pyramidal", "elliptic")
@@ -168,7 +169,8 @@ def contact_study(
             continue
         ref_traj = refmod.trajectory(ref, sim.t)
         figs = {f.name.removeprefix("sim."): f.value
-                for f in trajectory_figures(ref_traj, sim, ref.scales, prefix="sim", settle=case.settle,
+                for f in trajectory_figures(ref_traj, sim, ref.scales, prefix="sim",
+                                            settle=settle_time(case, model, case.horizon)[0],
                                             series=case.mujoco_series)}
         forces = {f"force.{c}": figs[f"force.{c}"] for c in case.mujoco_forces}
         slip = sim.series["slip"]

@@ -308,6 +308,36 @@ def _equality(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
     return edit
 
 
+def _axis_tilt(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+    """Every hinge and slide axis turned by ``size`` rad towards a direction perpendicular to it: a joint
+    mounted out of true. The analytic system has the axes of the seed, so the joints' points move on other
+    circles and lines (kinematics) and gravity acts on them otherwise (forcing)."""
+    def edit(spec: mujoco.MjSpec) -> None:
+        for joint in _moving_joints(spec):
+            if joint.type not in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+                continue  # a ball joint has no axis
+            axis = np.asarray(joint.axis, dtype=float)
+            axis /= np.linalg.norm(axis)
+            helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
+            normal = np.cross(axis, helper)
+            normal /= np.linalg.norm(normal)
+            joint.axis = math.cos(size) * axis + math.sin(size) * normal
+    return edit
+
+
+def _equality_offset(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+    """Every joint equality's offset c0 moved by ``size`` × the case's length: MuJoCo holds its joints
+    elsewhere than the constraint the reference starts on and keeps, so it pulls the state onto its own
+    (violation) and moves otherwise from there."""
+    length = case.reference(model).scales.length
+
+    def edit(spec: mujoco.MjSpec) -> None:
+        for eq in spec.equalities:
+            if eq.type == mujoco.mjtEq.mjEQ_JOINT:
+                eq.data = [float(eq.data[0]) + size * length, *(float(x) for x in eq.data[1:])]
+    return edit
+
+
 def _gravcomp(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
     def edit(spec: mujoco.MjSpec) -> None:
         for body in spec.bodies[1:]:
@@ -379,6 +409,10 @@ FAULTS: tuple[Change, ...] = (
            make=_inertia, applies=_has_point_mass, sizes=(1e-3, 1e-2)),
     Change("equality-coefficient", "fault", "the last joint equality's coefficient off by {size} (relative)",
            make=_equality, applies=_has("equality"), sizes=(5e-3, 1e-2)),
+    Change("axis-tilt", "fault", "every hinge and slide axis tilted by {size}", "rad", make=_axis_tilt,
+           applies=_has("hinge_or_slide"), sizes=(1e-3, 1e-2)),
+    Change("equality-offset", "fault", "every joint equality's offset moved by {size} of the case's length",
+           make=_equality_offset, applies=_has("equality"), sizes=(1e-3, 1e-2)),
     Change("gravcomp", "fault", "gravity compensation {size} on every body", make=_gravcomp,
            applies=_gravity_does_work, sizes=(1e-2, 1e-2)),
     Change("joint-limit", "fault", "joint limits the motion reaches", make=_joint_limit,

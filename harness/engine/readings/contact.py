@@ -104,7 +104,7 @@ def _other_pushers(model: mujoco.MjModel, geom: int, joint: int) -> list[str]:
 def slide_force(*, geom: str, joint: str) -> Reading:
     """A reading of the contact force on ``geom`` along the world axis of the slide ``joint`` (N):
     ``qfrc_constraint`` at the slide's dof (see the module docstring for why that is the contact force,
-    and when it would not be, which raises ValueError)."""
+    and when it would not be, which raises UnmodelledElement)."""
     checked: dict[str, object] = {}
 
     def evaluate(model: mujoco.MjModel, rec: Mapping[str, np.ndarray]) -> np.ndarray:
