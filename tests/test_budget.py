@@ -12,10 +12,12 @@ import pytest
 from harness import cases
 from harness.budget.extrapolate import gain, richardson, to_zero
 from harness.budget.trajectory import Runs, budgets, noise_gain
+from harness.cli.commands import main
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.engine import variants as V
 from harness.engine.models import compile_model
+from harness.studies import faults, sensitivity
 
 NAME = FigureName("Euler.position")
 
@@ -165,7 +167,7 @@ def test_contacts_settle_over_forty_response_times():
 
 @pytest.mark.parametrize("threshold, expected", [(3e-4, 5e-4), (1e-4, 1e-4), (1.5e-7, 2e-7), (2.0, math.nan)])
 def test_the_sensitivity_search_finds_the_smallest_detected_size(threshold, expected):
-    from harness.studies.sensitivity import smallest_detected
+    smallest_detected = sensitivity.smallest_detected
 
     calls = []
 
@@ -177,3 +179,21 @@ def test_the_sensitivity_search_finds_the_smallest_detected_size(threshold, expe
     assert (math.isnan(size) and math.isnan(expected)) or size == pytest.approx(expected)
     assert deciding == ("" if math.isnan(expected) else "RK4.position")
     assert len(calls) <= 6
+
+
+def test_a_catalog_trial_names_the_check_that_decided_and_its_budget():
+    """A fault fails with the check furthest over its limit, and nothing of it is explained (damping is
+    no setting); a legitimate setting passes, the deciding check being the one closest to its limit."""
+    spring = cases.get("spring")
+    damping = sensitivity.trial(spring, faults.by_name("damping"))
+    assert damping.verdict == "FAIL" and damping.as_expected and damping.size == 1e-3
+    assert damping.deciding is not None and not damping.deciding.passed and damping.deciding.ratio > 1e3
+    heavier = sensitivity.trial(spring, faults.by_name("masses×2"))
+    assert heavier.verdict == "pass" and heavier.as_expected and heavier.deciding.ratio <= 1
+    assert sensitivity.trial(spring, faults.by_name("low-friction")).verdict == "n/a"
+    assert "damping" in sensitivity.trials_table([damping, heavier])
+
+
+def test_sensitivity_refuses_a_setting_named_as_a_fault(capsys):
+    assert main(["sensitivity", "spring", "--faults", "masses×2"]) == 2
+    assert "names settings, not faults: masses×2" in capsys.readouterr().err

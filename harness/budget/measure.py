@@ -1,10 +1,14 @@
 """Run the model variants a budget needs and turn them into budgets (the arithmetic is in
 :mod:`.instant` and :mod:`.trajectory`, the variants in :mod:`.variants`).
 
-Cost: per integrator the run at h/2 (2 units of the run at h) and, where the
-model has soft constraints, the softer run at h and at h/2 (3 more), and with
-contacts two more runs at h; the floors' run once per case. The
-instantaneous budget evaluates the sampled states twice more.
+Cost, per integrator: the run at h/2 (2 units of the run at h), and at h/4
+(4 more) where the error at h is not yet in its asymptotic range; with soft
+constraints one run per further softness level at h and one softer run at h/2
+(the cross term); with contacts, runs with their response time lengthened;
+where the model's solver stops short (CG, PGS), the runs again with the
+constraints solved exactly. Once per case: the floors' run. The instantaneous
+budget evaluates the sampled states twice more. ``benchmarks/budget_cost.py``
+measures the whole against the revision before the budget.
 """
 
 from __future__ import annotations

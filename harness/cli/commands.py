@@ -172,8 +172,9 @@ def _outcome(args: argparse.Namespace, results: Sequence, checks: dict[str, list
 def _add_selection(p: argparse.ArgumentParser, *, mjcf: bool = True) -> None:
     p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
     p.add_argument("--case", action="append", metavar="NAME", help="a case name (same as CASE; repeatable)")
-    p.add_argument("--config", type=Path, metavar="FILE", help="TOML overriding the shipped limits "
-                                                               "([thresholds.CASE] \"FIGURE\" = LIMIT)")
+    p.add_argument("--config", type=Path, metavar="FILE",
+                   help="TOML: limits of your own ([thresholds.CASE] \"FIGURE\" = LIMIT), requirements "
+                        "([require] QUANTITY = SIZE) and accept_known_defects = true")
     p.add_argument("--jobs", "-j", type=_positive, metavar="N",
                    help=f"worker processes for the cases (default: one per CPU, here {cpus()}); "
                         "the results do not depend on N")
@@ -444,6 +445,68 @@ def cmd_audit(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _args_faults(p: argparse.ArgumentParser) -> None:
+    p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    p.add_argument("--coarse", action="store_true",
+                   help="also judge each fault at 2 × the timestep with MuJoCo's default softness, at its coarse size")
+    p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
+
+
+def cmd_faults(args: argparse.Namespace) -> int:
+    from harness.pipeline.pool import run_tasks
+    from harness.studies import faults
+    from harness.studies import sensitivity as study
+
+    selected = cases.select(args.cases)
+    calls = [(study.trial_named, (case.name, change.name, False)) for case in selected for change in faults.SETTINGS]
+    calls += [(study.trial_named, (case.name, fault.name, coarse)) for case in selected for fault in faults.FAULTS
+              for coarse in ((False, True) if args.coarse else (False,))]
+    rows = run_tasks(calls, args.jobs or cpus(), on_done=_progress(len(calls)))
+    print(study.trials_table(rows))
+    judged = [r for r in rows if r.verdict != "n/a"]
+    unexpected = [r for r in judged if not r.as_expected]
+    print(f"{len(judged) - len(unexpected)} of {len(judged)} as expected (settings pass, faults fail)"
+          + (f"; unexpected: {', '.join(f'{r.case} {r.change} ({r.setting})' for r in unexpected)}"
+             if unexpected else ""))
+    return EXIT_FAIL if unexpected else EXIT_OK
+
+
+def _args_sensitivity(p: argparse.ArgumentParser) -> None:
+    p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    p.add_argument("--faults", type=lambda text: text.split(","), metavar="NAME,...",
+                   help="the faults to size (default: every fault of the catalog)")
+    p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
+
+
+def cmd_sensitivity(args: argparse.Namespace) -> int:
+    from harness.pipeline.pool import run_tasks
+    from harness.studies import faults
+    from harness.studies import sensitivity as study
+
+    selected = cases.select(args.cases)
+    chosen = [faults.by_name(name) for name in args.faults] if args.faults else list(faults.FAULTS)
+    unknown = [f.name for f in chosen if f.kind != "fault"]
+    if unknown:
+        raise ValueError(f"--faults names settings, not faults: {', '.join(unknown)}; faults: "
+                         f"{', '.join(f.name for f in faults.FAULTS)}")
+    calls = [(study.sensitivity_named, (case.name, fault.name, coarse)) for case in selected for fault in chosen
+             for coarse in (False, True)]
+    rows = run_tasks(calls, args.jobs or cpus(), on_done=_progress(len(calls)))
+    print(study.table(rows))
+    return EXIT_OK
+
+
+def _progress(total: int) -> Callable[[int, object], None]:
+    """A progress line on stderr (a terminal only) as each of ``total`` runs finishes."""
+    done = [0]
+
+    def report(_i: int, _result: object) -> None:
+        done[0] += 1
+        if sys.stderr.isatty():
+            print(f"\r{done[0]}/{total}", end="" if done[0] < total else "\n", file=sys.stderr, flush=True)
+    return report
+
+
 @dataclass(frozen=True)
 class Command:
     """A subcommand: ``help``, one line for the command list (``mjharness --help``); ``description``, more
@@ -459,22 +522,31 @@ COMMANDS: dict[str, Command] = {
     "list": Command("list the cases", _args_list, cmd_list),
     "run": Command("run cases, write report.html, report.json and summary.md", _args_run, cmd_run),
     "check": Command("the CI gate: every figure against its limit, no report", _args_check, cmd_check,
-                     "the CI gate: run the cases and judge every gated figure against its limit (exit 0 "
-                     "pass, 1 fail, 2 bad input); draws nothing"),
+                     "the CI gate: run the cases and judge every gated figure by its error budget or its "
+                     "limit (exit 0 pass, 1 fail, 2 bad input, 3 a --require not met); draws nothing"),
     "figures": Command("every figure: what it measures, its unit, its limit's basis", _args_figures,
                        cmd_figures, "every figure each case measures: what it measures, its unit, and its "
-                                    "limit with the basis (theory, measured × margin, or your config); runs the "
+                                    "limit with the basis (budget, theory, or your config); runs the "
                                     "cases as check does"),
     "diff": Command("what changed between two runs, figure by figure", _args_diff, cmd_diff,
                     "what changed between two runs' JSON (report.json, check --json, a baseline), figure "
                     "by figure; flipped verdicts first"),
     "baseline": Command("write or compare the regression baseline", _args_baseline, cmd_baseline,
                         "write or compare the regression baseline (reports/baseline/)"),
-    "limits": Command("each case's limits with their basis (--write: from a run)", _args_limits, cmd_limits,
-                      "list each case's limits with their basis; --write rewrites the measured ones from a run"),
+    "limits": Command("each case's limits with their basis (--write: a new case's file)", _args_limits, cmd_limits,
+                      "list each case's limits with their basis; --write writes the file of a case that has none, "
+                      "by the default rule (nothing measured)"),
     "converge": Command("convergence orders and constraint studies (layer 4)", _args_converge, cmd_converge,
                         "convergence order per integrator vs the documented one (exit 1 if one falls "
                         "short); --softness, --solvers: constraint studies"),
+    "faults": Command("the fault catalog judged: settings must pass, faults fail", _args_faults, cmd_faults,
+                      "every legitimate setting and every fault of the catalog (harness/studies/faults.py) on "
+                      "each case, judged as check --mjcf judges a variant: the verdict, the check that decided "
+                      "and its budget (exit 1 if a setting fails or a fault passes)"),
+    "sensitivity": Command("the smallest size of each fault each case detects", _args_sensitivity,
+                           cmd_sensitivity, "the smallest size of each fault each case detects, at the shipped "
+                                            "settings and at 2 × the timestep with MuJoCo's default softness "
+                                            "(dozens of runs per case: minutes)"),
     "audit": Command("the seed documents' claims, checked", _args_audit, cmd_audit,
                      "the seed documents' claims: confirmed, refuted (with the correction) or ambiguous"),
 }

@@ -5,8 +5,9 @@ distance is expected from the model's own settings, and the budget names it:
 
 - ``integration``: the integrator's truncation error at the model's timestep
   (Richardson: the same run at h/2 and the integrator's documented order);
-- ``softness``: MuJoCo's soft constraints (solref/solimp), from a run with every
-  constraint softened twofold, extrapolated to the rigid limit;
+- ``softness``: MuJoCo's soft constraints (solref/solimp), from runs with every
+  constraint's effective softness scaled (by ½, or by 2 where it is already at
+  MuJoCo's stiffest), extrapolated to the rigid limit;
 - ``floors``: a point mass's tiny rotational inertia (MuJoCo needs some), from a
   run with it doubled, extrapolated to zero;
 - ``solver``: where the model's constraint solver stops short of the solution

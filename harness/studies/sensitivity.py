@@ -13,7 +13,9 @@ fail without the fault at the same setting (a documented defect of an older
 MuJoCo fails either way).
 
 It runs every case dozens of times (minutes), so it is a study, not a gate:
-``mjharness sensitivity`` prints the table and writes it beside the report.
+``mjharness sensitivity`` prints the table. ``mjharness faults`` runs the
+catalog itself once, every setting and every fault at its claimed size, and
+prints each verdict with the check that decided it and that check's budget.
 """
 
 from __future__ import annotations
@@ -22,14 +24,16 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from harness import cases
 from harness.cases import Case
+from harness.core.checks import Check
 from harness.core.tables import text_table
 from harness.engine.models import compile_model
 from harness.engine.variants import compose
 from harness.pipeline.limits import load_limits
 from harness.pipeline.run import run_case
 from harness.pipeline.verdict import judge
-from harness.studies.faults import COARSE, FAULTS, Change
+from harness.studies.faults import COARSE, FAULTS, SETTINGS, Change, by_name
 
 SMALLEST = 1e-7
 LARGEST = 1.0
@@ -49,10 +53,80 @@ class Sensitivity:
     note: str = ""
 
 
-def _failures(case: Case, edits: Sequence, timestep_factor: float) -> set[str]:
+def _checks(case: Case, edits: Sequence, timestep_factor: float) -> list[Check]:
     h = float(compile_model(case.mjcf).opt.timestep)
-    result = run_case(case, edit=compose(*edits), timestep=h * timestep_factor if timestep_factor != 1 else None)
-    return {c.name for c in judge(result, load_limits().for_case(case.name)) if not c.passed and not c.note}
+    edits = [e for e in edits if e is not None]
+    result = run_case(case, edit=compose(*edits) if edits else None,
+                      timestep=h * timestep_factor if timestep_factor != 1 else None)
+    return judge(result, load_limits().for_case(case.name))
+
+
+def _failures(case: Case, edits: Sequence, timestep_factor: float) -> set[str]:
+    return {c.name for c in _checks(case, edits, timestep_factor) if not c.passed and not c.note}
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One change of the catalog judged on one case: a setting must pass, a fault must fail.
+
+    Attributes:
+        verdict: ``pass`` or ``FAIL`` (the gate, known defects not accepted); ``n/a`` where the change does
+            not apply (``note`` says why).
+        deciding: the check that decides: for a FAIL the failed check furthest over its limit (a run that
+            could not be measured first), for a pass the one closest to its limit.
+    """
+
+    case: str
+    change: str
+    kind: str
+    setting: str
+    size: float
+    verdict: str
+    deciding: Check | None = None
+    note: str = ""
+
+    @property
+    def as_expected(self) -> bool:
+        return self.verdict == "n/a" or (self.verdict == "pass") == (self.kind == "setting")
+
+
+def trial(case: Case, change: Change, *, coarse: bool = False) -> Trial:
+    """``change`` applied to ``case`` (a fault at its size for the setting), at the shipped settings or at
+    :data:`~harness.studies.faults.COARSE`, judged as ``mjharness check --mjcf VARIANT`` judges it."""
+    setting = COARSE.name if coarse else "shipped"
+    size = change.sizes[1 if coarse else 0] if change.kind == "fault" else math.nan
+    why = change.reason_not(case)
+    if why:
+        return Trial(case.name, change.name, change.kind, setting, size, "n/a", note=why)
+    edits = [change.edit(case, size), *([COARSE.edit(case)] if coarse else [])]
+    checks = [c for c in _checks(case, edits, change.timestep * (COARSE.timestep if coarse else 1.0)) if not c.note]
+    failed = [c for c in checks if not c.passed]
+    if failed:
+        deciding = max(failed, key=lambda c: (bool(c.diverged), c.ratio if math.isfinite(c.ratio) else math.inf))
+        return Trial(case.name, change.name, change.kind, setting, size, "FAIL", deciding)
+    closest = max(checks, key=lambda c: c.ratio if math.isfinite(c.ratio) else -1.0, default=None)
+    return Trial(case.name, change.name, change.kind, setting, size, "pass", closest)
+
+
+def trials_table(rows: Sequence[Trial]) -> str:
+    """The catalog as a text table: per case and change, the verdict, the deciding check and its budget."""
+    def budget(c: Check | None) -> str:
+        if c is None:
+            return ""
+        if c.diverged:
+            return c.diverged
+        if c.budget is None:
+            return f"{c.value:.3g} vs {c.threshold:.3g} ({c.name.layer} limit)"
+        b = c.budget
+        parts = ", ".join(f"{k} {v:.2g}" for k, v in b.explained.items() if v)
+        return f"measured {b.measured:.3g} = {parts or 'nothing explained'} + {b.unexplained:.2g}; limit {b.limit:.2g}"
+
+    body = [[r.case, r.change, r.kind, r.setting, "" if math.isnan(r.size) else f"{r.size:g}",
+             r.verdict + ("" if r.as_expected else " (unexpected)"),
+             r.note or (str(r.deciding.name) if r.deciding else ""),
+             "" if r.deciding is None else f"{r.deciding.ratio:.2g}", budget(r.deciding)] for r in rows]
+    return text_table(["case", "change", "kind", "at", "size", "verdict", "deciding check", "used", "its budget"],
+                      body)
 
 
 def smallest_detected(detects: Callable[[float], str], *, smallest: float = SMALLEST, largest: float = LARGEST
@@ -101,6 +175,13 @@ def sensitivity(case: Case, fault: Change, *, coarse: bool) -> Sensitivity:
     return Sensitivity(case.name, fault.name, setting, size, fault.unit, deciding)
 
 
+def trials(selected: Sequence[Case], *, coarse: bool = False) -> list[Trial]:
+    """Every setting (at the shipped settings only) and every fault of the catalog on each case."""
+    return ([trial(case, change) for case in selected for change in SETTINGS]
+            + [trial(case, fault, coarse=c) for case in selected for fault in FAULTS
+               for c in ((False, True) if coarse else (False,))])
+
+
 def sensitivities(selected: Sequence[Case], *, faults: Sequence[Change] = FAULTS) -> list[Sensitivity]:
     return [sensitivity(case, fault, coarse=coarse) for case in selected for fault in faults
             for coarse in (False, True)]
@@ -123,3 +204,14 @@ def table(rows: Sequence[Sensitivity]) -> str:
 
     body = [[case, fault, cell(s.get("shipped")), cell(s.get(COARSE.name))] for (case, fault), s in by_key.items()]
     return text_table(["case", "fault", "shipped", "2 × timestep, default softness"], body)
+
+
+def trial_named(case: str, change: str, coarse: bool) -> Trial:
+    """:func:`trial` by names (what a worker process is sent: a Change holds functions)."""
+    return trial(cases.get(case), by_name(change), coarse=coarse)
+
+
+def sensitivity_named(case: str, fault: str, coarse: bool) -> Sensitivity:
+    """:func:`sensitivity` by names (what a worker process is sent)."""
+    return sensitivity(cases.get(case), by_name(fault), coarse=coarse)
+
