@@ -35,7 +35,7 @@ BASE = "5c67283"  # the last commit before the error budget
 def _run(tree: Path, cache: Path, jobs: int) -> float:
     env = {**os.environ, "PYTHONPATH": str(tree), "XDG_CACHE_HOME": str(cache)}
     start = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "harness.cli", "check", "--quiet", "--jobs", str(jobs)],
+    done = subprocess.run([sys.executable, "-m", "harness.cli", "check", "--jobs", str(jobs)],
                           cwd=tree, env=env, capture_output=True, text=True)
     elapsed = time.perf_counter() - start
     if done.returncode not in (0, 1):

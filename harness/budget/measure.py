@@ -13,6 +13,7 @@ measures the whole against the revision before the budget.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -195,13 +196,66 @@ def trajectory_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, s
         except SimulationDiverged as exc:
             return runs, {name: f"the budget's run with the point masses' floors doubled {exc.reason}"
                           for name in sims}
+    twins: list[tuple[float, Trajectory, str]] = []  # (order, run at h, the integrator whose variants it has)
     for name, sim in sims.items():
+        twin = next((owner for order, other, owner in twins if order == orders[name] and _twins(sim, other)), None)
+        if twin is not None:  # the same step map: its variants are the same runs
+            if twin in runs:
+                runs[name] = _renamed(runs[twin], name, _deviations(target, sim, name))
+            else:
+                failed[name] = failed[twin]
+            continue
+        twins.append((orders[name], sim, name))
         try:
             runs[name] = _integrator_runs(mut, probe, target, sim, name, order=orders[name], settings=settings,
                                           floors=floors)
         except SimulationDiverged as exc:
             failed[name] = f"a run of its budget (a variant at h/2, h/4 or softer) {exc.reason}"
     return runs, failed
+
+
+def _renamed(runs: Runs, integrator: str, as_is: Sequence[Deviation]) -> Runs:
+    """``runs`` as another integrator's, with that integrator's own run at h: every deviation's figure name
+    carries that integrator."""
+    def devs(values: Sequence[Deviation] | None) -> list[Deviation] | None:
+        if values is None:
+            return None
+        return [dataclasses.replace(d, name=FigureName(f"{integrator}.{d.name.measure}")) for d in values]
+
+    return dataclasses.replace(runs, as_is=list(as_is), half_step=devs(runs.half_step),
+                               converged=devs(runs.converged), quarter_step=devs(runs.quarter_step),
+                               softness=tuple(devs(r) for r in runs.softness),
+                               softness_half_step=devs(runs.softness_half_step),
+                               slower=tuple(devs(r) for r in runs.slower))
+
+
+TWIN_TOLERANCE = 1e-9
+"""Two runs at the model's settings agreeing to this fraction of each recorded quantity's largest size are
+one step map's (:func:`_twins`)."""
+
+
+def _twins(a: Trajectory, b: Trajectory) -> bool:
+    """Whether two integrators' runs at the model's settings are the same up to round-off: every recorded
+    number within :data:`TWIN_TOLERANCE` of its quantity's largest size. Semi-implicit Euler, implicitfast
+    and implicit are one step map where no velocity-dependent force has a derivative (no damping, no
+    actuator; for implicit, no Coriolis term): their factorizations round differently (1e-13 relative
+    here), nothing more. Their variant runs then agree as closely, so those are made once and shared: each
+    budget keeps its own run at h, and what the sharing changes lies 1e-9 below the figure, under the
+    round-off tolerance. A fault with a velocity-dependent force (damping) separates them at first order in
+    h and is budgeted for each."""
+    if len(a.t) != len(b.t):
+        return False
+    groups = [(a.positions, b.positions), (a.velocities, b.velocities), (a.multipliers, b.multipliers),
+              (a.invariants, b.invariants), (a.violations, b.violations), (a.series, b.series)]
+    for left, right in groups:
+        if set(left) != set(right):
+            return False
+        for key in left:
+            x, y = np.asarray(left[key], dtype=float), np.asarray(right[key], dtype=float)
+            size = float(np.max(np.abs(x))) if x.size else 0.0
+            if x.shape != y.shape or not np.all(np.abs(x - y) <= TWIN_TOLERANCE * size):
+                return False
+    return True
 
 
 def trajectory_budget(runs: Mapping[str, Runs], *, orders: Mapping[str, float], rtol: float,
