@@ -11,12 +11,15 @@ import pytest
 
 from harness import cases
 from harness.budget.extrapolate import gain, richardson, to_zero
-from harness.budget.trajectory import Runs, budgets, noise_gain
+from harness.budget.trajectory import Runs, budgets, noise_gain, unresolved
 from harness.cli.commands import main
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.engine import variants as V
 from harness.engine.models import compile_model
+from harness.pipeline.limits import load_limits
+from harness.pipeline.run import run_case
+from harness.pipeline.verdict import judge
 from harness.studies import faults, sensitivity
 
 NAME = FigureName("Euler.position")
@@ -197,3 +200,38 @@ def test_a_catalog_trial_names_the_check_that_decided_and_its_budget():
 def test_sensitivity_refuses_a_setting_named_as_a_fault(capsys):
     assert main(["sensitivity", "spring", "--faults", "masses×2"]) == 2
     assert "names settings, not faults: masses×2" in capsys.readouterr().err
+
+
+def _position_runs(error, h: float) -> Runs:
+    """Runs of a position figure whose value at step h is ``error(h)``, with the run at h/4."""
+    t = np.linspace(0.0, 1.0, 11)
+    name = FigureName("RK4.position")
+
+    def run(hh: float) -> list[Deviation]:
+        return _dev(error(hh) * (1 + t), name)
+
+    return Runs(as_is=run(h), half_step=run(h / 2), quarter_step=run(h / 4))
+
+
+def test_a_timestep_outside_the_asymptotic_range_cannot_be_budgeted():
+    """Richardson needs the error to be its leading term plus a smaller rest. A series whose h, h/2, h/4
+    values do not fall as h⁴ (a step a sizeable part of the period, where terms of every order are alike)
+    is refused, naming why; one in the asymptotic range (a small h⁵ rest) is budgeted."""
+    coarse = lambda h: 0.5 * h  # noqa: E731  (halving h halves the error: nothing like h⁴)
+    why = unresolved(_position_runs(coarse, 1.0), order=4, integrator="RK4")
+    assert why.startswith("unresolved: the timestep is outside RK4's asymptotic range")
+    fine = lambda h: 0.3 * h**4 + 1.0 * h**5  # noqa: E731
+    assert unresolved(_position_runs(fine, 0.01), order=4, integrator="RK4") == ""
+
+
+def test_a_pendulum_stepped_by_a_fifth_of_its_horizon_fails_as_unresolved():
+    """At h = 1 s (the period is 2 s) no integrator's error is an expansion in h: its figures fail with the
+    reason, instead of passing inside a limit as large as the figure."""
+    checks = {c.name: c for c in judge(run_case(cases.get("pendulum"), timestep=1.0),
+                                       load_limits().for_case("pendulum"))}
+    assert not checks["RK4.position"].passed and checks["RK4.position"].reason.startswith("unresolved")
+
+
+def test_a_timestep_longer_than_the_horizon_is_refused(capsys):
+    assert main(["check", "pendulum", "--timestep", "9"]) == 2
+    assert "the timestep 9 s is longer than the horizon 5 s" in capsys.readouterr().err

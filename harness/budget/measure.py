@@ -23,7 +23,7 @@ import numpy as np
 
 from analytic.systems import Scales
 from harness.budget.instant import instant_budgets
-from harness.budget.trajectory import Runs, budgets, every_nth, past_asymptotic
+from harness.budget.trajectory import Runs, budgets, every_nth, past_asymptotic, unresolved
 from harness.cases import Series
 from harness.core.budget import Budget
 from harness.core.deviation import Deviation
@@ -207,10 +207,16 @@ def trajectory_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, s
             continue
         twins.append((orders[name], sim, name))
         try:
-            runs[name] = _integrator_runs(mut, probe, target, sim, name, order=orders[name], settings=settings,
-                                          floors=floors)
+            made = _integrator_runs(mut, probe, target, sim, name, order=orders[name], settings=settings,
+                                    floors=floors)
         except SimulationDiverged as exc:
             failed[name] = f"a run of its budget (a variant at h/2, h/4 or softer) {exc.reason}"
+            continue
+        why = unresolved(made, order=orders[name], integrator=name)
+        if why:
+            failed[name] = why
+        else:
+            runs[name] = made
     return runs, failed
 
 

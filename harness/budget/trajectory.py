@@ -211,6 +211,35 @@ def parts(runs: Runs, dev: Deviation, *, order: float) -> Parts:
     return Parts(explained, integration_unc, softness_unc, timeconst)
 
 
+RESOLVED = 0.5
+"""The largest next-order term, relative to the Richardson correction it follows, at which an integrator's
+error is still an expansion in h (:func:`unresolved`)."""
+
+
+def unresolved(runs: Runs, *, order: float, integrator: str) -> str:
+    """Why ``runs`` cannot be budgeted at all ('' when they can): the timestep is outside the integrator's
+    asymptotic range. Richardson assumes the error is its leading term plus a smaller rest; the run at h/4
+    measures the rest (see the module docstring). Where it reaches :data:`RESOLVED` of the leading term on
+    the position, h, h/2 and h/4 are not a converging sequence — a pendulum stepped by a sizeable part of its
+    period — and no estimate separates integration error from a fault: every figure of the integrator fails
+    with this reason rather than pass inside a limit as large as the figure."""
+    if runs.quarter_step is None:
+        return ""
+    for dev in runs.as_is:
+        if dev.name.measure != "position":
+            continue
+        found = parts(runs, dev, order=order)
+        if found.integration_uncertainty is None:
+            return ""
+        leading = dev.magnitude(found.explained["integration"])
+        rest = dev.magnitude(found.integration_uncertainty)
+        if rest > RESOLVED * leading and leading > ASYMPTOTIC * dev.size:
+            return (f"unresolved: the timestep is outside {integrator}'s asymptotic range (the runs at h, h/2 and "
+                    f"h/4 give a next-order term {rest:.2g} against a leading term {leading:.2g} on the position, "
+                    f"more than {RESOLVED:g} of it), so no budget can tell its error from a fault")
+    return ""
+
+
 def noise_gain(runs: Runs, *, order: float) -> float:
     """Σ |wᵢ|: how much the ideal estimate (a linear combination Σ wᵢ xᵢ of the runs, Σ wᵢ = 1) can
     amplify noise that is independent from run to run (round-off, the constraint solver stopping at its

@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import contextlib
 import itertools
+import math
 import os
 import time
 from collections.abc import Mapping, Sequence
@@ -174,6 +175,16 @@ def _evaluate_readings(model: mujoco.MjModel, probe: Probe, states_t: np.ndarray
             raise ValueError(f"reading {key!r} returned shape {values.shape}; expected {states_t.shape}")
         out[key] = values
     return out
+
+
+def steps_in(horizon: float, timestep: float) -> int:
+    """The number of whole steps of ``timestep`` that fit in ``horizon`` (a run never steps past the horizon
+    the reference covers; 1e-9 of a step forgives the rounding of horizon / timestep)."""
+    steps = math.floor(horizon / timestep + 1e-9)
+    if steps < 1:
+        raise ValueError(f"the timestep {timestep:g} s is longer than the horizon {horizon:g} s; "
+                         f"give a timestep of at most {horizon:g} s (or a longer --horizon)")
+    return steps
 
 
 def simulate(

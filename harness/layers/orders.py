@@ -66,7 +66,7 @@ from harness.core.trajectory import Trajectory
 from harness.engine.compat import joint_types, known_defect
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
-from harness.engine.simulate import simulate
+from harness.engine.simulate import simulate, steps_in
 from harness.engine.variants import heavier_floors, point_masses
 from harness.reference import solutions as refmod
 
@@ -375,7 +375,7 @@ def convergence_study(
     def run(name: str, h: float, extra: Callable[[mujoco.MjSpec], None] | None) -> Trajectory | None:
         model = compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra))
         try:
-            return simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=round(horizon / h))
+            return simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps_in(horizon, h))
         except SimulationDiverged as exc:
             softer = " with 1 − d doubled" if extra is not None else ""
             diverged.setdefault(name, f"{exc.reason} (h = {h:g} s{softer})")
@@ -389,7 +389,7 @@ def convergence_study(
             return math.nan
         try:
             runs = [simulate(compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra)), probe,
-                             q0=reference.q0(), qd0=reference.qd0(), steps=round(horizon / h))
+                             q0=reference.q0(), qd0=reference.qd0(), steps=steps_in(horizon, h))
                     for extra in (None, heavier_floors(bodies))]
         except SimulationDiverged:
             return math.nan

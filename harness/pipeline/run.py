@@ -40,7 +40,7 @@ from harness.engine import variants
 from harness.engine.compat import applicable_defect, fallbacks, joint_types, unavailable_reason
 from harness.engine.integrators import available_integrators, integrator_name
 from harness.engine.models import compile_model
-from harness.engine.simulate import recorder, simulate
+from harness.engine.simulate import recorder, simulate, steps_in
 from harness.engine.simulate import recorder_notes as simulate_notes
 from harness.layers.instant import engine_findings, instant_deviations
 from harness.layers.orders import EXPECTED_ORDER, VERDICT_QUANTITY, convergence_study, order_figures
@@ -210,7 +210,7 @@ def run_case(
     clock = time.perf_counter()
     sims: dict[str, Trajectory] = {}
     diverged: dict[str, str] = {}  # a diverged run is a verdict of its own, never a number (pipeline.verdict)
-    steps = round(case.horizon / model.opt.timestep)
+    steps = steps_in(case.horizon, model.opt.timestep)
     for name in chosen:
         try:
             sims[name] = simulate(mut.compile(integrator=name), probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
