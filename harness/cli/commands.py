@@ -460,18 +460,19 @@ COMMANDS: dict[str, Command] = {
     "run": Command("run cases, write report.html, report.json and summary.md", _args_run, cmd_run),
     "check": Command("the CI gate: every figure against its limit, no report", _args_check, cmd_check,
                      "the CI gate: run the cases and judge every gated figure against its limit (exit 0 "
-                     "pass, 1 fail, 2 bad input); draws nothing"),
+                     "pass, 1 fail, 2 bad input, 3 a --require not met); draws nothing"),
     "figures": Command("every figure: what it measures, its unit, its limit's basis", _args_figures,
                        cmd_figures, "every figure each case measures: what it measures, its unit, and its "
-                                    "limit with the basis (theory, measured × margin, or your config); runs the "
-                                    "cases as check does"),
+                                    "limit with the basis (budget, theory, or your config); runs the cases as "
+                                    "check does"),
     "diff": Command("what changed between two runs, figure by figure", _args_diff, cmd_diff,
                     "what changed between two runs' JSON (report.json, check --json, a baseline), figure "
                     "by figure; flipped verdicts first"),
     "baseline": Command("write or compare the regression baseline", _args_baseline, cmd_baseline,
                         "write or compare the regression baseline (reports/baseline/)"),
-    "limits": Command("each case's limits with their basis (--write: from a run)", _args_limits, cmd_limits,
-                      "list each case's limits with their basis; --write rewrites the measured ones from a run"),
+    "limits": Command("each case's limits with their basis (--write: a missing file)", _args_limits, cmd_limits,
+                      "list each case's limits with their basis; --write writes the file of a case that has "
+                      "none, by the default rule (nothing measured goes into a limit)"),
     "converge": Command("convergence orders and constraint studies (layer 4)", _args_converge, cmd_converge,
                         "convergence order per integrator vs the documented one (exit 1 if one falls "
                         "short); --softness, --solvers: constraint studies"),
