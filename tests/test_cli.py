@@ -159,6 +159,26 @@ def test_quiet_prints_the_failures_and_the_verdict_only(tight, strict, capsys, c
         assert len(lines) == 1 and lines[0].startswith("PASS — ") and "checks of 1 case(s) within" in lines[0]
 
 
+@pytest.mark.parametrize("require, tight, code, last", [
+    ("position=1", False, 0, "REQUIREMENTS MET — position ≤ 1"),
+    ("position=1e-15", False, 3, "REQUIREMENTS NOT MET — position ≤ 1e-15: pendulum RK4.position "),
+    ("position=1e-15", True, 1, "REQUIREMENTS NOT MET"),  # a failed check decides the exit code
+])
+def test_require_judges_the_models_own_integrator_and_exits_3_when_unmet(require, tight, code, last, strict,
+                                                                        capsys, cached_runs):
+    """Fitness for purpose is a second verdict: the pendulum runs RK4 (its file's integrator), so a
+    position requirement is judged on RK4.position alone; unmet where every check passes is exit 3."""
+    args = ["check", CASE, "--quiet", "--require", require, *(["--config", str(strict)] if tight else [])]
+    assert main(args) == code
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines[-1].startswith(last) and lines[-2].startswith("FAIL" if tight else "PASS")
+
+
+def test_a_requirement_no_figure_answers_is_bad_input(capsys, cached_runs):
+    assert main(["check", CASE, "--require", "posture=1e-3"]) == 2
+    _one_line_error(capsys.readouterr().err, "requirement 'posture' matches no figure")
+
+
 def test_figures_lists_every_figure_with_its_unit_meaning_and_limit_basis(capsys, cached_runs):
     assert main(["figures", CASE]) == 0
     out = capsys.readouterr().out
