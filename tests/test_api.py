@@ -41,9 +41,11 @@ def test_import_harness_loads_nothing_heavy():
 def test_a_shipped_case_validates(shipped):
     assert isinstance(shipped, harness.Validation) and shipped.passed and shipped.failures == ()
     assert shipped.case == "pendulum" and shipped.mjcf.endswith("pendulum.xml")
-    assert {c.name.integrator for c in shipped.checks} <= {"", "RK4"}  # the other integrators' limits are left
+    # the other integrators' limits are left, but for one this MuJoCo lacks, which is shown as n/a
+    assert {c.name.integrator for c in shipped.checks if not c.note} <= {"", "RK4"}
     assert shipped.check("RK4.position").value == shipped.figure("RK4.position").value
-    assert shipped.summary().splitlines()[-1] == f"{len(shipped.checks)} passed, 0 failed"
+    na = sum(bool(c.note) for c in shipped.checks)
+    assert shipped.summary().splitlines()[-1].startswith(f"{len(shipped.checks) - na} passed, 0 failed")
     shipped.raise_for_failures()  # nothing to raise
     with pytest.raises(KeyError, match="measured: "):
         shipped.figure("RK4.nothing")
@@ -67,7 +69,8 @@ def test_the_json_is_the_report_schema(shipped):
     assert doc["gate"] == {"passed": True, "accept_known_defects": False, "known_defects": 0, "exit_code": 0}
     assert "requirements" not in doc  # none stated
     entry = doc["cases"]["pendulum"]
-    assert set(entry) == {"passed", "figures", "checks", "settings"} and entry["passed"] is True
+    found = {"findings"} if shipped.findings else set()  # mj_jacDot before MuJoCo 3.3.1
+    assert set(entry) == {"passed", "figures", "checks", "settings", *found} and entry["passed"] is True
     check = entry["checks"]["RK4.position"]
     assert check["threshold"] == shipped.check("RK4.position").threshold == check["budget"]["limit"]
     assert (check["basis"], check["status"]) == ("budget", "pass")
