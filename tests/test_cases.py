@@ -1,4 +1,5 @@
-"""Generic checks every registered case inherits: finite outputs, determinism, gates pass."""
+"""Generic checks every registered case inherits: finite outputs, determinism, gates pass (or fail only
+as a documented defect of this MuJoCo, which --accept-known-defects accepts)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import numpy as np
 import pytest
 
 from harness import cases
+from harness.engine.compat import known_defect
 from harness.pipeline.run import run_case
 from harness.pipeline.verdict import judge
 from tests.conftest import case_ids, shipped_run
@@ -28,11 +30,15 @@ def test_runs_are_bit_identical(name):
 
 @pytest.mark.parametrize("name", case_ids())
 def test_every_case_has_gates_and_they_pass_at_shipped_settings(name, config):
-    thresholds = config.for_case(name)
-    assert thresholds, f"case {name!r} has no thresholds in [tool.mjharness.thresholds.{name}]"
-    checks = judge(shipped_run(name), thresholds)
-    failed = [(c.name, c.value, c.threshold) for c in checks if not c.passed]
+    limits = config.for_case(name)
+    assert limits, f"case {name!r} gates nothing (mjcf/{name}.limits.toml)"
+    result = shipped_run(name)
+    checks = judge(result, limits)
+    failed = [(c.name, c.value, c.judged, c.threshold, c.reason) for c in checks if not c.passed and not c.known]
     assert not failed
+    # a failure may be a known defect only where this MuJoCo has a documented one for the model's joints
+    known = [c.name for c in checks if c.known]
+    assert all(known_defect(result.joints, n) for n in known), known
 
 
 @pytest.mark.parametrize("name", case_ids())

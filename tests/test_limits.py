@@ -1,5 +1,6 @@
 """Limits as data: every case's limits ship with its model, each with its basis, and are found by every
-kind of install; ``mjharness limits --write`` rewrites the measured ones and nothing else."""
+kind of install; a user's config adds fixed limits (basis user) and requirements; ``mjharness limits
+--write`` writes the file of a case that has none, by the default rule, and measures nothing into it."""
 
 from __future__ import annotations
 
@@ -11,31 +12,35 @@ from pathlib import Path
 import pytest
 
 from harness import cases
+from harness.cli.commands import main
 from harness.core.errors import ConfigError
-from harness.core.figures import Figure
 from harness.pipeline import limits as lim
+from harness.pipeline import run as pipeline
+from tests.conftest import shipped_run
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def _fig(name: str, value: float) -> Figure:
-    return Figure(name, value, "1", "")
+THEORY = ("converge.", "reference.")  # the figures theory bounds whatever the case: an order, the reference
 
 
 @pytest.mark.parametrize("name", cases.names())
 def test_every_case_ships_its_limits_each_with_its_basis(name):
+    """Every gated figure is judged by its budget (no number: the budget computes the limit for each run)
+    or by a theory bound with its reason; nothing measured is stored in a limit."""
     case = cases.get(name)
     path = lim.limits_path(case.mjcf)
     assert path.is_file() and path.parent == case.mjcf.parent
+    assert "measured" not in path.read_text().split("[limits]")[1]  # no measured number, no margin
     shipped = lim.read_case_limits(name, path)
     assert shipped.limits, f"{path} gates nothing"
     for figure, limit in shipped.limits.items():
-        assert limit.basis in ("theory", "measured"), figure
+        assert limit.basis in ("budget", "theory"), figure
         if limit.basis == "theory":
-            assert limit.reason, f"{figure}: a theory limit must say what bound it is"
-        else:  # Limit() itself refuses a value below measured × margin
-            assert limit.value >= limit.measured * limit.margin * (1 - 1e-9)
-    assert lim.load_limits().for_case(name) == {k: v.value for k, v in shipped.limits.items()}
+            assert figure.startswith(THEORY) and limit.reason and limit.value > 0, figure
+        else:
+            assert limit.value is None and not figure.startswith(THEORY), figure
+    assert lim.load_limits().for_case(name) == dict(shipped.limits)
 
 
 def test_no_limit_is_typed_into_pyproject():
@@ -45,8 +50,9 @@ def test_no_limit_is_typed_into_pyproject():
 
 def test_a_limits_file_reads_back_what_was_written(tmp_path):
     original = lim.CaseLimits("c", {
-        "RK4.position": lim.Limit(4e-8, "measured", "why", measured=1.3e-8, margin=3.0),
-        "instant.forcing": lim.Limit(1e-12, "theory", 'round-off; "quoted" \\ and a backslash'),
+        "RK4.position": lim.Limit("budget"),
+        "instant.forcing": lim.Limit("budget"),
+        "converge.RK4.order_shortfall": lim.Limit("theory", 0.3, 'the fit\'s bias; "quoted" \\ and a backslash'),
     }, notes=("a note",))
     path = tmp_path / "c.limits.toml"
     path.write_text(lim.format_case_limits(original))
@@ -54,13 +60,17 @@ def test_a_limits_file_reads_back_what_was_written(tmp_path):
 
 
 @pytest.mark.parametrize("text, needle", [
-    ("[limits]\n'RK4' = { value = 1.0, basis = 'theory' }", "malformed figure name"),
-    ("[limits]\n'RK4.position' = { value = 1.0, basis = 'guess' }", "basis theory or measured"),
-    ("[limits]\n'RK4.position' = { value = -1.0, basis = 'theory' }", "positive number"),
-    ("[limits]\n'RK4.position' = { value = 1.0, basis = 'measured', measured = 1.0, margin = 3.0 }",
-     "≥ measured × margin"),
-    ("[limits]\n'RK4.position' = { value = 1.0, basis = 'theory', typo = 1 }", "unknown key"),
+    ("[limits]\n'RK4' = { basis = 'budget' }", "malformed figure name"),
+    ("[limits]\n'RK4.position' = { value = 1.0, basis = 'guess' }", "basis budget or theory"),
+    ("[limits]\n'RK4.position' = { value = 1.0, basis = 'measured' }", "basis budget or theory"),
+    ("[limits]\n'RK4.position' = { value = 1.0, basis = 'user' }", "basis budget or theory"),  # config only
+    ("[limits]\n'RK4.position' = { value = 1e-7, basis = 'budget' }", "a budget limit has no value"),
+    ("[limits]\n'RK4.position' = { value = -1.0, basis = 'theory', reason = 'r' }", "positive number"),
+    ("[limits]\n'RK4.position' = { value = 1.0, basis = 'theory' }", "must say what bound it is"),
+    ("[limits]\n'RK4.position' = { basis = 'budget', measured = 1.0 }", "unknown key"),
+    ("[limits]\n'RK4.position' = 1e-7", "must be a table"),
     ("notes = []", r"no \[limits\] table"),
+    ("notes = 'one'\n[limits]", "notes must be a list of strings"),
     ("[limits", "not valid TOML"),
 ])
 def test_a_malformed_limits_file_is_a_one_line_error_naming_it(tmp_path, text, needle):
@@ -71,42 +81,75 @@ def test_a_malformed_limits_file_is_a_one_line_error_naming_it(tmp_path, text, n
     assert str(path) in str(err.value) and "\n" not in str(err.value)
 
 
-def test_rewriting_changes_measured_limits_only():
-    old = lim.CaseLimits("c", {
-        "RK4.position": lim.Limit(4e-8, "measured", "kept", measured=1.3e-8, margin=3.0),
-        "instant.forcing": lim.Limit(1e-12, "theory", "round-off"),
-        "discrete.position": lim.Limit(1e-3, "measured", "", measured=4e-4, margin=2.5),
-    }, notes=("n",))
-    new = lim.remeasured("c", old, [_fig("RK4.position", 2e-8), _fig("instant.forcing", 5e-13)],
-                         constrained=False, skip=["discrete.position"])
-    assert new.limits["RK4.position"] == lim.Limit(6e-8, "measured", "kept", measured=2e-8, margin=3.0)
-    assert new.limits["instant.forcing"] == old.limits["instant.forcing"]  # theory: untouched
-    assert new.limits["discrete.position"] == old.limits["discrete.position"]  # not measured here: kept
-    assert new.notes == ("n",)
-    with pytest.raises(ValueError, match="was not measured"):
-        lim.remeasured("c", old, [_fig("instant.forcing", 1.0)], constrained=False)
-
-
 def test_a_new_case_gets_the_default_rule():
-    figures = [_fig("RK4.position", 1e-7), _fig("RK4.position_final", 1e-8), _fig("RK4.velocity", 1e-6),
-               _fig("RK4.drift.energy", 1e-10), _fig("RK4.p_phi", 2e-11), _fig("instant.kinematics", 2e-16),
-               _fig("converge.RK4.order_shortfall", 0.02), _fig("reference.residual", 0.0),
-               _fig("reference.ode_vs_dae", 1e-12)]
-    new = lim.remeasured("c", None, figures, constrained=False)
-    assert set(new.limits) == {"RK4.position", "RK4.drift.energy", "RK4.p_phi", "instant.kinematics",
-                               "converge.RK4.order_shortfall", "reference.ode_vs_dae"}
-    assert new.limits["RK4.position"].value == 3e-7 and new.limits["RK4.position"].margin == lim.DEFAULT_MARGIN
-    assert new.limits["instant.kinematics"].value == lim.ROUNDOFF_FLOOR  # 6e-16 would be round-off noise
-    assert new.limits["converge.RK4.order_shortfall"].basis == "theory"
-    assert new.limits["converge.RK4.order_shortfall"].value == 0.3
-    constrained = lim.remeasured("c", None, [_fig("reference.residual", 1e-13)], constrained=True)
-    assert "reference.residual" in constrained.limits
+    """Gated: every instantaneous figure, per integrator the position, drifts, forces and conserved momenta,
+    every convergence order, the reference's distance from the ODE (its residual where it has constraints);
+    not the position at the horizon nor the velocity. A convergence order and the reference by theory, the
+    rest by budget."""
+    names = ["RK4.position", "RK4.position_final", "RK4.velocity", "RK4.drift.energy", "RK4.p_phi",
+             "RK4.force.rod", "instant.kinematics", "converge.RK4.order_shortfall", "reference.residual",
+             "reference.ode_vs_dae"]
+    new = lim.default_limits("c", names, constrained=False)
+    assert set(new.limits) == {"RK4.position", "RK4.drift.energy", "RK4.p_phi", "RK4.force.rod",
+                               "instant.kinematics", "converge.RK4.order_shortfall", "reference.ode_vs_dae"}
+    assert {k for k, v in new.limits.items() if v.basis == "theory"} == {"converge.RK4.order_shortfall",
+                                                                         "reference.ode_vs_dae"}
+    assert new.limits["converge.RK4.order_shortfall"].value == 0.3  # the fit's floor bias, ≤ 0.14, with margin
+    assert new.limits["RK4.position"] == lim.Limit("budget")
+    constrained = lim.default_limits("c", ["reference.residual"], constrained=True)
+    assert constrained.limits["reference.residual"].basis == "theory"
 
 
-@pytest.mark.parametrize("value, expected", [(2.002e-3, 2.1e-3), (3e-3, 3e-3), (1.2000000000000002e-4, 1.2e-4),
-                                             (9.8e-9, 9.8e-9), (9.81e-9, 9.9e-9)])
-def test_limits_round_up_to_two_digits(value, expected):
-    assert lim.round_up(value) == expected
+def test_a_config_overrides_as_user_limits_and_states_requirements(tmp_path):
+    config = tmp_path / "mine.toml"
+    config.write_text('accept_known_defects = true\n[thresholds.pendulum]\n"RK4.position" = 1e-6\n'
+                      '[require]\nposition = 1e-3\n"drift.energy" = 1e-4\n')
+    loaded = lim.load_limits(config)
+    limit = loaded.limit("pendulum", "RK4.position")
+    assert (limit.basis, limit.value) == ("user", 1e-6) and str(config) in limit.reason
+    assert loaded.limit("pendulum", "RK4.drift.energy") == lim.Limit("budget")  # the rest as shipped
+    assert [(r.measure, r.value) for r in loaded.requirements] == [("position", 1e-3), ("drift.energy", 1e-4)]
+    assert loaded.accept_known_defects is True and lim.load_limits().accept_known_defects is False
+    for text, needle in [("accept_known_defects = 1\n", "must be true or false"),
+                         ("[require]\nposition = 0\n", "position must be a positive number"),
+                         ("require = 3\n", "'require' must be a table")]:
+        config.write_text(text)
+        with pytest.raises(ConfigError, match=needle):
+            lim.load_limits(config)
+
+
+def test_limits_lists_each_limit_with_its_basis(capsys, config):
+    assert main(["limits", "pendulum"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    shipped = config.cases["pendulum"].limits
+    assert lines[0].endswith(f"{len(shipped)} gated figures")
+    for name, limit in shipped.items():
+        (line,) = [ln for ln in lines if ln.split()[:1] == [name]]
+        if limit.basis == "theory":
+            assert f"{limit.value:.3e}" in line and "theory: " in line
+        else:
+            assert "budget: " in line and "e-" not in line.split("budget")[0]  # no number for a budget
+
+
+def test_limits_write_writes_only_a_missing_file_and_measures_nothing_into_it(tmp_path, capsys, monkeypatch):
+    """Every case has its file: --write leaves them as they are. A case without one gets one by the default
+    rule, from a run's figure names only: budgets and theory bounds, no measured number."""
+    before = {c.name: lim.limits_path(c.mjcf).read_bytes() for c in cases.all_cases()}
+    assert main(["limits", "--write"]) == 0
+    assert "nothing to rewrite" in capsys.readouterr().out
+    assert {c.name: lim.limits_path(c.mjcf).read_bytes() for c in cases.all_cases()} == before
+
+    real = lim.limits_path
+    moved = tmp_path / "pendulum.limits.toml"
+    monkeypatch.setattr(lim, "limits_path", lambda model: moved if Path(model).stem == "pendulum" else real(model))
+    monkeypatch.setattr(pipeline.RunOptions, "run", lambda options, case, **kw: shipped_run(case.name))
+    assert main(["limits", "--write", "pendulum", "spring"]) == 0
+    assert capsys.readouterr().out.strip() == f"wrote {moved}"
+    written = lim.read_case_limits("pendulum", moved)
+    assert written.limits and all(v.value is None for v in written.limits.values() if v.basis == "budget")
+    assert "measured" not in moved.read_text().split("[limits]")[1]
+    gated = {f.name for f in shipped_run("pendulum").figures} & set(written.limits)
+    assert gated == set(written.limits) and "RK4.position" in gated and "RK4.velocity" not in gated
 
 
 def _run(python: str, *args: str, **env: str) -> subprocess.CompletedProcess:

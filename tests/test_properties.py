@@ -1,9 +1,9 @@
 """Property tests: random and mutated configs, baselines, report JSON and MJCF attributes fed to the CLI.
 
-Whatever the input, the command ends with exit 0, 1 or 2; on 2 its stderr is exactly one line and
-names no traceback; and nothing is half-written: a --junit file is there and whole on 0 and 1, absent
-on 2. Inputs are mutations of real ones (the shipped pendulum's config, baseline, ``check --json`` and
-MJCF), so that most examples get past the first check and reach the later ones.
+Whatever the input, the command ends with exit 0, 1, 2 or 3 (a requirement not met); on 2 its stderr is
+exactly one line and names no traceback; and nothing is half-written: a --junit file is there and whole
+on 0, 1 and 3, absent on 2. Inputs are mutations of real ones (the shipped pendulum's config, baseline,
+``check --json`` and MJCF), so that most examples get past the first check and reach the later ones.
 
 In-process examples reuse the session's pendulum run (``cached_runs``); a model run is a real run (about
 a second each), so those examples are few here and more in the slow, subprocess variant, which also
@@ -46,17 +46,20 @@ def _settings(examples: int) -> settings:
 
 @pytest.fixture
 def cached_runs(monkeypatch):
-    """run_case of a shipped case returns the session's cached run (variants still run for real)."""
-    from harness.pipeline import matrix
+    """A shipped case run as shipped returns the session's cached run (variants still run for real)."""
     from harness.pipeline import run as pipeline
 
-    real = pipeline.run_case
-    monkeypatch.setattr(matrix, "run_case", lambda case, **kw: real(case, **kw) if kw else shipped_run(case.name))
+    real = pipeline.RunOptions.run
+
+    def run(options, case, *, edit=None):
+        return shipped_run(case.name) if options.shipped and edit is None else real(options, case, edit=edit)
+
+    monkeypatch.setattr(pipeline.RunOptions, "run", run)
 
 
 def _judge(code: int, err: str, junit: Path | None = None) -> None:
     """The properties every command keeps, whatever it was given."""
-    assert code in (0, 1, 2), (code, err)
+    assert code in (0, 1, 2, 3), (code, err)
     assert "Traceback" not in err, err
     if code == 2:
         assert err.endswith("\n") and err.count("\n") == 1 and err.startswith("mjharness: error: "), err
@@ -98,15 +101,25 @@ CASES = st.one_of(st.sampled_from([CASE, "spring", "atwood", "hoop_plane"]), st.
 TABLES = st.dictionaries(CASES, st.dictionaries(FIGURE_NAMES, LIMITS, max_size=3), max_size=3)
 
 
+MEASURES = st.one_of(st.sampled_from(["position", "drift.energy", "force", "violation", "velocity"]),
+                     st.sampled_from(["position"]).flatmap(_mutated), st.text(min_size=1, max_size=8))
+
+
 @st.composite
 def configs(draw) -> str:
-    """A config file's text: thresholds by case (plain or pyproject style, or under a wrong key), or a
-    mutation of a valid one, or anything."""
+    """A config file's text: thresholds by case (plain or pyproject style, or under a wrong key), with
+    requirements and the acceptance of known defects or not, or a mutation of a valid one, or anything."""
     tables = draw(TABLES)
-    section = draw(st.sampled_from(["thresholds", "tool.mjharness.thresholds", "limits", "tool.black"]))
+    prefix = draw(st.sampled_from(["", "tool.mjharness.", "tool.black."]))
+    section = draw(st.sampled_from([f"{prefix}thresholds", "limits"]))
     text = "".join(f"[{section}.{json.dumps(case)}]\n" + "".join(f"{json.dumps(fig)} = {_toml_value(v)}\n"
                                                                   for fig, v in figs.items())
                    for case, figs in tables.items())
+    required = draw(st.dictionaries(MEASURES, LIMITS, max_size=2))
+    if required:
+        text += f"[{prefix}require]\n" + "".join(f"{json.dumps(m)} = {_toml_value(v)}\n" for m, v in required.items())
+    if draw(st.booleans()):
+        text = f"{prefix and '[' + prefix[:-1] + ']'}\naccept_known_defects = {_toml_value(draw(LIMITS))}\n" + text
     return draw(st.one_of(st.just(text), _mutated(text) if text else st.just(text), st.text(max_size=60)))
 
 

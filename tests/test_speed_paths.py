@@ -292,14 +292,14 @@ def test_parallel_check_is_the_serial_check(tmp_path):
 
 
 def test_a_failing_case_in_a_pool_is_the_one_line_exit_2(monkeypatch, capsys):
-    real = pipeline.run_case
+    real = pipeline.RunOptions.run
 
-    def run_case(case, **kw):  # the forked workers inherit this
+    def run(options, case, **kw):  # the forked workers inherit this
         if case.name == "atwood":
             raise ModelMismatch("model has no equality 'string1'")
-        return real(case, **kw)
+        return real(options, case, **kw)
 
-    monkeypatch.setattr(runner, "run_case", run_case)
+    monkeypatch.setattr(pipeline.RunOptions, "run", run)
     assert cli.main(["check", "spring", "atwood", "--jobs", "2"]) == 2
     err = capsys.readouterr().err
     assert err.strip() == "mjharness: error: model has no equality 'string1'"

@@ -86,10 +86,15 @@ class StudyResult:
                                  layout="constrained")
         y = np.arange(len(self.rows))
         for ax, (key, title) in zip(axes, panels, strict=True):
-            values = np.array([max(float(r[key]), 1e-16) for r in self.rows])
-            ax.barh(y, values, color=colours, height=0.7)
+            values = np.array([float(r[key]) for r in self.rows])
+            finite = np.isfinite(values)  # a setting whose run diverged has no number: named, not drawn
+            values = np.maximum(values[finite], 1e-16)
+            ax.barh(y[finite], values, color=[c for c, f in zip(colours, finite, strict=True) if f], height=0.7)
             ax.set_xscale("log")  # whole decades, labelled at the decades only (minor labels would collide)
-            ax.set_xlim(10 ** np.floor(np.log10(values.min())), 10 ** np.ceil(np.log10(values.max())))
+            if values.size:
+                ax.set_xlim(10 ** np.floor(np.log10(values.min())), 10 ** np.ceil(np.log10(values.max())))
+            for row in y[~finite]:
+                ax.annotate("diverged", (0.02, row), xycoords=("axes fraction", "data"), va="center", fontsize=8)
             ax.tick_params(axis="x", which="minor", labelbottom=False)
             ax.set_title(title)
             ax.grid(True, axis="x", alpha=0.3)
