@@ -135,24 +135,25 @@ def test_a_diverged_run_is_a_failed_check_with_its_reason_everywhere(tmp_path, c
     assert len(failures) == len(runs) and all(reason in f.get("message") for f in failures)
 
 
-def test_a_timestep_of_one_second_is_a_setting_judged_by_its_budget_and_unfit(tmp_path, capsys):
+def test_a_timestep_of_one_second_fails_as_unresolved_not_as_numbers(tmp_path, capsys):
     """The issue's input: timestep 1 s, h ω ≈ 3 for the pendulum, past RK4's stability limit 2√2 on the
-    imaginary axis: its position error is of the order of the pendulum's length. It is a setting, not a
-    fault, so its budget explains the error (runs at h/2 and h/4: the next order measured) and nothing
-    diverges (the convergence ladder is the case's, whatever timestep is tested); a position requirement
-    of 1 mm says what the user needs to know: exit 3, unfit."""
+    imaginary axis: its position error is of the order of the pendulum's length. MuJoCo does not warn, but
+    the runs at h, h/2 and h/4 do not converge at any order, so no budget can tell the error from a fault:
+    every RK4 figure is a failed check whose reason says the timestep is outside the integrator's
+    asymptotic range (in the JSON's ``diverged``, the table and the verdict), never a number judged; exit 1,
+    whatever is required besides."""
     path = _variant(tmp_path, 'timestep="0.001"', 'timestep="1.0"')
     code = main(["check", "--case", CASE, "--mjcf", str(path), "--json", "--integrators", "RK4",
                  "--require", "position=1e-3"])
     doc = json.loads(capsys.readouterr().out)
-    entry = doc["cases"][CASE]
-    assert code == 3 and doc["gate"] == {"passed": True, "accept_known_defects": False, "known_defects": 0,
-                                         "exit_code": 3}
-    assert not any("diverged" in c for c in entry["checks"].values())
-    (fitness,) = entry["fitness"]
-    assert fitness["figure"] == "RK4.position" and fitness["met"] is False and fitness["value"] > 0.1
-    budget = entry["checks"]["RK4.position"]["budget"]
-    assert budget["explained"]["integration"] > 0.1 and budget["unexplained"] <= budget["limit"]
+    checks = doc["cases"][CASE]["checks"]
+    assert code == 1 and doc["gate"]["passed"] is False and doc["gate"]["exit_code"] == 1
+    rk4 = {n: c for n, c in checks.items() if FigureName(n).integrator == "RK4" and FigureName(n).layer == "trajectory"}
+    assert rk4 and all(c["status"] == "FAIL" and c["diverged"].startswith("unresolved: the timestep is outside "
+                                                                           "RK4's asymptotic range")
+                       for c in rk4.values())
+    assert main(["check", "--case", CASE, "--mjcf", str(path), "--integrators", "RK4", "-q"]) == 1
+    assert "unresolved: the timestep is outside RK4's asymptotic range" in capsys.readouterr().out
 
 
 def test_a_ladder_that_diverges_anywhere_is_its_series_verdict(tmp_path):
