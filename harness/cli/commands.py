@@ -48,7 +48,7 @@ from harness.pipeline import limits as limits_data
 from harness.pipeline import require
 from harness.pipeline.matrix import run_all
 from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
-from harness.pipeline.pool import cpus
+from harness.pipeline.pool import cpus, run_tasks
 from harness.pipeline.run import RunOptions
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
@@ -453,9 +453,8 @@ def _args_faults(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_faults(args: argparse.Namespace) -> int:
-    from harness.pipeline.pool import run_tasks
-    from harness.studies import faults
-    from harness.studies import sensitivity as study
+    from harness.studies import faults  # lazy: the studies package loads its plots (matplotlib)
+    from harness.studies import sensitivity as study  # lazy: as above
 
     selected = cases.select(args.cases)
     calls = [(study.trial_named, (case.name, change.name, False)) for case in selected for change in faults.SETTINGS]
@@ -479,9 +478,8 @@ def _args_sensitivity(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_sensitivity(args: argparse.Namespace) -> int:
-    from harness.pipeline.pool import run_tasks
-    from harness.studies import faults
-    from harness.studies import sensitivity as study
+    from harness.studies import faults  # lazy: the studies package loads its plots (matplotlib)
+    from harness.studies import sensitivity as study  # lazy: as above
 
     selected = cases.select(args.cases)
     chosen = [faults.by_name(name) for name in args.faults] if args.faults else list(faults.FAULTS)
@@ -533,7 +531,7 @@ COMMANDS: dict[str, Command] = {
                     "by figure; flipped verdicts first"),
     "baseline": Command("write or compare the regression baseline", _args_baseline, cmd_baseline,
                         "write or compare the regression baseline (reports/baseline/)"),
-    "limits": Command("each case's limits with their basis (--write: a new case's file)", _args_limits, cmd_limits,
+    "limits": Command("each case's limits with their basis", _args_limits, cmd_limits,
                       "list each case's limits with their basis; --write writes the file of a case that has none, "
                       "by the default rule (nothing measured)"),
     "converge": Command("convergence orders and constraint studies (layer 4)", _args_converge, cmd_converge,
