@@ -203,7 +203,7 @@ def _limit(c: Check) -> str:
 
 
 CHECK_COLUMNS: tuple[Column, ...] = (
-    Column("check", lambda c, r: _esc(c.name), "name"),
+    Column("check", lambda c, r: _esc(c.name).replace(".", ".<wbr>"), "name"),  # breaks after a dot only
     Column("measured", lambda c, r: _measured(c), "num"),
     *(Column(f"{part}", _part(part), "num part") for part in PARTS),
     Column("unexplained", lambda c, r: _unexplained(c), "num"),
@@ -352,7 +352,8 @@ th{background:#f3f3f3} td.num{font-family:ui-monospace,monospace;text-align:righ
 tr.fail td{background:#fde4e4} td.verdict{font-weight:bold} tr.pass td.verdict{color:#17701d}
 tr.fail td.verdict{color:#b00000} tr.na td{color:#888} tr.group td{background:#eef2f7;font-weight:bold}
 tr.shipped td{font-weight:bold} tr.ambiguous td{background:#fff6d5}
-table.checks{width:100%} table.checks td.name{white-space:nowrap} table.checks td.meaning{min-width:14em}
+table.checks{width:100%;font-size:.82em} table.checks td,table.checks th{padding:2px 4px}
+table.checks td.name{overflow-wrap:normal} table.checks td.meaning{min-width:9em}
 table.info td:first-child,table.settings td:first-child{white-space:nowrap}
 .dim{color:#666} .note{background:#fff6d6;border:1px solid #e7c75a;padding:.6em;border-radius:4px}
 .banner{font-size:1.25em;font-weight:bold;padding:.5em .8em;border-radius:5px;margin:.6em 0}
@@ -360,7 +361,7 @@ table.info td:first-child,table.settings td:first-child{white-space:nowrap}
 .banner.fail{background:#fde4e4;color:#b00000;border:1px solid #e8a0a0}
 .badge{font-size:.6em;padding:2px 8px;border-radius:10px;vertical-align:middle}
 .badge.pass{background:#e3f4e4;color:#17701d} .badge.fail{background:#fde4e4;color:#b00000}
-.bar{display:inline-block;width:60px;height:9px;background:#eee;margin-right:5px;vertical-align:middle}
+.bar{display:inline-block;width:40px;height:9px;background:#eee;margin-right:4px;vertical-align:middle}
 .bar span{display:block;height:100%} .bar .ok{background:#6aa86f} .bar .over{background:#d33}
 td.used{white-space:nowrap;font-family:ui-monospace,monospace}
 .model{display:grid;grid-template-columns:minmax(0,380px) minmax(0,1fr);gap:24px;align-items:start}
