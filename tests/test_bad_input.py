@@ -381,3 +381,22 @@ def test_the_python_api_checks_every_case_its_config_names(tmp_path):
     config.write_text('[thresholds.spring]\n"RK4.positon" = 1e-6\n')
     with pytest.raises(ConfigError, match=r"case 'spring' name unmeasured figure\(s\) \['RK4.positon'\]"):
         harness.validate(CASE, config=config)
+
+
+def test_a_reference_the_solver_cannot_integrate_is_one_line_and_exit_2(monkeypatch, capsys, tmp_path):
+    """A model whose reference our solver cannot integrate (gravity 1e12: ω = 1e6 /s over 5 s exhausts the
+    step budget after minutes; stood in for here by the solver's own error) is a model that does not fit
+    its case: one line naming why, exit 2, no report, never a traceback."""
+    from analytic.dop853 import IntegrationError
+    from harness.pipeline import run as pipeline
+
+    def fail(self, case, *, edit=None):
+        raise IntegrationError("more than 1000000 steps before t = 5 (reached t = 0.0123)")
+
+    monkeypatch.setattr(pipeline.RunOptions, "run", fail)
+    out = tmp_path / "report"
+    assert main(["run", "--case", CASE, "--out", str(out), "--jobs", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["mjharness: error: the reference cannot be computed for this model: more than 1000000 steps "
+                   "before t = 5 (reached t = 0.0123)"]
+    assert not out.exists()

@@ -31,6 +31,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from analytic.dop853 import IntegrationError
 from harness import cases
 from harness.core import VERSION
 from harness.core.checks import Check
@@ -627,6 +628,8 @@ def _main(args: argparse.Namespace) -> int:
         return EXIT_PIPE
     except SimulationDiverged as exc:
         print(f"mjharness: error: simulation diverged: {exc}", file=sys.stderr)
+    except IntegrationError as exc:  # the model under test gives a reference our solver cannot integrate
+        print(f"mjharness: error: the reference cannot be computed for this model: {exc}", file=sys.stderr)
     except ValueError as exc:  # ConfigError, ModelError, ModelMismatch and every input check
         print(f"mjharness: error: {' '.join(str(exc).split())}", file=sys.stderr)
     except OSError as exc:
