@@ -50,3 +50,17 @@ def breakable(case: str, names) -> set[str]:
 
 def case_ids() -> list[str]:
     return list(cases.names())
+
+
+@pytest.fixture
+def cached_runs(monkeypatch):
+    """A shipped case run as shipped returns the session's cached run (variants still run for real)."""
+    from harness.pipeline import run as pipeline
+
+    real = pipeline.RunOptions.run
+
+    def run(options, case, *, edit=None):
+        return shipped_run(case.name) if options.shipped and edit is None else real(options, case, edit=edit)
+
+    monkeypatch.setattr(pipeline.RunOptions, "run", run)
+

@@ -212,18 +212,6 @@ def test_the_python_api_names_a_diverged_run(tmp_path):
 
 
 # ----------------------------------------------------------------- outputs
-@pytest.fixture
-def cached_runs(monkeypatch):
-    """A shipped case run as shipped returns the session's cached run (variants still run for real)."""
-    from harness.pipeline import run as pipeline
-    from tests.conftest import shipped_run
-
-    real = pipeline.RunOptions.run
-
-    def run(options, case, *, edit=None):
-        return shipped_run(case.name) if options.shipped and edit is None else real(options, case, edit=edit)
-
-    monkeypatch.setattr(pipeline.RunOptions, "run", run)
 
 
 REPORT = ("report.html", "report.json", "summary.md", "junit.xml")

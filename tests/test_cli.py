@@ -48,15 +48,6 @@ def _run(*args: str) -> subprocess.CompletedProcess:
                           text=True, timeout=300)
 
 
-@pytest.fixture
-def cached_runs(monkeypatch):
-    """A shipped case run as shipped returns the session's cached run (variants still run for real)."""
-    real = pipeline.RunOptions.run
-
-    def run(options, case, *, edit=None):
-        return shipped_run(case.name) if options.shipped and edit is None else real(options, case, edit=edit)
-
-    monkeypatch.setattr(pipeline.RunOptions, "run", run)
 
 
 @pytest.fixture

@@ -44,17 +44,6 @@ def _settings(examples: int) -> settings:
                     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 
-@pytest.fixture
-def cached_runs(monkeypatch):
-    """A shipped case run as shipped returns the session's cached run (variants still run for real)."""
-    from harness.pipeline import run as pipeline
-
-    real = pipeline.RunOptions.run
-
-    def run(options, case, *, edit=None):
-        return shipped_run(case.name) if options.shipped and edit is None else real(options, case, edit=edit)
-
-    monkeypatch.setattr(pipeline.RunOptions, "run", run)
 
 
 def _judge(code: int, err: str, junit: Path | None = None) -> None:

@@ -318,13 +318,17 @@ def heavier_floors(bodies: tuple[str, ...]) -> SpecEdit:
     """Double the rotational inertia of ``bodies`` (their explicit <inertial>)."""
     def edit(spec: mujoco.MjSpec) -> None:
         for name in bodies:
-            body = spec.body(name)
-            full = [float(x) for x in body.fullinertia]
-            if np.isfinite(full[0]):
-                body.fullinertia = [2.0 * x for x in full]
-            else:
-                body.inertia = [2.0 * float(x) for x in body.inertia]
+            scale_inertia(spec.body(name), 2.0)
     return edit
+
+
+def scale_inertia(body, factor: float) -> None:
+    """Scale a spec body's rotational inertia, given as a full tensor or as principal moments."""
+    full = [float(x) for x in body.fullinertia]
+    if np.isfinite(full[0]):
+        body.fullinertia = [factor * x for x in full]
+    else:
+        body.inertia = [factor * float(x) for x in body.inertia]
 
 
 def compose(*edits: SpecEdit | None) -> SpecEdit:

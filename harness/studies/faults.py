@@ -30,7 +30,7 @@ from harness.cases import Case
 from harness.engine.compat import set_damping, set_stiffness
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
-from harness.engine.variants import point_masses
+from harness.engine.variants import point_masses, scale_inertia
 
 SpecEdit = Callable[[mujoco.MjSpec], None]
 Kind = Literal["setting", "fault"]
@@ -149,11 +149,7 @@ def _masses(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
     def edit(spec: mujoco.MjSpec) -> None:
         for body in spec.bodies[1:]:
             body.mass = 2.0 * body.mass
-            full = [float(x) for x in body.fullinertia]
-            if np.isfinite(full[0]):
-                body.fullinertia = [2.0 * x for x in full]
-            else:
-                body.inertia = [2.0 * float(x) for x in body.inertia]
+            scale_inertia(body, 2.0)
     return edit
 
 
