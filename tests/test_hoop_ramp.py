@@ -263,8 +263,9 @@ def test_study_row_at_shipped_settings_is_run_case() -> None:
 @pytest.mark.slow
 def test_study_supports_the_shipped_contact_settings() -> None:
     """Elliptic, impratio 10, no NoSlip: the least steady slip among elliptic settings
-    (impratio 1 → 10 cuts it > 10×), the friction error cut 10×, and the MuJoCo-default
-    softness 1e3× worse whatever the cone, impratio or NoSlip."""
+    (impratio 1 → 10 cuts it > 10×), a friction error no worse once the contact has settled (it is
+    counted from 40 response times on, as run_case counts it: 1.65e-9 m g at both impratios), and the
+    MuJoCo-default softness 1e3× worse whatever the cone, impratio or NoSlip."""
     study = contact_study("hoop_ramp_contact")
     shipped = study.shipped_row()
     assert (shipped["cone"], shipped["impratio"], shipped["noslip_iterations"]) == ("elliptic", 10.0, 0)
@@ -272,7 +273,7 @@ def test_study_supports_the_shipped_contact_settings() -> None:
     assert shipped["slip_late"] <= min(r["slip_late"] for r in elliptic) * 1.0001
     plain = next(r for r in elliptic if r["impratio"] == 1.0 and r["noslip_iterations"] == 0)
     assert shipped["slip_late"] < plain["slip_late"] / 10
-    assert shipped["force.roll"] < plain["force.roll"] / 9
+    assert shipped["force.roll"] <= plain["force.roll"] * 1.001
     soft = [r for r in study.rows if r["softness"] == "mujoco_default"]
     assert min(r["slip_late"] for r in soft) > 1e3 * shipped["slip_late"]
 
