@@ -198,7 +198,8 @@ def trajectory_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, s
                           for name in sims}
     twins: list[tuple[float, Trajectory, str]] = []  # (order, run at h, the integrator whose variants it has)
     for name, sim in sims.items():
-        twin = next((owner for order, other, owner in twins if order == orders[name] and _twins(sim, other)), None)
+        twin = next((owner for order, other, owner in twins
+                     if order == orders[name] and _twins(sim, other, target.scales)), None)
         if twin is not None:  # the same step map: its variants are the same runs
             if twin in runs:
                 runs[name] = _renamed(runs[twin], name, _deviations(target, sim, name))
@@ -240,25 +241,27 @@ TWIN_TOLERANCE = 1e-9
 one step map's (:func:`_twins`)."""
 
 
-def _twins(a: Trajectory, b: Trajectory) -> bool:
+def _twins(a: Trajectory, b: Trajectory, scales: Scales) -> bool:
     """Whether two integrators' runs at the model's settings are the same up to round-off: every recorded
-    number within :data:`TWIN_TOLERANCE` of its quantity's largest size. Semi-implicit Euler, implicitfast
-    and implicit are one step map where no velocity-dependent force has a derivative (no damping, no
-    actuator; for implicit, no Coriolis term): their factorizations round differently (1e-13 relative
-    here), nothing more. Their variant runs then agree as closely, so those are made once and shared: each
-    budget keeps its own run at h, and what the sharing changes lies 1e-9 below the figure, under the
-    round-off tolerance. A fault with a velocity-dependent force (damping) separates them at first order in
-    h and is budgeted for each."""
+    number within :data:`TWIN_TOLERANCE` of its quantity's size (its largest value, and at least the case's
+    length for positions, violations and series, its force for multipliers: a violation of 1e-8 m differing
+    by 1e-16 m is round-off). Semi-implicit Euler, implicitfast and implicit are one step map where no
+    velocity-dependent force has a derivative (no damping, no actuator; for implicit, no Coriolis term):
+    their factorizations round differently (1e-13 relative here), nothing more. Their variant runs then
+    agree as closely, so those are made once and shared: each budget keeps its own run at h, and what the
+    sharing changes lies 1e-9 below the figure, under the round-off tolerance. A fault with a
+    velocity-dependent force (damping) separates them at first order in h and is budgeted for each."""
     if len(a.t) != len(b.t):
         return False
-    groups = [(a.positions, b.positions), (a.velocities, b.velocities), (a.multipliers, b.multipliers),
-              (a.invariants, b.invariants), (a.violations, b.violations), (a.series, b.series)]
-    for left, right in groups:
+    groups = [(a.positions, b.positions, scales.length), (a.velocities, b.velocities, 0.0),
+              (a.multipliers, b.multipliers, scales.force), (a.invariants, b.invariants, 0.0),
+              (a.violations, b.violations, scales.length), (a.series, b.series, scales.length)]
+    for left, right, floor in groups:
         if set(left) != set(right):
             return False
         for key in left:
             x, y = np.asarray(left[key], dtype=float), np.asarray(right[key], dtype=float)
-            size = float(np.max(np.abs(x))) if x.size else 0.0
+            size = max(float(np.max(np.abs(x))) if x.size else 0.0, floor)
             if x.shape != y.shape or not np.all(np.abs(x - y) <= TWIN_TOLERANCE * size):
                 return False
     return True
