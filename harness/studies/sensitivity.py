@@ -200,7 +200,8 @@ def table(rows: Sequence[Sensitivity]) -> str:
             return f"n/a ({r.note})"
         if math.isnan(r.size):
             return f"> {LARGEST:g}"
-        return f"{r.size:.0e} ({r.deciding})"
+        at_floor = "≤ " if r.size <= SMALLEST else ""  # the search's smallest size: detected there, maybe below
+        return f"{at_floor}{r.size:.0e} ({r.deciding})"
 
     body = [[case, fault, cell(s.get("shipped")), cell(s.get(COARSE.name))] for (case, fault), s in by_key.items()]
     return text_table(["case", "fault", "shipped", "2 × timestep, default softness"], body)
