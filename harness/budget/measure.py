@@ -83,7 +83,7 @@ def instant_budget(mut: ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref
     with ``integrator``) beside the same states on the variants: softer, heavier floors, and with the
     constraints solved exactly where the model's own solver does not converge."""
     settings = Settings.of(model, ref.scales)
-    exact = None if V.solver_converges(model) else V.converged_solver(model)
+    exact = V.exact_solver(model)
 
     def evaluate(variant: V.SpecEdit | None) -> list[Deviation]:
         return instant_deviations(mut.compile(integrator=integrator, variant=V.compose(exact, variant)), probe, ref)
@@ -122,7 +122,7 @@ def _variant_run(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, mode
     """One variant of ``model`` (:func:`~harness.engine.variants.variant`) run over the horizon, as its
     deviations on the grid of the run at h; its constraints solved exactly where the model's own solver
     does not converge."""
-    exact = None if V.solver_converges(model) else V.converged_solver(model)
+    exact = V.exact_solver(model)
     edit = V.compose(exact, V.variant(model, split=split, eps_factor=eps_factor, tc_factor=tc_factor))
     name = integrator_name(model)
     h = float(model.opt.timestep)
@@ -139,7 +139,7 @@ def _floors(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, sims: Map
     name = "RK4" if "RK4" in sims else next(iter(sims))
     steps = len(sims[name].t) - 1
     model = mut.compile(integrator=name)
-    exact = None if V.solver_converges(model) else V.converged_solver(model)
+    exact = V.exact_solver(model)
     heavier = simulate(mut.compile(integrator=name, variant=V.compose(exact, V.heavier_floors(bodies))),
                        probe, q0=target.q0, qd0=target.qd0, steps=steps)
     base = sims[name] if exact is None else simulate(mut.compile(integrator=name, variant=exact), probe,

@@ -239,6 +239,12 @@ def converged_solver(model: mujoco.MjModel) -> SpecEdit:
     return edit
 
 
+def exact_solver(model: mujoco.MjModel) -> SpecEdit | None:
+    """:func:`converged_solver` where the model's own solver stops short of the solution, else None (the
+    model's runs are then exact already): the edit every budget run of the model is made with."""
+    return None if solver_converges(model) else converged_solver(model)
+
+
 def has_contacts(model: mujoco.MjModel) -> bool:
     """Whether the model can make contacts: a pair or a colliding geom, with contacts enabled."""
     colliding = bool(np.any(model.geom_contype) or np.any(model.geom_conaffinity))
