@@ -30,6 +30,7 @@ from harness import cases
 from harness.engine.bindings import JointBinding
 from harness.engine.constraints import equality_block
 from harness.engine.models import compile_model
+from harness.engine.simulate import steps_in
 
 SAMPLES = 40
 AGREEMENT = 10.0
@@ -118,7 +119,7 @@ def sample(case_name: str, small_motion: float = 1.0, scaled: str = "", *, t_end
     binding = JointBinding(dyn.coordinates)
     data = mujoco.MjData(model)
     binding.set_state(model, data, q0, qd0)
-    steps = round((t_end or case.horizon) / model.opt.timestep)
+    steps = steps_in(t_end or case.horizon, model.opt.timestep)
     every = 1 if t_end else max(1, steps // SAMPLES)
     dof = binding.dof_matrix(model)
     rows: dict[str, list] = {k: [] for k in ("t", "q", "qd", "qdd", "lam", "kin", "pot")}

@@ -34,7 +34,7 @@ from harness.core.errors import SimulationDiverged
 from harness.core.plotting import FULL_WIDTH, png_bytes, pyplot
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
-from harness.engine.simulate import simulate
+from harness.engine.simulate import simulate, steps_in
 from harness.layers.trajectory import trajectory_figures
 from harness.pipeline.run import settle_time
 from harness.reference import solutions as refmod
@@ -160,7 +160,7 @@ def contact_study(
                          f"{[c.name for c in cases.all_cases() if 'slip' in c.mujoco_series]}")
     ref = case.reference(shipped_model)
     probe = case.probe(ref.dynamics)
-    steps = round(case.horizon / shipped_model.opt.timestep)
+    steps = steps_in(case.horizon, shipped_model.opt.timestep)
     rows = []
     for soft, cone, imp, ns in itertools.product(softness, cones, impratios, noslip_iterations):
         model = compile_model(path, edit=_edit(cone, float(imp), int(ns), SOFTNESS[soft]))

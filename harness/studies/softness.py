@@ -42,7 +42,7 @@ from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, s
 from harness.core.tables import fmt, html_table, text_table
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
-from harness.engine.simulate import simulate
+from harness.engine.simulate import simulate, steps_in
 from harness.layers.orders import initial_force_floor
 from harness.reference import solutions as refmod
 
@@ -148,7 +148,7 @@ def softness_study(case: Case, *, fast: bool = False, timeconsts: Sequence[float
         raise ValueError(f"case {case.name!r} has no MJCF equality constraints; the softness study needs "
                          f"some (cases with them: {', '.join(c.name for c in equality_cases(all_cases()))})")
     h = float(shipped.opt.timestep)
-    steps = round(horizon / h)
+    steps = steps_in(horizon, h)
     refsafe = not shipped.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_REFSAFE
     scale = reference.scales.force
     rows, ref_traj = [], None

@@ -28,7 +28,7 @@ from harness.core.tables import fmt, html_table, text_table
 from harness.engine.compat import SOLVER_ITERATIONS
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
-from harness.engine.simulate import simulate
+from harness.engine.simulate import simulate, steps_in
 from harness.reference import solutions as refmod
 
 SOLVERS: tuple[str, ...] = ("Newton", "CG", "PGS")
@@ -85,7 +85,7 @@ def solver_study(case: Case, *, fast: bool = False, solvers: Sequence[str] = SOL
         raise ValueError(f"case {case.name!r} has no constraint forces to compare; the solver study needs "
                          "equality or contact constraints")
     probe = dataclasses.replace(base, series={**base.series, "solver_niter": SOLVER_ITERATIONS})
-    steps = round(horizon / shipped.opt.timestep)
+    steps = steps_in(horizon, shipped.opt.timestep)
     names = [*base.constraints, *base.forces]
     rows, series, ref_traj, newton = [], {}, None, None
     for k, name in enumerate(solvers):
