@@ -33,7 +33,7 @@ from harness.engine.variants import compose
 from harness.pipeline.limits import load_limits
 from harness.pipeline.run import run_case
 from harness.pipeline.verdict import judge
-from harness.studies.faults import COARSE, FAULTS, SETTINGS, Change, by_name
+from harness.studies.faults import COARSE, Change, by_name
 
 SMALLEST = 1e-7
 LARGEST = 1.0
@@ -173,18 +173,6 @@ def sensitivity(case: Case, fault: Change, *, coarse: bool) -> Sensitivity:
 
     size, deciding = smallest_detected(detects)
     return Sensitivity(case.name, fault.name, setting, size, fault.unit, deciding)
-
-
-def trials(selected: Sequence[Case], *, coarse: bool = False) -> list[Trial]:
-    """Every setting (at the shipped settings only) and every fault of the catalog on each case."""
-    return ([trial(case, change) for case in selected for change in SETTINGS]
-            + [trial(case, fault, coarse=c) for case in selected for fault in FAULTS
-               for c in ((False, True) if coarse else (False,))])
-
-
-def sensitivities(selected: Sequence[Case], *, faults: Sequence[Change] = FAULTS) -> list[Sensitivity]:
-    return [sensitivity(case, fault, coarse=coarse) for case in selected for fault in faults
-            for coarse in (False, True)]
 
 
 def table(rows: Sequence[Sensitivity]) -> str:
