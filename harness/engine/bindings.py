@@ -36,6 +36,11 @@ class Binding(Protocol):
         """Constant D with qvel = D q̇, shape (nv, n); None where qvel is not a constant
         linear map of q̇ (a ball joint's local angular velocity)."""
 
+    # Optional (a binding of ball or free joints): ``velocity_map(model, q) -> np.ndarray``, the
+    # state-dependent B(q) with qvel = B(q) q̇, shape (nv, n), written with numpy operations that also
+    # accept a complex q, so that the instant layer gets Ḃ q̇ = Im B(q + i h q̇) / h by complex step,
+    # exact to round-off (qacc = B q̈ + Ḃ q̇). A binding with a constant D needs none.
+
 
 @dataclass(frozen=True)
 class JointBinding:
