@@ -36,7 +36,7 @@ REFERENCE_PERIOD = 1e-10
 dense output's (7th order), with a margin of 100."""
 MUJOCO_PERIOD = 1e-8
 """Relative: MuJoCo's RK4 at 1 ms moves a point by 2e-11 m over the horizon (its RK4.position); a
-crossing's time found by Hermite interpolation between steps errs by O((ωh)⁴ h) ~ 1e-13 s (ω = 4.7
+crossing's time found by Hermite interpolation between steps errs by O((ωh)⁴ h) ~ 1e-13 s (ω = 4.8
 rad/s); 1e-8 of a 1.47 s period is 1.5e-8 s, a margin of 100 over both."""
 
 
@@ -48,14 +48,13 @@ def model() -> mujoco.MjModel:
 def _authored() -> dict[str, np.ndarray | float]:
     """The link as mjcf/physical_pendulum.xml writes it (MjSpec, before compiling): mass, body pos, the
     inertial pos and fullinertia in the body frame, the sites' body-frame positions. The body frame is
-    turned 45° about z (its euler, typed here from the file's comment; pinned below)."""
+    the world's (not turned; pinned below)."""
     spec = load_spec(CASE.mjcf)
     body = spec.body("link")
     ixx, iyy, izz, ixy, ixz, iyz = (float(x) for x in body.fullinertia)
-    c, s = math.cos(math.pi / 4), math.sin(math.pi / 4)
     return {
         "m": float(body.mass),
-        "frame": np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]),
+        "frame": np.eye(3),
         "pos": np.asarray(body.pos, dtype=float),
         "ipos": np.asarray(body.ipos, dtype=float),
         "inertia": np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]),
@@ -66,16 +65,17 @@ def _authored() -> dict[str, np.ndarray | float]:
 
 
 def _closed_form(products: bool = True, parallel_axis: bool = True) -> tuple[float, float]:
-    """(I_O, m g d⊥) from the authored numbers: the hinge runs along the body's (−1, −1, 0)/√2
-    (world −y, turned back by the 45° frame), so nᵀ I n = ½(Ixx + Iyy) + Ixy in the body frame; the
-    centre of mass, pos + frame · ipos in the world, is d⊥ = √(x² + z²) from the y axis. ``products``
-    False drops Ixy, ``parallel_axis`` False drops m d⊥²: what a wrong implementation would give."""
+    """(I_O, m g d⊥) from the authored numbers: the hinge runs along n = (1, −1, 0)/√2 (the joint's
+    axis, in the body frame, which is the world's), so nᵀ I n = ½(Ixx + Iyy) − Ixy; the centre of
+    mass, pos + ipos, is d⊥ = √((e·c)² + c_z²) from the axis, e = (1, 1, 0)/√2. ``products`` False
+    drops the products, ``parallel_axis`` False drops m d⊥²: what a wrong implementation would give."""
     a = _authored()
-    n_body = np.array([-1.0, -1.0, 0.0]) / math.sqrt(2.0)
+    n = np.array([1.0, -1.0, 0.0]) / math.sqrt(2.0)
+    e = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
     inertia = a["inertia"] if products else np.diag(np.diag(a["inertia"]))
     com = a["pos"] + a["frame"] @ a["ipos"]
-    d = math.hypot(com[0], com[2])
-    i_o = n_body @ inertia @ n_body + (a["m"] * d * d if parallel_axis else 0.0)
+    d = math.hypot(float(e @ com), com[2])
+    i_o = n @ inertia @ n + (a["m"] * d * d if parallel_axis else 0.0)
     return float(i_o), a["m"] * a["g"] * d
 
 
@@ -130,15 +130,19 @@ def _mujoco_period(model: mujoco.MjModel, theta0: float) -> float:
 
 
 def test_the_equation_is_the_compound_pendulums():
-    """sympy's M(θ) and F from RigidBody (R(θ) = R_y(−θ), full I_c) against the hand-typed compound
-    pendulum: M = Iyy + m (cx² + cz²) (nᵀ I_c n plus the parallel-axis term, n = −ŷ), F = −∂V/∂θ with
-    V = m g (cx sin θ + cz cos θ). The other components of I_c and the axial offset cy do not enter."""
+    """sympy's M(θ) and F from RigidBody (R(θ) about n = (1, −1, 0)/√2, full I_c) against the
+    hand-typed compound pendulum: M = ½(Ixx + Iyy) − Ixy + m ((cx + cy)²/2 + cz²) (nᵀ I_c n plus the
+    parallel-axis term), F = −∂V/∂θ with V = m g (u sin θ + cz cos θ), u = (cx + cy)/√2. The products
+    Ixz, Iyz and Izz do not enter."""
     d = systems.build("physical_pendulum").derive()
     (theta,), (theta_d,) = d.system.q, d.system.qd
-    assert sp.simplify(d.mass_matrix[0, 0] - (P.Iyy + P.m * (P.cx**2 + P.cz**2))) == 0
-    assert sp.simplify(d.forcing[0] + P.m * P.g * (P.cx * sp.cos(theta) - P.cz * sp.sin(theta))) == 0
-    absent = {P.cy, P.Ixx, P.Izz, P.Ixy, P.Ixz, P.Iyz, theta_d}
+    u = (P.cx + P.cy) / sp.sqrt(2)
+    hinge = (P.Ixx + P.Iyy) / 2 - P.Ixy + P.m * ((P.cx + P.cy) ** 2 / 2 + P.cz**2)
+    assert sp.simplify(d.mass_matrix[0, 0] - hinge) == 0
+    assert sp.simplify(d.forcing[0] + P.m * P.g * (u * sp.cos(theta) - P.cz * sp.sin(theta))) == 0
+    absent = {P.Izz, P.Ixz, P.Iyz, theta_d}
     assert not (d.mass_matrix.free_symbols | d.forcing.free_symbols) & absent
+    assert P.Ixy in d.mass_matrix.free_symbols
 
 
 def test_signed_parameters_are_real_symbols(monkeypatch):
@@ -156,7 +160,7 @@ def test_signed_parameters_are_real_symbols(monkeypatch):
 
 def test_the_model_is_read_back_through_mujocos_diagonalisation(model):
     """params_from_model turns MuJoCo's diagonalised inertia (body_inertia, body_iquat) back into a
-    full tensor in world axes; it must equal the authored fullinertia turned by the body's 45° frame,
+    full tensor in world axes; it must equal the authored fullinertia (the body frame is the world's),
     and the centre of mass and sites their authored positions. MuJoCo did diagonalise: iquat is not the
     identity, and body_inertia holds the authored tensor's eigenvalues."""
     a = _authored()
@@ -176,12 +180,12 @@ def test_the_model_is_read_back_through_mujocos_diagonalisation(model):
     np.testing.assert_allclose(np.sort(model.body_inertia[bid]), np.linalg.eigvalsh(a["inertia"]), rtol=1e-13)
     frame = np.zeros(9)
     mujoco.mju_quat2Mat(frame, model.body_quat[bid])
-    np.testing.assert_allclose(frame.reshape(3, 3), a["frame"], rtol=0, atol=1e-15)  # the 45° typed above
+    np.testing.assert_allclose(frame.reshape(3, 3), a["frame"], rtol=0, atol=1e-15)  # the frame typed above
 
 
 def test_positive_theta_swings_towards_plus_x_and_the_sites_are_the_points(model):
-    """θ > 0 moves the tip towards +x (rotation about −y), and at any θ the analytic points are
-    MuJoCo's body com and sites."""
+    """θ > 0 moves the tip towards +e = (1, 1, 0)/√2 (rotation about n = (1, −1, 0)/√2), and at any θ
+    the analytic points are MuJoCo's body com and sites."""
     dyn = CASE.dynamics()
     data = mujoco.MjData(model)
     for theta in (-2.0, -0.4, 0.3, 1.2, 2.9):
@@ -192,22 +196,24 @@ def test_positive_theta_swings_towards_plus_x_and_the_sites_are_the_points(model
         np.testing.assert_allclose(names["link"], data.xipos[model.body("link").id], rtol=0, atol=1e-15)
         for site in ("tip", "side"):
             np.testing.assert_allclose(names[site], data.site_xpos[model.site(site).id], rtol=0, atol=1e-15)
-        assert np.sign(names["tip"][0]) == np.sign(theta)
+        assert np.sign(names["tip"][0] + names["tip"][1]) == np.sign(theta)
+        assert names["tip"][0] - names["tip"][1] == pytest.approx(0.1, abs=1e-15)  # √2 × its offset along n
     data.qpos[0] = 0.0
     mujoco.mj_kinematics(model, data)
-    assert abs(data.xipos[model.body("link").id][0]) < 1e-15  # hanging below the pivot at θ = 0
+    com = data.xipos[model.body("link").id]
+    assert abs(com[0] + com[1]) < 1e-15  # hanging below the pivot at θ = 0 (no offset along e)
 
 
 # --- closed forms: the periods ----------------------------------------------------------------------
 
 
 def test_products_and_the_parallel_axis_term_change_the_period():
-    """What the closed-form checks below can tell apart: without Ixy the period is 1.3 % shorter,
-    without m d⊥² half as long — far beyond their tolerances."""
+    """What the closed-form checks below can tell apart: without the products the period is 1.3 % off,
+    without m d⊥² less than half as long — far beyond their tolerances."""
     full = _elliptic_period(THETA0)
     assert abs(_elliptic_period(THETA0, products=False) / full - 1) > 1e-2
     assert abs(_elliptic_period(THETA0, parallel_axis=False) / full - 1) > 0.4
-    assert full == pytest.approx(1.4673, abs=1e-4) and _small_period() == pytest.approx(1.3361, abs=1e-4)
+    assert full == pytest.approx(1.4290, abs=1e-4) and _small_period() == pytest.approx(1.3012, abs=1e-4)
 
 
 def test_the_reference_has_the_small_oscillation_period(model):
@@ -313,7 +319,7 @@ def test_a_legitimate_change_passes_every_gate(setting):
 
 def test_other_products_change_the_period_and_are_read_back():
     """The 'other products' setting is a different link, not the same one judged leniently: its
-    hinge inertia (read back) and so its period differ from the shipped one's."""
+    hinge inertia (read back) and so its period differ from the shipped one's (by 4 %)."""
     spec = load_spec(CASE.mjcf)
     _products(spec)
     other = pp.params_from_model(spec.compile())

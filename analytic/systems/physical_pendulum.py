@@ -1,12 +1,14 @@
 r"""Physical (compound) pendulum: a rigid link with a full inertia tensor on one horizontal hinge.
 
-The hinge runs along world −y through the origin (the pivot), as every
-pendulum here; θ is the link's rotation about it from the model's authored pose
-(MuJoCo's qpos, qpos0 = 0), positive towards +x. Seen along the hinge::
+The hinge runs through the origin (the pivot) along the horizontal diagonal
+n = (1, −1, 0)/√2; the link swings in the vertical plane spanned by
+e = (1, 1, 0)/√2 and z. θ is the link's rotation about n from the model's
+authored pose (MuJoCo's qpos, qpos0 = 0), right-handed, so positive towards +e.
+Seen along the hinge (n pointing at the reader)::
 
           z ^
             |
-      pivot o-----> x          (y into the page; the hinge axis n = −ŷ points out of it)
+      pivot o-----> e = (1, 1, 0)/√2     (n = (1, −1, 0)/√2 out of the page)
             |\
             | \   c(θ) = R(θ) c₀: the centre of mass, d⊥ from the axis
             |θ ●
@@ -14,31 +16,33 @@ pendulum here; θ is the link's rotation about it from the model's authored pose
             |    ✕ tip        ✕ side: a body point off the swing plane
            −z
 
-    R(θ) = R_y(−θ)      (rotation by θ about −y: a point below the pivot moves towards +x)
+    R(θ) = R_z(−π/4) R_x(θ) R_z(π/4)      (rotation by θ about n: e → cos θ e + sin θ ẑ)
 
 The link is a :class:`analytic.rigid.RigidBody` whose body frame is the world
-frame at θ = 0 (any body-fixed frame will do): its centre of mass is at
-c₀ = (cx, cy, cz) from the pivot at θ = 0 and its inertia about the centre of
-mass, in world axes at θ = 0, is the full symmetric tensor I_c (Ixx … Iyz,
-products included). Then (König; the parallel-axis term is ½ m |ċ|²)
+frame at θ = 0 (any body-fixed frame will do; the model's own body frame is not
+turned either): its centre of mass is at c₀ = (cx, cy, cz) from the pivot at
+θ = 0 and its inertia about the centre of mass, in those axes, is the full
+symmetric tensor I_c (Ixx … Iyz, products included). Then (König; the
+parallel-axis term is ½ m |ċ|²)
 
-    T = ½ m |R'(θ) c₀|² θ̇² + ½ nᵀ I_c n θ̇² = ½ I_O θ̇²,   I_O = nᵀ I_c n + m d⊥²,   n = −ŷ,
-    V = m g z_c = m g (cx sin θ + cz cos θ),                d⊥² = cx² + cz²
+    T = ½ I_O θ̇²,   I_O = nᵀ I_c n + m d⊥² = ½(Ixx + Iyy) − Ixy + m ((cx + cy)²/2 + cz²),
+    V = m g z_c = m g (u sin θ + cz cos θ),   u = e·c₀ = (cx + cy)/√2,   d⊥² = u² + cz²
 
-so only the inertia about the hinge direction, nᵀ I_c n = Iyy here, and the
+so only the inertia about the hinge, in which the product Ixy enters, and the
 distance d⊥ of the centre of mass from the axis enter the motion; its offset
-cy along the axis does not. In the model's own body frame (turned 45° about z,
-mjcf/physical_pendulum.xml) that Iyy is ½(Ixx + Iyy) + Ixy of the authored
-``fullinertia``, so a product of inertia and MuJoCo's diagonalisation of it
-(``body_iquat``, ``body_inertia``) both enter the period. params_from_model
-reads c₀ and I_c back from the compiled model; tests/test_physical_pendulum.py
-checks them against the authored numbers, independently.
+(cx − cy)/√2 along the axis does not. The compiled model holds the tensor as
+MuJoCo diagonalised it (``body_iquat``, ``body_inertia``); params_from_model
+turns it back, and tests/test_physical_pendulum.py checks that against the
+authored ``fullinertia``, independently.
 
-Closed forms (with the shipped pose, cx = 0 and cz = −d⊥: the centre of mass
+Closed forms (with the shipped pose, u = 0 and cz = −d⊥: the centre of mass
 hangs below the pivot at θ = 0, the stable equilibrium): small oscillations
 have the period 2π √(I_O / (m g d⊥)); from rest at θ₀ the period is
 4 √(I_O / (m g d⊥)) K(k²), k = sin(θ₀/2) (K the complete elliptic integral of
 the first kind; ``scipy.special.ellipk`` takes m = k²).
+
+The hinge is the system's, not a parameter (as the seed pendulums' axes are):
+a model whose hinge is mounted otherwise is a fault its points show.
 
 Named points: ``link`` is the centre of mass (MuJoCo: body ``link``'s xipos);
 ``tip`` and ``side`` are body-fixed points at (tx, ty, tz) and (sx, sy, sz)
@@ -66,7 +70,7 @@ MOTION = Motion(
                 "and turned) on one hinge, released from 1.2 rad: large-amplitude period",
     q0={"theta": 1.2},
     qd0={"theta": 0.0},
-    horizon=3.0,  # two periods (1.467 s each)
+    horizon=3.0,  # two periods (1.429 s each)
 )
 
 LINK = "link"
@@ -79,7 +83,8 @@ def build(p: Parameters) -> LagrangianSystem:
     from analytic.rigid import RigidBody, axis_rotation  # lazy: loads sympy
 
     (theta,), (theta_d,) = coordinates("theta")
-    rotation = axis_rotation("y", -theta)  # by θ about −y
+    turn = axis_rotation("z", sp.pi / 4)  # takes n = (1, −1, 0)/√2 to x̂
+    rotation = turn.T * axis_rotation("x", theta) * turn  # by θ about n
     com = rotation * sp.Matrix([p.cx, p.cy, p.cz])
     inertia = sp.Matrix([[p.Ixx, p.Ixy, p.Ixz], [p.Ixy, p.Iyy, p.Iyz], [p.Ixz, p.Iyz, p.Izz]])
     link = RigidBody(mass=p.m, inertia=inertia, com=com, rotation=rotation)
@@ -98,7 +103,7 @@ def build(p: Parameters) -> LagrangianSystem:
 
 def params_from_model(model) -> dict[str, float]:
     """Every parameter from the compiled model at its authored pose (qpos0): m the link's mass; g
-    from gravity; c₀ the centre of mass (``xipos``); I_c in world axes,
+    from gravity; c₀ the centre of mass (``xipos``, from the pivot at the origin); I_c in world axes,
     ``ximat`` diag(``body_inertia``) ``ximat``ᵀ (MuJoCo's diagonalised tensor turned back); the
     sites' offsets from the centre of mass. ValueError for gravity off −z.
 
@@ -124,8 +129,9 @@ def params_from_model(model) -> dict[str, float]:
 
 
 def hinge_inertia(params: dict[str, float]) -> float:
-    """I_O = nᵀ I_c n + m d⊥² about the hinge (n = −ŷ: Iyy + m (cx² + cz²))."""
-    return params["Iyy"] + params["m"] * (params["cx"] ** 2 + params["cz"] ** 2)
+    """I_O = nᵀ I_c n + m d⊥² about the hinge: ½(Ixx + Iyy) − Ixy + m ((cx + cy)²/2 + cz²)."""
+    return (0.5 * (params["Ixx"] + params["Iyy"]) - params["Ixy"]
+            + params["m"] * (0.5 * (params["cx"] + params["cy"]) ** 2 + params["cz"] ** 2))
 
 
 def scales(params: dict[str, float]) -> Scales:
