@@ -21,6 +21,7 @@ from scipy.special import ellipk
 from analytic import systems
 from analytic.systems import physical_pendulum as pp
 from harness import cases
+from harness.engine import compat
 from harness.engine.compat import set_damping, set_stiffness
 from harness.engine.models import compile_model, load_spec
 from harness.pipeline.run import run_case
@@ -38,6 +39,14 @@ MUJOCO_PERIOD = 1e-8
 """Relative: MuJoCo's RK4 at 1 ms moves a point by 2e-11 m over the horizon (its RK4.position); a
 crossing's time found by Hermite interpolation between steps errs by O((ωh)⁴ h) ~ 1e-13 s (ω = 4.8
 rad/s); 1e-8 of a 1.47 s period is 1.5e-8 s, a margin of 100 over both."""
+
+DIAGONALISATION = 1e-14 if compat.version() >= (4, 0, 0) else 1e-9
+"""Relative (to the largest entry): how closely the tensor MuJoCo compiles (body_iquat, body_inertia,
+turned back) reproduces the authored fullinertia. 4.0.0: to round-off (measured 2.7e-15). 3.3.0 and 3.3.7
+compute the eigenvalues to round-off (5e-16) but leave the principal axes about 1e-10 rad off: the
+tensor is 3.6e-10 off (measured on both; margin 3). Not a harness error — its reference reads the
+compiled tensor — but a compiled link 1e-10 off the authored one, which the period check below
+(MUJOCO_PERIOD) cannot see."""
 
 
 @pytest.fixture(scope="module")
@@ -169,7 +178,7 @@ def test_the_model_is_read_back_through_mujocos_diagonalisation(model):
     got = np.array([[params["Ixx"], params["Ixy"], params["Ixz"]],
                     [params["Ixy"], params["Iyy"], params["Iyz"]],
                     [params["Ixz"], params["Iyz"], params["Izz"]]])
-    np.testing.assert_allclose(got, world, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(got, world, rtol=0, atol=DIAGONALISATION * np.max(np.abs(world)))
     com = a["pos"] + a["frame"] @ a["ipos"]
     np.testing.assert_allclose([params["cx"], params["cy"], params["cz"]], com, rtol=0, atol=1e-15)
     for site, keys in pp.SITES.items():
