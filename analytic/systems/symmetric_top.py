@@ -29,7 +29,7 @@ Coordinates q = (phi, theta, psi):
     psi    spin: about the body's own e₃.
 
 The Euler angles are singular at sin θ = 0 (φ and ψ turn about the same
-axis); the case's motion keeps θ within [0.88, 1.15] rad.
+axis); the case's motion keeps θ within [0.96, 1.20] rad.
 
 Inertia: I₁ = I₂ (``I1``) and I₃ (``I3``) are the principal moments about the
 CENTRE OF MASS, the MJCF's ``diaginertia="I1 I1 I3"`` at ``pos="0 0 l"``. The
@@ -65,9 +65,9 @@ forms typed by hand, checked against the sympy-derived reference and against
 MuJoCo's symmetry axis in tests/test_symmetric_top.py.
 
 Observables (world positions compared with MuJoCo): ``top`` the centre of
-mass (the body's ``xipos``); ``tip`` the end of the axle, 2l along e₃ from the
-pivot; ``rim`` a point of the disc's rim, l along the body's x from the centre
-of mass — it turns with ψ, so it is where MuJoCo's spin is observed.
+mass (the body's ``xipos``); ``tip`` the end of the axle, 2.5 l along e₃ from the
+pivot; ``rim`` a point of the disc's rim (radius 2.5 l), 2.5 l along the body's x
+from the centre of mass — it turns with ψ, so it is where MuJoCo's spin is observed.
 """
 
 from __future__ import annotations
@@ -86,10 +86,10 @@ PARAMETERS = "m g l I1 I3"
 MOTION = Motion(
     description="heavy symmetric top on a ball joint: spinning, precessing and nutating (θ between its two "
                 "turning points), p_phi and p_psi conserved",
-    # θ nutates between its turning points 0.885 and 1.141 rad (the cubic's roots), about 10 times in 3 s
-    q0={"phi": 0.0, "theta": 0.9, "psi": 0.0},
-    qd0={"phi": 2.0, "theta": 1.0, "psi": 50.0},
-    horizon=3.0,
+    # θ nutates between its turning points 0.960 and 1.196 rad (the cubic's roots), 8 times in 2 s
+    q0={"phi": 0.0, "theta": 1.0, "psi": 0.0},
+    qd0={"phi": 2.0, "theta": 2.0, "psi": 20.0},
+    horizon=2.0,
 )
 
 BODY = "top"
@@ -98,7 +98,7 @@ RIM = "rim"
 
 # Body-frame offsets from the PIVOT of the two observed body points, in units of l (the MJCF's sites
 # must be there; params_from_model checks it).
-SITE_OFFSETS = {TIP: (0.0, 0.0, 2.0), RIM: (1.0, 0.0, 1.0)}
+SITE_OFFSETS = {TIP: (0.0, 0.0, 2.5), RIM: (2.5, 0.0, 1.0)}
 
 
 def build(p: Parameters) -> LagrangianSystem:
