@@ -139,7 +139,8 @@ def params_from_model(model) -> dict[str, float]:
     """
     bid = model.body(BODY).id
     scale = max(float(np.linalg.norm(model.body_ipos[bid])), 1e-300)
-    if np.any(np.abs(model.body_pos[bid]) > 1e-12 * scale) or np.any(np.abs(model.body_quat[bid] - [1, 0, 0, 0]) > 1e-12):
+    unturned = np.all(np.abs(model.body_quat[bid] - [1, 0, 0, 0]) <= 1e-12)
+    if np.any(np.abs(model.body_pos[bid]) > 1e-12 * scale) or not unturned:
         raise ValueError(f"body {BODY!r} must sit at the world origin unturned (pos 0 0 0, quat 1 0 0 0), got pos "
                          f"{model.body_pos[bid].tolist()} quat {model.body_quat[bid].tolist()}")
     first, count = int(model.body_jntadr[bid]), int(model.body_jntnum[bid])
