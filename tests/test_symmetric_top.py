@@ -29,6 +29,10 @@ NAME = "symmetric_top"
 SYM = systems.symbols(NAME)
 COORDS = ("phi", "theta", "psi")
 RK4 = ["RK4"]
+# MuJoCo's RK4 is accurate on a ball joint only from 4.0 (harness.engine.compat.KNOWN_DEFECTS: before, 2nd
+# order); the tests that hold its run to RK4's accuracy are expected to fail (strictly) before.
+_RK4_DEFECT = compat.known_defect(compat.joint_types(compile_model(mjcf_path(NAME))), "RK4.position")
+rk4_accurate = pytest.mark.xfail(bool(_RK4_DEFECT), reason=_RK4_DEFECT, strict=True)
 
 
 def _model() -> mujoco.MjModel:
@@ -280,6 +284,7 @@ def test_reference_nutates_between_the_cubics_roots():
     assert 0.9 < low < 1.0 < high < 1.25  # visible nutation, far from the poles (Euler singularity)
 
 
+@rk4_accurate
 def test_mujoco_symmetry_axis_nutates_between_the_cubics_roots():
     """MuJoCo's own top, read only through its symmetry axis: u = (tip − pivot)_z / |tip − pivot| from the
     site ``tip`` over the RK4 run turns back at the roots of the cubic built from MuJoCo's OWN conserved
@@ -309,6 +314,7 @@ def _steady(which: int) -> tuple[dict[str, float], dict[str, float], float]:
             {"phi": rate, "theta": 0.0, "psi": omega3 - rate * np.cos(theta)}, rate)
 
 
+@rk4_accurate
 @pytest.mark.parametrize("which", [0, 1], ids=["slow", "fast"])
 def test_steady_precession_in_the_reference_and_in_mujoco(which):
     """Started exactly on a root of the quadratic (θ = 1 rad, ω₃ = 20 rad/s, θ̇ = 0), θ stays put and the
@@ -328,6 +334,7 @@ def test_steady_precession_in_the_reference_and_in_mujoco(which):
     assert not failing(result)
 
 
+@rk4_accurate
 def test_conserved_quantities_on_both_sides():
     """Reference: E, p_φ, p_ψ constant to its rtol. MuJoCo's RK4: to its 1e-10. Every integrator keeps
     p_ψ = I₃ω₃ to round-off: no torque about e₃ (gravity acts through the axis) and the gyroscopic term
