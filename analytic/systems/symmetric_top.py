@@ -21,6 +21,10 @@ The body is turned by the Euler angles (z-x-z, ``analytic.rigid.euler_zxz``)::
     e₃ = R ẑ = (sin θ sin φ,  −sin θ cos φ,  cos θ)
     centre of mass  c = l e₃
 
+The axis leans away from the vertical perpendicular to the line of nodes, towards
+the azimuth φ − 90° (at φ = 0 the tip leans towards −y); the precession rate φ̇ is
+the rate at which the tip's horizontal projection turns about world z.
+
 Coordinates q = (phi, theta, psi):
 
     phi    precession: about world +z, from +x towards +y (turns the line of nodes n = R_z(φ) x̂);
@@ -54,7 +58,7 @@ Nutation (Goldstein §5.7): with u = cos θ, I₁' the moment about the pivot an
 
     α = (2E − I₃ ω₃²)/I₁',   β = 2 m g l / I₁',   a = p_ψ / I₁',   b = p_φ / I₁'
 
-energy and p_φ give u̇² = f(u) = (1 − u²)(α − β u) − (b − a u)²: θ turns back
+energy, p_φ and p_ψ give u̇² = f(u) = (1 − u²)(α − β u) − (b − a u)²: θ turns back
 where f has its two roots in [−1, 1], and φ̇ = (b − a u)/(1 − u²). For a steady
 precession at θ = θ₀ (θ̇ = 0 for ever) the θ equation leaves the quadratic
 
