@@ -156,13 +156,15 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
         return Deviation(name, np.reshape(got_, expected.shape) - expected, "vector" if vector else "scalar", "1",
                          description, scale=_scale(expected, vector=vector))
 
+    sites = any(point_source(model, p).kind == "site" for p in dyn.point_names)
+    where, what = ("point position (site or body com)", "site or body com") if sites else ("body position", "body com")
     out = [
         Deviation(FigureName.instant("kinematics"), np.array(got["pts"]) - pts, "scalar", "m",
-                  f"max |MuJoCo point position (site or body com) − analytic point| over {n} states", size=length),
+                  f"max |MuJoCo {where} − analytic point| over {n} states", size=length),
         relative(FigureName.instant("kinetic_energy"), got["kinetic"], kinetic,
                  "max |½ qvelᵀ M_mj qvel − ½ q̇ᵀ M q̇| / max ½ q̇ᵀ M q̇"),
         relative(FigureName.instant("point_acceleration"), got["acc"], acc,
-                 "max |J qacc + J̇ qvel − ẍ| / max |ẍ| over named points (world acceleration of the site or body com)",
+                 f"max |J qacc + J̇ qvel − ẍ| / max |ẍ| over named points (world acceleration of the {what})",
                  vector=True),
     ]
     d = "D" if constant else "B"
