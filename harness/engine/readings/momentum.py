@@ -53,10 +53,13 @@ def _spatial_momentum(inert: np.ndarray, vel: np.ndarray) -> tuple[np.ndarray, n
     return angular, linear
 
 
-def axial_angular_momentum(*, body: str, site: str, axis: Sequence[float] = (0.0, 0.0, 1.0)) -> Reading:
+def axial_angular_momentum(*, body: str, site: str, axis: Sequence[float] = (0.0, 0.0, 1.0),
+                           frame: str | None = None) -> Reading:
     """A reading of axis · L about ``site`` of the subtree rooted at ``body`` (kg m²/s).
 
-    ``axis`` is a world direction (normalised here).
+    ``axis`` is a world direction (normalised here), or, with ``frame``, a direction fixed in the body
+    of that name, turned with it (its ``xmat`` at each sample): a symmetric top's p_ψ is its angular
+    momentum about the pivot along its own symmetry axis.
     """
     unit = np.asarray(axis, dtype=float)
     if unit.shape != (3,) or not np.linalg.norm(unit) > 0:
@@ -66,13 +69,18 @@ def axial_angular_momentum(*, body: str, site: str, axis: Sequence[float] = (0.0
     def evaluate(model: mujoco.MjModel, rec: Mapping[str, np.ndarray]) -> np.ndarray:
         rows = np.ascontiguousarray  # (3, N) rows of contiguous samples: fast elementwise operations
         origin = rows(rec["site_xpos"][:, model.site(site).id].T)
-        total = np.zeros(origin.shape[1])
+        total = np.zeros((3, origin.shape[1]))
         for b in subtree(model, model.body(body).id):
             angular, linear = _spatial_momentum(rows(rec["cinert"][:, b].T), rows(rec["cvel"][:, b].T))
             lever = rows(rec["subtree_com"][:, model.body_rootid[b]].T) - origin
-            total += unit @ (angular + _cross(lever, linear))
-        return total
+            total += angular + _cross(lever, linear)
+        if frame is None:
+            return unit @ total
+        turned = np.asarray(rec["xmat"][:, model.body(frame).id]).reshape(-1, 3, 3) @ unit  # (N, 3) world
+        return np.einsum("kn,nk->n", total, turned)
 
-    return Reading(fields=("site_xpos", "cinert", "cvel", "subtree_com"), evaluate=evaluate,
-                   description=f"axis {unit.tolist()} · angular momentum of subtree {body!r} about site "
+    where = "" if frame is None else f" fixed in body {frame!r}"
+    fields = ("site_xpos", "cinert", "cvel", "subtree_com", *(() if frame is None else ("xmat",)))
+    return Reading(fields=fields, evaluate=evaluate,
+                   description=f"axis {unit.tolist()}{where} · angular momentum of subtree {body!r} about site "
                                f"{site!r} (kg m²/s)")
