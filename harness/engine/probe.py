@@ -1,4 +1,4 @@
-"""What the harness reads from a MuJoCo run of a case: points, equality constraints, readings."""
+"""What the harness reads from a MuJoCo run of a case: points (sites or bodies), equality constraints, readings."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import mujoco
 
 from harness.core.errors import ModelMismatch
 from harness.engine.bindings import Binding
+from harness.engine.points import point_source
 from harness.engine.readings import Reading
 
 
@@ -26,8 +27,7 @@ class Probe:
     def validate(self, model: mujoco.MjModel) -> None:
         self.binding.validate(model)
         for name in self.points:
-            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name) < 0:
-                raise ModelMismatch(f"model has no body {name!r} for point {name!r}")
+            point_source(model, name)  # a site of that name, else a body (ModelMismatch naming both)
         for name in self.constraints:
             if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, name) < 0:
                 known = [model.equality(i).name for i in range(model.neq)]

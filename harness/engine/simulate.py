@@ -26,8 +26,9 @@ integration state); where a second thread may run, the rollout goes in chunks
 reads) and each chunk's states are recomputed on that thread while the next
 chunk steps, so only the last chunk's recomputation adds to the wall time.
 The rest is numpy over the whole run, reproducing the loop's arithmetic: a
-point's position is ``xipos``, its velocity J·qvel with J assembled from
-``cdof`` and ``subtree_com`` as ``mj_jac`` does, and a joint equality's
+point's position is ``site_xpos`` for a site and ``xipos`` for a body
+(:mod:`harness.engine.points`), its velocity J·qvel with J assembled from
+``cdof`` and ``subtree_com`` at that position as ``mj_jac`` does, and a joint equality's
 ``efc_force``/``efc_pos`` come from ``qfrc_constraint`` and ``qpos`` where
 that is exact (:class:`_JointEquality`). The case's readings
 (``Probe.invariants/forces/series``, :class:`harness.readings.Reading`) name
@@ -62,6 +63,7 @@ from harness.core.trajectory import Trajectory
 from harness.engine.bindings import ONE_DOF
 from harness.engine.constraints import equality_block, equality_size
 from harness.engine.integrators import STEP_FUNCTIONS, integrator_name
+from harness.engine.points import point_jacobian, point_source
 from harness.engine.probe import Probe
 from harness.engine.readings import fields_of
 
@@ -72,11 +74,12 @@ except ImportError:  # MuJoCo 3.3: the loop records everything (recorder() says 
 
 
 # Derived fields the batch recorder records at every state (all fixed-size), besides the readings' own:
-# always (energy, generalized constraint force), for points (position, and velocity as mj_jac assembles
-# it) and for joint equalities recovered from qfrc_constraint (the row count, to know every row is theirs).
+# always (energy, generalized constraint force), for points (position: site_xpos or xipos as the points
+# are sites or bodies; and velocity as mj_jac assembles it) and for joint equalities recovered from
+# qfrc_constraint (the row count, to know every row is theirs).
 # Each costs about 1 % of a small model's step; a non-finite qacc is MuJoCo's own warning (mj_checkAcc).
 ALWAYS_FIELDS: tuple[str, ...] = ("qfrc_constraint", "energy")
-POINT_FIELDS: tuple[str, ...] = ("xipos", "subtree_com", "cdof")
+POINT_FIELDS: tuple[str, ...] = ("subtree_com", "cdof")  # with each point's own position field
 EQUALITY_FIELDS: tuple[str, ...] = ("nefc",)
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 
@@ -108,25 +111,26 @@ def recorder_notes() -> tuple[str, ...]:
 
 def recorded_fields(model: mujoco.MjModel, probe: Probe) -> tuple[str, ...]:
     """The derived fields the batch recorder records at every state for ``probe`` on ``model``."""
-    wanted = [*ALWAYS_FIELDS, *(POINT_FIELDS if probe.points else ())]
+    positions = dict.fromkeys(point_source(model, p).field for p in probe.points)
+    wanted = [*ALWAYS_FIELDS, *positions, *(POINT_FIELDS if probe.points else ())]
     if _joint_equalities(model, probe.constraints):
         wanted += EQUALITY_FIELDS
     return tuple(dict.fromkeys((*wanted, *fields_of(probe.readings()))))
 
 
-def point_state(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> tuple[np.ndarray, np.ndarray]:
-    """World position and linear velocity of a body's centre of mass.
+def point_state(model: mujoco.MjModel, data: mujoco.MjData, point: str) -> tuple[np.ndarray, np.ndarray]:
+    """World position and linear velocity of a named point: a site, or a body's centre of mass
+    (:func:`harness.engine.points.point_source`).
 
-    The velocity is J·qvel with J from ``mj_jacBodyCom``, summed column by column in dof order
-    (Σᵢ Jᵢ q̇ᵢ, a multiply then an add per term, no fused multiply-add), so that the batch recorder's
-    vectorized sum over a whole run gives the same numbers bit for bit."""
-    bid = model.body(body).id
-    jacp = np.zeros((3, model.nv))
-    mujoco.mj_jacBodyCom(model, data, jacp, None, bid)
+    The velocity is J·qvel with J from ``mj_jac`` at the point on its body, summed column by column
+    in dof order (Σᵢ Jᵢ q̇ᵢ, a multiply then an add per term, no fused multiply-add), so that the
+    batch recorder's vectorized sum over a whole run gives the same numbers bit for bit."""
+    source = point_source(model, point)
+    jacp = point_jacobian(model, data, source)
     velocity = np.zeros(3)
     for i in range(model.nv):
         velocity = velocity + jacp[:, i] * data.qvel[i]
-    return data.xipos[bid].copy(), velocity
+    return source.position(data).copy(), velocity
 
 
 def _rows(model: mujoco.MjModel, name: str, n: int) -> np.ndarray:
@@ -568,12 +572,13 @@ def _velocity_chain(model: mujoco.MjModel, body: int) -> list[int]:
 
 
 def _point_velocity(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], qvel: np.ndarray,
-                    body: int) -> np.ndarray:
-    """J·qvel at xipos for every sample, J's columns assembled as mj_jac does
-    (cdof_lin + cdof_ang × (xipos − subtree_com[root])) and summed in dof order as point_state does
-    (the dofs outside the chain add exact zeros there), so the result is point_state's, bit for bit."""
+                    point: np.ndarray, body: int) -> np.ndarray:
+    """J·qvel at ``point`` (N, 3: the point's world position at every sample) moving with ``body``,
+    J's columns assembled as mj_jac does (cdof_lin + cdof_ang × (point − subtree_com[root])) and
+    summed in dof order as point_state does (the dofs outside the chain add exact zeros there), so the
+    result is point_state's, bit for bit."""
     rows = np.ascontiguousarray  # samples contiguous per component: fast elementwise operations
-    o0, o1, o2 = rows((fields["xipos"][:, body] - fields["subtree_com"][:, model.body_rootid[body]]).T)
+    o0, o1, o2 = rows((point - fields["subtree_com"][:, model.body_rootid[body]]).T)
     velocity = np.zeros((3, len(qvel)))
     for i in sorted(_velocity_chain(model, body)):
         a0, a1, a2, l0, l1, l2 = rows(fields["cdof"][:, i].T)
@@ -645,9 +650,9 @@ def _assemble(model: mujoco.MjModel, probe: Probe, states: np.ndarray, fields: d
     qvel = states[:, 1 + nq:1 + nq + nv]
     positions, velocities = {}, {}
     for p in probe.points:
-        bid = model.body(p).id
-        positions[p] = fields["xipos"][:, bid].copy()
-        velocities[p] = _point_velocity(model, fields, qvel, bid)
+        source = point_source(model, p)
+        positions[p] = fields[source.field][:, source.index].copy()
+        velocities[p] = _point_velocity(model, fields, qvel, positions[p], source.body)
     energy = fields["energy"][:, 0] + fields["energy"][:, 1]
     qfrc = np.array(fields["qfrc_constraint"])  # fields are the recorder's scratch space
     lam, viol = {}, {}

@@ -33,6 +33,7 @@ from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
 from harness.engine.compat import JAC_DOT_DEFECT, full_mass_matrix, jac_dot, jac_dot_missing
 from harness.engine.constraints import equality_block, equality_jacobian
+from harness.engine.points import point_jacobian, point_source
 from harness.engine.probe import Probe
 from harness.reference.solutions import Reference
 
@@ -67,13 +68,14 @@ def _scale(expected: np.ndarray, *, vector: bool = False) -> float:
     return largest if largest > 0 else 1.0
 
 
-def point_acceleration(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> np.ndarray:
-    """World linear acceleration of a body's centre of mass after ``mj_forward``:
-    J qacc + J̇ qvel, with J, J̇ from ``mj_jacBodyCom`` and ``mj_jacDot`` at ``xipos``."""
-    bid = model.body(body).id
-    jacp = np.zeros((3, model.nv))
-    mujoco.mj_jacBodyCom(model, data, jacp, None, bid)
-    jacp_dot = jac_dot(model, data, data.xipos[bid], bid)  # mj_jacDot, corrected on MuJoCo 3.3.0 (a finding)
+def point_acceleration(model: mujoco.MjModel, data: mujoco.MjData, point: str) -> np.ndarray:
+    """World linear acceleration of a named point (a site, or a body's centre of mass:
+    :func:`harness.engine.points.point_source`) after ``mj_forward``: J qacc + J̇ qvel, with J from
+    ``mj_jac`` and J̇ from ``mj_jacDot`` at the point's position on its body."""
+    source = point_source(model, point)
+    jacp = point_jacobian(model, data, source)
+    # mj_jacDot, corrected on MuJoCo 3.3.0 (a finding)
+    jacp_dot = jac_dot(model, data, source.position(data), source.body)
     return jacp @ data.qacc + jacp_dot @ data.qvel
 
 
@@ -102,7 +104,7 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
         mujoco.mj_forward(model, data)
         full = full_mass_matrix(model, data)
         got["kinetic"].append(0.5 * data.qvel @ full @ data.qvel)
-        got["pts"].append([data.xipos[model.body(p).id].copy() for p in dyn.point_names])
+        got["pts"].append([point_source(model, p).position(data).copy() for p in dyn.point_names])
         got["acc"].append([point_acceleration(model, data, p) for p in dyn.point_names])
         if dof is not None:
             got["mass"].append(dof.T @ full @ dof)
@@ -124,11 +126,11 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
 
     out = [
         Deviation(FigureName.instant("kinematics"), np.array(got["pts"]) - pts, "scalar", "m",
-                  f"max |MuJoCo body position − analytic point| over {n} states", size=length),
+                  f"max |MuJoCo point position (site or body com) − analytic point| over {n} states", size=length),
         relative(FigureName.instant("kinetic_energy"), got["kinetic"], kinetic,
                  "max |½ qvelᵀ M_mj qvel − ½ q̇ᵀ M q̇| / max ½ q̇ᵀ M q̇"),
         relative(FigureName.instant("point_acceleration"), got["acc"], acc,
-                 "max |J qacc + J̇ qvel − ẍ| / max |ẍ| over named points (world acceleration of the body com)",
+                 "max |J qacc + J̇ qvel − ẍ| / max |ẍ| over named points (world acceleration of the site or body com)",
                  vector=True),
     ]
     if dof is not None:
@@ -184,8 +186,8 @@ def engine_findings(model: mujoco.MjModel, probe: Probe, ref: Reference, *, coun
         probe.binding.set_state(model, data, q[i], qd[i])
         mujoco.mj_forward(model, data)
         for p in dyn.point_names:
-            bid = model.body(p).id
-            missing = jac_dot_missing(model, data, data.xipos[bid], bid)
+            source = point_source(model, p)
+            missing = jac_dot_missing(model, data, source.position(data), source.body)
             if missing is None:
                 return []
             worst = max(worst, float(np.linalg.norm(missing @ data.qvel)))
