@@ -88,12 +88,13 @@ class FreeBinding:
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
                   q: Sequence[float], qd: Sequence[float]) -> None:
         """qpos ← (c, quaternion of R(φ, θ, ψ)); qvel ← (ċ, A(θ, ψ)(φ̇, θ̇, ψ̇))."""
-        pos, rate = self._named([float(v) for v in q]), self._named([float(v) for v in qd])
+        pos = self._named([float(v) for v in q])
+        rates = np.asarray(list(self._named(qd).values()), dtype=float)  # length checked; in coordinates order
         jnt = model.joint(self.joint)
         qpos, dof = int(jnt.qposadr[0]), int(jnt.dofadr[0])
         data.qpos[qpos:qpos + 3] = [pos["x"], pos["y"], pos["z"]]
         data.qpos[qpos + 3:qpos + 7] = orientation(pos["phi"], pos["theta"], pos["psi"])
-        data.qvel[dof:dof + 6] = self.velocity_map(model, q) @ np.asarray(qd, dtype=float)
+        data.qvel[dof:dof + 6] = self.velocity_map(model, q)[dof:dof + 6] @ rates
 
     def read_state(self, model: mujoco.MjModel, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """(q, q̇) in ``coordinates`` order: the inverse of :meth:`set_state` for 0 < θ < π."""
