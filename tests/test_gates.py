@@ -30,6 +30,7 @@ from tests.conftest import breakable, case_ids, failing
 OWN_FAULTS: dict[str, tuple[set[str], str]] = {
     "hoop_ramp_contact": ({"series.penetration"}, "tests/test_hoop_ramp.py (rim radius)"),
     "spherical_pendulum_ball": ({"instant.kinematics"}, "tests/test_spherical_pendulum.py (centre of mass)"),
+    "torque_free_body": ({"instant.kinematics"}, "tests/test_torque_free_body.py (binding in the wrong Euler order)"),
 }
 
 

@@ -4,6 +4,8 @@ reference and MuJoCo, the conserved momenta read from MuJoCo, faults and legitim
 
 from __future__ import annotations
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
@@ -416,3 +418,23 @@ def test_hidden_mass_leaves_the_body_torque_free():
     drift gates pass), only its motion is another body's."""
     failed = failing(run_case(cases.get(NAME), **FAULTS["hidden_mass"][0]))
     assert not failed & breakable(NAME, {"RK4.drift.L_x", "RK4.drift.L_y", "RK4.drift.p_phi", "RK4.drift.energy"})
+
+
+@dataclasses.dataclass(frozen=True)
+class _SwappedBinding(FreeBinding):
+    """A wiring fault no model edit can make (every kinematic edit of the model is refused by
+    params_from_model): the Euler rotations composed in the wrong order, R_z(ψ) R_x(θ) R_z(φ)."""
+
+    def set_state(self, model, data, q, qd) -> None:
+        super().set_state(model, data, q, qd)
+        named = dict(zip(self.coordinates, q, strict=True))
+        qpos = int(model.joint(self.joint).qposadr[0])
+        data.qpos[qpos + 3:qpos + 7] = orientation(named["psi"], named["theta"], named["phi"])
+
+
+def test_a_binding_in_the_wrong_euler_order_fails_kinematics():
+    """The tips sit elsewhere for the same (φ, θ, ψ): instant.kinematics fails (tests/test_gates.py's
+    OWN_FAULTS counts on this for the gate no catalog fault reaches), and the motion with it."""
+    case = cases.get(NAME)
+    broken = dataclasses.replace(case, wiring=dataclasses.replace(case.wiring, binding=_SwappedBinding))
+    assert {"instant.kinematics", "RK4.position"} <= failing(run_case(broken, integrators=RK4))
