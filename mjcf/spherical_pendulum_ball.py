@@ -16,8 +16,12 @@ in the child body's LOCAL frame, ω_local = Rᵀ ω_world with
 ω_world = φ̇ ẑ + θ̇ R_z(φ)(−ŷ) (pinned numerically against mj_integratePos and
 against the two-hinge model in tests/test_spherical_pendulum.py).
 
-No constant matrix relates qvel to (θ̇, φ̇), so :meth:`dof_matrix` is None and
-the harness compares observables only.
+No constant matrix relates qvel to (θ̇, φ̇), so :meth:`dof_matrix` is None;
+:meth:`velocity_map` gives the state-dependent B(θ, φ) with qvel = B (θ̇, φ̇),
+through which the instantaneous layer compares MuJoCo's mass matrix, forcing and
+accelerations with the analytic ones (nv = 3 > n = 2: the twist about the rod is
+a degree of freedom the point mass does not have; see
+:func:`harness.layers.instant.pull_back`).
 """
 
 from __future__ import annotations
@@ -119,8 +123,29 @@ class BallBinding:
                 np.array([rates[c] for c in self.coordinates]))
 
     def dof_matrix(self, model: mujoco.MjModel) -> None:
-        """None: the local angular velocity is not a constant linear map of (θ̇, φ̇)."""
+        """None: the local angular velocity is not a constant linear map of (θ̇, φ̇) (see
+        :meth:`velocity_map`)."""
         return None
+
+    def velocity_map(self, model: mujoco.MjModel, q: Sequence[float]) -> np.ndarray:
+        """B(θ, φ) with qvel = B (θ̇, φ̇) in ``coordinates`` order, shape (nv, 2): the ball's local
+        angular velocity ω_local = R_−y(θ)ᵀ (φ̇ ẑ + θ̇ (−ŷ)) (R_z(φ) leaves ẑ fixed and, turned back,
+        takes the turned −y axis to −y; R_−y(θ) leaves −y fixed), so
+
+            column θ̇: (0, −1, 0),        column φ̇: R_−y(θ)ᵀ ẑ = (sin θ, 0, cos θ)
+
+        in the rows of the ball's dofs. Plain numpy, so a complex q gives Ḃ q̇ by complex step
+        (pinned against :meth:`set_state` and a finite difference in tests/test_spherical_pendulum.py)."""
+        if len(q) != 2:
+            raise ValueError(f"expected 2 values for {self.coordinates}, got {len(q)}")
+        theta = dict(zip(self.coordinates, q, strict=True))["theta"]
+        columns = {"theta": np.array([0.0, -1.0, 0.0]) + 0 * theta,
+                   "phi": np.array([np.sin(theta), 0 * theta, np.cos(theta)])}
+        out = np.zeros((model.nv, 2), dtype=np.result_type(theta, float))
+        adr = model.joint(self.joint).dofadr[0]
+        for k, name in enumerate(self.coordinates):
+            out[adr:adr + 3, k] = columns[name]
+        return out
 
 
 WIRING = Wiring(

@@ -13,11 +13,11 @@ from analytic.systems import spherical_pendulum as sph
 from harness import cases
 from harness.core.errors import ModelMismatch
 from harness.engine import compat
-from harness.engine.bindings import JointBinding
+from harness.engine.bindings import JointBinding, velocity_map
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model, mjcf_path
 from harness.engine.simulate import point_state
-from harness.layers.instant import point_acceleration
+from harness.layers.instant import point_acceleration, pull_back, sample_states
 from harness.pipeline.run import run_case
 from harness.reference import derivations
 from mjcf.spherical_pendulum_ball import BallBinding
@@ -155,6 +155,46 @@ def test_ball_binding_round_trips():
             np.testing.assert_allclose(qd_out, qd_in, atol=1e-12)
 
 
+def test_ball_velocity_map_is_what_set_state_writes_and_its_rate_is_exact():
+    """qvel = B(q) q̇ as set_state writes it (both coordinate orders), and the complex-step Ḃ q̇
+    against a central difference of B along q̇ (to the difference's O(h²))."""
+    model, _ = _models()[BALL]
+    for order in (COORDS, COORDS[::-1]):
+        binding = BallBinding(order)
+        for qi, qdi in zip(*_random_states(20, seed=11), strict=True):
+            q_in, qd_in = (qi, qdi) if order == COORDS else (qi[::-1], qdi[::-1])
+            data = _at(model, binding, q_in, qd_in)
+            mat, rate = velocity_map(binding, model, q_in, qd_in)
+            np.testing.assert_allclose(mat @ qd_in, data.qvel, rtol=0, atol=1e-15)
+            h = 1e-6
+            central = (binding.velocity_map(model, q_in + h * qd_in)
+                       - binding.velocity_map(model, q_in - h * qd_in)) / (2 * h) @ qd_in
+            np.testing.assert_allclose(rate, central, rtol=0, atol=1e-8)
+
+
+def test_the_balls_qacc_is_pulled_back_by_the_kinetic_energy():
+    """nv = 3 > n = 2: the twist about the rod is MuJoCo's alone (inertia ε), and its acceleration
+    (ω̇ · rod = 0, no torque about the rod) is not the one the (θ, φ) frame would need. The
+    kinetic-energy-weighted pull-back leaves it out (q̈ to the floor's 1e-12); qacc compared whole,
+    or pulled back by unweighted least squares, is off by O(|q̈|) — why the layer weights it."""
+    case = cases.get(BALL)
+    model = compile_model(case.mjcf)
+    ref = case.reference(model)
+    binding = case.probe(ref.dynamics).binding
+    q, qd = sample_states(ref)
+    qdd, _ = ref.dynamics.accelerations(q, qd)
+    weighted, plain, whole = [], [], []
+    for qi, qdi, qddi in zip(q, qd, qdd, strict=True):
+        data = _at(model, binding, qi, qdi)
+        mat, rate = velocity_map(binding, model, qi, qdi)
+        weighted.append(pull_back(mat, compat.full_mass_matrix(model, data), data.qacc - rate) - qddi)
+        plain.append(np.linalg.lstsq(mat, data.qacc - rate, rcond=None)[0] - qddi)
+        whole.append(data.qacc - rate - mat @ qddi)
+    size = np.max(np.abs(qdd))
+    assert np.max(np.abs(weighted)) / size < 1e-11
+    assert np.max(np.abs(plain)) / size > 0.1 and np.max(np.abs(whole)) / size > 0.1
+
+
 def test_ball_binding_rejects_what_it_cannot_bind():
     with pytest.raises(ValueError, match="theta"):
         BallBinding(("theta", "r"))
@@ -255,11 +295,17 @@ def test_the_two_models_agree_at_the_same_state():
         assert abs(got[0][1] - got[1][1]) <= 1e-14 + 2 * floor * got[1][1]
 
 
-def test_ball_case_has_observable_figures_instead_of_dof_ones():
-    names = {f.name for f in shipped_run(BALL).figures}
-    assert {"instant.kinematics", "instant.kinetic_energy", "instant.point_acceleration"} <= names
-    assert not names & {"instant.mass_matrix", "instant.forcing", "instant.qacc", "instant.generalized_force"}
-    assert {"instant.mass_matrix", "instant.forcing", "instant.qacc"} <= {f.name for f in shipped_run(HINGE).figures}
+def test_ball_case_has_the_coordinate_figures_through_its_velocity_map():
+    """The ball's binding has no constant D but a velocity map B(q): the mass matrix, forcing and q̈
+    figures come through it, and at the shipped model they are at the floor's level (ε = 1e-12 relative)
+    and pass their budgets."""
+    result = shipped_run(BALL)
+    figures = {f.name: f.value for f in result.figures}
+    coordinate = {"instant.mass_matrix", "instant.forcing", "instant.qacc"}
+    assert {"instant.kinematics", "instant.kinetic_energy", "instant.point_acceleration"} | coordinate <= set(figures)
+    assert all(figures[n] < 1e-10 for n in coordinate), {n: figures[n] for n in coordinate}
+    assert not failing(result) & coordinate
+    assert coordinate <= {f.name for f in shipped_run(HINGE).figures}
 
 
 # --- faults fail their gates, legitimate changes pass ----------------------------------------------------
@@ -268,6 +314,12 @@ def test_ball_case_has_observable_figures_instead_of_dof_ones():
 def _damping(joint: str, value: float):
     def edit(spec: mujoco.MjSpec) -> None:
         compat.set_damping(spec.joint(joint), value)  # linear: f = −c q̇ per dof (3.3 has no other)
+    return edit
+
+
+def _armature(joint: str, value: float):
+    def edit(spec: mujoco.MjSpec) -> None:
+        spec.joint(joint).armature = value
     return edit
 
 
@@ -303,7 +355,12 @@ FAULTS = {
                          BALL: dict(edit=_damping("ball", 8e-3),
                                     integrators=[i for i in EULER_FAMILY if i in available_integrators()])},
                         {"Euler.position", "Euler.drift.energy", "Euler.drift.p_phi", "Euler.p_phi",
-                         "discrete.drift.p_phi", "implicit.p_phi"}),
+                         "discrete.drift.p_phi", "implicit.p_phi", "instant.forcing", "instant.qacc"}),
+    # armature: rotor inertia on the joint's dofs, which a point mass on a massless rod does not have
+    # (on the ball, through B(q): Bᵀ(a·1)B adds a to M_θθ and a to M_φφ)
+    "armature": ({HINGE: dict(edit=_armature("phi", 1e-3), integrators=RK4),
+                  BALL: dict(edit=_armature("ball", 1e-3), integrators=RK4)},
+                 {"instant.mass_matrix", "instant.kinetic_energy", "instant.qacc", "RK4.position"}),
     "centre_of_mass_off_the_rod": ({c: dict(edit=_off_the_rod, integrators=RK4) for c in (HINGE, BALL)},
                                    {"instant.kinematics", "RK4.position"}),
 }

@@ -4,8 +4,12 @@ The default binding is one hinge or slide joint per analytic coordinate, of
 the same name, with qpos equal to the coordinate; generalized forces then map
 through the constant dof matrix D (qvel = D q̇, analytic force = Dᵀ f_mujoco).
 A model whose coordinates differ (a ball joint) supplies its own binding; where
-no constant D exists its ``dof_matrix`` returns None, and the harness compares
-only observables (point positions, velocities, accelerations, kinetic energy).
+no constant D exists its ``dof_matrix`` returns None. Such a binding may give the
+state-dependent map instead, ``velocity_map(model, q) -> B(q)`` with qvel = B(q) q̇
+(:func:`velocity_map`); the instantaneous layer then compares the mass matrix,
+forcing, accelerations and constraint forces through B(q) as it does through D.
+Without either, the harness compares only observables (point positions,
+velocities, accelerations, kinetic energy).
 """
 
 from __future__ import annotations
@@ -70,3 +74,26 @@ class JointBinding:
         for k, name in enumerate(self.joints):
             mat[model.joint(name).dofadr[0], k] = 1.0
         return mat
+
+
+COMPLEX_STEP = 1e-20
+"""The complex step h of Ḃ q̇ = Im B(q + i h q̇) q̇ / h: no subtraction, so no cancellation; the
+truncation error is O(h² |q̇|²) relative (1e-40 here), far below round-off."""
+
+
+def velocity_map(binding: Binding, model: mujoco.MjModel, q: np.ndarray, qd: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray | None] | None:
+    """(B, Ḃ q̇) at the state (q, q̇), with qvel = B q̇ (shape (nv, n)) and qacc = B q̈ + Ḃ q̇ (Ḃ q̇ of
+    shape (nv,)), for any binding: its ``velocity_map`` where it has one (Ḃ q̇ by complex step,
+    exact to round-off), else its constant dof matrix D (Ḃ q̇ None: exactly zero); None where it has
+    neither."""
+    given = getattr(binding, "velocity_map", None)
+    if given is None:
+        dof = binding.dof_matrix(model)
+        return None if dof is None else (dof, None)
+    q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
+    mat = np.asarray(given(model, q), dtype=float)
+    if mat.shape != (model.nv, len(q)):
+        raise ValueError(f"velocity_map must return shape (nv, n) = ({model.nv}, {len(q)}), got {mat.shape}")
+    rate = np.imag(np.asarray(given(model, q + 1j * COMPLEX_STEP * qd))) / COMPLEX_STEP
+    return mat, rate @ qd

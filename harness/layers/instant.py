@@ -11,8 +11,15 @@ decides), and a block of several rows also gets ``generalized_force.NAME``,
 its own Jᵀλ against D ᵀ J_mjᵀ efc_force over its rows — the force on the
 coordinates, which does not depend on how the rows are scaled or ordered.
 
-Those four go through the binding's constant dof matrix D; a binding without
-one (a ball joint) gets only the observable figures, which every case has:
+Those four go through the binding's constant dof matrix D (qvel = D q̇), or its
+state-dependent velocity map B(q) (qvel = B(q) q̇, a ball or free joint's local
+angular velocity; :func:`harness.engine.bindings.velocity_map`), with
+qacc = B q̈ + Ḃ q̇ (Ḃ q̇ by complex step, exact to round-off): mass matrix
+Bᵀ M_mj B vs M(q); forcing Bᵀ(qfrc_passive − qfrc_bias − M_mj Ḃ q̇) vs F (Kane's
+generalized inertia and active forces: the velocity-dependent part of B moves
+into the forcing); q̈ pulled back from qacc − Ḃ q̇ (:func:`pull_back`); the
+generalized constraint force Bᵀ qfrc_constraint vs Jᵀλ. A binding with
+neither gets only the observable figures, which every case has:
 the kinetic energy ½ qvelᵀ M_mj qvel vs ½ q̇ᵀ M q̇ (inertia along the sampled
 velocities) and the world acceleration of every named point,
 J_mj qacc + J̇_mj qvel vs (∂x/∂q) q̈ + q̇ᵀ(∂²x/∂q²)q̇ (inertia and forces together).
@@ -31,6 +38,7 @@ from analytic.solvers import project
 from harness.core.deviation import Deviation
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
+from harness.engine.bindings import velocity_map
 from harness.engine.compat import JAC_DOT_DEFECT, full_mass_matrix, jac_dot, jac_dot_missing
 from harness.engine.constraints import equality_block, equality_jacobian
 from harness.engine.points import point_jacobian, point_source
@@ -79,6 +87,24 @@ def point_acceleration(model: mujoco.MjModel, data: mujoco.MjData, point: str) -
     return jacp @ data.qacc + jacp_dot @ data.qvel
 
 
+def pull_back(dof: np.ndarray, mass: np.ndarray, qacc: np.ndarray) -> np.ndarray:
+    """The analytic q̈ that MuJoCo's ``qacc`` (less Ḃ q̇) stands for, with qvel = ``dof`` q̇.
+
+    Where nv = n, ``dof`` is invertible and q̈ solves dof q̈ = qacc (least squares, exact to round-off).
+    Where nv > n, MuJoCo has degrees of freedom the analytic system does not (a ball joint's twist
+    about a point mass's rod): the part of qacc outside the range of ``dof`` is their motion, set by
+    the floor inertia the analytic system does not have, and not an error. The pull-back is then the
+    one the equations of motion make, weighted by the kinetic energy, q̈ = (BᵀM B)⁻¹ BᵀM qacc (the
+    d'Alembert projection: Bᵀ(M_mj qacc − f) = 0 on the analytic coordinates), which lets no
+    M-orthogonal motion of the extra dofs in. An unweighted least squares would let the twist's
+    acceleration, O(|q̈|) on the spherical pendulum's ball joint, leak into q̈_φ.
+    """
+    if dof.shape[0] == dof.shape[1]:
+        return np.linalg.lstsq(dof, qacc, rcond=None)[0]
+    weighted = dof.T @ mass
+    return np.linalg.solve(weighted @ dof, weighted @ qacc)
+
+
 def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, count: int = DEFAULT_SAMPLES
                        ) -> list[Deviation]:
     """MuJoCo's instantaneous dynamics against the analytic ones at :func:`sample_states`, one
@@ -93,7 +119,9 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
     pts = dyn.points(q)
     acc = dyn.point_accelerations(q, qd, qdd)
     kinetic = 0.5 * np.einsum("ni,nij,nj->n", qd, mass, qd)
-    dof = probe.binding.dof_matrix(model)
+    constant = probe.binding.dof_matrix(model) is not None
+    mapped = getattr(probe.binding, "velocity_map", None) is not None
+    coordinates = constant or mapped
     data = mujoco.MjData(model)
     got = {k: [] for k in ("mass", "forcing", "qacc", "gen", "pts", "acc", "kinetic")}
     got_lam = {c: [] for c in probe.constraints}
@@ -106,15 +134,19 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
         got["kinetic"].append(0.5 * data.qvel @ full @ data.qvel)
         got["pts"].append([point_source(model, p).position(data).copy() for p in dyn.point_names])
         got["acc"].append([point_acceleration(model, data, p) for p in dyn.point_names])
-        if dof is not None:
+        if coordinates:
+            dof, rate = velocity_map(probe.binding, model, q[i], qd[i])
+            qacc = data.qacc if rate is None else data.qacc - rate  # B q̈ = qacc − Ḃ q̇
+            bias = data.qfrc_passive - data.qfrc_bias if rate is None else \
+                data.qfrc_passive - data.qfrc_bias - full @ rate
             got["mass"].append(dof.T @ full @ dof)
-            got["forcing"].append(dof.T @ (data.qfrc_passive - data.qfrc_bias))
-            got["qacc"].append(np.linalg.lstsq(dof, data.qacc, rcond=None)[0])
+            got["forcing"].append(dof.T @ bias)
+            got["qacc"].append(pull_back(dof, full, qacc))
             got["gen"].append(dof.T @ data.qfrc_constraint)
         for c in probe.constraints:
             force = equality_block(model, data, c)[0]
             got_lam[c].append(force)
-            if dof is not None and force.size > 1:
+            if coordinates and force.size > 1:
                 got_block_gen[c].append(dof.T @ (equality_jacobian(model, data, c).T @ force))
     n = len(q)
     length = ref.scales.length
@@ -124,25 +156,32 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
         return Deviation(name, np.reshape(got_, expected.shape) - expected, "vector" if vector else "scalar", "1",
                          description, scale=_scale(expected, vector=vector))
 
+    sites = any(point_source(model, p).kind == "site" for p in dyn.point_names)
+    where, what = ("point position (site or body com)", "site or body com") if sites else ("body position", "body com")
     out = [
         Deviation(FigureName.instant("kinematics"), np.array(got["pts"]) - pts, "scalar", "m",
-                  f"max |MuJoCo point position (site or body com) − analytic point| over {n} states", size=length),
+                  f"max |MuJoCo {where} − analytic point| over {n} states", size=length),
         relative(FigureName.instant("kinetic_energy"), got["kinetic"], kinetic,
                  "max |½ qvelᵀ M_mj qvel − ½ q̇ᵀ M q̇| / max ½ q̇ᵀ M q̇"),
         relative(FigureName.instant("point_acceleration"), got["acc"], acc,
-                 "max |J qacc + J̇ qvel − ẍ| / max |ẍ| over named points (world acceleration of the site or body com)",
+                 f"max |J qacc + J̇ qvel − ẍ| / max |ẍ| over named points (world acceleration of the {what})",
                  vector=True),
     ]
-    if dof is not None:
+    d = "D" if constant else "B"
+    if coordinates:
         out += [
-            relative(FigureName.instant("mass_matrix"), got["mass"], mass, "max |Dᵀ M_mj D − M(q)| / max |M(q)|"),
+            relative(FigureName.instant("mass_matrix"), got["mass"], mass,
+                     f"max |{d}ᵀ M_mj {d} − M(q)| / max |M(q)|"),
             relative(FigureName.instant("forcing"), got["forcing"], forcing,
-                     "max |Dᵀ(qfrc_passive − qfrc_bias) − F| / max |F|"),
-            relative(FigureName.instant("qacc"), got["qacc"], qdd, "max |qacc − q̈| / max |q̈|"),
+                     "max |Dᵀ(qfrc_passive − qfrc_bias) − F| / max |F|" if constant else
+                     "max |Bᵀ(qfrc_passive − qfrc_bias − M_mj Ḃq̇) − F| / max |F|"),
+            relative(FigureName.instant("qacc"), got["qacc"], qdd,
+                     "max |qacc − q̈| / max |q̈|" if constant else
+                     "max |B⁺(qacc − Ḃq̇) − q̈| / max |q̈| (B⁺: pull-back, kinetic-energy weighted where nv > n)"),
         ]
-    if probe.constraints and dof is not None:
+    if probe.constraints and coordinates:
         out.append(relative(FigureName.instant("generalized_force"), got["gen"], gen,
-                            "max |Dᵀ qfrc_constraint − Jᵀλ| / max |Jᵀλ|"))
+                            f"max |{d}ᵀ qfrc_constraint − Jᵀλ| / max |Jᵀλ|"))
     jac = dyn.jacobian(q)
     force_scale = ref.scales.force
     for c, rows in dyn.blocks.items():
@@ -158,7 +197,7 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
         if got_block_gen[c]:
             block_gen = np.einsum("nmk,nm->nk", jac[:, rows], lam[:, rows])
             out.append(relative(FigureName.instant("generalized_force", c), got_block_gen[c], block_gen,
-                                f"max |Dᵀ J_mjᵀ efc_force − Jᵀλ| over the rows of {c!r} / max |Jᵀλ|"))
+                                f"max |{d}ᵀ J_mjᵀ efc_force − Jᵀλ| over the rows of {c!r} / max |Jᵀλ|"))
     return out
 
 
