@@ -21,7 +21,7 @@ from harness.pipeline.run import run_case
 from harness.reference import derivations
 from harness.reference.solutions import build_reference
 from mjcf.torque_free_body import FreeBinding, euler_angles, orientation
-from tests.conftest import breakable, failing, shipped_run
+from tests.conftest import breakable, failing, judged, shipped_run
 
 NAME = "torque_free_body"
 COORDS = tfb.COORDINATES
@@ -309,6 +309,19 @@ def test_mujoco_rk4_conserves_the_momenta_and_follows_the_reference(name):
         assert np.ptp(sim.invariants[key]) < 1e-12
     assert np.ptp(sim.invariants["energy"]) / scales.energy < 1e-10
     assert result.figure("RK4.position").value < 1e-10
+
+
+def test_rk4_order_is_a_pass_on_4_0_and_the_known_defect_before():
+    """Layer 4 on the free joint: RK4's observed order is 4 on MuJoCo ≥ 4.0 (measured 4.03) and 2 before
+    (measured 2.00 on 3.3.0: the stages' angular velocities combined without the Runge-Kutta-Munthe-Kaas
+    correction), where its failed gate carries that known defect's label and nothing else fails."""
+    check = judged(shipped_run(NAME))["converge.RK4.order_shortfall"]
+    if compat.version() >= (4, 0, 0):
+        assert check.passed and check.value < 0.3
+    else:
+        assert not check.passed and "Runge-Kutta-Munthe-Kaas" in check.known
+        assert check.value == pytest.approx(2.0, abs=0.1)
+    assert set(failing(shipped_run(NAME))) <= {"converge.RK4.order_shortfall"}
 
 
 def test_mujoco_flips_at_the_closed_form_half_period():
