@@ -325,7 +325,8 @@ def test_rk4_order_is_a_pass_on_4_0_and_the_known_defect_before():
 
 
 def test_mujoco_flips_at_the_closed_form_half_period():
-    """MuJoCo's own flip, seen through world positions only: ê₂·L̂ = (tip2 − com)·ẑ / d changes sign at
+    """MuJoCo's own flip, seen through world positions only: ê₂·L̂ ∝ (tip2 − com)·L̂, with L̂ MuJoCo's own
+    angular momentum's direction (ẑ, to 1e-10), changes sign at
     t ≈ 0.97 s and 2.78 s; the interval equals the closed-form T/2 (1.8137 s) to 1e-9 s under RK4 on
     4.0 (measured 8.6e-13 s; on 3.3.0, with its 2nd-order orientation defect, 6.2e-8 s: 1e-6 s allowed), and under
     Euler to 1e-3 s (first order at 1 ms: measured 3.9e-4 s, a 2.5× margin)."""
@@ -334,7 +335,9 @@ def test_mujoco_flips_at_the_closed_form_half_period():
     rk4_ok = not compat.known_defect(compat.joint_types(_model()), "RK4.position")
     for integrator, tolerance in (("RK4", 1e-9 if rk4_ok else 1e-6), ("Euler", 1e-3)):
         sim = result.simulations[integrator]
-        axis = (sim.positions["tip2"] - sim.positions[tfb.BODY])[:, 2] / tfb.params_from_model(_model())["d"]
+        momentum = np.column_stack([sim.invariants[k] for k in ("L_x", "L_y", "p_phi")])  # MuJoCo's own L
+        along = momentum / np.linalg.norm(momentum, axis=1, keepdims=True)
+        axis = np.sum((sim.positions["tip2"] - sim.positions[tfb.BODY]) * along, axis=1)
         crossings = _crossings(sim.t, axis)
         assert len(crossings) == 2 and 0.9 < crossings[0] < 1.0
         assert abs(np.diff(crossings)[0] - half) < tolerance
