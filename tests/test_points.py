@@ -17,7 +17,7 @@ import pytest
 
 from harness.core.errors import ModelMismatch
 from harness.engine import simulate as simmod
-from harness.engine.bindings import JointBinding
+from harness.engine.bindings import JointBinding, velocity_map
 from harness.engine.integrators import available_integrators
 from harness.engine.models import load_spec, mjcf_path
 from harness.engine.points import point_source
@@ -126,3 +126,24 @@ def test_bodies_alone_record_no_site_field():
     probe = Probe(binding=JointBinding(("theta1", "theta2")), points=("bob1", "bob2"), constraints=())
     assert "site_xpos" not in simmod.recorded_fields(model, probe)
     assert "xipos" in simmod.recorded_fields(model, probe)
+
+
+def test_velocity_map_takes_a_bindings_map_else_its_constant_dof_matrix():
+    """bindings.velocity_map: a constant D with Ḃ q̇ None (exactly zero) for joint bindings, the
+    binding's own B(q) where it has one (shape checked, naming what it expected), None with neither."""
+    model, probe, q0, qd0 = _chain()
+    mat, rate = velocity_map(probe.binding, model, np.array(q0), np.array(qd0))
+    assert rate is None and np.array_equal(mat, probe.binding.dof_matrix(model))
+
+    class Wrong(JointBinding):
+        def velocity_map(self, model, q):
+            return np.zeros((model.nv + 1, len(q)))
+
+    with pytest.raises(ValueError, match=r"shape \(nv, n\) = \(2, 2\), got \(3, 2\)"):
+        velocity_map(Wrong(("theta1", "theta2")), model, np.array(q0), np.array(qd0))
+
+    class Neither(JointBinding):
+        def dof_matrix(self, model):
+            return None
+
+    assert velocity_map(Neither(("theta1", "theta2")), model, np.array(q0), np.array(qd0)) is None

@@ -4,9 +4,13 @@ A system is discovered, not listed: every module in this package (names not
 starting with ``_``) is one. Each defines
 
 - ``PARAMETERS``: its physical parameters, space-separated (``"m g l"``);
+- optionally ``SIGNED_PARAMETERS``: those of them that may be negative or zero (a
+  centre of mass's coordinates, a product of inertia), space-separated: real
+  sympy symbols instead of positive ones, so that no simplification assumes a
+  sign they do not have;
 - ``build(p) -> LagrangianSystem``: T, V, coordinates, constraints and named
-  points, with ``p.m``, ``p.g`` … the parameters as positive sympy symbols
-  (:func:`symbols`); the module docstring states axes, angle origins and
+  points, with ``p.m``, ``p.g`` … the parameters as positive (or, if signed,
+  real) sympy symbols (:func:`symbols`); the module docstring states axes, angle origins and
   multiplier signs, with a sketch;
 - optionally ``minimal(p) -> LagrangianSystem``: the same system in minimal
   coordinates, the independent ODE path the DAE result is checked against;
@@ -39,7 +43,8 @@ if TYPE_CHECKING:
 REQUIRED = ("PARAMETERS", "MOTION", "build", "params_from_model", "scales")
 
 Parameters = SimpleNamespace
-"""What ``build(p)`` and ``minimal(p)`` receive: the system's parameters as positive sympy symbols, by name."""
+"""What ``build(p)`` and ``minimal(p)`` receive: the system's parameters as sympy symbols, by name
+(positive, or real where ``SIGNED_PARAMETERS`` names them)."""
 
 
 @dataclass(frozen=True)
@@ -106,14 +111,26 @@ def parameter_names(system: str) -> tuple[str, ...]:
     return tuple(load(system).PARAMETERS.split())
 
 
+def signed_parameter_names(system: str) -> tuple[str, ...]:
+    """The parameters of ``system`` that may take any sign (``SIGNED_PARAMETERS``; none by default);
+    ValueError naming any that is not one of its ``PARAMETERS``."""
+    signed = tuple(getattr(load(system), "SIGNED_PARAMETERS", "").split())
+    stray = sorted(set(signed) - set(parameter_names(system)))
+    if stray:
+        raise ValueError(f"SIGNED_PARAMETERS of system {system!r} names {', '.join(stray)}, not among its "
+                         f"PARAMETERS ({load(system).PARAMETERS})")
+    return signed
+
+
 def symbols(system: str) -> Parameters:
-    """The parameters of ``system`` as positive sympy symbols, by name (``symbols("pendulum").m``).
-    Symbols are equal by name and assumptions, so every call gives the same ones."""
+    """The parameters of ``system`` as sympy symbols, by name (``symbols("pendulum").m``): positive,
+    except the signed ones (:func:`signed_parameter_names`), which are real. Symbols are equal by
+    name and assumptions, so every call gives the same ones."""
     import sympy as sp  # lazy: sympy (0.15 s), only where a derivation is made
 
-    names_ = parameter_names(system)
-    return SimpleNamespace(**dict(zip(names_, sp.symbols(" ".join(names_), positive=True, seq=True),
-                                      strict=True)))
+    signed = set(signed_parameter_names(system))
+    return SimpleNamespace(**{name: sp.Symbol(name, real=True) if name in signed else sp.Symbol(name, positive=True)
+                              for name in parameter_names(system)})
 
 
 def has_minimal(system: str) -> bool:

@@ -167,17 +167,17 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
                  f"max |J qacc + J̇ qvel − ẍ| / max |ẍ| over named points (world acceleration of the {what})",
                  vector=True),
     ]
-    d = "D" if constant else "B"
+    d = "B" if mapped else "D"  # velocity_map wins where a binding gives both (bindings.velocity_map)
     if coordinates:
         out += [
             relative(FigureName.instant("mass_matrix"), got["mass"], mass,
                      f"max |{d}ᵀ M_mj {d} − M(q)| / max |M(q)|"),
             relative(FigureName.instant("forcing"), got["forcing"], forcing,
-                     "max |Dᵀ(qfrc_passive − qfrc_bias) − F| / max |F|" if constant else
-                     "max |Bᵀ(qfrc_passive − qfrc_bias − M_mj Ḃq̇) − F| / max |F|"),
+                     "max |Bᵀ(qfrc_passive − qfrc_bias − M_mj Ḃq̇) − F| / max |F|" if mapped else
+                     "max |Dᵀ(qfrc_passive − qfrc_bias) − F| / max |F|"),
             relative(FigureName.instant("qacc"), got["qacc"], qdd,
-                     "max |qacc − q̈| / max |q̈|" if constant else
-                     "max |B⁺(qacc − Ḃq̇) − q̈| / max |q̈| (B⁺: pull-back, kinetic-energy weighted where nv > n)"),
+                     "max |B⁺(qacc − Ḃq̇) − q̈| / max |q̈| (B⁺: pull-back, kinetic-energy weighted where nv > n)"
+                     if mapped else "max |qacc − q̈| / max |q̈|"),
         ]
     if probe.constraints and coordinates:
         out.append(relative(FigureName.instant("generalized_force"), got["gen"], gen,
