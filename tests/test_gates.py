@@ -31,6 +31,7 @@ OWN_FAULTS: dict[str, tuple[set[str], str]] = {
     "hoop_ramp_contact": ({"series.penetration"}, "tests/test_hoop_ramp.py (rim radius)"),
     "spherical_pendulum_ball": ({"instant.kinematics"}, "tests/test_spherical_pendulum.py (centre of mass)"),
     "symmetric_top": ({"instant.kinematics"}, "tests/test_symmetric_top.py (centre of mass off the axle)"),
+    "torque_free_body": ({"instant.kinematics"}, "tests/test_torque_free_body.py (binding in the wrong Euler order)"),
 }
 
 

@@ -79,7 +79,10 @@ class Change:
 
 # ---------------------------------------------------------------- helpers
 def _moving_joints(spec: mujoco.MjSpec) -> list:
-    return [j for j in spec.joints if j.type != mujoco.mjtJoint.mjJNT_FREE]
+    """Every joint, free joints included: damping, friction loss or armature on a free joint is a drag,
+    a dry friction or a fictitious inertia on a free-flying body (torque_free_body), as much a fault as
+    on a hinge."""
+    return list(spec.joints)
 
 
 def _has(what: str) -> Callable[[Case, mujoco.MjModel], str]:
