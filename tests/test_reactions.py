@@ -1,0 +1,129 @@
+"""Reaction forces from Newton–Euler of a subtree (analytic/reactions.py): the sign convention, the
+systems' bodies against their kinetic energies, and closed forms typed by hand.
+
+Closed forms (independent of the sympy path):
+
+- pendulum: the parent (pivot) pulls the bob with F = λ r̂ = −T r̂ along the rod, T = m l θ̇² + m g cos θ;
+  moment about the pivot 0; hanging at rest F = +m g ẑ (the sign convention: by the parent on the child);
+- a uniform rod of mass m and length L on a hinge about y at one end (a physical pendulum): the hinge
+  transmits no moment about y, (I_c + m L²/4) θ̈ = −m g (L/2) sin θ;
+- atwood: the axle carries (m_p g + T1 + T2) ẑ where the string is an external load at the rims, and no
+  moment about the axle.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from analytic import systems
+from analytic.dynamics import Dynamics
+from analytic.lagrangian import LagrangianSystem, coordinates
+from analytic.reactions import Load, proper_acceleration, subtree_wrench
+from analytic.rigid import RigidBody, axis_rotation
+from harness.engine.models import compile_model, mjcf_path
+from harness.reference.derivations import dynamics_of
+
+WITH_BODIES = ("pendulum", "atwood")
+RNG = np.random.default_rng(3)
+
+
+@pytest.mark.parametrize("name", WITH_BODIES)
+def test_bodies_make_up_the_kinetic_energy(name):
+    """Σ ½ m ċ² + ½ ω_bᵀ I ω_b over the declared bodies is T: no body's mass or inertia mistyped."""
+    module = importlib.import_module(f"analytic.systems.{name}")
+    system = module.build(systems.symbols(name))
+    total = sum(b.kinetic(system.q, system.qd) for b in system.bodies.values())
+    assert sp.simplify(total - system.kinetic) == 0
+
+
+def _dyn(name):
+    return dynamics_of(name, compile_model(mjcf_path(name)))
+
+
+def test_pendulum_pivot_force_is_the_rod_pull():
+    dyn = _dyn("pendulum")
+    p = dyn.params
+    theta = RNG.uniform(-2.5, 2.5, 8)
+    q = np.stack([theta, np.full(8, p["l"])], axis=-1)
+    qd = np.stack([RNG.uniform(-3, 3, 8), np.zeros(8)], axis=-1)
+    qdd, lam = dyn.accelerations(q, qd)
+    g = np.array([0, 0, -p["g"]])
+    force, torque = subtree_wrench(dyn, ["bob"], q, qd, qdd, gravity=g, about=np.zeros(3))
+    rhat = np.stack([np.sin(theta), np.zeros(8), -np.cos(theta)], axis=-1)
+    tension = p["m"] * p["l"] * qd[:, 0] ** 2 + p["m"] * p["g"] * np.cos(theta)  # by hand
+    np.testing.assert_allclose(force, -tension[:, None] * rhat, atol=1e-12)
+    np.testing.assert_allclose(force, lam[:, :1] * rhat, atol=1e-12)  # the multiplier, λ = −T
+    np.testing.assert_allclose(torque, 0, atol=1e-12)
+
+
+def test_sign_convention_parent_on_child_at_rest():
+    """Hanging at rest: the parent holds the bob up, F = +m g ẑ (MuJoCo's force sensor convention);
+    the bob's accelerometer reads +g ẑ (proper acceleration)."""
+    dyn = _dyn("pendulum")
+    p = dyn.params
+    q, qd = np.array([0.0, p["l"]]), np.zeros(2)
+    qdd, _ = dyn.accelerations(q, qd)
+    g = np.array([0, 0, -p["g"]])
+    force, _ = subtree_wrench(dyn, ["bob"], q, qd, qdd, gravity=g, about=np.zeros(3))
+    np.testing.assert_allclose(force, [0, 0, p["m"] * p["g"]], atol=1e-12)
+    np.testing.assert_allclose(proper_acceleration(dyn.body_accelerations(q, qd, qdd)[0], g), [0, 0, p["g"]],
+                               atol=1e-12)
+
+
+def test_rigid_body_hinge_carries_no_moment_about_its_axis():
+    """A physical pendulum (uniform rod, hinge about y at its end): dL/dt enters the moment, which about
+    the hinge axis must vanish; the pivot force is m(c̈ − g) with c̈ from the hand-typed θ̈."""
+    m, length, g = sp.symbols("m L g", positive=True)
+    (th,), (thd,) = coordinates("theta")
+    rot = axis_rotation("y", th)
+    com = rot * sp.Matrix([0, 0, -length / 2])
+    rod = RigidBody(mass=m, inertia=sp.diag(m * length**2 / 12, m * length**2 / 12, 0), com=com, rotation=rot)
+    system = LagrangianSystem(name="rod", q=(th,), qd=(thd,), kinetic=rod.kinetic((th,), (thd,)),
+                              potential=m * g * com[2], params=(m, length, g), bodies={"rod": rod})
+    params = {"m": 0.7, "L": 1.3, "g": 9.81}
+    dyn = Dynamics.build(system.derive(), params)
+    q = RNG.uniform(-2.5, 2.5, (6, 1))
+    qd = RNG.uniform(-3, 3, (6, 1))
+    qdd, _ = dyn.accelerations(q, qd)
+    np.testing.assert_allclose(qdd[:, 0], -1.5 * params["g"] / params["L"] * np.sin(q[:, 0]), rtol=1e-12)
+    force, torque = subtree_wrench(dyn, ["rod"], q, qd, qdd, gravity=[0, 0, -params["g"]], about=np.zeros(3))
+    np.testing.assert_allclose(torque[:, 1], 0, atol=1e-12)
+    t, w, al = q[:, 0], qd[:, 0], qdd[:, 0]
+    half = params["L"] / 2  # com R_y(θ)(0, 0, −L/2) = (−½L sin θ, 0, −½L cos θ)
+    acc = np.stack([-half * (np.cos(t) * al - np.sin(t) * w**2), np.zeros(6),
+                    half * (np.sin(t) * al + np.cos(t) * w**2)], axis=-1)
+    np.testing.assert_allclose(force, params["m"] * (acc - [0, 0, -params["g"]]), atol=1e-12)
+    # without dL/dt the moment about the axis would be I_c θ̈, not 0: the rate is what makes it vanish
+    spin = dyn.body_momentum_rates(q, qd, qdd)[:, 0, 1]
+    np.testing.assert_allclose(spin, params["m"] * params["L"] ** 2 / 12 * al, rtol=1e-12)
+
+
+def test_atwood_axle_carries_both_tensions_and_the_weight():
+    dyn = _dyn("atwood")
+    p = dyn.params
+    q, qd = np.zeros((1, 3)), np.zeros((1, 3))
+    qdd, lam = dyn.accelerations(q, qd)
+    g = np.array([0, 0, -p["g"]])
+    axle = np.array([0, 0, p["h"]])
+    strings = [Load(force=np.array([[0, 0, -lam[0, 0]]]), at=np.array([[-p["a"], 0, p["h"]]])),
+               Load(force=np.array([[0, 0, -lam[0, 1]]]), at=np.array([[p["a"], 0, p["h"]]]))]
+    force, torque = subtree_wrench(dyn, ["pulley"], q, qd, qdd, gravity=g, about=axle, loads=strings)
+    total = p["m1"] + p["m2"] + p["m_p"]
+    t1 = p["m1"] * p["g"] * (2 * p["m2"] + p["m_p"]) / total  # by hand, as tests/test_atwood.py
+    t2 = p["m2"] * p["g"] * (2 * p["m1"] + p["m_p"]) / total
+    np.testing.assert_allclose(force[0], [0, 0, p["m_p"] * p["g"] + t1 + t2], rtol=1e-12)
+    np.testing.assert_allclose(torque[0], 0, atol=1e-12)
+    # with no load declared the same subtree carries its weight alone (MuJoCo's joint-equality model)
+    bare, _ = subtree_wrench(dyn, ["pulley"], q, qd, qdd, gravity=g, about=axle)
+    np.testing.assert_allclose(bare[0], [0, 0, p["m_p"] * p["g"]], rtol=1e-12)
+
+
+def test_unknown_body_is_refused():
+    dyn = _dyn("pendulum")
+    with pytest.raises(ValueError, match="not bodies of the system"):
+        subtree_wrench(dyn, ["rod"], np.zeros(2), np.zeros(2), np.zeros(2), gravity=[0, 0, -9.81],
+                       about=np.zeros(3))
