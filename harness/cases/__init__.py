@@ -39,6 +39,7 @@ from harness.engine.bindings import JointBinding
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
 from harness.engine.readings import Reading
+from harness.engine.sensors import Load
 from harness.reference.derivations import dynamics_of
 from harness.reference.solutions import Reference, build_reference
 
@@ -79,6 +80,11 @@ class Wiring:
         settle: seconds after which force figures are taken. A soft contact
             builds its force from slip or penetration, so at t = 0 it has none
             of its own; 0 (compare from the start) for equalities.
+        loads: the constraint forces MuJoCo applies to bodies from outside
+            their joints (``cfrc_ext``: a spatial tendon's pull, a connect),
+            each a :class:`~harness.engine.sensors.Load`, for the reactions
+            its force and torque sensors are compared with
+            (:mod:`harness.layers.reactions`).
     """
 
     system: str = ""
@@ -90,6 +96,7 @@ class Wiring:
     forces: Mapping[str, Reading] = field(default_factory=dict)
     series: Mapping[str, Series] = field(default_factory=dict)
     settle: float = 0.0
+    loads: tuple[Load, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -196,7 +203,7 @@ class Case:
         equalities = tuple(c for c in dyn.constraint_names if c not in self.mujoco_forces)
         return Probe(binding=binding, points=dyn.point_names, constraints=equalities,
                      invariants=self.mujoco_invariants, forces=self.mujoco_forces,
-                     series={k: s.read for k, s in self.mujoco_series.items()})
+                     series={k: s.read for k, s in self.mujoco_series.items()}, loads=self.wiring.loads)
 
 
 def _model_files() -> list[Path]:

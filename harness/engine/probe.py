@@ -11,6 +11,7 @@ from harness.core.errors import ModelMismatch
 from harness.engine.bindings import Binding
 from harness.engine.points import point_source
 from harness.engine.readings import Reading
+from harness.engine.sensors import Load
 
 
 @dataclass(frozen=True)
@@ -23,6 +24,7 @@ class Probe:
     invariants: Mapping[str, Reading] = field(default_factory=dict)
     forces: Mapping[str, Reading] = field(default_factory=dict)
     series: Mapping[str, Reading] = field(default_factory=dict)
+    loads: Sequence[Load] = ()
 
     def validate(self, model: mujoco.MjModel) -> None:
         self.binding.validate(model)

@@ -43,6 +43,7 @@ from harness.engine.compat import JAC_DOT_DEFECT, full_mass_matrix, jac_dot, jac
 from harness.engine.constraints import equality_block, equality_jacobian
 from harness.engine.points import point_jacobian, point_source
 from harness.engine.probe import Probe
+from harness.layers.reactions import Recorder, reaction_deviations
 from harness.reference.solutions import Reference
 
 DEFAULT_SAMPLES = 24
@@ -126,6 +127,7 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
     got = {k: [] for k in ("mass", "forcing", "qacc", "gen", "pts", "acc", "kinetic")}
     got_lam = {c: [] for c in probe.constraints}
     got_block_gen = {c: [] for c in probe.constraints}
+    reactions = Recorder(model, dyn, probe.loads)
     for i in range(len(q)):
         mujoco.mj_resetData(model, data)
         probe.binding.set_state(model, data, q[i], qd[i])
@@ -134,6 +136,8 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
         got["kinetic"].append(0.5 * data.qvel @ full @ data.qvel)
         got["pts"].append([point_source(model, p).position(data).copy() for p in dyn.point_names])
         got["acc"].append([point_acceleration(model, data, p) for p in dyn.point_names])
+        if reactions:
+            reactions.record(model, data)
         if coordinates:
             dof, rate = velocity_map(probe.binding, model, q[i], qd[i])
             qacc = data.qacc if rate is None else data.qacc - rate  # B q̈ = qacc − Ḃ q̇
@@ -198,6 +202,7 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
             block_gen = np.einsum("nmk,nm->nk", jac[:, rows], lam[:, rows])
             out.append(relative(FigureName.instant("generalized_force", c), got_block_gen[c], block_gen,
                                 f"max |{d}ᵀ J_mjᵀ efc_force − Jᵀλ| over the rows of {c!r} / max |Jᵀλ|"))
+    out += reaction_deviations(model, dyn, reactions, q, qd, qdd, lam, force_scale=force_scale, length=length)
     return out
 
 
