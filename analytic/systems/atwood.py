@@ -101,13 +101,18 @@ def minimal(p: Parameters) -> LagrangianSystem:
 
 def params_from_model(model) -> dict[str, float]:
     """Masses from bodies ``mass1``, ``mass2``, ``pulley``; a from equality ``string1``'s
-    polycoef (z1 = a·θ); h from the pulley's height; g from gravity."""
+    polycoef (z1 = a·θ) where the string is a joint equality, else (a tendon equality: the string
+    as a tendon wrapped over the pulley, ``mjcf/atwood_tendon.xml``) from the radius of the
+    cylinder ``pulley`` it wraps; h from the pulley's height; g from gravity."""
+    import mujoco  # lazy: only the constant, with the model at hand
+
     string1 = model.equality("string1")
+    joint = int(model.eq_type[string1.id]) == int(mujoco.mjtEq.mjEQ_JOINT)
     return {
         "m1": float(model.body("mass1").mass[0]),
         "m2": float(model.body("mass2").mass[0]),
         "m_p": float(model.body("pulley").mass[0]),
-        "a": float(string1.data[1]),
+        "a": float(string1.data[1]) if joint else float(model.geom("pulley").size[0]),
         "g": float(-model.opt.gravity[2]),
         "h": float(model.body("pulley").pos[2]),
     }

@@ -85,6 +85,9 @@ class Wiring:
             each a :class:`~harness.engine.sensors.Load`, for the reactions
             its force and torque sensors are compared with
             (:mod:`harness.layers.reactions`).
+        equality_signs: −1 for an equality whose rows are −1 × its analytic
+            constraint's (a tendon's length shrinks as the constraint grows):
+            its efc_force is then −λ, and is read × −1.
     """
 
     system: str = ""
@@ -97,6 +100,7 @@ class Wiring:
     series: Mapping[str, Series] = field(default_factory=dict)
     settle: float = 0.0
     loads: tuple[Load, ...] = ()
+    equality_signs: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -203,7 +207,8 @@ class Case:
         equalities = tuple(c for c in dyn.constraint_names if c not in self.mujoco_forces)
         return Probe(binding=binding, points=dyn.point_names, constraints=equalities,
                      invariants=self.mujoco_invariants, forces=self.mujoco_forces,
-                     series={k: s.read for k, s in self.mujoco_series.items()}, loads=self.wiring.loads)
+                     series={k: s.read for k, s in self.mujoco_series.items()}, loads=self.wiring.loads,
+                     signs=self.wiring.equality_signs)
 
 
 def _model_files() -> list[Path]:

@@ -149,7 +149,7 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
             got["gen"].append(dof.T @ data.qfrc_constraint)
         for c in probe.constraints:
             force = equality_block(model, data, c)[0]
-            got_lam[c].append(force)
+            got_lam[c].append(probe.sign(c) * force)
             if coordinates and force.size > 1:
                 got_block_gen[c].append(dof.T @ (equality_jacobian(model, data, c).T @ force))
     n = len(q)
