@@ -127,3 +127,31 @@ def test_unknown_body_is_refused():
     with pytest.raises(ValueError, match="not bodies of the system"):
         subtree_wrench(dyn, ["rod"], np.zeros(2), np.zeros(2), np.zeros(2), gravity=[0, 0, -9.81],
                        about=np.zeros(3))
+
+
+def _static_accelerometers(name):
+    from harness import cases
+    from harness.engine.sensors import sensors
+
+    model = compile_model(cases.get(name).mjcf)
+    return [s.name for s in sensors(model) if s.kind == "accelerometer" and model.body(s.body).id == 0]
+
+
+STATIC = [(c, s) for c in ("pendulum", "atwood_tendon") for s in _static_accelerometers(c)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name,sensor", STATIC)
+def test_a_static_accelerometer_fails_without_gravity(name, sensor):
+    """The fault that reaches a static accelerometer's gate (tests/test_gates.py, OWN_FAULTS): MuJoCo's
+    gravity disabled while the model still states it, so the reference keeps g and the sensor reads 0."""
+    import mujoco
+
+    from harness import cases
+    from harness.pipeline.run import run_case
+    from tests.conftest import failing
+
+    def no_gravity(spec):
+        spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
+
+    assert f"instant.sensor.{sensor}" in failing(run_case(cases.get(name), edit=no_gravity))
