@@ -14,6 +14,7 @@ Closed forms (independent of the sympy path):
 from __future__ import annotations
 
 import importlib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -27,7 +28,7 @@ from analytic.rigid import RigidBody, axis_rotation
 from harness.engine.models import compile_model, mjcf_path
 from harness.reference.derivations import dynamics_of
 
-WITH_BODIES = ("pendulum", "atwood")
+WITH_BODIES = ("pendulum", "atwood", "double_pendulum", "spring", "spherical_pendulum")
 RNG = np.random.default_rng(3)
 
 
@@ -155,3 +156,49 @@ def test_a_static_accelerometer_fails_without_gravity(name, sensor):
         spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
 
     assert f"instant.sensor.{sensor}" in failing(run_case(cases.get(name), edit=no_gravity))
+
+
+# ------------------------------------------------------------------ bad input: one line, exit 2
+PENDULUM = Path(__file__).resolve().parent.parent / "mjcf" / "pendulum.xml"
+BAD_SENSORS = [
+    ('<force name="pivot_force" site="rod_end"/>', '<force site="rod_end"/>', "needs a name"),
+    ('<force name="pivot_force" site="rod_end"/>', '<force name="pivot_force" site="rod_end" cutoff="5"/>',
+     "accepted: 0 (unclipped)"),
+    # a massive body below the sensed one that the analytic system does not have
+    ('<site name="bob_imu" pos="0 0 0" size="0.005"/>',
+     '<site name="bob_imu" pos="0 0 0" size="0.005"/><body name="extra"><inertial pos="0 0 0" mass="0.1" '
+     'diaginertia="1e-6 1e-6 1e-6"/></body>', "the analytic system does not declare"),
+    # an accelerometer at a site that is neither a point of the system nor a body's centre of mass
+    ('<site name="bob_imu" pos="0 0 0" size="0.005"/>', '<site name="bob_imu" pos="0 0 0.3" size="0.005"/>',
+     "neither an analytic point nor at the centre of mass"),
+]
+
+
+@pytest.mark.parametrize("old, new, needle", BAD_SENSORS, ids=["unnamed", "cutoff", "extra-body", "off-com"])
+def test_a_sensor_the_harness_cannot_compare_is_refused_in_one_line(tmp_path, capsys, old, new, needle):
+    from harness.cli.commands import main
+
+    text = PENDULUM.read_text()
+    assert old in text
+    path = tmp_path / "variant.xml"
+    path.write_text(text.replace(old, new))
+    assert main(["check", "pendulum", "--mjcf", str(path), "--integrators", "RK4"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle in err and "Traceback" not in err, err
+
+
+def test_an_undeclared_external_load_is_refused(capsys):
+    """atwood_tendon without its wiring's loads: the strings pull the pulley from outside its joints
+    (cfrc_ext), which the Newton–Euler of the subtree would leave out: refused, naming the body."""
+    import dataclasses
+
+    from harness import cases
+    from harness.core.errors import ModelMismatch
+    from harness.layers.instant import instant_deviations
+
+    case = cases.get("atwood_tendon")
+    bare = dataclasses.replace(case, wiring=dataclasses.replace(case.wiring, loads=()))
+    model = compile_model(case.mjcf)
+    ref = bare.reference(model)
+    with pytest.raises(ModelMismatch, match="declares no load for it"):
+        instant_deviations(model, bare.probe(ref.dynamics), ref)
