@@ -44,6 +44,9 @@ WIRING = Wiring(
                                description="Atwood's machine, massive pulley; the string as two spatial tendons "
                                            "wrapped over the pulley, tendon equalities (forces = −tensions)"),
     equality_signs={s: -1.0 for s in STRINGS},
+    # measured on 3.3.0: the wraps take other sides (string2's ∂L/∂θ = +a at qpos0, string1 unwraps past
+    # θ = −1.5), and mj_rnePostConstraint leaves spatial tendons out of cfrc_ext before 4.0 (changelog 4.0.0)
+    requires=((4, 0, 0), "its tendons' wrap over the pulley, and spatial tendons' forces in cfrc_ext"),
     loads=(Load("string1", body="mass1", site="hook1", direction=(0.0, 0.0, 1.0)),
            Load("string1", body="pulley", site="rim_left", direction=(0.0, 0.0, -1.0)),
            Load("string2", body="mass2", site="hook2", direction=(0.0, 0.0, 1.0)),

@@ -23,6 +23,8 @@ from harness.pipeline.limits import load_limits
 from tests.conftest import breakable, failing, shipped_run
 from tests.test_atwood import closed_forms
 
+if "atwood_tendon" in cases.unavailable():  # an older MuJoCo: the case is listed as n/a, not run
+    pytest.skip(cases.unavailable()["atwood_tendon"], allow_module_level=True)
 CASE = cases.get("atwood_tendon")
 INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4", "discrete")
 STRINGS = ("string1", "string2")
