@@ -24,6 +24,10 @@ the kinetic energy ½ qvelᵀ M_mj qvel vs ½ q̇ᵀ M q̇ (inertia along the sa
 velocities) and the world acceleration of every named point,
 J_mj qacc + J̇_mj qvel vs (∂x/∂q) q̈ + q̇ᵀ(∂²x/∂q²)q̇ (inertia and forces together).
 
+At the same states every force, torque and accelerometer sensor of the model,
+and ``cfrc_int`` of each sensed body, is compared with Newton–Euler of the
+subtree below its site (:mod:`harness.layers.reactions`).
+
 States are taken on the constraint manifold: along the reference, each also
 with its velocity rescaled (which keeps J q̇ = 0 for homogeneous rows), so
 both slow and fast states are covered.
