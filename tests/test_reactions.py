@@ -28,7 +28,7 @@ from analytic.rigid import RigidBody, axis_rotation
 from harness.engine.models import compile_model, mjcf_path
 from harness.reference.derivations import dynamics_of
 
-WITH_BODIES = ("pendulum", "atwood", "double_pendulum", "spring", "spherical_pendulum")
+WITH_BODIES = ("pendulum", "atwood", "double_pendulum", "spring", "spherical_pendulum", "hoop_ramp")
 RNG = np.random.default_rng(3)
 
 
@@ -209,3 +209,25 @@ def test_an_undeclared_external_load_is_refused(capsys):
     ref = bare.reference(model)
     with pytest.raises(ModelMismatch, match="declares no load for it"):
         instant_deviations(model, bare.probe(ref.dynamics), ref)
+
+
+def test_hoop_ramp_reaction_is_the_contact_force_and_its_moment():
+    """The rolling hoop's joints carry the ramp's whole reaction (joint equalities act in joint space):
+    F = λ_normal n + λ_roll d, and its moment about the hub is the friction's, I φ̈ = −a λ_roll about +y —
+    Newton–Euler of the rigid hoop (its dL/dt) against the DAE's multipliers."""
+    dyn = _dyn("hoop_ramp")
+    p = dyn.params
+    alpha, a = p["alpha"], p["a"]
+    d = np.array([np.cos(alpha), 0, -np.sin(alpha)])
+    n = np.array([np.sin(alpha), 0, np.cos(alpha)])
+    x = RNG.uniform(0, 2, 5)
+    q = np.stack([x, np.full(5, a), x / a], axis=-1)
+    v = RNG.uniform(-2, 2, 5)
+    qd = np.stack([v, np.zeros(5), v / a], axis=-1)
+    qdd, lam = dyn.accelerations(q, qd)
+    blocks = dyn.blocks
+    normal, roll = lam[:, blocks["normal"].start], lam[:, blocks["roll"].start]
+    hub = dyn.body_coms(q)[:, 0]
+    force, torque = subtree_wrench(dyn, ["hoop"], q, qd, qdd, gravity=[0, 0, -p["g"]], about=hub)
+    np.testing.assert_allclose(force, normal[:, None] * n + roll[:, None] * d, atol=1e-12)
+    np.testing.assert_allclose(torque, np.stack([np.zeros(5), -a * roll, np.zeros(5)], axis=-1), atol=1e-12)
