@@ -82,6 +82,7 @@ class Compiled:
     params: tuple[tuple[str, float], ...]
     functions: tuple[tuple[str, str, int, int], ...]
     constraint_sizes: tuple[int, ...] = ()
+    body_names: tuple[str, ...] = ()
 
     @classmethod
     def of(cls, derivation: Derivation, params: Mapping[str, float]) -> Compiled:
@@ -104,7 +105,27 @@ class Compiled:
             if s.points else sp.zeros(0, n)
         point_bias = point_vel.applyfunc(
             lambda v: sum(sp.diff(v, qi) * vi for qi, vi in zip(s.q, s.qd, strict=True)))
+        bodies = list(s.bodies.values())
+        nb = len(bodies)
+        com = sp.Matrix([list(b.com) for b in bodies]) if bodies else sp.zeros(0, 3)
+        com_jac = sp.Matrix.vstack(*[b.com.jacobian(list(s.q)) for b in bodies]) if bodies else sp.zeros(0, n)
+        com_vel = (com_jac * sp.Matrix(s.qd)) if bodies else sp.zeros(0, 1)
+        momentum = sp.Matrix.vstack(*[b.angular_momentum(s.q, s.qd) for b in bodies]) if bodies \
+            else sp.zeros(0, 1)
+        # the rates d/dt = (∂/∂q̇) q̈ + (∂/∂q) q̇ of the com velocity and of L_c, both linear in q̈;
+        # row 3i + k is body i's component k
+        body_terms = {
+            "body_mass": sp.Matrix([[b.mass] for b in bodies]) if bodies else sp.zeros(0, 1),
+            "body_com": com,
+            "body_com_jac": com_jac,
+            "body_com_bias": (com_vel.jacobian(list(s.q)) * sp.Matrix(s.qd)).reshape(nb, 3) if bodies
+            else sp.zeros(0, 3),
+            "body_momentum_jac": momentum.jacobian(list(s.qd)) if bodies else sp.zeros(0, n),
+            "body_momentum_bias": (momentum.jacobian(list(s.q)) * sp.Matrix(s.qd)).reshape(nb, 3) if bodies
+            else sp.zeros(0, 3),
+        }
         symbolic = {
+            **body_terms,
             "mass_matrix": derivation.mass_matrix,
             "forcing": derivation.forcing,
             "jacobian": derivation.jacobian if s.constraints else sp.zeros(0, n),
@@ -131,6 +152,7 @@ class Compiled:
             cyclic=tuple(c.name for c in derivation.cyclic),
             params=tuple((p.name, float(params[p.name])) for p in s.params),
             functions=tuple(functions),
+            body_names=tuple(s.bodies),
         )
 
 
@@ -152,6 +174,7 @@ class Dynamics:
     params: Mapping[str, float]
     _funcs: Mapping[str, Callable[..., Array]]
     constraint_sizes: tuple[int, ...] = ()
+    body_names: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not self.constraint_sizes:
@@ -176,6 +199,7 @@ class Dynamics:
             params=dict(compiled.params),
             _funcs={name: _vectorized(src, rows, cols) for name, src, rows, cols in compiled.functions},
             constraint_sizes=compiled.constraint_sizes,
+            body_names=compiled.body_names,
         )
 
     def checked(self) -> Dynamics:
@@ -261,6 +285,28 @@ class Dynamics:
         """World accelerations ẍ = (∂x/∂q) q̈ + q̇ᵀ(∂²x/∂q²)q̇, shape (..., npoints, 3)."""
         qdd = np.asarray(qdd, dtype=float)
         return np.einsum("...pij,...j->...pi", self.point_jacobians(q), qdd) + self._call("point_bias", q, qd)
+
+    def body_masses(self) -> Array:
+        """Each body's mass, shape (nbodies,), in ``body_names`` order."""
+        return self._call("body_mass", np.zeros(self.n), np.zeros(self.n))[..., 0]
+
+    def body_coms(self, q: Array) -> Array:
+        """Each body's centre of mass in the world, shape (..., nbodies, 3)."""
+        return self._call("body_com", q, np.zeros_like(q))
+
+    def body_accelerations(self, q: Array, qd: Array, qdd: Array) -> Array:
+        """Each body's centre-of-mass acceleration c̈ = (∂c/∂q) q̈ + (∂ċ/∂q) q̇, shape (..., nbodies, 3)."""
+        jac = self._call("body_com_jac", q, np.zeros_like(q))
+        jac = jac.reshape(*jac.shape[:-2], len(self.body_names), 3, self.n)
+        return np.einsum("...bij,...j->...bi", jac, np.asarray(qdd, dtype=float)) + self._call("body_com_bias", q, qd)
+
+    def body_momentum_rates(self, q: Array, qd: Array, qdd: Array) -> Array:
+        """Each body's dL_c/dt, the rate of its world angular momentum about its centre of mass
+        (∂L_c/∂q̇) q̈ + (∂L_c/∂q) q̇, shape (..., nbodies, 3); zero for a point mass."""
+        jac = self._call("body_momentum_jac", q, qd)
+        jac = jac.reshape(*jac.shape[:-2], len(self.body_names), 3, self.n)
+        return (np.einsum("...bij,...j->...bi", jac, np.asarray(qdd, dtype=float))
+                + self._call("body_momentum_bias", q, qd))
 
     def accelerations(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)
                       ) -> tuple[Array, Array]:

@@ -29,6 +29,8 @@ from typing import Literal
 
 import sympy as sp
 
+from analytic.rigid import RigidBody
+
 ConstraintKind = Literal["holonomic", "pfaffian"]
 
 
@@ -98,6 +100,12 @@ class LagrangianSystem:
         constraints: holonomic or Pfaffian rows, with their names.
         points: named world positions (x, y, z) of material points, the
             observables compared with MuJoCo bodies of the same name.
+        bodies: the system's bodies by the name of the MuJoCo body each is
+            (:class:`analytic.rigid.RigidBody`, or :func:`analytic.rigid.point_mass`):
+            mass, centre of mass, inertia and orientation, what the reaction
+            forces at an attachment are made of (:mod:`analytic.reactions`).
+            Optional; where given, their kinetic energies add up to T
+            (``tests/test_reactions.py`` checks every shipped system's).
     """
 
     def __init__(
@@ -111,6 +119,7 @@ class LagrangianSystem:
         params: Sequence[sp.Symbol],
         constraints: Sequence[Constraint] = (),
         points: Mapping[str, Sequence[sp.Expr]] | None = None,
+        bodies: Mapping[str, RigidBody] | None = None,
     ) -> None:
         if len(q) == 0 or len(q) != len(qd):
             raise ValueError(f"q and qd must be non-empty and of equal length, got {len(q)}, {len(qd)}")
@@ -137,6 +146,12 @@ class LagrangianSystem:
         self.params = tuple(params)
         self.constraints = tuple(constraints)
         self.points = {k: tuple(sp.sympify(e) for e in v) for k, v in (points or {}).items()}
+        self.bodies = dict(bodies or {})
+        for key, body in self.bodies.items():
+            stray = (sp.sympify(body.mass).free_symbols | body.inertia.free_symbols | body.com.free_symbols
+                     | body.rotation.free_symbols) - set(q) - set(params)
+            if stray:
+                raise ValueError(f"body {key!r} has symbols that are neither coordinates nor params: {stray}")
         for key, pos in self.points.items():
             if len(pos) != 3:
                 raise ValueError(f"point {key!r} must have 3 components, got {len(pos)}")
@@ -178,6 +193,8 @@ class LagrangianSystem:
             potential=sp.simplify(self.potential.subs(subs)),
             params=self.params,
             points={k: [sp.simplify(e.subs(subs)) for e in v] for k, v in self.points.items()},
+            bodies={k: RigidBody(mass=b.mass, inertia=b.inertia, com=sp.simplify(b.com.subs(subs)),
+                                 rotation=sp.simplify(b.rotation.subs(subs))) for k, b in self.bodies.items()},
         )
 
 

@@ -103,7 +103,20 @@ class RigidBody:
         omega = body_angular_velocity(self.rotation, q, qd)
         return (self.mass * velocity.dot(velocity) + (omega.T * self.inertia * omega)[0, 0]) / 2
 
+    def angular_momentum(self, q: Sequence[sp.Symbol], qd: Sequence[sp.Symbol]) -> sp.Matrix:
+        """L_c = R I_c ω_b: the world angular momentum about the centre of mass (zero for a point mass)."""
+        if self.inertia == sp.zeros(3, 3):
+            return sp.zeros(3, 1)
+        return self.rotation * self.inertia * body_angular_velocity(self.rotation, q, qd)
+
     def point(self, offset: Sequence[sp.Expr]) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
         """World position c + R r_b of the body point at ``offset`` r_b from the centre of mass
         (body frame)."""
         return tuple(self.com + self.rotation * sp.Matrix(offset))
+
+
+def point_mass(mass: sp.Expr, position: Sequence[sp.Expr]) -> RigidBody:
+    """A point mass at ``position`` as a :class:`RigidBody` with no inertia (its orientation, the
+    identity, never enters: it has no angular momentum about its centre of mass)."""
+    return RigidBody(mass=sp.sympify(mass), inertia=sp.zeros(3, 3), com=sp.Matrix(list(position)),
+                     rotation=sp.eye(3))

@@ -32,6 +32,16 @@ a(λ2 − λ1) about +y; a massive pulley needs unequal tensions to accelerate.
 MuJoCo's joint equality ``joint1=z1 joint2=theta polycoef="0 a 0 0 0"``
 (and ``joint1=z2``, ``polycoef="0 −a 0 0 0"``) has exactly these Jacobian
 rows, so its ``efc_force`` is λ with the same sign.
+
+Reactions (:mod:`analytic.reactions`): the bodies are MuJoCo's ``mass1``,
+``mass2`` and ``pulley`` (a thin hoop about +y). The string pulls mass1 up with
+λ1 ẑ, mass2 with λ2 ẑ, and the pulley down with both at its rims, so the axle
+carries F = (m_p g + λ1 + λ2) ẑ: both tensions and the pulley's weight. Where
+the string is a joint equality (``mjcf/atwood.xml``) MuJoCo has no string
+force in space at all: its coupling is a joint-space force, which its
+``mj_rnePostConstraint`` attributes to the joints, so its axle sensor reads
+m_p g only; the spatial tendons of ``mjcf/atwood_tendon.xml`` apply the
+tensions at the rims and hooks, and its sensors read the physics.
 """
 
 from __future__ import annotations
@@ -55,7 +65,10 @@ MOTION = Motion(
 
 
 def build(p: Parameters) -> LagrangianSystem:
+    import sympy as sp  # lazy: sympy, only to derive
+
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
+    from analytic.rigid import RigidBody, axis_rotation, point_mass  # lazy: loads sympy
 
     m1, m2, m_p, a, g, h = p.m1, p.m2, p.m_p, p.a, p.g, p.h
     (z1, z2, theta), (z1_d, z2_d, theta_d) = coordinates("z1 z2 theta")
@@ -68,6 +81,10 @@ def build(p: Parameters) -> LagrangianSystem:
         params=(m1, m2, m_p, a, g, h),
         constraints=(Constraint("string1", z1 - a * theta), Constraint("string2", z2 + a * theta)),
         points={"mass1": (-a, 0, z1), "mass2": (a, 0, z2)},
+        bodies={"mass1": point_mass(m1, (-a, 0, z1)), "mass2": point_mass(m2, (a, 0, z2)),
+                # a thin hoop turning about +y: I = m_p a² about its axle, ½ m_p a² about its diameters
+                "pulley": RigidBody(mass=m_p, inertia=sp.diag(m_p * a**2 / 2, m_p * a**2, m_p * a**2 / 2),
+                                    com=sp.Matrix([0, 0, h]), rotation=axis_rotation("y", theta))},
     )
 
 
@@ -84,13 +101,18 @@ def minimal(p: Parameters) -> LagrangianSystem:
 
 def params_from_model(model) -> dict[str, float]:
     """Masses from bodies ``mass1``, ``mass2``, ``pulley``; a from equality ``string1``'s
-    polycoef (z1 = a·θ); h from the pulley's height; g from gravity."""
+    polycoef (z1 = a·θ) where the string is a joint equality, else (a tendon equality: the string
+    as a tendon wrapped over the pulley, ``mjcf/atwood_tendon.xml``) from the radius of the
+    cylinder ``pulley`` it wraps; h from the pulley's height; g from gravity."""
+    import mujoco  # lazy: only the constant, with the model at hand
+
     string1 = model.equality("string1")
+    joint = int(model.eq_type[string1.id]) == int(mujoco.mjtEq.mjEQ_JOINT)
     return {
         "m1": float(model.body("mass1").mass[0]),
         "m2": float(model.body("mass2").mass[0]),
         "m_p": float(model.body("pulley").mass[0]),
-        "a": float(string1.data[1]),
+        "a": float(string1.data[1]) if joint else float(model.geom("pulley").size[0]),
         "g": float(-model.opt.gravity[2]),
         "h": float(model.body("pulley").pos[2]),
     }

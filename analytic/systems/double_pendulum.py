@@ -66,6 +66,7 @@ def build(p: Parameters) -> LagrangianSystem:
     import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
     from analytic.lagrangian import LagrangianSystem, coordinates  # lazy: loads sympy
+    from analytic.rigid import point_mass  # lazy: loads sympy
 
     (th1, th2), (th1_d, th2_d) = coordinates("theta1 theta2")
     p1 = sp.Matrix([p.l1 * sp.sin(th1), 0, -p.l1 * sp.cos(th1)])
@@ -80,6 +81,7 @@ def build(p: Parameters) -> LagrangianSystem:
         potential=p.g * (p.m1 * p1[2] + p.m2 * p2[2]),
         params=(p.m1, p.m2, p.l1, p.l2, p.g),
         points={"bob1": tuple(p1), "bob2": tuple(p2)},
+        bodies={"bob1": point_mass(p.m1, p1), "bob2": point_mass(p.m2, p2)},
     )
 
 

@@ -77,6 +77,7 @@ def build(p: Parameters, *, form: RollForm = "holonomic") -> LagrangianSystem:
     import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
+    from analytic.rigid import RigidBody, axis_rotation  # lazy: loads sympy
 
     m, g, a, alpha = p.m, p.g, p.a, p.alpha
     (x, s, phi), (x_d, s_d, phi_d) = coordinates("x s phi")
@@ -100,6 +101,10 @@ def build(p: Parameters, *, form: RollForm = "holonomic") -> LagrangianSystem:
         params=(m, g, a, alpha),
         constraints=(Constraint("normal", s - a), roll),
         points={"hoop": tuple(centre)},
+        # the body "hoop" (the slope's frame turned by α about y, then the hinge φ about the same axis):
+        # a thin ring, m a² about its axle, ½ m a² about its diameters
+        bodies={"hoop": RigidBody(mass=m, inertia=sp.diag(axle_inertia / 2, axle_inertia, axle_inertia / 2),
+                                  com=centre, rotation=axis_rotation("y", alpha + phi))},
     )
 
 

@@ -18,6 +18,12 @@ i.e. the radial force on the bob, positive outward. The rod pulls inward, so
 λ = −(rod tension) = −(m l θ̇² + m g cos θ) on the constraint. MuJoCo's joint
 equality on the slide ``r`` has the same Jacobian row, so its ``efc_force``
 is λ with the same sign.
+
+Reactions (:mod:`analytic.reactions`): the bob is MuJoCo's body ``bob``, child
+of the world through the hinge and the slide. The force the parent exerts on it
+is m(a − g) = λ r̂ = −T r̂ (r̂ the unit vector from the pivot to the bob): the
+rod's pull toward the pivot, of magnitude the tension T; its moment about the
+pivot is zero.
 """
 
 from __future__ import annotations
@@ -44,6 +50,7 @@ def build(p: Parameters) -> LagrangianSystem:
     import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
+    from analytic.rigid import point_mass  # lazy: loads sympy
 
     m, g, l = p.m, p.g, p.l
     (theta, r), (theta_d, r_d) = coordinates("theta r")
@@ -58,6 +65,7 @@ def build(p: Parameters) -> LagrangianSystem:
         params=(m, g, l),
         constraints=(Constraint("rod", r - l),),
         points={"bob": (x, 0, z)},
+        bodies={"bob": point_mass(m, (x, 0, z))},
     )
 
 

@@ -67,6 +67,7 @@ def build(p: Parameters) -> LagrangianSystem:
     import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
     from analytic.lagrangian import LagrangianSystem, coordinates  # lazy: loads sympy
+    from analytic.rigid import point_mass  # lazy: loads sympy
 
     m, g, l = p.m, p.g, p.l
     (theta, phi), (theta_d, phi_d) = coordinates("theta phi")
@@ -82,6 +83,7 @@ def build(p: Parameters) -> LagrangianSystem:
         potential=m * g * pos[2],
         params=(m, g, l),
         points={BOB: tuple(pos)},
+        bodies={BOB: point_mass(m, pos)},
     )
 
 

@@ -42,6 +42,7 @@ MOTION = Motion(
 
 def build(p: Parameters) -> LagrangianSystem:
     from analytic.lagrangian import LagrangianSystem, coordinates  # lazy: loads sympy
+    from analytic.rigid import point_mass  # lazy: loads sympy
 
     m, k, l0 = p.m, p.k, p.l0
     (x,), (x_d,) = coordinates("x")
@@ -53,6 +54,7 @@ def build(p: Parameters) -> LagrangianSystem:
         potential=k * x**2 / 2,
         params=(m, k, l0),
         points={"mass": (l0 + x, 0, 0)},
+        bodies={"mass": point_mass(m, (l0 + x, 0, 0))},
     )
 
 

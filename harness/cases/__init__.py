@@ -36,9 +36,11 @@ from analytic import systems
 from analytic.dynamics import Dynamics
 from analytic.systems import Motion
 from harness.engine.bindings import JointBinding
+from harness.engine.compat import version
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
 from harness.engine.readings import Reading
+from harness.engine.sensors import Load
 from harness.reference.derivations import dynamics_of
 from harness.reference.solutions import Reference, build_reference
 
@@ -79,6 +81,17 @@ class Wiring:
         settle: seconds after which force figures are taken. A soft contact
             builds its force from slip or penetration, so at t = 0 it has none
             of its own; 0 (compare from the start) for equalities.
+        loads: the constraint forces MuJoCo applies to bodies from outside
+            their joints (``cfrc_ext``: a spatial tendon's pull, a connect),
+            each a :class:`~harness.engine.sensors.Load`, for the reactions
+            its force and torque sensors are compared with
+            (:mod:`harness.layers.reactions`).
+        equality_signs: −1 for an equality whose rows are −1 × its analytic
+            constraint's (a tendon's length shrinks as the constraint grows):
+            its efc_force is then −λ, and is read × −1.
+        requires: (the oldest MuJoCo the model is that system in, why): on an
+            older MuJoCo the case is not registered, and :func:`unavailable`
+            says why (``mjharness list`` shows it).
     """
 
     system: str = ""
@@ -90,6 +103,9 @@ class Wiring:
     forces: Mapping[str, Reading] = field(default_factory=dict)
     series: Mapping[str, Series] = field(default_factory=dict)
     settle: float = 0.0
+    loads: tuple[Load, ...] = ()
+    equality_signs: Mapping[str, float] = field(default_factory=dict)
+    requires: tuple[tuple[int, int, int], str] | None = None
 
 
 @dataclass(frozen=True)
@@ -196,7 +212,8 @@ class Case:
         equalities = tuple(c for c in dyn.constraint_names if c not in self.mujoco_forces)
         return Probe(binding=binding, points=dyn.point_names, constraints=equalities,
                      invariants=self.mujoco_invariants, forces=self.mujoco_forces,
-                     series={k: s.read for k, s in self.mujoco_series.items()})
+                     series={k: s.read for k, s in self.mujoco_series.items()}, loads=self.wiring.loads,
+                     signs=self.wiring.equality_signs)
 
 
 def _model_files() -> list[Path]:
@@ -227,9 +244,28 @@ def _case(path: Path) -> Case:
 
 
 @functools.cache
-def all_cases() -> tuple[Case, ...]:
-    """Every case, in the order of their names."""
+def _every_case() -> tuple[Case, ...]:
     return tuple(_case(path) for path in _model_files())
+
+
+def _too_new(case: Case) -> str:
+    """Why ``case`` cannot run on this MuJoCo ('' where it can)."""
+    need = case.wiring.requires
+    if need is None or version() >= need[0]:
+        return ""
+    return (f"case {case.name!r} needs MuJoCo >= {'.'.join(map(str, need[0]))} ({need[1]}); "
+            f"this is {mujoco.__version__}")
+
+
+def unavailable() -> dict[str, str]:
+    """The cases this MuJoCo is too old for, each with why (they are not in :func:`all_cases`)."""
+    return {c.name: _too_new(c) for c in _every_case() if _too_new(c)}
+
+
+@functools.cache
+def all_cases() -> tuple[Case, ...]:
+    """Every case this MuJoCo can run, in the order of their names (:func:`unavailable`: the others)."""
+    return tuple(c for c in _every_case() if not _too_new(c))
 
 
 def names() -> tuple[str, ...]:
@@ -241,6 +277,8 @@ def get(name: str) -> Case:
     for case in all_cases():
         if case.name == name:
             return case
+    if name in unavailable():
+        raise ValueError(unavailable()[name])
     raise ValueError(f"unknown case {name!r}; known cases: {', '.join(names())}")
 
 

@@ -206,6 +206,8 @@ def cmd_list(args: argparse.Namespace) -> int:
     width, tag_width = max(map(len, tags)), max(map(len, tags.values()))
     for c in everything:
         print(f"{c.name.ljust(width)}  {tags[c.name].ljust(tag_width)}  {c.description}")
+    for name, why in cases.unavailable().items():
+        print(f"{name.ljust(width)}  {'[n/a]'.ljust(tag_width)}  not run here: {why}")
     return EXIT_OK
 
 

@@ -11,6 +11,7 @@ from harness.core.errors import ModelMismatch
 from harness.engine.bindings import Binding
 from harness.engine.points import point_source
 from harness.engine.readings import Reading
+from harness.engine.sensors import Load
 
 
 @dataclass(frozen=True)
@@ -23,6 +24,13 @@ class Probe:
     invariants: Mapping[str, Reading] = field(default_factory=dict)
     forces: Mapping[str, Reading] = field(default_factory=dict)
     series: Mapping[str, Reading] = field(default_factory=dict)
+    loads: Sequence[Load] = ()
+    signs: Mapping[str, float] = field(default_factory=dict)
+    """An equality whose rows are −1 × its analytic constraint's (a tendon that shortens as the
+    constraint's coordinate grows) by name: its efc_force and efc_pos are read × the sign."""
+
+    def sign(self, constraint: str) -> float:
+        return float(self.signs.get(constraint, 1.0))
 
     def validate(self, model: mujoco.MjModel) -> None:
         self.binding.validate(model)

@@ -139,9 +139,13 @@ def _rows(model: mujoco.MjModel, name: str, n: int) -> np.ndarray:
     return np.zeros(n) if size == 1 else np.zeros((n, size))
 
 
-def _block(model: mujoco.MjModel, data: mujoco.MjData, name: str) -> tuple[np.ndarray | float, np.ndarray | float]:
-    """(efc_force, efc_pos) of equality ``name`` at this state: floats for one row, (k,) for a block."""
+def _block(model: mujoco.MjModel, data: mujoco.MjData, name: str, sign: float = 1.0
+           ) -> tuple[np.ndarray | float, np.ndarray | float]:
+    """(efc_force, efc_pos) × ``sign`` (the probe's, :attr:`Probe.signs`) of equality ``name`` at this state:
+    floats for one row, (k,) for a block."""
     force, pos = equality_block(model, data, name)
+    if sign != 1.0:
+        force, pos = sign * force, sign * pos
     return (float(force[0]), float(pos[0])) if force.size == 1 else (force, pos)
 
 
@@ -271,7 +275,7 @@ def _record_loop(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
         for p in probe.points:
             pos[p][k], vel[p][k] = point_state(model, data, p)
         for c in probe.constraints:
-            lam[c][k], viol[c][k] = _block(model, data, c)
+            lam[c][k], viol[c][k] = _block(model, data, c, probe.sign(c))
         energy[k] = data.energy[0] + data.energy[1]
         qpos[k], qvel[k] = data.qpos, data.qvel
         for f in extra:
@@ -662,8 +666,8 @@ def _assemble(model: mujoco.MjModel, probe: Probe, states: np.ndarray, fields: d
         active = states[:, start:start + model.neq]
         if np.all(active == 1) and np.all(fields["nefc"] == model.neq):  # every row is an equality's
             for c, eq in recoverable.items():
-                lam[c] = qfrc[:, eq.dof].copy()
-                viol[c] = eq.violation(qpos)
+                lam[c] = qfrc[:, eq.dof] * probe.sign(c)  # × 1.0 is exact: bit for bit the loop's
+                viol[c] = eq.violation(qpos) * probe.sign(c)
     return _Run(states=states, t=states[:, 0].copy(), positions=positions, velocities=velocities, lam=lam,
                 viol=viol, energy=energy, qfrc=qfrc, readings={}, fields=fields)
 
@@ -680,7 +684,7 @@ def _read_at_states(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, ru
     for k in range(n):
         _forward_at(model, data, run.states[k])
         for c in equalities:
-            run.lam[c][k], run.viol[c][k] = _block(model, data, c)
+            run.lam[c][k], run.viol[c][k] = _block(model, data, c, probe.sign(c))
 
 
 def _verify(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run) -> list[str]:
@@ -693,6 +697,7 @@ def _verify(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run)
     bad += [f"velocity of {p!r}" for p in probe.points
             if not np.array_equal(point_state(model, data, p)[1], run.velocities[p][k])]
     bad += [f"equality {c!r}" for c in probe.constraints
-            if not all(np.array_equal(a, b) for a, b in zip(_block(model, data, c), (run.lam[c][k], run.viol[c][k]),
+            if not all(np.array_equal(a, b) for a, b in zip(_block(model, data, c, probe.sign(c)),
+                                                             (run.lam[c][k], run.viol[c][k]),
                                                              strict=True))]
     return bad

@@ -24,6 +24,10 @@ the kinetic energy ½ qvelᵀ M_mj qvel vs ½ q̇ᵀ M q̇ (inertia along the sa
 velocities) and the world acceleration of every named point,
 J_mj qacc + J̇_mj qvel vs (∂x/∂q) q̈ + q̇ᵀ(∂²x/∂q²)q̇ (inertia and forces together).
 
+At the same states every force, torque and accelerometer sensor of the model,
+and ``cfrc_int`` of each sensed body, is compared with Newton–Euler of the
+subtree below its site (:mod:`harness.layers.reactions`).
+
 States are taken on the constraint manifold: along the reference, each also
 with its velocity rescaled (which keeps J q̇ = 0 for homogeneous rows), so
 both slow and fast states are covered.
@@ -43,6 +47,7 @@ from harness.engine.compat import JAC_DOT_DEFECT, full_mass_matrix, jac_dot, jac
 from harness.engine.constraints import equality_block, equality_jacobian
 from harness.engine.points import point_jacobian, point_source
 from harness.engine.probe import Probe
+from harness.layers.reactions import Recorder, reaction_deviations
 from harness.reference.solutions import Reference
 
 DEFAULT_SAMPLES = 24
@@ -126,6 +131,7 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
     got = {k: [] for k in ("mass", "forcing", "qacc", "gen", "pts", "acc", "kinetic")}
     got_lam = {c: [] for c in probe.constraints}
     got_block_gen = {c: [] for c in probe.constraints}
+    reactions = Recorder(model, dyn, probe.loads)
     for i in range(len(q)):
         mujoco.mj_resetData(model, data)
         probe.binding.set_state(model, data, q[i], qd[i])
@@ -134,6 +140,8 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
         got["kinetic"].append(0.5 * data.qvel @ full @ data.qvel)
         got["pts"].append([point_source(model, p).position(data).copy() for p in dyn.point_names])
         got["acc"].append([point_acceleration(model, data, p) for p in dyn.point_names])
+        if reactions:
+            reactions.record(model, data)
         if coordinates:
             dof, rate = velocity_map(probe.binding, model, q[i], qd[i])
             qacc = data.qacc if rate is None else data.qacc - rate  # B q̈ = qacc − Ḃ q̇
@@ -145,7 +153,7 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
             got["gen"].append(dof.T @ data.qfrc_constraint)
         for c in probe.constraints:
             force = equality_block(model, data, c)[0]
-            got_lam[c].append(force)
+            got_lam[c].append(probe.sign(c) * force)
             if coordinates and force.size > 1:
                 got_block_gen[c].append(dof.T @ (equality_jacobian(model, data, c).T @ force))
     n = len(q)
@@ -198,6 +206,7 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
             block_gen = np.einsum("nmk,nm->nk", jac[:, rows], lam[:, rows])
             out.append(relative(FigureName.instant("generalized_force", c), got_block_gen[c], block_gen,
                                 f"max |{d}ᵀ J_mjᵀ efc_force − Jᵀλ| over the rows of {c!r} / max |Jᵀλ|"))
+    out += reaction_deviations(model, dyn, reactions, q, qd, qdd, lam, force_scale=force_scale, length=length)
     return out
 
 

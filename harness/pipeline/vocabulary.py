@@ -21,6 +21,7 @@ from harness.core.errors import ConfigError
 from harness.core.figures import FigureName
 from harness.engine.models import compile_model
 from harness.layers.orders import EXPECTED_ORDER
+from harness.layers.reactions import sensor_names
 
 INSTANT = ("kinematics", "kinetic_energy", "point_acceleration", "mass_matrix", "forcing", "qacc",
            "generalized_force")
@@ -36,6 +37,9 @@ def figure_names(case: Case) -> frozenset[str]:
     invariants = ["energy", *case.mujoco_invariants]
     names = {FigureName.instant(q) for q in INSTANT} | {FigureName.reference(q) for q in REFERENCE}
     names |= {FigureName.instant(q, c) for q in ("force", "generalized_force") for c in constraints}
+    reading, wrenched = sensor_names(model)
+    names |= {FigureName.instant("sensor", s) for s in reading}
+    names |= {FigureName.instant("interaction", b) for b in wrenched}
     for integrator in EXPECTED_ORDER:
         names |= {FigureName.trajectory(integrator, q) for q in TRAJECTORY}
         names |= {FigureName.trajectory(integrator, i) for i in invariants}

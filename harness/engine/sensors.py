@@ -1,0 +1,122 @@
+"""MuJoCo's reaction sensors as users read them: ``force``, ``torque``, ``accelerometer`` and ``cfrc_int``.
+
+All of them are computed in ``mj_rnePostConstraint`` (called by ``mj_forward``'s
+sensor stage when such a sensor exists), a code path separate from
+``efc_force``: a recursive Newton–Euler pass with the final accelerations, in
+which ``cfrc_int`` of a body is the wrench its parent exerts on its subtree
+through the joint(s) between them, and ``cfrc_ext`` the forces that do not pass
+through a joint — applied forces, contacts, connect and weld equalities and, on
+MuJoCo ≥ 4.0, spatial tendons (APIreference, ``mj_rnePostConstraint``).
+Joint and fixed-tendon forces (a joint equality, a fixed tendon's equality) act
+in joint space and are attributed to the joints.
+
+- ``force`` / ``torque`` at a site: ``cfrc_int`` of the site's body, the force
+  and its moment about the site, by the parent on the child, in the site frame;
+- ``accelerometer``: the site's linear acceleration less gravity (a − g: +g
+  upward at rest), in the site frame.
+
+:func:`world_reading` rotates a reading into the world frame (``site_xmat``),
+where the harness compares it: a frame is a convention, the vector is the
+physics. A site on the world body is static. Only sensors that MuJoCo reports
+unaltered are accepted (no ``cutoff``, no delay or history), and each must have
+a name (it names its figure).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from harness.core.errors import ModelMismatch
+
+KINDS: dict[int, str] = {
+    int(mujoco.mjtSensor.mjSENS_FORCE): "force",
+    int(mujoco.mjtSensor.mjSENS_TORQUE): "torque",
+    int(mujoco.mjtSensor.mjSENS_ACCELEROMETER): "accelerometer",
+}
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """One reaction sensor: its name, kind (``force``, ``torque``, ``accelerometer``), site, the site's
+    body and where its three numbers start in ``sensordata``."""
+
+    name: str
+    kind: str
+    site: str
+    body: str
+    adr: int
+
+
+@dataclass(frozen=True)
+class Load:
+    """An external force that a constraint applies to a body, declared by a case's wiring where MuJoCo
+    counts it in ``cfrc_ext`` (a spatial tendon's pull, a connect): the force is the constraint's
+    multiplier (its first row) times the world ``direction``, acting at the world position of ``site``
+    on the line of action (any site on it: the moment depends only on the line)."""
+
+    constraint: str
+    body: str
+    site: str
+    direction: tuple[float, float, float]
+
+
+def sensors(model: mujoco.MjModel) -> tuple[Sensor, ...]:
+    """Every force, torque and accelerometer sensor of ``model`` (ModelMismatch for one without a name,
+    with a cutoff, a delay or history, or not on a site)."""
+    out = []
+    for i in range(model.nsensor):
+        kind = KINDS.get(int(model.sensor_type[i]))
+        if kind is None:
+            continue
+        name = model.sensor(i).name
+        if not name or "." in name:
+            raise ModelMismatch(f"{kind} sensor {i} needs a name without a dot (it names its figure), got {name!r}")
+        if model.sensor_cutoff[i] > 0:
+            raise ModelMismatch(f"sensor {name!r} has cutoff {model.sensor_cutoff[i]:g}; accepted: 0 (unclipped)")
+        for attr in ("sensor_delay", "sensor_history"):  # MuJoCo >= 3.4: readings from the past
+            if hasattr(model, attr) and np.any(np.asarray(getattr(model, attr)[i]) > 0):
+                raise ModelMismatch(f"sensor {name!r} has a {attr.removeprefix('sensor_')}; accepted: none "
+                                    "(read at the state itself)")
+        if int(model.sensor_objtype[i]) != int(mujoco.mjtObj.mjOBJ_SITE):
+            raise ModelMismatch(f"sensor {name!r} is not mounted on a site; accepted: site=\"...\"")
+        site = int(model.sensor_objid[i])
+        body = int(model.site_bodyid[site])
+        out.append(Sensor(name=name, kind=kind, site=model.site(site).name, body=model.body(body).name,
+                          adr=int(model.sensor_adr[i])))
+    return tuple(out)
+
+
+def world_reading(model: mujoco.MjModel, data: mujoco.MjData, sensor: Sensor) -> np.ndarray:
+    """The sensor's three numbers rotated from its site's frame into the world's, after ``mj_forward``."""
+    rotation = data.site_xmat[model.site(sensor.site).id].reshape(3, 3)
+    return rotation @ data.sensordata[sensor.adr:sensor.adr + 3]
+
+
+def subtree(model: mujoco.MjModel, body: str) -> tuple[str, ...]:
+    """The bodies of ``body``'s subtree (itself and every descendant), by name, in body order."""
+    root = model.body(body).id
+    out = []
+    for b in range(model.nbody):
+        a = b
+        while a != root and a != 0:
+            a = int(model.body_parentid[a])
+        if a == root:
+            out.append(model.body(b).name)
+    return tuple(out)
+
+
+def interaction(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``cfrc_int`` of ``body`` as (force, moment, about): world vectors, the moment about the point
+    ``about`` (the subtree centre of mass of its tree's root, the origin of MuJoCo's c-frame)."""
+    b = model.body(body).id
+    wrench = data.cfrc_int[b]
+    return wrench[3:].copy(), wrench[:3].copy(), data.subtree_com[int(model.body_rootid[b])].copy()
+
+
+def external_force(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> float:
+    """|cfrc_ext| of ``body`` (force and moment together): what MuJoCo counts as acting on it from outside
+    its joints."""
+    return float(np.linalg.norm(data.cfrc_ext[model.body(body).id]))

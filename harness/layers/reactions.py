@@ -1,0 +1,171 @@
+"""Layer 2, reactions: MuJoCo's force, torque and accelerometer sensors and ``cfrc_int`` against the
+analytic reactions, at the instantaneous layer's sampled states.
+
+Every reaction sensor a model has (:func:`harness.engine.sensors.sensors`) is compared at its site,
+so adding a sensor to an MJCF file is all a case needs. The analytic side is
+:mod:`analytic.reactions`, Newton–Euler of the subtree, from the reference's own q̈ and λ at the
+state:
+
+- ``force`` / ``torque`` at a site on body B: the wrench by B's parent on B's subtree (the bodies
+  below B in MuJoCo's tree, each an analytic body of the same name; a massless MuJoCo body may have
+  none), the moment about the site, less the external loads the case's wiring declares
+  (:class:`harness.engine.sensors.Load`: the forces MuJoCo counts in ``cfrc_ext``, a spatial
+  tendon's pull); a subtree body that MuJoCo loads from outside its joints with no load declared is
+  refused (the comparison would be meaningless);
+- ``cfrc_int`` of every body with a force or torque sensor: the same wrench, its moment about
+  MuJoCo's c-frame origin (figure ``instant.interaction.BODY``);
+- ``accelerometer`` at a site: the site's proper acceleration a − g (0 − g on the world body; the
+  analytic point named like the site, else the analytic body whose centre of mass the site marks).
+
+Figures ``instant.sensor.NAME``: max over states of |MuJoCo (rotated to the world) − analytic|, for
+a force over the case's force scale, a torque over force × length, an acceleration over the largest
+analytic |a − g|; ``instant.interaction.BODY``: the force and the moment / length together, over the
+force scale. Where the site's position enters (a moment's point, a load's line) it is MuJoCo's at
+the state, which the analytic side sets: kinematics, checked by ``instant.kinematics``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import mujoco
+import numpy as np
+
+from analytic.dynamics import Dynamics
+from analytic.reactions import Load as AnalyticLoad
+from analytic.reactions import proper_acceleration, subtree_wrench
+from harness.core.deviation import Deviation
+from harness.core.errors import ModelMismatch
+from harness.core.figures import FigureName
+from harness.engine import sensors as S
+
+UNLOADED = 1e-9
+"""A subtree body counts as loaded from outside its joints where |cfrc_ext| exceeds this × the force scale."""
+
+
+class Recorder:
+    """MuJoCo's side, state by state: call :meth:`record` after each ``mj_forward``."""
+
+    def __init__(self, model: mujoco.MjModel, dyn: Dynamics, loads: Sequence[S.Load]) -> None:
+        self.sensors = S.sensors(model)
+        self.loads = tuple(loads)
+        self.wrenched = tuple(dict.fromkeys(s.body for s in self.sensors if s.kind != "accelerometer"))
+        self.subtrees = {b: S.subtree(model, b) for b in self.wrenched}
+        for body, tree in self.subtrees.items():
+            if not dyn.body_names:
+                raise ModelMismatch(f"body {body!r} carries a force or torque sensor, but the analytic system "
+                                    "declares no bodies (LagrangianSystem(bodies=...))")
+            missing = [b for b in tree if model.body(b).mass[0] > 0 and b not in dyn.body_names]
+            if missing:
+                raise ModelMismatch(f"sensor subtree of body {body!r} has bodies {missing} with mass that the analytic "
+                                    f"system does not declare; its bodies: {list(dyn.body_names)}")
+        for load in self.loads:
+            if load.constraint not in dyn.constraint_names:
+                raise ModelMismatch(f"load on {load.body!r} names constraint {load.constraint!r}; the system's: "
+                                    f"{list(dyn.constraint_names)}")
+        self.sites = tuple(dict.fromkeys([*(s.site for s in self.sensors), *(ld.site for ld in self.loads)]))
+        self.rows: dict[str, list] = {k: [] for k in ("reading", "site", "interaction", "external", "com")}
+
+    def __bool__(self) -> bool:
+        return bool(self.sensors)
+
+    def record(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        self.rows["reading"].append([S.world_reading(model, data, s) for s in self.sensors])
+        self.rows["site"].append([data.site_xpos[model.site(s).id].copy() for s in self.sites])
+        self.rows["interaction"].append([np.concatenate(S.interaction(model, data, b)) for b in self.wrenched])
+        self.rows["external"].append({b: S.external_force(model, data, b) for tree in self.subtrees.values()
+                                      for b in tree})
+        self.rows["com"].append({s.name: data.xipos[model.body(s.body).id].copy() for s in self.sensors})
+
+
+def _accelerometer_point(model: mujoco.MjModel, dyn: Dynamics, sensor: S.Sensor, site_pos: np.ndarray,
+                         coms: Sequence[Mapping[str, np.ndarray]], length: float) -> tuple[str, int]:
+    """Where the analytic side reads an accelerometer's acceleration: ``("static", -1)``, ``("point", i)`` or
+    ``("body", i)`` (ModelMismatch where neither applies)."""
+    if model.body(sensor.body).id == 0:
+        return "static", -1
+    if sensor.site in dyn.point_names:
+        return "point", dyn.point_names.index(sensor.site)
+    at_com = max(float(np.linalg.norm(p - c[sensor.name])) for p, c in zip(site_pos, coms, strict=True))
+    if sensor.body in dyn.body_names and at_com <= 1e-12 * length:
+        return "body", dyn.body_names.index(sensor.body)
+    raise ModelMismatch(f"accelerometer {sensor.name!r}: site {sensor.site!r} is neither an analytic point nor at "
+                        f"the centre of mass of an analytic body ({sensor.body!r}); name the site as a point of the "
+                        "system, or put it at its body's centre of mass")
+
+
+def reaction_deviations(model: mujoco.MjModel, dyn: Dynamics, rec: Recorder, q: np.ndarray, qd: np.ndarray,
+                        qdd: np.ndarray, lam: np.ndarray, *, force_scale: float, length: float) -> list[Deviation]:
+    """The figures of the module docstring from the states (q, q̇) with the reference's q̈ and λ, and
+    MuJoCo's records at the same states."""
+    if not rec:
+        return []
+    gravity = np.asarray(model.opt.gravity, dtype=float)
+    n = len(q)
+    site_pos = {s: np.array([row[i] for row in rec.rows["site"]]) for i, s in enumerate(rec.sites)}
+    blocks = dyn.blocks
+
+    def loads_on(tree: Sequence[str]) -> list[AnalyticLoad]:
+        out = []
+        for ld in rec.loads:
+            if ld.body in tree:
+                out.append(AnalyticLoad(force=lam[:, blocks[ld.constraint].start, None] * np.asarray(ld.direction),
+                                        at=site_pos[ld.site]))
+        loaded = {ld.body for ld in rec.loads}
+        for b in tree:
+            worst = max(row[b] for row in rec.rows["external"])
+            if b not in loaded and worst > UNLOADED * force_scale:
+                raise ModelMismatch(f"body {b!r} in a sensor's subtree is loaded from outside its joints (|cfrc_ext| "
+                                    f"up to {worst:.3g}: a contact, connect, weld or spatial tendon) and the case "
+                                    "declares no load for it (Wiring(loads=...))")
+        return out
+
+    def massive(tree: Sequence[str]) -> list[str]:
+        return [b for b in tree if b in dyn.body_names]
+
+    out = []
+    readings = np.array(rec.rows["reading"]).reshape(n, len(rec.sensors), 3)
+    for k, sensor in enumerate(rec.sensors):
+        got = readings[:, k]
+        if sensor.kind == "accelerometer":
+            kind, i = _accelerometer_point(model, dyn, sensor, site_pos[sensor.site],
+                                           rec.rows["com"], length)
+            if kind == "static":
+                acc = np.zeros((n, 3))
+            elif kind == "point":
+                acc = dyn.point_accelerations(q, qd, qdd)[:, i]
+            else:
+                acc = dyn.body_accelerations(q, qd, qdd)[:, i]
+            expected = proper_acceleration(acc, gravity)
+            scale = float(np.max(np.linalg.norm(expected, axis=-1)))
+            out.append(Deviation(FigureName.instant("sensor", sensor.name), got - expected, "vector", "1",
+                                 f"max |accelerometer {sensor.name!r} − (a − g)| at site {sensor.site!r} (world "
+                                 f"frame) / max |a − g| ({scale:.4g} m/s²)", scale=scale or 1.0))
+            continue
+        tree = rec.subtrees[sensor.body]
+        force, torque = subtree_wrench(dyn, massive(tree), q, qd, qdd, gravity=gravity, about=site_pos[sensor.site],
+                                       loads=loads_on(tree))
+        expected, scale, what = (force, force_scale, "F") if sensor.kind == "force" else \
+            (torque, force_scale * length, "τ about the site")
+        out.append(Deviation(FigureName.instant("sensor", sensor.name), got - expected, "vector", "1",
+                             f"max |{sensor.kind} sensor {sensor.name!r} − {what} by the parent on the subtree of "
+                             f"{sensor.body!r}| (world frame) / {scale:.4g}", scale=scale,
+                             size=max(float(np.max(np.linalg.norm(expected, axis=-1))) / scale, 1.0)))
+    interactions = np.array(rec.rows["interaction"]).reshape(n, len(rec.wrenched), 9)
+    for k, body in enumerate(rec.wrenched):
+        tree = rec.subtrees[body]
+        got_force, got_torque, about = interactions[:, k, :3], interactions[:, k, 3:6], interactions[:, k, 6:]
+        force, torque = subtree_wrench(dyn, massive(tree), q, qd, qdd, gravity=gravity, about=about,
+                                       loads=loads_on(tree))
+        values = np.stack([got_force - force, (got_torque - torque) / length], axis=1)
+        size = float(np.max(np.linalg.norm(np.stack([force, torque / length], axis=1), axis=-1))) / force_scale
+        out.append(Deviation(FigureName.instant("interaction", body), values, "vector", "1",
+                             f"max |cfrc_int of {body!r} − (F, τ/L) by the parent on its subtree| / force scale "
+                             f"({force_scale:.4g} N)", scale=force_scale, size=max(size, 1.0)))
+    return out
+
+
+def sensor_names(model: mujoco.MjModel) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(sensor names, bodies with a force or torque sensor): the detail of every figure of this module."""
+    found = S.sensors(model)
+    return tuple(s.name for s in found), tuple(dict.fromkeys(s.body for s in found if s.kind != "accelerometer"))

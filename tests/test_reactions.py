@@ -1,0 +1,233 @@
+"""Reaction forces from Newton–Euler of a subtree (analytic/reactions.py): the sign convention, the
+systems' bodies against their kinetic energies, and closed forms typed by hand.
+
+Closed forms (independent of the sympy path):
+
+- pendulum: the parent (pivot) pulls the bob with F = λ r̂ = −T r̂ along the rod, T = m l θ̇² + m g cos θ;
+  moment about the pivot 0; hanging at rest F = +m g ẑ (the sign convention: by the parent on the child);
+- a uniform rod of mass m and length L on a hinge about y at one end (a physical pendulum): the hinge
+  transmits no moment about y, (I_c + m L²/4) θ̈ = −m g (L/2) sin θ;
+- atwood: the axle carries (m_p g + T1 + T2) ẑ where the string is an external load at the rims, and no
+  moment about the axle.
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from analytic import systems
+from analytic.dynamics import Dynamics
+from analytic.lagrangian import LagrangianSystem, coordinates
+from analytic.reactions import Load, proper_acceleration, subtree_wrench
+from analytic.rigid import RigidBody, axis_rotation
+from harness.engine.models import compile_model, mjcf_path
+from harness.reference.derivations import dynamics_of
+
+WITH_BODIES = ("pendulum", "atwood", "double_pendulum", "spring", "spherical_pendulum", "hoop_ramp")
+RNG = np.random.default_rng(3)
+
+
+@pytest.mark.parametrize("name", WITH_BODIES)
+def test_bodies_make_up_the_kinetic_energy(name):
+    """Σ ½ m ċ² + ½ ω_bᵀ I ω_b over the declared bodies is T: no body's mass or inertia mistyped."""
+    module = importlib.import_module(f"analytic.systems.{name}")
+    system = module.build(systems.symbols(name))
+    total = sum(b.kinetic(system.q, system.qd) for b in system.bodies.values())
+    assert sp.simplify(total - system.kinetic) == 0
+
+
+def _dyn(name):
+    return dynamics_of(name, compile_model(mjcf_path(name)))
+
+
+def test_pendulum_pivot_force_is_the_rod_pull():
+    dyn = _dyn("pendulum")
+    p = dyn.params
+    theta = RNG.uniform(-2.5, 2.5, 8)
+    q = np.stack([theta, np.full(8, p["l"])], axis=-1)
+    qd = np.stack([RNG.uniform(-3, 3, 8), np.zeros(8)], axis=-1)
+    qdd, lam = dyn.accelerations(q, qd)
+    g = np.array([0, 0, -p["g"]])
+    force, torque = subtree_wrench(dyn, ["bob"], q, qd, qdd, gravity=g, about=np.zeros(3))
+    rhat = np.stack([np.sin(theta), np.zeros(8), -np.cos(theta)], axis=-1)
+    tension = p["m"] * p["l"] * qd[:, 0] ** 2 + p["m"] * p["g"] * np.cos(theta)  # by hand
+    np.testing.assert_allclose(force, -tension[:, None] * rhat, atol=1e-12)
+    np.testing.assert_allclose(force, lam[:, :1] * rhat, atol=1e-12)  # the multiplier, λ = −T
+    np.testing.assert_allclose(torque, 0, atol=1e-12)
+
+
+def test_sign_convention_parent_on_child_at_rest():
+    """Hanging at rest: the parent holds the bob up, F = +m g ẑ (MuJoCo's force sensor convention);
+    the bob's accelerometer reads +g ẑ (proper acceleration)."""
+    dyn = _dyn("pendulum")
+    p = dyn.params
+    q, qd = np.array([0.0, p["l"]]), np.zeros(2)
+    qdd, _ = dyn.accelerations(q, qd)
+    g = np.array([0, 0, -p["g"]])
+    force, _ = subtree_wrench(dyn, ["bob"], q, qd, qdd, gravity=g, about=np.zeros(3))
+    np.testing.assert_allclose(force, [0, 0, p["m"] * p["g"]], atol=1e-12)
+    np.testing.assert_allclose(proper_acceleration(dyn.body_accelerations(q, qd, qdd)[0], g), [0, 0, p["g"]],
+                               atol=1e-12)
+
+
+def test_rigid_body_hinge_carries_no_moment_about_its_axis():
+    """A physical pendulum (uniform rod, hinge about y at its end): dL/dt enters the moment, which about
+    the hinge axis must vanish; the pivot force is m(c̈ − g) with c̈ from the hand-typed θ̈."""
+    m, length, g = sp.symbols("m L g", positive=True)
+    (th,), (thd,) = coordinates("theta")
+    rot = axis_rotation("y", th)
+    com = rot * sp.Matrix([0, 0, -length / 2])
+    rod = RigidBody(mass=m, inertia=sp.diag(m * length**2 / 12, m * length**2 / 12, 0), com=com, rotation=rot)
+    system = LagrangianSystem(name="rod", q=(th,), qd=(thd,), kinetic=rod.kinetic((th,), (thd,)),
+                              potential=m * g * com[2], params=(m, length, g), bodies={"rod": rod})
+    params = {"m": 0.7, "L": 1.3, "g": 9.81}
+    dyn = Dynamics.build(system.derive(), params)
+    q = RNG.uniform(-2.5, 2.5, (6, 1))
+    qd = RNG.uniform(-3, 3, (6, 1))
+    qdd, _ = dyn.accelerations(q, qd)
+    np.testing.assert_allclose(qdd[:, 0], -1.5 * params["g"] / params["L"] * np.sin(q[:, 0]), rtol=1e-12)
+    force, torque = subtree_wrench(dyn, ["rod"], q, qd, qdd, gravity=[0, 0, -params["g"]], about=np.zeros(3))
+    np.testing.assert_allclose(torque[:, 1], 0, atol=1e-12)
+    t, w, al = q[:, 0], qd[:, 0], qdd[:, 0]
+    half = params["L"] / 2  # com R_y(θ)(0, 0, −L/2) = (−½L sin θ, 0, −½L cos θ)
+    acc = np.stack([-half * (np.cos(t) * al - np.sin(t) * w**2), np.zeros(6),
+                    half * (np.sin(t) * al + np.cos(t) * w**2)], axis=-1)
+    np.testing.assert_allclose(force, params["m"] * (acc - [0, 0, -params["g"]]), atol=1e-12)
+    # without dL/dt the moment about the axis would be I_c θ̈, not 0: the rate is what makes it vanish
+    spin = dyn.body_momentum_rates(q, qd, qdd)[:, 0, 1]
+    np.testing.assert_allclose(spin, params["m"] * params["L"] ** 2 / 12 * al, rtol=1e-12)
+
+
+def test_atwood_axle_carries_both_tensions_and_the_weight():
+    dyn = _dyn("atwood")
+    p = dyn.params
+    q, qd = np.zeros((1, 3)), np.zeros((1, 3))
+    qdd, lam = dyn.accelerations(q, qd)
+    g = np.array([0, 0, -p["g"]])
+    axle = np.array([0, 0, p["h"]])
+    strings = [Load(force=np.array([[0, 0, -lam[0, 0]]]), at=np.array([[-p["a"], 0, p["h"]]])),
+               Load(force=np.array([[0, 0, -lam[0, 1]]]), at=np.array([[p["a"], 0, p["h"]]]))]
+    force, torque = subtree_wrench(dyn, ["pulley"], q, qd, qdd, gravity=g, about=axle, loads=strings)
+    total = p["m1"] + p["m2"] + p["m_p"]
+    t1 = p["m1"] * p["g"] * (2 * p["m2"] + p["m_p"]) / total  # by hand, as tests/test_atwood.py
+    t2 = p["m2"] * p["g"] * (2 * p["m1"] + p["m_p"]) / total
+    np.testing.assert_allclose(force[0], [0, 0, p["m_p"] * p["g"] + t1 + t2], rtol=1e-12)
+    np.testing.assert_allclose(torque[0], 0, atol=1e-12)
+    # with no load declared the same subtree carries its weight alone (MuJoCo's joint-equality model)
+    bare, _ = subtree_wrench(dyn, ["pulley"], q, qd, qdd, gravity=g, about=axle)
+    np.testing.assert_allclose(bare[0], [0, 0, p["m_p"] * p["g"]], rtol=1e-12)
+
+
+def test_unknown_body_is_refused():
+    dyn = _dyn("pendulum")
+    with pytest.raises(ValueError, match="not bodies of the system"):
+        subtree_wrench(dyn, ["rod"], np.zeros(2), np.zeros(2), np.zeros(2), gravity=[0, 0, -9.81],
+                       about=np.zeros(3))
+
+
+def _static_accelerometers(name):
+    from harness import cases
+    from harness.engine.sensors import sensors
+
+    model = compile_model(cases.get(name).mjcf)
+    return [s.name for s in sensors(model) if s.kind == "accelerometer" and model.body(s.body).id == 0]
+
+
+def _available(name):
+    from harness import cases
+
+    return name in cases.names()
+
+
+STATIC = [(c, s) for c in ("pendulum", "atwood_tendon") if _available(c) for s in _static_accelerometers(c)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name,sensor", STATIC)
+def test_a_static_accelerometer_fails_without_gravity(name, sensor):
+    """The fault that reaches a static accelerometer's gate (tests/test_gates.py, OWN_FAULTS): MuJoCo's
+    gravity disabled while the model still states it, so the reference keeps g and the sensor reads 0."""
+    import mujoco
+
+    from harness import cases
+    from harness.pipeline.run import run_case
+    from tests.conftest import failing
+
+    def no_gravity(spec):
+        spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
+
+    assert f"instant.sensor.{sensor}" in failing(run_case(cases.get(name), edit=no_gravity))
+
+
+# ------------------------------------------------------------------ bad input: one line, exit 2
+PENDULUM = Path(__file__).resolve().parent.parent / "mjcf" / "pendulum.xml"
+BAD_SENSORS = [
+    ('<force name="pivot_force" site="rod_end"/>', '<force site="rod_end"/>', "needs a name"),
+    ('<force name="pivot_force" site="rod_end"/>', '<force name="pivot_force" site="rod_end" cutoff="5"/>',
+     "accepted: 0 (unclipped)"),
+    # a massive body below the sensed one that the analytic system does not have
+    ('<site name="bob_imu" pos="0 0 0" size="0.005"/>',
+     '<site name="bob_imu" pos="0 0 0" size="0.005"/><body name="extra"><inertial pos="0 0 0" mass="0.1" '
+     'diaginertia="1e-6 1e-6 1e-6"/></body>', "the analytic system does not declare"),
+    # an accelerometer at a site that is neither a point of the system nor a body's centre of mass
+    ('<site name="bob_imu" pos="0 0 0" size="0.005"/>', '<site name="bob_imu" pos="0 0 0.3" size="0.005"/>',
+     "neither an analytic point nor at the centre of mass"),
+]
+
+
+@pytest.mark.parametrize("old, new, needle", BAD_SENSORS, ids=["unnamed", "cutoff", "extra-body", "off-com"])
+def test_a_sensor_the_harness_cannot_compare_is_refused_in_one_line(tmp_path, capsys, old, new, needle):
+    from harness.cli.commands import main
+
+    text = PENDULUM.read_text()
+    assert old in text
+    path = tmp_path / "variant.xml"
+    path.write_text(text.replace(old, new))
+    assert main(["check", "pendulum", "--mjcf", str(path), "--integrators", "RK4"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle in err and "Traceback" not in err, err
+
+
+@pytest.mark.skipif(not _available("atwood_tendon"), reason="atwood_tendon needs a newer MuJoCo")
+def test_an_undeclared_external_load_is_refused(capsys):
+    """atwood_tendon without its wiring's loads: the strings pull the pulley from outside its joints
+    (cfrc_ext), which the Newton–Euler of the subtree would leave out: refused, naming the body."""
+    import dataclasses
+
+    from harness import cases
+    from harness.core.errors import ModelMismatch
+    from harness.layers.instant import instant_deviations
+
+    case = cases.get("atwood_tendon")
+    bare = dataclasses.replace(case, wiring=dataclasses.replace(case.wiring, loads=()))
+    model = compile_model(case.mjcf)
+    ref = bare.reference(model)
+    with pytest.raises(ModelMismatch, match="declares no load for it"):
+        instant_deviations(model, bare.probe(ref.dynamics), ref)
+
+
+def test_hoop_ramp_reaction_is_the_contact_force_and_its_moment():
+    """The rolling hoop's joints carry the ramp's whole reaction (joint equalities act in joint space):
+    F = λ_normal n + λ_roll d, and its moment about the hub is the friction's, I φ̈ = −a λ_roll about +y —
+    Newton–Euler of the rigid hoop (its dL/dt) against the DAE's multipliers."""
+    dyn = _dyn("hoop_ramp")
+    p = dyn.params
+    alpha, a = p["alpha"], p["a"]
+    d = np.array([np.cos(alpha), 0, -np.sin(alpha)])
+    n = np.array([np.sin(alpha), 0, np.cos(alpha)])
+    x = RNG.uniform(0, 2, 5)
+    q = np.stack([x, np.full(5, a), x / a], axis=-1)
+    v = RNG.uniform(-2, 2, 5)
+    qd = np.stack([v, np.zeros(5), v / a], axis=-1)
+    qdd, lam = dyn.accelerations(q, qd)
+    blocks = dyn.blocks
+    normal, roll = lam[:, blocks["normal"].start], lam[:, blocks["roll"].start]
+    hub = dyn.body_coms(q)[:, 0]
+    force, torque = subtree_wrench(dyn, ["hoop"], q, qd, qdd, gravity=[0, 0, -p["g"]], about=hub)
+    np.testing.assert_allclose(force, normal[:, None] * n + roll[:, None] * d, atol=1e-12)
+    np.testing.assert_allclose(torque, np.stack([np.zeros(5), -a * roll, np.zeros(5)], axis=-1), atol=1e-12)
