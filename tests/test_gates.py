@@ -81,7 +81,7 @@ def test_reference_gates_fail_on_a_broken_reference(name, config):
     gamma = funcs["gamma"]
     funcs["gamma"] = lambda *a: gamma(*a) + 1e-2  # a wrong constraint acceleration
     broken_dyn = Dynamics(dyn.coordinates, dyn.constraint_names, dyn.point_names, dyn.cyclic,
-                          dyn.params, funcs)
+                          dyn.params, funcs, constraint_sizes=dyn.constraint_sizes)
     loose = solve(broken_dyn if dyn.constraint_names else dyn, q0=good.q0(), qd0=good.qd0(),
                   t_end=case.horizon, rtol=1e-6, atol=1e-6)
     broken = dataclasses.replace(good, solution=loose)
