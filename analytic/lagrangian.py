@@ -49,6 +49,31 @@ def preload() -> None:
             importlib.import_module(name)
 
 
+# Above this many operations (sympy's count_ops of the entry as derived) an entry is not given to
+# simplify: simplify tries every strategy it has and its cost grows much faster than the expression
+# (welded_pendulum's 7 coordinates and quaternion rows took 3.5 CPU-minutes cold, nearly all of it in
+# simplify, and trigsimp alone costs 2-13 s an entry there). Such an entry is kept as derived or
+# expanded, whichever is shorter: the same expression, written longer, which only the numbers use
+# (lambdified with common subexpressions). The small systems' entries stay below it and keep
+# simplify's exact forms, which their tests compare and the report shows.
+SIMPLIFY_MAX_OPS = 150
+
+
+def tidy(expr: sp.Expr) -> sp.Expr:
+    """``expr`` simplified by :func:`sympy.simplify` if it is small (≤ ``SIMPLIFY_MAX_OPS``
+    operations), else the shorter of ``expr`` and its expansion (see ``SIMPLIFY_MAX_OPS``)."""
+    expr = sp.sympify(expr)
+    ops = sp.count_ops(expr)
+    if ops <= SIMPLIFY_MAX_OPS:
+        return sp.simplify(expr)
+    expanded = sp.expand(expr)
+    return expanded if sp.count_ops(expanded) < ops else expr
+
+
+def _tidied(matrix: sp.Matrix) -> sp.Matrix:
+    return matrix.applyfunc(tidy)
+
+
 def coordinates(names: str) -> tuple[tuple[sp.Symbol, ...], tuple[sp.Symbol, ...]]:
     """Real symbols for generalized coordinates and their velocities.
 
@@ -219,7 +244,7 @@ class Derivation:
     @cached_property
     def mass_matrix(self) -> sp.Matrix:
         s = self.system
-        return sp.simplify(sp.hessian(s.kinetic, s.qd))
+        return _tidied(sp.hessian(s.kinetic, s.qd))
 
     @cached_property
     def forcing(self) -> sp.Matrix:
@@ -229,7 +254,7 @@ class Derivation:
         p = sp.Matrix([sp.diff(s.kinetic, v) for v in s.qd])
         qd = sp.Matrix(s.qd)
         dl_dq = sp.Matrix([sp.diff(lag, c) for c in s.q])
-        return sp.simplify(dl_dq - p.jacobian(s.q) * qd)
+        return _tidied(dl_dq - p.jacobian(s.q) * qd)
 
     @cached_property
     def constraint_rows(self) -> sp.Matrix:
@@ -249,7 +274,7 @@ class Derivation:
         s = self.system
         if not s.constraints:
             return sp.zeros(0, len(s.q))
-        return sp.simplify(self.constraint_rows.jacobian(s.qd))
+        return _tidied(self.constraint_rows.jacobian(s.qd))
 
     @cached_property
     def gamma(self) -> sp.Matrix:
@@ -257,7 +282,7 @@ class Derivation:
         s = self.system
         if not s.constraints:
             return sp.zeros(0, 1)
-        return sp.simplify(-self.constraint_rows.jacobian(s.q) * sp.Matrix(s.qd))
+        return _tidied(-self.constraint_rows.jacobian(s.q) * sp.Matrix(s.qd))
 
     @cached_property
     def holonomic_residual(self) -> sp.Matrix:
@@ -269,13 +294,13 @@ class Derivation:
 
     @cached_property
     def energy(self) -> sp.Expr:
-        return sp.simplify(self.system.kinetic + self.system.potential)
+        return tidy(self.system.kinetic + self.system.potential)
 
     @cached_property
     def momenta(self) -> sp.Matrix:
         """Generalized momenta p_k = ∂L/∂q̇_k."""
         s = self.system
-        return sp.Matrix([sp.simplify(sp.diff(s.lagrangian, v)) for v in s.qd])
+        return sp.Matrix([tidy(sp.diff(s.lagrangian, v)) for v in s.qd])
 
     @cached_property
     def cyclic(self) -> tuple[sp.Symbol, ...]:
@@ -284,9 +309,10 @@ class Derivation:
         jac = self.jacobian
         out = []
         for k, c in enumerate(s.q):
-            in_constraints = any(jac[j, k] != 0 for j in range(jac.rows))
+            if any(jac[j, k] != 0 for j in range(jac.rows)):
+                continue  # in a constraint: not cyclic, whatever L does
             # simplified: a coordinate can hide in L behind an identity such as sin² + cos² = 1
-            if sp.simplify(sp.diff(s.lagrangian, c)) == 0 and not in_constraints:
+            if sp.simplify(sp.diff(s.lagrangian, c)) == 0:
                 out.append(c)
         return tuple(out)
 
@@ -297,7 +323,9 @@ class Derivation:
         qdd = sp.Matrix([sp.Symbol(f"{c.name}_ddot", real=True) for c in s.q])
         lam = sp.Matrix(self.multiplier_symbols)
         jt_lam = self.jacobian.T * lam if s.constraints else sp.zeros(len(s.q), 1)
-        return sp.simplify(self.mass_matrix * qdd - self.forcing - jt_lam)
+        rows = self.mass_matrix * qdd - self.forcing - jt_lam
+        # a sum of parts each already tidied: a small row is simplified again, a large one expanded at most
+        return rows.applyfunc(tidy)
 
     @cached_property
     def multiplier_symbols(self) -> tuple[sp.Symbol, ...]:

@@ -96,3 +96,23 @@ def test_inconsistent_initial_state_is_refused():
         assert "rod" in str(exc)
     else:
         raise AssertionError("off-manifold initial state accepted")
+
+
+def test_tidy_simplifies_small_entries_and_only_expands_large_ones(monkeypatch):
+    """Small entries keep simplify's exact form; a large one never reaches simplify (its cost, not its
+    result, is what the threshold is about) and stays the same expression."""
+    import analytic.lagrangian as lagrangian
+
+    x, y = sp.symbols("x y", real=True)
+    assert lagrangian.tidy(sp.sin(x) ** 2 + sp.cos(x) ** 2) == 1
+    assert lagrangian.tidy((x**2 - 1) / (x - 1)) == x + 1
+    large = sum(sp.sin(k * x + y) * (x + k) ** 2 for k in range(1, 30))
+    assert sp.count_ops(large) > lagrangian.SIMPLIFY_MAX_OPS
+
+    def refuse(expr, **_):
+        raise AssertionError("simplify called on a large entry")
+
+    monkeypatch.setattr(lagrangian.sp, "simplify", refuse)
+    tidied = lagrangian.tidy(large)
+    assert sp.count_ops(tidied) <= sp.count_ops(large)
+    assert sp.expand(tidied - large) == 0
