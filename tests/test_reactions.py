@@ -144,7 +144,8 @@ def _available(name):
     return name in cases.names()
 
 
-STATIC = [(c, s) for c in ("pendulum", "atwood_tendon") if _available(c) for s in _static_accelerometers(c)]
+STATIC = [(c, s) for c in ("pendulum", "atwood_tendon", "physical_pendulum", "symmetric_top") if _available(c)
+          for s in _static_accelerometers(c)]
 
 
 @pytest.mark.slow

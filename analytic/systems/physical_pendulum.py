@@ -98,6 +98,7 @@ def build(p: Parameters) -> LagrangianSystem:
         potential=p.m * p.g * com[2],
         params=tuple(getattr(p, k) for k in names),
         points=points,
+        bodies={LINK: link},
     )
 
 

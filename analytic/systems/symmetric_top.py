@@ -132,6 +132,7 @@ def build(p: Parameters) -> LagrangianSystem:
         potential=m * g * top.com[2],
         params=(m, g, l, i1, i3),
         points=points,
+        bodies={BODY: top},
     )
 
 

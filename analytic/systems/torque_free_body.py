@@ -184,6 +184,7 @@ def build(p: Parameters) -> LagrangianSystem:
         potential=sp.Integer(0),
         params=(p.m, p.I1, p.I2, p.I3, p.d),
         points={BODY: (x, y, z), **{tip: body.point(axis) for tip, axis in zip(TIPS, axes, strict=True)}},
+        bodies={BODY: body},
     )
 
 
