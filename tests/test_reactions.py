@@ -144,8 +144,8 @@ def _available(name):
     return name in cases.names()
 
 
-STATIC = [(c, s) for c in ("pendulum", "atwood_tendon", "physical_pendulum", "symmetric_top") if _available(c)
-          for s in _static_accelerometers(c)]
+STATIC = [(c, s) for c in ("pendulum", "atwood_tendon", "physical_pendulum", "symmetric_top", "slider_crank")
+          if _available(c) for s in _static_accelerometers(c)]
 
 
 @pytest.mark.slow
@@ -210,6 +210,36 @@ def test_an_undeclared_external_load_is_refused(capsys):
     ref = bare.reference(model)
     with pytest.raises(ModelMismatch, match="declares no load for it"):
         instant_deviations(model, bare.probe(ref.dynamics), ref)
+
+
+@pytest.mark.parametrize("load, needle", [
+    (dict(body="piston", site="piston_pin", sign=0.5), r"accepted: \+1 or -1"),
+    (dict(body="rod", site="rod_end", direction=(1.0, 0.0, 0.0)), None),
+])
+def test_a_connect_load_is_checked_against_its_rows(load, needle):
+    """A connect's load is its 3 rows as a world force (no direction) with sign ±1; the Recorder refuses
+    anything else in one line (a direction on a 3-row block is accepted: it reads its first row)."""
+    from harness.core.errors import ModelMismatch
+    from harness.engine.sensors import Load as SensorLoad
+    from harness.layers.reactions import Recorder
+
+    model = compile_model(mjcf_path("slider_crank"))
+    dyn = dynamics_of("slider_crank", model)
+    if needle is None:
+        Recorder(model, dyn, [SensorLoad("wrist_pin", **load)])
+        return
+    with pytest.raises(ModelMismatch, match=needle):
+        Recorder(model, dyn, [SensorLoad("wrist_pin", **load)])
+
+
+def test_a_connect_load_needs_three_rows():
+    from harness.core.errors import ModelMismatch
+    from harness.engine.sensors import Load as SensorLoad
+    from harness.layers.reactions import Recorder
+
+    model = compile_model(mjcf_path("pendulum"))
+    with pytest.raises(ModelMismatch, match="accepted: a direction for a one-row constraint"):
+        Recorder(model, dynamics_of("pendulum", model), [SensorLoad("rod", body="bob", site="bob_imu")])
 
 
 def test_hoop_ramp_reaction_is_the_contact_force_and_its_moment():

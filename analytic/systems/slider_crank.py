@@ -79,6 +79,7 @@ def build(p: Parameters) -> LagrangianSystem:
     import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
+    from analytic.rigid import RigidBody, axis_rotation, point_mass  # lazy: loads sympy
 
     (theta, phi, x, y), qd = coordinates("theta phi x y")
     theta_d, phi_d, x_d, y_d = qd
@@ -105,6 +106,12 @@ def build(p: Parameters) -> LagrangianSystem:
         params=(p.m1, p.I1, p.d1, p.r, p.m2, p.I2, p.d2, p.l, p.m3, p.g),
         constraints=(Constraint("wrist_pin", list(end - piston)),),
         points={"crank": tuple(c1), "rod": tuple(c2), "piston": tuple(piston)},
+        # the links turn about −y only (ω ∥ y): of their inertia only the moment about y enters
+        bodies={"crank": RigidBody(mass=p.m1, inertia=sp.diag(0, p.I1, 0), com=c1,
+                                   rotation=axis_rotation("y", -theta)),
+                "rod": RigidBody(mass=p.m2, inertia=sp.diag(0, p.I2, 0), com=c2,
+                                 rotation=axis_rotation("y", -(theta + phi))),
+                "piston": point_mass(p.m3, piston)},
     )
 
 

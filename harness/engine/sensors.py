@@ -53,14 +53,21 @@ class Sensor:
 @dataclass(frozen=True)
 class Load:
     """An external force that a constraint applies to a body, declared by a case's wiring where MuJoCo
-    counts it in ``cfrc_ext`` (a spatial tendon's pull, a connect): the force is the constraint's
-    multiplier (its first row) times the world ``direction``, acting at the world position of ``site``
-    on the line of action (any site on it: the moment depends only on the line)."""
+    counts it in ``cfrc_ext`` (a spatial tendon's pull, a connect), acting at the world position of
+    ``site`` (for a one-row constraint any site on the line of action: the moment depends only on the
+    line).
+
+    One row (``direction`` given): the force is the constraint's multiplier times the world unit
+    ``direction``. A ``connect`` (``direction`` None): its three rows are the world components of
+    anchor1 − anchor2 and M q̈ = F + Jᵀλ, so λ itself is the world force on the body of ``site1`` at
+    its anchor and −λ the force on the body of ``site2``: ``sign`` +1 or −1 says which. A ``weld``'s
+    orientation rows carry a moment besides (not supported: a weld's 6 rows are refused)."""
 
     constraint: str
     body: str
     site: str
-    direction: tuple[float, float, float]
+    direction: tuple[float, float, float] | None = None
+    sign: float = 1.0
 
 
 def sensors(model: mujoco.MjModel) -> tuple[Sensor, ...]:

@@ -63,6 +63,13 @@ class Recorder:
             if load.constraint not in dyn.constraint_names:
                 raise ModelMismatch(f"load on {load.body!r} names constraint {load.constraint!r}; the system's: "
                                     f"{list(dyn.constraint_names)}")
+            rows = dyn.blocks[load.constraint]
+            if load.direction is None and rows.stop - rows.start != 3:
+                raise ModelMismatch(f"load on {load.body!r}: constraint {load.constraint!r} has "
+                                    f"{rows.stop - rows.start} rows; accepted: a direction for a one-row "
+                                    "constraint, none for a connect's 3 rows (a world force)")
+            if load.sign not in (1.0, -1.0):
+                raise ModelMismatch(f"load on {load.body!r} has sign {load.sign!r}; accepted: +1 or -1")
         self.sites = tuple(dict.fromkeys([*(s.site for s in self.sensors), *(ld.site for ld in self.loads)]))
         self.rows: dict[str, list] = {k: [] for k in ("reading", "site", "interaction", "external", "com")}
 
@@ -109,8 +116,9 @@ def reaction_deviations(model: mujoco.MjModel, dyn: Dynamics, rec: Recorder, q: 
         out = []
         for ld in rec.loads:
             if ld.body in tree:
-                out.append(AnalyticLoad(force=lam[:, blocks[ld.constraint].start, None] * np.asarray(ld.direction),
-                                        at=site_pos[ld.site]))
+                rows = blocks[ld.constraint]
+                force = lam[:, rows] if ld.direction is None else lam[:, rows.start, None] * np.asarray(ld.direction)
+                out.append(AnalyticLoad(force=ld.sign * force, at=site_pos[ld.site]))
         loaded = {ld.body for ld in rec.loads}
         for b in tree:
             worst = max(row[b] for row in rec.rows["external"])
