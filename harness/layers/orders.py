@@ -279,14 +279,16 @@ def initial_force_floor(model: mujoco.MjModel, reference: refmod.Reference) -> f
     """
     dyn = reference.dynamics
     q0 = reference.q0()[None]
-    rows = [k for k, c in enumerate(dyn.constraint_names)
-            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, c) >= 0]
-    if not rows:
+    equalities = [c for c in dyn.constraint_names if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, c) >= 0]
+    if not equalities:
         return 0.0
+    # every row of each equality's block (a connect has 3), with that equality's impedance
+    rows = [k for c in equalities for k in range(dyn.blocks[c].start, dyn.blocks[c].stop)]
     jac = dyn.jacobian(q0)[0][rows]
     lam = reference.solution.multipliers([0.0])[0][rows]
     a = jac @ np.linalg.solve(dyn.mass_matrix(q0)[0], jac.T)
-    d = np.array([float(model.eq_solimp[model.equality(dyn.constraint_names[k]).id, 0]) for k in rows])
+    d = np.array([float(model.eq_solimp[model.equality(c).id, 0]) for c in equalities
+                  for _ in range(dyn.blocks[c].stop - dyn.blocks[c].start)])
     r = np.diag((1.0 - d) / d * np.diag(a))
     return float(np.max(np.abs(np.linalg.solve(a + r, r @ lam)))) / reference.scales.force
 

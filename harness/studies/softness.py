@@ -125,7 +125,7 @@ def _documented_violation(reference: refmod.Reference, t: np.ndarray, names: Seq
     For one row (A = A_ii) this is modeling.rst's r = a_u (1 − d) tc² dr².
     """
     dyn = reference.dynamics
-    rows = [dyn.constraint_names.index(c) for c in names]
+    rows = [k for c in names for k in range(dyn.blocks[c].start, dyn.blocks[c].stop)]  # every row of each block
     q, qd = reference.solution.state(t)
     _, lam = dyn.accelerations(q, qd)
     jac = dyn.jacobian(q)[:, rows]
@@ -167,8 +167,9 @@ def softness_study(case: Case, *, fast: bool = False, timeconsts: Sequence[float
                 continue
             if ref_traj is None:
                 ref_traj = refmod.trajectory(reference, sim.t)
-            force = np.max(np.abs(np.stack([sim.multipliers[c] - ref_traj.multipliers[c]
-                                            for c in probe.constraints])), axis=0) / scale
+            # per sample, the worst row of every constraint (a block's multipliers are (N, k))
+            force = np.max(np.stack([np.abs(sim.multipliers[c] - ref_traj.multipliers[c]).reshape(len(sim.t), -1)
+                                     .max(axis=1) for c in probe.constraints]), axis=0) / scale
             settled = sim.t >= SETTLE * tc_eff
             rows.append(SoftnessRow(
                 timeconst=tc, effective_timeconst=tc_eff, dampratio=dr, impedance=d,
