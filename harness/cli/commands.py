@@ -40,7 +40,7 @@ from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
 from harness.engine import messages
 from harness.engine.integrators import available_integrators
 from harness.outputs import baseline
-from harness.outputs.diff import diff_runs, format_diff, load_run
+from harness.outputs.diff import diff_runs, format_diff, load_run, select
 from harness.outputs.files import REPORT_FILES, check_output, mark_stale, prepare_output, write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
 from harness.outputs.junit import junit_xml
@@ -303,13 +303,18 @@ def _args_diff(p: argparse.ArgumentParser) -> None:
     p.add_argument("old", type=Path, metavar="OLD", help="report.json, check --json output or a baseline "
                                                          "(file or directory) before")
     p.add_argument("new", type=Path, metavar="NEW", help="the same after")
-    p.add_argument("--all", action="store_true", help="list unchanged figures too")
+    p.add_argument("--all", action="store_true", help="list every figure, unchanged ones and those whose "
+                                                      "new/old prints as 1 too")
+    p.add_argument("--case", action="append", default=[], metavar="NAME", help="only this case (repeatable)")
+    p.add_argument("--figure", action="append", default=[], metavar="PATTERN",
+                   help="only the figures matching this name or glob pattern, e.g. RK4.position or 'RK4.*' "
+                        "(repeatable)")
     p.add_argument("--exact", action="store_true",
                    help="exit 1 unless every figure and verdict of both runs is identical")
 
 
 def cmd_diff(args: argparse.Namespace) -> int:
-    diff = diff_runs(load_run(args.old), load_run(args.new))
+    diff = select(diff_runs(load_run(args.old), load_run(args.new)), cases=args.case, figures=args.figure)
     print(format_diff(diff, show_all=args.all), end="")
     return EXIT_FAIL if args.exact and not diff.identical else EXIT_OK
 
@@ -641,7 +646,8 @@ COMMANDS: dict[str, Command] = {
                                     "cases as check does"),
     "diff": Command("what changed between two runs, figure by figure", _args_diff, cmd_diff,
                     "what changed between two runs' JSON (report.json, check --json, a baseline), figure "
-                    "by figure; flipped verdicts first"),
+                    "by figure; flipped verdicts first, then by the size of the change; --case and --figure "
+                    "select rows"),
     "versions": Command("what changed between MuJoCo releases: one environment each, verdicts and figures compared",
                         _args_versions, cmd_versions,
                         "run the check in one isolated environment per MuJoCo release (built with uv, cached) and "

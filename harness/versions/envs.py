@@ -168,14 +168,17 @@ class Builder:
                 return found[0]
             scratch = out.with_name(f"{digest}.tmp")
             shutil.rmtree(scratch, ignore_errors=True)
-            scratch.mkdir(parents=True)
-            self._run(["build", "--wheel", "--quiet", "--out-dir", str(scratch), str(self.source)],
+            tree = _copy_source(self.source, scratch / "source")
+            self._run(["build", "--wheel", "--quiet", "--out-dir", str(scratch / "dist"), str(tree)],
                       f"building the harness's wheel from {self.source}")
-            built = sorted(scratch.glob("mjharness-*.whl"))
+            built = sorted((scratch / "dist").glob("mjharness-*.whl"))
             if not built:
                 raise EnvError(f"building the harness's wheel from {self.source} left no mjharness-*.whl")
-            scratch.rename(out)
-            return out / built[0].name
+            out.mkdir(parents=True)
+            wheel = out / built[0].name
+            built[0].rename(wheel)
+            shutil.rmtree(scratch, ignore_errors=True)
+            return wheel
 
     def ensure(self, spec: EnvSpec, digest: str) -> Environment:
         """The environment of ``spec`` with the harness of source hash ``digest``: reused when complete,
@@ -201,6 +204,19 @@ class Builder:
                            "mjharness", str(wheel)], f"reinstalling the harness for MuJoCo {spec.release}")
             (folder / SOURCE_MARK).write_text(digest + "\n")
             return Environment(spec, folder, built=not complete, harness=True, seconds=time.perf_counter() - start)
+
+
+def _copy_source(root: Path, to: Path) -> Path:
+    """The files a wheel is built from (the packages, pyproject.toml and the README it names), copied to
+    ``to``: a build in the source tree itself would leave ``build/`` there, whose stale copies of deleted
+    modules a later build would package."""
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info")
+    for package in SOURCE_PACKAGES:
+        shutil.copytree(root / package, to / package, ignore=ignore)
+    for name in ("pyproject.toml", "README.md"):
+        if (root / name).is_file():
+            shutil.copy2(root / name, to / name)
+    return to
 
 
 @contextlib.contextmanager

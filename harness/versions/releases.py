@@ -73,15 +73,15 @@ def pip_index_versions(package: str = PACKAGE) -> list[str]:
     raise ValueError(f"cannot ask the package index for {package}'s releases: {reason}")
 
 
-def releases_between(low: str, high: str, *, index: Callable[[], Sequence[str]] = pip_index_versions
-                     ) -> list[Release]:
+def releases_between(low: str, high: str, *, index: Callable[[], Sequence[str]] | None = None) -> list[Release]:
     """Every final release the index offers from ``low`` to ``high`` (both included, oldest first).
-    ``index`` gives the index's list (tests pass a fake). ValueError where the range is empty, reversed or
-    names a release the index does not offer."""
+    ``index`` gives the index's list (default: :func:`pip_index_versions`; tests pass a fake).
+    ValueError where the range is reversed or names a release the index does not offer."""
     lo, hi = release(low), release(high)
     if hi < lo:
         raise ValueError(f"the range {lo}..{hi} runs backwards; give the older release first")
-    offered = sorted({Release(v) for v in index() if _RELEASE.match(v.strip())})
+    listed = index() if index is not None else pip_index_versions()
+    offered = sorted({Release(v) for v in listed if _RELEASE.match(v.strip())})
     missing = [str(r) for r in (lo, hi) if r not in offered]
     if missing:
         raise ValueError(f"the package index offers no MuJoCo {', '.join(missing)}; it offers "
@@ -89,8 +89,7 @@ def releases_between(low: str, high: str, *, index: Callable[[], Sequence[str]] 
     return [r for r in offered if lo <= r <= hi]
 
 
-def parse_selection(tokens: Sequence[str], *, index: Callable[[], Sequence[str]] = pip_index_versions
-                    ) -> list[Release]:
+def parse_selection(tokens: Sequence[str], *, index: Callable[[], Sequence[str]] | None = None) -> list[Release]:
     """The releases ``tokens`` name, oldest first, each once: a release (``3.17.0``) or a range
     (``3.3.0..4.0.0``: every release the index offers between the two). At least two are needed."""
     chosen: set[Release] = set()
