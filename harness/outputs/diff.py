@@ -199,9 +199,12 @@ def _verdict(p: bool | None) -> str:
 
 
 def _status(r: Row, *, old: bool) -> str:
-    """The check's status where the run records it (``FAIL (known defect)``), else pass/FAIL."""
-    status = r.status_old if old else r.status_new
-    return status or _verdict(r.passed_old if old else r.passed_new)
+    """The check's status where the run records one that agrees with its ``passed`` (``FAIL (known
+    defect)``), else pass/FAIL from ``passed``."""
+    status, passed = (r.status_old, r.passed_old) if old else (r.status_new, r.passed_new)
+    if status is not None and passed is not None and (status in ("pass", "n/a")) == passed:
+        return status
+    return _verdict(passed)
 
 
 def format_diff(diff: Diff, *, show_all: bool = False) -> str:
