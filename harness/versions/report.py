@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from harness.core.figures import FigureName
 from harness.core.plotting import HALF_WIDTH, png_bytes, png_data_uri, pyplot
 from harness.outputs.page import unbroken_numbers
+from harness.versions.bisect import Bisection
 from harness.versions.changes import NOISE_FACTOR, ULP_FLOOR, Change, History, Snapshot, history
 from harness.versions.runs import NOISE_RUNS, ReleaseRun
 
@@ -37,7 +38,7 @@ class Comparison:
     check_args: tuple[str, ...] = ()
     extras: tuple[str, ...] = ()
     seconds: float = 0.0
-    bisection: object | None = None
+    bisection: Bisection | None = None
     notes: tuple[str, ...] = field(default_factory=tuple)
 
     @property
@@ -157,6 +158,7 @@ td, th { border: 1px solid #ccc; padding: 2px 6px; text-align: left; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; }
 tr.changed td { background: #fff3cd; }
 .nb { white-space: nowrap; }
+pre { white-space: pre-wrap; font-size: 12px; }
 section { border-top: 1px solid #ddd; margin-top: 1.2em; }
 .flip { color: #a00; font-weight: bold; }
 img { display: block; max-width: 100%; }
