@@ -68,6 +68,10 @@ def environment(python: str, args: list[str]) -> int:
     _log("FAKE_CHECK_LOG", {"release": release, "argv": args, "cwd": os.getcwd()})
     world = json.loads(Path(os.environ["FAKE_WORLD"]).read_text())
     code = world.get("exit", {}).get(release, 0)
+    if release in world.get("crash", ()):  # a traceback, as a harness that cannot drive this MuJoCo gives
+        print("Traceback (most recent call last):\nTypeError: mj_fullM(): incompatible function arguments",
+              file=sys.stderr)
+        return 1
     if code == 2:
         print("mjharness: error: unknown case 'nope'", file=sys.stderr)
         return 2

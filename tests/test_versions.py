@@ -249,9 +249,12 @@ def test_a_release_that_cannot_be_installed_or_checked_is_an_error_line_not_a_cr
     monkeypatch.setenv("FAKE_UV_FAIL", "3.4.0")
     world = json.loads((fake["tmp"] / "world.json").read_text())
     world["exit"] = {"4.0.0": 2}
+    world["crash"] = ["3.3.0"]
     (fake["tmp"] / "world.json").write_text(json.dumps(world))
     runs = _run(fake, ["3.3.0", "3.4.0", "4.0.0"])
-    assert [r.ok for r in runs] == [True, False, False]
+    assert [r.ok for r in runs] == [False, False, False]
+    assert runs[0].error == ("check --json on MuJoCo 3.3.0 exited 1 with no run document: TypeError: mj_fullM(): "
+                             "incompatible function arguments")
     assert "no wheel for mujoco==3.4.0" in runs[1].error
     assert "exited 2: mjharness: error: unknown case 'nope'" in runs[2].error
     monkeypatch.delenv("FAKE_UV_FAIL")

@@ -174,7 +174,7 @@ class Builder:
             built = sorted((scratch / "dist").glob("mjharness-*.whl"))
             if not built:
                 raise EnvError(f"building the harness's wheel from {self.source} left no mjharness-*.whl")
-            out.mkdir(parents=True)
+            out.mkdir(parents=True, exist_ok=True)
             wheel = out / built[0].name
             built[0].rename(wheel)
             shutil.rmtree(scratch, ignore_errors=True)

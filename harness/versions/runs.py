@@ -90,7 +90,9 @@ def run_check(env: Environment, command: CheckCommand, perturb: float | None) ->
     try:
         return check_run(json.loads(done.stdout), f"check --json on {what}")
     except (json.JSONDecodeError, SchemaError) as exc:
-        raise ValueError(f"check --json on {what} printed no run document: {exc}") from None
+        last = (done.stderr.strip().splitlines() or [str(exc)])[-1]  # a crash: its traceback's last line
+        raise ValueError(f"check --json on {what} exited {done.returncode} with no run document: "
+                         f"{last.strip()}") from None
 
 
 def run_release(builder: Builder, spec: EnvSpec, digest: str, command: CheckCommand, *,
