@@ -648,7 +648,7 @@ COMMANDS: dict[str, Command] = {
                     "what changed between two runs' JSON (report.json, check --json, a baseline), figure "
                     "by figure; flipped verdicts first, then by the size of the change; --case and --figure "
                     "select rows"),
-    "versions": Command("what changed between MuJoCo releases: one environment each, verdicts and figures compared",
+    "versions": Command("what changed between MuJoCo releases (an environment each)",
                         _args_versions, cmd_versions,
                         "run the check in one isolated environment per MuJoCo release (built with uv, cached) and "
                         "report what changed from release to release: verdict flips (known defects included), "
