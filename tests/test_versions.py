@@ -333,3 +333,10 @@ def test_perturb_moves_figures_at_roundoff_and_no_further():
         assert abs(base[k] - other[k]) <= 1e-12 * max(abs(base[k]), 1.0), k  # unit scale (0.1 m, 1 m/s here)
     with pytest.raises(ValueError, match="nonzero finite"):
         perturbed(case, 0.0)
+
+
+@pytest.mark.parametrize("size", ["0", "1e-6", "nan", "x"])
+def test_check_perturb_takes_only_a_roundoff_sized_move(size, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["check", "spring", f"--perturb={size}"])
+    assert exc.value.code == 2 and "nonzero number within ±1e-9" in capsys.readouterr().err
