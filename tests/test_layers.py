@@ -8,7 +8,7 @@ first, as the data flows (design: docs/design.md):
 
     analytic  <  harness.core  <  harness.reference  <  harness.engine  <  harness.cases  <  mjcf
       <  harness.layers  <  harness.budget  <  harness.pipeline  <  harness.studies  <  harness.outputs
-      <  harness.api, harness.pytest_plugin  <  harness.cli  <  harness (the package's face)
+      <  harness.versions  <  harness.api, harness.pytest_plugin  <  harness.cli  <  harness (the package's face)
 
 A module may import from its own layer or lower ones. The model modules (mjcf/NAME.py) are found by the
 case registry at run time (importlib), never imported by name.
@@ -22,8 +22,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("analytic", "harness", "mjcf")
 LAYERS = ("analytic", "harness.core", "harness.reference", "harness.engine", "harness.cases", "mjcf",
-          "harness.layers", "harness.budget", "harness.pipeline", "harness.studies", "harness.outputs", "harness.api",
-          "harness.cli", "harness")
+          "harness.layers", "harness.budget", "harness.pipeline", "harness.studies", "harness.outputs",
+          "harness.versions", "harness.api", "harness.cli", "harness")
 SAME_LAYER = {"harness.pytest_plugin": "harness.api", "harness.__main__": "harness.cli"}
 LAZY = "# lazy:"
 

@@ -40,7 +40,7 @@ from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
 from harness.engine import messages
 from harness.engine.integrators import available_integrators
 from harness.outputs import baseline
-from harness.outputs.diff import diff_runs, format_diff, load_run
+from harness.outputs.diff import diff_runs, format_diff, load_run, select
 from harness.outputs.files import REPORT_FILES, check_output, mark_stale, prepare_output, write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
 from harness.outputs.junit import junit_xml
@@ -129,6 +129,16 @@ def _seconds(text: str) -> float:
     return value
 
 
+def _tiny(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and 0 < abs(value) <= 1e-9):
+        raise argparse.ArgumentTypeError(f"must be a nonzero number within ±1e-9 (round-off sized), got {text!r}")
+    return value
+
+
 def _names(text: str) -> tuple[str, ...]:
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     unknown = [n for n in names if n not in available_integrators()]
@@ -160,7 +170,7 @@ def _options(args: argparse.Namespace, selected: Sequence[cases.Case]) -> RunOpt
     for case in selected:
         case.with_motion(q0=args.q0, qd0=args.qd0, horizon=args.horizon)  # ValueError naming what is wrong
     return RunOptions(mjcf=args.mjcf, timestep=args.timestep, integrators=args.integrators, horizon=args.horizon,
-                      q0=args.q0, qd0=args.qd0)
+                      q0=args.q0, qd0=args.qd0, perturb=getattr(args, "perturb", None))
 
 
 def _outcome(args: argparse.Namespace, results: Sequence, checks: dict[str, list[Check]], limits) -> Outcome:
@@ -269,6 +279,10 @@ def _args_check(p: argparse.ArgumentParser) -> None:
     _add_junit(p)
     p.add_argument("--json", action="store_true", help="print the run as JSON (report.json schema) "
                                                        "instead of the table")
+    p.add_argument("--perturb", type=_tiny, metavar="SIZE",
+                   help="move every initial coordinate and velocity x by SIZE × max(|x|, 1) (round-off: SIZE within "
+                        "±1e-9, e.g. 1e-15 or =-1e-15): how far each figure moves at round-off, its run-to-run noise "
+                        "(mjharness versions measures it so)")
     _add_quiet(p)
     _add_run_options(p)
 
@@ -291,15 +305,118 @@ def _args_diff(p: argparse.ArgumentParser) -> None:
     p.add_argument("old", type=Path, metavar="OLD", help="report.json, check --json output or a baseline "
                                                          "(file or directory) before")
     p.add_argument("new", type=Path, metavar="NEW", help="the same after")
-    p.add_argument("--all", action="store_true", help="list unchanged figures too")
+    p.add_argument("--all", action="store_true", help="list every figure, unchanged ones and those whose "
+                                                      "new/old prints as 1 too")
+    p.add_argument("--case", action="append", default=[], metavar="NAME", help="only this case (repeatable)")
+    p.add_argument("--figure", action="append", default=[], metavar="PATTERN",
+                   help="only the figures matching this name or glob pattern, e.g. RK4.position or 'RK4.*' "
+                        "(repeatable)")
     p.add_argument("--exact", action="store_true",
                    help="exit 1 unless every figure and verdict of both runs is identical")
 
 
 def cmd_diff(args: argparse.Namespace) -> int:
-    diff = diff_runs(load_run(args.old), load_run(args.new))
+    diff = select(diff_runs(load_run(args.old), load_run(args.new)), cases=args.case, figures=args.figure)
     print(format_diff(diff, show_all=args.all), end="")
     return EXIT_FAIL if args.exact and not diff.identical else EXIT_OK
+
+
+def _args_versions(p: argparse.ArgumentParser) -> None:
+    p.add_argument("releases", nargs="+", metavar="RELEASE",
+                   help="MuJoCo releases to compare (3.17.0 4.0.0), or a range LO..HI: every release the package "
+                        "index offers from LO to HI (3.3.0..4.0.0); 3.3.0 and later")
+    p.add_argument("--bisect", metavar="CASE:FIGURE|verdicts",
+                   help="find the first release of the range at which this figure moved beyond its noise (or any "
+                        "verdict flipped), installing only the releases the bisection needs")
+    p.add_argument("--out", type=Path, default=Path("mjharness-versions"), metavar="DIR",
+                   help="where to write versions.html, versions.json and versions.txt (default: ./mjharness-versions)")
+    p.add_argument("--backend", metavar="NAME",
+                   help="install the backend's packages in every environment and run the check with --backend NAME")
+    p.add_argument("--with", dest="extras", action="append", default=[], metavar="REQUIREMENT",
+                   help="an extra package for every environment ('{version}' is the MuJoCo release, e.g. "
+                        "'mujoco-mjx=={version}'; repeatable)")
+    p.add_argument("--parallel", type=_positive, metavar="N",
+                   help="releases run at once (default: as many as CPUs, here "
+                        f"{cpus()}; one with --bisect)")
+    p.add_argument("--jobs", "-j", type=_positive, metavar="N",
+                   help="worker processes of each release's check (default: the CPUs left per release, at least 1)")
+    p.add_argument("--no-plots", dest="plots", action="store_false", help="versions.html without the plots")
+
+
+def cmd_versions(args: argparse.Namespace) -> int:
+    from harness.versions import bisect as bisection  # lazy: only this command builds environments
+    from harness.versions import envs, releases, report, session  # lazy: as above
+    from harness.versions.runs import CheckCommand, check_environ  # lazy: as above
+
+    check_args = list(getattr(args, "check_args", []))
+    extras = list(args.extras)
+    if args.backend is not None:
+        if args.backend not in envs.BACKEND_PACKAGES:
+            raise ValueError(f"unknown backend {args.backend!r}; known: {', '.join(envs.BACKEND_PACKAGES)}")
+        if not _check_takes("--backend"):
+            raise ValueError("--backend: this harness's check has no --backend option yet (backends other than "
+                             "MuJoCo's own: issue 20); --with REQUIREMENT installs extra packages meanwhile")
+        extras += envs.BACKEND_PACKAGES[args.backend]
+        check_args += ["--backend", args.backend]
+    checked = _check_options(check_args)
+    target = bisection.parse_target(args.bisect) if args.bisect else None
+    if target is not None and target.case is not None:
+        cases.select([target.case])  # an unknown case: one line naming the known ones
+        if not (checked.cases or checked.case):
+            check_args += ["--case", target.case]  # only the case the figure belongs to
+    chosen = releases.parse_selection(args.releases)
+    check_output(args.out)
+    parallel = 1 if target is not None else (args.parallel or min(len(chosen), cpus()))
+    jobs = args.jobs or max(1, cpus() // parallel)
+    root = envs.source_root()
+    builder = envs.Builder(uv=envs.find_uv(), root=envs.envs_root(), source=root)
+    command = CheckCommand(args=tuple(check_args), jobs=jobs, cwd=Path.cwd(), environ=check_environ())
+    digest = envs.source_hash(root)
+
+    def done(run) -> None:
+        if sys.stderr.isatty():
+            state = "ran" if run.ok else f"failed: {run.error}"
+            print(f"MuJoCo {run.release}: {state} ({run.env_seconds + run.check_seconds:.0f} s)", file=sys.stderr)
+
+    if target is not None:
+        comparison = session.bisect_releases(builder, chosen, digest, command, target, extras=extras,
+                                             pinned=envs.pins(), on_done=done)
+    else:
+        comparison = session.compare_releases(builder, chosen, digest, command, extras=extras, pinned=envs.pins(),
+                                              parallel=parallel, on_done=done)
+    summary = report.text(comparison)
+    prepare_output(args.out)
+    write_atomic({args.out / "versions.txt": summary,
+                  args.out / "versions.json": dumps(report.json_doc(comparison)),
+                  args.out / "versions.html": report.html_page(comparison, plots=args.plots)})
+    print(summary, end="")
+    print(f"wrote {args.out / 'versions.html'}, {args.out / 'versions.json'}, {args.out / 'versions.txt'}")
+    stopped = comparison.bisection is not None and comparison.bisection.errors
+    return EXIT_FAIL if comparison.errors or stopped else EXIT_OK
+
+
+def _check_options(check_args: Sequence[str]) -> argparse.Namespace:
+    """The check options ``versions`` passes through (after ``--``), parsed as ``check`` parses them here,
+    so a mistake is one line before anything is installed."""
+    if "--json" in check_args:
+        raise ValueError("the check options after -- need no --json: versions always reads the check's JSON")
+    if any(a == "--perturb" or a.startswith("--perturb=") for a in check_args):
+        raise ValueError("the check options after -- may not set --perturb: versions sets it for the noise runs")
+    parser = _CheckOptions(prog="mjharness versions ... --", add_help=False)
+    _args_check(parser)
+    return parser.parse_args(list(check_args))
+
+
+def _check_takes(option: str) -> bool:
+    """Whether this harness's ``check`` has ``option``."""
+    parser = _CheckOptions(prog="check", add_help=False)
+    _args_check(parser)
+    return option in parser._option_string_actions
+
+
+class _CheckOptions(_Parser):
+    def error(self, message: str) -> None:  # raised, not printed: the command's one line names it
+        raise ValueError(f"the check options after -- are not ones `mjharness check` takes here: {message}")
 
 
 def _args_baseline(p: argparse.ArgumentParser) -> None:
@@ -531,7 +648,15 @@ COMMANDS: dict[str, Command] = {
                                     "cases as check does"),
     "diff": Command("what changed between two runs, figure by figure", _args_diff, cmd_diff,
                     "what changed between two runs' JSON (report.json, check --json, a baseline), figure "
-                    "by figure; flipped verdicts first"),
+                    "by figure; flipped verdicts first, then by the size of the change; --case and --figure "
+                    "select rows"),
+    "versions": Command("what changed between MuJoCo releases (an environment each)",
+                        _args_versions, cmd_versions,
+                        "run the check in one isolated environment per MuJoCo release (built with uv, cached) and "
+                        "report what changed from release to release: verdict flips (known defects included), "
+                        "figures that moved beyond their noise, figures that appeared or vanished. Options for "
+                        "the check go after --, e.g. mjharness versions 3.17.0 4.0.0 -- --case pendulum --mjcf "
+                        "my.xml. Exit 1 where a release could not be run."),
     "baseline": Command("write or compare the regression baseline", _args_baseline, cmd_baseline,
                         "write or compare the regression baseline (reports/baseline/)"),
     "limits": Command("each case's limits with their basis", _args_limits, cmd_limits,
@@ -608,7 +733,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not (sys.argv[1:] if argv is None else list(argv)):  # a bare `mjharness`: what it can do
         parser.print_help()
         return EXIT_USAGE
+    argv = list(sys.argv[1:] if argv is None else argv)
+    check_args: list[str] = []
+    if argv[0] == "versions" and "--" in argv:  # the check's own options, passed through as given
+        cut = argv.index("--")
+        argv, check_args = argv[:cut], argv[cut + 1:]
     args = parser.parse_args(argv)
+    args.check_args = check_args
     messages.keep()  # MuJoCo's own warnings: read from its counters, never printed before our one line
     with warnings.catch_warnings():  # nor Python's: a MuJoCo fallback is in the run's settings ("compat")
         warnings.simplefilter("ignore")

@@ -19,14 +19,15 @@ from harness.engine.readings import Reading
 def full_mass_matrix(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
     """Dense joint-space inertia matrix after ``mj_forward``.
 
-    MuJoCo 3.10 changed ``mj_fullM(m, dst, qM)`` to ``mj_fullM(m, d, dst)`` and
-    later removed ``mjData.qM``; the old signature is the fallback.
+    MuJoCo 3.10.0 changed ``mj_fullM(m, dst, qM)`` to ``mj_fullM(m, d, dst)`` (changelog 3.10.0, item 14)
+    and later removed ``mjData.qM``; 3.10.0 itself has both ``qM`` and the new signature (found by
+    ``mjharness versions``), so the release decides, not the field.
     """
     dense = np.zeros((model.nv, model.nv))
-    if hasattr(data, "qM"):
-        mujoco.mj_fullM(model, dense, data.qM)
-    else:
+    if _version() >= (3, 10, 0):
         mujoco.mj_fullM(model, data, dense)
+    else:
+        mujoco.mj_fullM(model, dense, data.qM)
     return dense
 
 

@@ -1,20 +1,34 @@
-"""What changed between two runs: figure by figure (old, new, new/old), verdict flips first.
+"""What changed between two runs: figure by figure (old, new, new/old), verdict flips first, then the
+figures by the size of their change.
 
 Reads the JSON that ``mjharness run`` (report.json), ``mjharness check --json``
 and ``mjharness baseline --write`` produce: ``{"cases": {CASE: {"figures":
-{NAME: {"value": V, ...}}, "checks": {NAME: {"passed": B, "threshold": T}}}}}``.
-Informational: it never judges; the flipped verdicts are what to look at.
+{NAME: {"value": V, ...}}, "checks": {NAME: {"passed": B, "status": S, "threshold": T}}}}}``.
+Informational: it never judges; the flipped verdicts are what to look at. A verdict flips when a
+check's status changes between ``pass``, ``FAIL`` and ``FAIL (known defect)`` (a known defect is a
+failure: a release that fixes it flips it to pass).
+
+By default the table hides what tells nothing: figures identical in both runs and figures whose
+new/old is 1 at the three digits it is printed with (:data:`PRINTED_PRECISION`: MuJoCo releases and
+platforms move figures at round-off); ``--all`` lists every figure. Two runs of one machine and
+version are bit-identical, so ``diff`` has no measure of a figure's noise; ``mjharness versions``
+measures it.
 """
 
 from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from fnmatch import fnmatchcase
 from pathlib import Path
 
 from harness.outputs.schema import check_run
+
+PRINTED_PRECISION = 5e-4
+"""A ratio within this of 1 prints as 1 at three significant digits: the row shows no change."""
+JUDGED = ("pass", "FAIL", "FAIL (known defect)")
 
 
 @dataclass(frozen=True)
@@ -28,6 +42,8 @@ class Row:
     new: float | None
     passed_old: bool | None
     passed_new: bool | None
+    status_old: str | None = None
+    status_new: str | None = None
 
     @property
     def ratio(self) -> float | None:
@@ -39,7 +55,29 @@ class Row:
 
     @property
     def flipped(self) -> bool:
-        return self.passed_old is not None and self.passed_new is not None and self.passed_old != self.passed_new
+        """The verdict changed: passed against failed, or between FAIL and FAIL (known defect)."""
+        if self.passed_old is None or self.passed_new is None:
+            return False
+        return self.passed_old != self.passed_new or (
+            self.status_old in JUDGED and self.status_new in JUDGED and self.status_old != self.status_new)
+
+    @property
+    def size(self) -> float:
+        """The change as decades, ``|log10(new/old)|``: infinite from or to zero or a non-finite value, 0
+        where the value is the same or one run lacks it."""
+        old, new = self.old, self.new
+        if old is None or new is None or old == new:
+            return 0.0
+        if not (math.isfinite(old) and math.isfinite(new)) or old == 0 or new == 0:
+            return math.inf
+        return abs(math.log10(abs(new) / abs(old)))
+
+    @property
+    def negligible(self) -> bool:
+        """Changed, but new/old prints as 1 (:data:`PRINTED_PRECISION`), and the verdict did not flip."""
+        r = self.ratio
+        return (self.changed and not self.flipped and r is not None and math.isfinite(r)
+                and abs(r - 1.0) < PRINTED_PRECISION)
 
     @property
     def changed(self) -> bool:
@@ -101,6 +139,13 @@ def _verdicts(case_doc: Mapping) -> dict[str, bool]:
         if isinstance(checks, dict) else {}
 
 
+def _statuses(case_doc: Mapping) -> dict[str, str]:
+    """Each check's status (schema 2; absent in schema 1)."""
+    checks = case_doc.get("checks", {})
+    return {k: v["status"] for k, v in checks.items() if isinstance(v, dict) and isinstance(v.get("status"), str)} \
+        if isinstance(checks, dict) else {}
+
+
 def diff_runs(old: Mapping, new: Mapping) -> Diff:
     """Every figure of either run, by case, in the old run's order (new cases and figures after)."""
     rows = []
@@ -108,16 +153,41 @@ def diff_runs(old: Mapping, new: Mapping) -> Diff:
     for case in [*old_cases, *(c for c in new_cases if c not in old_cases)]:
         o, n = old_cases.get(case, {"figures": {}}), new_cases.get(case, {"figures": {}})
         vo, vn = _verdicts(o), _verdicts(n)
+        so, sn = _statuses(o), _statuses(n)
         names = [*o["figures"], *(f for f in n["figures"] if f not in o["figures"])]
         for name in names:
             rows.append(Row(case, name,
                             _value(o["figures"][name]) if name in o["figures"] else None,
                             _value(n["figures"][name]) if name in n["figures"] else None,
-                            vo.get(name), vn.get(name)))
+                            vo.get(name), vn.get(name), so.get(name), sn.get(name)))
     ov, nv = old.get("versions", {}), new.get("versions", {})
     versions = tuple((k, str(ov.get(k, "?")), str(nv.get(k, "?")))
                      for k in sorted(set(ov) | set(nv)) if ov.get(k) != nv.get(k))
     return Diff(rows=tuple(rows), versions=versions)
+
+
+def select(diff: Diff, *, cases: Sequence[str] = (), figures: Sequence[str] = ()) -> Diff:
+    """The rows of the cases named and of the figures matching one of the glob patterns (``RK4.*``); all
+    where none is given. ValueError (one line) for a case neither run has or a pattern no figure matches."""
+    rows = diff.rows
+    if cases:
+        present = list(dict.fromkeys(r.case for r in rows))
+        unknown = [c for c in cases if c not in present]
+        if unknown:
+            raise ValueError(f"--case {', '.join(unknown)}: not in either run; the runs have {', '.join(present)}")
+        rows = tuple(r for r in rows if r.case in cases)
+    if figures:
+        idle = [p for p in figures if not any(fnmatchcase(r.figure, p) for r in rows)]
+        if idle:
+            raise ValueError(f"--figure {', '.join(idle)}: matches no figure of the runs (a name such as "
+                             "RK4.position, or a pattern such as 'RK4.*' or '*.force.*')")
+        rows = tuple(r for r in rows if any(fnmatchcase(r.figure, p) for p in figures))
+    return replace(diff, rows=rows)
+
+
+def _order(r: Row) -> tuple:
+    """Flipped verdicts first, then the largest change first (by decades), figures only in one run last."""
+    return (not r.flipped, r.one_sided, -r.size)
 
 
 def _num(v: float | None) -> str:
@@ -128,18 +198,29 @@ def _verdict(p: bool | None) -> str:
     return "" if p is None else ("pass" if p else "FAIL")
 
 
+def _status(r: Row, *, old: bool) -> str:
+    """The check's status where the run records one that agrees with its ``passed`` (``FAIL (known
+    defect)``), else pass/FAIL from ``passed``."""
+    status, passed = (r.status_old, r.passed_old) if old else (r.status_new, r.passed_new)
+    if status is not None and passed is not None and (status in ("pass", "n/a")) == passed:
+        return status
+    return _verdict(passed)
+
+
 def format_diff(diff: Diff, *, show_all: bool = False) -> str:
-    """Aligned text: flipped verdicts marked ``<< FLIPPED``; unchanged figures only with ``show_all``."""
+    """Aligned text, sorted by the size of the change: flipped verdicts marked ``<< FLIPPED`` (and listed
+    first); figures unchanged, or changed below what new/old prints, only with ``show_all``."""
     lines = [f"{pkg}: {a} -> {b}" for pkg, a, b in diff.versions]
     for r in diff.flipped:
-        lines.append(f"FLIPPED {r.case} {r.figure}: {_verdict(r.passed_old)} -> {_verdict(r.passed_new)} "
+        lines.append(f"FLIPPED {r.case} {r.figure}: {_status(r, old=True)} -> {_status(r, old=False)} "
                      f"({_num(r.old)} -> {_num(r.new)})")
-    shown = [r for r in diff.rows if show_all or r.changed or (r.one_sided and r.gated)]
+    shown = sorted((r for r in diff.rows if show_all or (r.changed and not r.negligible) or (r.one_sided and r.gated)),
+                   key=_order)
     header = ("case", "figure", "old", "new", "new/old", "verdict", "")
     table = [header]
     for r in shown:
         ratio = "—" if r.ratio is None else ("inf" if math.isinf(r.ratio) else f"{r.ratio:.3g}")
-        verdict = (f"{_verdict(r.passed_old) or '-'} -> {_verdict(r.passed_new) or '-'}"
+        verdict = (f"{_status(r, old=True) or '-'} -> {_status(r, old=False) or '-'}"
                    if r.passed_old is not None or r.passed_new is not None else "")
         table.append((r.case, r.figure, _num(r.old), _num(r.new), ratio, verdict,
                       "<< FLIPPED" if r.flipped else ""))
@@ -151,8 +232,10 @@ def format_diff(diff: Diff, *, show_all: bool = False) -> str:
     only_old = sum(r.new is None for r in diff.rows)
     only_new = sum(r.old is None for r in diff.rows)
     worse = [r for r in diff.flipped if r.passed_old]
-    hidden = unchanged + sum(r.one_sided and not r.gated for r in diff.rows)
-    lines.append(f"{len(both)} figures in both runs: {len(both) - unchanged} changed, {unchanged} identical; "
+    negligible = sum(r.negligible for r in diff.rows)
+    hidden = unchanged + negligible + sum(r.one_sided and not r.gated for r in diff.rows)
+    lines.append(f"{len(both)} figures in both runs: {len(both) - unchanged} changed ({negligible} of them by less "
+                 f"than new/old shows, hidden), {unchanged} identical; "
                  f"{only_old} only in OLD, {only_new} only in NEW"
                  f"{'' if show_all or not hidden else ' (--all lists every figure)'}; "
                  f"{len(diff.flipped)} verdict(s) flipped ({len(worse)} pass -> FAIL, "

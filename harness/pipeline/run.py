@@ -100,6 +100,7 @@ class RunOptions:
     horizon: float | None = None
     q0: Mapping[str, float] | None = None
     qd0: Mapping[str, float] | None = None
+    perturb: float | None = None
 
     @property
     def shipped(self) -> bool:
@@ -107,7 +108,21 @@ class RunOptions:
 
     def run(self, case: Case, *, edit: Callable[[mujoco.MjSpec], None] | None = None) -> CaseResult:
         return run_case(case, mjcf=self.mjcf, integrators=self.integrators, timestep=self.timestep,
-                        horizon=self.horizon, q0=self.q0, qd0=self.qd0, edit=edit)
+                        horizon=self.horizon, q0=self.q0, qd0=self.qd0, perturb=self.perturb, edit=edit)
+
+
+def perturbed(case: Case, size: float) -> Case:
+    """``case`` with every initial coordinate and velocity x moved to x + size · max(|x|, 1).
+
+    At ``size`` of a few units of float round-off (``mjharness versions`` uses 1e-15) nothing physical
+    changes: the reference and MuJoCo start from the same moved state (the reference is built from it),
+    every sampled state of the instant layer moves with it, and what a figure does is what round-off
+    does to it. The difference from the unperturbed run is that figure's run-to-run noise, which a
+    deterministic engine never shows on one machine (``harness.versions.changes``)."""
+    if not (math.isfinite(size) and size != 0):
+        raise ValueError(f"perturb must be a nonzero finite number, got {size}")
+    return case.with_motion(q0={k: v + size * max(abs(v), 1.0) for k, v in case.q0.items()},
+                            qd0={k: v + size * max(abs(v), 1.0) for k, v in case.qd0.items()})
 
 
 def model_settings(model: mujoco.MjModel) -> dict[str, object]:
@@ -161,16 +176,20 @@ def run_case(
     horizon: float | None = None,
     q0: Mapping[str, float] | None = None,
     qd0: Mapping[str, float] | None = None,
+    perturb: float | None = None,
     edit: Callable[[mujoco.MjSpec], None] | None = None,
 ) -> CaseResult:
     """All layers and budgets for ``case``.
 
     ``mjcf`` replaces the shipped model and ``edit`` modifies the model through MjSpec; the reference
     is built from the model so made. ``timestep`` and ``integrators`` change how it runs, ``horizon``,
-    ``q0`` and ``qd0`` the motion (the coordinates they name; see :meth:`Case.with_motion`).
+    ``q0`` and ``qd0`` the motion (the coordinates they name; see :meth:`Case.with_motion`); ``perturb``
+    then moves the whole initial state at round-off level (:func:`perturbed`).
     """
     if horizon is not None or q0 or qd0:
         case = case.with_motion(q0=q0, qd0=qd0, horizon=horizon)
+    if perturb is not None:
+        case = perturbed(case, perturb)
     chosen = tuple(integrators) if integrators is not None else available_integrators()
     for name in chosen:
         if name not in available_integrators():

@@ -1,0 +1,231 @@
+"""One isolated environment per MuJoCo release, built with uv and kept for the next run.
+
+An environment holds one MuJoCo release, the harness built from the source that runs this command, and
+the harness's dependencies, with numpy and sympy pinned to the versions this interpreter has (the
+reference is computed by them: pinned, it is the same in every environment, and what differs between
+two environments is MuJoCo alone). Extra packages (a backend's, ``--with``) are installed beside them.
+
+Where they live: ``$XDG_CACHE_HOME/mjharness/versions/`` (else ``~/.cache/mjharness/versions/``), one
+folder per release and set of requirements (:meth:`EnvSpec.folder`), reused while present and complete.
+The harness in it is reinstalled, without touching the rest, when the source's hash (every file of
+``analytic/``, ``harness/``, ``mjcf/`` and ``pyproject.toml``) differs from the one it was built from;
+the wheel is built once per source hash and shared by every environment. uv keeps its downloads in
+its own cache (``$XDG_CACHE_HOME/uv``), so a second environment of the same packages downloads
+nothing. Building is serialised per folder with a lock file, so two commands never build one folder at
+once; a folder whose build did not finish has no ``complete`` marker and is rebuilt.
+
+The check runs as ``ENV/bin/python -P -m harness``: ``-P`` keeps the working directory off the import
+path, so a source checkout there cannot shadow the harness installed in the environment.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import os
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from importlib.metadata import PackageNotFoundError
+from importlib.metadata import version as installed_version
+from pathlib import Path
+
+from harness.versions.releases import Release
+
+PINNED = ("numpy", "sympy")
+"""The dependencies pinned to this interpreter's versions in every environment: they compute the reference."""
+
+SOURCE_PACKAGES = ("analytic", "harness", "mjcf")
+COMPLETE = "complete"  # the marker of a finished build, holding the requirements it installed
+SOURCE_MARK = "mjharness-source"  # the source hash the installed harness was built from
+
+BACKEND_PACKAGES: Mapping[str, tuple[str, ...]] = {
+    "mujoco": (),
+    "mjx": ("mujoco-mjx=={version}",),  # MJX is released with MuJoCo, under the same number
+    "warp": ("mujoco-warp",),  # resolved by uv against the pinned mujoco
+}
+"""The packages each backend needs in an environment; ``{version}`` is the MuJoCo release."""
+
+
+def source_root() -> Path:
+    """The source tree this harness runs from (the folder holding ``pyproject.toml`` beside ``harness/``);
+    ValueError where it runs from an installed copy, which cannot be rebuilt into another environment."""
+    root = Path(__file__).resolve().parents[2]
+    if not (root / "pyproject.toml").is_file():
+        raise ValueError(f"mjharness versions installs the harness from its source tree, and {root} has no "
+                         "pyproject.toml: run it from a checkout (pip install -e . or python -m harness)")
+    return root
+
+
+def source_hash(root: Path) -> str:
+    """SHA-256 (16 hex digits) of every file of the harness's packages and of ``pyproject.toml``, by path."""
+    digest = hashlib.sha256()
+    files = [root / "pyproject.toml"]
+    for package in SOURCE_PACKAGES:
+        files += sorted(p for p in (root / package).rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+    for path in files:
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0")
+        digest.update(path.read_bytes() + b"\0")
+    return digest.hexdigest()[:16]
+
+
+def envs_root() -> Path:
+    """``$XDG_CACHE_HOME/mjharness/versions`` (else ``~/.cache/mjharness/versions``)."""
+    base = os.environ.get("XDG_CACHE_HOME", "").strip()
+    return (Path(base) if base else Path.home() / ".cache") / "mjharness" / "versions"
+
+
+def find_uv() -> str:
+    """The uv executable: the one the ``uv`` package ships (a dependency of the harness), else uv on PATH."""
+    with contextlib.suppress(ImportError, FileNotFoundError):
+        import uv  # lazy: only this command needs it
+
+        return str(uv.find_uv_bin())
+    found = shutil.which("uv")
+    if found is None:
+        raise ValueError("uv is not installed: pip install uv (mjharness versions builds its environments with it)")
+    return found
+
+
+def pins() -> tuple[str, ...]:
+    """``numpy==X``, ``sympy==Y``: this interpreter's versions of :data:`PINNED`."""
+    out = []
+    for name in PINNED:
+        try:
+            out.append(f"{name}=={installed_version(name)}")
+        except PackageNotFoundError:
+            out.append(name)
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class EnvSpec:
+    """What one environment holds: a MuJoCo release and extra requirements (``{version}`` in one is the
+    release), besides the harness, its dependencies and the :func:`pins`."""
+
+    release: Release
+    extras: tuple[str, ...] = ()
+    pinned: tuple[str, ...] = ()
+
+    def requirements(self) -> tuple[str, ...]:
+        return (f"mujoco=={self.release}", *self.pinned,
+                *(e.replace("{version}", str(self.release)) for e in self.extras))
+
+    def folder(self, root: Path) -> Path:
+        """``root/mujoco-RELEASE-pyXY-KEY``: KEY hashes the requirements, so another pin or extra package is
+        another environment and the same ones find the same folder."""
+        key = hashlib.sha256("\n".join(self.requirements()).encode()).hexdigest()[:10]
+        return root / f"mujoco-{self.release}-py{sys.version_info[0]}{sys.version_info[1]}-{key}"
+
+
+@dataclass(frozen=True)
+class Environment:
+    """A built environment: its folder, its interpreter, and how it was had (``built``: created now,
+    ``harness``: the harness (re)installed now; ``seconds`` spent)."""
+
+    spec: EnvSpec
+    folder: Path
+    built: bool
+    harness: bool
+    seconds: float
+
+    @property
+    def python(self) -> Path:
+        return self.folder / "bin" / "python"
+
+
+class EnvError(ValueError):
+    """An environment that could not be built: the command and the last line uv printed."""
+
+
+@dataclass(frozen=True)
+class Builder:
+    """Builds environments with ``uv`` under ``root`` from the source tree ``source``; ``environ`` is the
+    environment uv runs with (tests point it at a fake index)."""
+
+    uv: str
+    root: Path
+    source: Path
+    environ: Mapping[str, str] | None = None
+
+    def _run(self, args: Sequence[str], what: str) -> None:
+        done = subprocess.run([self.uv, *args], capture_output=True, text=True, check=False,
+                              env=dict(self.environ) if self.environ is not None else None)
+        if done.returncode != 0:
+            last = (done.stderr.strip().splitlines() or done.stdout.strip().splitlines() or ["no output"])[-1]
+            raise EnvError(f"{what} failed (uv exit {done.returncode}): {last.strip()}")
+
+    def wheel(self, digest: str) -> Path:
+        """The harness's wheel built from the source (once per source hash, shared by the environments)."""
+        out = self.root / "wheels" / digest
+        with _locked(out.with_suffix(".lock")):
+            found = sorted(out.glob("mjharness-*.whl"))
+            if found:
+                return found[0]
+            scratch = out.with_name(f"{digest}.tmp")
+            shutil.rmtree(scratch, ignore_errors=True)
+            tree = _copy_source(self.source, scratch / "source")
+            self._run(["build", "--wheel", "--quiet", "--out-dir", str(scratch / "dist"), str(tree)],
+                      f"building the harness's wheel from {self.source}")
+            built = sorted((scratch / "dist").glob("mjharness-*.whl"))
+            if not built:
+                raise EnvError(f"building the harness's wheel from {self.source} left no mjharness-*.whl")
+            out.mkdir(parents=True, exist_ok=True)
+            wheel = out / built[0].name
+            built[0].rename(wheel)
+            shutil.rmtree(scratch, ignore_errors=True)
+            return wheel
+
+    def ensure(self, spec: EnvSpec, digest: str) -> Environment:
+        """The environment of ``spec`` with the harness of source hash ``digest``: reused when complete,
+        its harness reinstalled when built from another source, else built."""
+        start = time.perf_counter()
+        folder = spec.folder(self.root)
+        with _locked(folder.with_name(folder.name + ".lock")):
+            complete = (folder / COMPLETE).is_file()
+            current = (folder / SOURCE_MARK).read_text().strip() if (folder / SOURCE_MARK).is_file() else ""
+            if complete and current == digest:
+                return Environment(spec, folder, built=False, harness=False, seconds=time.perf_counter() - start)
+            wheel = self.wheel(digest)
+            python = str(folder / "bin" / "python")
+            if not complete:
+                shutil.rmtree(folder, ignore_errors=True)
+                self._run(["venv", "--quiet", "--python", sys.executable, str(folder)],
+                          f"creating the environment for MuJoCo {spec.release}")
+                self._run(["pip", "install", "--quiet", "--python", python, str(wheel), *spec.requirements()],
+                          f"installing MuJoCo {spec.release} ({' '.join(spec.requirements())})")
+                (folder / COMPLETE).write_text("\n".join(spec.requirements()) + "\n")
+            else:
+                self._run(["pip", "install", "--quiet", "--python", python, "--no-deps", "--reinstall-package",
+                           "mjharness", str(wheel)], f"reinstalling the harness for MuJoCo {spec.release}")
+            (folder / SOURCE_MARK).write_text(digest + "\n")
+            return Environment(spec, folder, built=not complete, harness=True, seconds=time.perf_counter() - start)
+
+
+def _copy_source(root: Path, to: Path) -> Path:
+    """The files a wheel is built from (the packages, pyproject.toml and the README it names), copied to
+    ``to``: a build in the source tree itself would leave ``build/`` there, whose stale copies of deleted
+    modules a later build would package."""
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info")
+    for package in SOURCE_PACKAGES:
+        shutil.copytree(root / package, to / package, ignore=ignore)
+    for name in ("pyproject.toml", "README.md"):
+        if (root / name).is_file():
+            shutil.copy2(root / name, to / name)
+    return to
+
+
+@contextlib.contextmanager
+def _locked(path: Path) -> Iterator[None]:
+    """An exclusive lock on ``path`` (created) while the block runs: one builder per folder at a time."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)

@@ -1,0 +1,61 @@
+"""``mjharness versions`` end to end: the releases' environments, their runs, the comparison or bisection."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+
+from harness.versions import changes as changes_mod
+from harness.versions.bisect import Target, bisect
+from harness.versions.envs import Builder, EnvSpec
+from harness.versions.releases import Release
+from harness.versions.report import Comparison
+from harness.versions.runs import NOISE_RUNS, CheckCommand, ReleaseRun, run_release, run_releases
+
+
+def _snapshot(run: ReleaseRun) -> changes_mod.Snapshot:
+    assert run.doc is not None
+    return changes_mod.snapshot(run.release, run.doc, [run.noise[p] for p in sorted(run.noise)])
+
+
+def compare_releases(builder: Builder, releases: Sequence[Release], digest: str, command: CheckCommand, *,
+                     extras: Sequence[str] = (), pinned: Sequence[str] = (), parallel: int = 1,
+                     noise: Sequence[float] = NOISE_RUNS,
+                     on_done: Callable[[ReleaseRun], None] | None = None) -> Comparison:
+    """Every release run (``parallel`` at a time) and compared with the one before it."""
+    start = time.perf_counter()
+    specs = [EnvSpec(r, tuple(extras), tuple(pinned)) for r in releases]
+    runs = run_releases(builder, specs, digest, command, parallel=parallel, noise=noise, on_done=on_done)
+    snaps = [_snapshot(r) for r in runs if r.ok]
+    found = changes_mod.changes(snaps)
+    return Comparison(tuple(runs), tuple(snaps), tuple(found), check_args=command.args, extras=tuple(extras),
+                      seconds=time.perf_counter() - start)
+
+
+def bisect_releases(builder: Builder, releases: Sequence[Release], digest: str, command: CheckCommand,
+                    target: Target, *, extras: Sequence[str] = (), pinned: Sequence[str] = (),
+                    noise: Sequence[float] = NOISE_RUNS,
+                    on_done: Callable[[ReleaseRun], None] | None = None) -> Comparison:
+    """The first release at which ``target`` changed, running only the releases the bisection visits
+    (one at a time: each depends on the last), with the comparison of those it ran."""
+    start = time.perf_counter()
+    builder.wheel(digest)
+    runs: dict[Release, ReleaseRun] = {}
+
+    def run(release: Release) -> changes_mod.Snapshot | str:
+        got = run_release(builder, EnvSpec(release, tuple(extras), tuple(pinned)), digest, command, noise=noise)
+        runs[release] = got
+        if on_done is not None:
+            on_done(got)
+        return _snapshot(got) if got.ok else got.error
+
+    outcome = bisect(target, releases, run)
+    ordered = [runs[r] for r in sorted(runs)]
+    snaps = [_snapshot(r) for r in ordered if r.ok]
+    found = changes_mod.changes(snaps)
+    if target.key is not None:
+        found = [c for c in found if (c.case, c.figure) == target.key]
+    else:
+        found = [c for c in found if c.kind == "flip"]
+    return Comparison(tuple(ordered), tuple(snaps), tuple(found), check_args=command.args, extras=tuple(extras),
+                      seconds=time.perf_counter() - start, bisection=outcome)
