@@ -31,6 +31,16 @@ PRINTED_PRECISION = 5e-4
 JUDGED = ("pass", "FAIL", "FAIL (known defect)")
 
 
+def ratio(old: float | None, new: float | None) -> float | None:
+    """new/old of a figure between two runs: None where either is missing, 1 where they are equal
+    (0 → 0 included), infinite from 0 to anything else."""
+    if old is None or new is None:
+        return None
+    if old == new:
+        return 1.0
+    return new / old if old != 0 else math.inf
+
+
 @dataclass(frozen=True)
 class Row:
     """One figure in either run. ``old``/``new`` are None where the run lacks it; ``passed_*``
@@ -47,11 +57,7 @@ class Row:
 
     @property
     def ratio(self) -> float | None:
-        if self.old is None or self.new is None:
-            return None
-        if self.old == self.new:
-            return 1.0
-        return self.new / self.old if self.old != 0 else math.inf
+        return ratio(self.old, self.new)
 
     @property
     def flipped(self) -> bool:

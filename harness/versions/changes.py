@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.outputs.diff import ratio
 from harness.versions.releases import Release
 
 NOISE_FACTOR = 10.0
@@ -122,11 +123,7 @@ class Change:
 
     @property
     def ratio(self) -> float | None:
-        if self.old is None or self.new is None:
-            return None
-        if self.old == self.new:
-            return 1.0
-        return self.new / self.old if self.old != 0 else math.inf
+        return ratio(self.old, self.new)
 
     @property
     def size(self) -> float:
