@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 
 from harness.cases import Wiring
-from harness.core.errors import ModelMismatch
+from harness.engine.bindings import require_joint
 from harness.engine.readings.momentum import axial_angular_momentum
 
 AZIMUTH_AXIS = np.array([0.0, 0.0, 1.0])   # φ, about world +z
@@ -83,12 +83,7 @@ class BallBinding:
         return float(named["theta"]), float(named["phi"])
 
     def validate(self, model: mujoco.MjModel) -> None:
-        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, self.joint)
-        if jid < 0:
-            known = [model.joint(i).name for i in range(model.njnt)]
-            raise ModelMismatch(f"model has no joint {self.joint!r} (joints: {known})")
-        if int(model.jnt_type[jid]) != int(mujoco.mjtJoint.mjJNT_BALL):
-            raise ModelMismatch(f"joint {self.joint!r} must be a ball joint")
+        require_joint(model, self.joint, (int(mujoco.mjtJoint.mjJNT_BALL),), "a ball joint")
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
                   q: Sequence[float], qd: Sequence[float]) -> None:

@@ -30,7 +30,7 @@ import mujoco
 import numpy as np
 
 from harness.cases import Wiring
-from harness.core.errors import ModelMismatch
+from harness.engine.bindings import require_joint
 from harness.engine.readings.momentum import axial_angular_momentum
 
 COORDINATES = ("phi", "theta", "psi")
@@ -81,12 +81,7 @@ class EulerBallBinding:
         return [COORDINATES.index(c) for c in self.coordinates]
 
     def validate(self, model: mujoco.MjModel) -> None:
-        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, self.joint)
-        if jid < 0:
-            known = [model.joint(i).name for i in range(model.njnt)]
-            raise ModelMismatch(f"model has no joint {self.joint!r} (joints: {known})")
-        if int(model.jnt_type[jid]) != int(mujoco.mjtJoint.mjJNT_BALL):
-            raise ModelMismatch(f"joint {self.joint!r} must be a ball joint")
+        require_joint(model, self.joint, (int(mujoco.mjtJoint.mjJNT_BALL),), "a ball joint")
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
                   q: Sequence[float], qd: Sequence[float]) -> None:

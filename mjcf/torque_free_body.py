@@ -30,7 +30,7 @@ import numpy as np
 
 from analytic.systems.torque_free_body import BODY, COORDINATES, ORIGIN_SITE, euler_rate_matrix
 from harness.cases import Wiring
-from harness.core.errors import ModelMismatch
+from harness.engine.bindings import require_joint
 from harness.engine.readings import Reading
 from harness.engine.readings.momentum import axial_angular_momentum, subtree
 
@@ -78,12 +78,7 @@ class FreeBinding:
         return dict(zip(self.coordinates, values, strict=True))
 
     def validate(self, model: mujoco.MjModel) -> None:
-        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, self.joint)
-        if jid < 0:
-            known = [model.joint(i).name for i in range(model.njnt)]
-            raise ModelMismatch(f"model has no joint {self.joint!r} (joints: {known})")
-        if int(model.jnt_type[jid]) != int(mujoco.mjtJoint.mjJNT_FREE):
-            raise ModelMismatch(f"joint {self.joint!r} must be a free joint")
+        require_joint(model, self.joint, (int(mujoco.mjtJoint.mjJNT_FREE),), "a free joint")
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
                   q: Sequence[float], qd: Sequence[float]) -> None:

@@ -46,6 +46,18 @@ class Binding(Protocol):
     # exact to round-off (qacc = B q̈ + Ḃ q̇). A binding with a constant D needs none.
 
 
+def require_joint(model: mujoco.MjModel, name: str, types: tuple[int, ...], kind: str) -> int:
+    """The id of joint ``name``, which must be of one of ``types`` (``kind`` names them in the error:
+    "a ball joint"); ModelMismatch listing the model's joints where it has none of that name."""
+    jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+    if jid < 0:
+        known = [model.joint(i).name for i in range(model.njnt)]
+        raise ModelMismatch(f"model has no joint {name!r} (joints: {known})")
+    if int(model.jnt_type[jid]) not in types:
+        raise ModelMismatch(f"joint {name!r} must be {kind}")
+    return jid
+
+
 @dataclass(frozen=True)
 class JointBinding:
     """Analytic coordinate k is the MuJoCo joint ``joints[k]`` (hinge or slide)."""
@@ -54,12 +66,7 @@ class JointBinding:
 
     def validate(self, model: mujoco.MjModel) -> None:
         for name in self.joints:
-            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
-            if jid < 0:
-                known = [model.joint(i).name for i in range(model.njnt)]
-                raise ModelMismatch(f"model has no joint {name!r} (joints: {known})")
-            if int(model.jnt_type[jid]) not in ONE_DOF:
-                raise ModelMismatch(f"joint {name!r} must be a hinge or slide")
+            require_joint(model, name, ONE_DOF, "a hinge or slide")
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
                   q: Sequence[float], qd: Sequence[float]) -> None:
