@@ -30,6 +30,7 @@ import mujoco
 import numpy as np
 
 from harness.core.errors import ModelMismatch
+from harness.engine.readings.momentum import subtree as body_subtree
 
 KINDS: dict[int, str] = {
     int(mujoco.mjtSensor.mjSENS_FORCE): "force",
@@ -103,16 +104,9 @@ def world_reading(model: mujoco.MjModel, data: mujoco.MjData, sensor: Sensor) ->
 
 
 def subtree(model: mujoco.MjModel, body: str) -> tuple[str, ...]:
-    """The bodies of ``body``'s subtree (itself and every descendant), by name, in body order."""
-    root = model.body(body).id
-    out = []
-    for b in range(model.nbody):
-        a = b
-        while a != root and a != 0:
-            a = int(model.body_parentid[a])
-        if a == root:
-            out.append(model.body(b).name)
-    return tuple(out)
+    """The bodies of ``body``'s subtree (itself and every descendant), by name, in body order
+    (:func:`harness.engine.readings.momentum.subtree`'s, by name)."""
+    return tuple(model.body(b).name for b in body_subtree(model, model.body(body).id))
 
 
 def interaction(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
