@@ -161,3 +161,34 @@ def test_diagexact_fallback_reproduces_the_exact_diagonal(monkeypatch, tmp_path)
     lam = ref.solution.multipliers([0.0])[0]
     err = np.max(np.abs(data.efc_force[: data.nefc] - lam)) / ref.scales.force
     assert err == pytest.approx(initial_force_floor(emulated, ref), rel=1e-3)
+
+
+def test_full_mass_matrix_is_the_inertia_of_mj_mulM():
+    """Column by column, M e_i from ``mj_mulM`` (an API whose signature never changed): the dense matrix of
+    the installed release, whichever ``mj_fullM`` signature it has (CI runs this on 4.0.0 and on 3.3.0)."""
+    model = compile_model(mjcf_path("double_pendulum"))
+    data = mujoco.MjData(model)
+    _random_state(model, data)
+    columns = []
+    for i in range(model.nv):
+        unit, out = np.zeros(model.nv), np.zeros(model.nv)
+        unit[i] = 1.0
+        mujoco.mj_mulM(model, data, out, unit)
+        columns.append(out)
+    np.testing.assert_allclose(compat.full_mass_matrix(model, data), np.array(columns).T, rtol=1e-14, atol=1e-16)
+
+
+@pytest.mark.parametrize(("release", "old_signature"), [((3, 9, 0), True), ((3, 10, 0), False), ((4, 0, 0), False)])
+def test_full_mass_matrix_picks_the_signature_by_release(monkeypatch, release, old_signature):
+    """3.10.0 still has ``mjData.qM`` but already the new ``mj_fullM(m, d, dst)`` (changelog 3.10.0, item 14):
+    the release decides. A stand-in ``mj_fullM`` records which arguments it was given."""
+    model = compile_model(mjcf_path("pendulum"))
+
+    class Data:  # what both signatures read: qM (gone from mjData after 3.10) and the data itself
+        qM = np.zeros(model.nM)
+
+    calls: list[tuple[type, type]] = []
+    monkeypatch.setattr(compat, "_version", lambda: release)
+    monkeypatch.setattr(compat.mujoco, "mj_fullM", lambda m, a, b: calls.append((type(a), type(b))))
+    compat.full_mass_matrix(model, Data())
+    assert calls == ([(np.ndarray, np.ndarray)] if old_signature else [(Data, np.ndarray)])
