@@ -6,6 +6,12 @@ the contact force on the rim along the slides ``x``, ``y`` and ``z``
 state; slip and penetration recorded as series. The lateral friction needs a
 slip velocity to build (MuJoCo's friction rows see J q̈ but not J̇ q̇); it
 settles within a few ms at solref 2 ms, so force figures start at 0.02 s.
+
+The same three multipliers are the contact's load on the hoop for its reaction
+sensors (:class:`harness.engine.sensors.Load`): MuJoCo counts the contact in
+``cfrc_ext``, outside the joints, so the sensors at the centre read Newton–Euler
+of the hoop less the contact force, each multiplier along its slide's world axis
+at the contact point (:mod:`harness.layers.reactions`).
 """
 
 from __future__ import annotations
@@ -13,6 +19,7 @@ from __future__ import annotations
 from harness.cases import Series, Wiring
 from harness.engine.readings.contact import analytic_residual, slide_force
 from harness.engine.readings.momentum import axial_angular_momentum
+from harness.engine.sensors import Load
 
 WIRING = Wiring(
     forces={"roll_x": slide_force(geom="rim", joint="x"),
@@ -26,4 +33,6 @@ WIRING = Wiring(
                               "m", "|z − a|, the contact's penetration"),
     },
     settle=0.02,
+    loads=tuple(Load(row, body="hoop", slide=slide, contact="rim")
+                for row, slide in (("roll_x", "x"), ("roll_y", "y"), ("normal", "z"))),
 )

@@ -4,12 +4,20 @@ The two constraints of the system are not MJCF equalities here: the contact
 holds them, so their multipliers are read as the contact force on the rim
 along the slides ``x`` and ``s`` (:func:`~harness.engine.readings.contact.slide_force`),
 and the contact's slip, creep and penetration are recorded as series.
+
+The same multipliers are the contact's load on the hoop for its reaction sensors
+(:class:`harness.engine.sensors.Load`): MuJoCo counts the contact in ``cfrc_ext``,
+outside the joints, so the sensors at the hub read Newton–Euler of the hoop less
+the contact force, each multiplier along its slide's world axis at the contact
+point (:mod:`harness.layers.reactions`) — nothing, in this plane, where
+``hoop_ramp``'s joint equalities put the whole reaction on the joints.
 """
 
 from __future__ import annotations
 
 from harness.cases import Series, Wiring
 from harness.engine.readings.contact import analytic_residual, slide_force
+from harness.engine.sensors import Load
 
 WIRING = Wiring(
     system="hoop_ramp",
@@ -25,4 +33,6 @@ WIRING = Wiring(
         "penetration": Series(analytic_residual(system="hoop_ramp", constraints=("normal",), level="position"),
                               "m", "|s − a|, the contact's penetration"),
     },
+    loads=(Load("roll", body="hoop", slide="x", contact="rim"),
+           Load("normal", body="hoop", slide="s", contact="rim")),
 )

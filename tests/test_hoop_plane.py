@@ -282,3 +282,53 @@ def test_p_theta_reading_equals_mj_subtree_vel(model) -> None:
         expected = data.subtree_angmom[bid] + model.body_subtreemass[bid] * np.cross(lever, data.subtree_linvel[bid])
         assert read(model, data) == pytest.approx(expected[2], rel=1e-13, abs=1e-15)
         assert abs(expected[2]) > 1e-3
+
+
+# --- reaction sensors (harness/layers/reactions.py): what holds the hoop upright ----------------------------
+
+def _torque_against_newton_euler(model, data, dyn):
+    """(MuJoCo's torque sensor at the centre, Newton–Euler's) in the world: the analytic side at MuJoCo's
+    state projected onto the constraints, less the declared contact loads (its multipliers along the
+    slides, at MuJoCo's contact point)."""
+    from analytic.reactions import Load as AnalyticLoad
+    from analytic.reactions import subtree_wrench
+    from analytic.solvers import project
+    from harness.engine import sensors
+
+    q = np.array([data.qpos[model.joint(c).qposadr[0]] for c in COORDS])
+    qd = np.array([data.qvel[model.joint(c).dofadr[0]] for c in COORDS])
+    q, qd = project(dyn, q, qd, tol=1e-14, polish=True)
+    qdd, lam = dyn.accelerations(q[None], qd[None])
+    at = sensors.contact_point(model, data, "rim")[None]
+    loads = [AnalyticLoad(force=lam[:, dyn.blocks[ld.constraint].start, None]
+                          * data.xaxis[model.joint(ld.slide).id], at=at) for ld in CASE.wiring.loads]
+    _, torque = subtree_wrench(dyn, ["hoop"], q[None], qd[None], qdd, gravity=model.opt.gravity,
+                               about=data.site_xpos[model.site("centre").id][None], loads=loads)
+    (sensor,) = [s for s in sensors.sensors(model) if s.name == "hoop_torque"]
+    return sensors.world_reading(model, data, sensor), torque[0], qd
+
+
+def test_the_upright_moment_misses_the_lateral_friction_until_the_slip_settles(model) -> None:
+    """Why hoop_torque (and interaction.hoop, hoop_accel) are measured but not gated at layer 2: at a
+    state of ideal rolling MuJoCo's contact has no lateral force (its friction rows omit J̇ q̇), so the
+    moment holding the hoop upright lacks that force's moment about the centre, a m v θ̇ along the
+    heading (by hand: the force m v θ̇ along the axle w at −a ẑ); once MuJoCo has run past ``settle``
+    and slips at v θ̇ τ / 2, the sensor is Newton–Euler's with the declared contact loads (measured
+    1.2e-8 m g a; bound 1e-6, the slip's own size relative to v being 1e-3)."""
+    dyn = CASE.reference(model).dynamics
+    data = mujoco.MjData(model)
+    JointBinding(COORDS).set_state(model, data, [CASE.q0[c] for c in COORDS], [CASE.qd0[c] for c in COORDS])
+    mujoco.mj_forward(model, data)
+    p = hoop_plane.params_from_model(model)
+    mga = p["m"] * p["g"] * p["a"]
+    got, expected, _ = _torque_against_newton_euler(model, data, dyn)
+    theta = CASE.q0["theta"]
+    heading = np.array([math.cos(theta), math.sin(theta), 0.0])
+    v = p["a"] * CASE.qd0["phi"]
+    np.testing.assert_allclose(got - expected, p["a"] * p["m"] * v * CASE.qd0["theta"] * heading, atol=1e-12)
+    while data.time < 0.05:
+        mujoco.mj_step(model, data)
+    mujoco.mj_forward(model, data)
+    got, expected, _ = _torque_against_newton_euler(model, data, dyn)
+    assert np.linalg.norm(got - expected) < 1e-6 * mga
+    assert np.linalg.norm(expected) > 0.1 * mga  # a real moment: the hoop is held upright

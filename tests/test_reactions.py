@@ -28,7 +28,7 @@ from analytic.rigid import RigidBody, axis_rotation
 from harness.engine.models import compile_model, mjcf_path
 from harness.reference.derivations import dynamics_of
 
-WITH_BODIES = ("pendulum", "atwood", "double_pendulum", "spring", "spherical_pendulum", "hoop_ramp")
+WITH_BODIES = ("pendulum", "atwood", "double_pendulum", "spring", "spherical_pendulum", "hoop_ramp", "hoop_plane")
 RNG = np.random.default_rng(3)
 
 
@@ -144,7 +144,8 @@ def _available(name):
     return name in cases.names()
 
 
-STATIC = [(c, s) for c in ("pendulum", "atwood_tendon", "physical_pendulum", "symmetric_top", "slider_crank")
+STATIC = [(c, s) for c in ("pendulum", "atwood_tendon", "physical_pendulum", "symmetric_top", "slider_crank",
+                          "hoop_plane", "hoop_ramp_contact")
           if _available(c) for s in _static_accelerometers(c)]
 
 
@@ -262,3 +263,133 @@ def test_hoop_ramp_reaction_is_the_contact_force_and_its_moment():
     force, torque = subtree_wrench(dyn, ["hoop"], q, qd, qdd, gravity=[0, 0, -p["g"]], about=hub)
     np.testing.assert_allclose(force, normal[:, None] * n + roll[:, None] * d, atol=1e-12)
     np.testing.assert_allclose(torque, np.stack([np.zeros(5), -a * roll, np.zeros(5)], axis=-1), atol=1e-12)
+
+
+# ------------------------------------------------------------------ contact loads (hoop_plane, hoop_ramp_contact)
+CONTACT_CASES = ("hoop_plane", "hoop_ramp_contact")
+
+
+def _settled(name, seconds=0.05):
+    """The case's model and MuJoCo's data after ``seconds`` of its own run from the initial state (past
+    ``settle``: the friction has built its slip), with ``mj_forward`` at that state."""
+    import mujoco
+
+    from harness import cases
+
+    case = cases.get(name)
+    model = compile_model(case.mjcf)
+    dyn = dynamics_of(case.system, model)
+    data = mujoco.MjData(model)
+    case.probe(dyn).binding.set_state(model, data, [case.q0[c] for c in dyn.coordinates],
+                                      [case.qd0[c] for c in dyn.coordinates])
+    while data.time < seconds:
+        mujoco.mj_step(model, data)
+    mujoco.mj_forward(model, data)
+    return case, model, dyn, data
+
+
+@pytest.mark.parametrize("name", CONTACT_CASES)
+def test_a_contact_load_is_mujocos_external_force_on_the_hoop(name):
+    """The declared contact loads (each multiplier along its slide's world axis, at the contact's point,
+    as the Recorder reads them) with MuJoCo's own multipliers at a settled state are the hoop's cfrc_ext:
+    its force, and its moment about the c-frame origin — and that force is mj_contactForce rotated to the
+    world (MuJoCo alone, independent of the code under test)."""
+    import mujoco
+
+    from harness.layers.reactions import Recorder
+
+    case, model, dyn, data = _settled(name)
+    hoop = model.body("hoop").id
+    about = data.subtree_com[int(model.body_rootid[hoop])]
+    moment, force = data.cfrc_ext[hoop][:3], data.cfrc_ext[hoop][3:]
+    (i,) = [k for k in range(data.ncon) if data.contact[k].efc_address >= 0]
+    con = data.contact[i]
+    local = np.zeros(6)
+    mujoco.mj_contactForce(model, data, i, local)
+    on_rim = con.frame.reshape(3, 3).T @ local[:3] * (1.0 if con.geom2 == model.geom("rim").id else -1.0)
+    np.testing.assert_allclose(force, on_rim, atol=1e-12)
+    np.testing.assert_allclose(moment, np.cross(con.pos - about, on_rim), atol=1e-12)
+    assert np.linalg.norm(on_rim) > 1.0  # the hoop's weight, at least: a real load
+
+    rec = Recorder(model, dyn, case.wiring.loads)
+    rec.record(model, data)
+    total_force, total_moment = np.zeros(3), np.zeros(3)
+    for load in case.wiring.loads:
+        multiplier = case.mujoco_forces[load.constraint](model, data)  # MuJoCo's, along the slide
+        direction = rec.rows["axis"][0][load.slide]
+        at = rec.load_point(load, {})[0]
+        total_force += load.sign * multiplier * direction
+        total_moment += np.cross(at - about, load.sign * multiplier * direction)
+    np.testing.assert_allclose(total_force, force, atol=1e-12)
+    np.testing.assert_allclose(total_moment, moment, atol=1e-12)
+
+
+def _with_loads(case, loads):
+    import dataclasses
+
+    return dataclasses.replace(case, wiring=dataclasses.replace(case.wiring, loads=tuple(loads)))
+
+
+def _broken_loads(name):
+    """Each declared contact load broken once: its sign flipped, its slide another one."""
+    import dataclasses
+
+    from harness import cases
+
+    loads = cases.get(name).wiring.loads
+    slides = [ld.slide for ld in loads]
+    out = []
+    for k, load in enumerate(loads):
+        flipped = dataclasses.replace(load, sign=-load.sign)
+        turned = dataclasses.replace(load, slide=slides[(k + 1) % len(slides)])
+        out += [(f"{load.constraint}-sign", [*loads[:k], flipped, *loads[k + 1:]]),
+                (f"{load.constraint}-slide", [*loads[:k], turned, *loads[k + 1:]])]
+    return out
+
+
+BROKEN = [(c, label, loads) for c in CONTACT_CASES for label, loads in _broken_loads(c)]
+
+
+@pytest.mark.parametrize("name, label, loads", BROKEN, ids=[f"{c}-{label}" for c, label, _ in BROKEN])
+def test_a_wrong_contact_load_fails_the_force_sensor(name, label, loads):
+    """A declared contact load with its sign flipped or along another slide: the joints' force at the
+    hoop (gated on both cases) fails its budget."""
+    from harness import cases
+    from harness.pipeline.run import run_case
+    from tests.conftest import failing
+
+    force = {"hoop_plane": "hoop_force", "hoop_ramp_contact": "hub_force"}[name]
+    result = run_case(_with_loads(cases.get(name), loads), integrators=["RK4"])
+    assert f"instant.sensor.{force}" in failing(result), label
+
+
+@pytest.mark.parametrize("name", CONTACT_CASES)
+def test_a_contact_left_undeclared_is_refused_in_one_line(name):
+    from harness import cases
+    from harness.core.errors import ModelMismatch
+    from harness.layers.instant import instant_deviations
+
+    bare = _with_loads(cases.get(name), ())
+    model = compile_model(bare.mjcf)
+    ref = bare.reference(model)
+    with pytest.raises(ModelMismatch, match="declares no load for it") as err:
+        instant_deviations(model, bare.probe(ref.dynamics), ref)
+    assert "\n" not in str(err.value) and "'hoop'" in str(err.value)
+
+
+@pytest.mark.parametrize("load, needle", [
+    (dict(body="hoop", slide="x"), "exactly one of site and contact"),
+    (dict(body="hoop", slide="x", contact="rim", site="hub"), "exactly one of site and contact"),
+    (dict(body="hoop", slide="phi", contact="rim"), "not a slide joint"),
+    (dict(body="hoop", slide="x", contact="slope"), "not a geom of body 'hoop'"),
+    (dict(body="hoop", slide="x", direction=(1.0, 0.0, 0.0), contact="rim"), "accepted: one of them"),
+])
+def test_a_contact_load_is_checked_in_one_line(load, needle):
+    from harness.core.errors import ModelMismatch
+    from harness.engine.sensors import Load as SensorLoad
+    from harness.layers.reactions import Recorder
+
+    model = compile_model(mjcf_path("hoop_ramp_contact"))
+    with pytest.raises(ModelMismatch, match=needle) as err:
+        Recorder(model, dynamics_of("hoop_ramp", model), [SensorLoad("roll", **load)])
+    assert "\n" not in str(err.value)

@@ -70,6 +70,7 @@ def build(p: Parameters) -> LagrangianSystem:
     import sympy as sp  # lazy: sympy (0.15 s), only to derive
 
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
+    from analytic.rigid import RigidBody, axis_rotation  # lazy: loads sympy
 
     m, g, a = p.m, p.g, p.a
     (x, y, z, theta, phi), qd = coordinates("x y z theta phi")
@@ -96,6 +97,10 @@ def build(p: Parameters) -> LagrangianSystem:
             Constraint("roll_y", y_d - a * phi_d * sp.sin(theta), kind="pfaffian"),
         ),
         points={"hoop": tuple(centre)},
+        # the body "hoop": heading θ about world z, then the spin φ about its own y (the axle w), as the
+        # model's hinges compose; a thin ring, m a² about its axle, ½ m a² about its diameters
+        bodies={"hoop": RigidBody(mass=m, inertia=sp.diag(diameter_inertia, axle_inertia, diameter_inertia),
+                                  com=centre, rotation=axis_rotation("z", theta) * axis_rotation("y", phi))},
     )
 
 

@@ -54,21 +54,48 @@ class Sensor:
 @dataclass(frozen=True)
 class Load:
     """An external force that a constraint applies to a body, declared by a case's wiring where MuJoCo
-    counts it in ``cfrc_ext`` (a spatial tendon's pull, a connect), acting at the world position of
-    ``site`` (for a one-row constraint any site on the line of action: the moment depends only on the
-    line).
+    counts it in ``cfrc_ext`` (a spatial tendon's pull, a connect, a contact), acting at the world
+    position of ``site`` (for a one-row constraint any site on the line of action: the moment depends
+    only on the line) or, for a contact, at the contact point of geom ``contact``.
 
-    One row (``direction`` given): the force is the constraint's multiplier times the world unit
-    ``direction``. A ``connect`` (``direction`` None): its three rows are the world components of
-    anchor1 − anchor2 and M q̈ = F + Jᵀλ, so λ itself is the world force on the body of ``site1`` at
-    its anchor and −λ the force on the body of ``site2``: ``sign`` +1 or −1 says which. A ``weld``'s
-    orientation rows carry a moment besides (not supported: a weld's 6 rows are refused)."""
+    One row (``direction`` or ``slide`` given): the force is the constraint's multiplier times the world
+    unit ``direction``, or times the world axis of the slide joint ``slide`` at the state (read from the
+    model, as a rolling system writes each contact multiplier: the contact force along one of its
+    slides). A ``connect`` (neither): its three rows are the world components of anchor1 − anchor2 and
+    M q̈ = F + Jᵀλ, so λ itself is the world force on the body of ``site1`` at its anchor and −λ the
+    force on the body of ``site2``: ``sign`` +1 or −1 says which. A ``weld``'s orientation rows carry a
+    moment besides (not supported: a weld's 6 rows are refused).
+
+    A contact's point (``contact``: a geom of ``body``) is where MuJoCo applies the contact force at the
+    state, ``data.contact.pos`` of the active contact on that geom (the mean where several are), as a
+    site's position is MuJoCo's at the state (:mod:`harness.layers.reactions`). MuJoCo puts it midway
+    between the surfaces, half the penetration p inside the ideal touching point along the normal: a
+    shift along the normal moves only the moment of the tangential force, by p/2 × |f_t|. At the
+    instantaneous layer's states (on the constraint manifold) p is round-off (|contact.dist| ≤ 2.2e-16 m
+    on both shipped contact cases: ~1e-16 of m g a in the moment, against limits of ~4e-11); along a
+    trajectory p ≈ 3.3e-9 m on hoop_ramp_contact would move it by 1.65e-9 m × m g sin α / 2 ≈ 1.6e-9 of
+    m g a, the analytic point's position being then no better known (the contact is soft). A
+    body-fixed site could not mark it (the contact point moves over a rolling rim). At a state where
+    the geom has no active contact (a model whose geometry misses the system's surface) MuJoCo applies
+    no force while the multiplier still pulls, so the force figure fails whatever the point; the moment
+    is then taken at the geom's centre."""
 
     constraint: str
     body: str
-    site: str
+    site: str = ""
     direction: tuple[float, float, float] | None = None
     sign: float = 1.0
+    slide: str = ""
+    contact: str = ""
+
+
+def contact_point(model: mujoco.MjModel, data: mujoco.MjData, geom: str) -> np.ndarray | None:
+    """The world position of the active contact on ``geom`` after ``mj_forward`` (the mean of several),
+    None where it has none (excluded contacts, ``efc_address < 0``, carry no force)."""
+    gid = model.geom(geom).id
+    found = [data.contact[i].pos.copy() for i in range(data.ncon)
+             if data.contact[i].efc_address >= 0 and gid in (data.contact[i].geom1, data.contact[i].geom2)]
+    return np.mean(found, axis=0) if found else None
 
 
 def sensors(model: mujoco.MjModel) -> tuple[Sensor, ...]:

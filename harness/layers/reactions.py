@@ -10,8 +10,8 @@ state:
   below B in MuJoCo's tree, each an analytic body of the same name; a massless MuJoCo body may have
   none), the moment about the site, less the external loads the case's wiring declares
   (:class:`harness.engine.sensors.Load`: the forces MuJoCo counts in ``cfrc_ext``, a spatial
-  tendon's pull); a subtree body that MuJoCo loads from outside its joints with no load declared is
-  refused (the comparison would be meaningless);
+  tendon's pull, a contact at MuJoCo's contact point); a subtree body that MuJoCo loads from outside
+  its joints with no load declared is refused (the comparison would be meaningless);
 - ``cfrc_int`` of every body with a force or torque sensor: the same wrench, its moment about
   MuJoCo's c-frame origin (figure ``instant.interaction.BODY``);
 - ``accelerometer`` at a site: the site's proper acceleration a − g (0 − g on the world body; the
@@ -60,18 +60,11 @@ class Recorder:
                 raise ModelMismatch(f"sensor subtree of body {body!r} has bodies {missing} with mass that the analytic "
                                     f"system does not declare; its bodies: {list(dyn.body_names)}")
         for load in self.loads:
-            if load.constraint not in dyn.constraint_names:
-                raise ModelMismatch(f"load on {load.body!r} names constraint {load.constraint!r}; the system's: "
-                                    f"{list(dyn.constraint_names)}")
-            rows = dyn.blocks[load.constraint]
-            if load.direction is None and rows.stop - rows.start != 3:
-                raise ModelMismatch(f"load on {load.body!r}: constraint {load.constraint!r} has "
-                                    f"{rows.stop - rows.start} rows; accepted: a direction for a one-row "
-                                    "constraint, none for a connect's 3 rows (a world force)")
-            if load.sign not in (1.0, -1.0):
-                raise ModelMismatch(f"load on {load.body!r} has sign {load.sign!r}; accepted: +1 or -1")
-        self.sites = tuple(dict.fromkeys([*(s.site for s in self.sensors), *(ld.site for ld in self.loads)]))
-        self.rows: dict[str, list] = {k: [] for k in ("reading", "site", "interaction", "external", "com")}
+            _check_load(model, dyn, load)
+        self.sites = tuple(dict.fromkeys([*(s.site for s in self.sensors), *(ld.site for ld in self.loads
+                                                                            if ld.site)]))
+        self.rows: dict[str, list] = {k: [] for k in ("reading", "site", "interaction", "external", "com",
+                                                       "contact", "axis")}
 
     def __bool__(self) -> bool:
         return bool(self.sensors)
@@ -83,6 +76,48 @@ class Recorder:
         self.rows["external"].append({b: S.external_force(model, data, b) for tree in self.subtrees.values()
                                       for b in tree})
         self.rows["com"].append({s.name: data.xipos[model.body(s.body).id].copy() for s in self.sensors})
+        # where the geom has no active contact MuJoCo applies no force there, while the system's multiplier
+        # still pulls: the force figure fails whatever the point, and the moment is taken at the geom's centre
+        points = {ld.contact: S.contact_point(model, data, ld.contact) for ld in self.loads if ld.contact}
+        self.rows["contact"].append({g: data.geom_xpos[model.geom(g).id].copy() if pt is None else pt
+                                     for g, pt in points.items()})
+        self.rows["axis"].append({ld.slide: data.xaxis[model.joint(ld.slide).id].copy() for ld in self.loads
+                                  if ld.slide})
+
+    def load_point(self, load: S.Load, site_pos: Mapping[str, np.ndarray]) -> np.ndarray:
+        """Where ``load`` acts at each state (n, 3): its site's position, or its contact's point."""
+        return site_pos[load.site] if load.site else np.array([row[load.contact] for row in self.rows["contact"]])
+
+
+def _check_load(model: mujoco.MjModel, dyn: Dynamics, load: S.Load) -> None:
+    """ModelMismatch, in one line, for a load the comparison cannot apply (:class:`harness.engine.sensors.Load`)."""
+    where = f"load {load.constraint!r} on {load.body!r}"
+    if load.constraint not in dyn.constraint_names:
+        raise ModelMismatch(f"load on {load.body!r} names constraint {load.constraint!r}; the system's: "
+                            f"{list(dyn.constraint_names)}")
+    rows = dyn.blocks[load.constraint]
+    one_row = load.direction is not None or bool(load.slide)
+    if load.direction is not None and load.slide:
+        raise ModelMismatch(f"{where} gives both a direction and slide {load.slide!r}; accepted: one of them")
+    if not one_row and rows.stop - rows.start != 3:
+        raise ModelMismatch(f"{where}: constraint {load.constraint!r} has {rows.stop - rows.start} rows; accepted: "
+                            "a direction for a one-row constraint (or a slide: its world axis), none for a "
+                            "connect's 3 rows (a world force)")
+    if load.sign not in (1.0, -1.0):
+        raise ModelMismatch(f"{where} has sign {load.sign!r}; accepted: +1 or -1")
+    if bool(load.site) == bool(load.contact):
+        raise ModelMismatch(f"{where} needs exactly one of site and contact (a geom), got site={load.site!r}, "
+                            f"contact={load.contact!r}")
+    if load.slide:
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, load.slide)
+        if jid < 0 or int(model.jnt_type[jid]) != int(mujoco.mjtJoint.mjJNT_SLIDE):
+            raise ModelMismatch(f"{where}: {load.slide!r} is not a slide joint of the model; accepted: a slide, "
+                                "whose world axis is the force's direction")
+    if load.contact:
+        gid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, load.contact)
+        if gid < 0 or model.body(int(model.geom_bodyid[gid])).name != load.body:
+            raise ModelMismatch(f"{where}: {load.contact!r} is not a geom of body {load.body!r}; accepted: a geom "
+                                "of the loaded body, at whose contact the force acts")
 
 
 def _accelerometer_point(model: mujoco.MjModel, dyn: Dynamics, sensor: S.Sensor, site_pos: np.ndarray,
@@ -117,8 +152,9 @@ def reaction_deviations(model: mujoco.MjModel, dyn: Dynamics, rec: Recorder, q: 
         for ld in rec.loads:
             if ld.body in tree:
                 rows = blocks[ld.constraint]
-                force = lam[:, rows] if ld.direction is None else lam[:, rows.start, None] * np.asarray(ld.direction)
-                out.append(AnalyticLoad(force=ld.sign * force, at=site_pos[ld.site]))
+                direction = np.array([row[ld.slide] for row in rec.rows["axis"]]) if ld.slide else ld.direction
+                force = lam[:, rows] if direction is None else lam[:, rows.start, None] * np.asarray(direction)
+                out.append(AnalyticLoad(force=ld.sign * force, at=rec.load_point(ld, site_pos)))
         loaded = {ld.body for ld in rec.loads}
         for b in tree:
             worst = max(row[b] for row in rec.rows["external"])
