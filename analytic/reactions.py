@@ -13,9 +13,11 @@ formula)::
                    not pass through the attachment)
 
     F   = Σ_i m_i (c̈_i − g)                                 − Σ_k f_k
-    τ_P = Σ_i [ (c_i − P) × m_i (c̈_i − g) + dL_i/dt ]       − Σ_k (p_k − P) × f_k
+    τ_P = Σ_i [ (c_i − P) × m_i (c̈_i − g) + dL_i/dt ]       − Σ_k [(p_k − P) × f_k + μ_k]
 
-with g the gravity vector (0, 0, −g). For a point bob alone, F = m(a − g):
+with g the gravity vector (0, 0, −g) and μ_k a load's free moment (a couple,
+the same about every point: a weld's orientation rows exert one besides its
+force). For a point bob alone, F = m(a − g):
 the pull of the rod. A body at rest feels F = −m g (its weight carried up).
 
 **Sign convention** (pinned by ``tests/test_reactions.py``): F and τ are exerted
@@ -48,10 +50,12 @@ from analytic.dynamics import Array, Dynamics
 
 @dataclass(frozen=True)
 class Load:
-    """An external force on the subtree, at the world point ``at``: both (..., 3)."""
+    """An external force on the subtree, at the world point ``at``, and a free ``moment`` besides (a
+    couple, e.g. a weld's; None: none): all world, (..., 3)."""
 
     force: Array
     at: Array
+    moment: Array | None = None
 
 
 def proper_acceleration(acceleration: Array, gravity: Array) -> Array:
@@ -80,4 +84,6 @@ def subtree_wrench(dynamics: Dynamics, bodies: Sequence[str], q: Array, qd: Arra
         f = np.asarray(load.force, dtype=float)
         force = force - f
         torque = torque - np.cross(np.asarray(load.at, dtype=float) - about[..., 0, :], f)
+        if load.moment is not None:
+            torque = torque - np.asarray(load.moment, dtype=float)
     return force, torque

@@ -37,6 +37,7 @@ OWN_FAULTS: dict[str, tuple[set[str], str]] = {
     "pendulum": ({"instant.sensor.pivot_accel"}, "tests/test_reactions.py (gravity disabled)"),
     "physical_pendulum": ({"instant.sensor.pivot_accel"}, "tests/test_reactions.py (gravity disabled)"),
     "slider_crank": ({"instant.sensor.pivot_accel"}, "tests/test_reactions.py (gravity disabled)"),
+    "welded_pendulum": ({"instant.sensor.axle_accel"}, "tests/test_reactions.py (gravity disabled)"),
     "symmetric_top": ({"instant.kinematics", "instant.sensor.pivot_accel"},
                       "tests/test_symmetric_top.py (centre of mass off the axle); tests/test_reactions.py "
                       "(gravity disabled)"),

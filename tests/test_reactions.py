@@ -28,7 +28,8 @@ from analytic.rigid import RigidBody, axis_rotation
 from harness.engine.models import compile_model, mjcf_path
 from harness.reference.derivations import dynamics_of
 
-WITH_BODIES = ("pendulum", "atwood", "double_pendulum", "spring", "spherical_pendulum", "hoop_ramp", "hoop_plane")
+WITH_BODIES = ("pendulum", "atwood", "double_pendulum", "spring", "spherical_pendulum", "hoop_ramp", "hoop_plane",
+               "welded_pendulum")
 RNG = np.random.default_rng(3)
 
 
@@ -145,7 +146,7 @@ def _available(name):
 
 
 STATIC = [(c, s) for c in ("pendulum", "atwood_tendon", "physical_pendulum", "symmetric_top", "slider_crank",
-                          "hoop_plane", "hoop_ramp_contact")
+                          "hoop_plane", "hoop_ramp_contact", "welded_pendulum")
           if _available(c) for s in _static_accelerometers(c)]
 
 
@@ -233,14 +234,94 @@ def test_a_connect_load_is_checked_against_its_rows(load, needle):
         Recorder(model, dyn, [SensorLoad("wrist_pin", **load)])
 
 
-def test_a_connect_load_needs_three_rows():
+def test_a_load_without_direction_needs_a_connects_or_a_welds_rows():
+    """No direction: the block must be a connect's 3 rows or a weld's 6; the pendulum's one-row rod is
+    refused in one line."""
     from harness.core.errors import ModelMismatch
     from harness.engine.sensors import Load as SensorLoad
     from harness.layers.reactions import Recorder
 
     model = compile_model(mjcf_path("pendulum"))
-    with pytest.raises(ModelMismatch, match="accepted: a direction for a one-row constraint"):
+    with pytest.raises(ModelMismatch, match="accepted: a direction for a one-row constraint, none for a connect's 3 "
+                                            r"rows \(a world force\) or a weld's 6") as info:
         Recorder(model, dynamics_of("pendulum", model), [SensorLoad("rod", body="bob", site="bob_imu")])
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.skipif(not _available("welded_pendulum"), reason="welded_pendulum needs a newer MuJoCo")
+def test_a_six_row_load_needs_a_weld_of_its_name():
+    """A load on a 6-row constraint is read as a weld's force and moment, whose frame is MuJoCo's weld of the
+    same name: a model without one is refused in one line."""
+    import mujoco
+
+    from harness.core.errors import ModelMismatch
+    from harness.engine.sensors import Load as SensorLoad
+    from harness.layers.reactions import Recorder
+
+    spec = mujoco.MjSpec.from_file(str(mjcf_path("welded_pendulum")))
+    dyn = dynamics_of("welded_pendulum", spec.compile())
+    spec.equalities[0].name = "other"
+    with pytest.raises(ModelMismatch, match="equality 'glue' is none; accepted: a weld") as info:
+        Recorder(spec.compile(), dyn, [SensorLoad("glue", body="link", site="top")])
+    assert "\n" not in str(info.value)
+
+
+# a free body welded (body semantics: anchor, relpose) to a hinged one, torquescale 0.7
+BODY_WELD = """
+<mujoco>
+  <option gravity="0 0 -9.81"><flag contact="disable"/></option>
+  <worldbody>
+    <body name="b" pos="0 0 1">
+      <joint type="hinge" axis="0.3 -1 0.2"/>
+      <geom type="box" size="0.1 0.05 0.2" pos="0 0 -0.2" mass="0.7"/>
+    </body>
+    <body name="a" pos="0.2 0.1 0.5" quat="0.9 0.1 0.3 0.2">
+      <freejoint/>
+      <geom type="box" size="0.05 0.1 0.15" pos="0.02 0 -0.1" mass="1.3"/>
+    </body>
+  </worldbody>
+  <equality>
+    <weld name="w" body1="a" body2="b" anchor="0.05 -0.02 0.1" relpose="0.2 0.1 -0.5 0.8 0.2 -0.3 0.4"
+          torquescale="0.7"/>
+  </equality>
+</mujoco>
+"""
+
+
+def test_weld_moment_map_is_the_moment_mujoco_applies_body_semantics():
+    """The other semantics than welded_pendulum's sites: a body weld with a relative pose. At arbitrary states
+    (the weld far from held: r = q̄₂ ⊗ q₁ ≠ 1) M λ_τ is the moment in the dynamics — solved from body a's
+    qfrc_constraint = J(p₁)ᵀ F + J_ωᵀ τ on its free joint, p₁ = its anchor (eq_data[3:6] on body1,
+    mj_equalityAnchors) — and the one MuJoCo adds to cfrc_ext."""
+    import mujoco
+
+    from harness.engine.constraints import equality_block
+    from harness.engine.sensors import weld_moment_map
+
+    model = mujoco.MjModel.from_xml_string(BODY_WELD)
+    data = mujoco.MjData(model)
+    a = model.body("a").id
+    free = slice(int(model.jnt_dofadr[model.body_jntadr[a]]), int(model.jnt_dofadr[model.body_jntadr[a]]) + 6)
+    for _ in range(5):
+        mujoco.mj_resetData(model, data)
+        data.qpos[0] = RNG.uniform(-1, 1)
+        data.qpos[1:4] += RNG.uniform(-0.2, 0.2, 3)
+        quat = RNG.normal(size=4)
+        data.qpos[4:8] = quat / np.linalg.norm(quat)
+        data.qvel[:] = RNG.uniform(-2, 2, model.nv)
+        mujoco.mj_forward(model, data)
+        mujoco.mj_rnePostConstraint(model, data)
+        lam = equality_block(model, data, "w")[0]
+        anchor = data.xpos[a] + data.xmat[a].reshape(3, 3) @ model.eq_data[0][3:6]
+        jacp, jacr = np.zeros((3, model.nv)), np.zeros((3, model.nv))
+        mujoco.mj_jac(model, data, jacp, jacr, anchor, a)
+        force, moment = np.split(np.linalg.solve(np.vstack([jacp, jacr])[:, free].T, data.qfrc_constraint[free]), 2)
+        scale = float(np.max(np.abs(lam)))
+        np.testing.assert_allclose(force, lam[:3], rtol=0, atol=1e-10 * scale)
+        np.testing.assert_allclose(weld_moment_map(model, data, "w") @ lam[3:], moment, rtol=0, atol=1e-10 * scale)
+        ext = data.cfrc_ext[a]
+        about_com = moment + np.cross(anchor - data.subtree_com[a], force)
+        np.testing.assert_allclose(ext, np.concatenate([about_com, force]), rtol=0, atol=1e-10 * scale)
 
 
 def test_hoop_ramp_reaction_is_the_contact_force_and_its_moment():

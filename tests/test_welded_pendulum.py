@@ -13,16 +13,22 @@ weld's force on the link at its top S and its moment there (Newton–Euler about
 
     F = m (c̈ − g),      τ = −I2 θ̈ ŷ − (S − c) × F
 
-and the multipliers are λ_F = F and λ_τ = (2/s) R_hubᵀ τ (the system's docstring).
+and the multipliers are λ_F = F and λ_τ = (2/s) R_hubᵀ τ (the system's docstring). MuJoCo counts this
+wrench in ``cfrc_ext`` (on the link at its top, the opposite on the hub at the socket), which the reaction
+sensors rest on: pinned here by hand, and the wiring's loads shown to matter (a flipped sign, a wrong
+torquescale fails the sensor figures).
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import mujoco
 import numpy as np
 import pytest
 
 from harness import cases
+from harness.engine import sensors
 from harness.engine.constraints import equality_block, equality_jacobian
 from harness.engine.models import compile_model, mjcf_path
 from harness.pipeline import run as pipeline
@@ -66,8 +72,8 @@ def _rot(axis: str, angle: float) -> np.ndarray:
 # --- conventions ----------------------------------------------------------------------------------------
 
 def test_mjcf_constants_read_back(params) -> None:
-    assert params == {"I_h": 0.01, "a": 0.2, "m": 1.5, "I1": 0.08, "I2": 0.085, "I3": 0.01, "d": 0.4, "e": 0.05,
-                      "s": 0.5, "g": 9.81}
+    assert params == {"I_h": 0.01, "m_h": 0.5, "a": 0.2, "m": 1.5, "I1": 0.08, "I2": 0.085, "I3": 0.01, "d": 0.4,
+                      "e": 0.05, "s": 0.5, "g": 9.81}
 
 
 def test_the_links_joints_compose_as_the_docstring_says(model) -> None:
@@ -137,6 +143,77 @@ def test_mujoco_weld_force_is_lambda_row_by_row(params) -> None:
     weight = params["m"] * params["g"]
     assert np.max(np.abs(sim.multipliers["glue"] - ref.multipliers["glue"])) < 1e-3 * weight
     assert np.max(np.abs(sim.violations["glue"])) < 1e-7
+
+
+def _about(wrench: np.ndarray, centre: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A c-frame wrench (torque about ``centre``, force) as (force, moment about ``point``)."""
+    return wrench[3:], wrench[:3] + np.cross(centre - point, wrench[3:])
+
+
+def test_mujoco_counts_the_weld_wrench_in_cfrc_ext_as_the_load_says(model, params) -> None:
+    """By hand, on the weld (θ, the link on the hub, any velocities): MuJoCo's cfrc_ext of the link is λ_F at
+    its top and the moment (s/2) R_−y(θ) λ_τ (typed here, s = 0.5 read back above), the hub's the opposite at
+    the socket. Off the weld (arbitrary states, r = q̄_socket ⊗ q_top ≠ 1) the moment is what the dynamics
+    uses — solved from the link's qfrc_constraint = J_topᵀ F + J_ωᵀ τ on its six joints — and what
+    weld_moment_map gives: the sign and frame of the weld loads of mjcf/welded_pendulum.py."""
+    rng = np.random.default_rng(5)
+    link, hub = model.body("link").id, model.body("hub").id
+    top, socket = model.site("top").id, model.site("socket").id
+    a, s = params["a"], params["s"]
+    for k in range(6):
+        if k < 3:  # on the weld
+            theta = rng.uniform(-1.5, 1.5)
+            q = np.array([theta, a * np.sin(theta), 0.0, -a * np.cos(theta), theta, 0.0, 0.0])
+        else:
+            q = rng.uniform(-1.0, 1.0, size=7)
+        data = _forward(model, q, rng.uniform(-2.0, 2.0, size=7))
+        mujoco.mj_rnePostConstraint(model, data)
+        lam = equality_block(model, data, "glue")[0]
+        force, moment = _about(data.cfrc_ext[link], data.subtree_com[link], data.site_xpos[top])
+        np.testing.assert_allclose(force, lam[:3], rtol=1e-12, atol=1e-12)
+        if k < 3:
+            np.testing.assert_allclose(moment, s / 2 * _rot("y", -theta) @ lam[3:], rtol=1e-9, atol=1e-9)
+        jacp, jacr = np.zeros((3, model.nv)), np.zeros((3, model.nv))
+        mujoco.mj_jacSite(model, data, jacp, jacr, top)
+        dofs = slice(1, 7)  # the link's x, y, z, pitch, roll, yaw
+        solved = np.linalg.solve(np.vstack([jacp, jacr])[:, dofs].T, data.qfrc_constraint[dofs])
+        scale = max(1.0, float(np.max(np.abs(lam))))
+        np.testing.assert_allclose(solved, np.concatenate([lam[:3], moment]), rtol=0, atol=1e-10 * scale)
+        np.testing.assert_allclose(sensors.weld_moment_map(model, data, "glue") @ lam[3:], moment, rtol=0,
+                                   atol=1e-10 * scale)
+        hub_force, hub_moment = _about(data.cfrc_ext[hub], data.subtree_com[hub], data.site_xpos[socket])
+        np.testing.assert_allclose(np.concatenate([hub_force, hub_moment]), -np.concatenate([lam[:3], moment]),
+                                   rtol=0, atol=1e-10 * scale)
+
+
+def _wired(*loads: sensors.Load):
+    return dataclasses.replace(CASE, wiring=dataclasses.replace(CASE.wiring, loads=loads))
+
+
+LINK = sensors.Load("glue", body="link", site="top", sign=1.0)
+HUB = sensors.Load("glue", body="hub", site="socket", sign=-1.0)
+TORQUES = {"instant.sensor.socket_torque", "instant.sensor.top_torque", "instant.interaction.hub",
+           "instant.interaction.link"}
+
+
+@pytest.mark.parametrize(("label", "loads", "moment_map", "expected"), [
+    ("the link's load with sign -1", (dataclasses.replace(LINK, sign=-1.0), HUB), None,
+     {"instant.sensor.top_force", "instant.sensor.top_torque", "instant.interaction.link"}),
+    ("the hub's load with sign +1", (LINK, dataclasses.replace(HUB, sign=1.0)), None,
+     {"instant.sensor.socket_force", "instant.sensor.socket_torque", "instant.interaction.hub"}),
+    ("torquescale 1 (MuJoCo's default) for the weld's 0.5", (LINK, HUB), lambda m: 2.0 * m, TORQUES),
+    ("λ_τ as the world moment (MuJoCo < 3.14's cfrc_ext)", (LINK, HUB), lambda m: np.eye(3), TORQUES),
+    ("no moment (the weld read as a connect)", (LINK, HUB), lambda m: 0.0 * m, TORQUES),
+])
+def test_a_wrong_weld_load_fails_the_sensor_figures(monkeypatch, label, loads, moment_map, expected) -> None:
+    """The weld's loads are what the hub and link sensors rest on: each wrong sign or moment fails the
+    figures they enter (and the shipped wiring passes them: test_a_legitimate_setting_passes_every_gate)."""
+    if moment_map is not None:
+        shipped = sensors.weld_moment_map
+        monkeypatch.setattr(sensors, "weld_moment_map", lambda *a: moment_map(shipped(*a)))
+    got = failing(pipeline.run_case(_wired(*loads), integrators=["RK4"]))
+    assert expected <= got, (label, sorted(got))
+    assert not {f for f in got if not f.startswith("instant.")}, (label, sorted(got))
 
 
 # --- faults and legitimate settings ------------------------------------------------------------------------

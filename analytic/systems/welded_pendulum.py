@@ -1,7 +1,7 @@
 """Welded pendulum: a physical-pendulum link held to its hub by a ``weld`` equality, force and moment.
 
-A hub (a disc, inertia I_h about its axle, centre of mass on the axle) turns
-on a hinge about −y at the origin. A link (mass m, principal inertias I1, I2,
+A hub (a disc of mass m_h, inertia I_h about its axle, centre of mass on the
+axle) turns on a hinge about −y at the origin. A link (mass m, principal inertias I1, I2,
 I3 about its centre of mass along its frame's x, y, z) is a separate body with
 all six degrees of freedom of its own; the weld ``glue`` holds the link's frame
 at its top (site ``top``) to the hub's frame at the socket (site ``socket``, a
@@ -47,6 +47,12 @@ T = ½ I_h θ̇² + ½ m |ċ|² + ½ ω_bᵀ diag(I1, I2, I3) ω_b, V = m g c_z 
 centre of mass is on the axle at height 0: MuJoCo's potential energy exactly).
 On the motion the link turns with the hub (pitch = θ, roll = yaw = 0, its top
 at S), a compound pendulum of inertia I_h + I2 + m (a + d)² about the axle.
+
+Bodies (for the reaction sensors, :mod:`analytic.reactions`): ``hub`` (m_h on the
+axle, turning about y only, so of its inertia only I_h enters) and ``link``; the
+point ``socket`` is S on the hub (its accelerometer's site). The hub's hinge
+carries the hub's weight and dL/dt less the weld's wrench on it (−λ_F at S, −τ);
+the link's six joints carry nothing (its Newton–Euler is the weld's wrench).
 """
 
 from __future__ import annotations
@@ -62,7 +68,7 @@ if TYPE_CHECKING:
 
     from analytic.lagrangian import LagrangianSystem
 
-PARAMETERS = "I_h a m I1 I2 I3 d e s g"
+PARAMETERS = "I_h m_h a m I1 I2 I3 d e s g"
 
 MOTION = Motion(
     description="physical pendulum: a free link welded to a hinged hub (6 weld rows: force and moment on the link)",
@@ -115,14 +121,18 @@ def build(p: Parameters) -> LagrangianSystem:
         qd=qd,
         kinetic=p.I_h * qd[0] ** 2 / 2 + link.kinetic(q, qd),
         potential=p.m * p.g * link.com[2],
-        params=(p.I_h, p.a, p.m, p.I1, p.I2, p.I3, p.d, p.e, p.s, p.g),
+        params=(p.I_h, p.m_h, p.a, p.m, p.I1, p.I2, p.I3, p.d, p.e, p.s, p.g),
         constraints=(Constraint("glue", rows),),
-        points={"link": tuple(link.com), "top": tuple(top)},
+        points={"link": tuple(link.com), "top": tuple(top), "socket": tuple(socket)},
+        # the hub turns about −y only (ω ∥ y, a principal axis): of its inertia only I_h enters
+        bodies={"hub": RigidBody(mass=p.m_h, inertia=sp.diag(0, p.I_h, 0), com=sp.zeros(3, 1),
+                                 rotation=axis_rotation("y", -theta)),
+                "link": link},
     )
 
 
 def params_from_model(model) -> dict[str, float]:
-    """I_h from body ``hub`` (its inertia about y; centre of mass on the axle), a from the site ``socket``
+    """I_h and m_h from body ``hub`` (its inertia about y; centre of mass on the axle), a from the site ``socket``
     (on the hub, a below the axle), the link's m, I1, I2, I3 and its centre of mass (0, e, −d) from body
     ``link`` (principal axes along its frame), s from the weld ``glue``'s torquescale, g from gravity.
     ValueError where the model is not of this shape."""
@@ -145,7 +155,8 @@ def params_from_model(model) -> dict[str, float]:
             raise ValueError(f"body {body.name!r} must have its principal axes along its frame's")
     glue = model.equality("glue").id
     inertia = model.body_inertia[link.id]
-    return {"I_h": float(model.body_inertia[hub.id][1]), "a": float(-model.site_pos[socket.id][2]),
+    return {"I_h": float(model.body_inertia[hub.id][1]), "m_h": float(hub.mass[0]),
+            "a": float(-model.site_pos[socket.id][2]),
             "m": float(link.mass[0]), "I1": float(inertia[0]), "I2": float(inertia[1]), "I3": float(inertia[2]),
             "d": float(-ipos[2]), "e": float(ipos[1]), "s": float(model.eq_data[glue][10]),
             "g": float(-gravity[2])}

@@ -63,8 +63,9 @@ class Load:
     model, as a rolling system writes each contact multiplier: the contact force along one of its
     slides). A ``connect`` (neither): its three rows are the world components of anchor1 − anchor2 and
     M q̈ = F + Jᵀλ, so λ itself is the world force on the body of ``site1`` at its anchor and −λ the
-    force on the body of ``site2``: ``sign`` +1 or −1 says which. A ``weld``'s orientation rows carry a
-    moment besides (not supported: a weld's 6 rows are refused).
+    force on the body of ``site2``: ``sign`` +1 or −1 says which. A ``weld`` (neither, 6 rows): its first
+    three rows as a connect's, and its orientation rows' λ_τ a moment besides, τ = M λ_τ on the body of
+    site1 and −τ on the body of site2 (M per state: :func:`weld_moment_map`; ``sign`` again says which).
 
     A contact's point (``contact``: a geom of ``body``) is where MuJoCo applies the contact force at the
     state, ``data.contact.pos`` of the active contact on that geom (the mean where several are), as a
@@ -96,6 +97,46 @@ def contact_point(model: mujoco.MjModel, data: mujoco.MjData, geom: str) -> np.n
     found = [data.contact[i].pos.copy() for i in range(data.ncon)
              if data.contact[i].efc_address >= 0 and gid in (data.contact[i].geom1, data.contact[i].geom2)]
     return np.mean(found, axis=0) if found else None
+
+
+def weld_moment_map(model: mujoco.MjModel, data: mujoco.MjData, name: str) -> np.ndarray:
+    """M (3×3) with τ = M λ_τ: the world moment that the orientation rows of the weld ``name`` exert on
+    its first body (−τ on its second), from their multipliers λ_τ (``efc_force`` rows 3–5), after
+    ``mj_forward``.
+
+    MuJoCo's rows (engine_core_constraint.c, mjEQ_WELD) are s·vec(q̄₂ ⊗ q₁), s the ``torquescale``
+    (``eq_data[10]``), q₁ and q₂ the world orientations of the weld's two frames (site semantics: the
+    sites'; body semantics: body1's ⊗ ``relpose`` and body2's), with the Jacobian (s/2)·vec(q̄₂ ⊗ (0,
+    ω₁ − ω₂) ⊗ q₁). By virtual work, λ_τ·δrows = τ·(δφ₁ − δφ₂) with vec((0, u) ⊗ r) = r_w u + u × r_v
+    for r = q̄₂ ⊗ q₁ and u = R₂ᵀ δφ, so
+
+        τ = (s/2) R₂ (r_w λ_τ + r_v × λ_τ),        M = (s/2) R₂ (r_w I + [r_v]×)
+
+    — (s/2) R₂ where the weld holds (r = 1): λ_τ is the moment in frame 2 times 2/s. MuJoCo ≥ 3.14
+    adds exactly this to ``cfrc_ext`` (before, λ_τ itself as a world torque: changelog 3.14.0, item 8);
+    ``tests/test_welded_pendulum.py`` pins it against ``cfrc_ext`` and ``qfrc_constraint``.
+    ModelMismatch where ``name`` is not a weld."""
+    eq = model.equality(name).id
+    if int(model.eq_type[eq]) != int(mujoco.mjtEq.mjEQ_WELD):
+        raise ModelMismatch(f"equality {name!r} is of type {mujoco.mjtEq(int(model.eq_type[eq])).name}; a load "
+                            "with a moment is accepted on a weld (mjEQ_WELD) only")
+    obj = (int(model.eq_obj1id[eq]), int(model.eq_obj2id[eq]))
+    frames = []
+    for k, o in enumerate(obj):
+        if int(model.eq_objtype[eq]) == int(mujoco.mjtObj.mjOBJ_SITE):
+            local, body = model.site_quat[o], int(model.site_bodyid[o])
+        else:  # body semantics: the relative pose rides on body1
+            local, body = (model.eq_data[eq][6:10] if k == 0 else np.array([1.0, 0.0, 0.0, 0.0])), o
+        frame = np.zeros(4)
+        mujoco.mju_mulQuat(frame, data.xquat[body], np.asarray(local, dtype=float))
+        frames.append(frame)
+    conj, relative, rotation = np.zeros(4), np.zeros(4), np.zeros(9)
+    mujoco.mju_negQuat(conj, frames[1])
+    mujoco.mju_mulQuat(relative, conj, frames[0])
+    mujoco.mju_quat2Mat(rotation, frames[1])
+    w, (x, y, z) = relative[0], relative[1:]
+    spin = np.array([[w, -z, y], [z, w, -x], [-y, x, w]])  # r_w I + [r_v]×
+    return 0.5 * float(model.eq_data[eq][10]) * rotation.reshape(3, 3) @ spin
 
 
 def sensors(model: mujoco.MjModel) -> tuple[Sensor, ...]:

@@ -10,8 +10,10 @@ state:
   below B in MuJoCo's tree, each an analytic body of the same name; a massless MuJoCo body may have
   none), the moment about the site, less the external loads the case's wiring declares
   (:class:`harness.engine.sensors.Load`: the forces MuJoCo counts in ``cfrc_ext``, a spatial
-  tendon's pull, a contact at MuJoCo's contact point); a subtree body that MuJoCo loads from outside
-  its joints with no load declared is refused (the comparison would be meaningless);
+  tendon's pull, a connect's pin force, a weld's force and moment — the moment through MuJoCo's
+  frame at the state, :func:`harness.engine.sensors.weld_moment_map` —, a contact at MuJoCo's contact
+  point); a subtree body that MuJoCo loads from outside its joints with no load declared is refused
+  (the comparison would be meaningless);
 - ``cfrc_int`` of every body with a force or torque sensor: the same wrench, its moment about
   MuJoCo's c-frame origin (figure ``instant.interaction.BODY``);
 - ``accelerometer`` at a site: the site's proper acceleration a − g (0 − g on the world body; the
@@ -21,7 +23,8 @@ Figures ``instant.sensor.NAME``: max over states of |MuJoCo (rotated to the worl
 a force over the case's force scale, a torque over force × length, an acceleration over the largest
 analytic |a − g|; ``instant.interaction.BODY``: the force and the moment / length together, over the
 force scale. Where the site's position enters (a moment's point, a load's line) it is MuJoCo's at
-the state, which the analytic side sets: kinematics, checked by ``instant.kinematics``.
+the state, which the analytic side sets: kinematics, checked by ``instant.kinematics``; so is a
+weld's frame (its torquescale is the model's, which the analytic system reads too).
 """
 
 from __future__ import annotations
@@ -63,8 +66,17 @@ class Recorder:
             _check_load(model, dyn, load)
         self.sites = tuple(dict.fromkeys([*(s.site for s in self.sensors), *(ld.site for ld in self.loads
                                                                             if ld.site)]))
+        # the welds among the loads' constraints: their moment map is MuJoCo's frame at each state
+        self.welds = tuple(dict.fromkeys(ld.constraint for ld in self.loads if ld.direction is None and not ld.slide
+                                         and dyn.blocks[ld.constraint].stop - dyn.blocks[ld.constraint].start == 6))
+        for name in self.welds:
+            eq = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, name)
+            if eq < 0 or int(model.eq_type[eq]) != int(mujoco.mjtEq.mjEQ_WELD):
+                found = "none" if eq < 0 else mujoco.mjtEq(int(model.eq_type[eq])).name
+                raise ModelMismatch(f"load on constraint {name!r}: its 6 rows are read as a weld's force and moment, "
+                                    f"but the model's equality {name!r} is {found}; accepted: a weld")
         self.rows: dict[str, list] = {k: [] for k in ("reading", "site", "interaction", "external", "com",
-                                                       "contact", "axis")}
+                                                       "contact", "axis", "moment")}
 
     def __bool__(self) -> bool:
         return bool(self.sensors)
@@ -83,6 +95,7 @@ class Recorder:
                                      for g, pt in points.items()})
         self.rows["axis"].append({ld.slide: data.xaxis[model.joint(ld.slide).id].copy() for ld in self.loads
                                   if ld.slide})
+        self.rows["moment"].append({w: S.weld_moment_map(model, data, w) for w in self.welds})
 
     def load_point(self, load: S.Load, site_pos: Mapping[str, np.ndarray]) -> np.ndarray:
         """Where ``load`` acts at each state (n, 3): its site's position, or its contact's point."""
@@ -99,10 +112,10 @@ def _check_load(model: mujoco.MjModel, dyn: Dynamics, load: S.Load) -> None:
     one_row = load.direction is not None or bool(load.slide)
     if load.direction is not None and load.slide:
         raise ModelMismatch(f"{where} gives both a direction and slide {load.slide!r}; accepted: one of them")
-    if not one_row and rows.stop - rows.start != 3:
+    if not one_row and rows.stop - rows.start not in (3, 6):
         raise ModelMismatch(f"{where}: constraint {load.constraint!r} has {rows.stop - rows.start} rows; accepted: "
                             "a direction for a one-row constraint (or a slide: its world axis), none for a "
-                            "connect's 3 rows (a world force)")
+                            "connect's 3 rows (a world force) or a weld's 6 (a world force and a moment)")
     if load.sign not in (1.0, -1.0):
         raise ModelMismatch(f"{where} has sign {load.sign!r}; accepted: +1 or -1")
     if bool(load.site) == bool(load.contact):
@@ -153,8 +166,16 @@ def reaction_deviations(model: mujoco.MjModel, dyn: Dynamics, rec: Recorder, q: 
             if ld.body in tree:
                 rows = blocks[ld.constraint]
                 direction = np.array([row[ld.slide] for row in rec.rows["axis"]]) if ld.slide else ld.direction
-                force = lam[:, rows] if direction is None else lam[:, rows.start, None] * np.asarray(direction)
-                out.append(AnalyticLoad(force=ld.sign * force, at=rec.load_point(ld, site_pos)))
+                moment = None
+                if direction is not None:
+                    force = lam[:, rows.start, None] * np.asarray(direction)
+                elif ld.constraint in rec.welds:  # force rows, then the moment rows through MuJoCo's frame
+                    force = lam[:, rows.start:rows.start + 3]
+                    maps = np.array([row[ld.constraint] for row in rec.rows["moment"]])
+                    moment = ld.sign * np.einsum("nij,nj->ni", maps, lam[:, rows.start + 3:rows.start + 6])
+                else:
+                    force = lam[:, rows]
+                out.append(AnalyticLoad(force=ld.sign * force, at=rec.load_point(ld, site_pos), moment=moment))
         loaded = {ld.body for ld in rec.loads}
         for b in tree:
             worst = max(row[b] for row in rec.rows["external"])
