@@ -242,8 +242,9 @@ def test_a_load_without_direction_needs_a_connects_or_a_welds_rows():
     from harness.layers.reactions import Recorder
 
     model = compile_model(mjcf_path("pendulum"))
-    with pytest.raises(ModelMismatch, match="accepted: a direction for a one-row constraint, none for a connect's 3 "
-                                            r"rows \(a world force\) or a weld's 6") as info:
+    accepted = (r"accepted: a direction for a one-row constraint \(or a slide: its world axis\), none for a "
+                r"connect's 3 rows \(a world force\) or a weld's 6")
+    with pytest.raises(ModelMismatch, match=accepted) as info:
         Recorder(model, dynamics_of("pendulum", model), [SensorLoad("rod", body="bob", site="bob_imu")])
     assert "\n" not in str(info.value)
 
