@@ -113,7 +113,7 @@ def weld_moment_map(model: mujoco.MjModel, data: mujoco.MjData, name: str) -> np
         τ = (s/2) R₂ (r_w λ_τ + r_v × λ_τ),        M = (s/2) R₂ (r_w I + [r_v]×)
 
     — (s/2) R₂ where the weld holds (r = 1): λ_τ is the moment in frame 2 times 2/s. MuJoCo ≥ 3.14
-    adds exactly this to ``cfrc_ext`` (before, λ_τ itself as a world torque: changelog 3.14.0, item 8);
+    adds exactly this to ``cfrc_ext`` (before, λ_τ itself as a world torque: changelog 3.14.0, bug fix 8);
     ``tests/test_welded_pendulum.py`` pins it against ``cfrc_ext`` and ``qfrc_constraint``.
     ModelMismatch where ``name`` is not a weld."""
     eq = model.equality(name).id
