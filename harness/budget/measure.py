@@ -31,10 +31,10 @@ from harness.core.errors import SimulationDiverged
 from harness.core.figures import FigureName
 from harness.core.trajectory import Trajectory
 from harness.engine import variants as V
+from harness.engine.backends import simulate
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
-from harness.engine.simulate import simulate
 from harness.layers.instant import instant_deviations
 from harness.layers.trajectory import deviations
 from harness.reference.solutions import Reference
@@ -268,11 +268,13 @@ def _twins(a: Trajectory, b: Trajectory, scales: Scales) -> bool:
 
 
 def trajectory_budget(runs: Mapping[str, Runs], *, orders: Mapping[str, float], rtol: float,
-                      solver_tolerance: float, notes: Sequence[str] = ()) -> dict[FigureName, Budget]:
-    """Every trajectory figure's budget, each integrator's with its documented order in ``orders``."""
+                      solver_tolerance: float, notes: Sequence[str] = (),
+                      epsilon: float = float(np.finfo(float).eps)) -> dict[FigureName, Budget]:
+    """Every trajectory figure's budget, each integrator's with its documented order in ``orders``;
+    ``epsilon``: the machine epsilon of the backend's arithmetic (the round-off part scales with it)."""
     out: dict[FigureName, Budget] = {}
     for name, r in runs.items():
         steps = len(r.as_is[0].values) - 1 if r.as_is else 0
         out |= budgets(r, order=orders[name], steps=steps, rtol=rtol, solver_tolerance=solver_tolerance,
-                       notes=notes)
+                       notes=notes, epsilon=epsilon)
     return out

@@ -63,10 +63,11 @@ from harness.cases import Case
 from harness.core.errors import SimulationDiverged
 from harness.core.figures import Figure, FigureName
 from harness.core.trajectory import Trajectory
+from harness.engine.backends import simulate
 from harness.engine.compat import joint_types, known_defect
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
-from harness.engine.simulate import simulate, steps_in
+from harness.engine.simulate import steps_in
 from harness.engine.variants import heavier_floors, point_masses
 from harness.reference import solutions as refmod
 
