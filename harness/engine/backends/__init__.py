@@ -75,6 +75,9 @@ class Backend(Protocol):
     def unsupported(self, model: mujoco.MjModel) -> str:
         """Why this backend cannot run ``model`` (one line: the backend, the feature, the fix), or ""."""
 
+    def adaptations(self, model: mujoco.MjModel) -> tuple[str, ...]:
+        """What this backend's copy of ``model`` changes (a flag it lacks) and what stands in, one line each."""
+
     def supports(self, model: mujoco.MjModel) -> None:
         """Raise :class:`BackendUnavailable` with :meth:`unsupported`'s reason, if any."""
 
