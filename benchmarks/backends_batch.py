@@ -27,13 +27,13 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import jax  # noqa: E402
-import numpy as np  # noqa: E402
+import jax
+import numpy as np
 
-from harness import cases  # noqa: E402
-from harness.engine import backends  # noqa: E402
-from harness.engine.backends.mjx import host_model  # noqa: E402
-from harness.engine.models import compile_model  # noqa: E402
+from harness import cases
+from harness.engine import backends
+from harness.engine.backends.mjx import host_model
+from harness.engine.models import compile_model
 
 
 def _requests(case_name: str, batch: int, steps: int) -> tuple[list[backends.Request], object]:
