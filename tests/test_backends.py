@@ -10,6 +10,7 @@ float64 only; float32 runs in a subprocess (the slow tests).
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import json
 import subprocess
 import sys
@@ -64,7 +65,7 @@ def test_unknown_backend_is_refused_naming_the_accepted(spec):
 
 
 def test_a_backend_not_installed_is_one_line_naming_the_fix(monkeypatch, capsys):
-    real = importlib.import_module
+    real, real_spec = importlib.import_module, importlib.util.find_spec
 
     def missing(name, *args):
         if name.startswith("harness.engine.backends.") and not name.endswith(".c"):
@@ -73,12 +74,14 @@ def test_a_backend_not_installed_is_one_line_naming_the_fix(monkeypatch, capsys)
 
     monkeypatch.setattr(backends, "_loaded", {})
     monkeypatch.setattr(importlib, "import_module", missing)
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name in ("jax", "warp") else real_spec(name))
     with pytest.raises(BackendUnavailable, match=r"backend 'mjx' is not installed \(jax is missing\); "
                                                  r"fix: pip install 'mjharness\[mjx\]'"):
         backends.get("mjx")
     assert main(["check", "pendulum", "--backend", "warp"]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == ("mjharness: error: backend 'warp' is not installed (jax is missing); "
+    assert err == ("mjharness: error: backend 'warp' is not installed (warp is missing); "
                    "fix: pip install 'mjharness[warp]', or use --backend c")
 
 

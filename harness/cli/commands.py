@@ -178,7 +178,7 @@ def _options(args: argparse.Namespace, selected: Sequence[cases.Case]) -> RunOpt
     if len(chosen) > 1:
         raise ValueError(f"--backend {args.backend}: one backend per run for now ({', '.join(chosen)} asked); "
                          "run once per backend")
-    backends.get(chosen[0])  # not installed: one line naming the fix, before any work
+    backends.check_installed(chosen[0])  # not installed: one line naming the fix, before any work
     return RunOptions(mjcf=args.mjcf, timestep=args.timestep, integrators=args.integrators, horizon=args.horizon,
                       q0=args.q0, qd0=args.qd0, backend=chosen[0])
 
@@ -447,7 +447,8 @@ def cmd_converge(args: argparse.Namespace) -> int:
     if len(chosen) > 1:
         raise ValueError(f"--backend {args.backend}: one backend per run for now ({', '.join(chosen)} asked); "
                          "run once per backend")
-    with backends.use(chosen[0]):  # not installed: one line naming the fix, before any work
+    backends.check_installed(chosen[0])  # not installed: one line naming the fix, before any work
+    with backends.use(chosen[0]):
         studies = run_studies(cases.select(args.cases), fast=args.fast, with_softness=args.softness,
                               with_solvers=args.solvers, progress=True)
     print(text(studies))
