@@ -43,6 +43,8 @@ BACKENDS: tuple[str, ...] = ("c", "mjx", "mjx-f64", "warp")
 """Every backend's name, as ``--backend`` and ``validate(backend=...)`` accept them (and ``all``)."""
 
 _MODULES = {"c": "c", "mjx": "mjx", "mjx-f64": "mjx", "warp": "warp"}
+PRECISION = {"c": "float64", "mjx": "float32", "mjx-f64": "float64", "warp": "float32"}
+"""The arithmetic each backend steps in (known without importing it)."""
 _REQUIRES = {"mjx": ("jax", "mujoco.mjx"), "mjx-f64": ("jax", "mujoco.mjx"), "warp": ("warp", "mujoco_warp")}
 EXTRAS = {"mjx": "mjx", "mjx-f64": "mjx", "warp": "warp"}
 """The pip extra that installs each optional backend: ``pip install 'mjharness[EXTRA]'``."""
