@@ -60,9 +60,11 @@ import mujoco
 import numpy as np
 
 from harness.cases import Case
+from harness.core.budget import ROUNDOFF_EPS
 from harness.core.errors import SimulationDiverged
 from harness.core.figures import Figure, FigureName
 from harness.core.trajectory import Trajectory
+from harness.engine import backends
 from harness.engine.backends import Request, simulate, simulate_many
 from harness.engine.compat import joint_types, known_defect
 from harness.engine.integrators import available_integrators
@@ -433,8 +435,12 @@ def convergence_study(
             note = exact
             if quantity == gated and not exact and fit.n_used < 2 and fit.floor is not None:
                 softness = [v for v in errs["softness"] if math.isfinite(v)]
-                note = explained_floor(fit, {"softness": max(softness, default=math.nan),
-                                             "inertia floor": floor_effect(name, dts[-1])})
+                effects = {"softness": max(softness, default=math.nan), "inertia floor": floor_effect(name, dts[-1])}
+                epsilon = backends.active().epsilon
+                if epsilon > float(np.finfo(np.float64).eps):  # float32 backends: their round-off is a floor too
+                    effects[f"{backends.active().precision} round-off"] = (
+                        ROUNDOFF_EPS * epsilon * math.sqrt(steps_in(horizon, min(dts))) * scales.length)
+                note = explained_floor(fit, effects)
             series.append(Series(
                 integrator=name, quantity=quantity, unit=unit, dts=dts, errors=values, fit=fit,
                 expected=float(EXPECTED_ORDER[name]) if quantity == gated and not note else None,
