@@ -233,9 +233,12 @@ class MjxBackend:
 
             def one_chunk(m, d):
                 def body(d, _):
+                    start = d
                     d = forward(m, d)
                     rec = read(m, d)
-                    return integrate(m, d), rec
+                    # the carry keeps its types: under x64, MJX's tendon wrapping returns int64 indices
+                    # for fields make_data made int32 (atwood's, spring's drawing tendons)
+                    return jax.tree_util.tree_map(lambda new, old: new.astype(old.dtype), integrate(m, d), start), rec
                 return jax.lax.scan(body, d, None, length=CHUNK)
 
             def one_final(m, d):
