@@ -37,7 +37,7 @@ from harness.core import VERSION
 from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
 from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
-from harness.engine import messages
+from harness.engine import backends, messages
 from harness.engine.integrators import available_integrators
 from harness.outputs import baseline
 from harness.outputs.diff import diff_runs, format_diff, load_run, select
@@ -47,7 +47,7 @@ from harness.outputs.junit import junit_xml
 from harness.outputs.table import checks_table, failures_table, fitness_line, fitness_table, verdict_line
 from harness.pipeline import limits as limits_data
 from harness.pipeline import require
-from harness.pipeline.matrix import run_all
+from harness.pipeline.matrix import run_all, run_backends
 from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
 from harness.pipeline.pool import cpus, run_tasks
 from harness.pipeline.run import RunOptions
@@ -110,6 +110,7 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
                    help="initial coordinates (the case's names; needs one case); the rest as the case has them, "
                         "then brought onto the constraints")
     g.add_argument("--qd0", type=_state, metavar="NAME=VALUE,...", help="initial velocities, as --q0")
+    _add_backend(g)
     g = p.add_argument_group("verdict")
     g.add_argument("--require", action="append", default=[], metavar="MEASURE=VALUE",
                    help="the accuracy you need, judged on each model's own integrator (e.g. position=1e-3, "
@@ -117,6 +118,20 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--accept-known-defects", action="store_true",
                    help="let a failure that shows the signature of a documented defect of this MuJoCo (shown as "
                         "FAIL, known defect) not fail the exit code")
+
+
+def _add_backend(g) -> None:
+    g.add_argument("--backend", type=_backend, default="c", metavar="|".join([*backends.BACKENDS, "all"]),
+                   help="the engine every run goes to (default c: MuJoCo's C engine; mjx float32, mjx-f64, warp "
+                        "float32 need pip install 'mjharness[mjx]' or '[warp]')")
+
+
+def _backend(text: str) -> str:
+    try:
+        backends.expand(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
 
 
 def _seconds(text: str) -> float:
@@ -162,15 +177,21 @@ def _state(text: str) -> dict[str, float]:
     return out
 
 
-def _options(args: argparse.Namespace, selected: Sequence[cases.Case]) -> RunOptions:
+def _options(args: argparse.Namespace, selected: Sequence[cases.Case], *, several: bool = False) -> RunOptions:
     """The run options the flags ask for; --q0/--qd0 name one case's coordinates, so need one case."""
     if (args.q0 or args.qd0) and len(selected) != 1:
         raise ValueError("--q0 and --qd0 name one case's coordinates; name exactly one case "
                          f"(known cases: {', '.join(cases.names())})")
     for case in selected:
         case.with_motion(q0=args.q0, qd0=args.qd0, horizon=args.horizon)  # ValueError naming what is wrong
+    chosen = backends.expand(args.backend)
+    if len(chosen) > 1 and not several:
+        raise ValueError(f"--backend {args.backend}: {args.command} runs one backend ({', '.join(chosen)} asked); "
+                         "`mjharness run --backend all` shows them side by side")
+    for name in chosen:
+        backends.check_installed(name)  # not installed: one line naming the fix, before any work
     return RunOptions(mjcf=args.mjcf, timestep=args.timestep, integrators=args.integrators, horizon=args.horizon,
-                      q0=args.q0, qd0=args.qd0, perturb=getattr(args, "perturb", None))
+                      q0=args.q0, qd0=args.qd0, perturb=getattr(args, "perturb", None), backend=chosen[0])
 
 
 def _outcome(args: argparse.Namespace, results: Sequence, checks: dict[str, list[Check]], limits) -> Outcome:
@@ -260,11 +281,20 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_output(args.out)  # fail before minutes of work, not after
     _check_junit(args.junit)
     selected = _selected(args)
-    options = _options(args, selected)
+    options = _options(args, selected, several=True)
     results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs)
     outcome = _outcome(args, results, checks, limits)
     extras, appendix, plots = report_parts(selected, results, jobs=args.jobs,
                                            studies=args.studies and options.shipped)
+    others = backends.expand(args.backend)[1:]
+    if others:  # the first backend's report, and every backend side by side (its verdict is the first's)
+        from harness.outputs.backends import BackendRun, side_by_side_html, side_by_side_json  # lazy: matplotlib
+
+        runs = [BackendRun(options.backend, backends.PRECISION[options.backend], results, checks)]
+        runs += [BackendRun(name, backends.PRECISION[name], r, c)
+                 for name, r, c in run_backends(selected, args.config, options, others)]
+        extras = [*extras, side_by_side_html(runs)]
+        appendix = (appendix or {}) | {"backends": side_by_side_json(runs)}
     files = report_files(args.out, results, outcome, config_source=limits.source, extras=extras,
                          appendix=appendix, plots=plots)
     prepare_output(args.out)
@@ -534,6 +564,7 @@ def _args_converge(p: argparse.ArgumentParser) -> None:
     p.add_argument("--softness", action="store_true", help="also sweep solref/solimp of the equality cases")
     p.add_argument("--solvers", action="store_true", help="also compare Newton, CG and PGS on the constrained cases")
     p.add_argument("--html", type=Path, metavar="FILE", help="also write the tables and plots as one HTML page")
+    _add_backend(p)
 
 
 def cmd_converge(args: argparse.Namespace) -> int:
@@ -541,8 +572,14 @@ def cmd_converge(args: argparse.Namespace) -> int:
 
     if args.html is not None:
         check_output(args.html.parent)
-    studies = run_studies(cases.select(args.cases), fast=args.fast, with_softness=args.softness,
-                          with_solvers=args.solvers, progress=True)
+    chosen = backends.expand(args.backend)
+    if len(chosen) > 1:
+        raise ValueError(f"--backend {args.backend}: one backend per run for now ({', '.join(chosen)} asked); "
+                         "run once per backend")
+    backends.check_installed(chosen[0])  # not installed: one line naming the fix, before any work
+    with backends.use(chosen[0]):
+        studies = run_studies(cases.select(args.cases), fast=args.fast, with_softness=args.softness,
+                              with_solvers=args.solvers, progress=True)
     print(text(studies))
     if args.html is not None:
         prepare_output(args.html.parent)
