@@ -20,6 +20,7 @@ matplotlib and sympy, when they run; the gate (``check``) never loads them.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import signal
@@ -382,10 +383,8 @@ def cmd_versions(args: argparse.Namespace) -> int:
     extras = list(args.extras)
     if args.backend is not None:
         if args.backend not in envs.BACKEND_PACKAGES:
-            raise ValueError(f"unknown backend {args.backend!r}; known: {', '.join(envs.BACKEND_PACKAGES)}")
-        if not _check_takes("--backend"):
-            raise ValueError("--backend: this harness's check has no --backend option yet (backends other than "
-                             "MuJoCo's own: issue 20); --with REQUIREMENT installs extra packages meanwhile")
+            raise ValueError(f"unknown backend {args.backend!r} for versions; accepted: "
+                             f"{', '.join(envs.BACKEND_PACKAGES)} (one backend per run)")
         extras += envs.BACKEND_PACKAGES[args.backend]
         check_args += ["--backend", args.backend]
     checked = _check_options(check_args)
@@ -395,6 +394,7 @@ def cmd_versions(args: argparse.Namespace) -> int:
         if not (checked.cases or checked.case):
             check_args += ["--case", target.case]  # only the case the figure belongs to
     chosen = releases.parse_selection(args.releases)
+    refused = _backend_refusals(args.backend, chosen)
     check_output(args.out)
     parallel = 1 if target is not None else (args.parallel or min(len(chosen), cpus()))
     jobs = args.jobs or max(1, cpus() // parallel)
@@ -410,10 +410,10 @@ def cmd_versions(args: argparse.Namespace) -> int:
 
     if target is not None:
         comparison = session.bisect_releases(builder, chosen, digest, command, target, extras=extras,
-                                             pinned=envs.pins(), on_done=done)
+                                             pinned=envs.pins(), refused=refused, on_done=done)
     else:
         comparison = session.compare_releases(builder, chosen, digest, command, extras=extras, pinned=envs.pins(),
-                                              parallel=parallel, on_done=done)
+                                              parallel=parallel, refused=refused, on_done=done)
     summary = report.text(comparison)
     prepare_output(args.out)
     write_atomic({args.out / "versions.txt": summary,
@@ -437,11 +437,26 @@ def _check_options(check_args: Sequence[str]) -> argparse.Namespace:
     return parser.parse_args(list(check_args))
 
 
-def _check_takes(option: str) -> bool:
-    """Whether this harness's ``check`` has ``option``."""
-    parser = _CheckOptions(prog="check", add_help=False)
-    _args_check(parser)
-    return option in parser._option_string_actions
+def _backend_refusals(backend: str | None, chosen: Sequence) -> dict:
+    """The releases ``backend`` cannot run because the package index has no release of its package under
+    the same number (mujoco-mjx for MuJoCo 4.0.0), each with its one-line reason; ValueError where that
+    is every chosen release."""
+    from harness.versions import envs, releases  # lazy: only the versions command needs them
+
+    package = envs.SAME_RELEASE.get(backend or "")
+    if package is None:
+        return {}
+    offered = []
+    for text in releases.pip_index_versions(package):
+        with contextlib.suppress(ValueError):  # a pre-release (3.3.0rc1) is no release of MuJoCo's number
+            offered.append(releases.Release(text))
+    span = f"{min(offered)} … {max(offered)}" if offered else "none"
+    refused = {r: f"MuJoCo {r}: the package index has no {package} {r} (it offers {span}), which backend "
+                  f"{backend!r} needs at the same release" for r in chosen if r not in offered}
+    if refused and len(refused) == len(chosen):
+        raise ValueError(f"--backend {backend}: the package index has no {package} of "
+                         f"{', '.join(str(r) for r in chosen)} (it offers {span}); choose releases in that span")
+    return refused
 
 
 class _CheckOptions(_Parser):

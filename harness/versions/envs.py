@@ -44,11 +44,18 @@ COMPLETE = "complete"  # the marker of a finished build, holding the requirement
 SOURCE_MARK = "mjharness-source"  # the source hash the installed harness was built from
 
 BACKEND_PACKAGES: Mapping[str, tuple[str, ...]] = {
-    "mujoco": (),
-    "mjx": ("mujoco-mjx=={version}",),  # MJX is released with MuJoCo, under the same number
-    "warp": ("mujoco-warp",),  # resolved by uv against the pinned mujoco
+    "c": (),
+    # MJX is released with MuJoCo under the same number; jax is what it runs on (mujoco-mjx requires it
+    # unpinned, so uv takes the newest that resolves)
+    "mjx": ("mujoco-mjx=={version}", "jax"),
+    "mjx-f64": ("mujoco-mjx=={version}", "jax"),
 }
-"""The packages each backend needs in an environment; ``{version}`` is the MuJoCo release."""
+"""The packages each backend (``check --backend NAME``) needs in an environment; ``{version}`` is the MuJoCo
+release. Warp is absent: this harness has no Warp backend yet (issue 20)."""
+
+SAME_RELEASE: Mapping[str, str] = {"mjx": "mujoco-mjx", "mjx-f64": "mujoco-mjx"}
+"""The backends whose package is released with MuJoCo under the same number: a MuJoCo release the package
+index has no such release of (mujoco-mjx stops at 3.17.0; there is none for 4.0.0) cannot run them."""
 
 
 def source_root() -> Path:
@@ -110,6 +117,8 @@ class EnvSpec:
     release: Release
     extras: tuple[str, ...] = ()
     pinned: tuple[str, ...] = ()
+    refused: str = ""
+    """Why this environment is not built (one line, e.g. the index has no mujoco-mjx of the release), or ""."""
 
     def requirements(self) -> tuple[str, ...]:
         return (f"mujoco=={self.release}", *self.pinned,

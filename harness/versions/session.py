@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 from harness.versions import changes as changes_mod
 from harness.versions.bisect import Target, bisect
@@ -20,11 +20,12 @@ def _snapshot(run: ReleaseRun) -> changes_mod.Snapshot:
 
 def compare_releases(builder: Builder, releases: Sequence[Release], digest: str, command: CheckCommand, *,
                      extras: Sequence[str] = (), pinned: Sequence[str] = (), parallel: int = 1,
-                     noise: Sequence[float] = NOISE_RUNS,
+                     noise: Sequence[float] = NOISE_RUNS, refused: Mapping[Release, str] | None = None,
                      on_done: Callable[[ReleaseRun], None] | None = None) -> Comparison:
-    """Every release run (``parallel`` at a time) and compared with the one before it."""
+    """Every release run (``parallel`` at a time) and compared with the one before it; a release in
+    ``refused`` is not built, its reason its run's error."""
     start = time.perf_counter()
-    specs = [EnvSpec(r, tuple(extras), tuple(pinned)) for r in releases]
+    specs = [EnvSpec(r, tuple(extras), tuple(pinned), (refused or {}).get(r, "")) for r in releases]
     runs = run_releases(builder, specs, digest, command, parallel=parallel, noise=noise, on_done=on_done)
     snaps = [_snapshot(r) for r in runs if r.ok]
     found = changes_mod.changes(snaps)
@@ -34,16 +35,18 @@ def compare_releases(builder: Builder, releases: Sequence[Release], digest: str,
 
 def bisect_releases(builder: Builder, releases: Sequence[Release], digest: str, command: CheckCommand,
                     target: Target, *, extras: Sequence[str] = (), pinned: Sequence[str] = (),
-                    noise: Sequence[float] = NOISE_RUNS,
+                    noise: Sequence[float] = NOISE_RUNS, refused: Mapping[Release, str] | None = None,
                     on_done: Callable[[ReleaseRun], None] | None = None) -> Comparison:
     """The first release at which ``target`` changed, running only the releases the bisection visits
-    (one at a time: each depends on the last), with the comparison of those it ran."""
+    (one at a time: each depends on the last), with the comparison of those it ran; a release in
+    ``refused`` is not built, its reason its run's error."""
     start = time.perf_counter()
     builder.wheel(digest)
     runs: dict[Release, ReleaseRun] = {}
 
     def run(release: Release) -> changes_mod.Snapshot | str:
-        got = run_release(builder, EnvSpec(release, tuple(extras), tuple(pinned)), digest, command, noise=noise)
+        spec = EnvSpec(release, tuple(extras), tuple(pinned), (refused or {}).get(release, ""))
+        got = run_release(builder, spec, digest, command, noise=noise)
         runs[release] = got
         if on_done is not None:
             on_done(got)
