@@ -450,9 +450,10 @@ def _backend_refusals(backend: str | None, chosen: Sequence) -> dict:
     for text in releases.pip_index_versions(package):
         with contextlib.suppress(ValueError):  # a pre-release (3.3.0rc1) is no release of MuJoCo's number
             offered.append(releases.Release(text))
-    span = f"{min(offered)} … {max(offered)}" if offered else "none"
-    refused = {r: f"MuJoCo {r}: the package index has no {package} {r} (it offers {span}), which backend "
-                  f"{backend!r} needs at the same release" for r in chosen if r not in offered}
+    span = "none" if not offered else str(min(offered)) if min(offered) == max(offered) else \
+        f"{min(offered)} … {max(offered)}"
+    refused = {r: f"the package index has no {package} {r} (it offers {span}), which backend {backend!r} needs "
+                  "at the same release" for r in chosen if r not in offered}
     if refused and len(refused) == len(chosen):
         raise ValueError(f"--backend {backend}: the package index has no {package} of "
                          f"{', '.join(str(r) for r in chosen)} (it offers {span}); choose releases in that span")
