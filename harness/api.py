@@ -196,8 +196,8 @@ def validate(
             integrator: :attr:`Validation.fit`.
         accept_known_defects: let a failure with a documented defect's signature pass the gate.
         edit: a function changing the model through ``mujoco.MjSpec`` before it is compiled.
-        backend: the engine every run goes to: ``c`` (MuJoCo's C engine), ``mjx`` (float32), ``mjx-f64``,
-            ``warp`` (:data:`harness.engine.backends.BACKENDS`); a backend not installed, or a model feature
+        backend: the engine every run goes to: ``c`` (MuJoCo's C engine), ``mjx`` (float32), or ``mjx-f64``
+            (:data:`harness.engine.backends.BACKENDS`); a backend not installed, or a model feature
             it lacks, raises :class:`~harness.core.errors.BackendUnavailable` naming the fix.
     """
     chosen = cases.get(case) if isinstance(case, str) else case

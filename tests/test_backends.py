@@ -9,6 +9,7 @@ float64 only; float32 runs in a subprocess (the slow tests).
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import importlib.util
 import json
@@ -61,7 +62,7 @@ def test_unknown_backend_is_refused_naming_the_accepted(spec):
     out = subprocess.run([sys.executable, "-m", "harness.cli", "check", "pendulum", "--backend", spec],
                          capture_output=True, text=True, cwd=ROOT, timeout=120)
     err = out.stderr.strip()
-    assert out.returncode == 2 and len(err.splitlines()) == 1 and "c, mjx, mjx-f64, warp, all" in err, err
+    assert out.returncode == 2 and len(err.splitlines()) == 1 and "c, mjx, mjx-f64, all" in err, err
 
 
 def test_a_backend_not_installed_is_one_line_naming_the_fix(monkeypatch, capsys):
@@ -75,14 +76,14 @@ def test_a_backend_not_installed_is_one_line_naming_the_fix(monkeypatch, capsys)
     monkeypatch.setattr(backends, "_loaded", {})
     monkeypatch.setattr(importlib, "import_module", missing)
     monkeypatch.setattr(importlib.util, "find_spec",
-                        lambda name, *a: None if name in ("jax", "warp") else real_spec(name))
+                        lambda name, *a: None if name == "jax" else real_spec(name))
     with pytest.raises(BackendUnavailable, match=r"backend 'mjx' is not installed \(jax is missing\); "
                                                  r"fix: pip install 'mjharness\[mjx\]'"):
         backends.get("mjx")
-    assert main(["check", "pendulum", "--backend", "warp"]) == 2
+    assert main(["check", "pendulum", "--backend", "mjx-f64"]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == ("mjharness: error: backend 'warp' is not installed (warp is missing); "
-                   "fix: pip install 'mjharness[warp]', or use --backend c")
+    assert err == ("mjharness: error: backend 'mjx-f64' is not installed (jax is missing); "
+                   "fix: pip install 'mjharness[mjx]', or use --backend c")
 
 
 def test_roundoff_part_follows_the_backends_epsilon():
@@ -125,6 +126,15 @@ def test_mjx_reads_what_the_c_engine_reads_at_the_same_state(name):
         assert np.allclose(np.atleast_1d(m_run.multipliers[c][0]), force, rtol=1e-8, atol=1e-9)
         assert np.allclose(np.atleast_1d(m_run.violations[c][0]), np.atleast_1d(c_run.violations[c][0]),
                            rtol=0, atol=1e-12)
+    # an equality whose rows are −1 × its constraint's (Probe.signs, atwood_tendon's strings) reads negated on
+    # MJX as on the C engine
+    flipped = dataclasses.replace(probe, signs={c: -1.0 for c in probe.constraints})
+    m_flip = mjx64.simulate_many([backends.Request(model, ref.q0(), ref.qd0(), 1)], flipped)[0]
+    c_flip = simulate(model, flipped, q0=ref.q0(), qd0=ref.qd0(), steps=1)
+    for c in probe.constraints:
+        assert np.array_equal(m_flip.multipliers[c], -m_run.multipliers[c])
+        assert np.array_equal(m_flip.violations[c], -m_run.violations[c])
+        assert np.array_equal(c_flip.multipliers[c], -c_run.multipliers[c])
 
 
 def test_mjx_energy_fails_on_a_wrong_mass_matrix():

@@ -123,8 +123,8 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
 
 def _add_backend(g) -> None:
     g.add_argument("--backend", type=_backend, default="c", metavar="|".join([*backends.BACKENDS, "all"]),
-                   help="the engine every run goes to (default c: MuJoCo's C engine; mjx float32, mjx-f64, warp "
-                        "float32 need pip install 'mjharness[mjx]' or '[warp]')")
+                   help="the engine every run goes to (default c: MuJoCo's C engine; mjx float32 and mjx-f64 need "
+                        "pip install 'mjharness[mjx]')")
 
 
 def _backend(text: str) -> str:
