@@ -321,8 +321,11 @@ def _args_check(p: argparse.ArgumentParser) -> None:
 def cmd_check(args: argparse.Namespace) -> int:
     _check_junit(args.junit)
     selected = _selected(args)
-    results, checks, limits = run_all(selected, args.config, _options(args, selected), jobs=args.jobs,
-                                      figures_only=True)
+    # with --json, stdout is the document alone: what a library prints meanwhile goes to stderr (mujoco-mjx
+    # prints "Failed to import warp" to stdout when it is imported without Warp)
+    with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
+        results, checks, limits = run_all(selected, args.config, _options(args, selected), jobs=args.jobs,
+                                          figures_only=True)
     outcome = _outcome(args, results, checks, limits)
     write_atomic(_junit(args.junit, outcome))
     if args.json:

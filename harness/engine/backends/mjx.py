@@ -260,12 +260,15 @@ def _wanted_fields(model: mujoco.MjModel, probe: Probe) -> tuple[str, ...]:
 def _field(support, m, d, name: str):
     if name == "qM":  # the dense mass matrix, for the kinetic energy
         return support.full_m(m, d)
-    if name.startswith("efc_"):  # the constraint rows live in the implementation's data
-        return getattr(d._impl, name)
+    # the constraint rows live in the implementation's data (``Data._impl``, since MJX split its JAX and Warp
+    # implementations); older releases (mujoco-mjx 3.3.0) keep every field on ``Data`` itself
+    impl = getattr(d, "_impl", None)
+    if name.startswith("efc_") and impl is not None:
+        return getattr(impl, name)
     if hasattr(d, name):
         return getattr(d, name)
-    if hasattr(d._impl, name):
-        return getattr(d._impl, name)
+    if impl is not None and hasattr(impl, name):
+        return getattr(impl, name)
     raise BackendUnavailable(f"backend 'mjx' has no field {name!r} that a reading of this case needs; "
                              "fix: --backend c")
 
