@@ -332,7 +332,7 @@ def test_versions_backend_installs_its_packages_passes_the_flag_and_refuses_a_re
     assert code == 1, text  # a release could not be run
     installs = [c for c in _calls(command["tmp"] / "uv.log") if c[:2] == ["pip", "install"]]
     assert [c[c.index("mujoco==3.3.0"):] for c in installs] == [["mujoco==3.3.0", *envs.pins(), "mujoco-mjx==3.3.0",
-                                                                 "jax"]]
+                                                                 "jax<0.8"]]
     assert not any("mujoco==4.0.0" in a for c in _calls(command["tmp"] / "uv.log") for a in c)  # nothing for 4.0.0
     checks = _calls(command["tmp"] / "check.log")
     assert len(checks) == 3 and {c["release"] for c in checks} == {"3.3.0"}
@@ -340,6 +340,17 @@ def test_versions_backend_installs_its_packages_passes_the_flag_and_refuses_a_re
     assert ("\nMuJoCo 4.0.0 could not be run: the package index has no mujoco-mjx 4.0.0 (it offers 3.3.0), which "
             "backend 'mjx' needs at the same release\n") in text
     assert "1 of 2 release(s) run" in text
+    assert "extra packages: mujoco-mjx==3.3.0 jax<0.8\n" in text  # nothing of 4.0.0's
+
+
+@pytest.mark.parametrize("backend, release, packages", [
+    ("mjx", "3.6.0", ("mujoco-mjx==3.6.0", "jax<0.8")),  # calls jnp.clip(a_min=), which the newest jax lacks
+    ("mjx-f64", "3.7.0", ("mujoco-mjx==3.7.0", "jax")),
+    ("mjx", "3.17.0", ("mujoco-mjx==3.17.0", "jax")),
+    ("c", "3.17.0", ()),
+])
+def test_a_backends_packages_follow_the_release(backend, release, packages):
+    assert envs.backend_packages(backend, Release(release)) == packages
 
 
 # ------------------------------------------------------------------ check --perturb, for real

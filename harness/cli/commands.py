@@ -385,10 +385,9 @@ def cmd_versions(args: argparse.Namespace) -> int:
     check_args = list(getattr(args, "check_args", []))
     extras = list(args.extras)
     if args.backend is not None:
-        if args.backend not in envs.BACKEND_PACKAGES:
+        if args.backend not in envs.BACKENDS:
             raise ValueError(f"unknown backend {args.backend!r} for versions; accepted: "
-                             f"{', '.join(envs.BACKEND_PACKAGES)} (one backend per run)")
-        extras += envs.BACKEND_PACKAGES[args.backend]
+                             f"{', '.join(envs.BACKENDS)} (one backend per run)")
         check_args += ["--backend", args.backend]
     checked = _check_options(check_args)
     target = bisection.parse_target(args.bisect) if args.bisect else None
@@ -398,6 +397,7 @@ def cmd_versions(args: argparse.Namespace) -> int:
             check_args += ["--case", target.case]  # only the case the figure belongs to
     chosen = releases.parse_selection(args.releases)
     refused = _backend_refusals(args.backend, chosen)
+    added = {r: envs.backend_packages(args.backend, r) for r in chosen if r not in refused} if args.backend else {}
     check_output(args.out)
     parallel = 1 if target is not None else (args.parallel or min(len(chosen), cpus()))
     jobs = args.jobs or max(1, cpus() // parallel)
@@ -413,10 +413,12 @@ def cmd_versions(args: argparse.Namespace) -> int:
 
     if target is not None:
         comparison = session.bisect_releases(builder, chosen, digest, command, target, extras=extras,
-                                             pinned=envs.pins(), refused=refused, on_done=done)
+                                             pinned=envs.pins(), refused=refused, added=added,
+                                             on_done=done)
     else:
         comparison = session.compare_releases(builder, chosen, digest, command, extras=extras, pinned=envs.pins(),
-                                              parallel=parallel, refused=refused, on_done=done)
+                                              parallel=parallel, refused=refused, added=added,
+                                              on_done=done)
     summary = report.text(comparison)
     prepare_output(args.out)
     write_atomic({args.out / "versions.txt": summary,
