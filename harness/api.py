@@ -175,6 +175,7 @@ def validate(
     require: Mapping[str, float] | None = None,
     accept_known_defects: bool = False,
     edit: Callable[[mujoco.MjSpec], None] | None = None,
+    backend: str = "c",
 ) -> Validation:
     """Run ``case`` (a name, or a :class:`~harness.cases.Case`) through every layer and judge it.
 
@@ -195,6 +196,9 @@ def validate(
             integrator: :attr:`Validation.fit`.
         accept_known_defects: let a failure with a documented defect's signature pass the gate.
         edit: a function changing the model through ``mujoco.MjSpec`` before it is compiled.
+        backend: the engine every run goes to: ``c`` (MuJoCo's C engine), ``mjx`` (float32), or ``mjx-f64``
+            (:data:`harness.engine.backends.BACKENDS`); a backend not installed, or a model feature
+            it lacks, raises :class:`~harness.core.errors.BackendUnavailable` naming the fix.
     """
     chosen = cases.get(case) if isinstance(case, str) else case
     if not isinstance(chosen, Case):
@@ -208,7 +212,7 @@ def validate(
     requirements = (*shipped.requirements,
                     *(requirement_of(str(k), v, source="validate(require=...)") for k, v in (require or {}).items()))
     result = run_case(chosen, mjcf=mjcf, integrators=tuple(integrators) if integrators is not None else None,
-                      timestep=timestep, horizon=horizon, q0=q0, qd0=qd0, edit=edit)
+                      timestep=timestep, horizon=horizon, q0=q0, qd0=qd0, edit=edit, backend=backend)
     checks = judge(result, merged)
     check_known(requirements, [result])
     source = shipped.source + (" + limits given to validate()" if limits else "")

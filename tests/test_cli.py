@@ -207,6 +207,23 @@ def test_check_json_is_the_only_stdout(capsys, cached_runs, strict, tight, code)
     assert "RK4.velocity" in doc["cases"][CASE]["figures"]
 
 
+def test_check_json_keeps_what_a_library_prints_off_stdout(capsys, cached_runs, monkeypatch):
+    """mujoco-mjx prints to stdout when imported without Warp; versions reads check --json's stdout as the
+    document, so what is printed during the run goes to stderr."""
+    from harness.pipeline import run as pipeline
+
+    inner = pipeline.RunOptions.run
+
+    def noisy(options, case, *, edit=None):
+        print("Failed to import warp: No module named 'warp'")  # as mujoco/mjx/warp/__init__.py does
+        return inner(options, case, edit=edit)
+
+    monkeypatch.setattr(pipeline.RunOptions, "run", noisy)
+    assert main(["check", CASE, "--json", "--jobs", "1"]) == 0
+    out, err = capsys.readouterr()
+    assert json.loads(out)["passed"] and "Failed to import warp" in err
+
+
 @pytest.mark.parametrize("tight, code", [(False, 0), (True, 1)])
 def test_check_junit(tmp_path, cached_runs, strict, tight, code, capsys):
     junit = tmp_path / "ci" / "junit.xml"

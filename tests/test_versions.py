@@ -268,7 +268,8 @@ def command(fake, monkeypatch):
     monkeypatch.setattr(envs, "find_uv", lambda: fake["uv"])
     monkeypatch.setattr(envs, "source_root", lambda: fake["source"])
     monkeypatch.setattr(envs, "envs_root", lambda: fake["root"])
-    monkeypatch.setattr(releases, "pip_index_versions", lambda package="mujoco": ["4.0.0", "3.4.0", "3.3.0"])
+    index = {"mujoco": ["4.0.0", "3.4.0", "3.3.0"], "mujoco-mjx": ["3.3.0", "3.3.0rc1"]}  # no mjx 3.4.0, 4.0.0
+    monkeypatch.setattr(releases, "pip_index_versions", lambda package="mujoco": index[package])
     monkeypatch.chdir(fake["tmp"])
     return fake
 
@@ -305,8 +306,10 @@ def test_versions_bisects_installing_only_what_it_needs(command, capsys):
 @pytest.mark.parametrize("argv, needle", [
     (["versions", "3.3.0", "4.0.0", "--", "--bogus"], "not ones `mjharness check` takes here"),
     (["versions", "3.3.0", "4.0.0", "--", "--json"], "need no --json"),
-    (["versions", "3.3.0", "4.0.0", "--backend", "mjx"], "no --backend option yet"),
-    (["versions", "3.3.0", "4.0.0", "--backend", "bullet"], "unknown backend"),
+    (["versions", "3.3.0", "4.0.0", "--backend", "bullet"], "unknown backend 'bullet' for versions; accepted: c, "
+                                                            "mjx, mjx-f64"),
+    (["versions", "3.4.0", "4.0.0", "--backend", "mjx"], "the package index has no mujoco-mjx of 3.4.0, 4.0.0 (it "
+                                                         "offers 3.3.0)"),
     (["versions", "3.3.0", "4.0.0", "--bisect", "nope:RK4.position"], "unknown case"),
     (["versions", "3.3.0..3.5.0"], "offers no MuJoCo 3.5.0"),
 ])
@@ -315,6 +318,39 @@ def test_versions_refuses_bad_input_in_one_line_before_installing(command, capsy
     err = capsys.readouterr().err
     assert needle in err and len(err.strip().splitlines()) == 1
     assert not (command["tmp"] / "uv.log").read_text()  # nothing built
+
+
+def test_versions_backend_installs_its_packages_passes_the_flag_and_refuses_a_release_without_them(command,
+                                                                                                  capsys):
+    """``--backend mjx``: mujoco-mjx of the release and jax reach uv, ``--backend mjx`` reaches every check
+    (the run as asked and the noise runs), and 4.0.0, of which the index has no mujoco-mjx, is one line of
+    the report with nothing built for it (a pre-release of mujoco-mjx is no release of MuJoCo's number)."""
+    out = command["tmp"] / "out"
+    code = main(["versions", "3.3.0", "4.0.0", "--backend", "mjx", "--parallel", "1", "--out", str(out),
+                 "--", "--case", "pendulum"])
+    text = capsys.readouterr().out
+    assert code == 1, text  # a release could not be run
+    installs = [c for c in _calls(command["tmp"] / "uv.log") if c[:2] == ["pip", "install"]]
+    assert [c[c.index("mujoco==3.3.0"):] for c in installs] == [["mujoco==3.3.0", *envs.pins(), "mujoco-mjx==3.3.0",
+                                                                 "jax<0.8"]]
+    assert not any("mujoco==4.0.0" in a for c in _calls(command["tmp"] / "uv.log") for a in c)  # nothing for 4.0.0
+    checks = _calls(command["tmp"] / "check.log")
+    assert len(checks) == 3 and {c["release"] for c in checks} == {"3.3.0"}
+    assert all(c["argv"][7:11] == ["--case", "pendulum", "--backend", "mjx"] for c in checks), checks
+    assert ("\nMuJoCo 4.0.0 could not be run: the package index has no mujoco-mjx 4.0.0 (it offers 3.3.0), which "
+            "backend 'mjx' needs at the same release\n") in text
+    assert "1 of 2 release(s) run" in text
+    assert "extra packages: mujoco-mjx==3.3.0 jax<0.8\n" in text  # nothing of 4.0.0's
+
+
+@pytest.mark.parametrize("backend, release, packages", [
+    ("mjx", "3.6.0", ("mujoco-mjx==3.6.0", "jax<0.8")),  # calls jnp.clip(a_min=), which the newest jax lacks
+    ("mjx-f64", "3.7.0", ("mujoco-mjx==3.7.0", "jax")),
+    ("mjx", "3.17.0", ("mujoco-mjx==3.17.0", "jax")),
+    ("c", "3.17.0", ()),
+])
+def test_a_backends_packages_follow_the_release(backend, release, packages):
+    assert envs.backend_packages(backend, Release(release)) == packages
 
 
 # ------------------------------------------------------------------ check --perturb, for real

@@ -61,7 +61,9 @@ the figure's unit):
   measured: the distance between the quadratic and the linear estimate (the
   last level's correction), plus 1/4 of the contacts' τ part;
 - floors: an inertia of at most 1e-6 m L² acts linearly: :data:`FLOOR_UNCERTAINTY`;
-- round-off: :data:`ROUNDOFF` a step, accumulating as a random walk over the
+- round-off: :data:`ROUNDOFF` a step (:data:`ROUNDOFF_EPS` machine epsilons of
+  the arithmetic the backend steps in: float64 on the C engine, float32 on MJX's
+  or Warp's default, where it is 2²⁹ times larger), accumulating as a random walk over the
   run's N steps, × the quantity's size, × the noise gain of the combination
   (:func:`noise_gain`: Σ|wᵢ| of the runs' weights in the ideal estimate, from
   1.1 for RK4 alone to about 30 with contacts and three softness levels);
@@ -87,7 +89,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from harness.budget.extrapolate import richardson, to_zero
-from harness.core.budget import Budget
+from harness.core.budget import ROUNDOFF_EPS, Budget
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.core.trajectory import Trajectory
@@ -95,7 +97,7 @@ from harness.core.trajectory import Trajectory
 INTEGRATION_UNCERTAINTY = 0.25
 SOFTNESS_UNCERTAINTY = 0.25
 FLOOR_UNCERTAINTY = 0.1
-ROUNDOFF = 64 * float(np.finfo(float).eps)
+ROUNDOFF = ROUNDOFF_EPS * float(np.finfo(float).eps)
 REFERENCE = 50.0
 SOLVER = 10.0
 ASYMPTOTIC = 0.01
@@ -273,10 +275,12 @@ def noise_gain(runs: Runs, *, order: float) -> float:
 
 
 def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_tolerance: float,
-            notes: Sequence[str] = ()) -> dict[FigureName, Budget]:
+            notes: Sequence[str] = (), epsilon: float = float(np.finfo(float).eps)) -> dict[FigureName, Budget]:
     """Every figure's budget from one integrator's runs (see the module docstring): round-off and the
     tolerances are relative to each quantity's size (``Deviation.size``); ``solver_tolerance`` is 0
-    where the model has no constraints."""
+    where the model has no constraints; ``epsilon`` the machine epsilon of the arithmetic the runs were
+    stepped in (float64's: :data:`ROUNDOFF` exactly)."""
+    roundoff = ROUNDOFF if epsilon == float(np.finfo(float).eps) else ROUNDOFF_EPS * epsilon
     walk = math.sqrt(max(steps, 1))
     gain = noise_gain(runs, order=order)
     out = {}
@@ -297,7 +301,7 @@ def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_toleran
                      "softness": softness,
                      "solver": SOLVER_PART_UNCERTAINTY * explained.get("solver", 0.0),
                      "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),
-                     "roundoff": gain * ROUNDOFF * walk * dev.size,
+                     "roundoff": gain * roundoff * walk * dev.size,
                      "reference": REFERENCE * rtol * dev.size,
                      "convergence": gain * SOLVER * solver_tolerance * dev.size}
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),

@@ -20,6 +20,7 @@ matplotlib and sympy, when they run; the gate (``check``) never loads them.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import signal
@@ -37,7 +38,7 @@ from harness.core import VERSION
 from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
 from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
-from harness.engine import messages
+from harness.engine import backends, messages
 from harness.engine.integrators import available_integrators
 from harness.outputs import baseline
 from harness.outputs.diff import diff_runs, format_diff, load_run, select
@@ -47,7 +48,7 @@ from harness.outputs.junit import junit_xml
 from harness.outputs.table import checks_table, failures_table, fitness_line, fitness_table, verdict_line
 from harness.pipeline import limits as limits_data
 from harness.pipeline import require
-from harness.pipeline.matrix import run_all
+from harness.pipeline.matrix import run_all, run_backends
 from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
 from harness.pipeline.pool import cpus, run_tasks
 from harness.pipeline.run import RunOptions
@@ -110,6 +111,7 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
                    help="initial coordinates (the case's names; needs one case); the rest as the case has them, "
                         "then brought onto the constraints")
     g.add_argument("--qd0", type=_state, metavar="NAME=VALUE,...", help="initial velocities, as --q0")
+    _add_backend(g)
     g = p.add_argument_group("verdict")
     g.add_argument("--require", action="append", default=[], metavar="MEASURE=VALUE",
                    help="the accuracy you need, judged on each model's own integrator (e.g. position=1e-3, "
@@ -117,6 +119,20 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--accept-known-defects", action="store_true",
                    help="let a failure that shows the signature of a documented defect of this MuJoCo (shown as "
                         "FAIL, known defect) not fail the exit code")
+
+
+def _add_backend(g) -> None:
+    g.add_argument("--backend", type=_backend, default="c", metavar="|".join([*backends.BACKENDS, "all"]),
+                   help="the engine every run goes to (default c: MuJoCo's C engine; mjx float32 and mjx-f64 need "
+                        "pip install 'mjharness[mjx]')")
+
+
+def _backend(text: str) -> str:
+    try:
+        backends.expand(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
 
 
 def _seconds(text: str) -> float:
@@ -162,15 +178,21 @@ def _state(text: str) -> dict[str, float]:
     return out
 
 
-def _options(args: argparse.Namespace, selected: Sequence[cases.Case]) -> RunOptions:
+def _options(args: argparse.Namespace, selected: Sequence[cases.Case], *, several: bool = False) -> RunOptions:
     """The run options the flags ask for; --q0/--qd0 name one case's coordinates, so need one case."""
     if (args.q0 or args.qd0) and len(selected) != 1:
         raise ValueError("--q0 and --qd0 name one case's coordinates; name exactly one case "
                          f"(known cases: {', '.join(cases.names())})")
     for case in selected:
         case.with_motion(q0=args.q0, qd0=args.qd0, horizon=args.horizon)  # ValueError naming what is wrong
+    chosen = backends.expand(args.backend)
+    if len(chosen) > 1 and not several:
+        raise ValueError(f"--backend {args.backend}: {args.command} runs one backend ({', '.join(chosen)} asked); "
+                         "`mjharness run --backend all` shows them side by side")
+    for name in chosen:
+        backends.check_installed(name)  # not installed: one line naming the fix, before any work
     return RunOptions(mjcf=args.mjcf, timestep=args.timestep, integrators=args.integrators, horizon=args.horizon,
-                      q0=args.q0, qd0=args.qd0, perturb=getattr(args, "perturb", None))
+                      q0=args.q0, qd0=args.qd0, perturb=getattr(args, "perturb", None), backend=chosen[0])
 
 
 def _outcome(args: argparse.Namespace, results: Sequence, checks: dict[str, list[Check]], limits) -> Outcome:
@@ -260,11 +282,20 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_output(args.out)  # fail before minutes of work, not after
     _check_junit(args.junit)
     selected = _selected(args)
-    options = _options(args, selected)
+    options = _options(args, selected, several=True)
     results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs)
     outcome = _outcome(args, results, checks, limits)
     extras, appendix, plots = report_parts(selected, results, jobs=args.jobs,
                                            studies=args.studies and options.shipped)
+    others = backends.expand(args.backend)[1:]
+    if others:  # the first backend's report, and every backend side by side (its verdict is the first's)
+        from harness.outputs.backends import BackendRun, side_by_side_html, side_by_side_json  # lazy: matplotlib
+
+        runs = [BackendRun(options.backend, backends.PRECISION[options.backend], results, checks)]
+        runs += [BackendRun(name, backends.PRECISION[name], r, c)
+                 for name, r, c in run_backends(selected, args.config, options, others)]
+        extras = [*extras, side_by_side_html(runs)]
+        appendix = (appendix or {}) | {"backends": side_by_side_json(runs)}
     files = report_files(args.out, results, outcome, config_source=limits.source, extras=extras,
                          appendix=appendix, plots=plots)
     prepare_output(args.out)
@@ -290,8 +321,11 @@ def _args_check(p: argparse.ArgumentParser) -> None:
 def cmd_check(args: argparse.Namespace) -> int:
     _check_junit(args.junit)
     selected = _selected(args)
-    results, checks, limits = run_all(selected, args.config, _options(args, selected), jobs=args.jobs,
-                                      figures_only=True)
+    # with --json, stdout is the document alone: what a library prints meanwhile goes to stderr (mujoco-mjx
+    # prints "Failed to import warp" to stdout when it is imported without Warp)
+    with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
+        results, checks, limits = run_all(selected, args.config, _options(args, selected), jobs=args.jobs,
+                                          figures_only=True)
     outcome = _outcome(args, results, checks, limits)
     write_atomic(_junit(args.junit, outcome))
     if args.json:
@@ -351,12 +385,9 @@ def cmd_versions(args: argparse.Namespace) -> int:
     check_args = list(getattr(args, "check_args", []))
     extras = list(args.extras)
     if args.backend is not None:
-        if args.backend not in envs.BACKEND_PACKAGES:
-            raise ValueError(f"unknown backend {args.backend!r}; known: {', '.join(envs.BACKEND_PACKAGES)}")
-        if not _check_takes("--backend"):
-            raise ValueError("--backend: this harness's check has no --backend option yet (backends other than "
-                             "MuJoCo's own: issue 20); --with REQUIREMENT installs extra packages meanwhile")
-        extras += envs.BACKEND_PACKAGES[args.backend]
+        if args.backend not in envs.BACKENDS:
+            raise ValueError(f"unknown backend {args.backend!r} for versions; accepted: "
+                             f"{', '.join(envs.BACKENDS)} (one backend per run)")
         check_args += ["--backend", args.backend]
     checked = _check_options(check_args)
     target = bisection.parse_target(args.bisect) if args.bisect else None
@@ -365,6 +396,8 @@ def cmd_versions(args: argparse.Namespace) -> int:
         if not (checked.cases or checked.case):
             check_args += ["--case", target.case]  # only the case the figure belongs to
     chosen = releases.parse_selection(args.releases)
+    refused = _backend_refusals(args.backend, chosen)
+    added = {r: envs.backend_packages(args.backend, r) for r in chosen if r not in refused} if args.backend else {}
     check_output(args.out)
     parallel = 1 if target is not None else (args.parallel or min(len(chosen), cpus()))
     jobs = args.jobs or max(1, cpus() // parallel)
@@ -380,10 +413,12 @@ def cmd_versions(args: argparse.Namespace) -> int:
 
     if target is not None:
         comparison = session.bisect_releases(builder, chosen, digest, command, target, extras=extras,
-                                             pinned=envs.pins(), on_done=done)
+                                             pinned=envs.pins(), refused=refused, added=added,
+                                             on_done=done)
     else:
         comparison = session.compare_releases(builder, chosen, digest, command, extras=extras, pinned=envs.pins(),
-                                              parallel=parallel, on_done=done)
+                                              parallel=parallel, refused=refused, added=added,
+                                              on_done=done)
     summary = report.text(comparison)
     prepare_output(args.out)
     write_atomic({args.out / "versions.txt": summary,
@@ -407,11 +442,27 @@ def _check_options(check_args: Sequence[str]) -> argparse.Namespace:
     return parser.parse_args(list(check_args))
 
 
-def _check_takes(option: str) -> bool:
-    """Whether this harness's ``check`` has ``option``."""
-    parser = _CheckOptions(prog="check", add_help=False)
-    _args_check(parser)
-    return option in parser._option_string_actions
+def _backend_refusals(backend: str | None, chosen: Sequence) -> dict:
+    """The releases ``backend`` cannot run because the package index has no release of its package under
+    the same number (mujoco-mjx for MuJoCo 4.0.0), each with its one-line reason; ValueError where that
+    is every chosen release."""
+    from harness.versions import envs, releases  # lazy: only the versions command needs them
+
+    package = envs.SAME_RELEASE.get(backend or "")
+    if package is None:
+        return {}
+    offered = []
+    for text in releases.pip_index_versions(package):
+        with contextlib.suppress(ValueError):  # a pre-release (3.3.0rc1) is no release of MuJoCo's number
+            offered.append(releases.Release(text))
+    span = "none" if not offered else str(min(offered)) if min(offered) == max(offered) else \
+        f"{min(offered)} … {max(offered)}"
+    refused = {r: f"the package index has no {package} {r} (it offers {span}), which backend {backend!r} needs "
+                  "at the same release" for r in chosen if r not in offered}
+    if refused and len(refused) == len(chosen):
+        raise ValueError(f"--backend {backend}: the package index has no {package} of "
+                         f"{', '.join(str(r) for r in chosen)} (it offers {span}); choose releases in that span")
+    return refused
 
 
 class _CheckOptions(_Parser):
@@ -534,6 +585,7 @@ def _args_converge(p: argparse.ArgumentParser) -> None:
     p.add_argument("--softness", action="store_true", help="also sweep solref/solimp of the equality cases")
     p.add_argument("--solvers", action="store_true", help="also compare Newton, CG and PGS on the constrained cases")
     p.add_argument("--html", type=Path, metavar="FILE", help="also write the tables and plots as one HTML page")
+    _add_backend(p)
 
 
 def cmd_converge(args: argparse.Namespace) -> int:
@@ -541,8 +593,14 @@ def cmd_converge(args: argparse.Namespace) -> int:
 
     if args.html is not None:
         check_output(args.html.parent)
-    studies = run_studies(cases.select(args.cases), fast=args.fast, with_softness=args.softness,
-                          with_solvers=args.solvers, progress=True)
+    chosen = backends.expand(args.backend)
+    if len(chosen) > 1:
+        raise ValueError(f"--backend {args.backend}: one backend per run for now ({', '.join(chosen)} asked); "
+                         "run once per backend")
+    backends.check_installed(chosen[0])  # not installed: one line naming the fix, before any work
+    with backends.use(chosen[0]):
+        studies = run_studies(cases.select(args.cases), fast=args.fast, with_softness=args.softness,
+                              with_solvers=args.solvers, progress=True)
     print(text(studies))
     if args.html is not None:
         prepare_output(args.html.parent)

@@ -29,6 +29,10 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+ROUNDOFF_EPS = 64
+"""Round-off a step, in machine epsilons of the arithmetic a run is stepped in, relative to the quantity's
+size; it accumulates as a random walk over the run's steps (harness/budget/trajectory.py)."""
+
 PARTS = ("integration", "softness", "floors", "solver")
 TOLERANCES = ("integration", "softness", "floors", "solver", "roundoff", "reference", "convergence")
 

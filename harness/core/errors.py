@@ -46,3 +46,8 @@ class UnmodelledElement(RuntimeError):
     @property
     def reason(self) -> str:
         return f"not measurable: {self}"
+
+
+class BackendUnavailable(ValueError):
+    """A backend that cannot run here: not installed, or the model uses a feature it lacks. The message
+    is one line naming the backend, what is missing and the fix (the CLI prints it and exits 2)."""

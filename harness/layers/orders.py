@@ -60,13 +60,16 @@ import mujoco
 import numpy as np
 
 from harness.cases import Case
+from harness.core.budget import ROUNDOFF_EPS
 from harness.core.errors import SimulationDiverged
 from harness.core.figures import Figure, FigureName
 from harness.core.trajectory import Trajectory
+from harness.engine import backends
+from harness.engine.backends import Request, simulate, simulate_many
 from harness.engine.compat import joint_types, known_defect
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
-from harness.engine.simulate import simulate, steps_in
+from harness.engine.simulate import steps_in
 from harness.engine.variants import heavier_floors, point_masses
 from harness.reference import solutions as refmod
 
@@ -401,9 +404,10 @@ def convergence_study(
     for name in chosen:
         dts = tuple(h0 * k for k in _ladder(name, fast))
         errs: dict[str, list[float]] = {"position": [], "position@rigid": [], "softness": [], "force": []}
+        ladder = _ladder_runs(run, name, dts, double_softness if constrained else None, probe=probe, path=path,
+                              edit=edit, start=(reference.q0(), reference.qd0()), horizon=horizon)
         for h in dts:
-            sim = run(name, h, None)
-            soft = run(name, h, double_softness) if constrained else None
+            sim, soft = ladder[h]
             if sim is None or (constrained and soft is None):  # the series says why (Series.diverged)
                 for v in errs.values():
                     v.append(math.nan)
@@ -433,8 +437,12 @@ def convergence_study(
             note = exact
             if quantity == gated and not exact and fit.n_used < 2 and fit.floor is not None:
                 softness = [v for v in errs["softness"] if math.isfinite(v)]
-                note = explained_floor(fit, {"softness": max(softness, default=math.nan),
-                                             "inertia floor": floor_effect(name, dts[-1])})
+                effects = {"softness": max(softness, default=math.nan), "inertia floor": floor_effect(name, dts[-1])}
+                epsilon = backends.active().epsilon
+                if epsilon > float(np.finfo(np.float64).eps):  # float32 backends: their round-off is a floor too
+                    effects[f"{backends.active().precision} round-off"] = (
+                        ROUNDOFF_EPS * epsilon * math.sqrt(steps_in(horizon, min(dts))) * scales.length)
+                note = explained_floor(fit, effects)
             series.append(Series(
                 integrator=name, quantity=quantity, unit=unit, dts=dts, errors=values, fit=fit,
                 expected=float(EXPECTED_ORDER[name]) if quantity == gated and not note else None,
@@ -444,6 +452,22 @@ def convergence_study(
     unavailable = unavailable_integrators() if integrators is None else {}
     return ConvergenceStudy(case=case.name, horizon=horizon, fast=fast, constrained=constrained,
                             series=tuple(series), unavailable=unavailable, joints=joint_types(base))
+
+
+def _ladder_runs(run: Callable, name: str, dts: Sequence[float], softer: Callable | None, *, probe, path: Path,
+                 edit: Callable | None, start: tuple[np.ndarray, np.ndarray], horizon: float) -> dict[float, tuple]:
+    """Every run of one integrator's ladder (each timestep, and with 1 − d doubled where constrained), as one
+    batched call to the backend (:func:`harness.engine.backends.simulate_many`); where any run diverges the
+    ladder is run one by one, so that each diverged run is told apart as before."""
+    extras = (None, softer) if softer is not None else (None,)
+    keys = [(h, extra) for h in dts for extra in extras]
+    try:
+        trajs = simulate_many([Request(compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra)),
+                                       *start, steps_in(horizon, h)) for h, extra in keys], probe)
+        done = dict(zip(keys, trajs, strict=True))
+    except SimulationDiverged:
+        done = {key: run(name, *key) for key in keys}
+    return {h: (done[(h, None)], done[(h, softer)] if softer is not None else None) for h in dts}
 
 
 # ----------------------------------------------------------------- outputs

@@ -32,15 +32,16 @@ from harness.budget.measure import (
 )
 from harness.cases import Case
 from harness.core.budget import Budget
-from harness.core.errors import SimulationDiverged, UnmodelledElement
+from harness.core.errors import BackendUnavailable, SimulationDiverged, UnmodelledElement
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
 from harness.core.trajectory import Trajectory
-from harness.engine import variants
+from harness.engine import backends, variants
+from harness.engine.backends import simulate
 from harness.engine.compat import applicable_defect, fallbacks, joint_types, unavailable_reason
 from harness.engine.integrators import available_integrators, integrator_name
 from harness.engine.models import compile_model
-from harness.engine.simulate import recorder, simulate, steps_in
+from harness.engine.simulate import recorder, steps_in
 from harness.engine.simulate import recorder_notes as simulate_notes
 from harness.layers.instant import engine_findings, instant_deviations
 from harness.layers.orders import EXPECTED_ORDER, VERDICT_QUANTITY, convergence_study, order_figures
@@ -101,6 +102,7 @@ class RunOptions:
     q0: Mapping[str, float] | None = None
     qd0: Mapping[str, float] | None = None
     perturb: float | None = None
+    backend: str = "c"
 
     @property
     def shipped(self) -> bool:
@@ -108,7 +110,8 @@ class RunOptions:
 
     def run(self, case: Case, *, edit: Callable[[mujoco.MjSpec], None] | None = None) -> CaseResult:
         return run_case(case, mjcf=self.mjcf, integrators=self.integrators, timestep=self.timestep,
-                        horizon=self.horizon, q0=self.q0, qd0=self.qd0, perturb=self.perturb, edit=edit)
+                        horizon=self.horizon, q0=self.q0, qd0=self.qd0, perturb=self.perturb, edit=edit,
+                        backend=self.backend)
 
 
 def perturbed(case: Case, size: float) -> Case:
@@ -167,6 +170,18 @@ def settle_time(case: Case, model: mujoco.MjModel, horizon: float) -> tuple[floa
                          "not in any budget")
 
 
+def _backend_integrators(engine: backends.Backend, mut: ModelUnderTest, chosen: tuple[str, ...], *,
+                         given: bool) -> tuple[tuple[str, ...], dict[str, str]]:
+    """The integrators ``engine`` runs of ``chosen``, and why it skips the others. One it cannot run raises
+    BackendUnavailable (the feature, the fix) where the user named it, or where it can run none."""
+    reasons = {name: engine.unsupported(mut.compile(integrator=name)) for name in chosen}
+    runnable = tuple(name for name in chosen if not reasons[name])
+    refused = {name: why for name, why in reasons.items() if why}
+    if refused and (given or not runnable):
+        raise BackendUnavailable(next(iter(refused.values())))
+    return runnable, refused
+
+
 def run_case(
     case: Case,
     *,
@@ -178,6 +193,7 @@ def run_case(
     qd0: Mapping[str, float] | None = None,
     perturb: float | None = None,
     edit: Callable[[mujoco.MjSpec], None] | None = None,
+    backend: str = "c",
 ) -> CaseResult:
     """All layers and budgets for ``case``.
 
@@ -185,7 +201,26 @@ def run_case(
     is built from the model so made. ``timestep`` and ``integrators`` change how it runs, ``horizon``,
     ``q0`` and ``qd0`` the motion (the coordinates they name; see :meth:`Case.with_motion`); ``perturb``
     then moves the whole initial state at round-off level (:func:`perturbed`).
+    ``backend`` (:data:`harness.engine.backends.BACKENDS`) runs every simulation of the case, the
+    budget's and the convergence ladder's included; :class:`BackendUnavailable` where it cannot.
     """
+    with backends.use(backend):
+        return _run_case(case, mjcf=mjcf, integrators=integrators, timestep=timestep, horizon=horizon, q0=q0,
+                         qd0=qd0, perturb=perturb, edit=edit)
+
+
+def _run_case(
+    case: Case,
+    *,
+    mjcf: Path | str | None,
+    integrators: Sequence[str] | None,
+    timestep: float | None,
+    horizon: float | None,
+    q0: Mapping[str, float] | None,
+    qd0: Mapping[str, float] | None,
+    perturb: float | None,
+    edit: Callable[[mujoco.MjSpec], None] | None,
+) -> CaseResult:
     if horizon is not None or q0 or qd0:
         case = case.with_motion(q0=q0, qd0=qd0, horizon=horizon)
     if perturb is not None:
@@ -200,6 +235,8 @@ def run_case(
     path = Path(mjcf) if mjcf is not None else case.mjcf
     mut = ModelUnderTest(path=path, timestep=timestep, edit=edit)
     model = mut.compile()
+    engine = backends.active()
+    chosen, skipped = _backend_integrators(engine, mut, chosen, given=integrators is not None)
     shipped = compile_model(case.mjcf)
     compiling = time.perf_counter() - clock  # counted with the reference, which reads the model
     clock = time.perf_counter()
@@ -272,12 +309,12 @@ def run_case(
         solver_tolerance = variants.CONVERGED_TOLERANCE
     notes = (*settings_here.notes, *((settle_note,) if settle_note else ()))
     budgets |= trajectory_budget(runs, orders=EXPECTED_ORDER, rtol=ref.solution.rtol,
-                                 solver_tolerance=solver_tolerance, notes=notes)
+                                 solver_tolerance=solver_tolerance, notes=notes, epsilon=engine.epsilon)
     joints = joint_types(model)
     defects = {name: d for name in runs if (d := applicable_defect(joints, name)) is not None}
     defect_budgets = trajectory_budget({n: runs[n] for n in defects}, orders={n: d.order for n, d in defects.items()},
                                        rtol=ref.solution.rtol, solver_tolerance=solver_tolerance,
-                                       notes=notes) if defects else {}
+                                       notes=notes, epsilon=engine.epsilon) if defects else {}
     timings["budget"] = time.perf_counter() - clock
 
     tested = model_settings(model) | {f"param.{k}": v for k, v in ref.params.items()}
@@ -300,6 +337,11 @@ def run_case(
     compat_notes = [*fallbacks(str(path)), *(unavailable_reason(f"{n}.position") for n in missing)]
     if compat_notes:
         settings["compat"] = compat_notes
+    if engine.name != "c":  # the C backend's settings stay as they always were (baselines, reports)
+        settings["backend"] = {"name": engine.name, "precision": engine.precision,
+                               "instant": "the instantaneous layer reads MuJoCo's C functions (float64) at sampled "
+                                          "states on every backend", "skipped": skipped,
+                               "adapted": list(engine.adaptations(model))}
     return CaseResult(case=case, figures=tuple(figures), reference=ref_traj, simulations=sims,
                       settings=settings, timings=timings, joints=joints, budgets=budgets,
                       defect_budgets=defect_budgets, orders={k: v for k, v in orders.items() if math.isfinite(v)},

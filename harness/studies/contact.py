@@ -32,9 +32,10 @@ import numpy as np
 from harness import cases
 from harness.core.errors import SimulationDiverged
 from harness.core.plotting import FULL_WIDTH, png_bytes, pyplot
+from harness.engine.backends import simulate
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
-from harness.engine.simulate import simulate, steps_in
+from harness.engine.simulate import steps_in
 from harness.layers.trajectory import trajectory_figures
 from harness.pipeline.run import settle_time
 from harness.reference import solutions as refmod

@@ -40,9 +40,10 @@ from harness.cases import Case, all_cases
 from harness.core.errors import SimulationDiverged
 from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, style
 from harness.core.tables import fmt, html_table, text_table
+from harness.engine.backends import simulate
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
-from harness.engine.simulate import simulate, steps_in
+from harness.engine.simulate import steps_in
 from harness.layers.orders import initial_force_floor
 from harness.reference import solutions as refmod
 

@@ -25,10 +25,11 @@ from harness.cases import Case
 from harness.core.errors import SimulationDiverged
 from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, style
 from harness.core.tables import fmt, html_table, text_table
+from harness.engine.backends import simulate
 from harness.engine.compat import SOLVER_ITERATIONS
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
-from harness.engine.simulate import simulate, steps_in
+from harness.engine.simulate import steps_in
 from harness.reference import solutions as refmod
 
 SOLVERS: tuple[str, ...] = ("Newton", "CG", "PGS")

@@ -43,12 +43,28 @@ SOURCE_PACKAGES = ("analytic", "harness", "mjcf")
 COMPLETE = "complete"  # the marker of a finished build, holding the requirements it installed
 SOURCE_MARK = "mjharness-source"  # the source hash the installed harness was built from
 
-BACKEND_PACKAGES: Mapping[str, tuple[str, ...]] = {
-    "mujoco": (),
-    "mjx": ("mujoco-mjx=={version}",),  # MJX is released with MuJoCo, under the same number
-    "warp": ("mujoco-warp",),  # resolved by uv against the pinned mujoco
-}
-"""The packages each backend needs in an environment; ``{version}`` is the MuJoCo release."""
+BACKENDS = ("c", "mjx", "mjx-f64")
+"""The backends ``versions --backend`` installs (``check --backend NAME``). Warp is absent: this harness has
+no Warp backend yet (issue 20)."""
+
+MJX_NEWER_JAX = Release("3.7.0")
+"""The first mujoco-mjx that runs on the newest jax. Before it MJX calls ``jnp.clip(..., a_min=...)``
+(collision_driver.py), a keyword jax has since removed: mujoco-mjx 3.3.0 with jax 0.10.2 raises TypeError in
+the same-state tests (tests/test_backends.py) and passes them with jax 0.7.2; the wheels of 3.7.0 … 3.17.0
+have no ``a_min=`` left (3.6.0's has). mujoco-mjx requires jax unpinned, so without this uv takes the
+newest."""
+
+
+def backend_packages(backend: str, release: Release) -> tuple[str, ...]:
+    """What ``backend`` needs beside MuJoCo ``release``: MJX, released with MuJoCo under the same number,
+    and a jax it runs on (:data:`MJX_NEWER_JAX`)."""
+    if backend not in ("mjx", "mjx-f64"):
+        return ()
+    return f"mujoco-mjx=={release}", ("jax" if release >= MJX_NEWER_JAX else "jax<0.8")
+
+SAME_RELEASE: Mapping[str, str] = {"mjx": "mujoco-mjx", "mjx-f64": "mujoco-mjx"}
+"""The backends whose package is released with MuJoCo under the same number: a MuJoCo release the package
+index has no such release of (mujoco-mjx stops at 3.17.0; there is none for 4.0.0) cannot run them."""
 
 
 def source_root() -> Path:
@@ -110,6 +126,8 @@ class EnvSpec:
     release: Release
     extras: tuple[str, ...] = ()
     pinned: tuple[str, ...] = ()
+    refused: str = ""
+    """Why this environment is not built (one line, e.g. the index has no mujoco-mjx of the release), or ""."""
 
     def requirements(self) -> tuple[str, ...]:
         return (f"mujoco=={self.release}", *self.pinned,

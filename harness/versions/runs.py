@@ -97,7 +97,10 @@ def run_check(env: Environment, command: CheckCommand, perturb: float | None) ->
 
 def run_release(builder: Builder, spec: EnvSpec, digest: str, command: CheckCommand, *,
                 noise: Sequence[float] = NOISE_RUNS) -> ReleaseRun:
-    """Build (or reuse) ``spec``'s environment and run the check in it, then the noise runs."""
+    """Build (or reuse) ``spec``'s environment and run the check in it, then the noise runs (an error
+    naming why where ``spec`` is refused, nothing built)."""
+    if spec.refused:
+        return ReleaseRun(spec.release, error=spec.refused)
     try:
         env = builder.ensure(spec, digest)
     except (EnvError, OSError) as exc:

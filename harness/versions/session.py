@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 from harness.versions import changes as changes_mod
 from harness.versions.bisect import Target, bisect
@@ -20,30 +20,35 @@ def _snapshot(run: ReleaseRun) -> changes_mod.Snapshot:
 
 def compare_releases(builder: Builder, releases: Sequence[Release], digest: str, command: CheckCommand, *,
                      extras: Sequence[str] = (), pinned: Sequence[str] = (), parallel: int = 1,
-                     noise: Sequence[float] = NOISE_RUNS,
+                     noise: Sequence[float] = NOISE_RUNS, refused: Mapping[Release, str] | None = None,
+                     added: Mapping[Release, Sequence[str]] | None = None,
                      on_done: Callable[[ReleaseRun], None] | None = None) -> Comparison:
-    """Every release run (``parallel`` at a time) and compared with the one before it."""
+    """Every release run (``parallel`` at a time) and compared with the one before it; a release in
+    ``refused`` is not built, its reason its run's error; ``added`` are packages of one release's
+    environment besides ``extras`` (a backend's)."""
     start = time.perf_counter()
-    specs = [EnvSpec(r, tuple(extras), tuple(pinned)) for r in releases]
+    specs = [_spec(r, extras, pinned, refused, added) for r in releases]
     runs = run_releases(builder, specs, digest, command, parallel=parallel, noise=noise, on_done=on_done)
     snaps = [_snapshot(r) for r in runs if r.ok]
     found = changes_mod.changes(snaps)
-    return Comparison(tuple(runs), tuple(snaps), tuple(found), check_args=command.args, extras=tuple(extras),
-                      seconds=time.perf_counter() - start)
+    return Comparison(tuple(runs), tuple(snaps), tuple(found), check_args=command.args,
+                      extras=_listed(extras, added), seconds=time.perf_counter() - start)
 
 
 def bisect_releases(builder: Builder, releases: Sequence[Release], digest: str, command: CheckCommand,
                     target: Target, *, extras: Sequence[str] = (), pinned: Sequence[str] = (),
-                    noise: Sequence[float] = NOISE_RUNS,
+                    noise: Sequence[float] = NOISE_RUNS, refused: Mapping[Release, str] | None = None,
+                    added: Mapping[Release, Sequence[str]] | None = None,
                     on_done: Callable[[ReleaseRun], None] | None = None) -> Comparison:
     """The first release at which ``target`` changed, running only the releases the bisection visits
-    (one at a time: each depends on the last), with the comparison of those it ran."""
+    (one at a time: each depends on the last), with the comparison of those it ran; a release in
+    ``refused`` is not built, its reason its run's error."""
     start = time.perf_counter()
     builder.wheel(digest)
     runs: dict[Release, ReleaseRun] = {}
 
     def run(release: Release) -> changes_mod.Snapshot | str:
-        got = run_release(builder, EnvSpec(release, tuple(extras), tuple(pinned)), digest, command, noise=noise)
+        got = run_release(builder, _spec(release, extras, pinned, refused, added), digest, command, noise=noise)
         runs[release] = got
         if on_done is not None:
             on_done(got)
@@ -57,5 +62,16 @@ def bisect_releases(builder: Builder, releases: Sequence[Release], digest: str, 
         found = [c for c in found if (c.case, c.figure) == target.key]
     else:
         found = [c for c in found if c.kind == "flip"]
-    return Comparison(tuple(ordered), tuple(snaps), tuple(found), check_args=command.args, extras=tuple(extras),
-                      seconds=time.perf_counter() - start, bisection=outcome)
+    return Comparison(tuple(ordered), tuple(snaps), tuple(found), check_args=command.args,
+                      extras=_listed(extras, added), seconds=time.perf_counter() - start, bisection=outcome)
+
+
+def _spec(release: Release, extras: Sequence[str], pinned: Sequence[str], refused: Mapping[Release, str] | None,
+          added: Mapping[Release, Sequence[str]] | None) -> EnvSpec:
+    return EnvSpec(release, (*extras, *(added or {}).get(release, ())), tuple(pinned),
+                   (refused or {}).get(release, ""))
+
+
+def _listed(extras: Sequence[str], added: Mapping[Release, Sequence[str]] | None) -> tuple[str, ...]:
+    """Every extra package of the run, once: ``extras`` and each release's ``added``."""
+    return tuple(dict.fromkeys([*extras, *(p for got in (added or {}).values() for p in got)]))

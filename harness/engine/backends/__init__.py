@@ -1,0 +1,174 @@
+"""Backends: the engines a case's runs go to, behind one small interface.
+
+The rest of the harness never knows which one ran. A backend takes compiled
+``MjModel`` s (made by :mod:`harness.engine.models`, variants and all) and a
+:class:`~harness.engine.probe.Probe`, steps them, and hands back one
+:class:`~harness.core.trajectory.Trajectory` per run, in the schema every layer
+reads: positions and velocities of the named points, the equalities'
+multipliers and violations, energy, generalized constraint force, readings.
+
+``c``        MuJoCo's C engine, the recorders of :mod:`harness.engine.simulate`
+             (float64; the default, unchanged bit for bit).
+``mjx``      MJX's JAX implementation (``mujoco-mjx``), float32, what a policy
+             trained on MJX runs with by default.
+``mjx-f64``  the same in float64 (``jax_enable_x64``).
+
+MuJoCo Warp is not here yet (its backend is on the ``warp`` branch, issue 20):
+a name without a module would pass ``check_installed`` and fail at the first
+run, and ``all`` would always fail.
+
+Which backend runs is chosen for a whole case (:func:`use`, set by
+:func:`harness.pipeline.run.run_case`): every layer and every budget run of
+that case call :func:`simulate` / :func:`simulate_many` here, which go to the
+active backend. ``simulate_many`` is the batched call: a backend that can
+batch (``jax.vmap``) runs the requests as one call.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import importlib
+import importlib.util
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import mujoco
+import numpy as np
+
+from harness.core.errors import BackendUnavailable
+from harness.core.trajectory import Trajectory
+from harness.engine.probe import Probe
+from harness.engine.simulate import simulate as c_simulate
+
+BACKENDS: tuple[str, ...] = ("c", "mjx", "mjx-f64")
+"""Every backend's name, as ``--backend`` and ``validate(backend=...)`` accept them (and ``all``)."""
+
+_MODULES = {"c": "c", "mjx": "mjx", "mjx-f64": "mjx"}
+PRECISION = {"c": "float64", "mjx": "float32", "mjx-f64": "float64"}
+"""The arithmetic each backend steps in (known without importing it)."""
+_REQUIRES = {"mjx": ("jax", "mujoco.mjx"), "mjx-f64": ("jax", "mujoco.mjx")}
+EXTRAS = {"mjx": "mjx", "mjx-f64": "mjx"}
+"""The pip extra that installs each optional backend: ``pip install 'mjharness[EXTRA]'``."""
+
+
+@dataclass(frozen=True)
+class Request:
+    """One run: a compiled model (its own integrator, timestep and settings), the initial analytic state
+    and how many steps to take."""
+
+    model: mujoco.MjModel
+    q0: np.ndarray
+    qd0: np.ndarray
+    steps: int
+
+
+@runtime_checkable
+class Backend(Protocol):
+    """An engine that runs compiled MuJoCo models and records Trajectories.
+
+    Attributes:
+        name: as in :data:`BACKENDS`.
+        precision: ``float64`` or ``float32``: the arithmetic its state is stepped in.
+        epsilon: that arithmetic's machine epsilon: the error budget's round-off part scales with it
+            (:mod:`harness.budget.trajectory`).
+    """
+
+    name: str
+    precision: str
+    epsilon: float
+
+    def unsupported(self, model: mujoco.MjModel) -> str:
+        """Why this backend cannot run ``model`` (one line: the backend, the feature, the fix), or ""."""
+
+    def adaptations(self, model: mujoco.MjModel) -> tuple[str, ...]:
+        """What this backend's copy of ``model`` changes (a flag it lacks) and what stands in, one line each."""
+
+    def supports(self, model: mujoco.MjModel) -> None:
+        """Raise :class:`BackendUnavailable` with :meth:`unsupported`'s reason, if any."""
+
+    def simulate_many(self, requests: Sequence[Request], probe: Probe) -> list[Trajectory]:
+        """Every request's run, ``steps + 1`` samples each (t = 0 .. steps·h), as one batched call where
+        the backend allows. Raises SimulationDiverged as the C recorders do."""
+
+
+def names() -> tuple[str, ...]:
+    return BACKENDS
+
+
+def expand(spec: str) -> tuple[str, ...]:
+    """The backends a ``--backend`` value names: one name, ``all`` (every backend) or a comma list."""
+    chosen = BACKENDS if spec == "all" else tuple(s.strip() for s in spec.split(","))
+    for name in chosen:
+        if name not in BACKENDS:
+            raise ValueError(f"unknown backend {name!r}; accepted: {', '.join(BACKENDS)}, all")
+    return tuple(dict.fromkeys(chosen))
+
+
+_loaded: dict[str, Backend] = {}
+
+
+def check_installed(name: str) -> None:
+    """:class:`BackendUnavailable` (one line: backend, what is missing, the fix) where backend ``name``'s
+    packages are not installed, found without importing them: a parent process that forks workers must not
+    import JAX first (it does not survive a fork), and MJX's precision is fixed by its first import."""
+    if name not in BACKENDS:
+        raise ValueError(f"unknown backend {name!r}; accepted: {', '.join(BACKENDS)}, all")
+    for module in _REQUIRES.get(name, ()):
+        try:
+            found = importlib.util.find_spec(module) is not None
+        except ModuleNotFoundError:  # its parent package is missing
+            found = False
+        if not found:
+            raise BackendUnavailable(f"backend {name!r} is not installed ({module} is missing); "
+                                     f"fix: pip install 'mjharness[{EXTRAS[name]}]', or use --backend c")
+
+
+def get(name: str) -> Backend:
+    """The backend called ``name``; ValueError for an unknown name, :class:`BackendUnavailable` (one
+    line: backend, what is missing, the fix) where it is not installed."""
+    if name not in BACKENDS:
+        raise ValueError(f"unknown backend {name!r}; accepted: {', '.join(BACKENDS)}, all")
+    if name not in _loaded:
+        try:  # lazy: an optional backend imports jax, which the default install lacks
+            module = importlib.import_module(f"harness.engine.backends.{_MODULES[name]}")
+        except ImportError as exc:
+            raise BackendUnavailable(
+                f"backend {name!r} is not installed ({exc.name or exc} is missing); "
+                f"fix: pip install 'mjharness[{EXTRAS[name]}]', or use --backend c") from None
+        _loaded[name] = module.backend(name)
+    return _loaded[name]
+
+
+_active: contextvars.ContextVar[str] = contextvars.ContextVar("backend", default="c")
+
+
+def active() -> Backend:
+    """The backend the current case runs on (``c`` unless :func:`use` says otherwise)."""
+    return get(_active.get())
+
+
+@contextlib.contextmanager
+def use(name: str) -> Iterator[Backend]:
+    """Run everything inside on backend ``name``."""
+    backend = get(name)
+    token = _active.set(name)
+    try:
+        yield backend
+    finally:
+        _active.reset(token)
+
+
+def simulate(model: mujoco.MjModel, probe: Probe, *, q0: Sequence[float], qd0: Sequence[float],
+             steps: int) -> Trajectory:
+    """One run on the active backend (:func:`harness.engine.simulate.simulate`'s contract)."""
+    backend = active()
+    if backend.name == "c":  # the C recorders as they always ran: bit for bit the default install's numbers
+        return c_simulate(model, probe, q0=q0, qd0=qd0, steps=steps)
+    return backend.simulate_many([Request(model, np.asarray(q0, float), np.asarray(qd0, float), steps)], probe)[0]
+
+
+def simulate_many(requests: Sequence[Request], probe: Probe) -> list[Trajectory]:
+    """Every request's run on the active backend, as one batched call where it allows."""
+    return active().simulate_many(requests, probe)
