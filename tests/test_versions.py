@@ -12,6 +12,7 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from harness.cli.commands import main
@@ -341,6 +342,11 @@ def test_versions_backend_installs_its_packages_passes_the_flag_and_refuses_a_re
             "backend 'mjx' needs at the same release\n") in text
     assert "1 of 2 release(s) run" in text
     assert "extra packages: mujoco-mjx==3.3.0 jax<0.8\n" in text  # nothing of 4.0.0's
+    # MJX steps in float32: its noise runs move the state by float32's round-off, not float64's
+    assert sorted(a for c in checks for a in c["argv"] if a.startswith("--perturb")) == \
+        ["--perturb=-5e-07", "--perturb=5e-07"]
+    assert "moved by +5e-07, -5e-07 × max(|x|, 1)" in text
+    assert json.loads((out / "versions.json").read_text())["noise"]["perturbations"] == [5e-7, -5e-7]
 
 
 @pytest.mark.parametrize("backend, release, packages", [
@@ -371,8 +377,22 @@ def test_perturb_moves_figures_at_roundoff_and_no_further():
         perturbed(case, 0.0)
 
 
-@pytest.mark.parametrize("size", ["0", "1e-6", "nan", "x"])
+@pytest.mark.parametrize("size", ["0", "2e-6", "nan", "x"])
 def test_check_perturb_takes_only_a_roundoff_sized_move(size, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["check", "spring", f"--perturb={size}"])
-    assert exc.value.code == 2 and "nonzero number within ±1e-9" in capsys.readouterr().err
+    assert exc.value.code == 2 and "nonzero number within ±1e-6" in capsys.readouterr().err
+
+
+def test_the_noise_runs_move_the_state_by_a_few_units_of_the_backends_own_round_off():
+    """A float32 backend casts the initial state to float32: a 1e-15 move vanishes there (every perturbed
+    run the same bits, every noise its floor), 5e-7 (≈ 4.2 units of 2⁻²³) does not."""
+    from harness.versions.runs import noise_runs
+
+    assert noise_runs("float64") == (1e-15, -1e-15) and noise_runs("float32") == (5e-7, -5e-7)
+    x = np.linspace(0.1, 3.0, 50)
+    assert np.array_equal(np.float32(x * (1 + 1e-15)), np.float32(x))
+    assert not np.any(np.float32(x * (1 + 5e-7)) == np.float32(x))
+    assert 4 <= 5e-7 / np.finfo(np.float32).eps <= 5
+    with pytest.raises(ValueError, match="unknown precision 'float16'; accepted: float64, float32"):
+        noise_runs("float16")

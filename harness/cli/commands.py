@@ -150,8 +150,8 @@ def _tiny(text: str) -> float:
         value = float(text)
     except ValueError:
         value = math.nan
-    if not (math.isfinite(value) and 0 < abs(value) <= 1e-9):
-        raise argparse.ArgumentTypeError(f"must be a nonzero number within ±1e-9 (round-off sized), got {text!r}")
+    if not (math.isfinite(value) and 0 < abs(value) <= 1e-6):  # float32's round-off (MJX) is 1.2e-7
+        raise argparse.ArgumentTypeError(f"must be a nonzero number within ±1e-6 (round-off sized), got {text!r}")
     return value
 
 
@@ -312,8 +312,8 @@ def _args_check(p: argparse.ArgumentParser) -> None:
                                                        "instead of the table")
     p.add_argument("--perturb", type=_tiny, metavar="SIZE",
                    help="move every initial coordinate and velocity x by SIZE × max(|x|, 1) (round-off: SIZE within "
-                        "±1e-9, e.g. 1e-15 or =-1e-15): how far each figure moves at round-off, its run-to-run noise "
-                        "(mjharness versions measures it so)")
+                        "±1e-6, e.g. 1e-15 or =-1e-15 in float64, 5e-7 on a float32 backend): how far each figure "
+                        "moves at round-off, its run-to-run noise (mjharness versions measures it so)")
     _add_quiet(p)
     _add_run_options(p)
 
@@ -380,7 +380,7 @@ def _args_versions(p: argparse.ArgumentParser) -> None:
 def cmd_versions(args: argparse.Namespace) -> int:
     from harness.versions import bisect as bisection  # lazy: only this command builds environments
     from harness.versions import envs, releases, report, session  # lazy: as above
-    from harness.versions.runs import CheckCommand, check_environ  # lazy: as above
+    from harness.versions.runs import CheckCommand, check_environ, noise_runs  # lazy: as above
 
     check_args = list(getattr(args, "check_args", []))
     extras = list(args.extras)
@@ -405,6 +405,7 @@ def cmd_versions(args: argparse.Namespace) -> int:
     builder = envs.Builder(uv=envs.find_uv(), root=envs.envs_root(), source=root)
     command = CheckCommand(args=tuple(check_args), jobs=jobs, cwd=Path.cwd(), environ=check_environ())
     digest = envs.source_hash(root)
+    noise = noise_runs(backends.PRECISION[args.backend or "c"])  # moves that survive the backend's arithmetic
 
     def done(run) -> None:
         if sys.stderr.isatty():
@@ -414,11 +415,11 @@ def cmd_versions(args: argparse.Namespace) -> int:
     if target is not None:
         comparison = session.bisect_releases(builder, chosen, digest, command, target, extras=extras,
                                              pinned=envs.pins(), refused=refused, added=added,
-                                             on_done=done)
+                                             noise=noise, on_done=done)
     else:
         comparison = session.compare_releases(builder, chosen, digest, command, extras=extras, pinned=envs.pins(),
                                               parallel=parallel, refused=refused, added=added,
-                                              on_done=done)
+                                              noise=noise, on_done=done)
     summary = report.text(comparison)
     prepare_output(args.out)
     write_atomic({args.out / "versions.txt": summary,

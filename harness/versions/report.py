@@ -21,10 +21,15 @@ from harness.versions.runs import NOISE_RUNS, ReleaseRun
 SCHEMA = 1
 TEXT_ROWS = 40  # rows of each list on the terminal; every row is in versions.html and versions.json
 
-NOISE_METHOD = (f"each figure's noise at a release is the most it moved when that release's check was rerun with "
-                f"every initial coordinate and velocity moved by {', '.join(f'{p:+g}' for p in NOISE_RUNS)} × "
-                f"max(|x|, 1) (check --perturb), at least {ULP_FLOOR:.2g} × its size; a figure moved between two "
-                f"releases when the change exceeds {NOISE_FACTOR:g} × the larger of their noises")
+def noise_method(perturbations: Sequence[float] = NOISE_RUNS) -> str:
+    """How the noise was measured, with the moves the runs used."""
+    return (f"each figure's noise at a release is the most it moved when that release's check was rerun with "
+            f"every initial coordinate and velocity moved by {', '.join(f'{p:+g}' for p in perturbations)} × "
+            f"max(|x|, 1) (check --perturb), at least {ULP_FLOOR:.2g} × its size; a figure moved between two "
+            f"releases when the change exceeds {NOISE_FACTOR:g} × the larger of their noises")
+
+
+NOISE_METHOD = noise_method()
 
 
 @dataclass(frozen=True)
@@ -40,6 +45,7 @@ class Comparison:
     seconds: float = 0.0
     bisection: Bisection | None = None
     notes: tuple[str, ...] = field(default_factory=tuple)
+    perturbations: tuple[float, ...] = NOISE_RUNS
 
     @property
     def errors(self) -> list[ReleaseRun]:
@@ -96,7 +102,7 @@ def text(comparison: Comparison) -> str:
     lines = [f"MuJoCo {runs[0].release} .. {runs[-1].release}: {len(ok)} of {len(runs)} release(s) run "
              f"({', '.join(str(r.release) for r in runs)}); environments built {built}, reused {reused}; "
              f"{comparison.seconds:.0f} s",
-             f"noise: {NOISE_METHOD}"]
+             f"noise: {noise_method(comparison.perturbations)}"]
     if comparison.check_args:
         lines.append(f"check options: {' '.join(comparison.check_args)}")
     if comparison.extras:
@@ -136,7 +142,8 @@ def json_doc(comparison: Comparison) -> dict:
         "schema": SCHEMA, "kind": "mjharness-versions",
         "releases": [str(s.release) for s in snaps],
         "check_options": list(comparison.check_args), "extra_packages": list(comparison.extras),
-        "noise": {"method": NOISE_METHOD, "perturbations": list(NOISE_RUNS), "factor": NOISE_FACTOR,
+        "noise": {"method": noise_method(comparison.perturbations), "perturbations": list(comparison.perturbations),
+                  "factor": NOISE_FACTOR,
                   "ulp_floor": ULP_FLOOR},
         "runs": [{"release": str(r.release), "ran": r.ok, "error": r.error, "environment_built": r.env_built,
                   "environment_seconds": round(r.env_seconds, 2), "check_seconds": round(r.check_seconds, 2),

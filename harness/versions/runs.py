@@ -33,6 +33,20 @@ PERTURBATION = 1e-15
 """The relative move of the initial state for the noise runs: about 4.5 units of round-off (2⁻⁵² ≈ 2.2e-16)."""
 NOISE_RUNS = (PERTURBATION, -PERTURBATION)
 """The perturbed runs of each release: one each way."""
+PERTURBATIONS = {"float64": PERTURBATION, "float32": 5e-7}
+"""The move per arithmetic the runs step in: about 4.5 units of its round-off, 1e-15 in float64 and 5e-7 in
+float32 (2⁻²³ ≈ 1.2e-7). A float32 backend (MJX) casts the initial state to float32, where a 1e-15 move
+rounds away: every perturbed run would be the same bits and each figure's noise its ULP floor, so any
+float32-sized difference between releases would read as a change."""
+
+
+def noise_runs(precision: str = "float64") -> tuple[float, float]:
+    """The noise runs' moves for a check that steps in ``precision`` (``float64`` or ``float32``:
+    :data:`harness.engine.backends.PRECISION` of its backend)."""
+    if precision not in PERTURBATIONS:
+        raise ValueError(f"unknown precision {precision!r}; accepted: {', '.join(PERTURBATIONS)}")
+    move = PERTURBATIONS[precision]
+    return move, -move
 
 OK_EXITS = (0, 1, 3)  # check: all pass, a check fails, a requirement unmet — every one a complete run
 

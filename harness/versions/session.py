@@ -32,7 +32,7 @@ def compare_releases(builder: Builder, releases: Sequence[Release], digest: str,
     snaps = [_snapshot(r) for r in runs if r.ok]
     found = changes_mod.changes(snaps)
     return Comparison(tuple(runs), tuple(snaps), tuple(found), check_args=command.args,
-                      extras=_listed(extras, added), seconds=time.perf_counter() - start)
+                      extras=_listed(extras, added), seconds=time.perf_counter() - start, perturbations=tuple(noise))
 
 
 def bisect_releases(builder: Builder, releases: Sequence[Release], digest: str, command: CheckCommand,
@@ -63,7 +63,8 @@ def bisect_releases(builder: Builder, releases: Sequence[Release], digest: str, 
     else:
         found = [c for c in found if c.kind == "flip"]
     return Comparison(tuple(ordered), tuple(snaps), tuple(found), check_args=command.args,
-                      extras=_listed(extras, added), seconds=time.perf_counter() - start, bisection=outcome)
+                      extras=_listed(extras, added), seconds=time.perf_counter() - start, bisection=outcome,
+                      perturbations=tuple(noise))
 
 
 def _spec(release: Release, extras: Sequence[str], pinned: Sequence[str], refused: Mapping[Release, str] | None,
