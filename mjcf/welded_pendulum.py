@@ -11,14 +11,11 @@ moment (s/2) R_socket λ_τ on it; the hub feels the opposite at the socket
 from __future__ import annotations
 
 from harness.cases import Wiring
+from harness.engine.compat import CONNECT_WELD_LOOPS
 from harness.engine.sensors import Load
 
 WIRING = Wiring(
     loads=(Load("glue", body="link", site="top", sign=1.0),
            Load("glue", body="hub", site="socket", sign=-1.0)),
-    requires=((3, 7, 0), "the Coriolis term J̇v in the connect/weld bias, added in MuJoCo 3.7.0 (changelog 3.7.0, "
-                         "item 5): without it the site-defined loop "
-                         "drifts — measured on 3.3.0, 3.3.7 and 3.6.0: slider_crank RK4.violation.wrist_pin "
-                         "1.3e-5 m (3190x its budget), welded_pendulum RK4.violation.glue 7.1e-6 m (87x on 3.6.0); "
-                         "3.7.0 holds both"),
+    requires=CONNECT_WELD_LOOPS,
 )

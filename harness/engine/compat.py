@@ -241,6 +241,15 @@ def set_stiffness(joint, value: float) -> None:
 # the integrator's observed order is the defect's, and the budget at that order explains the figure)
 # is a failure shown as the known defect, with the reason; the same check on a fixed version is an
 # ordinary gate.
+CONNECT_WELD_LOOPS: tuple[tuple[int, int, int], str] = (
+    (3, 7, 0), "the Coriolis term J̇v in the connect/weld bias, added in MuJoCo 3.7.0 (changelog 3.7.0, item 5): "
+               "without it the site-defined loop drifts — measured on 3.3.0, 3.3.7 and 3.6.0: slider_crank "
+               "RK4.violation.wrist_pin 1.3e-5 m (3190x its budget), welded_pendulum RK4.violation.glue 7.1e-6 m "
+               "(87x on 3.6.0); 3.7.0 holds both")
+"""The oldest MuJoCo that holds a closed loop of connect/weld equalities, with its measured reason: the
+``Wiring(requires=...)`` of every case whose motion depends on one."""
+
+
 @dataclass(frozen=True)
 class KnownDefect:
     """A documented defect: the version that fixed it, the integrator and joint types it affects, the
