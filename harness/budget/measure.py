@@ -31,7 +31,7 @@ from harness.core.errors import SimulationDiverged
 from harness.core.figures import FigureName
 from harness.core.trajectory import Trajectory
 from harness.engine import variants as V
-from harness.engine.backends import simulate
+from harness.engine.backends import Request, simulate, simulate_many
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
@@ -117,18 +117,33 @@ def _deviations(target: TrajectoryRuns, sim: Trajectory, prefix: str) -> list[De
                       series=target.series)
 
 
-def _variant_run(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int,
-                 split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0) -> list[Deviation]:
-    """One variant of ``model`` (:func:`~harness.engine.variants.variant`) run over the horizon, as its
-    deviations on the grid of the run at h; its constraints solved exactly where the model's own solver
-    does not converge."""
+def _variant_request(mut: ModelUnderTest, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int,
+                     split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0) -> Request:
+    """One variant of ``model`` (:func:`~harness.engine.variants.variant`) over the horizon, its constraints
+    solved exactly where the model's own solver does not converge."""
     exact = V.exact_solver(model)
     edit = V.compose(exact, V.variant(model, split=split, eps_factor=eps_factor, tc_factor=tc_factor))
     name = integrator_name(model)
     h = float(model.opt.timestep)
     m = mut.compile(integrator=name, timestep=h / split if split > 1 else None, variant=edit)
-    sim = simulate(m, probe, q0=target.q0, qd0=target.qd0, steps=split * steps)
-    return _deviations(target, every_nth(sim, split), name)
+    return Request(m, np.asarray(target.q0, float), np.asarray(target.qd0, float), split * steps)
+
+
+def _variant_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int,
+                  variants: Sequence[tuple[int, float, float]]) -> list[list[Deviation]]:
+    """Variants (split, eps_factor, tc_factor) of ``model``, run as one batched call to the backend
+    (:func:`harness.engine.backends.simulate_many`), each as its deviations on the grid of the run at h."""
+    requests = [_variant_request(mut, target, model, steps=steps, split=split, eps_factor=eps, tc_factor=tc)
+                for split, eps, tc in variants]
+    sims = simulate_many(requests, probe)
+    name = integrator_name(model)
+    return [_deviations(target, every_nth(sim, split), name) for sim, (split, _, _) in zip(sims, variants, strict=True)]
+
+
+def _variant_run(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int,
+                 split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0) -> list[Deviation]:
+    """One variant of ``model`` run over the horizon, as its deviations on the grid of the run at h."""
+    return _variant_runs(mut, probe, target, model, steps=steps, variants=[(split, eps_factor, tc_factor)])[0]
 
 
 def _floors(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, sims: Mapping[str, Trajectory],
@@ -161,17 +176,27 @@ def _integrator_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, 
                             tc_factor=tc_factor)
 
     as_is = _deviations(target, sim, name)
-    half_step = run(2)
-    converged = None if V.solver_converges(model) else run()
+    # every variant that does not wait on another's result, as one batched call to the backend
+    plan: dict[str, tuple[int, float, float]] = {"half_step": (2, 1.0, 1.0)}
+    if not V.solver_converges(model):
+        plan["converged"] = (1, 1.0, 1.0)
+    if settings.soft:
+        plan |= {f"softness{k}": (1, f, 1.0) for k, f in enumerate(levels)} | {"softness_half_step": (2, eps, 1.0)}
+    if settings.contacts:
+        plan |= {f"slower{k}": (1, f, slow) for k, f in enumerate((1.0, *levels))}
+    done = dict(zip(plan, _variant_runs(mut, probe, target, model, steps=steps, variants=list(plan.values())),
+                    strict=True))
+    half_step = done["half_step"]
+    converged = done.get("converged")
     asymptotic = not past_asymptotic(converged or as_is, half_step, order) and V.steps_per_timeconst(model) <= 0.5
     return Runs(
         as_is=as_is,
         half_step=half_step,
         converged=converged,
         quarter_step=None if asymptotic else run(4),
-        softness=tuple(run(1, f) for f in levels) if settings.soft else (),
-        softness_half_step=run(2, eps) if settings.soft else None,
-        slower=tuple(run(1, f, slow) for f in (1.0, *levels)) if settings.contacts else (),
+        softness=tuple(done[f"softness{k}"] for k in range(len(levels))) if settings.soft else (),
+        softness_half_step=done["softness_half_step"] if settings.soft else None,
+        slower=tuple(done[f"slower{k}"] for k in range(1 + len(levels))) if settings.contacts else (),
         floors=floors,
         eps_factor=eps, tc_factor=slow,
     )

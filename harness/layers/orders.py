@@ -63,7 +63,7 @@ from harness.cases import Case
 from harness.core.errors import SimulationDiverged
 from harness.core.figures import Figure, FigureName
 from harness.core.trajectory import Trajectory
-from harness.engine.backends import simulate
+from harness.engine.backends import Request, simulate, simulate_many
 from harness.engine.compat import joint_types, known_defect
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
@@ -400,9 +400,10 @@ def convergence_study(
     for name in chosen:
         dts = tuple(h0 * k for k in _ladder(name, fast))
         errs: dict[str, list[float]] = {"position": [], "position@rigid": [], "softness": [], "force": []}
+        ladder = _ladder_runs(run, name, dts, double_softness if constrained else None, probe=probe, path=path,
+                              edit=edit, start=(reference.q0(), reference.qd0()), horizon=horizon)
         for h in dts:
-            sim = run(name, h, None)
-            soft = run(name, h, double_softness) if constrained else None
+            sim, soft = ladder[h]
             if sim is None or (constrained and soft is None):  # the series says why (Series.diverged)
                 for v in errs.values():
                     v.append(math.nan)
@@ -443,6 +444,22 @@ def convergence_study(
     unavailable = unavailable_integrators() if integrators is None else {}
     return ConvergenceStudy(case=case.name, horizon=horizon, fast=fast, constrained=constrained,
                             series=tuple(series), unavailable=unavailable, joints=joint_types(base))
+
+
+def _ladder_runs(run: Callable, name: str, dts: Sequence[float], softer: Callable | None, *, probe, path: Path,
+                 edit: Callable | None, start: tuple[np.ndarray, np.ndarray], horizon: float) -> dict[float, tuple]:
+    """Every run of one integrator's ladder (each timestep, and with 1 − d doubled where constrained), as one
+    batched call to the backend (:func:`harness.engine.backends.simulate_many`); where any run diverges the
+    ladder is run one by one, so that each diverged run is told apart as before."""
+    extras = (None, softer) if softer is not None else (None,)
+    keys = [(h, extra) for h in dts for extra in extras]
+    try:
+        trajs = simulate_many([Request(compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra)),
+                                       *start, steps_in(horizon, h)) for h, extra in keys], probe)
+        done = dict(zip(keys, trajs, strict=True))
+    except SimulationDiverged:
+        done = {key: run(name, *key) for key in keys}
+    return {h: (done[(h, None)], done[(h, softer)] if softer is not None else None) for h in dts}
 
 
 # ----------------------------------------------------------------- outputs

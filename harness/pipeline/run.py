@@ -32,7 +32,7 @@ from harness.budget.measure import (
 )
 from harness.cases import Case
 from harness.core.budget import Budget
-from harness.core.errors import SimulationDiverged, UnmodelledElement
+from harness.core.errors import BackendUnavailable, SimulationDiverged, UnmodelledElement
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
 from harness.core.trajectory import Trajectory
@@ -154,6 +154,18 @@ def settle_time(case: Case, model: mujoco.MjModel, horizon: float) -> tuple[floa
                          "not in any budget")
 
 
+def _backend_integrators(engine: backends.Backend, mut: ModelUnderTest, chosen: tuple[str, ...], *,
+                         given: bool) -> tuple[tuple[str, ...], dict[str, str]]:
+    """The integrators ``engine`` runs of ``chosen``, and why it skips the others. One it cannot run raises
+    BackendUnavailable (the feature, the fix) where the user named it, or where it can run none."""
+    reasons = {name: engine.unsupported(mut.compile(integrator=name)) for name in chosen}
+    runnable = tuple(name for name in chosen if not reasons[name])
+    refused = {name: why for name, why in reasons.items() if why}
+    if refused and (given or not runnable):
+        raise BackendUnavailable(next(iter(refused.values())))
+    return runnable, refused
+
+
 def run_case(
     case: Case,
     *,
@@ -203,7 +215,7 @@ def _run_case(
     mut = ModelUnderTest(path=path, timestep=timestep, edit=edit)
     model = mut.compile()
     engine = backends.active()
-    engine.supports(model)  # before minutes of work: the feature it lacks, named with the fix
+    chosen, skipped = _backend_integrators(engine, mut, chosen, given=integrators is not None)
     shipped = compile_model(case.mjcf)
     compiling = time.perf_counter() - clock  # counted with the reference, which reads the model
     clock = time.perf_counter()
@@ -305,7 +317,9 @@ def _run_case(
     if compat_notes:
         settings["compat"] = compat_notes
     if engine.name != "c":  # the C backend's settings stay as they always were (baselines, reports)
-        settings["backend"] = {"name": engine.name, "precision": engine.precision}
+        settings["backend"] = {"name": engine.name, "precision": engine.precision,
+                               "instant": "the instantaneous layer reads MuJoCo's C functions (float64) at sampled "
+                                          "states on every backend", "skipped": skipped}
     return CaseResult(case=case, figures=tuple(figures), reference=ref_traj, simulations=sims,
                       settings=settings, timings=timings, joints=joints, budgets=budgets,
                       defect_budgets=defect_budgets, orders={k: v for k, v in orders.items() if math.isfinite(v)},

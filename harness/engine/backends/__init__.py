@@ -72,8 +72,11 @@ class Backend(Protocol):
     precision: str
     epsilon: float
 
+    def unsupported(self, model: mujoco.MjModel) -> str:
+        """Why this backend cannot run ``model`` (one line: the backend, the feature, the fix), or ""."""
+
     def supports(self, model: mujoco.MjModel) -> None:
-        """Raise :class:`BackendUnavailable` naming the feature of ``model`` this backend lacks and the fix."""
+        """Raise :class:`BackendUnavailable` with :meth:`unsupported`'s reason, if any."""
 
     def simulate_many(self, requests: Sequence[Request], probe: Probe) -> list[Trajectory]:
         """Every request's run, ``steps + 1`` samples each (t = 0 .. steps·h), as one batched call where

@@ -27,6 +27,10 @@ class CBackend:
     def __init__(self, name: str = "c") -> None:
         self.name = name
 
+    def unsupported(self, model: mujoco.MjModel) -> str:
+        """Nothing: every model MuJoCo compiles."""
+        return ""
+
     def supports(self, model: mujoco.MjModel) -> None:
         """Every model MuJoCo compiles."""
 
