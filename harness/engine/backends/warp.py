@@ -335,6 +335,14 @@ class WarpBackend:
         self.name = name
         init()
 
+    def unsupported(self, model: mujoco.MjModel) -> str:
+        """Why MuJoCo Warp cannot run ``model`` (one line: the backend, Warp's own words, the fix), or ""."""
+        try:
+            _put_model(model)
+        except BackendUnavailable as exc:
+            return str(exc)
+        return ""
+
     def supports(self, model: mujoco.MjModel) -> None:
         _put_model(model)
 
