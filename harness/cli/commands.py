@@ -47,7 +47,7 @@ from harness.outputs.junit import junit_xml
 from harness.outputs.table import checks_table, failures_table, fitness_line, fitness_table, verdict_line
 from harness.pipeline import limits as limits_data
 from harness.pipeline import require
-from harness.pipeline.matrix import run_all
+from harness.pipeline.matrix import run_all, run_backends
 from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
 from harness.pipeline.pool import cpus, run_tasks
 from harness.pipeline.run import RunOptions
@@ -167,7 +167,7 @@ def _state(text: str) -> dict[str, float]:
     return out
 
 
-def _options(args: argparse.Namespace, selected: Sequence[cases.Case]) -> RunOptions:
+def _options(args: argparse.Namespace, selected: Sequence[cases.Case], *, several: bool = False) -> RunOptions:
     """The run options the flags ask for; --q0/--qd0 name one case's coordinates, so need one case."""
     if (args.q0 or args.qd0) and len(selected) != 1:
         raise ValueError("--q0 and --qd0 name one case's coordinates; name exactly one case "
@@ -175,10 +175,11 @@ def _options(args: argparse.Namespace, selected: Sequence[cases.Case]) -> RunOpt
     for case in selected:
         case.with_motion(q0=args.q0, qd0=args.qd0, horizon=args.horizon)  # ValueError naming what is wrong
     chosen = backends.expand(args.backend)
-    if len(chosen) > 1:
-        raise ValueError(f"--backend {args.backend}: one backend per run for now ({', '.join(chosen)} asked); "
-                         "run once per backend")
-    backends.get(chosen[0])  # not installed: one line naming the fix, before any work
+    if len(chosen) > 1 and not several:
+        raise ValueError(f"--backend {args.backend}: {args.command} runs one backend ({', '.join(chosen)} asked); "
+                         "`mjharness run --backend all` shows them side by side")
+    for name in chosen:
+        backends.check_installed(name)  # not installed: one line naming the fix, before any work
     return RunOptions(mjcf=args.mjcf, timestep=args.timestep, integrators=args.integrators, horizon=args.horizon,
                       q0=args.q0, qd0=args.qd0, backend=chosen[0])
 
@@ -268,11 +269,20 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_output(args.out)  # fail before minutes of work, not after
     _check_junit(args.junit)
     selected = _selected(args)
-    options = _options(args, selected)
+    options = _options(args, selected, several=True)
     results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs)
     outcome = _outcome(args, results, checks, limits)
     extras, appendix, plots = report_parts(selected, results, jobs=args.jobs,
                                            studies=args.studies and options.shipped)
+    others = backends.expand(args.backend)[1:]
+    if others:  # the first backend's report, and every backend side by side (its verdict is the first's)
+        from harness.outputs.backends import BackendRun, side_by_side_html, side_by_side_json  # lazy: matplotlib
+
+        runs = [BackendRun(options.backend, backends.PRECISION[options.backend], results, checks)]
+        runs += [BackendRun(name, backends.PRECISION[name], r, c)
+                 for name, r, c in run_backends(selected, args.config, options, others)]
+        extras = [*extras, side_by_side_html(runs)]
+        appendix = (appendix or {}) | {"backends": side_by_side_json(runs)}
     files = report_files(args.out, results, outcome, config_source=limits.source, extras=extras,
                          appendix=appendix, plots=plots)
     prepare_output(args.out)
@@ -447,7 +457,8 @@ def cmd_converge(args: argparse.Namespace) -> int:
     if len(chosen) > 1:
         raise ValueError(f"--backend {args.backend}: one backend per run for now ({', '.join(chosen)} asked); "
                          "run once per backend")
-    with backends.use(chosen[0]):  # not installed: one line naming the fix, before any work
+    backends.check_installed(chosen[0])  # not installed: one line naming the fix, before any work
+    with backends.use(chosen[0]):
         studies = run_studies(cases.select(args.cases), fast=args.fast, with_softness=args.softness,
                               with_solvers=args.solvers, progress=True)
     print(text(studies))

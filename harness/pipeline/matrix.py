@@ -135,3 +135,23 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_
                     raise error
                 next_in_order += 1
     return [dataclasses.replace(outcomes[i][0], case=case) for i, case in enumerate(selected)]
+
+
+def _run_backend(names: Sequence[str], config_path: Path | None, options: RunOptions
+                 ) -> tuple[list[CaseResult], dict[str, list[Check]]]:
+    results, checks, _ = run_all([cases.get(n) for n in names], config_path, options, jobs=1)
+    return results, checks
+
+
+def run_backends(selected: Sequence[cases.Case], config_path: Path | None, options: RunOptions,
+                 names: Sequence[str]) -> list[tuple[str, list[CaseResult], dict[str, list[Check]]]]:
+    """run_all on each backend of ``names``, each in a process of its own, forked from this one, which
+    imports no accelerated backend: JAX and Warp do not survive a fork, and MJX fixes its precision at its
+    first import, so float32 and float64 cannot share a process."""
+    out = []
+    for name in names:
+        with fork_pool(1) as pool:
+            results, checks = pool.submit(_run_backend, [c.name for c in selected], config_path,
+                                          dataclasses.replace(options, backend=name)).result()
+        out.append((name, results, checks))
+    return out

@@ -319,7 +319,8 @@ def _run_case(
     if engine.name != "c":  # the C backend's settings stay as they always were (baselines, reports)
         settings["backend"] = {"name": engine.name, "precision": engine.precision,
                                "instant": "the instantaneous layer reads MuJoCo's C functions (float64) at sampled "
-                                          "states on every backend", "skipped": skipped}
+                                          "states on every backend", "skipped": skipped,
+                               "adapted": list(engine.adaptations(model))}
     return CaseResult(case=case, figures=tuple(figures), reference=ref_traj, simulations=sims,
                       settings=settings, timings=timings, joints=joints, budgets=budgets,
                       defect_budgets=defect_budgets, orders={k: v for k, v in orders.items() if math.isfinite(v)},

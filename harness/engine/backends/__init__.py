@@ -26,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import importlib
+import importlib.util
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
@@ -42,6 +43,9 @@ BACKENDS: tuple[str, ...] = ("c", "mjx", "mjx-f64", "warp")
 """Every backend's name, as ``--backend`` and ``validate(backend=...)`` accept them (and ``all``)."""
 
 _MODULES = {"c": "c", "mjx": "mjx", "mjx-f64": "mjx", "warp": "warp"}
+PRECISION = {"c": "float64", "mjx": "float32", "mjx-f64": "float64", "warp": "float32"}
+"""The arithmetic each backend steps in (known without importing it)."""
+_REQUIRES = {"mjx": ("jax", "mujoco.mjx"), "mjx-f64": ("jax", "mujoco.mjx"), "warp": ("warp", "mujoco_warp")}
 EXTRAS = {"mjx": "mjx", "mjx-f64": "mjx", "warp": "warp"}
 """The pip extra that installs each optional backend: ``pip install 'mjharness[EXTRA]'``."""
 
@@ -75,6 +79,9 @@ class Backend(Protocol):
     def unsupported(self, model: mujoco.MjModel) -> str:
         """Why this backend cannot run ``model`` (one line: the backend, the feature, the fix), or ""."""
 
+    def adaptations(self, model: mujoco.MjModel) -> tuple[str, ...]:
+        """What this backend's copy of ``model`` changes (a flag it lacks) and what stands in, one line each."""
+
     def supports(self, model: mujoco.MjModel) -> None:
         """Raise :class:`BackendUnavailable` with :meth:`unsupported`'s reason, if any."""
 
@@ -97,6 +104,22 @@ def expand(spec: str) -> tuple[str, ...]:
 
 
 _loaded: dict[str, Backend] = {}
+
+
+def check_installed(name: str) -> None:
+    """:class:`BackendUnavailable` (one line: backend, what is missing, the fix) where backend ``name``'s
+    packages are not installed, found without importing them: a parent process that forks workers must not
+    import JAX or Warp first (neither survives a fork), and MJX's precision is fixed by its first import."""
+    if name not in BACKENDS:
+        raise ValueError(f"unknown backend {name!r}; accepted: {', '.join(BACKENDS)}, all")
+    for module in _REQUIRES.get(name, ()):
+        try:
+            found = importlib.util.find_spec(module) is not None
+        except ModuleNotFoundError:  # its parent package is missing
+            found = False
+        if not found:
+            raise BackendUnavailable(f"backend {name!r} is not installed ({module} is missing); "
+                                     f"fix: pip install 'mjharness[{EXTRAS[name]}]', or use --backend c")
 
 
 def get(name: str) -> Backend:

@@ -31,6 +31,9 @@ class CBackend:
         """Nothing: every model MuJoCo compiles."""
         return ""
 
+    def adaptations(self, model: mujoco.MjModel) -> tuple[str, ...]:
+        return ()
+
     def supports(self, model: mujoco.MjModel) -> None:
         """Every model MuJoCo compiles."""
 

@@ -3,7 +3,10 @@
 How a run is made, and why:
 
 - The model is the compiled ``MjModel`` the harness made (variants and all),
-  with the ``energy`` flag cleared — MJX's ``put_model`` refuses it — and put
+  with the ``energy`` flag cleared — MJX's ``put_model`` refuses it — and
+  ``diagexact`` (MJX lacks it: the regulariser then uses MuJoCo's diagonal
+  approximation, a softness the budget's softness part measures on MJX's own
+  runs; the report lists both, :data:`ADAPTED_FLAGS`), and put
   on the CPU device in the backend's precision (``jax_enable_x64`` on for
   float64, off for float32: every array of the model and the data is then
   float32, as a policy trained on MJX sees it). MJX makes constants when it is
@@ -100,11 +103,26 @@ jax.config.update("jax_compilation_cache_dir", str(_cache_dir()))
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 
+ADAPTED_FLAGS: dict[str, str] = {
+    "mjENBL_ENERGY": "energy: MJX refuses the flag; the harness computes MuJoCo's energy from MJX's state",
+    "mjENBL_DIAGEXACT": ("diagexact: MJX lacks it; constraint regularisers use MuJoCo's diagonal approximation, "
+                         "and the softness part of the budget is measured on MJX's own runs"),
+}
+"""Enable flags cleared on MJX's copy of a model, each with what stands in for it (shown in the report)."""
+
+
 def host_model(model: mujoco.MjModel) -> mujoco.MjModel:
-    """A copy of ``model`` MJX accepts: the energy flag cleared (its energy is computed here instead)."""
+    """A copy of ``model`` MJX accepts: the :data:`ADAPTED_FLAGS` cleared."""
     host = copy.deepcopy(model)
-    host.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_ENERGY)
+    for flag in ADAPTED_FLAGS:
+        host.opt.enableflags &= ~int(getattr(mujoco.mjtEnableBit, flag, 0))
     return host
+
+
+def adaptations(model: mujoco.MjModel) -> tuple[str, ...]:
+    """What MJX's copy of ``model`` has changed, and what stands in (:data:`ADAPTED_FLAGS`)."""
+    return tuple(why for flag, why in ADAPTED_FLAGS.items()
+                 if model.opt.enableflags & int(getattr(mujoco.mjtEnableBit, flag, 0)))
 
 
 def equality_rows(model: mujoco.MjModel) -> dict[str, slice]:
@@ -148,6 +166,9 @@ class MjxBackend:
             return (f"backend {self.name!r} cannot run this model: MJX does not implement {exc}; "
                     "fix: --backend c, or a model without it (mujoco doc/mjx.rst, feature parity)")
         return ""
+
+    def adaptations(self, model: mujoco.MjModel) -> tuple[str, ...]:
+        return adaptations(model)
 
     def supports(self, model: mujoco.MjModel) -> None:
         reason = self.unsupported(model)
@@ -236,6 +257,8 @@ def _wanted_fields(model: mujoco.MjModel, probe: Probe) -> tuple[str, ...]:
 def _field(support, m, d, name: str):
     if name == "qM":  # the dense mass matrix, for the kinetic energy
         return support.full_m(m, d)
+    if name.startswith("efc_"):  # the constraint rows live in the implementation's data
+        return getattr(d._impl, name)
     if hasattr(d, name):
         return getattr(d, name)
     if hasattr(d._impl, name):
