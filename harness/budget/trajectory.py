@@ -89,7 +89,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from harness.budget.extrapolate import richardson, to_zero
-from harness.core.budget import Budget
+from harness.core.budget import ROUNDOFF_EPS, Budget
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.core.trajectory import Trajectory
@@ -97,7 +97,6 @@ from harness.core.trajectory import Trajectory
 INTEGRATION_UNCERTAINTY = 0.25
 SOFTNESS_UNCERTAINTY = 0.25
 FLOOR_UNCERTAINTY = 0.1
-ROUNDOFF_EPS = 64
 ROUNDOFF = ROUNDOFF_EPS * float(np.finfo(float).eps)
 REFERENCE = 50.0
 SOLVER = 10.0

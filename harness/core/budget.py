@@ -30,6 +30,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 PARTS = ("integration", "softness", "floors", "solver")
+ROUNDOFF_EPS = 64
+"""Machine epsilons of round-off a step, accumulating as a random walk over a run's steps: the budget's
+round-off part (:mod:`harness.budget.trajectory`) and the round-off floor of a convergence ladder
+(:mod:`harness.layers.orders`), in the arithmetic the backend steps in."""
 TOLERANCES = ("integration", "softness", "floors", "solver", "roundoff", "reference", "convergence")
 
 

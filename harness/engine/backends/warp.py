@@ -32,6 +32,7 @@ second process, or a CI run that keeps the cache, loads them in about a second.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import time
 from collections.abc import Sequence
@@ -61,6 +62,12 @@ if _root is not None:
 import mujoco_warp as mjw  # noqa: E402  (after Warp's configuration above)
 
 _STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION)
+ADAPTED_FLAGS: dict[str, str] = {
+    "mjENBL_DIAGEXACT": ("diagexact: MuJoCo Warp lacks it; constraint regularisers use MuJoCo's diagonal "
+                         "approximation, and the softness part of the budget is measured on Warp's own runs"),
+}
+"""Enable flags cleared on Warp's copy of a model, each with what stands in for it (shown in the report),
+as the MJX backend does."""
 FORWARD_WORLDS = 4096
 """At most this many recorded states go to one batched ``forward`` (memory, not speed)."""
 
@@ -271,7 +278,7 @@ def _rows(wm: object) -> int:
 
 
 def _run_group(requests: Sequence[Request], wmodels: Sequence[object], probe: Probe) -> list[Trajectory]:
-    model = requests[0].model
+    model = host_model(requests[0].model)
     wm = wmodels[0]
     _batch_into(wm, wmodels)
     if _rows(wm) not in (1, len(requests)):
@@ -342,6 +349,9 @@ class WarpBackend:
             return str(exc)
         return ""
 
+    def adaptations(self, model: mujoco.MjModel) -> tuple[str, ...]:
+        return adaptations(model)
+
     def supports(self, model: mujoco.MjModel) -> None:
         _put_model(model)
 
@@ -366,11 +376,29 @@ class WarpBackend:
         return out  # type: ignore[return-value]
 
 
+def adaptations(model: mujoco.MjModel) -> tuple[str, ...]:
+    """What Warp's copy of ``model`` has changed, and what stands in (:data:`ADAPTED_FLAGS`)."""
+    return tuple(why for flag, why in ADAPTED_FLAGS.items()
+                 if model.opt.enableflags & int(getattr(mujoco.mjtEnableBit, flag, 0)))
+
+
+def host_model(model: mujoco.MjModel) -> mujoco.MjModel:
+    """A copy of ``model`` MuJoCo Warp accepts: the :data:`ADAPTED_FLAGS` cleared (``model`` itself where
+    none is set)."""
+    if not adaptations(model):
+        return model
+    host = copy.deepcopy(model)
+    for flag in ADAPTED_FLAGS:
+        host.opt.enableflags &= ~int(getattr(mujoco.mjtEnableBit, flag, 0))
+    return host
+
+
 def _put_model(model: mujoco.MjModel) -> object:
-    """``mjw.put_model``, a feature Warp lacks refused as :class:`BackendUnavailable` (one line)."""
+    """``mjw.put_model`` of :func:`host_model`, a feature Warp lacks refused as :class:`BackendUnavailable`
+    (one line)."""
     init()
     try:
-        return mjw.put_model(model)
+        return mjw.put_model(host_model(model))
     except (NotImplementedError, ValueError) as exc:
         text = str(exc).strip()
         why = text.splitlines()[0] if text else type(exc).__name__
