@@ -12,16 +12,13 @@ multipliers and violations, energy, generalized constraint force, readings.
 ``mjx``      MJX's JAX implementation (``mujoco-mjx``), float32, what a policy
              trained on MJX runs with by default.
 ``mjx-f64``  the same in float64 (``jax_enable_x64``).
-
-MuJoCo Warp is not here yet (its backend is on the ``warp`` branch, issue 20):
-a name without a module would pass ``check_installed`` and fail at the first
-run, and ``all`` would always fail.
+``warp``     MuJoCo Warp on CPU (float32), in :mod:`.warp` where installed.
 
 Which backend runs is chosen for a whole case (:func:`use`, set by
 :func:`harness.pipeline.run.run_case`): every layer and every budget run of
 that case call :func:`simulate` / :func:`simulate_many` here, which go to the
 active backend. ``simulate_many`` is the batched call: a backend that can
-batch (``jax.vmap``) runs the requests as one call.
+batch (``jax.vmap``, Warp worlds) runs the requests as one call.
 """
 
 from __future__ import annotations
@@ -42,14 +39,14 @@ from harness.core.trajectory import Trajectory
 from harness.engine.probe import Probe
 from harness.engine.simulate import simulate as c_simulate
 
-BACKENDS: tuple[str, ...] = ("c", "mjx", "mjx-f64")
+BACKENDS: tuple[str, ...] = ("c", "mjx", "mjx-f64", "warp")
 """Every backend's name, as ``--backend`` and ``validate(backend=...)`` accept them (and ``all``)."""
 
-_MODULES = {"c": "c", "mjx": "mjx", "mjx-f64": "mjx"}
-PRECISION = {"c": "float64", "mjx": "float32", "mjx-f64": "float64"}
+_MODULES = {"c": "c", "mjx": "mjx", "mjx-f64": "mjx", "warp": "warp"}
+PRECISION = {"c": "float64", "mjx": "float32", "mjx-f64": "float64", "warp": "float32"}
 """The arithmetic each backend steps in (known without importing it)."""
-_REQUIRES = {"mjx": ("jax", "mujoco.mjx"), "mjx-f64": ("jax", "mujoco.mjx")}
-EXTRAS = {"mjx": "mjx", "mjx-f64": "mjx"}
+_REQUIRES = {"mjx": ("jax", "mujoco.mjx"), "mjx-f64": ("jax", "mujoco.mjx"), "warp": ("warp", "mujoco_warp")}
+EXTRAS = {"mjx": "mjx", "mjx-f64": "mjx", "warp": "warp"}
 """The pip extra that installs each optional backend: ``pip install 'mjharness[EXTRA]'``."""
 
 
@@ -112,7 +109,7 @@ _loaded: dict[str, Backend] = {}
 def check_installed(name: str) -> None:
     """:class:`BackendUnavailable` (one line: backend, what is missing, the fix) where backend ``name``'s
     packages are not installed, found without importing them: a parent process that forks workers must not
-    import JAX first (it does not survive a fork), and MJX's precision is fixed by its first import."""
+    import JAX or Warp first (neither survives a fork), and MJX's precision is fixed by its first import."""
     if name not in BACKENDS:
         raise ValueError(f"unknown backend {name!r}; accepted: {', '.join(BACKENDS)}, all")
     for module in _REQUIRES.get(name, ()):
@@ -131,7 +128,7 @@ def get(name: str) -> Backend:
     if name not in BACKENDS:
         raise ValueError(f"unknown backend {name!r}; accepted: {', '.join(BACKENDS)}, all")
     if name not in _loaded:
-        try:  # lazy: an optional backend imports jax, which the default install lacks
+        try:  # lazy: an optional backend imports jax or warp, which the default install lacks
             module = importlib.import_module(f"harness.engine.backends.{_MODULES[name]}")
         except ImportError as exc:
             raise BackendUnavailable(

@@ -1,0 +1,176 @@
+"""The Warp backend (MuJoCo Warp on CPU, float32): batching that changes no number, agreement with the
+C engine within float32 round-off (and a broken model that does not agree), the one-line refusal of a
+feature Warp lacks, and where its kernels are cached.
+
+Skipped where ``mujoco-warp`` is not installed (the default install); CI installs it
+(``.ci/run``, the accelerated-backends venv) and runs this file there. Short runs only: a Warp
+step on CPU costs tens of milliseconds whatever the number of worlds.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco_warp")
+
+from harness import cases
+from harness.core.errors import BackendUnavailable
+from harness.engine import backends
+from harness.engine.backends import Request
+from harness.engine.backends import warp as W
+from harness.engine.models import compile_model
+from harness.engine.simulate import simulate as c_simulate
+
+STEPS = 40
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    case = cases.get("pendulum")
+    model = compile_model(case.mjcf)
+    ref = case.reference(model)
+    return case, ref, case.probe(ref.dynamics)
+
+
+def _request(case, ref, *, steps: int = STEPS, **compile_options) -> Request:
+    return Request(compile_model(case.mjcf, **compile_options), ref.q0(), ref.qd0(), steps)
+
+
+def test_runs_differing_in_per_world_fields_share_one_call_and_change_no_number(pendulum):
+    """h and h/2 (a per-world field) go to Warp as one call of two worlds; another integrator (Warp
+    builds its step from it) as another; each run's numbers are those of the run alone, bit for bit."""
+    case, ref, probe = pendulum
+    h = compile_model(case.mjcf).opt.timestep
+    reqs = [_request(case, ref, integrator="RK4"), _request(case, ref, integrator="RK4", timestep=h / 2,
+                                                           steps=2 * STEPS),
+            _request(case, ref, integrator="Euler")]
+    assert W.groups(reqs) == [[0, 1], [2]]
+    together = backends.get("warp").simulate_many(reqs, probe)
+    for req, batched in zip(reqs, together, strict=True):
+        alone = backends.get("warp").simulate_many([req], probe)[0]
+        assert len(batched.t) == req.steps + 1
+        np.testing.assert_array_equal(batched.t, alone.t)
+        for p in batched.positions:
+            np.testing.assert_array_equal(batched.positions[p], alone.positions[p])
+            np.testing.assert_array_equal(batched.velocities[p], alone.velocities[p])
+        for c in batched.multipliers:
+            np.testing.assert_array_equal(batched.multipliers[c], alone.multipliers[c])
+        np.testing.assert_array_equal(batched.invariants["energy"], alone.invariants["energy"])
+    # the h/2 world really ran at h/2: its samples are half as far apart and it ends where the h run ends
+    assert together[1].t[-1] == pytest.approx(together[0].t[-1], abs=1e-12)
+
+
+def _roundoff_bound(steps: int, size: float) -> float:
+    """The budget's round-off part (harness.budget.trajectory: ROUNDOFF_EPS machine epsilons a step,
+    a random walk over the steps) in float32, for one run (noise gain 1) of a quantity of ``size``."""
+    from harness.budget.trajectory import ROUNDOFF_EPS
+
+    return ROUNDOFF_EPS * float(np.finfo(np.float32).eps) * math.sqrt(steps) * size
+
+
+def test_warp_agrees_with_the_c_engine_within_float32_roundoff(pendulum):
+    case, ref, probe = pendulum
+    req = _request(case, ref, integrator="RK4")
+    warp = backends.get("warp").simulate_many([req], probe)[0]
+    c = c_simulate(req.model, probe, q0=req.q0, qd0=req.qd0, steps=req.steps)
+    assert warp.source == "warp:RK4"
+    length = float(np.linalg.norm(c.positions["bob"][0]))
+    gap = float(np.abs(warp.positions["bob"] - c.positions["bob"]).max())
+    assert 0 < gap <= _roundoff_bound(STEPS, length)  # float32 differs (> 0) by round-off only
+    energy = float(np.abs(c.invariants["energy"]).max())
+    assert np.abs(warp.invariants["energy"] - c.invariants["energy"]).max() <= _roundoff_bound(STEPS, energy)
+
+
+def test_a_broken_model_on_warp_does_not_agree_with_the_c_engine(pendulum):
+    """The same bound fails when Warp runs a model with damping the C run lacks: the comparison sees
+    physics, not only round-off."""
+    case, ref, probe = pendulum
+
+    def damped(spec: mujoco.MjSpec) -> None:
+        spec.joint("theta").damping = [0.5, 0, 0]
+
+    broken = Request(compile_model(case.mjcf, integrator="RK4", edit=damped), ref.q0(), ref.qd0(), STEPS)
+    warp = backends.get("warp").simulate_many([broken], probe)[0]
+    req = _request(case, ref, integrator="RK4")
+    c = c_simulate(req.model, probe, q0=req.q0, qd0=req.qd0, steps=req.steps)
+    length = float(np.linalg.norm(c.positions["bob"][0]))
+    assert np.abs(warp.positions["bob"] - c.positions["bob"]).max() > _roundoff_bound(STEPS, length)
+
+
+def test_a_feature_warp_lacks_is_refused_in_one_line_naming_backend_feature_and_fix():
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><option solver="PGS"/><worldbody><body><joint type="hinge"/>'
+        '<geom size=".1" mass="1"/></body></worldbody></mujoco>')
+    with pytest.raises(BackendUnavailable) as err:
+        backends.get("warp").supports(model)
+    message = str(err.value)
+    assert "\n" not in message
+    assert "'warp'" in message and "PGS" in message and "fix:" in message and "--backend c" in message
+
+
+def test_the_kernels_are_cached_beside_the_harness_cache(tmp_path):
+    """A CI that keeps $XDG_CACHE_HOME between runs keeps Warp's compiled kernels too: a fresh process
+    with XDG_CACHE_HOME set puts them under it."""
+    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path))
+    env.pop("MJHARNESS_NO_CACHE", None)
+    code = "from harness.engine.backends import warp as W; print(W.kernel_cache())"
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=ROOT, capture_output=True, text=True,
+                         check=True).stdout.strip().splitlines()[-1]
+    assert out == str(tmp_path / "mjharness" / "warp")
+
+
+def test_warp_is_float32():
+    warp = backends.get("warp")
+    assert warp.precision == "float32"
+    assert warp.epsilon == float(np.finfo(np.float32).eps)
+
+
+@pytest.mark.slow
+def test_warp_float32_passes_and_a_fault_still_fails():
+    """Through every layer and budget: the pendulum on Warp (float32, its round-off in the budget) passes,
+    and the same pendulum with joint damping fails on figures of Warp's own runs that the budget does
+    not explain (the energy it dissipates, the rod force), not only on the instantaneous layer (which
+    reads the C engine's functions on every backend).
+
+    Horizon 0.2 s (200 RK4 steps: a Warp step costs tens of ms on CPU). Damping 0.1 N m s there takes
+    about c θ̇² t ≈ 1e-2 of the energy, far above the float32 round-off part of the budget over 200 steps
+    (64 ε₃₂ √N × the size × the noise gain ≈ 1e-4 × a few); the README's 1e-3 fault needs the case's 5 s
+    horizon to show through float32."""
+    from harness import validate
+    from harness.engine.compat import set_damping
+
+    ok = validate("pendulum", integrators=["RK4"], backend="warp", horizon=0.2)
+    assert ok.settings["backend"]["name"] == "warp" and ok.settings["backend"]["precision"] == "float32"
+    assert ok.passed, [c.name for c in ok.failures]
+    bad = validate("pendulum", integrators=["RK4"], backend="warp", horizon=0.2,
+                   edit=lambda s: set_damping(s.joint("theta"), 0.1))
+    assert not bad.passed
+    failed = [c.name for c in bad.failures]
+    assert "RK4.drift.energy" in failed and "RK4.force.rod" in failed, failed
+
+
+def test_a_convergence_floor_is_explained_by_float32_roundoff_only_on_a_float32_backend():
+    """An RK4 ladder whose error sits flat at 1e-6 m: in float32 (Warp) that is below the round-off of the
+    run (64 ε₃₂ √N × L ≈ 7.6e-4 m for 10⁴ steps of a 1 m case), a floor and not an order; in float64 (C),
+    whose round-off there is 3e-12 m, the same floor stays unexplained: a fault the verdict shows."""
+    from harness.layers.orders import explained_floor, fit_order, roundoff_floor
+
+    fit = fit_order((1e-3, 5e-4, 2.5e-4, 1.25e-4), (1e-6, 1e-6, 1e-6, 1e-6), saturation=0.1)
+    assert fit.floor == pytest.approx(1e-6) and fit.n_used < 2
+    with backends.use("c"):
+        c = roundoff_floor(1e4, 1.0)
+        assert explained_floor(fit, {"round-off": c}) == ""
+    with backends.use("warp"):
+        w = roundoff_floor(1e4, 1.0)
+        assert "not measurable" in explained_floor(fit, {"round-off": w})
+    assert c == pytest.approx(64 * float(np.finfo(np.float64).eps) * 100)
+    assert w / c == pytest.approx(float(np.finfo(np.float32).eps) / float(np.finfo(np.float64).eps))
