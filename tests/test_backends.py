@@ -62,7 +62,7 @@ def test_unknown_backend_is_refused_naming_the_accepted(spec):
     out = subprocess.run([sys.executable, "-m", "harness.cli", "check", "pendulum", "--backend", spec],
                          capture_output=True, text=True, cwd=ROOT, timeout=120)
     err = out.stderr.strip()
-    assert out.returncode == 2 and len(err.splitlines()) == 1 and "c, mjx, mjx-f64, all" in err, err
+    assert out.returncode == 2 and len(err.splitlines()) == 1 and "c, mjx, mjx-f64, warp, all" in err, err
 
 
 def test_a_backend_not_installed_is_one_line_naming_the_fix(monkeypatch, capsys):
