@@ -33,6 +33,17 @@ ROUNDOFF_EPS = 64
 """Round-off a step, in machine epsilons of the arithmetic a run is stepped in, relative to the quantity's
 size; it accumulates as a random walk over the run's steps (harness/budget/trajectory.py)."""
 
+PERTURBED_RUNS = 4
+"""Float32 backends: how many copies of a run (or of a sampled state) are made with the initial state moved
+by one unit in the last place (±½ε relative, a seeded sign per component), beside the run itself."""
+PERTURBED_FACTOR = 8.0
+"""Float32 backends: the round-off part is this × the largest difference between a figure and its perturbed
+copies' (stochastic arithmetic, Vignes' CESTAC: round-off is a random process, and runs one ulp apart round
+independently after a few steps, so the run's own round-off e₀ and each copy's eᵢ are draws of one law and
+dᵢ = eᵢ − e₀ has √2 times its spread). For a normal law of spread σ: |e₀| ≤ 3.3σ with probability 0.999,
+and the largest of 4 |dᵢ| falls below 0.42σ with probability (0.236)⁴ = 0.003: |e₀| ≤ 3.3 / 0.42 ≈ 8 × max|dᵢ|
+except with probability below 0.005 per figure."""
+
 PARTS = ("integration", "softness", "floors", "solver")
 TOLERANCES = ("integration", "softness", "floors", "solver", "roundoff", "reference", "convergence")
 
