@@ -35,6 +35,7 @@ both slow and fast states are covered.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 
 import mujoco
@@ -125,6 +126,33 @@ def perturbed_states(qpos: np.ndarray, qvel: np.ndarray, *, epsilon: float, copi
     return qpos[None] * (1.0 + sp * epsilon / 2), qvel[None] * (1.0 + sv * epsilon / 2)
 
 
+_OPTION_CONSTANTS = ("gravity", "timestep", "impratio", "density", "viscosity", "wind", "magnetic")
+"""The physical constants of ``mjOption`` a float32 backend stores in its precision (the solver's tolerances,
+which only stop an iteration, are left as they are)."""
+
+
+def represented_model(model: mujoco.MjModel, dtype: type = np.float32) -> mujoco.MjModel:
+    """A copy of ``model`` with every real constant (each float64 array of ``MjModel``, and
+    :data:`_OPTION_CONSTANTS`) rounded to ``dtype`` and back: the model as a float32 backend holds it, run in
+    float64 by the C engine. The difference it makes to a figure is the representation of the model's
+    constants, each off by up to ½ε relative: a deterministic shift that no copy of the state moves (the
+    forcing (m₁ − m₂)g of an Atwood machine depends on no state), measured here instead of assumed."""
+    out = copy.deepcopy(model)
+    for name in dir(out):
+        if name.startswith("_"):
+            continue
+        value = getattr(out, name, None)
+        if isinstance(value, np.ndarray) and value.dtype == np.float64 and value.size:
+            value[...] = value.astype(dtype).astype(np.float64)
+    for name in _OPTION_CONSTANTS:
+        value = getattr(out.opt, name)
+        if isinstance(value, np.ndarray):
+            value[...] = value.astype(dtype).astype(np.float64)
+        else:
+            setattr(out.opt, name, float(dtype(value)))
+    return out
+
+
 @dataclass(frozen=True)
 class InstantEvaluation:
     """The instantaneous layer on the active backend.
@@ -136,11 +164,15 @@ class InstantEvaluation:
             the round-off of the backend's arithmetic (:func:`harness.budget.instant.instant_budgets`). Figures
             read from the C engine's float64 geometry alone (``instant.kinematics``) are left out. Empty on a
             float64 backend.
+        represented: on a float32 backend, each figure's shift when the model's constants are held in float32
+            (:func:`represented_model`, the C engine in float64 at the same states), reduced as the figure is;
+            empty on a float64 backend.
         unavailable: figures the backend's arrays cannot give at these states, each with the one-line reason.
     """
 
     deviations: list[Deviation]
     perturbed: tuple[list[Deviation], ...] = ()
+    represented: dict[FigureName, float] = field(default_factory=dict)
     unavailable: dict[str, str] = field(default_factory=dict)
 
 
@@ -270,14 +302,23 @@ def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
             fwd = forward_many(model, probe, qpos, qvel)
     measured = _measure(model, probe, dyn, q, qd, states=None, fwd=fwd, offset=0)
     deviations, unavailable = _deviations(model, probe, ref, q, qd, measured, backend.name)
-    others = []
+    others, represented = [], {}
     if copies is not None:
+        as_c = _deviations(model, probe, ref, q, qd, _measure(model, probe, dyn, q, qd, states=None, fwd=None,
+                                                              offset=0), "c")[0]
+        rounded = represented_model(model, np.float32 if backend.precision == "float32" else np.float64)
+        # the engine's side on the rounded model, the analytic side (and the gravity it reads) the model's own
+        in_float32 = _deviations(model, probe, ref, q, qd, _measure(rounded, probe, dyn, q, qd, states=None,
+                                                                     fwd=None, offset=0), "c")[0]
+        represented = {a.name: a.magnitude(b.values - a.values) for a, b in zip(as_c, in_float32, strict=True)
+                       if a.name != FigureName.instant("kinematics")}
         for k in range(len(copies[0])):
             again = _measure(model, probe, dyn, q, qd, states=(copies[0][k], copies[1][k]), fwd=fwd,
                              offset=(k + 1) * len(q))
             others.append([d for d in _deviations(model, probe, ref, q, qd, again, backend.name)[0]
                            if d.name != FigureName.instant("kinematics")])
-    return InstantEvaluation(deviations=deviations, perturbed=tuple(others), unavailable=unavailable)
+    return InstantEvaluation(deviations=deviations, perturbed=tuple(others), represented=represented,
+                             unavailable=unavailable)
 
 
 def _deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarray, qd: np.ndarray, measured,

@@ -47,7 +47,12 @@ How a run is made, and why:
   ``make_data``'s zero warm start (as the C engine's reset ``MjData``). MJX
   computes the force, torque and accelerometer sensors and ``cfrc_int`` /
   ``cfrc_ext`` itself (``sensor_acc`` calls its ``rne_postconstraint`` for those
-  sensors, contacts, connects and welds included): they are read as they are.
+  sensors, contacts, connects and welds included) where the model has constraint
+  rows: they are read as they are. Without constraint rows MJX's ``forward``
+  returns before ``sensor_acc`` (mujoco/mjx/_src/forward.py, mujoco-mjx 3.17:
+  ``if d._impl.efc_J.size == 0: return``), leaving those sensors and
+  ``cfrc_int`` at zero: they are then handed back as None, and the instantaneous
+  layer computes them in float64 from MJX's qacc (no constraint forces to carry).
 """
 
 from __future__ import annotations
@@ -200,6 +205,10 @@ class MjxBackend:
                   *(("sensordata",) if model.nsensordata else ()), *(("cfrc_int", "cfrc_ext") if reactions else ()))
         leaves, treedef = jax.tree_util.tree_flatten(put)
         key = ("forward", treedef, tuple(leaf.tobytes() for leaf in leaves if isinstance(leaf, np.ndarray)), wanted)
+        data = self.mjx.make_data(put)
+        if getattr(data, "_impl", data).efc_J.size == 0:  # MJX's forward skips sensor_acc (module docstring)
+            wanted = tuple(f for f in wanted if f not in ("sensordata", "cfrc_int", "cfrc_ext"))
+            key = (*key[:3], wanted)
         if key not in self._compiled:
             forward, support = self.forward.forward, self.support
 
@@ -208,7 +217,6 @@ class MjxBackend:
                 return {f: _field(support, m, d, f) for f in wanted}
 
             self._compiled[key] = jax.jit(jax.vmap(one, in_axes=(None, None, 0, 0)))
-        data = self.mjx.make_data(put)
         got = jax.device_get(self._compiled[key](put, data, jax.numpy.asarray(qpos, dtype=data.qpos.dtype),
                                                  jax.numpy.asarray(qvel, dtype=data.qvel.dtype)))
         out = {f: np.asarray(v, dtype=np.float64) for f, v in got.items()}
