@@ -305,7 +305,8 @@ def _field(support, m, d, name: str):
     # the constraint rows live in the implementation's data (``Data._impl``, since MJX split its JAX and Warp
     # implementations); older releases (mujoco-mjx 3.3.0) keep every field on ``Data`` itself
     impl = getattr(d, "_impl", None)
-    if name.startswith("efc_") and impl is not None:
+    if impl is not None and (name.startswith("efc_") or name in ("cacc", "cfrc_int", "cfrc_ext")) \
+            and hasattr(impl, name):  # cfrc_* on Data itself is deprecated since the split
         return getattr(impl, name)
     if hasattr(d, name):
         return getattr(d, name)
