@@ -5,6 +5,16 @@ At each state the analytic M(q), F(q, q̇), q̈ and λ are compared with MuJoCo'
 ``efc_force``. A fault shows up here before any trajectory is run, and the
 figure that fails says where it is (inertia, forces, or the constraint).
 
+Those are the active backend's (:func:`harness.engine.backends.active`): one
+batched ``forward_many`` at every sampled state hands back its dynamics, which
+are written into the C engine's ``MjData`` at the same state; the C engine
+supplies only the geometry, in float64 (point positions, the Jacobians J and
+J̇, site frames, an equality's ``efc_J``: kinematics, which
+``instant.kinematics`` checks). So on MJX or Warp every figure below except
+``instant.kinematics`` is that backend's number; on the C backend nothing is
+carried and every number is ``mj_forward``'s, as it always was
+(:func:`instant_evaluation`).
+
 A constraint may be a block of rows (a ``connect`` equality has three): its
 ``force.NAME`` figure compares every row with its multiplier (the worst row
 decides), and a block of several rows also gets ``generalized_force.NAME``,
