@@ -92,13 +92,15 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
             parts["floors"] = floors[dev.name] - a
         ideal = dev.values - sum(parts.values()) if parts else dev.values
         explained = {part: dev.magnitude(values) for part, values in parts.items()}
-        roundoff = PERTURBED_FACTOR * max(dev.magnitude(c - dev.values) for c in copies[dev.name]) \
-            + (represented or {}).get(dev.name, 0.0) if dev.name in copies else ROUNDOFF * dev.size
+        # float64: noise × ROUNDOFF × size, in that order (the C backend's limits bit for bit as before)
+        roundoff = noise * (PERTURBED_FACTOR * max(dev.magnitude(c - dev.values) for c in copies[dev.name])
+                            + (represented or {}).get(dev.name, 0.0)) if dev.name in copies \
+            else noise * ROUNDOFF * dev.size
         tolerance = {"softness": SOFTNESS_UNCERTAINTY * explained.get("softness", 0.0) if softness_unc is None
                      else softness_unc,
                      "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),
                      "solver": SOLVER_PART_UNCERTAINTY * explained.get("solver", 0.0),
-                     "roundoff": noise * roundoff,
+                     "roundoff": roundoff,
                      "convergence": noise * SOLVER * solver_tolerance * dev.size}
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
                                tolerance=tolerance, notes=tuple(notes))
