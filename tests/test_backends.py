@@ -371,3 +371,41 @@ def test_mjx_float32_instant_figures_pass_are_mjxs_and_a_fault_fails():
     pytest.importorskip("jax")
     pytest.importorskip("mujoco.mjx")
     check_float32_instant(_in_float32(_INSTANT_F32.replace("BACKEND", "'mjx'")))
+
+
+def test_perturbed_states_move_each_component_by_half_an_epsilon_with_a_seeded_sign():
+    """The state copies of the float32 round-off rule (harness.core.budget.PERTURBED_RUNS): x (1 ± ε/2), a sign
+    per component, the same for the same seed, both signs drawn."""
+    from harness.core.budget import PERTURBED_RUNS
+    from harness.layers.instant import perturbed_states
+    eps = float(np.finfo(np.float32).eps)
+    qpos, qvel = np.array([[1.0, -2.0, 0.5]] * 5), np.array([[3.0, 0.25]] * 5)
+    cp, cv = perturbed_states(qpos, qvel, epsilon=eps)
+    assert cp.shape == (PERTURBED_RUNS, 5, 3) and cv.shape == (PERTURBED_RUNS, 5, 2)
+    ratio = np.concatenate([(cp / qpos).ravel(), (cv / qvel).ravel()])
+    assert np.allclose(np.abs(ratio - 1.0), eps / 2, rtol=1e-9, atol=0)
+    assert (ratio > 1).any() and (ratio < 1).any()
+    again = perturbed_states(qpos, qvel, epsilon=eps)
+    assert np.array_equal(again[0], cp) and np.array_equal(again[1], cv)
+
+
+def test_instant_roundoff_is_the_copies_spread_on_float32_and_unchanged_on_float64():
+    """With copies, the round-off tolerance is PERTURBED_FACTOR × the largest copy difference (+ the measured
+    shift of the constants in float32), × the noise gain; without, today's ROUNDOFF × size."""
+    from harness.budget.instant import ROUNDOFF, instant_budgets
+    from harness.core.budget import PERTURBED_FACTOR
+    from harness.core.deviation import Deviation
+    from harness.core.figures import FigureName
+    name = FigureName.instant("qacc")
+    base = Deviation(name, np.array([1e-7, -2e-7]), "scalar", "1", "", size=1.0)
+    copies = [[dataclasses.replace(base, values=base.values + d)] for d in (np.array([0.0, 3e-7]),
+                                                                                 np.array([-1e-7, 0.0]))]
+    plain = instant_budgets([base])[name]
+    assert plain.tolerance["roundoff"] == ROUNDOFF * base.size
+    measured = instant_budgets([base], perturbed=copies, represented={name: 5e-8})[name]
+    assert measured.tolerance["roundoff"] == pytest.approx(PERTURBED_FACTOR * 3e-7 + 5e-8, rel=1e-12)
+    # an error beyond what the copies' spread allows fails, one within it passes
+    for error, passes in ((1e-5, False), (1e-6, True)):
+        dev = dataclasses.replace(base, values=np.array([error, 0.0]))
+        spread = [[dataclasses.replace(dev, values=dev.values + c[0].values - base.values)] for c in copies]
+        assert instant_budgets([dev], perturbed=spread)[name].passed is passes, error
