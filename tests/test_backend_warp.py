@@ -174,3 +174,46 @@ def test_a_convergence_floor_is_explained_by_float32_roundoff_only_on_a_float32_
         assert "not measurable" in explained_floor(fit, {"round-off": w})
     assert c == pytest.approx(64 * float(np.finfo(np.float64).eps) * 100)
     assert w / c == pytest.approx(float(np.finfo(np.float32).eps) / float(np.finfo(np.float64).eps))
+
+
+# ------------------------------------------------- the instantaneous layer on Warp
+@pytest.mark.parametrize("name", ["pendulum", "double_pendulum", "atwood"])
+def test_warp_instant_figures_pass_their_float32_budgets(name):
+    """Every instantaneous figure on Warp (float32) within its budget, the round-off part from the states'
+    one-ulp copies (and the model's constants in float32): pendulum (a joint equality), double_pendulum
+    (force, torque and accelerometer sensors, Warp's own), atwood (tendon equalities)."""
+    from tests.test_backends import _instant_budgets
+    ev, budgets = _instant_budgets(name, "warp")
+    assert len(ev.perturbed) == 4 and not ev.unavailable
+    failed = {str(k): (b.unexplained, b.limit) for k, b in budgets.items() if not b.passed}
+    assert not failed, failed
+
+
+def test_warp_instant_numbers_are_warps_own(monkeypatch):
+    """Warp's qacc at a sampled state is not the C engine's bit for bit, and is within a few hundred float32
+    epsilons of it; a fault in Warp's forward alone (damping 1e-3 on its qfrc_passive and qacc) fails the
+    forcing and qacc figures on Warp while C's figures of the same model pass."""
+    from tests.test_backends import _damped, _instant_budgets, _states
+    _, model, _, probe, qpos, qvel = _states("double_pendulum")
+    warp = backends.get("warp")
+    got = warp.forward_many(model, probe, qpos, qvel).qacc
+    c = backends.get("c").forward_many(model, probe, qpos, qvel).qacc
+    rel = float(np.max(np.abs(got - c)) / np.max(np.abs(c)))
+    assert 0 < rel <= 300 * warp.epsilon, rel / warp.epsilon
+    _, c_budgets = _instant_budgets("double_pendulum", "c")
+    _damped(warp, monkeypatch, 1e-3)
+    _, budgets = _instant_budgets("double_pendulum", "warp")
+    for figure in ("instant.forcing", "instant.qacc", "instant.point_acceleration"):
+        assert c_budgets[figure].passed, figure
+        assert not budgets[figure].passed, (figure, budgets[figure].unexplained, budgets[figure].limit)
+
+
+def test_warp_forward_many_dense_mass_is_the_c_engines_layout():
+    """Warp's CSR mass matrix expanded by :func:`dense_mass` is the C engine's dense one to float32 round-off
+    (slider_crank: nv 4, off-diagonal entries)."""
+    from tests.test_backends import _states
+    _, model, _, probe, qpos, qvel = _states("slider_crank", 3)
+    got = backends.get("warp").forward_many(model, probe, qpos, qvel).mass
+    c = backends.get("c").forward_many(model, probe, qpos, qvel).mass
+    assert np.max(np.abs(got - c)) <= 1e-5 * np.max(np.abs(c))
+    assert np.count_nonzero(np.abs(c[0] - np.diag(np.diag(c[0]))) > 1e-6)  # off-diagonal terms exist

@@ -201,3 +201,211 @@ def test_mjx_float32_passes_and_a_fault_still_fails():
     assert found["precision"] == "float32"
     assert found["ok"], found["ok_failures"]
     assert not found["bad"] and "RK4.position" in found["bad_failures"]
+
+
+# ------------------------------------------------- the instantaneous layer on the active backend
+def _states(name: str, count: int = 6):
+    """A case's compiled model, probe, reference and its first ``count`` sampled states in MuJoCo's coordinates."""
+    from harness.layers.instant import sample_states
+    case, model, ref, probe = _setup(name)
+    q, qd = sample_states(ref, count)
+    data = mujoco.MjData(model)
+    qpos, qvel = [], []
+    for a, b in zip(q, qd, strict=True):
+        mujoco.mj_resetData(model, data)
+        probe.binding.set_state(model, data, a, b)
+        qpos.append(data.qpos.copy())
+        qvel.append(data.qvel.copy())
+    return case, model, ref, probe, np.array(qpos), np.array(qvel)
+
+
+def _instant_budgets(name: str, backend: str):
+    """The instantaneous figures of case ``name`` and their budgets, evaluated on ``backend``."""
+    from harness.budget.measure import ModelUnderTest, instant_budget
+    from harness.layers.instant import instant_evaluation
+    case, model, ref, probe = _setup(name)
+    with backends.use(backend):
+        ev = instant_evaluation(model, probe, ref, perturbed=True)
+        return ev, instant_budget(ModelUnderTest(path=case.mjcf), model, probe, ref, ev.deviations,
+                                  perturbed=ev.perturbed, represented=ev.represented)
+
+
+def test_c_forward_many_carried_into_the_layer_changes_no_number():
+    """The instantaneous layer's backend path (the backend's arrays written into C's MjData at the same state)
+    is exact: with the C backend's own forward_many carried, every figure is bit for bit the C path's."""
+    from harness.layers.instant import _deviations, _measure, sample_states
+    for name in ("welded_pendulum", "slider_crank", "double_pendulum"):
+        _, model, ref, probe = _setup(name)
+        q, qd = sample_states(ref)
+        data = mujoco.MjData(model)
+        qpos, qvel = np.empty((len(q), model.nq)), np.empty((len(q), model.nv))
+        for i in range(len(q)):
+            mujoco.mj_resetData(model, data)
+            probe.binding.set_state(model, data, q[i], qd[i])
+            qpos[i], qvel[i] = data.qpos, data.qvel
+        fwd = backends.get("c").forward_many(model, probe, qpos, qvel)
+        plain = _deviations(model, probe, ref, q, qd, _measure(model, probe, ref.dynamics, q, qd, states=None,
+                                                               fwd=None, offset=0), "c")[0]
+        carried = _deviations(model, probe, ref, q, qd, _measure(model, probe, ref.dynamics, q, qd, states=None,
+                                                                 fwd=fwd, offset=0), "c")[0]
+        assert [d.name for d in plain] == [d.name for d in carried]
+        for a, b in zip(plain, carried, strict=True):
+            assert np.array_equal(a.values, b.values), (name, a.name)
+
+
+def _damped(backend: backends.Backend, monkeypatch, damping: float) -> None:
+    """A fault in the backend's forward alone: joint damping ``damping`` on every dof (qfrc_passive −= b qvel,
+    qacc += M⁻¹(−b qvel)), as a damped model would give, while the C engine's model stays undamped."""
+    original = backend.forward_many
+
+    def faulty(model, probe, qpos, qvel):
+        fwd = original(model, probe, qpos, qvel)
+        extra = -damping * qvel
+        return dataclasses.replace(fwd, qfrc_passive=fwd.qfrc_passive + extra,
+                                   qacc=fwd.qacc + np.linalg.solve(fwd.mass, extra[..., None])[..., 0])
+
+    monkeypatch.setattr(backend, "forward_many", faulty)
+
+
+@pytest.mark.parametrize("name", ["pendulum", "double_pendulum", "atwood"])
+def test_mjx_instant_figures_pass_their_budgets(name):
+    """On MJX (float64 in this process) every instantaneous figure passes its budget: pendulum (a joint
+    equality), double_pendulum (force, torque and accelerometer sensors, which MJX leaves at zero without
+    constraint rows: computed by the harness from MJX's qacc), atwood (tendon equalities)."""
+    _mjx64()
+    ev, budgets = _instant_budgets(name, "mjx-f64")
+    assert not ev.unavailable and not ev.perturbed  # float64: today's round-off rule, no copies
+    failed = {str(k): (b.unexplained, b.limit) for k, b in budgets.items() if not b.passed}
+    assert not failed, failed
+    assert any(str(k).startswith("instant.sensor.") for k in budgets) or name == "atwood"
+
+
+def test_mjx_instant_figures_are_mjxs_own(monkeypatch):
+    """A fault in MJX's forward alone (damping 1e-3 added to its qfrc_passive and qacc) fails the forcing and
+    qacc figures on MJX, while the C engine's figures of the same model pass: the figures are not C's."""
+    mjx64 = _mjx64()
+    _, c_budgets = _instant_budgets("double_pendulum", "c")
+    _damped(mjx64, monkeypatch, 1e-3)
+    _, budgets = _instant_budgets("double_pendulum", "mjx-f64")
+    for figure in ("instant.forcing", "instant.qacc", "instant.point_acceleration"):
+        assert c_budgets[figure].passed, figure
+        assert not budgets[figure].passed, (figure, budgets[figure].unexplained, budgets[figure].limit)
+
+
+def test_reactions_the_backend_lacks_are_na_with_the_reason_where_rows_do_not_map(monkeypatch):
+    """Where the backend hands back no reaction sensors and C's constraint rows include contacts (hoop_ramp_contact),
+    the sensor and interaction figures are n/a with a one-line reason, never the C engine's values."""
+    mjx64 = _mjx64()
+    original = mjx64.forward_many
+    monkeypatch.setattr(mjx64, "forward_many", lambda *a: dataclasses.replace(
+        original(*a), sensordata=None, cfrc_int=None, cfrc_ext=None))
+    from harness.layers.instant import instant_evaluation
+    from harness.layers.reactions import sensor_names
+    _, model, ref, probe = _setup("hoop_ramp_contact")
+    with backends.use("mjx-f64"):
+        ev = instant_evaluation(model, probe, ref)
+    sensors, bodies = sensor_names(model)
+    expected = {f"instant.sensor.{s}" for s in sensors} | {f"instant.interaction.{b}" for b in bodies}
+    assert expected and set(ev.unavailable) == expected
+    assert not {str(d.name) for d in ev.deviations} & expected
+    for why in ev.unavailable.values():
+        assert "mjx-f64" in why and "contact" in why and "\n" not in why
+
+
+_INSTANT_F32 = """
+import dataclasses, json, numpy as np, mujoco
+from harness import cases
+from harness.budget.measure import ModelUnderTest, instant_budget
+from harness.engine import backends
+from harness.engine.models import compile_model
+from harness.layers.instant import instant_evaluation, sample_states
+out = {}
+def budgets(name):
+    case = cases.get(name); model = compile_model(case.mjcf); ref = case.reference(model)
+    probe = case.probe(ref.dynamics)
+    ev = instant_evaluation(model, probe, ref, perturbed=True)
+    return ev, instant_budget(ModelUnderTest(path=case.mjcf), model, probe, ref, ev.deviations,
+                              perturbed=ev.perturbed, represented=ev.represented), (model, ref, probe)
+with backends.use(BACKEND) as engine:
+    for name in ("pendulum", "double_pendulum", "atwood"):
+        ev, b, _ = budgets(name)
+        out[name] = {"copies": len(ev.perturbed), "na": sorted(ev.unavailable),
+                     "failed": [str(k) for k, v in b.items() if not v.passed],
+                     "worst": max(v.unexplained / v.limit for v in b.values())}
+    _, _, (model, ref, probe) = budgets("double_pendulum")
+    q, qd = sample_states(ref, 4)
+    data = mujoco.MjData(model); probe.binding.set_state(model, data, q[1], qd[1])
+    mujoco.mj_forward(model, data)
+    got = engine.forward_many(model, probe, data.qpos[None], data.qvel[None]).qacc[0]
+    out["qacc_rel"] = float(np.max(np.abs(got - data.qacc)) / np.max(np.abs(data.qacc)))
+    out["eps"] = engine.epsilon
+    original = engine.forward_many
+    def faulty(model, probe, qpos, qvel):
+        fwd = original(model, probe, qpos, qvel)
+        extra = -1e-3 * qvel
+        return dataclasses.replace(fwd, qfrc_passive=fwd.qfrc_passive + extra,
+                                   qacc=fwd.qacc + np.linalg.solve(fwd.mass, extra[..., None])[..., 0])
+    engine.forward_many = faulty
+    _, b, _ = budgets("double_pendulum")
+    out["fault_failed"] = sorted(str(k) for k, v in b.items() if not v.passed)
+    del engine.forward_many
+print(json.dumps(out))
+"""
+
+
+def check_float32_instant(found: dict) -> None:
+    """What the float32 instantaneous layer must show on a backend (MJX here, Warp in test_backend_warp.py):
+    (a) every figure of pendulum, double_pendulum and atwood within its budget, with the state copies made;
+    (b) the numbers are the backend's: its qacc at a sampled state is not C's bit for bit, and differs from it
+    by a float32-sized amount; (c) a fault in its forward alone fails the forcing and qacc figures."""
+    for name in ("pendulum", "double_pendulum", "atwood"):
+        assert found[name]["copies"] == 4 and not found[name]["na"], found[name]
+        assert not found[name]["failed"], (name, found[name])
+    assert 0 < found["qacc_rel"] <= 300 * found["eps"], found["qacc_rel"] / found["eps"]
+    assert {"instant.forcing", "instant.qacc"} <= set(found["fault_failed"]), found["fault_failed"]
+
+
+@pytest.mark.slow
+def test_mjx_float32_instant_figures_pass_are_mjxs_and_a_fault_fails():
+    """MJX in float32 (a fresh process): :func:`check_float32_instant`."""
+    pytest.importorskip("jax")
+    pytest.importorskip("mujoco.mjx")
+    check_float32_instant(_in_float32(_INSTANT_F32.replace("BACKEND", "'mjx'")))
+
+
+def test_perturbed_states_move_each_component_by_half_an_epsilon_with_a_seeded_sign():
+    """The state copies of the float32 round-off rule (harness.core.budget.PERTURBED_RUNS): x (1 ± ε/2), a sign
+    per component, the same for the same seed, both signs drawn."""
+    from harness.core.budget import PERTURBED_RUNS
+    from harness.layers.instant import perturbed_states
+    eps = float(np.finfo(np.float32).eps)
+    qpos, qvel = np.array([[1.0, -2.0, 0.5]] * 5), np.array([[3.0, 0.25]] * 5)
+    cp, cv = perturbed_states(qpos, qvel, epsilon=eps)
+    assert cp.shape == (PERTURBED_RUNS, 5, 3) and cv.shape == (PERTURBED_RUNS, 5, 2)
+    ratio = np.concatenate([(cp / qpos).ravel(), (cv / qvel).ravel()])
+    assert np.allclose(np.abs(ratio - 1.0), eps / 2, rtol=1e-9, atol=0)
+    assert (ratio > 1).any() and (ratio < 1).any()
+    again = perturbed_states(qpos, qvel, epsilon=eps)
+    assert np.array_equal(again[0], cp) and np.array_equal(again[1], cv)
+
+
+def test_instant_roundoff_is_the_copies_spread_on_float32_and_unchanged_on_float64():
+    """With copies, the round-off tolerance is PERTURBED_FACTOR × the largest copy difference (+ the measured
+    shift of the constants in float32), × the noise gain; without, today's ROUNDOFF × size."""
+    from harness.budget.instant import ROUNDOFF, instant_budgets
+    from harness.core.budget import PERTURBED_FACTOR
+    from harness.core.deviation import Deviation
+    from harness.core.figures import FigureName
+    name = FigureName.instant("qacc")
+    base = Deviation(name, np.array([1e-7, -2e-7]), "scalar", "1", "", size=1.0)
+    copies = [[dataclasses.replace(base, values=base.values + d)] for d in (np.array([0.0, 3e-7]),
+                                                                                 np.array([-1e-7, 0.0]))]
+    plain = instant_budgets([base])[name]
+    assert plain.tolerance["roundoff"] == ROUNDOFF * base.size
+    measured = instant_budgets([base], perturbed=copies, represented={name: 5e-8})[name]
+    assert measured.tolerance["roundoff"] == pytest.approx(PERTURBED_FACTOR * 3e-7 + 5e-8, rel=1e-12)
+    # an error beyond what the copies' spread allows fails, one within it passes
+    for error, passes in ((1e-5, False), (1e-6, True)):
+        dev = dataclasses.replace(base, values=np.array([error, 0.0]))
+        spread = [[dataclasses.replace(dev, values=dev.values + c[0].values - base.values)] for c in copies]
+        assert instant_budgets([dev], perturbed=spread)[name].passed is passes, error

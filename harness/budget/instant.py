@@ -23,17 +23,32 @@ O(1 − d) terms for 1 − d up to 1/4), 1/10 of the floors', float round-off
 evaluation and one KKT solve, MuJoCo's a forward pass) and the constraint
 solver's tolerance (:data:`~harness.budget.trajectory.SOLVER` × tolerance × size),
 both × the noise gain of the extrapolation (Σ|w| of the evaluations' weights).
+
+On a float32 backend (MJX, MuJoCo Warp) the round-off part is measured instead
+of assumed: the same states also go to the backend as
+:data:`~harness.core.budget.PERTURBED_RUNS` copies one ulp away
+(:func:`harness.layers.instant.perturbed_states`), and the round-off
+tolerance is :data:`~harness.core.budget.PERTURBED_FACTOR` × the largest
+difference between a copy's figure and the figure (× the same noise gain):
+the basis is :data:`~harness.core.budget.PERTURBED_FACTOR`'s. To it is added what
+no copy of the state moves: the model's constants held in float32 (each off
+by up to ½ε relative; a state-independent figure such as the Atwood
+machine's forcing (m₁ − m₂)g shows the same shift in every copy), measured
+as the figure's shift on the C engine when they are rounded
+(:func:`harness.layers.instant.represented_model`). A figure with no
+copies (``instant.kinematics``: the C engine's float64 geometry on every
+backend) and every figure on a float64 backend keep :data:`ROUNDOFF`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from harness.budget.extrapolate import gain, to_zero
 from harness.budget.trajectory import FLOOR_UNCERTAINTY, SOFTNESS_UNCERTAINTY, SOLVER, SOLVER_PART_UNCERTAINTY
-from harness.core.budget import Budget
+from harness.core.budget import PERTURBED_FACTOR, Budget
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 
@@ -45,8 +60,9 @@ mass matrix (condition number up to 1e4)."""
 
 def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation]] = (),
                     heavier: Sequence[Deviation] | None = None, converged: Sequence[Deviation] | None = None,
-                    eps_factor: float = 2.0, solver_tolerance: float = 0.0, notes: Sequence[str] = ()
-                    ) -> dict[FigureName, Budget]:
+                    eps_factor: float = 2.0, solver_tolerance: float = 0.0, notes: Sequence[str] = (),
+                    perturbed: Sequence[Sequence[Deviation]] = (),
+                    represented: Mapping[FigureName, float] | None = None) -> dict[FigureName, Budget]:
     """Every instantaneous figure's budget from the model's deviations at the sampled states (A) and,
     where they apply, the model's with every ε × s, s² (``softness``, s = ``eps_factor``) and with
     heavier floors (D) at the same states. ``converged``: A with the constraints solved exactly, where
@@ -56,6 +72,10 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
     exact = {d.name: d.values for d in converged or ()}
     noise = (gain(len(levels) + 1, eps_factor) if levels else 1.0) + (2.0 if floors else 0.0) \
         + (2.0 if exact else 0.0)
+    copies: dict[FigureName, list[np.ndarray]] = {}
+    for group in perturbed:
+        for d in group:
+            copies.setdefault(d.name, []).append(d.values)
     out = {}
     for dev in as_is:
         parts = {}
@@ -72,11 +92,15 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
             parts["floors"] = floors[dev.name] - a
         ideal = dev.values - sum(parts.values()) if parts else dev.values
         explained = {part: dev.magnitude(values) for part, values in parts.items()}
+        # float64: noise × ROUNDOFF × size, in that order (the C backend's limits bit for bit as before)
+        roundoff = noise * (PERTURBED_FACTOR * max(dev.magnitude(c - dev.values) for c in copies[dev.name])
+                            + (represented or {}).get(dev.name, 0.0)) if dev.name in copies \
+            else noise * ROUNDOFF * dev.size
         tolerance = {"softness": SOFTNESS_UNCERTAINTY * explained.get("softness", 0.0) if softness_unc is None
                      else softness_unc,
                      "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),
                      "solver": SOLVER_PART_UNCERTAINTY * explained.get("solver", 0.0),
-                     "roundoff": noise * ROUNDOFF * dev.size,
+                     "roundoff": roundoff,
                      "convergence": noise * SOLVER * solver_tolerance * dev.size}
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
                                tolerance=tolerance, notes=tuple(notes))

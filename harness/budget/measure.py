@@ -78,10 +78,15 @@ class Settings:
 
 
 def instant_budget(mut: ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref: Reference,
-                   as_is: Sequence[Deviation], *, integrator: str | None = None) -> dict[FigureName, Budget]:
+                   as_is: Sequence[Deviation], *, integrator: str | None = None,
+                   perturbed: Sequence[Sequence[Deviation]] = (),
+                   represented: Mapping[FigureName, float] | None = None) -> dict[FigureName, Budget]:
     """The instantaneous figures' budgets: ``as_is`` (the deviations of ``model``, compiled from ``mut``
     with ``integrator``) beside the same states on the variants: softer, heavier floors, and with the
-    constraints solved exactly where the model's own solver does not converge."""
+    constraints solved exactly where the model's own solver does not converge; every evaluation on the
+    active backend. ``perturbed``: on a float32 backend, ``as_is`` at the states' one-ulp copies
+    (:attr:`harness.layers.instant.InstantEvaluation.perturbed`), whose spread is the round-off part, and
+    ``represented`` the figures' shift with the model's constants in float32 (``InstantEvaluation.represented``)."""
     settings = Settings.of(model, ref.scales)
     exact = V.exact_solver(model)
 
@@ -95,7 +100,8 @@ def instant_budget(mut: ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref
     converged = evaluate(None) if exact is not None else None
     return instant_budgets(as_is, softness=softness, heavier=heavier, converged=converged, eps_factor=eps_factor,
                            solver_tolerance=V.CONVERGED_TOLERANCE if exact is not None else settings.solver_tolerance,
-                           notes=settings.notes)
+                           notes=settings.notes, perturbed=perturbed,
+                           represented=represented)
 
 
 @dataclass(frozen=True)

@@ -5,6 +5,16 @@ At each state the analytic M(q), F(q, q̇), q̈ and λ are compared with MuJoCo'
 ``efc_force``. A fault shows up here before any trajectory is run, and the
 figure that fails says where it is (inertia, forces, or the constraint).
 
+Those are the active backend's (:func:`harness.engine.backends.active`): one
+batched ``forward_many`` at every sampled state hands back its dynamics, which
+are written into the C engine's ``MjData`` at the same state; the C engine
+supplies only the geometry, in float64 (point positions, the Jacobians J and
+J̇, site frames, an equality's ``efc_J``: kinematics, which
+``instant.kinematics`` checks). So on MJX or Warp every figure below except
+``instant.kinematics`` is that backend's number; on the C backend nothing is
+carried and every number is ``mj_forward``'s, as it always was
+(:func:`instant_evaluation`).
+
 A constraint may be a block of rows (a ``connect`` equality has three): its
 ``force.NAME`` figure compares every row with its multiplier (the worst row
 decides), and a block of several rows also gets ``generalized_force.NAME``,
@@ -35,19 +45,24 @@ both slow and fast states are covered.
 
 from __future__ import annotations
 
+import copy
+from dataclasses import dataclass, field
+
 import mujoco
 import numpy as np
 
 from analytic.solvers import project
+from harness.core.budget import PERTURBED_RUNS
 from harness.core.deviation import Deviation
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
+from harness.engine.backends import Forward, active, computes_reactions, forward_many
 from harness.engine.bindings import velocity_map
 from harness.engine.compat import JAC_DOT_DEFECT, full_mass_matrix, jac_dot, jac_dot_missing
-from harness.engine.constraints import equality_block, equality_jacobian
+from harness.engine.constraints import equality_block, equality_jacobian, equality_rows
 from harness.engine.points import point_jacobian, point_source
 from harness.engine.probe import Probe
-from harness.layers.reactions import Recorder, reaction_deviations
+from harness.layers.reactions import Recorder, reaction_deviations, sensor_names
 from harness.reference.solutions import Reference
 
 DEFAULT_SAMPLES = 24
@@ -110,20 +125,109 @@ def pull_back(dof: np.ndarray, mass: np.ndarray, qacc: np.ndarray) -> np.ndarray
     return np.linalg.solve(weighted @ dof, weighted @ qacc)
 
 
-def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, count: int = DEFAULT_SAMPLES
-                       ) -> list[Deviation]:
-    """MuJoCo's instantaneous dynamics against the analytic ones at :func:`sample_states`, one
-    :class:`~harness.core.deviation.Deviation` per figure (a row per state)."""
-    probe.validate(model)
-    dyn = ref.dynamics
-    q, qd = sample_states(ref, count)
-    qdd, lam = dyn.accelerations(q, qd)
-    mass = dyn.mass_matrix(q)
-    forcing = dyn.forcing(q, qd)
-    gen = np.einsum("nmk,nm->nk", dyn.jacobian(q), lam)  # Jᵀλ over every row
-    pts = dyn.points(q)
-    acc = dyn.point_accelerations(q, qd, qdd)
-    kinetic = 0.5 * np.einsum("ni,nij,nj->n", qd, mass, qd)
+def perturbed_states(qpos: np.ndarray, qvel: np.ndarray, *, epsilon: float, copies: int = PERTURBED_RUNS,
+                     seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """``copies`` copies of the states (rows of ``qpos``, ``qvel``), each component moved by one unit in the
+    last place of an arithmetic of machine epsilon ``epsilon``: × (1 ± ε/2), a seeded sign per component
+    (:data:`harness.core.budget.PERTURBED_RUNS`). Shapes (copies, N, nq) and (copies, N, nv)."""
+    rng = np.random.default_rng(seed)
+    sp = rng.choice((-1.0, 1.0), size=(copies, *qpos.shape))
+    sv = rng.choice((-1.0, 1.0), size=(copies, *qvel.shape))
+    return qpos[None] * (1.0 + sp * epsilon / 2), qvel[None] * (1.0 + sv * epsilon / 2)
+
+
+_OPTION_CONSTANTS = ("gravity", "timestep", "impratio", "density", "viscosity", "wind", "magnetic")
+"""The physical constants of ``mjOption`` a float32 backend stores in its precision (the solver's tolerances,
+which only stop an iteration, are left as they are)."""
+
+
+def represented_model(model: mujoco.MjModel, dtype: type = np.float32) -> mujoco.MjModel:
+    """A copy of ``model`` with every real constant (each float64 array of ``MjModel``, and
+    :data:`_OPTION_CONSTANTS`) rounded to ``dtype`` and back: the model as a float32 backend holds it, run in
+    float64 by the C engine. The difference it makes to a figure is the representation of the model's
+    constants, each off by up to ½ε relative: a deterministic shift that no copy of the state moves (the
+    forcing (m₁ − m₂)g of an Atwood machine depends on no state), measured here instead of assumed."""
+    out = copy.deepcopy(model)
+    for name in dir(out):
+        if name.startswith("_"):
+            continue
+        value = getattr(out, name, None)
+        if isinstance(value, np.ndarray) and value.dtype == np.float64 and value.size:
+            value[...] = value.astype(dtype).astype(np.float64)
+    for name in _OPTION_CONSTANTS:
+        value = getattr(out.opt, name)
+        if isinstance(value, np.ndarray):
+            value[...] = value.astype(dtype).astype(np.float64)
+        else:
+            setattr(out.opt, name, float(dtype(value)))
+    return out
+
+
+@dataclass(frozen=True)
+class InstantEvaluation:
+    """The instantaneous layer on the active backend.
+
+    Attributes:
+        deviations: one per figure, a row per sampled state (:func:`instant_deviations`).
+        perturbed: on a float32 backend, the same figures at each of the :data:`PERTURBED_RUNS` copies of the
+            states one ulp away (:func:`perturbed_states`), against the same analytic values: their spread is
+            the round-off of the backend's arithmetic (:func:`harness.budget.instant.instant_budgets`). Figures
+            read from the C engine's float64 geometry alone (``instant.kinematics``) are left out. Empty on a
+            float64 backend.
+        represented: on a float32 backend, each figure's shift when the model's constants are held in float32
+            (:func:`represented_model`, the C engine in float64 at the same states), reduced as the figure is;
+            empty on a float64 backend.
+        unavailable: figures the backend's arrays cannot give at these states, each with the one-line reason.
+    """
+
+    deviations: list[Deviation]
+    perturbed: tuple[list[Deviation], ...] = ()
+    represented: dict[FigureName, float] = field(default_factory=dict)
+    unavailable: dict[str, str] = field(default_factory=dict)
+
+
+def _rows_of(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe) -> bool:
+    """Whether every constraint row of the C engine at this state is a row of an equality the probe names
+    (then the backend's rows map one to one onto C's: :attr:`~harness.engine.backends.Forward.equality`)."""
+    named = {mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, c) for c in probe.constraints}
+    types_, ids = data.efc_type[:data.nefc], data.efc_id[:data.nefc]
+    return bool(np.all(types_ == mujoco.mjtConstraint.mjCNSTR_EQUALITY)) and set(ids.tolist()) <= named
+
+
+def _carry(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, fwd: Forward, k: int) -> str:
+    """Write the backend's dynamics at state ``k`` into ``data`` (the C engine's MjData after ``mj_forward``
+    at the same state, whose kinematics stay: geometry in float64): qacc, the forces, the named equalities'
+    ``efc_force`` rows, and the reaction sensors and ``cfrc_int``/``cfrc_ext`` — the backend's own, or, where it
+    does not compute them, the C engine's ``mj_rnePostConstraint`` and ``mj_sensorAcc`` run on the backend's
+    qacc and constraint forces (exact where C's constraint rows are the named equalities' alone). Returns why
+    the reactions cannot be had from the backend's arrays at this state, or ""."""
+    data.qacc[:] = fwd.qacc[k]
+    data.qfrc_bias[:] = fwd.qfrc_bias[k]
+    data.qfrc_passive[:] = fwd.qfrc_passive[k]
+    data.qfrc_constraint[:] = fwd.qfrc_constraint[k]
+    for c in probe.constraints:
+        data.efc_force[equality_rows(model, data, c)] = fwd.equality[c][k]
+    if not computes_reactions(model):
+        return ""
+    if fwd.sensordata is not None and fwd.cfrc_int is not None and fwd.cfrc_ext is not None:
+        data.sensordata[:] = fwd.sensordata[k]
+        data.cfrc_int[:] = fwd.cfrc_int[k]
+        data.cfrc_ext[:] = fwd.cfrc_ext[k]
+        return ""
+    if not _rows_of(model, data, probe):
+        return ("the backend does not compute the reaction sensors and cfrc_int here, and the C engine's "
+                "constraint rows include contact or limit rows, whose order in the backend's arrays differs: "
+                "they cannot be computed from the backend's constraint forces")
+    mujoco.mj_rnePostConstraint(model, data)  # cacc, cfrc_int, cfrc_ext from the backend's qacc and efc_force
+    mujoco.mj_sensorAcc(model, data)  # the acceleration-stage sensors from them (flg_rnepost is already set)
+    return ""
+
+
+def _measure(model: mujoco.MjModel, probe: Probe, dyn, q: np.ndarray, qd: np.ndarray, *,
+             states: tuple[np.ndarray, np.ndarray] | None, fwd: Forward | None, offset: int):
+    """The engine's side at each state: the C engine's ``mj_forward`` at (q, q̇) (through the binding), or at
+    MuJoCo's coordinates ``states`` (qpos, qvel), carrying the backend's dynamics ``fwd`` (rows ``offset``..)
+    where the backend is not C."""
     constant = probe.binding.dof_matrix(model) is not None
     mapped = getattr(probe.binding, "velocity_map", None) is not None
     coordinates = constant or mapped
@@ -132,15 +236,23 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
     got_lam = {c: [] for c in probe.constraints}
     got_block_gen = {c: [] for c in probe.constraints}
     reactions = Recorder(model, dyn, probe.loads)
+    unavailable = ""
     for i in range(len(q)):
         mujoco.mj_resetData(model, data)
-        probe.binding.set_state(model, data, q[i], qd[i])
+        if states is None:
+            probe.binding.set_state(model, data, q[i], qd[i])
+        else:
+            data.qpos[:], data.qvel[:] = states[0][i], states[1][i]
         mujoco.mj_forward(model, data)
-        full = full_mass_matrix(model, data)
+        if fwd is None:
+            full = full_mass_matrix(model, data)
+        else:
+            unavailable = unavailable or _carry(model, data, probe, fwd, offset + i)
+            full = fwd.mass[offset + i]
         got["kinetic"].append(0.5 * data.qvel @ full @ data.qvel)
         got["pts"].append([point_source(model, p).position(data).copy() for p in dyn.point_names])
         got["acc"].append([point_acceleration(model, data, p) for p in dyn.point_names])
-        if reactions:
+        if reactions and not unavailable:
             reactions.record(model, data)
         if coordinates:
             dof, rate = velocity_map(probe.binding, model, q[i], qd[i])
@@ -156,6 +268,83 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
             got_lam[c].append(probe.sign(c) * force)
             if coordinates and force.size > 1:
                 got_block_gen[c].append(dof.T @ (equality_jacobian(model, data, c).T @ force))
+    return got, got_lam, got_block_gen, reactions, unavailable
+
+
+def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, count: int = DEFAULT_SAMPLES
+                       ) -> list[Deviation]:
+    """The active backend's instantaneous dynamics against the analytic ones at :func:`sample_states`, one
+    :class:`~harness.core.deviation.Deviation` per figure (a row per state): :func:`instant_evaluation`'s."""
+    return instant_evaluation(model, probe, ref, count=count).deviations
+
+
+def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, count: int = DEFAULT_SAMPLES,
+                       perturbed: bool = False) -> InstantEvaluation:
+    """The instantaneous figures on the active backend (:func:`harness.engine.backends.active`).
+
+    The dynamics are the backend's, from one batched ``forward_many`` at every sampled state: the mass matrix,
+    the forcing qfrc_passive − qfrc_bias, qacc, the equalities' efc_force, qfrc_constraint, the kinetic energy
+    ½ qvelᵀ M qvel with the backend's M, the point accelerations J qacc + J̇ qvel with the backend's qacc, and
+    the reaction sensors and ``cfrc_int`` (the backend's own, or computed in float64 from its qacc and
+    constraint forces where it does not compute them; not available, with the reason, where its rows cannot
+    be mapped). The geometry is the C engine's in float64 at the same qpos (``mj_forward``): point positions,
+    the Jacobians J and J̇, a site's frame, efc_J of an equality's rows — kinematics, not dynamics, checked by
+    ``instant.kinematics``. On the C backend everything is ``mj_forward``'s, as it always was.
+
+    ``perturbed``: on a float32 backend, also the copies of :func:`perturbed_states` in the same batched call
+    (:attr:`InstantEvaluation.perturbed`)."""
+    probe.validate(model)
+    dyn = ref.dynamics
+    q, qd = sample_states(ref, count)
+    backend = active()
+    fwd, copies = None, None
+    if backend.name != "c":
+        data = mujoco.MjData(model)
+        qpos, qvel = np.empty((len(q), model.nq)), np.empty((len(q), model.nv))
+        for i in range(len(q)):
+            mujoco.mj_resetData(model, data)
+            probe.binding.set_state(model, data, q[i], qd[i])
+            qpos[i], qvel[i] = data.qpos, data.qvel
+        if perturbed and backend.epsilon > float(np.finfo(np.float64).eps):
+            copies = perturbed_states(qpos, qvel, epsilon=backend.epsilon)
+            fwd = forward_many(model, probe, np.concatenate([qpos, *copies[0]]), np.concatenate([qvel, *copies[1]]))
+        else:
+            fwd = forward_many(model, probe, qpos, qvel)
+    measured = _measure(model, probe, dyn, q, qd, states=None, fwd=fwd, offset=0)
+    deviations, unavailable = _deviations(model, probe, ref, q, qd, measured, backend.name)
+    others, represented = [], {}
+    if copies is not None:
+        as_c = _deviations(model, probe, ref, q, qd, _measure(model, probe, dyn, q, qd, states=None, fwd=None,
+                                                              offset=0), "c")[0]
+        rounded = represented_model(model, np.float32 if backend.precision == "float32" else np.float64)
+        # the engine's side on the rounded model, the analytic side (and the gravity it reads) the model's own
+        in_float32 = _deviations(model, probe, ref, q, qd, _measure(rounded, probe, dyn, q, qd, states=None,
+                                                                     fwd=None, offset=0), "c")[0]
+        represented = {a.name: a.magnitude(b.values - a.values) for a, b in zip(as_c, in_float32, strict=True)
+                       if a.name != FigureName.instant("kinematics")}
+        for k in range(len(copies[0])):
+            again = _measure(model, probe, dyn, q, qd, states=(copies[0][k], copies[1][k]), fwd=fwd,
+                             offset=(k + 1) * len(q))
+            others.append([d for d in _deviations(model, probe, ref, q, qd, again, backend.name)[0]
+                           if d.name != FigureName.instant("kinematics")])
+    return InstantEvaluation(deviations=deviations, perturbed=tuple(others), represented=represented,
+                             unavailable=unavailable)
+
+
+def _deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarray, qd: np.ndarray, measured,
+                backend: str) -> tuple[list[Deviation], dict[str, str]]:
+    """The figures from the engine's side (:func:`_measure`) against the analytic values at (q, q̇)."""
+    got, got_lam, got_block_gen, reactions, unavailable = measured
+    dyn = ref.dynamics
+    qdd, lam = dyn.accelerations(q, qd)
+    mass = dyn.mass_matrix(q)
+    forcing = dyn.forcing(q, qd)
+    gen = np.einsum("nmk,nm->nk", dyn.jacobian(q), lam)  # Jᵀλ over every row
+    pts = dyn.points(q)
+    acc = dyn.point_accelerations(q, qd, qdd)
+    kinetic = 0.5 * np.einsum("ni,nij,nj->n", qd, mass, qd)
+    mapped = getattr(probe.binding, "velocity_map", None) is not None
+    coordinates = probe.binding.dof_matrix(model) is not None or mapped
     n = len(q)
     length = ref.scales.length
 
@@ -206,8 +395,13 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
             block_gen = np.einsum("nmk,nm->nk", jac[:, rows], lam[:, rows])
             out.append(relative(FigureName.instant("generalized_force", c), got_block_gen[c], block_gen,
                                 f"max |{d}ᵀ J_mjᵀ efc_force − Jᵀλ| over the rows of {c!r} / max |Jᵀλ|"))
+    if unavailable:
+        sensors, bodies = sensor_names(model)
+        missing = [FigureName.instant("sensor", s) for s in sensors] + \
+            [FigureName.instant("interaction", b) for b in bodies]
+        return out, {str(name): f"not available on backend {backend!r}: {unavailable}" for name in missing}
     out += reaction_deviations(model, dyn, reactions, q, qd, qdd, lam, force_scale=force_scale, length=length)
-    return out
+    return out, {}
 
 
 def instantaneous_figures(model: mujoco.MjModel, probe: Probe, ref: Reference,

@@ -43,7 +43,7 @@ from harness.engine.integrators import available_integrators, integrator_name
 from harness.engine.models import compile_model
 from harness.engine.simulate import recorder, steps_in
 from harness.engine.simulate import recorder_notes as simulate_notes
-from harness.layers.instant import engine_findings, instant_deviations
+from harness.layers.instant import engine_findings, instant_evaluation
 from harness.layers.orders import EXPECTED_ORDER, VERDICT_QUANTITY, convergence_study, order_figures
 from harness.layers.reference import reference_figures
 from harness.layers.trajectory import deviations
@@ -126,6 +126,20 @@ def perturbed(case: Case, size: float) -> Case:
         raise ValueError(f"perturb must be a nonzero finite number, got {size}")
     return case.with_motion(q0={k: v + size * max(abs(v), 1.0) for k, v in case.q0.items()},
                             qd0={k: v + size * max(abs(v), 1.0) for k, v in case.qd0.items()})
+
+
+INSTANT_NOTE = (
+    "the instantaneous layer reads the backend's forward dynamics at the sampled states (one batched forward_many: "
+    "mass matrix, qfrc_passive - qfrc_bias, qacc, the equalities' efc_force, qfrc_constraint, force/torque/"
+    "accelerometer sensors and cfrc_int); kinematics (point positions, the Jacobians J and J-dot, site frames, "
+    "an equality's efc_J) from MuJoCo's C engine in float64 at the same qpos; on a float32 backend its round-off "
+    "part from 4 one-ulp copies of the states in the same call, plus each figure's shift with the model's "
+    "constants rounded to float32 (the C engine in float64). MJX computes no acceleration sensors or cfrc_int "
+    "in a model without constraint rows (its forward returns before sensor_acc): they are computed in float64 "
+    "from MJX's qacc; where a backend's reactions are missing and the C engine's constraint rows include "
+    "contact or limit rows (whose order differs), the sensor and interaction figures are n/a with that reason")
+"""What the report's settings say the instantaneous layer reads on a backend other than C
+(:func:`harness.layers.instant.instant_evaluation`)."""
 
 
 def model_settings(model: mujoco.MjModel) -> dict[str, object]:
@@ -257,9 +271,11 @@ def _run_case(
     if integrator_name(model) == "discrete":  # qacc is the step map there; use continuous time
         instant_integrator = "Euler"
     instant_model = mut.compile(integrator=instant_integrator)
-    as_is = instant_deviations(instant_model, probe, ref)
+    instant = instant_evaluation(instant_model, probe, ref, perturbed=True)
+    as_is = instant.deviations
     figures += [d.figure() for d in as_is]
-    budgets |= instant_budget(mut, instant_model, probe, ref, as_is, integrator=instant_integrator)
+    budgets |= instant_budget(mut, instant_model, probe, ref, as_is, integrator=instant_integrator,
+                              perturbed=instant.perturbed, represented=instant.represented)
     findings = tuple(engine_findings(instant_model, probe, ref))
     timings["instant"] = time.perf_counter() - clock
 
@@ -296,6 +312,7 @@ def _run_case(
         gated = VERDICT_QUANTITY[study.constrained]
         unmeasured = {str(FigureName.converge(s.integrator, "order_shortfall")): s.note for s in study.series
                       if s.quantity == gated and s.expected is None and s.note and not s.diverged}
+    unmeasured |= instant.unavailable  # a figure the backend's arrays cannot give: n/a, with the reason
     timings["converge"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
@@ -339,8 +356,7 @@ def _run_case(
         settings["compat"] = compat_notes
     if engine.name != "c":  # the C backend's settings stay as they always were (baselines, reports)
         settings["backend"] = {"name": engine.name, "precision": engine.precision,
-                               "instant": "the instantaneous layer reads MuJoCo's C functions (float64) at sampled "
-                                          "states on every backend", "skipped": skipped,
+                               "instant": INSTANT_NOTE, "skipped": skipped,
                                "adapted": list(engine.adaptations(model))}
     return CaseResult(case=case, figures=tuple(figures), reference=ref_traj, simulations=sims,
                       settings=settings, timings=timings, joints=joints, budgets=budgets,

@@ -19,6 +19,13 @@ Which backend runs is chosen for a whole case (:func:`use`, set by
 that case call :func:`simulate` / :func:`simulate_many` here, which go to the
 active backend. ``simulate_many`` is the batched call: a backend that can
 batch (``jax.vmap``, Warp worlds) runs the requests as one call.
+
+``forward_many`` is the instantaneous layer's call: the backend's forward
+dynamics at given states (no time integration), one row per state, as one
+batched call (one ``jax.vmap``, one Warp world per state; on C, ``mj_forward``
+per state). What it hands back is a :class:`Forward` of float64 copies of the
+backend's own arrays; a field the backend does not compute is None, never the
+C engine's.
 """
 
 from __future__ import annotations
@@ -61,6 +68,45 @@ class Request:
     steps: int
 
 
+@dataclass(frozen=True)
+class Forward:
+    """A backend's forward dynamics at N states, float64 copies of its arrays, one row per state.
+
+    Attributes:
+        qacc: (N, nv) the acceleration of the forward pass (constraints included).
+        qfrc_bias: (N, nv) Coriolis, centrifugal and gravity forces, C(q, q̇).
+        qfrc_passive: (N, nv) springs, dampers and other passive forces.
+        qfrc_constraint: (N, nv) the constraint force in generalized coordinates, Jᵀ efc_force.
+        mass: (N, nv, nv) the dense joint-space inertia matrix M(q).
+        equality: the ``efc_force`` rows of each equality the probe names (``Probe.constraints``), (N, k) in
+            the C engine's row order for that equality (connect: 3, weld: 6, joint and tendon: 1), unsigned.
+        sensordata: (N, nsensordata), where the backend computes the sensors at these states; else None.
+        cfrc_int, cfrc_ext: (N, nbody, 6) MuJoCo's c-frame interaction and external wrenches (torque, force),
+            where the backend computes them; else None.
+    """
+
+    qacc: np.ndarray
+    qfrc_bias: np.ndarray
+    qfrc_passive: np.ndarray
+    qfrc_constraint: np.ndarray
+    mass: np.ndarray
+    equality: dict[str, np.ndarray]
+    sensordata: np.ndarray | None = None
+    cfrc_int: np.ndarray | None = None
+    cfrc_ext: np.ndarray | None = None
+
+
+def computes_reactions(model: mujoco.MjModel) -> bool:
+    """Whether a forward pass of ``model`` computes ``cfrc_int``/``cfrc_ext`` (MuJoCo's ``mj_rnePostConstraint``):
+    where an accelerometer, force or torque sensor needs them and sensors are not disabled (engine_sensor.c,
+    and MJX's and Warp's ``sensor_acc``, which call it for the same sensor types)."""
+    if model.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_SENSOR):
+        return False
+    kinds = {int(mujoco.mjtSensor.mjSENS_ACCELEROMETER), int(mujoco.mjtSensor.mjSENS_FORCE),
+             int(mujoco.mjtSensor.mjSENS_TORQUE)}
+    return any(int(t) in kinds for t in model.sensor_type)
+
+
 @runtime_checkable
 class Backend(Protocol):
     """An engine that runs compiled MuJoCo models and records Trajectories.
@@ -88,6 +134,10 @@ class Backend(Protocol):
     def simulate_many(self, requests: Sequence[Request], probe: Probe) -> list[Trajectory]:
         """Every request's run, ``steps + 1`` samples each (t = 0 .. steps·h), as one batched call where
         the backend allows. Raises SimulationDiverged as the C recorders do."""
+
+    def forward_many(self, model: mujoco.MjModel, probe: Probe, qpos: np.ndarray, qvel: np.ndarray) -> Forward:
+        """The backend's forward dynamics of ``model`` at every state (rows of ``qpos``, ``qvel``: MuJoCo's
+        coordinates), as one batched call where the backend allows, from a zero warm start."""
 
 
 def names() -> tuple[str, ...]:
@@ -169,3 +219,8 @@ def simulate(model: mujoco.MjModel, probe: Probe, *, q0: Sequence[float], qd0: S
 def simulate_many(requests: Sequence[Request], probe: Probe) -> list[Trajectory]:
     """Every request's run on the active backend, as one batched call where it allows."""
     return active().simulate_many(requests, probe)
+
+
+def forward_many(model: mujoco.MjModel, probe: Probe, qpos: np.ndarray, qvel: np.ndarray) -> Forward:
+    """The active backend's forward dynamics at every state (:meth:`Backend.forward_many`)."""
+    return active().forward_many(model, probe, np.asarray(qpos, float), np.asarray(qvel, float))

@@ -13,7 +13,9 @@ import mujoco
 import numpy as np
 
 from harness.core.trajectory import Trajectory
-from harness.engine.backends import Request
+from harness.engine.backends import Forward, Request, computes_reactions
+from harness.engine.compat import full_mass_matrix
+from harness.engine.constraints import equality_block
 from harness.engine.probe import Probe
 from harness.engine.simulate import simulate
 
@@ -40,6 +42,31 @@ class CBackend:
     def simulate_many(self, requests: Sequence[Request], probe: Probe) -> list[Trajectory]:
         """One C rollout per request (each already runs in C; there is nothing to batch across Python)."""
         return [simulate(r.model, probe, q0=r.q0, qd0=r.qd0, steps=r.steps) for r in requests]
+
+    def forward_many(self, model: mujoco.MjModel, probe: Probe, qpos: np.ndarray, qvel: np.ndarray) -> Forward:
+        """``mj_forward`` at each state (from a reset MjData: a zero warm start), the arrays copied."""
+        data = mujoco.MjData(model)
+        names = probe.constraints
+        reactions = computes_reactions(model)
+        rows: dict[str, list] = {k: [] for k in ("qacc", "qfrc_bias", "qfrc_passive", "qfrc_constraint", "mass",
+                                                 "sensordata", "cfrc_int", "cfrc_ext")}
+        eqs: dict[str, list] = {c: [] for c in names}
+        for qp, qv in zip(qpos, qvel, strict=True):
+            mujoco.mj_resetData(model, data)
+            data.qpos[:], data.qvel[:] = qp, qv
+            mujoco.mj_forward(model, data)
+            for f in ("qacc", "qfrc_bias", "qfrc_passive", "qfrc_constraint", "sensordata", "cfrc_int", "cfrc_ext"):
+                rows[f].append(getattr(data, f).copy())
+            rows["mass"].append(full_mass_matrix(model, data))
+            for c in names:
+                eqs[c].append(equality_block(model, data, c)[0])
+        out = {f: np.array(v, dtype=float) for f, v in rows.items()}
+        return Forward(qacc=out["qacc"], qfrc_bias=out["qfrc_bias"], qfrc_passive=out["qfrc_passive"],
+                       qfrc_constraint=out["qfrc_constraint"], mass=out["mass"],
+                       equality={c: np.array(v, dtype=float).reshape(len(qpos), -1) for c, v in eqs.items()},
+                       sensordata=out["sensordata"] if reactions or model.nsensordata else None,
+                       cfrc_int=out["cfrc_int"] if reactions else None,
+                       cfrc_ext=out["cfrc_ext"] if reactions else None)
 
 
 def backend(name: str) -> CBackend:

@@ -42,6 +42,17 @@ How a run is made, and why:
   reference is compared at.
 - A run whose state stops being finite raises SimulationDiverged at the first
   non-finite sample; MJX raises no warnings (no ``mjWARN_BADQACC``).
+- The instantaneous layer's states (:meth:`MjxBackend.forward_many`) are one
+  ``jax.jit(jax.vmap(forward))`` over the states, the model shared, from
+  ``make_data``'s zero warm start (as the C engine's reset ``MjData``). MJX
+  computes the force, torque and accelerometer sensors and ``cfrc_int`` /
+  ``cfrc_ext`` itself (``sensor_acc`` calls its ``rne_postconstraint`` for those
+  sensors, contacts, connects and welds included) where the model has constraint
+  rows: they are read as they are. Without constraint rows MJX's ``forward``
+  returns before ``sensor_acc`` (mujoco/mjx/_src/forward.py, mujoco-mjx 3.17:
+  ``if d._impl.efc_J.size == 0: return``), leaving those sensors and
+  ``cfrc_int`` at zero: they are then handed back as None, and the instantaneous
+  layer computes them in float64 from MJX's qacc (no constraint forces to carry).
 """
 
 from __future__ import annotations
@@ -57,7 +68,7 @@ import numpy as np
 
 from harness.core.errors import BackendUnavailable, SimulationDiverged
 from harness.core.trajectory import Trajectory
-from harness.engine.backends import Request
+from harness.engine.backends import Forward, Request, computes_reactions
 from harness.engine.integrators import integrator_name
 from harness.engine.points import point_source
 from harness.engine.probe import Probe
@@ -184,6 +195,37 @@ class MjxBackend:
                 out[i] = _trajectory(requests[i], probe, rec)
         return out  # type: ignore[return-value]
 
+    def forward_many(self, model: mujoco.MjModel, probe: Probe, qpos: np.ndarray, qvel: np.ndarray) -> Forward:
+        """MJX's ``forward`` at every state as one ``jit(vmap)`` call (compiled once per model structure),
+        the arrays copied to float64; the equalities' rows found by :func:`equality_rows`."""
+        self.supports(model)
+        put = self.mjx.put_model(host_model(model))
+        reactions = computes_reactions(model)
+        wanted = ("qacc", "qfrc_bias", "qfrc_passive", "qfrc_constraint", "qM", "efc_force",
+                  *(("sensordata",) if model.nsensordata else ()), *(("cfrc_int", "cfrc_ext") if reactions else ()))
+        leaves, treedef = jax.tree_util.tree_flatten(put)
+        key = ("forward", treedef, tuple(leaf.tobytes() for leaf in leaves if isinstance(leaf, np.ndarray)), wanted)
+        data = self.mjx.make_data(put)
+        if getattr(data, "_impl", data).efc_J.size == 0:  # MJX's forward skips sensor_acc (module docstring)
+            wanted = tuple(f for f in wanted if f not in ("sensordata", "cfrc_int", "cfrc_ext"))
+            key = (*key[:3], wanted)
+        if key not in self._compiled:
+            forward, support = self.forward.forward, self.support
+
+            def one(m, d, qp, qv):
+                d = forward(m, d.replace(qpos=qp, qvel=qv))
+                return {f: _field(support, m, d, f) for f in wanted}
+
+            self._compiled[key] = jax.jit(jax.vmap(one, in_axes=(None, None, 0, 0)))
+        got = jax.device_get(self._compiled[key](put, data, jax.numpy.asarray(qpos, dtype=data.qpos.dtype),
+                                                 jax.numpy.asarray(qvel, dtype=data.qvel.dtype)))
+        out = {f: np.asarray(v, dtype=np.float64) for f, v in got.items()}
+        rows = equality_rows(model)
+        return Forward(qacc=out["qacc"], qfrc_bias=out["qfrc_bias"], qfrc_passive=out["qfrc_passive"],
+                       qfrc_constraint=out["qfrc_constraint"], mass=out["qM"],
+                       equality={c: out["efc_force"][:, rows[c]] for c in probe.constraints},
+                       sensordata=out.get("sensordata"), cfrc_int=out.get("cfrc_int"), cfrc_ext=out.get("cfrc_ext"))
+
     def _groups(self, requests: Sequence[Request]) -> dict[tuple, tuple[list[int], list]]:
         """Requests that can be one vmap: the same integrator, model structure and static fields."""
         groups: dict[tuple, tuple[list[int], list]] = {}
@@ -263,7 +305,8 @@ def _field(support, m, d, name: str):
     # the constraint rows live in the implementation's data (``Data._impl``, since MJX split its JAX and Warp
     # implementations); older releases (mujoco-mjx 3.3.0) keep every field on ``Data`` itself
     impl = getattr(d, "_impl", None)
-    if name.startswith("efc_") and impl is not None:
+    if impl is not None and (name.startswith("efc_") or name in ("cacc", "cfrc_int", "cfrc_ext")) \
+            and hasattr(impl, name):  # cfrc_* on Data itself is deprecated since the split
         return getattr(impl, name)
     if hasattr(d, name):
         return getattr(d, name)

@@ -25,6 +25,14 @@ same assembly as the C batch recorder's (:mod:`harness.engine.simulate`): the sa
 velocities J·qvel from ``cdof``, readings, equalities; what Warp does not compute is computed
 by the harness from Warp's own arrays, never from the C engine's.
 
+The instantaneous layer's states (:meth:`WarpBackend.forward_many`) go to Warp the same way: one
+world per state in one ``forward`` (from a zero warm start, as the C engine's reset ``MjData``).
+Warp computes the force, torque and accelerometer sensors and ``cfrc_int``/``cfrc_ext`` itself
+(its ``forward`` calls ``rne_postconstraint`` where those sensors are present, contacts, connects
+and welds included): they are read as they are. Its mass matrix is kept in the C engine's CSR
+layout (``M``, rows ``M_rowadr``/``M_rownnz``, columns ``M_colind``, the lower triangle), which the
+harness expands to the dense matrix (:func:`dense_mass`).
+
 The kernels are compiled on first use (about a minute on this machine, per model structure)
 and cached on disk under the user cache folder (``$XDG_CACHE_HOME/mjharness/warp``), so a
 second process, or a CI run that keeps the cache, loads them in about a second.
@@ -37,6 +45,7 @@ import dataclasses
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import mujoco
 import numpy as np
@@ -45,7 +54,7 @@ import warp as wp
 from harness.core.cache import cache_dir
 from harness.core.errors import BackendUnavailable, SimulationDiverged
 from harness.core.trajectory import Trajectory
-from harness.engine.backends import Request
+from harness.engine.backends import Forward, Request, computes_reactions
 from harness.engine.constraints import equality_size
 from harness.engine.integrators import integrator_name
 from harness.engine.probe import Probe
@@ -175,7 +184,7 @@ def _group(wmodels: Sequence[object]) -> list[_Group]:
 
 
 # ------------------------------------------------------------------------------------------ recording
-def _capacity(model: mujoco.MjModel, datas: Sequence[mujoco.MjData]) -> dict[str, int]:
+def _capacity(model: mujoco.MjModel, datas: Sequence[mujoco.MjData | SimpleNamespace]) -> dict[str, int]:
     """Contact and constraint buffers: twice the C engine's count at the start (MuJoCo's parity guide),
     at least Warp's own default; an overflow later is checked and refused, never dropped silently."""
     nefc = max(d.nefc for d in datas)
@@ -266,6 +275,19 @@ def _forward_fields(wm: object, model: mujoco.MjModel, states: np.ndarray, field
     return fields_out, {c: (np.concatenate(a), np.concatenate(b)) for c, (a, b) in eqs.items()}
 
 
+def dense_mass(model: mujoco.MjModel, csr: np.ndarray) -> np.ndarray:
+    """The dense joint-space inertia matrices (N, nv, nv) from the CSR lower triangles ``csr`` (N, nC) that
+    MuJoCo (``mjData.M``) and MuJoCo Warp (``Data.M``) keep: rows ``M_rowadr``/``M_rownnz``, columns
+    ``M_colind``; mirrored to the upper triangle."""
+    dense = np.zeros((len(csr), model.nv, model.nv))
+    for i in range(model.nv):
+        for k in range(int(model.M_rowadr[i]), int(model.M_rowadr[i] + model.M_rownnz[i])):
+            j = int(model.M_colind[k])
+            dense[:, i, j] = csr[:, k]
+            dense[:, j, i] = csr[:, k]
+    return dense
+
+
 def _rows(wm: object) -> int:
     """How many per-world rows the group's Warp model has (1 unless runs differ in a per-world field)."""
     rows = 1
@@ -354,6 +376,36 @@ class WarpBackend:
 
     def supports(self, model: mujoco.MjModel) -> None:
         _put_model(model)
+
+    def forward_many(self, model: mujoco.MjModel, probe: Probe, qpos: np.ndarray, qvel: np.ndarray) -> Forward:
+        """Warp's ``forward`` at every state, one world per state, in one call (chunks of
+        :data:`FORWARD_WORLDS`), the arrays copied to float64; each equality's rows found by type and id
+        in Warp's constraint arrays."""
+        clock = time.perf_counter()
+        wm = _put_model(model)
+        host = host_model(model)
+        data = mujoco.MjData(host)
+        rows, datas = [], []
+        for qp, qv in zip(qpos, qvel, strict=True):
+            mujoco.mj_resetData(host, data)
+            data.qpos[:], data.qvel[:] = qp, qv
+            row = np.zeros(mujoco.mj_stateSize(host, _STATE))
+            mujoco.mj_getState(host, data, row, _STATE)  # before the forward: a zero warm start
+            rows.append(row)
+            mujoco.mj_forward(host, data)  # the C engine's contact and row counts size Warp's buffers only
+            datas.append(SimpleNamespace(nefc=data.nefc, ncon=data.ncon))
+        reactions = computes_reactions(model)
+        wanted = ("qacc", "qfrc_bias", "qfrc_passive", "qfrc_constraint", "M",
+                  *(("sensordata",) if model.nsensordata else ()), *(("cfrc_int", "cfrc_ext") if reactions else ()))
+        mujoco.mj_resetData(host, data)
+        fields, eqs = _forward_fields(wm, host, np.array(rows).reshape(len(rows), -1), wanted, probe.constraints,
+                                      _capacity(host, datas), data)
+        timings["forward_many"] = timings.get("forward_many", 0.0) + time.perf_counter() - clock
+        return Forward(qacc=fields["qacc"], qfrc_bias=fields["qfrc_bias"], qfrc_passive=fields["qfrc_passive"],
+                       qfrc_constraint=fields["qfrc_constraint"], mass=dense_mass(host, fields["M"]),
+                       equality={c: force.reshape(len(rows), -1) for c, (force, _) in eqs.items()},
+                       sensordata=fields.get("sensordata"), cfrc_int=fields.get("cfrc_int"),
+                       cfrc_ext=fields.get("cfrc_ext"))
 
     def simulate_many(self, requests: Sequence[Request], probe: Probe) -> list[Trajectory]:
         if not requests:
