@@ -235,3 +235,54 @@ def test_a_pendulum_stepped_by_a_fifth_of_its_horizon_fails_as_unresolved():
 def test_a_timestep_longer_than_the_horizon_is_refused(capsys):
     assert main(["check", "pendulum", "--timestep", "9"]) == 2
     assert "the timestep 9 s is longer than the horizon 5 s" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["pendulum", "atwood", "welded_pendulum", "hoop_ramp_contact", "spring"])
+def test_a_roundoff_copy_moves_each_mass_by_one_ulp_and_the_motion_by_no_more_than_that(name):
+    """The float32 round-off copies (harness.engine.variants.roundoff_copy, harness.core.budget.PERTURBED_RUNS):
+    each body's mass and each principal inertia × (1 ± ε), independent seeded signs (both drawn, the same for
+    the same index, different between copies); the motion then moves by O(ε) only — the copies measure round-off,
+    not another physics. Checked on the C engine in float64 at the case's initial state and a state moved off
+    it (0.3 in every coordinate and velocity: constraints violated, the contact pressed), with float32's ε:
+    |Δqacc| ≤ 8 ε × max|qacc| (measured at most 1.0 ε: hoop_ramp_contact, spring)."""
+    from harness.core.budget import PERTURBED_RUNS
+
+    case = cases.get(name)
+    model = compile_model(case.mjcf)
+    eps = float(np.finfo(np.float32).eps)
+    ref = case.reference(model)
+    binding = case.probe(ref.dynamics).binding
+    data = mujoco.MjData(model)
+    copies = [V.roundoff_copy(model, epsilon=eps, index=i) for i in range(1, PERTURBED_RUNS + 1)]
+    again = V.roundoff_copy(model, epsilon=eps, index=1)
+    assert np.array_equal(again.body_mass, copies[0].body_mass)
+    assert len({tuple(c.body_mass) + tuple(c.body_inertia.ravel()) for c in copies}) == PERTURBED_RUNS
+    for other in copies:
+        massive, inertial = model.body_mass > 0, model.body_inertia > 0
+        ratio = np.concatenate([other.body_mass[massive] / model.body_mass[massive],
+                                other.body_inertia[inertial] / model.body_inertia[inertial]])
+        assert np.allclose(np.abs(ratio - 1), eps, rtol=1e-6, atol=0)
+        twin = mujoco.MjData(other)
+        for shift in (0.0, 0.3):
+            for d, m in ((data, model), (twin, other)):
+                mujoco.mj_resetData(m, d)
+                binding.set_state(m, d, np.asarray(ref.q0()) + shift, np.asarray(ref.qd0()) + shift)
+                mujoco.mj_forward(m, d)
+            size = float(np.max(np.abs(data.qacc))) or 1.0
+            assert np.max(np.abs(twin.qacc - data.qacc)) <= 8 * eps * size, (name, shift)
+    signs = np.concatenate([np.sign(c.body_mass[model.body_mass > 0] - model.body_mass[model.body_mass > 0])
+                            for c in copies])
+    assert (signs > 0).any() and (signs < 0).any()
+
+
+def test_the_represented_model_holds_every_real_constant_in_float32():
+    """harness.engine.variants.represented_model: each float64 array of the model and the physical options
+    rounded to float32 and back (so the C engine in float64 runs the model a float32 backend holds); integer
+    arrays untouched. The Atwood machine's 1.2 kg mass and 0.4 kg pulley are not float32 numbers."""
+
+    model = compile_model(cases.get("atwood").mjcf)
+    rounded = V.represented_model(model)
+    assert np.array_equal(rounded.body_mass, model.body_mass.astype(np.float32).astype(float))
+    assert not np.array_equal(rounded.body_mass, model.body_mass)
+    assert rounded.opt.timestep == float(np.float32(model.opt.timestep))
+    assert np.array_equal(rounded.jnt_type, model.jnt_type)

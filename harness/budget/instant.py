@@ -25,17 +25,20 @@ solver's tolerance (:data:`~harness.budget.trajectory.SOLVER` × tolerance × si
 both × the noise gain of the extrapolation (Σ|w| of the evaluations' weights).
 
 On a float32 backend (MJX, MuJoCo Warp) the round-off part is measured instead
-of assumed: the same states also go to the backend as
-:data:`~harness.core.budget.PERTURBED_RUNS` copies one ulp away
-(:func:`harness.layers.instant.perturbed_states`), and the round-off
-tolerance is :data:`~harness.core.budget.PERTURBED_FACTOR` × the largest
-difference between a copy's figure and the figure (× the same noise gain):
-the basis is :data:`~harness.core.budget.PERTURBED_FACTOR`'s. To it is added what
-no copy of the state moves: the model's constants held in float32 (each off
-by up to ½ε relative; a state-independent figure such as the Atwood
-machine's forcing (m₁ − m₂)g shows the same shift in every copy), measured
-as the figure's shift on the C engine when they are rounded
-(:func:`harness.layers.instant.represented_model`). A figure with no
+of assumed: the backend also evaluates the same states on
+:data:`~harness.core.budget.PERTURBED_RUNS` round-off copies of the model
+(masses an ulp or two away: the same motion, every rounding different,
+:func:`harness.engine.variants.roundoff_copy`), and the round-off tolerance is
+:data:`~harness.core.budget.PERTURBED_FACTOR` × the largest difference between
+a copy's figure and the figure (× the same noise gain): the basis is
+:data:`~harness.core.budget.PERTURBED_FACTOR`'s. To it is added what no copy
+moves: the model's constants and the state held in float32 (each off by up to
+½ε relative; a state-independent figure such as the Atwood machine's forcing
+(m₁ − m₂)g shows the same shift in every copy, and a coordinate held by a soft
+equality, off by half an ulp, draws the constraint's force k ½ε L), measured
+as the figure's shift on the C engine in float64 when both are rounded
+(:func:`harness.engine.variants.represented_model`), and each number's own
+reading, :data:`~harness.core.budget.READ_ULPS` × ε × its size. A figure with no
 copies (``instant.kinematics``: the C engine's float64 geometry on every
 backend) and every figure on a float64 backend keep :data:`ROUNDOFF`.
 """
@@ -48,7 +51,7 @@ import numpy as np
 
 from harness.budget.extrapolate import gain, to_zero
 from harness.budget.trajectory import FLOOR_UNCERTAINTY, SOFTNESS_UNCERTAINTY, SOLVER, SOLVER_PART_UNCERTAINTY
-from harness.core.budget import PERTURBED_FACTOR, Budget
+from harness.core.budget import PERTURBED_FACTOR, READ_ULPS, Budget
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 
@@ -62,7 +65,8 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
                     heavier: Sequence[Deviation] | None = None, converged: Sequence[Deviation] | None = None,
                     eps_factor: float = 2.0, solver_tolerance: float = 0.0, notes: Sequence[str] = (),
                     perturbed: Sequence[Sequence[Deviation]] = (),
-                    represented: Mapping[FigureName, float] | None = None) -> dict[FigureName, Budget]:
+                    represented: Mapping[FigureName, float] | None = None,
+                    epsilon: float = float(np.finfo(np.float32).eps)) -> dict[FigureName, Budget]:
     """Every instantaneous figure's budget from the model's deviations at the sampled states (A) and,
     where they apply, the model's with every ε × s, s² (``softness``, s = ``eps_factor``) and with
     heavier floors (D) at the same states. ``converged``: A with the constraints solved exactly, where
@@ -94,8 +98,8 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
         explained = {part: dev.magnitude(values) for part, values in parts.items()}
         # float64: noise × ROUNDOFF × size, in that order (the C backend's limits bit for bit as before)
         roundoff = noise * (PERTURBED_FACTOR * max(dev.magnitude(c - dev.values) for c in copies[dev.name])
-                            + (represented or {}).get(dev.name, 0.0)) if dev.name in copies \
-            else noise * ROUNDOFF * dev.size
+                            + (represented or {}).get(dev.name, 0.0) + READ_ULPS * epsilon * dev.size) \
+            if dev.name in copies else noise * ROUNDOFF * dev.size
         tolerance = {"softness": SOFTNESS_UNCERTAINTY * explained.get("softness", 0.0) if softness_unc is None
                      else softness_unc,
                      "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),

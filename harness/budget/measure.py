@@ -25,16 +25,17 @@ from analytic.systems import Scales
 from harness.budget.instant import instant_budgets
 from harness.budget.trajectory import Runs, budgets, every_nth, past_asymptotic, unresolved
 from harness.cases import Series
-from harness.core.budget import Budget
+from harness.core.budget import PERTURBED_RUNS, Budget, ulp_states
 from harness.core.deviation import Deviation
 from harness.core.errors import SimulationDiverged
 from harness.core.figures import FigureName
 from harness.core.trajectory import Trajectory
 from harness.engine import variants as V
-from harness.engine.backends import Request, simulate, simulate_many
+from harness.engine.backends import Request, active, simulate, simulate_many
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
+from harness.engine.simulate import simulate as c_simulate
 from harness.layers.instant import instant_deviations
 from harness.layers.trajectory import deviations
 from harness.reference.solutions import Reference
@@ -101,7 +102,7 @@ def instant_budget(mut: ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref
     return instant_budgets(as_is, softness=softness, heavier=heavier, converged=converged, eps_factor=eps_factor,
                            solver_tolerance=V.CONVERGED_TOLERANCE if exact is not None else settings.solver_tolerance,
                            notes=settings.notes, perturbed=perturbed,
-                           represented=represented)
+                           represented=represented, epsilon=active().epsilon)
 
 
 @dataclass(frozen=True)
@@ -124,26 +125,33 @@ def _deviations(target: TrajectoryRuns, sim: Trajectory, prefix: str) -> list[De
 
 
 def _variant_request(mut: ModelUnderTest, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int,
-                     split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0) -> Request:
+                     split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0, perturb: int = 0) -> Request:
     """One variant of ``model`` (:func:`~harness.engine.variants.variant`) over the horizon, its constraints
-    solved exactly where the model's own solver does not converge."""
+    solved exactly where the model's own solver does not converge; ``perturb`` > 0: a round-off copy of the
+    run at h (:func:`~harness.engine.variants.roundoff_copy`)."""
     exact = V.exact_solver(model)
     edit = V.compose(exact, V.variant(model, split=split, eps_factor=eps_factor, tc_factor=tc_factor))
     name = integrator_name(model)
     h = float(model.opt.timestep)
     m = mut.compile(integrator=name, timestep=h / split if split > 1 else None, variant=edit)
+    if perturb:
+        m = V.roundoff_copy(m, epsilon=active().epsilon, index=perturb)
     return Request(m, np.asarray(target.q0, float), np.asarray(target.qd0, float), split * steps)
 
 
+Variant = tuple[int, float, float] | tuple[int, float, float, int]
+"""(split, eps_factor, tc_factor) of :func:`_variant_request`, and optionally its ``perturb``."""
+
+
 def _variant_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int,
-                  variants: Sequence[tuple[int, float, float]]) -> list[list[Deviation]]:
-    """Variants (split, eps_factor, tc_factor) of ``model``, run as one batched call to the backend
+                  variants: Sequence[Variant]) -> list[list[Deviation]]:
+    """Variants (split, eps_factor, tc_factor[, perturb]) of ``model``, run as one batched call to the backend
     (:func:`harness.engine.backends.simulate_many`), each as its deviations on the grid of the run at h."""
-    requests = [_variant_request(mut, target, model, steps=steps, split=split, eps_factor=eps, tc_factor=tc)
-                for split, eps, tc in variants]
+    requests = [_variant_request(mut, target, model, steps=steps, split=v[0], eps_factor=v[1], tc_factor=v[2],
+                                 perturb=v[3] if len(v) > 3 else 0) for v in variants]
     sims = simulate_many(requests, probe)
     name = integrator_name(model)
-    return [_deviations(target, every_nth(sim, split), name) for sim, (split, _, _) in zip(sims, variants, strict=True)]
+    return [_deviations(target, every_nth(sim, v[0]), name) for sim, v in zip(sims, variants, strict=True)]
 
 
 def _variant_run(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int,
@@ -183,18 +191,23 @@ def _integrator_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, 
 
     as_is = _deviations(target, sim, name)
     # every variant that does not wait on another's result, as one batched call to the backend
-    plan: dict[str, tuple[int, float, float]] = {"half_step": (2, 1.0, 1.0)}
+    plan: dict[str, Variant] = {"half_step": (2, 1.0, 1.0)}
     if not V.solver_converges(model):
         plan["converged"] = (1, 1.0, 1.0)
     if settings.soft:
         plan |= {f"softness{k}": (1, f, 1.0) for k, f in enumerate(levels)} | {"softness_half_step": (2, eps, 1.0)}
     if settings.contacts:
         plan |= {f"slower{k}": (1, f, slow) for k, f in enumerate((1.0, *levels))}
+    float32 = active().epsilon > float(np.finfo(np.float64).eps)
+    if float32:  # the run's round-off, measured by copies one ulp apart (harness.budget.trajectory)
+        plan |= {f"perturbed{k}": (1, 1.0, 1.0, k) for k in range(1, PERTURBED_RUNS + 1)}
     done = dict(zip(plan, _variant_runs(mut, probe, target, model, steps=steps, variants=list(plan.values())),
                     strict=True))
     half_step = done["half_step"]
     converged = done.get("converged")
     asymptotic = not past_asymptotic(converged or as_is, half_step, order) and V.steps_per_timeconst(model) <= 0.5
+    represented = _represented(probe, target, model, steps=steps) if float32 else {}
+    quantized = _quantized(probe, target, model, steps=steps) if float32 else {}
     return Runs(
         as_is=as_is,
         half_step=half_step,
@@ -204,8 +217,44 @@ def _integrator_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, 
         softness_half_step=done["softness_half_step"] if settings.soft else None,
         slower=tuple(done[f"slower{k}"] for k in range(1 + len(levels))) if settings.contacts else (),
         floors=floors,
+        perturbed=tuple(done[f"perturbed{k}"] for k in range(1, PERTURBED_RUNS + 1)) if float32 else (),
+        represented=represented,
+        quantized=quantized,
         eps_factor=eps, tc_factor=slow,
     )
+
+
+def _represented(probe: Probe, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int) -> dict[str, float]:
+    """Each figure's shift (by measure) when the model's constants and the initial state are held in float32:
+    the C engine in float64 runs :func:`~harness.engine.variants.represented_model` from the initial
+    coordinates rounded to float32, beside the model as it is. What a float32 backend holds differs so from
+    the model before its first step, and no round-off copy moves it (every copy holds the same numbers)."""
+    q0, qd0 = np.asarray(target.q0, float), np.asarray(target.qd0, float)
+    base = c_simulate(model, probe, q0=q0, qd0=qd0, steps=steps)
+    rounded = c_simulate(V.represented_model(model), probe, q0=q0.astype(np.float32).astype(float),
+                         qd0=qd0.astype(np.float32).astype(float), steps=steps)
+    rounded = dataclasses.replace(rounded, t=base.t)  # at the nominal times k h, as the backends record theirs
+    name = integrator_name(model)
+    return {a.name.measure: a.magnitude(b.values - a.values)
+            for a, b in zip(_deviations(target, base, name), _deviations(target, rounded, name), strict=True)}
+
+
+def _quantized(probe: Probe, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int) -> dict[str, float]:
+    """Each figure's response (by measure) to the initial state moved by half an ulp of float32
+    (:func:`~harness.core.budget.ulp_states`, :data:`~harness.core.budget.PERTURBED_RUNS` seeds, the largest):
+    the C engine in float64, so the physics' answer to a state's quantization (a stiff constraint's force
+    spike), not arithmetic (:data:`~harness.core.budget.QUANTIZATION`)."""
+    q0, qd0 = np.asarray(target.q0, float), np.asarray(target.qd0, float)
+    eps = float(np.finfo(np.float32).eps)
+    name = integrator_name(model)
+    base = _deviations(target, c_simulate(model, probe, q0=q0, qd0=qd0, steps=steps), name)
+    out = {d.name.measure: 0.0 for d in base}
+    for k in range(1, PERTURBED_RUNS + 1):
+        moved = c_simulate(model, probe, q0=ulp_states(q0, epsilon=eps, seed=k),
+                           qd0=ulp_states(qd0, epsilon=eps, seed=PERTURBED_RUNS + k), steps=steps)
+        for a, b in zip(base, _deviations(target, moved, name), strict=True):
+            out[a.name.measure] = max(out[a.name.measure], a.magnitude(b.values - a.values))
+    return out
 
 
 def trajectory_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, sims: Mapping[str, Trajectory],
@@ -264,7 +313,8 @@ def _renamed(runs: Runs, integrator: str, as_is: Sequence[Deviation]) -> Runs:
                                converged=devs(runs.converged), quarter_step=devs(runs.quarter_step),
                                softness=tuple(devs(r) for r in runs.softness),
                                softness_half_step=devs(runs.softness_half_step),
-                               slower=tuple(devs(r) for r in runs.slower))
+                               slower=tuple(devs(r) for r in runs.slower),
+                               perturbed=tuple(devs(r) for r in runs.perturbed))
 
 
 TWIN_TOLERANCE = 1e-9

@@ -61,12 +61,35 @@ the figure's unit):
   measured: the distance between the quadratic and the linear estimate (the
   last level's correction), plus 1/4 of the contacts' τ part;
 - floors: an inertia of at most 1e-6 m L² acts linearly: :data:`FLOOR_UNCERTAINTY`;
-- round-off: :data:`ROUNDOFF` a step (:data:`ROUNDOFF_EPS` machine epsilons of
-  the arithmetic the backend steps in: float64 on the C engine, float32 on MJX's
-  or Warp's default, where it is 2²⁹ times larger), accumulating as a random walk over the
+- round-off, in float64 (the C engine, ``mjx-f64``): :data:`ROUNDOFF` a step
+  (:data:`ROUNDOFF_EPS` machine epsilons), accumulating as a random walk over the
   run's N steps, × the quantity's size, × the noise gain of the combination
   (:func:`noise_gain`: Σ|wᵢ| of the runs' weights in the ideal estimate, from
-  1.1 for RK4 alone to about 30 with contacts and three softness levels);
+  1.1 for RK4 alone to about 30 with contacts and three softness levels). It sits
+  orders of magnitude below every other tolerance there;
+- round-off, in float32 (``mjx``, ``warp``), where it is 2²⁹ times larger and
+  decides: measured on the backend itself, as stochastic arithmetic measures it
+  (Vignes' CESTAC): :data:`~harness.core.budget.PERTURBED_RUNS` copies of the
+  run at h, the same model with its masses an ulp or two away (the same motion:
+  :func:`~harness.engine.variants.roundoff_copy`, :attr:`Runs.perturbed`), round
+  independently from the first step on, and are carried by the system's own dynamics — a pendulum's
+  phase error grows with t, a chaotic double pendulum's exponentially, an energy
+  error random-walks — so their spread is the round-off this model accumulates
+  in this arithmetic, whatever its dynamics do to it. The part is
+  :data:`~harness.core.budget.PERTURBED_FACTOR` × the largest difference
+  between the figure and a copy's (the factor's basis is in its docstring), ×
+  the noise gain, × √(the most steps of any run of the combination / N) (the
+  runs at h/2 and h/4 take more steps: a random walk's √); plus what every copy
+  shares and so none measures: the model's constants and the initial state held
+  in float32, each off by up to ½ε (:attr:`Runs.represented`: the figure's
+  shift on the C engine in float64 when they are rounded; systematic, common to
+  every run of the combination, whose weights sum to 1: no noise gain); and
+  each number's own reading, :data:`~harness.core.budget.READ_ULPS` × ε × the
+  quantity's size (what copies holding the same state share bit for bit); and
+  the state's own quantization: :data:`~harness.core.budget.QUANTIZATION` × the
+  figure's response to the initial state moved by half an ulp (C engine,
+  float64: a stiff constraint's force spike when a stored coordinate crosses
+  from one float to the next, :attr:`Runs.quantized`), × the noise gain;
 - the reference: :data:`REFERENCE` × its rtol × the quantity's size (its global
   error; measured 11 rtol on the spherical pendulum over 5 s);
 - the constraint solver's convergence: :data:`SOLVER` × its tolerance × the
@@ -84,12 +107,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from harness.budget.extrapolate import richardson, to_zero
-from harness.core.budget import ROUNDOFF_EPS, Budget
+from harness.core.budget import PERTURBED_FACTOR, QUANTIZATION, READ_ULPS, ROUNDOFF_EPS, Budget
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.core.trajectory import Trajectory
@@ -121,6 +144,15 @@ class Runs:
         converged: where the model's own constraint solver does not converge (CG, PGS, a loose
             tolerance), A with the constraints solved exactly (Newton); every other run is then made
             that way too, and A − converged is the ``solver`` part.
+        perturbed: on a float32 backend, :data:`~harness.core.budget.PERTURBED_RUNS` copies of A from
+            its masses an ulp or two away (:func:`~harness.engine.variants.roundoff_copy`): their
+            spread measures A's round-off (empty on float64, where :data:`ROUNDOFF` applies).
+        represented: on a float32 backend, each figure's shift (by measure) with the model's constants and
+            the initial state held in float32 (:func:`harness.budget.measure._represented`): what every copy
+            shares, so none measures it.
+        quantized: on a float32 backend, each figure's response (by measure) to the initial state moved by
+            half an ulp, on the C engine (:func:`harness.budget.measure._quantized`): × :data:`QUANTIZATION`,
+            the state's own quantization.
         eps_factor, tc_factor: s and r.
     """
 
@@ -132,6 +164,9 @@ class Runs:
     slower: Sequence[Sequence[Deviation]] = ()
     floors: Mapping[str, np.ndarray] | None = None
     converged: Sequence[Deviation] | None = None
+    perturbed: Sequence[Sequence[Deviation]] = ()
+    represented: Mapping[str, float] = field(default_factory=dict)
+    quantized: Mapping[str, float] = field(default_factory=dict)
     eps_factor: float = 2.0
     tc_factor: float = 1.5
 
@@ -279,10 +314,16 @@ def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_toleran
     """Every figure's budget from one integrator's runs (see the module docstring): round-off and the
     tolerances are relative to each quantity's size (``Deviation.size``); ``solver_tolerance`` is 0
     where the model has no constraints; ``epsilon`` the machine epsilon of the arithmetic the runs were
-    stepped in (float64's: :data:`ROUNDOFF` exactly)."""
+    stepped in (float64's: :data:`ROUNDOFF` exactly; a float32 run's round-off is its perturbed copies'
+    spread instead, :attr:`Runs.perturbed`)."""
     roundoff = ROUNDOFF if epsilon == float(np.finfo(float).eps) else ROUNDOFF_EPS * epsilon
     walk = math.sqrt(max(steps, 1))
     gain = noise_gain(runs, order=order)
+    longest = 4.0 if runs.quarter_step is not None else 2.0  # the most steps of any run, in units of N
+    spread = {d.name: 0.0 for d in runs.as_is}
+    for copy in runs.perturbed:
+        for dev, other in zip(runs.as_is, copy, strict=True):
+            spread[dev.name] = max(spread[dev.name], dev.magnitude(other.values - dev.values))
     out = {}
     for dev in runs.as_is:
         found = parts(runs, dev, order=order)
@@ -301,7 +342,10 @@ def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_toleran
                      "softness": softness,
                      "solver": SOLVER_PART_UNCERTAINTY * explained.get("solver", 0.0),
                      "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),
-                     "roundoff": gain * roundoff * walk * dev.size,
+                     "roundoff": (gain * PERTURBED_FACTOR * math.sqrt(longest) * spread[dev.name]
+                                  + gain * QUANTIZATION * runs.quantized.get(dev.name.measure, 0.0)
+                                  + runs.represented.get(dev.name.measure, 0.0) + READ_ULPS * epsilon * dev.size
+                                  if runs.perturbed else gain * roundoff * walk * dev.size),
                      "reference": REFERENCE * rtol * dev.size,
                      "convergence": gain * SOLVER * solver_tolerance * dev.size}
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),

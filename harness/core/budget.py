@@ -26,26 +26,54 @@ constraints) moves the parts, not the residual.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+
+import numpy as np
 
 ROUNDOFF_EPS = 64
 """Round-off a step, in machine epsilons of the arithmetic a run is stepped in, relative to the quantity's
 size; it accumulates as a random walk over the run's steps (harness/budget/trajectory.py)."""
 
 PERTURBED_RUNS = 4
-"""Float32 backends: how many copies of a run (or of a sampled state) are made with the initial state moved
-by one unit in the last place (±½ε relative, a seeded sign per component), beside the run itself."""
+"""Float32 backends: how many round-off copies of the model (each mass and inertia one ulp away, independent
+signs: :func:`harness.engine.variants.roundoff_copy`) the backend runs beside a run, or evaluates at the
+sampled states, to measure their round-off."""
 PERTURBED_FACTOR = 8.0
 """Float32 backends: the round-off part is this × the largest difference between a figure and its perturbed
-copies' (stochastic arithmetic, Vignes' CESTAC: round-off is a random process, and runs one ulp apart round
+copies' (stochastic arithmetic, Vignes' CESTAC: round-off is a random process, and runs an ulp apart round
 independently after a few steps, so the run's own round-off e₀ and each copy's eᵢ are draws of one law and
 dᵢ = eᵢ − e₀ has √2 times its spread). For a normal law of spread σ: |e₀| ≤ 3.3σ with probability 0.999,
 and the largest of 4 |dᵢ| falls below 0.42σ with probability (0.236)⁴ = 0.003: |e₀| ≤ 3.3 / 0.42 ≈ 8 × max|dᵢ|
 except with probability below 0.005 per figure."""
 
+READ_ULPS = 8.0
+"""Float32 backends: the round-off every number read back carries, in machine epsilons of itself, beside
+what the copies measure: its storage (½ ulp) and the roundings of the computation that makes it from the
+state (forward kinematics down a chain, a solve), which copies holding the same state share bit for bit
+(early in a run the copies' positions are equal floats). Measured: 2.3 ε on the bobs' positions (MJX and
+Warp against the C engine, pendulum and double_pendulum, 40 steps, where every copy's spread was 0); 8 is
+that × 3.5, the margin."""
+
+QUANTIZATION = 4.0
+"""Float32 backends, trajectories: the round-off of a float32 state's own quantization, in units of the
+figure's response to moving the initial state by half an ulp (each coordinate and velocity × (1 ± ε/2),
+:func:`ulp_states`, run on the C engine in float64: physics, not arithmetic). A coordinate held by a stiff
+soft constraint (the pendulum's slide at r = 1 under a rod of time constant 2 h) is stored to an ulp; when it
+crosses from one float to the next its violation jumps by that ulp and the constraint answers with k × ulp,
+a force spike no copy of the arithmetic reproduces at the same instant. Measured on MJX float32 (pendulum,
+RK4, 1000 steps): spikes of the rod's force up to 2.5 × that response (1.9e-3 of the tension at step 4);
+4 is that × 1.6, the margin."""
+
 PARTS = ("integration", "softness", "floors", "solver")
 TOLERANCES = ("integration", "softness", "floors", "solver", "roundoff", "reference", "convergence")
+
+
+def ulp_states(x: Sequence[float], *, epsilon: float, seed: int) -> np.ndarray:
+    """``x`` with each component × (1 ± ε/2), the signs seeded by ``seed``: a state half an ulp away in an
+    arithmetic of machine epsilon ``epsilon`` (:data:`QUANTIZATION`)."""
+    x = np.asarray(x, dtype=float)
+    return x * (1.0 + 0.5 * epsilon * np.random.default_rng(seed).choice((-1.0, 1.0), size=x.shape))
 
 
 @dataclass(frozen=True)

@@ -45,6 +45,7 @@ is, and said so (:func:`softness_notes`).
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable, Iterator, Sequence
 from typing import Literal
 
@@ -343,3 +344,57 @@ def compose(*edits: SpecEdit | None) -> SpecEdit:
             if e is not None:
                 e(spec)
     return edit
+
+
+# ---------------------------------------------------------------- float32 round-off
+def roundoff_copy(model: mujoco.MjModel, *, epsilon: float, index: int) -> mujoco.MjModel:
+    """Round-off copy number ``index`` (1, 2, …) of ``model``: each body's mass and each of its principal
+    inertias × (1 ± ε), an independent sign each, seeded by ``index`` (one ulp in the backend's arithmetic),
+    the constants that follow from the masses recomputed (``mj_setConst``).
+
+    Why: to measure a float32 run's round-off, copies must round differently from the first operation on
+    (they then round independently: stochastic arithmetic, :data:`harness.core.budget.PERTURBED_FACTOR`),
+    and in every direction an error can take. Independent signs do that: an ill-conditioned step (a stiff
+    constraint's solve, a point mass's 1e-10 inertia) turns ε-sized changes of its inputs into changes of
+    its result as large as its own round-off (the condition number at work), so the copies' spread sees it.
+    One common factor for every mass would not: the motion is invariant under it, and the copies then round
+    in step with the run (on the float32 pendulum, Warp's first-step rod force error, 2.5e-5 of the tension,
+    left a spread a hundred times smaller). The price is a change of the physics by ε relative, far below
+    the round-off measured. Not the timestep: a constraint whose time constant sits at MuJoCo's 2 h floor
+    (the pendulum's rod) would stiffen by 2ε. Not the initial state: one ulp off it leaves the constraint
+    manifold (the pendulum's slide, a quaternion), whose soft response is a transient of its own (8e-4 of the
+    rod's tension at t = 0 on Warp); the state's rounding is :func:`represented_model`'s part."""
+    rng = np.random.default_rng(index)
+    out = copy.deepcopy(model)
+    out.body_mass[:] = model.body_mass * (1.0 + epsilon * rng.choice((-1.0, 1.0), size=model.body_mass.shape))
+    out.body_inertia[:] = model.body_inertia * (1.0 + epsilon * rng.choice((-1.0, 1.0),
+                                                                           size=model.body_inertia.shape))
+    mujoco.mj_setConst(out, mujoco.MjData(out))
+    return out
+
+
+_OPTION_CONSTANTS = ("gravity", "timestep", "impratio", "density", "viscosity", "wind", "magnetic")
+"""The physical constants of ``mjOption`` a float32 backend stores in its precision (the solver's tolerances,
+which only stop an iteration, are left as they are)."""
+
+
+def represented_model(model: mujoco.MjModel, dtype: type = np.float32) -> mujoco.MjModel:
+    """A copy of ``model`` with every real constant (each float64 array of ``MjModel``, and
+    :data:`_OPTION_CONSTANTS`) rounded to ``dtype`` and back: the model as a float32 backend holds it, run in
+    float64 by the C engine. The difference it makes to a figure is the representation of the model's
+    constants, each off by up to ½ε relative: a deterministic shift that no copy of the state moves (the
+    forcing (m₁ − m₂)g of an Atwood machine depends on no state), measured here instead of assumed."""
+    out = copy.deepcopy(model)
+    for name in dir(out):
+        if name.startswith("_"):
+            continue
+        value = getattr(out, name, None)
+        if isinstance(value, np.ndarray) and value.dtype == np.float64 and value.size:
+            value[...] = value.astype(dtype).astype(np.float64)
+    for name in _OPTION_CONSTANTS:
+        value = getattr(out.opt, name)
+        if isinstance(value, np.ndarray):
+            value[...] = value.astype(dtype).astype(np.float64)
+        else:
+            setattr(out.opt, name, float(dtype(value)))
+    return out

@@ -45,7 +45,6 @@ both slow and fast states are covered.
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass, field
 
 import mujoco
@@ -56,6 +55,7 @@ from harness.core.budget import PERTURBED_RUNS
 from harness.core.deviation import Deviation
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
+from harness.engine import variants as V
 from harness.engine.backends import Forward, active, computes_reactions, forward_many
 from harness.engine.bindings import velocity_map
 from harness.engine.compat import JAC_DOT_DEFECT, full_mass_matrix, jac_dot, jac_dot_missing
@@ -125,58 +125,24 @@ def pull_back(dof: np.ndarray, mass: np.ndarray, qacc: np.ndarray) -> np.ndarray
     return np.linalg.solve(weighted @ dof, weighted @ qacc)
 
 
-def perturbed_states(qpos: np.ndarray, qvel: np.ndarray, *, epsilon: float, copies: int = PERTURBED_RUNS,
-                     seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """``copies`` copies of the states (rows of ``qpos``, ``qvel``), each component moved by one unit in the
-    last place of an arithmetic of machine epsilon ``epsilon``: × (1 ± ε/2), a seeded sign per component
-    (:data:`harness.core.budget.PERTURBED_RUNS`). Shapes (copies, N, nq) and (copies, N, nv)."""
-    rng = np.random.default_rng(seed)
-    sp = rng.choice((-1.0, 1.0), size=(copies, *qpos.shape))
-    sv = rng.choice((-1.0, 1.0), size=(copies, *qvel.shape))
-    return qpos[None] * (1.0 + sp * epsilon / 2), qvel[None] * (1.0 + sv * epsilon / 2)
-
-
-_OPTION_CONSTANTS = ("gravity", "timestep", "impratio", "density", "viscosity", "wind", "magnetic")
-"""The physical constants of ``mjOption`` a float32 backend stores in its precision (the solver's tolerances,
-which only stop an iteration, are left as they are)."""
-
-
-def represented_model(model: mujoco.MjModel, dtype: type = np.float32) -> mujoco.MjModel:
-    """A copy of ``model`` with every real constant (each float64 array of ``MjModel``, and
-    :data:`_OPTION_CONSTANTS`) rounded to ``dtype`` and back: the model as a float32 backend holds it, run in
-    float64 by the C engine. The difference it makes to a figure is the representation of the model's
-    constants, each off by up to ½ε relative: a deterministic shift that no copy of the state moves (the
-    forcing (m₁ − m₂)g of an Atwood machine depends on no state), measured here instead of assumed."""
-    out = copy.deepcopy(model)
-    for name in dir(out):
-        if name.startswith("_"):
-            continue
-        value = getattr(out, name, None)
-        if isinstance(value, np.ndarray) and value.dtype == np.float64 and value.size:
-            value[...] = value.astype(dtype).astype(np.float64)
-    for name in _OPTION_CONSTANTS:
-        value = getattr(out.opt, name)
-        if isinstance(value, np.ndarray):
-            value[...] = value.astype(dtype).astype(np.float64)
-        else:
-            setattr(out.opt, name, float(dtype(value)))
-    return out
-
-
 @dataclass(frozen=True)
 class InstantEvaluation:
     """The instantaneous layer on the active backend.
 
     Attributes:
         deviations: one per figure, a row per sampled state (:func:`instant_deviations`).
-        perturbed: on a float32 backend, the same figures at each of the :data:`PERTURBED_RUNS` copies of the
-            states one ulp away (:func:`perturbed_states`), against the same analytic values: their spread is
-            the round-off of the backend's arithmetic (:func:`harness.budget.instant.instant_budgets`). Figures
+        perturbed: on a float32 backend, the same figures from the backend's forward of each of the
+            :data:`PERTURBED_RUNS` round-off copies of the model (masses an ulp or two away,
+            :func:`harness.engine.variants.roundoff_copy`: the same motion, every rounding different) at the same
+            states: their spread is the round-off of the backend's arithmetic
+            (:func:`harness.budget.instant.instant_budgets`). Figures
             read from the C engine's float64 geometry alone (``instant.kinematics``) are left out. Empty on a
             float64 backend.
-        represented: on a float32 backend, each figure's shift when the model's constants are held in float32
-            (:func:`represented_model`, the C engine in float64 at the same states), reduced as the figure is;
-            empty on a float64 backend.
+        represented: on a float32 backend, each figure's shift when the model's constants and the state are
+            held in float32 (:func:`harness.engine.variants.represented_model`, the C engine in float64 at the
+            states rounded to float32), reduced as the figure is: what no copy moves (atwood's forcing
+            (m₁ − m₂)g), and the soft constraints' response to the state's own rounding (a coordinate held by
+            an equality, off by half an ulp); empty on a float64 backend.
         unavailable: figures the backend's arrays cannot give at these states, each with the one-line reason.
     """
 
@@ -291,8 +257,8 @@ def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
     the Jacobians J and J̇, a site's frame, efc_J of an equality's rows — kinematics, not dynamics, checked by
     ``instant.kinematics``. On the C backend everything is ``mj_forward``'s, as it always was.
 
-    ``perturbed``: on a float32 backend, also the copies of :func:`perturbed_states` in the same batched call
-    (:attr:`InstantEvaluation.perturbed`)."""
+    ``perturbed``: on a float32 backend, also the backend's forward of the model's round-off copies
+    (:func:`harness.engine.variants.roundoff_copy`) at the same states (:attr:`InstantEvaluation.perturbed`)."""
     probe.validate(model)
     dyn = ref.dynamics
     q, qd = sample_states(ref, count)
@@ -305,26 +271,26 @@ def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
             mujoco.mj_resetData(model, data)
             probe.binding.set_state(model, data, q[i], qd[i])
             qpos[i], qvel[i] = data.qpos, data.qvel
+        fwd = forward_many(model, probe, qpos, qvel)
         if perturbed and backend.epsilon > float(np.finfo(np.float64).eps):
-            copies = perturbed_states(qpos, qvel, epsilon=backend.epsilon)
-            fwd = forward_many(model, probe, np.concatenate([qpos, *copies[0]]), np.concatenate([qvel, *copies[1]]))
-        else:
-            fwd = forward_many(model, probe, qpos, qvel)
+            copies = [forward_many(V.roundoff_copy(model, epsilon=backend.epsilon, index=k), probe, qpos, qvel)
+                      for k in range(1, PERTURBED_RUNS + 1)]
     measured = _measure(model, probe, dyn, q, qd, states=None, fwd=fwd, offset=0)
     deviations, unavailable = _deviations(model, probe, ref, q, qd, measured, backend.name)
     others, represented = [], {}
     if copies is not None:
         as_c = _deviations(model, probe, ref, q, qd, _measure(model, probe, dyn, q, qd, states=None, fwd=None,
                                                               offset=0), "c")[0]
-        rounded = represented_model(model, np.float32 if backend.precision == "float32" else np.float64)
-        # the engine's side on the rounded model, the analytic side (and the gravity it reads) the model's own
-        in_float32 = _deviations(model, probe, ref, q, qd, _measure(rounded, probe, dyn, q, qd, states=None,
+        rounded = V.represented_model(model, np.float32)
+        # the engine's side on the rounded model at the rounded states; the analytic side (and the gravity it
+        # reads) the model's own at the exact states
+        states = (qpos.astype(np.float32).astype(float), qvel.astype(np.float32).astype(float))
+        in_float32 = _deviations(model, probe, ref, q, qd, _measure(rounded, probe, dyn, q, qd, states=states,
                                                                      fwd=None, offset=0), "c")[0]
         represented = {a.name: a.magnitude(b.values - a.values) for a, b in zip(as_c, in_float32, strict=True)
                        if a.name != FigureName.instant("kinematics")}
-        for k in range(len(copies[0])):
-            again = _measure(model, probe, dyn, q, qd, states=(copies[0][k], copies[1][k]), fwd=fwd,
-                             offset=(k + 1) * len(q))
+        for again_fwd in copies:
+            again = _measure(model, probe, dyn, q, qd, states=None, fwd=again_fwd, offset=0)
             others.append([d for d in _deviations(model, probe, ref, q, qd, again, backend.name)[0]
                            if d.name != FigureName.instant("kinematics")])
     return InstantEvaluation(deviations=deviations, perturbed=tuple(others), represented=represented,
