@@ -233,16 +233,11 @@ def _instant_budgets(name: str, backend: str):
 def test_c_forward_many_carried_into_the_layer_changes_no_number():
     """The instantaneous layer's backend path (the backend's arrays written into C's MjData at the same state)
     is exact: with the C backend's own forward_many carried, every figure is bit for bit the C path's."""
-    from harness.layers.instant import _deviations, _measure, sample_states
+    from harness.layers.instant import _deviations, _measure, mujoco_states, sample_states
     for name in ("welded_pendulum", "slider_crank", "double_pendulum"):
         _, model, ref, probe = _setup(name)
         q, qd = sample_states(ref)
-        data = mujoco.MjData(model)
-        qpos, qvel = np.empty((len(q), model.nq)), np.empty((len(q), model.nv))
-        for i in range(len(q)):
-            mujoco.mj_resetData(model, data)
-            probe.binding.set_state(model, data, q[i], qd[i])
-            qpos[i], qvel[i] = data.qpos, data.qvel
+        qpos, qvel = mujoco_states(model, probe, q, qd)
         fwd = backends.get("c").forward_many(model, probe, qpos, qvel)
         plain = _deviations(model, probe, ref, q, qd, _measure(model, probe, ref.dynamics, q, qd, states=None,
                                                                fwd=None, offset=0), "c")[0]

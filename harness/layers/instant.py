@@ -125,6 +125,19 @@ def pull_back(dof: np.ndarray, mass: np.ndarray, qacc: np.ndarray) -> np.ndarray
     return np.linalg.solve(weighted @ dof, weighted @ qacc)
 
 
+def mujoco_states(model: mujoco.MjModel, probe: Probe, q: np.ndarray, qd: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """MuJoCo's coordinates (qpos, qvel) of the analytic states (rows of ``q``, ``qd``), written by the case's
+    binding: what a backend's ``forward_many`` takes."""
+    data = mujoco.MjData(model)
+    qpos, qvel = np.empty((len(q), model.nq)), np.empty((len(q), model.nv))
+    for i in range(len(q)):
+        mujoco.mj_resetData(model, data)
+        probe.binding.set_state(model, data, q[i], qd[i])
+        qpos[i], qvel[i] = data.qpos, data.qvel
+    return qpos, qvel
+
+
 @dataclass(frozen=True)
 class InstantEvaluation:
     """The instantaneous layer on the active backend.
@@ -265,12 +278,7 @@ def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
     backend = active()
     fwd, copies = None, None
     if backend.name != "c":
-        data = mujoco.MjData(model)
-        qpos, qvel = np.empty((len(q), model.nq)), np.empty((len(q), model.nv))
-        for i in range(len(q)):
-            mujoco.mj_resetData(model, data)
-            probe.binding.set_state(model, data, q[i], qd[i])
-            qpos[i], qvel[i] = data.qpos, data.qvel
+        qpos, qvel = mujoco_states(model, probe, q, qd)
         fwd = forward_many(model, probe, qpos, qvel)
         if perturbed and backend.epsilon > float(np.finfo(np.float64).eps):
             copies = [forward_many(V.roundoff_copy(model, epsilon=backend.epsilon, index=k), probe, qpos, qvel)
