@@ -388,3 +388,22 @@ def test_a_reference_the_solver_cannot_integrate_is_one_line_and_exit_2(monkeypa
     assert err == ["mjharness: error: the reference cannot be computed for this model: more than 1000000 steps "
                    "before t = 5 (reached t = 0.0123)"]
     assert not out.exists()
+
+
+def test_a_worker_killed_under_the_run_is_one_line_and_exit_2(monkeypatch, capsys, tmp_path):
+    """A worker process killed by the system (MJX's compile of every case at once ran a 23 GB machine out of
+    memory, the pool then raised BrokenProcessPool through the command): one line naming what happened and
+    the fix, exit 2 (CI counts it a failure), no report, never a traceback."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    from harness.pipeline import run as pipeline
+
+    def killed(self, case, *, edit=None):
+        raise BrokenProcessPool("A process in the process pool was terminated abruptly")
+
+    monkeypatch.setattr(pipeline.RunOptions, "run", killed)
+    out = tmp_path / "report"
+    assert main(["run", "--case", CASE, "--out", str(out), "--jobs", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "a worker process died" in err[0] and "-j 1" in err[0], err
+    assert not out.exists()

@@ -29,6 +29,7 @@ import textwrap
 import time
 import warnings
 from collections.abc import Callable, Sequence
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -818,6 +819,9 @@ def _main(args: argparse.Namespace) -> int:
     except BrokenPipeError:  # the reader went away (`| head -1`): stop quietly, as Unix tools do
         _discard_stdout()
         return EXIT_PIPE
+    except BrokenProcessPool:  # a worker killed under it (the system's out-of-memory killer, a crash)
+        print("mjharness: error: a worker process died while running the cases (killed by the system: out of "
+              "memory?); fix: fewer workers (-j 1) or fewer cases at once", file=sys.stderr)
     except SimulationDiverged as exc:
         print(f"mjharness: error: simulation diverged: {exc}", file=sys.stderr)
     except IntegrationError as exc:  # the model under test gives a reference our solver cannot integrate
