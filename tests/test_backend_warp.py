@@ -219,3 +219,21 @@ def test_warp_forward_many_dense_mass_is_the_c_engines_layout():
     c = backends.get("c").forward_many(model, probe, qpos, qvel).mass
     assert np.max(np.abs(got - c)) <= 1e-5 * np.max(np.abs(c))
     assert np.count_nonzero(np.abs(c[0] - np.diag(np.diag(c[0]))) > 1e-6)  # off-diagonal terms exist
+
+
+def test_a_tendon_equalitys_multiplier_on_warp_carries_the_probes_sign():
+    """atwood_tendon's strings are tendon equalities whose efc rows are −1 × the analytic constraint's
+    (Probe.signs): Warp's recorded multipliers take that sign as the C recorders do (they did not: the
+    strings' force figures failed at 1.0 of the force scale, every sign flipped, and no physics moved)."""
+    case = cases.get("atwood_tendon")
+    model = compile_model(case.mjcf, integrator="Euler")
+    ref = case.reference(model)
+    probe = case.probe(ref.dynamics)
+    req = Request(model, ref.q0(), ref.qd0(), 20)
+    warp = backends.get("warp").simulate_many([req], probe)[0]
+    c = c_simulate(model, probe, q0=req.q0, qd0=req.qd0, steps=req.steps)
+    assert any(probe.sign(s) < 0 for s in probe.constraints)
+    for string in probe.constraints:
+        lam_c, lam_w = np.asarray(c.multipliers[string]), np.asarray(warp.multipliers[string])
+        assert np.sign(lam_w[5:]).tolist() == np.sign(lam_c[5:]).tolist(), string
+        assert np.max(np.abs(lam_w - lam_c)) <= 0.05 * np.max(np.abs(lam_c)), string

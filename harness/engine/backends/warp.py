@@ -345,7 +345,8 @@ def _run_group(requests: Sequence[Request], wmodels: Sequence[object], probe: Pr
         run = _assemble(r.model, probe, run_states, run_fields)
         for c, (force, pos) in eqs.items():
             if c not in run.lam:  # a joint equality recovered from Warp's qfrc_constraint is kept
-                run.lam[c], run.viol[c] = force[take].copy(), pos[take].copy()
+                sign = probe.sign(c)  # a tendon whose rows are −1 × the analytic constraint's (Probe.signs)
+                run.lam[c], run.viol[c] = sign * force[take], sign * pos[take]
         run.readings = _evaluate_readings(r.model, probe, run.t, run_states[:, 1:1 + r.model.nq],
                                           run_states[:, 1 + r.model.nq:1 + r.model.nq + r.model.nv], run_fields)
         traj = _trajectory(r.model, probe, run)
