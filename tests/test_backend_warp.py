@@ -9,6 +9,7 @@ step on CPU costs tens of milliseconds whatever the number of worlds.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import subprocess
@@ -237,3 +238,22 @@ def test_a_tendon_equalitys_multiplier_on_warp_carries_the_probes_sign():
         lam_c, lam_w = np.asarray(c.multipliers[string]), np.asarray(warp.multipliers[string])
         assert np.sign(lam_w[5:]).tolist() == np.sign(lam_c[5:]).tolist(), string
         assert np.max(np.abs(lam_w - lam_c)) <= 0.05 * np.max(np.abs(lam_c)), string
+
+
+def test_an_accelerated_backends_cases_each_run_in_a_process_of_their_own():
+    """Several cases on an accelerated backend run each in a fresh worker process (harness.pipeline.matrix
+    ._run_isolated): XLA's compiles of every case in one process ran it out of memory (MJX, fifteen cases), so
+    the parent never imports the backend — checked here: after two Warp cases, mujoco_warp is not in the
+    parent's modules — and the results are all there, in order."""
+    code = ("import sys, json\n"
+            "from harness import cases\n"
+            "from harness.pipeline.matrix import run_all\n"
+            "from harness.pipeline.run import RunOptions\n"
+            "results, checks, _ = run_all([cases.get('pendulum'), cases.get('spring')], None,\n"
+            "                             RunOptions(backend='warp', horizon=0.01), jobs=1)\n"
+            "print(json.dumps([[r.case.name for r in results], 'mujoco_warp' in sys.modules,\n"
+            "                  all(c.passed or c.note for cs in checks.values() for c in cs)]))\n")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert out.returncode == 0, out.stderr[-2000:]
+    names, imported, passed = json.loads(out.stdout.strip().splitlines()[-1])
+    assert names == ["pendulum", "spring"] and not imported and passed

@@ -235,6 +235,8 @@ def test_c_forward_many_carried_into_the_layer_changes_no_number():
     is exact: with the C backend's own forward_many carried, every figure is bit for bit the C path's."""
     from harness.layers.instant import _deviations, _measure, mujoco_states, sample_states
     for name in ("welded_pendulum", "slider_crank", "double_pendulum"):
+        if name in cases.unavailable():  # an older MuJoCo (the connect/weld loops need 3.7.0)
+            continue
         _, model, ref, probe = _setup(name)
         q, qd = sample_states(ref)
         qpos, qvel = mujoco_states(model, probe, q, qd)

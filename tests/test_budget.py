@@ -244,9 +244,11 @@ def test_a_roundoff_copy_moves_each_mass_by_one_ulp_and_the_motion_by_no_more_th
     the same index, different between copies); the motion then moves by O(ε) only — the copies measure round-off,
     not another physics. Checked on the C engine in float64 at the case's initial state and a state moved off
     it (0.3 in every coordinate and velocity: constraints violated, the contact pressed), with float32's ε:
-    |Δqacc| ≤ 8 ε × max|qacc| (measured at most 1.0 ε: hoop_ramp_contact, spring)."""
+    |Δqacc| ≤ 8 ε × max|qacc| (measured at most 1.0 ε on MuJoCo 4.0.0 and 3.3.0)."""
     from harness.core.budget import PERTURBED_RUNS
 
+    if name in cases.unavailable():  # an older MuJoCo: the case is n/a there, with its measured reason
+        pytest.skip(cases.unavailable()[name])
     case = cases.get(name)
     model = compile_model(case.mjcf)
     eps = float(np.finfo(np.float32).eps)

@@ -55,7 +55,9 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
     check_config(limits.overrides, cases.all_cases(), source=repr(str(config_path)))  # the cases not run too
     workers = min(jobs or cpus(), len(selected))
     bar = progress(selected, "mjharness")
-    if workers <= 1 or options.mjcf is not None:
+    if options.backend != "c" and len(selected) > 1 and options.mjcf is None:
+        results = _run_isolated(selected, bar, figures_only=figures_only, options=options)
+    elif workers <= 1 or options.mjcf is not None:
         results = []
         for case in bar:
             bar.set_postfix_str(case.name)
@@ -135,6 +137,27 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_
                     raise error
                 next_in_order += 1
     return [dataclasses.replace(outcomes[i][0], case=case) for i, case in enumerate(selected)]
+
+
+def _run_isolated(selected: Sequence[cases.Case], bar, *, figures_only: bool, options: RunOptions
+                  ) -> list[CaseResult]:
+    """An accelerated backend's cases, each in a fresh worker process of its own, one at a time, from this
+    process (which imports neither JAX nor Warp: neither survives a fork). XLA's CPU compiles of every case
+    in one process ran it out of memory (MJX over the fifteen cases, one process or two workers: "LLVM
+    compilation error: Cannot allocate memory" after about 11 minutes, then a segfault; each case in its own
+    process peaks at 1-2.3 GB), so a process compiles one case's functions and ends."""
+    results = []
+    for case in selected:
+        bar.set_postfix_str(case.name)
+        with fork_pool(1) as pool:
+            done, seeds = pool.submit(_run_group, [case.name], figures_only, options).result()
+        refmod.import_solutions(seeds)
+        result, error = done[0]
+        if error is not None:
+            raise error
+        results.append(dataclasses.replace(result, case=case))
+        bar.update(1)
+    return results
 
 
 def _run_backend(names: Sequence[str], config_path: Path | None, options: RunOptions
