@@ -257,3 +257,24 @@ def test_an_accelerated_backends_cases_each_run_in_a_process_of_their_own():
     assert out.returncode == 0, out.stderr[-2000:]
     names, imported, passed = json.loads(out.stdout.strip().splitlines()[-1])
     assert names == ["pendulum", "spring"] and not imported and passed
+
+
+@pytest.mark.slow
+def test_run_shows_the_c_engine_and_warp_side_by_side(tmp_path):
+    """``mjharness run --backend c,warp``: one report, C's as the first backend's, and the section with every
+    gated figure of each case on both backends, an error-vs-time plot per case and the findings; symmetric_top
+    is there because its system holds a closure, which once broke the return from Warp's process."""
+    out = subprocess.run([sys.executable, "-m", "harness", "run", "pendulum", "symmetric_top", "--backend", "c,warp",
+                          "--horizon", "0.02", "--integrators", "RK4", "--no-studies", "--jobs", "1", "--quiet",
+                          "--out", str(tmp_path / "r")], cwd=ROOT, capture_output=True, text=True, timeout=1200)
+    assert out.returncode in (0, 1), out.stderr[-2000:]
+    assert "Traceback" not in out.stderr
+    page = (tmp_path / "r" / "report.html").read_text()
+    assert "Backends side by side" in page and "<th>c</th><th>warp</th>" in page
+    for case in ("pendulum", "symmetric_top"):
+        assert f"<h3>{case}</h3><img alt='{case} error vs time per backend'" in page
+    doc = json.loads((tmp_path / "r" / "report.json").read_text())
+    side = doc["backends"]
+    assert [(b["name"], sorted(b["checks"])) for b in side["backends"]] == [
+        ("c", ["pendulum", "symmetric_top"]), ("warp", ["pendulum", "symmetric_top"])]
+    assert side["backends"][0]["checks"]["pendulum"].keys() == side["backends"][1]["checks"]["pendulum"].keys()

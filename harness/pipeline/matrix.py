@@ -162,8 +162,10 @@ def _run_isolated(selected: Sequence[cases.Case], bar, *, figures_only: bool, op
 
 def _run_backend(names: Sequence[str], config_path: Path | None, options: RunOptions
                  ) -> tuple[list[CaseResult], dict[str, list[Check]]]:
+    """run_all in a backend's own process; its results go back to the parent without their case (a case's
+    system may hold closures, which do not pickle: symmetric_top's axial momentum), reattached there."""
     results, checks, _ = run_all([cases.get(n) for n in names], config_path, options, jobs=1)
-    return results, checks
+    return [dataclasses.replace(r, case=None) for r in results], checks
 
 
 def run_backends(selected: Sequence[cases.Case], config_path: Path | None, options: RunOptions,
@@ -176,5 +178,5 @@ def run_backends(selected: Sequence[cases.Case], config_path: Path | None, optio
         with fork_pool(1) as pool:
             results, checks = pool.submit(_run_backend, [c.name for c in selected], config_path,
                                           dataclasses.replace(options, backend=name)).result()
-        out.append((name, results, checks))
+        out.append((name, [dataclasses.replace(r, case=c) for r, c in zip(results, selected, strict=True)], checks))
     return out
