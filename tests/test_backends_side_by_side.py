@@ -77,7 +77,8 @@ def test_the_section_shows_every_figure_per_backend_a_plot_per_case_and_the_find
         assert f"<h3>{case}</h3><img alt='{case} error vs time per backend'" in page
         for k in checks:
             assert f"<tr><td>{k.name}</td>" in page
-    assert page.count(" FAIL</td>") == 1
+    failing_on_c = sum(not k.passed and not k.note for ks in c_run.checks.values() for k in ks)  # 3.3.0's RK4 defect
+    assert page.count(" FAIL</td>") == 2 * failing_on_c + 1
     assert f"warp: pendulum {figure} measured" in page and "(C engine: pass)" in page
     doc = json.loads(json.dumps(side_by_side_json([c_run, warp])))
     assert [b["name"] for b in doc["backends"]] == ["c", "warp"]
