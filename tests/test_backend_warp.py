@@ -278,3 +278,13 @@ def test_run_shows_the_c_engine_and_warp_side_by_side(tmp_path):
     assert [(b["name"], sorted(b["checks"])) for b in side["backends"]] == [
         ("c", ["pendulum", "symmetric_top"]), ("warp", ["pendulum", "symmetric_top"])]
     assert side["backends"][0]["checks"]["pendulum"].keys() == side["backends"][1]["checks"]["pendulum"].keys()
+
+
+@pytest.mark.slow
+def test_warp_solver_stops_are_explained_and_a_finding_stays():
+    """MuJoCo Warp (float32, a fresh process): :func:`tests.test_backends.check_solver_stops`."""
+    from tests.test_backends import _STOPS, check_solver_stops
+    out = subprocess.run([sys.executable, "-c", _STOPS.replace("BACKEND", "'warp'")], cwd=ROOT, capture_output=True,
+                         text=True, timeout=1800)
+    assert out.returncode == 0, out.stderr[-2000:]
+    check_solver_stops(json.loads(out.stdout.strip().splitlines()[-1]))

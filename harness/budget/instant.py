@@ -66,14 +66,18 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
                     eps_factor: float = 2.0, solver_tolerance: float = 0.0, notes: Sequence[str] = (),
                     perturbed: Sequence[Sequence[Deviation]] = (),
                     represented: Mapping[FigureName, float] | None = None,
-                    epsilon: float = float(np.finfo(np.float32).eps)) -> dict[FigureName, Budget]:
+                    epsilon: float = float(np.finfo(np.float32).eps),
+                    completed: Sequence[Deviation] | None = None) -> dict[FigureName, Budget]:
     """Every instantaneous figure's budget from the model's deviations at the sampled states (A) and,
     where they apply, the model's with every ε × s, s² (``softness``, s = ``eps_factor``) and with
     heavier floors (D) at the same states. ``converged``: A with the constraints solved exactly, where
-    the model's own solver does not converge (the other evaluations are then made that way too)."""
+    the model's own solver does not converge (the other evaluations are then made that way too).
+    ``completed``: on a float32 backend, A with the backend's stopped solve completed in float64
+    (:mod:`harness.engine.completion`; the other evaluations are then passed completed too)."""
     levels = [{d.name: d.values for d in group} for group in softness]
     floors = {d.name: d.values for d in heavier or ()}
     exact = {d.name: d.values for d in converged or ()}
+    stopped = {d.name: d.values for d in completed or ()}
     noise = (gain(len(levels) + 1, eps_factor) if levels else 1.0) + (2.0 if floors else 0.0) \
         + (2.0 if exact else 0.0)
     copies: dict[FigureName, list[np.ndarray]] = {}
@@ -87,6 +91,9 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
         if dev.name in exact:
             a = exact[dev.name]
             parts["solver"] = dev.values - a
+        elif dev.name in stopped:
+            a = stopped[dev.name]
+            parts["stop"] = dev.values - a
         softness_unc = None
         if levels:
             ideal_eps, uncertainty = to_zero([a, *(level[dev.name] for level in levels)], eps_factor)
@@ -104,6 +111,7 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
                      else softness_unc,
                      "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),
                      "solver": SOLVER_PART_UNCERTAINTY * explained.get("solver", 0.0),
+                     "stop": SOLVER_PART_UNCERTAINTY * explained.get("stop", 0.0),
                      "roundoff": roundoff,
                      "convergence": noise * SOLVER * solver_tolerance * dev.size}
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),

@@ -36,7 +36,7 @@ from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
 from harness.engine.simulate import simulate as c_simulate
-from harness.layers.instant import instant_deviations
+from harness.layers.instant import instant_evaluation
 from harness.layers.trajectory import deviations
 from harness.reference.solutions import Reference
 
@@ -81,18 +81,23 @@ class Settings:
 def instant_budget(mut: ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref: Reference,
                    as_is: Sequence[Deviation], *, integrator: str | None = None,
                    perturbed: Sequence[Sequence[Deviation]] = (),
-                   represented: Mapping[FigureName, float] | None = None) -> dict[FigureName, Budget]:
+                   represented: Mapping[FigureName, float] | None = None,
+                   completed: Sequence[Deviation] | None = None, completion_note: str = ""
+                   ) -> dict[FigureName, Budget]:
     """The instantaneous figures' budgets: ``as_is`` (the deviations of ``model``, compiled from ``mut``
     with ``integrator``) beside the same states on the variants: softer, heavier floors, and with the
     constraints solved exactly where the model's own solver does not converge; every evaluation on the
     active backend. ``perturbed``: on a float32 backend, ``as_is`` at the states' one-ulp copies
     (:attr:`harness.layers.instant.InstantEvaluation.perturbed`), whose spread is the round-off part, and
-    ``represented`` the figures' shift with the model's constants in float32 (``InstantEvaluation.represented``)."""
+    ``represented`` the figures' shift with the model's constants in float32 (``InstantEvaluation.represented``),
+    and ``completed`` ``as_is`` with the backend's stopped solve completed (``InstantEvaluation.completed``); the
+    variants are then taken completed too, so their differences are the settings', not where each stop fell."""
     settings = Settings.of(model, ref.scales)
     exact = V.exact_solver(model)
 
     def evaluate(variant: V.SpecEdit | None) -> list[Deviation]:
-        return instant_deviations(mut.compile(integrator=integrator, variant=V.compose(exact, variant)), probe, ref)
+        got = instant_evaluation(mut.compile(integrator=integrator, variant=V.compose(exact, variant)), probe, ref)
+        return got.completed if got.completed is not None else got.deviations
 
     eps_factor = V.softness_factor(model)
     levels = (eps_factor, eps_factor**2) if eps_factor < 1 else (eps_factor,)
@@ -101,8 +106,9 @@ def instant_budget(mut: ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref
     converged = evaluate(None) if exact is not None else None
     return instant_budgets(as_is, softness=softness, heavier=heavier, converged=converged, eps_factor=eps_factor,
                            solver_tolerance=V.CONVERGED_TOLERANCE if exact is not None else settings.solver_tolerance,
-                           notes=settings.notes, perturbed=perturbed,
-                           represented=represented, epsilon=active().epsilon)
+                           notes=(*settings.notes, *((completion_note,) if completion_note else ())),
+                           perturbed=perturbed, represented=represented, epsilon=active().epsilon,
+                           completed=completed)
 
 
 @dataclass(frozen=True)
@@ -122,6 +128,13 @@ class TrajectoryRuns:
 def _deviations(target: TrajectoryRuns, sim: Trajectory, prefix: str) -> list[Deviation]:
     return deviations(target.reference, sim, target.scales, prefix=prefix, settle=target.settle,
                       series=target.series)
+
+
+def _completed(sim: Trajectory) -> Trajectory:
+    """A variant run as the budget compares it: with its stopped solves completed where the backend's were
+    (:attr:`harness.core.trajectory.Trajectory.completed`), so that two runs differ by their settings, not by
+    where each run's float32 solver stopped."""
+    return sim if sim.completed is None else sim.completed
 
 
 def _variant_request(mut: ModelUnderTest, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int,
@@ -151,7 +164,8 @@ def _variant_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, mod
                                  perturb=v[3] if len(v) > 3 else 0) for v in variants]
     sims = simulate_many(requests, probe)
     name = integrator_name(model)
-    return [_deviations(target, every_nth(sim, v[0]), name) for sim, v in zip(sims, variants, strict=True)]
+    return [_deviations(target, every_nth(_completed(sim) if len(v) < 4 or not v[3] else sim, v[0]), name)
+            for sim, v in zip(sims, variants, strict=True)]
 
 
 def _variant_run(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, model: mujoco.MjModel, *, steps: int,
@@ -173,8 +187,8 @@ def _floors(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, sims: Map
                        probe, q0=target.q0, qd0=target.qd0, steps=steps)
     base = sims[name] if exact is None else simulate(mut.compile(integrator=name, variant=exact), probe,
                                                      q0=target.q0, qd0=target.qd0, steps=steps)
-    as_is = {d.name.measure: d.values for d in _deviations(target, base, name)}
-    return {d.name.measure: d.values - as_is[d.name.measure] for d in _deviations(target, heavier, name)}
+    as_is = {d.name.measure: d.values for d in _deviations(target, _completed(base), name)}
+    return {d.name.measure: d.values - as_is[d.name.measure] for d in _deviations(target, _completed(heavier), name)}
 
 
 def _integrator_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, sim: Trajectory, name: str, *,
@@ -218,6 +232,7 @@ def _integrator_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, 
         slower=tuple(done[f"slower{k}"] for k in range(1 + len(levels))) if settings.contacts else (),
         floors=floors,
         perturbed=tuple(done[f"perturbed{k}"] for k in range(1, PERTURBED_RUNS + 1)) if float32 else (),
+        completed=None if sim.completed is None else _deviations(target, sim.completed, name),
         represented=represented,
         quantized=quantized,
         eps_factor=eps, tc_factor=slow,
@@ -314,7 +329,7 @@ def _renamed(runs: Runs, integrator: str, as_is: Sequence[Deviation]) -> Runs:
                                softness=tuple(devs(r) for r in runs.softness),
                                softness_half_step=devs(runs.softness_half_step),
                                slower=tuple(devs(r) for r in runs.slower),
-                               perturbed=tuple(devs(r) for r in runs.perturbed))
+                               perturbed=tuple(devs(r) for r in runs.perturbed), completed=devs(runs.completed))
 
 
 TWIN_TOLERANCE = 1e-9

@@ -153,6 +153,9 @@ class Runs:
         quantized: on a float32 backend, each figure's response (by measure) to the initial state moved by
             half an ulp, on the C engine (:func:`harness.budget.measure._quantized`): × :data:`QUANTIZATION`,
             the state's own quantization.
+        completed: on a float32 backend with constraints, A with each sample's stopped solve completed in
+            float64 (:attr:`harness.core.trajectory.Trajectory.completed`); every other run is then taken
+            completed too, and A − completed is the ``stop`` part.
         eps_factor, tc_factor: s and r.
     """
 
@@ -169,6 +172,7 @@ class Runs:
     quantized: Mapping[str, float] = field(default_factory=dict)
     eps_factor: float = 2.0
     tc_factor: float = 1.5
+    completed: Sequence[Deviation] | None = None
 
 
 def every_nth(sim: Trajectory, n: int) -> Trajectory:
@@ -183,7 +187,7 @@ def every_nth(sim: Trajectory, n: int) -> Trajectory:
                       multipliers=take(sim.multipliers),
                       generalized_force=None if sim.generalized_force is None else sim.generalized_force[::n],
                       invariants=take(sim.invariants), violations=take(sim.violations), source=sim.source,
-                      series=take(sim.series))
+                      series=take(sim.series), completed=None if sim.completed is None else every_nth(sim.completed, n))
 
 
 def past_asymptotic(as_is: Sequence[Deviation], half_step: Sequence[Deviation], order: float) -> bool:
@@ -219,6 +223,9 @@ def parts(runs: Runs, dev: Deviation, *, order: float) -> Parts:
     if runs.converged is not None:  # the other runs solve their constraints exactly; so does this one
         a = _by_name(runs.converged)[dev.name]
         explained["solver"] = dev.values - a
+    elif runs.completed is not None:  # the other runs are taken completed; so is this one
+        a = _by_name(runs.completed)[dev.name]
+        explained["stop"] = dev.values - a
     b = _by_name(runs.half_step)[dev.name]
     explained["integration"] = kappa * (a - b)
     integration_unc = None
@@ -341,6 +348,7 @@ def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_toleran
         tolerance = {"integration": integration,
                      "softness": softness,
                      "solver": SOLVER_PART_UNCERTAINTY * explained.get("solver", 0.0),
+                     "stop": SOLVER_PART_UNCERTAINTY * explained.get("stop", 0.0),
                      "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),
                      "roundoff": (gain * PERTURBED_FACTOR * math.sqrt(longest) * spread[dev.name]
                                   + gain * QUANTIZATION * runs.quantized.get(dev.name.measure, 0.0)

@@ -31,6 +31,9 @@ class Trajectory:
         series: one producer's own series with no counterpart on the other
             side (a contact's slip velocity), by name, (N,).
         source: who produced it ("reference" or "mujoco:RK4", ...).
+        completed: on a float32 backend, the same run with each sample's stopped constraint solve completed
+            in float64 (:mod:`harness.engine.completion`): the equalities' multipliers and the generalized
+            force as the solve would have left them, everything else as run; None elsewhere.
     """
 
     t: np.ndarray
@@ -42,6 +45,7 @@ class Trajectory:
     violations: Mapping[str, np.ndarray] = field(default_factory=dict)
     source: str = ""
     series: Mapping[str, np.ndarray] = field(default_factory=dict)
+    completed: Trajectory | None = None
 
     def __post_init__(self) -> None:
         n = len(self.t)

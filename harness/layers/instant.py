@@ -59,6 +59,7 @@ from harness.engine import variants as V
 from harness.engine.backends import Forward, active, computes_reactions, forward_many
 from harness.engine.bindings import velocity_map
 from harness.engine.compat import JAC_DOT_DEFECT, full_mass_matrix, jac_dot, jac_dot_missing
+from harness.engine.completion import completed_forward
 from harness.engine.constraints import equality_block, equality_jacobian, equality_rows
 from harness.engine.points import point_jacobian, point_source
 from harness.engine.probe import Probe
@@ -157,12 +158,19 @@ class InstantEvaluation:
             (m₁ − m₂)g), and the soft constraints' response to the state's own rounding (a coordinate held by
             an equality, off by half an ulp); empty on a float64 backend.
         unavailable: figures the backend's arrays cannot give at these states, each with the one-line reason.
+        completed: on a float32 backend, the figures with the backend's stopped constraint solve completed in
+            float64 at every state where the stop is its precision's (:mod:`harness.engine.completion`): the
+            difference from ``deviations`` is what the solver's stop left in each figure; None on a float64
+            backend.
+        completion_note: where the completion was not applied, one line; else "".
     """
 
     deviations: list[Deviation]
     perturbed: tuple[list[Deviation], ...] = ()
     represented: dict[FigureName, float] = field(default_factory=dict)
     unavailable: dict[str, str] = field(default_factory=dict)
+    completed: list[Deviation] | None = None
+    completion_note: str = ""
 
 
 def _rows_of(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe) -> bool:
@@ -285,6 +293,13 @@ def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
                       for k in range(1, PERTURBED_RUNS + 1)]
     measured = _measure(model, probe, dyn, q, qd, states=None, fwd=fwd, offset=0)
     deviations, unavailable = _deviations(model, probe, ref, q, qd, measured, backend.name)
+    completed, completion_note = None, ""
+    if fwd is not None and backend.epsilon > float(np.finfo(np.float64).eps):
+        completion = completed_forward(model, fwd, backend.epsilon,
+                                       lambda data, k: probe.binding.set_state(model, data, q[k], qd[k]))
+        again = _measure(model, probe, dyn, q, qd, states=None, fwd=completion.forward, offset=0)
+        completed = _deviations(model, probe, ref, q, qd, again, backend.name)[0]
+        completion_note = completion.note()
     others, represented = [], {}
     if copies is not None:
         as_c = _deviations(model, probe, ref, q, qd, _measure(model, probe, dyn, q, qd, states=None, fwd=None,
@@ -302,7 +317,7 @@ def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
             others.append([d for d in _deviations(model, probe, ref, q, qd, again, backend.name)[0]
                            if d.name != FigureName.instant("kinematics")])
     return InstantEvaluation(deviations=deviations, perturbed=tuple(others), represented=represented,
-                             unavailable=unavailable)
+                             unavailable=unavailable, completed=completed, completion_note=completion_note)
 
 
 def _deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarray, qd: np.ndarray, measured,

@@ -275,7 +275,8 @@ def _run_case(
     as_is = instant.deviations
     figures += [d.figure() for d in as_is]
     budgets |= instant_budget(mut, instant_model, probe, ref, as_is, integrator=instant_integrator,
-                              perturbed=instant.perturbed, represented=instant.represented)
+                              perturbed=instant.perturbed, represented=instant.represented,
+                              completed=instant.completed, completion_note=instant.completion_note)
     findings = tuple(engine_findings(instant_model, probe, ref))
     timings["instant"] = time.perf_counter() - clock
 

@@ -69,6 +69,7 @@ import numpy as np
 from harness.core.errors import BackendUnavailable, SimulationDiverged
 from harness.core.trajectory import Trajectory
 from harness.engine.backends import Forward, Request, computes_reactions
+from harness.engine.completion import completed_run
 from harness.engine.integrators import integrator_name
 from harness.engine.points import point_source
 from harness.engine.probe import Probe
@@ -193,6 +194,12 @@ class MjxBackend:
             records = self._run_group([requests[i] for i in indices], puts, probe)
             for i, rec in zip(indices, records, strict=True):
                 out[i] = _trajectory(requests[i], probe, rec)
+                if not self.x64 and probe.constraints:  # float32: the stopped solves, completed (completion.py)
+                    rows = equality_rows(requests[i].model)
+                    out[i] = completed_run(requests[i].model, probe, out[i], qpos=rec["qpos"], qvel=rec["qvel"],
+                                           fields={**rec, "mass": rec["qM"]},
+                                           equality={c: rec["efc_force"][:, rows[c]] for c in probe.constraints},
+                                           epsilon=self.epsilon)
         return out  # type: ignore[return-value]
 
     def forward_many(self, model: mujoco.MjModel, probe: Probe, qpos: np.ndarray, qvel: np.ndarray) -> Forward:
@@ -295,7 +302,8 @@ def _wanted_fields(model: mujoco.MjModel, probe: Probe) -> tuple[str, ...]:
     positions = [point_source(model, p).field for p in probe.points]
     return tuple(dict.fromkeys(["qpos", "qvel", "qfrc_constraint", "xipos", "qM", *positions,
                                 *(("subtree_com", "cdof") if probe.points else ()),
-                                *(("efc_force", "efc_pos") if probe.constraints else ()),
+                                *(("efc_force", "efc_pos", "qacc", "qfrc_bias", "qfrc_passive")
+                                  if probe.constraints else ()),
                                 *fields_of(probe.readings())]))
 
 

@@ -55,6 +55,7 @@ from harness.core.cache import cache_dir
 from harness.core.errors import BackendUnavailable, SimulationDiverged
 from harness.core.trajectory import Trajectory
 from harness.engine.backends import Forward, Request, computes_reactions
+from harness.engine.completion import completed_run
 from harness.engine.constraints import equality_size
 from harness.engine.integrators import integrator_name
 from harness.engine.probe import Probe
@@ -71,6 +72,9 @@ if _root is not None:
 import mujoco_warp as mjw  # noqa: E402  (after Warp's configuration above)
 
 _STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION)
+COMPLETION_FIELDS = ("qacc", "qfrc_bias", "qfrc_passive", "qfrc_constraint", "M")
+"""Recorded beside a constrained run's fields: what :func:`harness.engine.completion.completed_run` reads."""
+
 ADAPTED_FLAGS: dict[str, str] = {
     "mjENBL_DIAGEXACT": ("diagexact: MuJoCo Warp lacks it; constraint regularisers use MuJoCo's diagonal "
                          "approximation, and the softness part of the budget is measured on Warp's own runs"),
@@ -326,7 +330,9 @@ def _run_group(requests: Sequence[Request], wmodels: Sequence[object], probe: Pr
         if bad.any():
             k = int(np.argmax(bad))
             raise SimulationDiverged("non-finite state on MuJoCo Warp", float(states[max(k - 1, 0), g, 0]))
-    wanted = recorded_fields(model, probe)
+    # with constraints, also what completing each sample's stopped solve needs (harness/engine/completion.py)
+    wanted = tuple(dict.fromkeys((*recorded_fields(model, probe),
+                                  *(COMPLETION_FIELDS if probe.constraints else ()))))
     for f in wanted:
         if not hasattr(mjw.Data, "__dataclass_fields__") or f not in {x.name for x in dataclasses.fields(mjw.Data)}:
             raise BackendUnavailable(f"backend 'warp' does not compute the field {f!r} this case reads; "
@@ -349,8 +355,15 @@ def _run_group(requests: Sequence[Request], wmodels: Sequence[object], probe: Pr
                 run.lam[c], run.viol[c] = sign * force[take], sign * pos[take]
         run.readings = _evaluate_readings(r.model, probe, run.t, run_states[:, 1:1 + r.model.nq],
                                           run_states[:, 1 + r.model.nq:1 + r.model.nq + r.model.nv], run_fields)
-        traj = _trajectory(r.model, probe, run)
-        out.append(dataclasses.replace(traj, source=f"warp:{integrator_name(r.model)}"))
+        traj = dataclasses.replace(_trajectory(r.model, probe, run), source=f"warp:{integrator_name(r.model)}")
+        if probe.constraints:
+            nq, nv = r.model.nq, r.model.nv
+            traj = completed_run(r.model, probe, traj, qpos=run_states[:, 1:1 + nq],
+                                 qvel=run_states[:, 1 + nq:1 + nq + nv],
+                                 fields={**run_fields, "mass": dense_mass(model, run_fields["M"])},
+                                 equality={c: force[take] for c, (force, _) in eqs.items()},
+                                 epsilon=WarpBackend.epsilon)
+        out.append(traj)
     return out
 
 
