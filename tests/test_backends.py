@@ -465,12 +465,14 @@ _STOPS = (
     "print(json.dumps(out))\n")
 
 
-def check_solver_stops(found: dict, *, trajectories: bool = True) -> None:
+def check_solver_stops(found: dict, *, stop_in_trajectories: bool) -> None:
     """What completing a float32 backend's stopped solves must show (harness/engine/completion.py): the
     figures whose error is the stop — hoop_ramp_contact's hub force (a joint that carries nothing reads the
     solver's residual), welded_pendulum's top torque, hoop_ramp's RK4 contact forces — pass, the stop the
     bulk of what was measured where it is large; and a finding the stop does not explain stays:
-    welded_pendulum's qacc (the backend's missing J̇v in a weld's a_ref: balanced forces, no residual)."""
+    welded_pendulum's qacc (the backend's missing J̇v in a weld's a_ref: balanced forces, no residual).
+    ``stop_in_trajectories``: hoop_ramp's forces are the stop's too (MJX: 1.8e-3 of the normal force; on Warp
+    they are 9e-5, the stop 5e-6 of it, and only pass)."""
     hub = found["hoop_ramp_contact:instant.sensor.hub_force"]
     assert hub["passed"], hub
     assert hub["stop"] >= 0.9 * hub["measured"], hub
@@ -478,11 +480,10 @@ def check_solver_stops(found: dict, *, trajectories: bool = True) -> None:
     assert top["passed"], top
     assert top["stop"] >= 0.5 * top["measured"], top
     assert not found["welded_pendulum:instant.qacc"]["passed"], found["welded_pendulum:instant.qacc"]
-    if trajectories:
-        for figure in ("RK4.force.normal", "RK4.force.roll"):
-            got = found[f"hoop_ramp:{figure}"]
-            assert got["passed"], (figure, got)
-            assert got["stop"] >= 0.5 * got["measured"], (figure, got)
+    for figure in ("RK4.force.normal", "RK4.force.roll"):
+        got = found[f"hoop_ramp:{figure}"]
+        assert got["passed"], (figure, got)
+        assert not stop_in_trajectories or got["stop"] >= 0.5 * got["measured"], (figure, got)
 
 
 @pytest.mark.slow
@@ -490,4 +491,4 @@ def test_mjx_float32_solver_stops_are_explained_and_a_finding_stays():
     """MJX in float32 (a fresh process): :func:`check_solver_stops`."""
     pytest.importorskip("jax")
     pytest.importorskip("mujoco.mjx")
-    check_solver_stops(_in_float32(_STOPS.replace("BACKEND", "'mjx'")))
+    check_solver_stops(_in_float32(_STOPS.replace("BACKEND", "'mjx'")), stop_in_trajectories=True)
