@@ -20,6 +20,7 @@ from harness.budget.instant import instant_budgets
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.engine.backends import Forward, forward_many, use
+from harness.engine.compat import set_damping
 from harness.engine.completion import completed_forward, resolution
 from harness.engine.constraints import equality_rows
 from harness.engine.models import compile_model
@@ -29,7 +30,10 @@ EPS32 = float(np.finfo(np.float32).eps)
 
 
 def _states(name: str, count: int = 6):
-    case = cases.get(name)
+    try:
+        case = cases.get(name)
+    except ValueError as exc:  # welded_pendulum needs MuJoCo >= 3.7.0 (J̇v in the weld's bias)
+        pytest.skip(str(exc))
     model = compile_model(case.mjcf)
     ref = case.reference(model)
     probe = case.probe(ref.dynamics)
@@ -107,7 +111,7 @@ def test_a_stop_within_float32s_resolution_is_completed_to_the_solution(name):
 def test_a_stop_beyond_float32s_resolution_keeps_the_backends_numbers():
     """A solve that stopped with more left than float32 can resolve is not the precision's: those states
     keep the backend's numbers (and the figure stays unexplained), with a note saying so."""
-    model, probe, qpos, qvel, exact = _states("welded_pendulum")
+    model, probe, qpos, qvel, exact = _states("pendulum")
     stopped = _stopped(model, qpos, qvel, exact, probe, fraction=10.0)
     done = _complete(model, qpos, qvel, stopped)
     assert done.kept.all()
@@ -120,7 +124,7 @@ def test_balanced_but_wrong_forces_are_left_alone():
     pendulum (a fault: damping the analytic system lacks) is balanced, so it comes back unchanged."""
     _, probe, qpos, qvel, _ = _states("pendulum")
     faulty = compile_model(cases.get("pendulum").mjcf,
-                           edit=lambda spec: setattr(spec.joint("theta"), "damping", [1e-3, 0, 0]))
+                           edit=lambda spec: set_damping(spec.joint("theta"), 1e-3))
     with use("c"):
         wrong = forward_many(faulty, probe, qpos, qvel)
     done = _complete(faulty, qpos, qvel, wrong)
