@@ -466,7 +466,7 @@ _STOPS = (
 
 
 def check_solver_stops(found: dict, *, stop_in_trajectories: bool) -> None:
-    """What completing a float32 backend's stopped solves must show (harness/engine/completion.py): the
+    """What completing a float32 backend's stopped solves must show (harness/engine/backends/completion.py): the
     figures whose error is the stop — hoop_ramp_contact's hub force (a joint that carries nothing reads the
     solver's residual), welded_pendulum's top torque, hoop_ramp's RK4 contact forces — pass, the stop the
     bulk of what was measured where it is large; and a finding the stop does not explain stays:

@@ -1,4 +1,4 @@
-"""The completion of a float32 backend's stopped constraint solve (harness/engine/completion.py).
+"""The completion of a float32 backend's stopped constraint solve (harness/engine/backends/completion.py).
 
 A stopped solve is made here on the C engine in float64, where the answer is known: from MuJoCo's own
 solution (a*, f*) at a sampled state, the iterate a = a* + δa that a primal solver would hold, with its
@@ -20,8 +20,8 @@ from harness.budget.instant import instant_budgets
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.engine.backends import Forward, forward_many, use
+from harness.engine.backends.completion import completed_forward, resolution
 from harness.engine.compat import set_damping
-from harness.engine.completion import completed_forward, resolution
 from harness.engine.constraints import equality_rows
 from harness.engine.models import compile_model
 from harness.layers.instant import mujoco_states, sample_states

@@ -73,7 +73,7 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
     heavier floors (D) at the same states. ``converged``: A with the constraints solved exactly, where
     the model's own solver does not converge (the other evaluations are then made that way too).
     ``completed``: on a float32 backend, A with the backend's stopped solve completed in float64
-    (:mod:`harness.engine.completion`; the other evaluations are then passed completed too)."""
+    (:mod:`harness.engine.backends.completion`; the other evaluations are then passed completed too)."""
     levels = [{d.name: d.values for d in group} for group in softness]
     floors = {d.name: d.values for d in heavier or ()}
     exact = {d.name: d.values for d in converged or ()}

@@ -32,7 +32,7 @@ class Trajectory:
             side (a contact's slip velocity), by name, (N,).
         source: who produced it ("reference" or "mujoco:RK4", ...).
         completed: on a float32 backend, the same run with each sample's stopped constraint solve completed
-            in float64 (:mod:`harness.engine.completion`): the equalities' multipliers and the generalized
+            in float64 (:mod:`harness.engine.backends.completion`): the equalities' multipliers and the generalized
             force as the solve would have left them, everything else as run; None elsewhere.
     """
 

@@ -57,9 +57,9 @@ from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
 from harness.engine import variants as V
 from harness.engine.backends import Forward, active, computes_reactions, forward_many
+from harness.engine.backends.completion import completed_forward
 from harness.engine.bindings import velocity_map
 from harness.engine.compat import JAC_DOT_DEFECT, full_mass_matrix, jac_dot, jac_dot_missing
-from harness.engine.completion import completed_forward
 from harness.engine.constraints import equality_block, equality_jacobian, equality_rows
 from harness.engine.points import point_jacobian, point_source
 from harness.engine.probe import Probe
@@ -159,7 +159,7 @@ class InstantEvaluation:
             an equality, off by half an ulp); empty on a float64 backend.
         unavailable: figures the backend's arrays cannot give at these states, each with the one-line reason.
         completed: on a float32 backend, the figures with the backend's stopped constraint solve completed in
-            float64 at every state where the stop is its precision's (:mod:`harness.engine.completion`): the
+            float64 at every state where the stop is its precision's (:mod:`harness.engine.backends.completion`): the
             difference from ``deviations`` is what the solver's stop left in each figure; None on a float64
             backend.
         completion_note: where the completion was not applied, one line; else "".

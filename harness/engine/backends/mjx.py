@@ -69,7 +69,7 @@ import numpy as np
 from harness.core.errors import BackendUnavailable, SimulationDiverged
 from harness.core.trajectory import Trajectory
 from harness.engine.backends import Forward, Request, computes_reactions
-from harness.engine.completion import completed_run
+from harness.engine.backends.completion import completed_run
 from harness.engine.integrators import integrator_name
 from harness.engine.points import point_source
 from harness.engine.probe import Probe

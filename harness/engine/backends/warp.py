@@ -55,7 +55,7 @@ from harness.core.cache import cache_dir
 from harness.core.errors import BackendUnavailable, SimulationDiverged
 from harness.core.trajectory import Trajectory
 from harness.engine.backends import Forward, Request, computes_reactions
-from harness.engine.completion import completed_run
+from harness.engine.backends.completion import completed_run
 from harness.engine.constraints import equality_size
 from harness.engine.integrators import integrator_name
 from harness.engine.probe import Probe
@@ -73,7 +73,7 @@ import mujoco_warp as mjw  # noqa: E402  (after Warp's configuration above)
 
 _STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION)
 COMPLETION_FIELDS = ("qacc", "qfrc_bias", "qfrc_passive", "qfrc_constraint", "M")
-"""Recorded beside a constrained run's fields: what :func:`harness.engine.completion.completed_run` reads."""
+"""Recorded beside a constrained run's fields: what :func:`harness.engine.backends.completion.completed_run` reads."""
 
 ADAPTED_FLAGS: dict[str, str] = {
     "mjENBL_DIAGEXACT": ("diagexact: MuJoCo Warp lacks it; constraint regularisers use MuJoCo's diagonal "
@@ -330,7 +330,7 @@ def _run_group(requests: Sequence[Request], wmodels: Sequence[object], probe: Pr
         if bad.any():
             k = int(np.argmax(bad))
             raise SimulationDiverged("non-finite state on MuJoCo Warp", float(states[max(k - 1, 0), g, 0]))
-    # with constraints, also what completing each sample's stopped solve needs (harness/engine/completion.py)
+    # with constraints, also what completing each sample's stopped solve needs (harness/engine/backends/completion.py)
     wanted = tuple(dict.fromkeys((*recorded_fields(model, probe),
                                   *(COMPLETION_FIELDS if probe.constraints else ()))))
     for f in wanted:

@@ -22,11 +22,14 @@ sample it, and at a softened budget level it lands elsewhere: extrapolating the
 levels to ε → 0 then reads the difference of two stops as softness.
 
 :func:`completed_forward` takes the step the backend's solver could not: at each
-state, with H = ∂r/∂a (M less the derivative of the constraint forces Jᵀ F,
-the C engine's ``mj_constraintUpdate`` at the model's rows, by central
-differences: F is piecewise linear in a, so exact within a piece),
+state, with H = ∂r/∂a and ∂F/∂a taken at the C engine's own solution of the same
+state (M less the derivative of the constraint forces Jᵀ F, the C engine's
+``mj_constraintUpdate`` at the model's rows, by central differences: F is smooth
+within the piece of the solution's active set, linear outside an elliptic
+cone's middle zone), so the propagator is the right piece's even where the
+backend's iterate sits across a row's switch,
 
-    δa = H⁻¹ r,   a' = a − δa,   f' = f + F(J a' − a_ref) − F(J a − a_ref),
+    δa = H⁻¹ r,   a' = a − δa,   f' = f − (∂F/∂a) δa,
 
 so that M a' + c − τ = Jᵀ f' up to float64 round-off. Only the backend's own
 residual is removed: a backend whose forces are wrong but balanced (a wrong
@@ -38,7 +41,7 @@ diagonal changes δf by O(1 − d) of itself). The reaction sensors and
 ``mj_sensorAcc`` of the change, which are affine in (a, f) at a fixed state.
 
 A state is completed only where the stop is float32's: the improvement left,
-½ rᵀH⁻¹r, at most :data:`RESOLUTION` machine epsilons of the cost at the C
+½ rᵀH⁻¹r, at most :func:`resolution` machine epsilons of the cost at the C
 engine's solution (the cost is a sum of ``nv² + nefc`` rounded terms, each off
 by up to u of itself; two such sums compared by the stop differ spuriously by up
 to 2 (nv² + nefc) u × the cost). Beyond it the solver stopped short of what its
@@ -60,8 +63,9 @@ from harness.engine.constraints import equality_rows
 from harness.engine.probe import Probe
 
 FD_STEP = 1e-6
-"""Central-difference step for H, relative to max(1, |a|): F is piecewise linear, so the difference is exact
-inside a piece, and a piece spans the distance to the nearest change of a row's state."""
+"""Central-difference step for H and ∂F/∂a, relative to max(1, |a|): F is smooth within a piece of the active
+set (linear outside an elliptic cone's middle zone), and a piece spans the distance to the nearest change of a
+row's state."""
 
 
 def resolution(nv: int, nefc: int) -> float:
@@ -96,25 +100,24 @@ class Completion:
                 "explained up to 2 (nv² + nefc)) or the completion did not converge; those states keep its numbers")
 
 
+def _jar(model: mujoco.MjModel, data: mujoco.MjData, qacc: np.ndarray) -> np.ndarray:
+    """J a − a_ref over the C engine's rows (``data`` after ``mj_forward``)."""
+    jar = np.zeros(data.nefc)
+    mujoco.mj_mulJacVec(model, data, jar, qacc)
+    return jar - data.efc_aref[:data.nefc]
+
+
 def _constraint_force(model: mujoco.MjModel, data: mujoco.MjData, qacc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(Jᵀ F(J a − a_ref), F(J a − a_ref)) of the C engine's rows at acceleration ``qacc`` (``data`` after
     ``mj_forward``; its efc_force, efc_state and qfrc_constraint are overwritten)."""
-    n = data.nefc
-    jar = np.zeros(n)
-    mujoco.mj_mulJacVec(model, data, jar, qacc)
-    jar -= data.efc_aref[:n]
-    mujoco.mj_constraintUpdate(model, data, jar, None, 0)
-    return data.qfrc_constraint.copy(), data.efc_force[:n].copy()
+    mujoco.mj_constraintUpdate(model, data, _jar(model, data, qacc), None, 0)
+    return data.qfrc_constraint.copy(), data.efc_force[:data.nefc].copy()
 
 
 def _cost(model: mujoco.MjModel, data: mujoco.MjData, mass: np.ndarray) -> float:
     """The solver's cost at the C engine's solution: ½(a − a₀)ᵀM(a − a₀) + s(J a − a_ref)."""
-    n = data.nefc
-    jar = np.zeros(n)
-    mujoco.mj_mulJacVec(model, data, jar, data.qacc)
-    jar -= data.efc_aref[:n]
     cost = np.zeros(1)
-    mujoco.mj_constraintUpdate(model, data, jar, cost, 0)
+    mujoco.mj_constraintUpdate(model, data, _jar(model, data, data.qacc), cost, 0)
     gap = data.qacc - data.qacc_smooth
     return float(0.5 * gap @ mass @ gap + cost[0])
 
