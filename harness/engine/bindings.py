@@ -21,6 +21,7 @@ from typing import Protocol
 import mujoco
 import numpy as np
 
+from analytic.tree.rotations import exp_map, mat_to_quat, quat_to_mat, right_jacobian
 from harness.core.errors import ModelMismatch
 
 ONE_DOF = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
@@ -104,3 +105,55 @@ def velocity_map(binding: Binding, model: mujoco.MjModel, q: np.ndarray, qd: np.
         raise ValueError(f"velocity_map must return shape (nv, n) = ({model.nv}, {len(q)}), got {mat.shape}")
     rate = np.imag(np.asarray(given(model, q + 1j * COMPLEX_STEP * qd))) / COMPLEX_STEP
     return mat, rate @ qd
+
+
+@dataclass(frozen=True)
+class TreeBinding:
+    """The tree reference's coordinates (:mod:`analytic.tree.model`) in MuJoCo's state: every joint of the
+    model in dof order; a hinge's or slide's coordinate is its qpos; a ball's rotation vector θ sets its
+    quaternion to R₀ Exp(θ) and its qvel to J_r(θ) θ̇ (body frame); a free joint's position is its qpos
+    and qvel (world), its rotation as a ball's. ``charts``: R₀ (w, x, y, z) by joint id."""
+
+    coordinates: tuple[str, ...]
+    charts: tuple[tuple[int, tuple[float, ...]], ...] = ()
+
+    def _chart(self, j: int) -> np.ndarray:
+        return np.array(dict(self.charts).get(j, (1.0, 0.0, 0.0, 0.0)))
+
+    def validate(self, model: mujoco.MjModel) -> None:
+        if model.nv != len(self.coordinates):
+            raise ModelMismatch(f"the model has {model.nv} degrees of freedom, its tree reference "
+                                f"{len(self.coordinates)}: it is not the model the reference was read from")
+
+    def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
+                  q: Sequence[float], qd: Sequence[float]) -> None:
+        q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
+        for j in range(model.njnt):
+            kind, adr, dof = int(model.jnt_type[j]), int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j])
+            if kind in ONE_DOF:
+                data.qpos[adr], data.qvel[dof] = q[dof], qd[dof]
+                continue
+            rot = dof if kind == mujoco.mjtJoint.mjJNT_BALL else dof + 3
+            if kind == mujoco.mjtJoint.mjJNT_FREE:
+                data.qpos[adr:adr + 3], data.qvel[dof:dof + 3] = q[dof:dof + 3], qd[dof:dof + 3]
+                adr += 3
+            theta = q[rot:rot + 3]
+            data.qpos[adr:adr + 4] = mat_to_quat(quat_to_mat(self._chart(j)) @ exp_map(theta))
+            data.qvel[rot:rot + 3] = right_jacobian(theta) @ qd[rot:rot + 3]
+
+    def dof_matrix(self, model: mujoco.MjModel) -> np.ndarray | None:
+        if all(int(t) in ONE_DOF for t in model.jnt_type):
+            return np.eye(model.nv)
+        return None
+
+    def velocity_map(self, model: mujoco.MjModel, q: np.ndarray) -> np.ndarray:
+        """B(q) with qvel = B q̇ (complex q accepted: the instant layer's Ḃ q̇ by complex step)."""
+        q = np.asarray(q)
+        out = np.eye(model.nv, dtype=np.result_type(q.dtype, float))
+        for j in range(model.njnt):
+            kind, dof = int(model.jnt_type[j]), int(model.jnt_dofadr[j])
+            if kind in ONE_DOF:
+                continue
+            rot = dof if kind == mujoco.mjtJoint.mjJNT_BALL else dof + 3
+            out[rot:rot + 3, rot:rot + 3] = right_jacobian(q[rot:rot + 3])
+        return out

@@ -1,0 +1,188 @@
+"""A kinematic tree as plain data: what the tree reference's Lagrangian is built from.
+
+Nothing here knows MuJoCo: the description is read from a compiled model on
+the harness side (:mod:`harness.reference.tree`) and could as well come from a
+URDF. Frames follow MuJoCo's compiled model: each body's frame is placed in
+its parent's by (``pos``, ``quat``) at the reference configuration; a joint's
+anchor ``pos`` and ``axis`` are in its body's frame; a body's inertial frame
+is (``ipos``, ``iquat``) in the body frame with principal moments ``inertia``.
+
+Coordinates (one per degree of freedom, in MuJoCo's dof order):
+
+- hinge: the joint's qpos, an angle about ``axis`` measured from ``ref``
+  (the body sits as placed when qpos = ref); slide: qpos, a displacement
+  along ``axis`` from ``ref``;
+- ball: a rotation vector θ (3 coordinates ``NAME_rx``, ``NAME_ry``,
+  ``NAME_rz``) with the joint's rotation R = R₀ Exp(θ), R₀ = ``chart`` (the
+  orientation where θ = 0); qvel = J_r(θ) θ̇ is the body-frame angular velocity;
+- free: the body origin's world position (``NAME_x``, ``NAME_y``, ``NAME_z``;
+  qvel: its world velocity) and a rotation vector as for ball.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+HINGE, SLIDE, BALL, FREE = "hinge", "slide", "ball", "free"
+DOFS = {HINGE: 1, SLIDE: 1, BALL: 3, FREE: 6}
+
+
+@dataclass(frozen=True)
+class Joint:
+    """One joint: its kind, body, anchor and axis in the body frame, and its passive parameters.
+
+    ``damping`` is MuJoCo's polynomial (a, b, c): f(v) = −(a v + b v|v| + c v³) per dof.
+    ``chart`` is the reference orientation R₀ (w, x, y, z) of a ball or free joint's rotation vector.
+    """
+
+    name: str
+    kind: str
+    body: int
+    dof: int
+    pos: np.ndarray
+    axis: np.ndarray
+    ref: float = 0.0
+    stiffness: float = 0.0
+    springref: float = 0.0
+    damping: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    armature: float = 0.0
+    chart: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+
+    @property
+    def ndof(self) -> int:
+        return DOFS[self.kind]
+
+    @property
+    def coordinates(self) -> tuple[str, ...]:
+        if self.kind == BALL:
+            return tuple(f"{self.name}_r{a}" for a in "xyz")
+        if self.kind == FREE:
+            return (*(f"{self.name}_{a}" for a in "xyz"), *(f"{self.name}_r{a}" for a in "xyz"))
+        return (self.name,)
+
+
+@dataclass(frozen=True)
+class Body:
+    """A rigid body: its parent (−1 for the world's children), its frame in the parent's at the reference
+    configuration, its inertial frame and principal moments, and the joints that move it (in order)."""
+
+    name: str
+    parent: int
+    pos: np.ndarray
+    quat: np.ndarray
+    ipos: np.ndarray
+    iquat: np.ndarray
+    mass: float
+    inertia: np.ndarray
+    joints: tuple[int, ...] = ()
+    gravcomp: float = 0.0
+
+
+@dataclass(frozen=True)
+class Point:
+    """A named body-fixed point (a site, or a body's centre of mass): ``pos`` in the body's frame."""
+
+    name: str
+    body: int
+    pos: np.ndarray
+
+
+@dataclass(frozen=True)
+class Equality:
+    """An equality constraint, as a block of rows f(q) = 0.
+
+    kinds: ``connect`` (3 rows: world anchor on body1 − world anchor on body2; ``anchor1``/``anchor2`` in
+    their bodies' frames); ``weld`` (6 rows: the anchors as for connect, then the rotation vector of
+    R₁ᵀ R₂ R_relᵀ, which is zero when body2 sits at ``relquat`` in body1); ``joint`` and ``tendon``
+    (1 row: y − y₀ − Σₖ aₖ (x − x₀)ᵏ with y, x linear in the coordinates: ``y``/``x`` are the
+    coefficient vectors, ``y0``/``x0`` their reference values, ``poly`` the a₀…a₄).
+    """
+
+    name: str
+    kind: str
+    body1: int = -1
+    body2: int = -1
+    anchor1: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    anchor2: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    relquat: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+    y: np.ndarray | None = None
+    x: np.ndarray | None = None
+    y0: float = 0.0
+    x0: float = 0.0
+    poly: tuple[float, ...] = (0.0, 1.0, 0.0, 0.0, 0.0)
+
+    @property
+    def rows(self) -> int:
+        return {"connect": 3, "weld": 6}.get(self.kind, 1)
+
+
+@dataclass(frozen=True)
+class Actuator:
+    """An actuator with an affine force at a fixed control: force = (g₀ + g₁ l + g₂ l̇) ctrl + b₀ + b₁ l + b₂ l̇,
+    with length l = moment · q (a joint's or a fixed tendon's transmission, linear in the coordinates)
+    and the generalized force moment × force."""
+
+    name: str
+    moment: np.ndarray
+    gain: tuple[float, float, float]
+    bias: tuple[float, float, float]
+    ctrl: float = 0.0
+    length0: float = 0.0
+
+
+@dataclass(frozen=True)
+class Tree:
+    """The whole description: bodies in an order where every parent precedes its children, the joints,
+    gravity, named points, equality constraints and actuators."""
+
+    bodies: tuple[Body, ...]
+    joints: tuple[Joint, ...]
+    gravity: np.ndarray
+    points: tuple[Point, ...] = ()
+    equalities: tuple[Equality, ...] = ()
+    actuators: tuple[Actuator, ...] = ()
+
+    def __post_init__(self) -> None:
+        for i, b in enumerate(self.bodies):
+            if not -1 <= b.parent < i:
+                raise ValueError(f"body {b.name!r}: its parent must come before it")
+        if not self.joints:
+            raise ValueError("the tree has no joints: nothing moves")
+
+    @property
+    def coordinates(self) -> tuple[str, ...]:
+        return tuple(c for j in self.joints for c in j.coordinates)
+
+    @property
+    def n(self) -> int:
+        return sum(j.ndof for j in self.joints)
+
+    @property
+    def quaternion_joints(self) -> tuple[int, ...]:
+        return tuple(i for i, j in enumerate(self.joints) if j.kind in (BALL, FREE))
+
+    def params(self) -> dict[str, float]:
+        """Every number the physics depends on, by a readable name (what the report lists as changed)."""
+        out: dict[str, float] = {f"gravity.{a}": float(g) for a, g in zip("xyz", self.gravity, strict=True)}
+        for b in self.bodies:
+            out[f"{b.name}.mass"] = float(b.mass)
+            out |= {f"{b.name}.inertia.{k}": float(v) for k, v in enumerate(b.inertia)}
+            out |= {f"{b.name}.ipos.{k}": float(v) for k, v in enumerate(b.ipos)}
+            out |= {f"{b.name}.iquat.{k}": float(v) for k, v in enumerate(b.iquat)}
+            out |= {f"{b.name}.pos.{k}": float(v) for k, v in enumerate(b.pos)}
+            out |= {f"{b.name}.quat.{k}": float(v) for k, v in enumerate(b.quat)}
+            if b.gravcomp:
+                out[f"{b.name}.gravcomp"] = float(b.gravcomp)
+        for j in self.joints:
+            out |= {f"{j.name}.pos.{k}": float(v) for k, v in enumerate(j.pos)}
+            out |= {f"{j.name}.axis.{k}": float(v) for k, v in enumerate(j.axis)}
+            for key in ("ref", "stiffness", "springref", "armature"):
+                out[f"{j.name}.{key}"] = float(getattr(j, key))
+            out |= {f"{j.name}.damping.{k}": float(v) for k, v in enumerate(j.damping)}
+        for a in self.actuators:
+            out |= {f"actuator.{a.name}.gain.{k}": float(v) for k, v in enumerate(a.gain)}
+            out |= {f"actuator.{a.name}.bias.{k}": float(v) for k, v in enumerate(a.bias)}
+            out[f"actuator.{a.name}.ctrl"] = float(a.ctrl)
+        return out

@@ -1,0 +1,101 @@
+"""Rotations for the tree reference, written so that every function also takes complex arguments.
+
+The tree reference differentiates its Lagrangian by complex step (f'(x) = Im f(x + ih)/h, exact to
+round-off), which breaks silently through ``abs``, ``norm`` and ``conj``. So nothing here uses them:
+angles enter through sin/cos of the coordinate itself, and the exponential map's coefficients are
+power series in θ² = θ·θ (an analytic function of θ), never in |θ|.
+
+Conventions (MuJoCo's): quaternions are (w, x, y, z); a rotation matrix R maps body-frame vectors to
+the parent (world) frame; ``Exp(θ)`` is the rotation by |θ| about θ/|θ|; the body-frame angular
+velocity of R(t) = R₀ Exp(θ(t)) is ω = J_r(θ) θ̇ (the right Jacobian of SO(3)).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+Array = np.ndarray
+
+
+def quat_to_mat(quat: Array) -> Array:
+    """(..., 4) unit quaternions (w, x, y, z) -> (..., 3, 3) rotation matrices."""
+    w, x, y, z = np.moveaxis(np.asarray(quat), -1, 0)
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
+    ], axis=-2)
+
+
+def mat_to_quat(mat: Array) -> Array:
+    """(3, 3) rotation matrix -> unit quaternion (w, x, y, z) with w >= 0 (real input only)."""
+    m = np.asarray(mat, dtype=float)
+    trace = np.trace(m)
+    if trace > 0:
+        s = 2.0 * np.sqrt(trace + 1.0)
+        q = np.array([0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s])
+    else:
+        i = int(np.argmax(np.diag(m)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * np.sqrt(1.0 + m[i, i] - m[j, j] - m[k, k])
+        q = np.empty(4)
+        q[0] = (m[k, j] - m[j, k]) / s
+        q[1 + i] = 0.25 * s
+        q[1 + j] = (m[j, i] + m[i, j]) / s
+        q[1 + k] = (m[k, i] + m[i, k]) / s
+    q = q / np.linalg.norm(q)
+    return q if q[0] >= 0 else -q
+
+
+def skew(v: Array) -> Array:
+    """(..., 3) -> (..., 3, 3) with skew(a) b = a × b."""
+    x, y, z = np.moveaxis(np.asarray(v), -1, 0)
+    zero = np.zeros_like(x)
+    return np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)], -2)
+
+
+def vee(m: Array) -> Array:
+    """The vector of the skew-symmetric part of (..., 3, 3): vee(skew(a)) = a."""
+    return 0.5 * np.stack([m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1]],
+                          axis=-1)
+
+
+def axis_angle(axis: Array, angle: Array) -> Array:
+    """Rotation matrices by ``angle`` (...) about the unit ``axis`` (3,) or (..., 3) (Rodrigues)."""
+    angle = np.asarray(angle)
+    k = skew(np.broadcast_to(axis, (*angle.shape, 3)))
+    s, c = np.sin(angle)[..., None, None], np.cos(angle)[..., None, None]
+    return np.eye(3) + s * k + (1 - c) * (k @ k)
+
+
+# Series of the exponential map's coefficients in t = θ·θ: a = sin θ/θ, b = (1 − cos θ)/θ², c = (θ − sin θ)/θ³.
+# Below SERIES_T the truncated series is exact to round-off (next term < 1e-17 relative); above it the closed
+# forms are used, with θ = sqrt(t) (analytic away from t = 0, so the complex step stays exact there).
+SERIES_T = 1e-4
+
+
+def _coefficients(t: Array) -> tuple[Array, Array, Array]:
+    t = np.asarray(t)
+    small = np.abs(t.real) < SERIES_T
+    safe = np.where(small, 1.0, t)
+    theta = np.sqrt(safe)
+    a = np.where(small, 1 - t / 6 + t * t / 120 - t ** 3 / 5040, np.sin(theta) / theta)
+    b = np.where(small, 0.5 - t / 24 + t * t / 720 - t ** 3 / 40320, (1 - np.cos(theta)) / safe)
+    c = np.where(small, 1 / 6 - t / 120 + t * t / 5040 - t ** 3 / 362880, (theta - np.sin(theta)) / (safe * theta))
+    return a, b, c
+
+
+def exp_map(theta: Array) -> Array:
+    """Exp(θ): (..., 3) rotation vectors -> (..., 3, 3) rotation matrices."""
+    theta = np.asarray(theta)
+    a, b, _ = _coefficients(np.sum(theta * theta, axis=-1))
+    k = skew(theta)
+    return np.eye(3) + a[..., None, None] * k + b[..., None, None] * (k @ k)
+
+
+def right_jacobian(theta: Array) -> Array:
+    """J_r(θ), (..., 3, 3): the body-frame angular velocity of R₀ Exp(θ(t)) is J_r(θ) θ̇."""
+    theta = np.asarray(theta)
+    _, b, c = _coefficients(np.sum(theta * theta, axis=-1))
+    k = skew(theta)
+    return np.eye(3) - b[..., None, None] * k + c[..., None, None] * (k @ k)

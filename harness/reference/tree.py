@@ -1,0 +1,410 @@
+"""The tree reference of any model: its kinematic tree read from the compiled ``MjModel``.
+
+What is read is the model's description only — body frames, inertias, joint
+kinds, anchors, axes, ``ref``, springs, damping, armature, gravity
+compensation, equality constraints, actuator gains at a given control, and
+the disable flags that switch any of them off — never MuJoCo's dynamics
+(``mj_fullM``, ``qfrc_bias``, ``qacc``): the equations are derived from this
+description by :mod:`analytic.tree`.
+
+What the tree reference does not model is listed, per kind, by
+:func:`uncovered` (contacts, joint limits, dry friction, fluid forces,
+spatial tendons, activation dynamics, …) and what it cannot read at all is
+refused by :func:`refusal` (flex, plugins, a model with nothing that moves).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import mujoco
+import numpy as np
+
+from analytic.systems import Motion, Scales
+from analytic.tree import Actuator, Body, Equality, Joint, Point, Tree, TreeDynamics
+from analytic.tree.model import BALL, FREE, HINGE, SLIDE
+from analytic.tree.rotations import mat_to_quat, quat_to_mat
+from harness.core.errors import ModelError
+
+TREE = "tree"
+"""The system name of every case whose reference is its model's own tree (no hand-derived module)."""
+
+_KINDS = {int(mujoco.mjtJoint.mjJNT_HINGE): HINGE, int(mujoco.mjtJoint.mjJNT_SLIDE): SLIDE,
+          int(mujoco.mjtJoint.mjJNT_BALL): BALL, int(mujoco.mjtJoint.mjJNT_FREE): FREE}
+_DSBL = mujoco.mjtDisableBit
+
+
+def prepare(spec: mujoco.MjSpec) -> None:
+    """What a user's model needs to be read by name, changing none of its physics: the energy flag
+    (MuJoCo then records the energy the invariants compare) and a name for every unnamed body, joint,
+    site and equality (``body3``, ``joint5``, …; the harness reads points and constraints by name)."""
+    spec.option.enableflags |= int(mujoco.mjtEnableBit.mjENBL_ENERGY)
+    for kind, elements in (("body", spec.bodies), ("joint", spec.joints), ("site", spec.sites),
+                           ("equality", spec.equalities)):
+        taken = {e.name for e in elements if e.name}
+        for i, element in enumerate(elements):
+            if kind == "body" and i == 0:
+                continue  # the world
+            if not element.name:
+                name, k = f"{kind}{i}", i
+                while name in taken:
+                    k += 1
+                    name = f"{kind}{k}"
+                element.name = name
+                taken.add(name)
+
+
+def refusal(model: mujoco.MjModel) -> str:
+    """Why the tree reference cannot describe ``model`` at all ('' where it can)."""
+    if model.nv == 0:
+        return "the model has no degrees of freedom (no joint moves anything); accepted: a model with joints"
+    if model.nflex:
+        return "the model has flex elements, which the tree reference cannot read; accepted: rigid bodies"
+    if model.nplugin:
+        return "the model uses engine plugins (e.g. SDF collisions, elasticity), which the tree reference cannot " \
+               "read; accepted: a model without <plugin>"
+    for j in range(model.njnt):
+        kind = int(model.jnt_type[j])
+        body = int(model.jnt_bodyid[j])
+        last = int(model.body_jntadr[body]) + int(model.body_jntnum[body]) - 1
+        if kind == int(mujoco.mjtJoint.mjJNT_BALL) and j != last:
+            return (f"joint {model.joint(j).name!r}: a ball joint followed by other joints in the same body; "
+                    "accepted: a ball joint as its body's last joint")
+        if kind == int(mujoco.mjtJoint.mjJNT_FREE) and np.any(model.jnt_pos[j]):
+            return f"free joint {model.joint(j).name!r} has a pos; accepted: a free joint at its body's origin"
+    for i in range(model.neq):
+        if int(model.eq_type[i]) not in (int(mujoco.mjtEq.mjEQ_CONNECT), int(mujoco.mjtEq.mjEQ_WELD),
+                                         int(mujoco.mjtEq.mjEQ_JOINT), int(mujoco.mjtEq.mjEQ_TENDON)):
+            kind = mujoco.mjtEq(int(model.eq_type[i])).name
+            return f"equality {model.equality(i).name!r} is {kind}; accepted: connect, weld, joint, tendon"
+    return ""
+
+
+def _disabled(model: mujoco.MjModel, bit: mujoco.mjtDisableBit) -> bool:
+    return bool(int(model.opt.disableflags) & int(bit))
+
+
+def _fixed_tendon(model: mujoco.MjModel, t: int) -> np.ndarray | None:
+    """The coefficients over the dofs of fixed tendon ``t`` (length = Σ coef qpos), None for a spatial one."""
+    coef = np.zeros(model.nv)
+    for w in range(int(model.tendon_adr[t]), int(model.tendon_adr[t]) + int(model.tendon_num[t])):
+        if int(model.wrap_type[w]) != int(mujoco.mjtWrap.mjWRAP_JOINT):
+            return None
+        jid = int(model.wrap_objid[w])
+        if int(model.jnt_type[jid]) not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            return None
+        coef[int(model.jnt_dofadr[jid])] += float(model.wrap_prm[w])
+    return coef
+
+
+def uncovered(model: mujoco.MjModel) -> dict[str, str]:
+    """Forces in ``model`` that the tree reference does not model, by kind, each with why it matters and
+    what is checked instead. Empty: every force MuJoCo applies is in the reference."""
+    out: dict[str, str] = {}
+    contacts_on = not _disabled(model, _DSBL.mjDSBL_CONTACT) and not _disabled(model, _DSBL.mjDSBL_CONSTRAINT)
+    if contacts_on and (model.npair or _may_collide(model)):
+        out["contacts"] = "geoms may collide; contact forces are not in the tree reference"
+    if np.any(model.jnt_limited) and not _disabled(model, _DSBL.mjDSBL_LIMIT):
+        out["joint limits"] = "limited joints: a limit's force acts only when reached"
+    if np.any(model.dof_frictionloss > 0) and not _disabled(model, _DSBL.mjDSBL_FRICTIONLOSS):
+        out["dry friction"] = "joint frictionloss (a dry-friction constraint)"
+    if model.opt.density > 0 or model.opt.viscosity > 0 or np.any(model.opt.wind) or np.any(model.geom_fluid[:, 0]):
+        out["fluid forces"] = "density, viscosity, wind or a geom's fluidshape: fluid forces"
+    for t in range(model.ntendon):
+        name = model.tendon(t).name or f"tendon{t}"
+        if _fixed_tendon(model, t) is None:
+            out[f"tendon {name}"] = "a spatial tendon's force"
+        elif model.tendon_stiffness[t] or np.any(model.tendon_damping[t]) or model.tendon_limited[t] \
+                or model.tendon_frictionloss[t] or model.tendon_armature[t]:
+            out[f"tendon {name}"] = "a fixed tendon's spring, damping, limit, friction or armature"
+    for a in range(model.nu):
+        why = _actuator_gap(model, a)
+        if why:
+            out[f"actuator {model.actuator(a).name or a}"] = why
+    for j in range(model.njnt):
+        kind = int(model.jnt_type[j])
+        name = model.joint(j).name
+        if model.jnt_stiffness[j] and kind not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            out[f"joint {name} spring"] = "a ball or free joint's spring"
+        if hasattr(model, "jnt_stiffnesspoly") and np.any(model.jnt_stiffnesspoly[j]):
+            out[f"joint {name} spring"] = "a polynomial spring (stiffnesspoly)"
+        if hasattr(model, "jnt_springyield") and np.any(model.jnt_springyield[j]):
+            out[f"joint {name} spring"] = "a spring that yields (springyield)"
+    return out
+
+
+def _may_collide(model: mujoco.MjModel) -> bool:
+    """Whether two geoms of different bodies pass MuJoCo's contype/conaffinity filter (a parent and its
+    child are filtered unless filterparent is disabled), i.e. whether any contact can arise."""
+    body = np.asarray(model.geom_bodyid)
+    weld = np.asarray(model.body_weldid)[body]
+    parent = np.asarray(model.body_weldid)[np.asarray(model.body_parentid)[np.asarray(model.body_weldid)[body]]]
+    ctype, caff = np.asarray(model.geom_contype), np.asarray(model.geom_conaffinity)
+    compatible = ((ctype[:, None] & caff[None, :]) | (caff[:, None] & ctype[None, :])) != 0
+    different = weld[:, None] != weld[None, :]
+    if not _disabled(model, _DSBL.mjDSBL_FILTERPARENT):
+        related = (parent[:, None] == weld[None, :]) | (weld[:, None] == parent[None, :])
+        different &= ~related | (weld[:, None] == 0) | (weld[None, :] == 0)
+    return bool(np.any(compatible & different))
+
+
+def _actuator_gap(model: mujoco.MjModel, a: int) -> str:
+    """Why actuator ``a``'s force is not in the tree reference ('' where it is)."""
+    if _disabled(model, _DSBL.mjDSBL_ACTUATION):
+        return ""
+    if int(model.actuator_dyntype[a]) != int(mujoco.mjtDyn.mjDYN_NONE):
+        return "activation dynamics (the force follows an internal state, not the control)"
+    if int(model.actuator_gaintype[a]) not in (int(mujoco.mjtGain.mjGAIN_FIXED), int(mujoco.mjtGain.mjGAIN_AFFINE)):
+        return f"gain type {mujoco.mjtGain(int(model.actuator_gaintype[a])).name}"
+    if int(model.actuator_biastype[a]) not in (int(mujoco.mjtBias.mjBIAS_NONE), int(mujoco.mjtBias.mjBIAS_AFFINE)):
+        return f"bias type {mujoco.mjtBias(int(model.actuator_biastype[a])).name}"
+    if _moment(model, a) is None:
+        return "a transmission other than a hinge, slide or fixed tendon"
+    if model.actuator_forcelimited[a]:
+        return "a force range (the force is clamped)"
+    if hasattr(model, "actuator_dampingpoly") and np.any(model.actuator_dampingpoly[a]):
+        return "polynomial damping of the actuator"
+    if hasattr(model, "actuator_armature") and np.any(model.actuator_armature[a]):
+        return "actuator armature"
+    return ""
+
+
+def _moment(model: mujoco.MjModel, a: int) -> np.ndarray | None:
+    """Actuator ``a``'s moment over the dofs (length = moment · qpos), None for another transmission."""
+    trn = int(model.actuator_trntype[a])
+    target = int(model.actuator_trnid[a, 0])
+    gear = float(model.actuator_gear[a, 0])
+    if trn == int(mujoco.mjtTrn.mjTRN_JOINT):
+        if int(model.jnt_type[target]) not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            return None
+        moment = np.zeros(model.nv)
+        moment[int(model.jnt_dofadr[target])] = gear
+        return moment
+    if trn == int(mujoco.mjtTrn.mjTRN_TENDON):
+        coef = _fixed_tendon(model, target)
+        return None if coef is None else gear * coef
+    return None
+
+
+def charts(model: mujoco.MjModel, qpos: np.ndarray) -> dict[int, np.ndarray]:
+    """Each ball and free joint's chart R₀: its orientation at ``qpos`` (θ = 0 there)."""
+    out = {}
+    for j in range(model.njnt):
+        kind = int(model.jnt_type[j])
+        adr = int(model.jnt_qposadr[j])
+        if kind == int(mujoco.mjtJoint.mjJNT_BALL):
+            quat = np.asarray(qpos[adr:adr + 4], dtype=float)
+        elif kind == int(mujoco.mjtJoint.mjJNT_FREE):
+            quat = np.asarray(qpos[adr + 3:adr + 7], dtype=float)
+        else:
+            continue
+        out[j] = quat / math.sqrt(float(quat @ quat))
+    return out
+
+
+def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None = None,
+              ctrl: np.ndarray | None = None) -> Tree:
+    """The tree of ``model``: every moving body (welded ones merged into nothing: a body with no joints
+    rides on its parent), as :class:`analytic.tree.Tree`. ModelError where :func:`refusal` says why not."""
+    why = refusal(model)
+    if why:
+        raise ModelError(why)
+    chart = chart or {}
+    passive = not _disabled(model, _DSBL.mjDSBL_SPRING) if hasattr(_DSBL, "mjDSBL_SPRING") else True
+    damper = not _disabled(model, _DSBL.mjDSBL_DAMPER) if hasattr(_DSBL, "mjDSBL_DAMPER") else True
+    gravity = np.zeros(3) if _disabled(model, _DSBL.mjDSBL_GRAVITY) else np.array(model.opt.gravity, dtype=float)
+    bodies = []
+    for b in range(1, model.nbody):
+        mocap = int(model.body_mocapid[b]) >= 0
+        bodies.append(Body(
+            name=model.body(b).name, parent=int(model.body_parentid[b]) - 1,
+            pos=np.array(model.body_pos[b], dtype=float), quat=np.array(model.body_quat[b], dtype=float),
+            ipos=np.array(model.body_ipos[b], dtype=float), iquat=np.array(model.body_iquat[b], dtype=float),
+            mass=float(model.body_mass[b]), inertia=np.array(model.body_inertia[b], dtype=float),
+            joints=() if mocap else tuple(range(int(model.body_jntadr[b]),
+                                                int(model.body_jntadr[b]) + int(model.body_jntnum[b]))),
+            gravcomp=float(model.body_gravcomp[b]) if passive else 0.0))
+    joints = []
+    for j in range(model.njnt):
+        kind = _KINDS[int(model.jnt_type[j])]
+        dof = int(model.jnt_dofadr[j])
+        damping = np.atleast_1d(model.dof_damping[dof]).astype(float)
+        poly = np.asarray(model.dof_dampingpoly[dof], dtype=float) if hasattr(model, "dof_dampingpoly") \
+            else np.zeros(2)
+        joints.append(Joint(
+            name=model.joint(j).name, kind=kind, body=int(model.jnt_bodyid[j]) - 1, dof=dof,
+            pos=np.array(model.jnt_pos[j], dtype=float), axis=np.array(model.jnt_axis[j], dtype=float),
+            ref=float(model.qpos0[model.jnt_qposadr[j]]) if kind in (HINGE, SLIDE) else 0.0,
+            stiffness=float(model.jnt_stiffness[j]) if passive and kind in (HINGE, SLIDE) else 0.0,
+            springref=float(model.qpos_spring[model.jnt_qposadr[j]]) if kind in (HINGE, SLIDE) else 0.0,
+            damping=(float(damping[0]), float(poly[0]), float(poly[1])) if damper else (0.0, 0.0, 0.0),
+            armature=float(model.dof_armature[dof]),
+            chart=np.asarray(chart.get(j, (1.0, 0.0, 0.0, 0.0)), dtype=float)))
+    points = _points(model)
+    equalities = () if _disabled(model, _DSBL.mjDSBL_EQUALITY) or _disabled(model, _DSBL.mjDSBL_CONSTRAINT) \
+        else tuple(e for i in range(model.neq) if (e := _equality(model, i)) is not None)
+    actuators = () if _disabled(model, _DSBL.mjDSBL_ACTUATION) else tuple(
+        _actuator(model, a, 0.0 if ctrl is None else float(ctrl[a])) for a in range(model.nu)
+        if not _actuator_gap(model, a))
+    return Tree(bodies=tuple(bodies), joints=tuple(joints), gravity=gravity, points=points,
+                equalities=equalities, actuators=actuators)
+
+
+def _points(model: mujoco.MjModel) -> tuple[Point, ...]:
+    """The points the trajectories compare: every named site, and the centre of mass of every body with
+    mass whose name no site takes (the harness reads a name as a site first)."""
+    sites = [Point(name=model.site(s).name, body=int(model.site_bodyid[s]) - 1,
+                   pos=np.array(model.site_pos[s], dtype=float))
+             for s in range(model.nsite) if model.site(s).name and int(model.site_bodyid[s]) > 0]
+    taken = {p.name for p in sites}
+    coms = [Point(name=model.body(b).name, body=b - 1, pos=np.array(model.body_ipos[b], dtype=float))
+            for b in range(1, model.nbody) if model.body_mass[b] > 0 and model.body(b).name
+            and model.body(b).name not in taken and _moves(model, b)]
+    return (*coms, *sites)
+
+
+def _moves(model: mujoco.MjModel, b: int) -> bool:
+    while b > 0:
+        if model.body_jntnum[b]:
+            return True
+        b = int(model.body_parentid[b])
+    return False
+
+
+def _site_or_body(model: mujoco.MjModel, i: int, which: int) -> tuple[int, np.ndarray]:
+    """(tree body index, offset in its frame) of equality ``i``'s object ``which`` (1 or 2), for a body's
+    anchor read from eq_data elsewhere, or a site's own position."""
+    obj = int(model.eq_obj1id[i] if which == 1 else model.eq_obj2id[i])
+    if int(model.eq_objtype[i]) == int(mujoco.mjtObj.mjOBJ_SITE):
+        return int(model.site_bodyid[obj]) - 1, np.array(model.site_pos[obj], dtype=float)
+    return obj - 1, np.zeros(3)
+
+
+def _equality(model: mujoco.MjModel, i: int) -> Equality | None:
+    if not model.eq_active0[i]:
+        return None
+    name = model.equality(i).name
+    kind = int(model.eq_type[i])
+    data = np.array(model.eq_data[i], dtype=float)
+    sites = int(model.eq_objtype[i]) == int(mujoco.mjtObj.mjOBJ_SITE)
+    if kind == int(mujoco.mjtEq.mjEQ_CONNECT):
+        b1, s1 = _site_or_body(model, i, 1)
+        b2, s2 = _site_or_body(model, i, 2)
+        a1, a2 = (s1, s2) if sites else (data[0:3], data[3:6])
+        return Equality(name=name, kind="connect", body1=b1, body2=b2, anchor1=a1, anchor2=a2)
+    if kind == int(mujoco.mjtEq.mjEQ_WELD):
+        b1, s1 = _site_or_body(model, i, 1)
+        b2, s2 = _site_or_body(model, i, 2)
+        relquat = data[6:10] / np.linalg.norm(data[6:10])
+        # eq_data: anchor on body2 (its frame), the matching point on body1 (its frame), body2's orientation
+        # in body1's frame; with sites, the sites themselves (and their frames' relative orientation)
+        a1, a2 = (s1, s2) if sites else (data[3:6], data[0:3])
+        if sites:
+            s1q = quat_to_mat(model.site_quat[int(model.eq_obj1id[i])])
+            s2q = quat_to_mat(model.site_quat[int(model.eq_obj2id[i])])
+            relquat = mat_to_quat(s1q @ quat_to_mat(relquat) @ s2q.T)
+        return Equality(name=name, kind="weld", body1=b1, body2=b2, anchor1=a1, anchor2=a2, relquat=relquat)
+    if kind == int(mujoco.mjtEq.mjEQ_JOINT):
+        j1, j2 = int(model.eq_obj1id[i]), int(model.eq_obj2id[i])
+        y = np.zeros(model.nv)
+        y[int(model.jnt_dofadr[j1])] = 1.0
+        x = None
+        if j2 >= 0:
+            x = np.zeros(model.nv)
+            x[int(model.jnt_dofadr[j2])] = 1.0
+        return Equality(name=name, kind="joint", y=y, x=x, y0=float(model.qpos0[model.jnt_qposadr[j1]]),
+                        x0=float(model.qpos0[model.jnt_qposadr[j2]]) if j2 >= 0 else 0.0,
+                        poly=tuple(float(v) for v in data[:5]))
+    t1, t2 = int(model.eq_obj1id[i]), int(model.eq_obj2id[i])
+    y = _fixed_tendon(model, t1)
+    x = _fixed_tendon(model, t2) if t2 >= 0 else None
+    if y is None or (t2 >= 0 and x is None):
+        raise ModelError(f"equality {name!r} couples a spatial tendon; accepted: fixed tendons (joint wraps)")
+    return Equality(name=name, kind="tendon", y=y, x=x, y0=float(model.tendon_length0[t1]),
+                    x0=float(model.tendon_length0[t2]) if t2 >= 0 else 0.0, poly=tuple(float(v) for v in data[:5]))
+
+
+def _actuator(model: mujoco.MjModel, a: int, ctrl: float) -> Actuator:
+    if model.actuator_ctrllimited[a] and not _disabled(model, _DSBL.mjDSBL_CLAMPCTRL):
+        lo, hi = model.actuator_ctrlrange[a]
+        ctrl = min(max(ctrl, float(lo)), float(hi))
+    gain = model.actuator_gainprm[a, :3] if int(model.actuator_gaintype[a]) == int(mujoco.mjtGain.mjGAIN_AFFINE) \
+        else np.array([model.actuator_gainprm[a, 0], 0.0, 0.0])
+    bias = model.actuator_biasprm[a, :3] if int(model.actuator_biastype[a]) == int(mujoco.mjtBias.mjBIAS_AFFINE) \
+        else np.zeros(3)
+    return Actuator(name=model.actuator(a).name or f"actuator{a}", moment=_moment(model, a),
+                    gain=tuple(float(v) for v in gain), bias=tuple(float(v) for v in bias), ctrl=ctrl)
+
+
+# ---- a tree case's system: what a hand-derived system module gives, for any model --------------------------
+@dataclass(frozen=True)
+class TreeSystem:
+    """The reference side of a case whose system is its model's tree: charts fixed at the start's
+    orientations (so every variant of the model is read in the same coordinates) and the control."""
+
+    charts: tuple[tuple[int, tuple[float, ...]], ...] = ()
+    ctrl: tuple[float, ...] = ()
+    extra: Mapping[str, str] = field(default_factory=dict)
+
+    @cached_property
+    def _chart(self) -> dict[int, np.ndarray]:
+        return {j: np.array(q) for j, q in self.charts}
+
+    def tree(self, model: mujoco.MjModel) -> Tree:
+        return read_tree(model, chart=self._chart, ctrl=np.array(self.ctrl) if self.ctrl else None)
+
+    def dynamics(self, model: mujoco.MjModel) -> TreeDynamics:
+        return TreeDynamics.of(self.tree(model))
+
+    def params_from_model(self, model: mujoco.MjModel) -> dict[str, float]:
+        return self.tree(model).params()
+
+    def scales(self, model: mujoco.MjModel) -> Scales:
+        return tree_scales(self.tree(model))
+
+
+def tree_scales(tree: Tree) -> Scales:
+    """The scales of a tree: its total mass moving over its size (the largest distance of a point from
+    the first body's frame at the reference configuration, at least 1 mm) under gravity (9.81 m/s²
+    where gravity is off, to keep a scale)."""
+    dyn = TreeDynamics.of(tree)
+    q = np.zeros(tree.n)
+    coms = dyn.body_coms(q)
+    pts = np.concatenate([coms, dyn.points(q)], axis=0) if tree.points else coms
+    origin = tree.bodies[0].pos
+    length = max(float(np.max(np.linalg.norm(pts - origin, axis=-1), initial=0.0)), 1e-3)
+    g = float(np.linalg.norm(tree.gravity)) or 9.81
+    mass = max(sum(b.mass for b in tree.bodies), 1e-9)
+    return Scales.gravity(mass=mass, g=g, length=length)
+
+
+def start_state(model: mujoco.MjModel, qpos: np.ndarray, qvel: np.ndarray
+                ) -> tuple[dict[str, float], dict[str, float]]:
+    """The analytic (q0, q̇0) of MuJoCo's (qpos, qvel), in the charts centred at ``qpos`` (θ = 0 there)."""
+    tree = read_tree(model, chart=charts(model, qpos))
+    q0: dict[str, float] = {}
+    qd0: dict[str, float] = {}
+    for j, joint in enumerate(tree.joints):
+        adr = int(model.jnt_qposadr[j])
+        dof = int(model.jnt_dofadr[j])
+        names = joint.coordinates
+        if joint.kind in (HINGE, SLIDE):
+            q0[names[0]], qd0[names[0]] = float(qpos[adr]), float(qvel[dof])
+        elif joint.kind == BALL:
+            for k in range(3):
+                q0[names[k]], qd0[names[k]] = 0.0, float(qvel[dof + k])
+        else:
+            for k in range(3):
+                q0[names[k]], qd0[names[k]] = float(qpos[adr + k]), float(qvel[dof + k])
+                q0[names[3 + k]], qd0[names[3 + k]] = 0.0, float(qvel[dof + 3 + k])
+    return q0, qd0
+
+
+def motion(model: mujoco.MjModel, qpos: np.ndarray, qvel: np.ndarray, *, horizon: float,
+           description: str) -> Motion:
+    q0, qd0 = start_state(model, qpos, qvel)
+    return Motion(description=description, q0=q0, qd0=qd0, horizon=horizon, tags=frozenset({"tree"}))
+
