@@ -39,9 +39,11 @@ STEP = 1e-30
 """The complex step h: Im f(q + i h v)/h = f′(q) v + O(h² |v|³), so any h far below round-off will do."""
 
 
-def _dot(a: Array, b: Array) -> Array:
-    """a·b over the last axis, without conjugation (complex step needs the analytic product)."""
-    return np.sum(a * b, axis=-1)
+def _real(pose: Pose, k: int) -> Pose:
+    """Configuration ``k`` of a batch of poses (the batch axis just before each field's own axes), real part."""
+    return Pose(origin=pose.origin[..., k, :, :].real, rotation=pose.rotation[..., k, :, :, :].real,
+                axes=pose.axes[..., k, :, :].real, anchors=pose.anchors[..., k, :, :].real,
+                shifts=pose.shifts[..., k, :, :].real)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -152,19 +154,37 @@ class TreeDynamics(Dynamics):
         q = np.asarray(q, dtype=float)
         return self._mass(q, forward(self.tree, self.layout, q))
 
+    def _momentum_and_kinetic(self, c: Array, qd: Array, pose: Pose) -> tuple[Array, Array]:
+        """At configurations c (..., k, n) with the real velocity q̇ (..., n): the momentum ∂T/∂q̇ = M(c) q̇
+        (..., k, n) and T(c, q̇) (..., k), without forming M."""
+        _, lin, ang, inertia = self._com_jacobians(pose)
+        m = self._bodies["mass"]
+        per_body = qd[..., None, None, :, None]  # against (..., k, nb, 3, n)
+        v = (lin @ per_body)[..., 0]
+        w = (ang @ per_body)[..., 0]
+        iw = (inertia @ w[..., None])[..., 0]
+        b = velocity_map(self.tree, self.layout, c)
+        qvel = (b @ qd[..., None, :, None])[..., 0]
+        aq = self._armature * qvel
+        momentum = (np.einsum("...bij,...bi->...j", lin, m[:, None] * v) + np.einsum("...bij,...bi->...j", ang, iw)
+                    + np.einsum("...ij,...i->...j", b, aq))
+        kinetic = 0.5 * (np.einsum("b,...bi,...bi->...", m, v, v) + np.einsum("...bi,...bi->...", w, iw)
+                         + np.einsum("...i,...i->...", qvel, aq))
+        return momentum, kinetic
+
     def forcing(self, q: Array, qd: Array) -> Array:
         q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
         n = self.tree.n
-        directions = np.concatenate([qd[..., None, :], np.broadcast_to(np.eye(n), (*q.shape[:-1], n, n))], axis=-2)
-        c = self._perturbed(q, directions)  # (..., n + 1, n): along q̇, then along each coordinate
+        # the real state, then q + i h q̇ (for Ṁ q̇ = d/dt ∂T/∂q̇ at q̈ = 0), then q + i h e_k (for ∂L/∂q_k)
+        directions = np.concatenate([np.zeros_like(qd)[..., None, :], qd[..., None, :],
+                                     np.broadcast_to(np.eye(n), (*q.shape[:-1], n, n))], axis=-2)
+        c = self._perturbed(q, directions)
         pose = forward(self.tree, self.layout, c)
-        mass = self._mass(c, pose)
-        mdot_qd = np.einsum("...ij,...j->...i", mass[..., 0, :, :].imag, qd) / STEP
-        kinetic = 0.5 * np.einsum("...i,...kij,...j->...k", qd, mass[..., 1:, :, :], qd)
-        potential = self._potential(pose, c)[..., 1:]
-        dl_dq = (kinetic - potential).imag / STEP
-        real_pose = forward(self.tree, self.layout, q)
-        _, lin, _, _ = self._com_jacobians(real_pose)
+        momentum, kinetic = self._momentum_and_kinetic(c, qd, pose)
+        mdot_qd = momentum[..., 1, :].imag / STEP
+        potential = self._potential(pose, c)
+        dl_dq = (kinetic[..., 2:] - potential[..., 2:]).imag / STEP
+        _, lin, _, _ = self._com_jacobians(_real(pose, 0))
         return self._applied(q, qd, lin) - mdot_qd + dl_dq
 
     def energy(self, q: Array, qd: Array) -> Array:

@@ -23,7 +23,7 @@ from functools import cached_property
 import numpy as np
 
 from analytic.tree.model import BALL, FREE, HINGE, SLIDE, Tree
-from analytic.tree.rotations import axis_angle, exp_map, quat_to_mat, right_jacobian
+from analytic.tree.rotations import exp_map, quat_to_mat, right_jacobian, skew
 
 Array = np.ndarray
 
@@ -51,6 +51,19 @@ class Layout:
             for j in body.joints:
                 mask[b, self.first[j]:self.first[j] + tree.joints[j].ndof] = True
         return mask
+
+    @cached_property
+    def body_rotations(self) -> np.ndarray:
+        """Each body's constant rotation in its parent's frame, (nb, 3, 3)."""
+        return np.array([quat_to_mat(b.quat) for b in self.tree.bodies]).reshape(-1, 3, 3)
+
+    @cached_property
+    def joint_constants(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per joint: skew(axis) and its square (a hinge's Rodrigues terms), and the chart R₀, each (nj, 3, 3)."""
+        axes = np.array([j.axis for j in self.tree.joints], dtype=float)
+        k = skew(axes)
+        charts = np.array([quat_to_mat(j.chart) for j in self.tree.joints])
+        return k, k @ k, charts
 
     @cached_property
     def body_of_coordinate(self) -> np.ndarray:
@@ -93,13 +106,14 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
     axes = np.zeros((*batch, n, 3), dtype=dtype)
     anchors = np.zeros((*batch, n, 3), dtype=dtype)
     shifts = np.zeros((*batch, n, 3), dtype=dtype)
+    skews, squares, charts = layout.joint_constants
     for b, body in enumerate(tree.bodies):
         if body.parent >= 0:
             p_par, r_par = origin[..., body.parent, :], rotation[..., body.parent, :, :]
         else:
             p_par, r_par = np.zeros((*batch, 3), dtype=dtype), np.broadcast_to(np.eye(3), (*batch, 3, 3))
         p = p_par + r_par @ body.pos
-        r = r_par @ quat_to_mat(body.quat)
+        r = r_par @ layout.body_rotations[b]
         for j in body.joints:
             joint = tree.joints[j]
             k = layout.first[j]
@@ -108,20 +122,22 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
                 anchor = p + r @ joint.pos
                 axes[..., k, :] = r @ joint.axis
                 anchors[..., k, :] = anchor
-                r = r @ axis_angle(joint.axis, x[..., 0] - joint.ref)
+                angle = x[..., 0] - joint.ref
+                r = r @ (np.eye(3) + np.sin(angle)[..., None, None] * skews[j]
+                         + (1 - np.cos(angle))[..., None, None] * squares[j])
                 p = anchor - r @ joint.pos
             elif joint.kind == SLIDE:
                 shifts[..., k, :] = r @ joint.axis
                 p = p + shifts[..., k, :] * (x[..., 0] - joint.ref)[..., None]
             elif joint.kind == BALL:
                 anchor = p + r @ joint.pos
-                r = r @ quat_to_mat(joint.chart) @ exp_map(x)
+                r = r @ charts[j] @ exp_map(x)
                 p = anchor - r @ joint.pos
                 axes[..., k:k + 3, :] = np.swapaxes(r @ right_jacobian(x), -1, -2)
                 anchors[..., k:k + 3, :] = anchor[..., None, :]
             elif joint.kind == FREE:
                 p = x[..., :3]
-                r = quat_to_mat(joint.chart) @ exp_map(x[..., 3:])
+                r = charts[j] @ exp_map(x[..., 3:])
                 shifts[..., k:k + 3, :] = np.eye(3)
                 axes[..., k + 3:k + 6, :] = np.swapaxes(r @ right_jacobian(x[..., 3:]), -1, -2)
                 anchors[..., k + 3:k + 6, :] = p[..., None, :]

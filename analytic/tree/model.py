@@ -21,6 +21,8 @@ Coordinates (one per degree of freedom, in MuJoCo's dof order):
 
 from __future__ import annotations
 
+import hashlib
+import pickle
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -162,6 +164,10 @@ class Tree:
     @property
     def quaternion_joints(self) -> tuple[int, ...]:
         return tuple(i for i, j in enumerate(self.joints) if j.kind in (BALL, FREE))
+
+    def digest(self) -> str:
+        """A fingerprint of every number and index in the description (what a cached solve is keyed by)."""
+        return hashlib.sha256(pickle.dumps(self, protocol=4)).hexdigest()[:16]
 
     def params(self) -> dict[str, float]:
         """Every number the physics depends on, by a readable name (what the report lists as changed)."""

@@ -43,8 +43,10 @@ from harness.engine.readings import Reading
 from harness.engine.sensors import Load
 from harness.reference.derivations import dynamics_of
 from harness.reference.solutions import Reference, build_reference
+from harness.reference.tree import TREE, TreeSystem
+from harness.reference.tree import prepare as prepare_tree
 
-__all__ = ["Case", "Series", "Wiring", "all_cases", "get", "names", "select"]
+__all__ = ["TREE", "Case", "Series", "Wiring", "all_cases", "from_mjcf", "get", "names", "select"]
 
 MODELS_PACKAGE = "mjcf"
 
@@ -119,6 +121,9 @@ class Case:
         motion: the initial state (in the analytic coordinates, by name; it must
             satisfy the constraints) and the horizon it runs for.
         wiring: the model's MuJoCo-side wiring (:class:`Wiring`).
+        tree: where the reference is the model's own kinematic tree (a model the user brings, no
+            hand-derived system): how it is read (:class:`~harness.reference.tree.TreeSystem`);
+            ``system`` is then :data:`~harness.reference.tree.TREE`.
 
     The motion's and the wiring's parts are read through the properties below
     (``case.q0``, ``case.binding``, ``case.mujoco_forces``, …).
@@ -129,6 +134,7 @@ class Case:
     mjcf: Path
     motion: Motion
     wiring: Wiring = field(default_factory=Wiring)
+    tree: TreeSystem | None = None
 
     def __post_init__(self) -> None:
         if not 0 <= self.settle < self.horizon:
@@ -196,13 +202,27 @@ class Case:
                                      horizon=self.horizon if horizon is None else float(horizon))
         return dataclasses.replace(self, motion=motion)
 
+    @property
+    def prepare(self) -> Callable[[mujoco.MjSpec], None] | None:
+        """The edit every compile of this case's model gets before any other (None: none): a tree case's
+        model is given the energy flag and names for its unnamed elements, changing none of its physics."""
+        return prepare_tree if self.tree is not None else None
+
+    def params_from_model(self, model: mujoco.MjModel) -> dict[str, float]:
+        """The physical parameters the reference reads from ``model``."""
+        if self.tree is not None:
+            return self.tree.params_from_model(model)
+        return systems.load(self.system).params_from_model(model)
+
     def reference(self, model: mujoco.MjModel, *, t_end: float | None = None, **solve: float) -> Reference:
         """The case's motion solved with the parameters of ``model`` (over at least ``t_end``)."""
         return build_reference(self.system, model, q0=self.q0, qd0=self.qd0, horizon=self.horizon,
-                               t_end=t_end, **solve)
+                               t_end=t_end, tree=self.tree, **solve)
 
     def dynamics(self) -> Dynamics:
         """The system's numeric dynamics at the parameters of the shipped model (cached)."""
+        if self.tree is not None:
+            return self.tree.dynamics(compile_model(self.mjcf, edit=self.prepare))
         return dynamics_of(self.system, compile_model(self.mjcf))
 
     def probe(self, dyn: Dynamics) -> Probe:

@@ -24,6 +24,7 @@ from analytic.solvers import DEFAULT_RTOL, Solution, project, solve
 from analytic.systems import Scales
 from harness.core.trajectory import Trajectory
 from harness.reference.derivations import dynamics
+from harness.reference.tree import TreeSystem, tree_scales
 
 
 @dataclass(frozen=True)
@@ -68,7 +69,8 @@ _exported: set[tuple] = set()
 
 
 def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, float], qd0: Mapping[str, float],
-                    horizon: float, rtol: float = DEFAULT_RTOL, t_end: float | None = None) -> Reference:
+                    horizon: float, rtol: float = DEFAULT_RTOL, t_end: float | None = None,
+                    tree: TreeSystem | None = None) -> Reference:
     """``system`` solved from (q0, qd0) with the parameters read from ``model``, over at least
     ``t_end`` (default: ``horizon``).
 
@@ -79,10 +81,18 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
 
     One solve over max(t_end, horizon) serves every request up to it: a shorter
     ``t_end`` gets the horizon's solution, whose dense output covers it.
+
+    ``tree``: the system is ``model``'s own kinematic tree (:mod:`harness.reference.tree`), read in
+    those charts, rather than a hand-derived module.
     """
-    module = systems.load(system)
-    params = module.params_from_model(model)
-    dyn = dynamics(system, params)
+    if tree is not None:
+        dyn = tree.dynamics(model)
+        params, scales, identity = dict(dyn.params), tree_scales(dyn.tree), dyn.tree.digest()
+    else:
+        module = systems.load(system)
+        params = module.params_from_model(model)
+        dyn = dynamics(system, params)
+        scales, identity = module.scales(params), ""
     asked_q = ordered(q0, dyn.coordinates, "q0")
     asked_qd = ordered(qd0, dyn.coordinates, "qd0")
     q, qd = project(dyn, asked_q, asked_qd)
@@ -91,7 +101,8 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
                       for name, a, b in zip(dyn.coordinates, asked, got, strict=True)
                       if abs(b - a) > 1e-12 * max(1.0, abs(a)))
     span = max(float(t_end or horizon), float(horizon))
-    key = (system, tuple(sorted(params.items())), tuple(q.tolist()), tuple(qd.tolist()), float(rtol), span)
+    key = (system, identity, tuple(sorted(params.items())), tuple(q.tolist()), tuple(qd.tolist()), float(rtol),
+           span)
     sol = _solutions.get(key)
     if sol is None and key in _seeds:
         end, tol, nfev, dense = _seeds.pop(key)
@@ -99,7 +110,7 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     if sol is None:
         sol = solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, atol=rtol)
     _solutions[key] = sol
-    return Reference(system=system, params=params, scales=module.scales(params), solution=sol,
+    return Reference(system=system, params=params, scales=scales, solution=sol,
                      initial=(tuple(q.tolist()), tuple(qd.tolist())), projected=projected)
 
 

@@ -298,7 +298,8 @@ def _equality(model: mujoco.MjModel, i: int) -> Equality | None:
     if kind == int(mujoco.mjtEq.mjEQ_WELD):
         b1, s1 = _site_or_body(model, i, 1)
         b2, s2 = _site_or_body(model, i, 2)
-        relquat = data[6:10] / np.linalg.norm(data[6:10])
+        norm = float(np.linalg.norm(data[6:10]))
+        relquat = data[6:10] / norm if norm > 0 else np.array([1.0, 0.0, 0.0, 0.0])
         # eq_data: anchor on body2 (its frame), the matching point on body1 (its frame), body2's orientation
         # in body1's frame; with sites, the sites themselves (and their frames' relative orientation)
         a1, a2 = (s1, s2) if sites else (data[3:6], data[0:3])
