@@ -29,12 +29,13 @@ import mujoco
 
 from harness import cases
 from harness.cases import Case
+from harness.cases.own import from_mjcf
 from harness.core.checks import Check, gate
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
 from harness.outputs.jsondoc import json_doc
 from harness.outputs.table import checks_table
-from harness.pipeline.limits import Limit, load_limits
+from harness.pipeline.limits import Limit, case_limits, load_limits
 from harness.pipeline.outcome import Outcome
 from harness.pipeline.require import Fitness, check_known, judge_fitness
 from harness.pipeline.require import requirement as requirement_of
@@ -162,9 +163,11 @@ def case_names() -> tuple[str, ...]:
 
 
 def validate(
-    case: str | Case,
+    case: str | Case | None = None,
     *,
     mjcf: str | Path | None = None,
+    keyframe: str | None = None,
+    ctrl: Mapping[str, float] | None = None,
     integrators: Sequence[str] | None = None,
     timestep: float | None = None,
     horizon: float | None = None,
@@ -177,12 +180,17 @@ def validate(
     edit: Callable[[mujoco.MjSpec], None] | None = None,
     backend: str = "c",
 ) -> Validation:
-    """Run ``case`` (a name, or a :class:`~harness.cases.Case`) through every layer and judge it.
+    """Run ``case`` (a name, or a :class:`~harness.cases.Case`), or any model ``mjcf``, through every layer
+    and judge it.
 
     Args:
-        case: which case; ValueError listing the known ones for an unknown name.
-        mjcf: your model file to run instead of the shipped one (it must fit the case: the same joint,
-            body and equality names); the reference is built from its parameters.
+        case: which case; ValueError listing the known ones for an unknown name. None with ``mjcf``: the
+            model is judged against its own kinematic tree (:func:`harness.cases.own.from_mjcf`).
+        mjcf: with a case, your model file to run instead of the shipped one (it must fit the case: the same
+            joint, body and equality names; the reference is built from its parameters); without one, any
+            model, its reference derived from its own tree.
+        keyframe, ctrl: for a model judged against its own tree, the keyframe it starts from (default: qpos0
+            at rest) and actuator controls by name (default: the keyframe's, else 0).
         integrators: run only these (default: every integrator this MuJoCo has); the checks of the
             others are not judged.
         timestep: run at this timestep instead of the model's.
@@ -200,20 +208,27 @@ def validate(
             (:data:`harness.engine.backends.BACKENDS`); a backend not installed, or a model feature
             it lacks, raises :class:`~harness.core.errors.BackendUnavailable` naming the fix.
     """
-    chosen = cases.get(case) if isinstance(case, str) else case
+    if case is None and mjcf is None:
+        raise ValueError("validate needs a case name (or Case) or an mjcf path; known cases: "
+                         + ", ".join(cases.names()))
+    if case is None:
+        chosen, mjcf = from_mjcf(mjcf, keyframe=keyframe, ctrl=ctrl, horizon=horizon), None
+    else:
+        chosen = cases.get(case) if isinstance(case, str) else case
     if not isinstance(chosen, Case):
         raise ValueError(f"case must be a case name or a harness.cases.Case, got {type(case).__name__}")
+    if chosen.tree is None and (keyframe is not None or ctrl):
+        raise ValueError("keyframe and ctrl apply to a model judged against its own tree (mjcf= without a case)")
     if integrators is not None and not list(integrators):
         raise ValueError("integrators must name at least one integrator (None: every one)")
     shipped = load_limits(config)
     check_config(shipped.overrides, cases.all_cases(), source=repr(str(config)))  # every case it names
-    merged = shipped.for_case(chosen.name) | {str(FigureName(k)): Limit("user", float(v), "given to validate()")
-                                              for k, v in (limits or {}).items()}
+    given = {str(FigureName(k)): Limit("user", float(v), "given to validate()") for k, v in (limits or {}).items()}
     requirements = (*shipped.requirements,
                     *(requirement_of(str(k), v, source="validate(require=...)") for k, v in (require or {}).items()))
     result = run_case(chosen, mjcf=mjcf, integrators=tuple(integrators) if integrators is not None else None,
                       timestep=timestep, horizon=horizon, q0=q0, qd0=qd0, edit=edit, backend=backend)
-    checks = judge(result, merged)
+    checks = judge(result, case_limits(shipped, chosen, (f.name for f in result.figures)) | given)
     check_known(requirements, [result])
     source = shipped.source + (" + limits given to validate()" if limits else "")
     return Validation(case=chosen.name, mjcf=str(result.settings.get("mjcf", chosen.mjcf)), checks=tuple(checks),

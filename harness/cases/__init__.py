@@ -44,7 +44,6 @@ from harness.engine.sensors import Load
 from harness.reference.derivations import dynamics_of
 from harness.reference.solutions import Reference, build_reference
 from harness.reference.tree import TREE, TreeSystem
-from harness.reference.tree import prepare as prepare_tree
 
 __all__ = ["TREE", "Case", "Series", "Wiring", "all_cases", "from_mjcf", "get", "names", "select"]
 
@@ -205,8 +204,9 @@ class Case:
     @property
     def prepare(self) -> Callable[[mujoco.MjSpec], None] | None:
         """The edit every compile of this case's model gets before any other (None: none): a tree case's
-        model is given the energy flag and names for its unnamed elements, changing none of its physics."""
-        return prepare_tree if self.tree is not None else None
+        model is given the energy flag and names for its unnamed elements, and what the tree reference does
+        not model is switched off (:class:`~harness.reference.tree.TreeSystem`)."""
+        return self.tree.edit if self.tree is not None else None
 
     def params_from_model(self, model: mujoco.MjModel) -> dict[str, float]:
         """The physical parameters the reference reads from ``model``."""

@@ -35,6 +35,7 @@ from pathlib import Path
 
 from analytic.dop853 import IntegrationError
 from harness import cases
+from harness.cases.own import from_mjcf
 from harness.core import VERSION
 from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
@@ -76,12 +77,18 @@ class _Parser(argparse.ArgumentParser):
 
 # --------------------------------------------------------------- helpers
 def _selected(args: argparse.Namespace) -> tuple[cases.Case, ...]:
-    """Cases named positionally or with --case (all when none); --mjcf needs exactly one."""
+    """Cases named positionally or with --case (all when none); --mjcf with no case is any model, judged
+    against its own kinematic tree, and with one case a variant of that case's model."""
     names = [*args.cases, *(args.case or [])]
+    mjcf = getattr(args, "mjcf", None)
+    if mjcf is not None and not names:
+        return (from_mjcf(mjcf, keyframe=args.keyframe, ctrl=args.ctrl, horizon=args.horizon),)
+    if (getattr(args, "keyframe", None) or getattr(args, "ctrl", None)) and mjcf is None:
+        raise ValueError("--keyframe and --ctrl apply to a model judged against its own tree: --mjcf FILE, no case")
     selected = cases.select(names)
-    if getattr(args, "mjcf", None) is not None and len(selected) != 1:
-        raise ValueError(f"--mjcf validates one model against one case; name it with --case NAME "
-                         f"(known cases: {', '.join(cases.names())})")
+    if mjcf is not None and len(selected) != 1:
+        raise ValueError(f"--mjcf with cases judges one model against one case; name one case, or none to judge "
+                         f"the model against its own tree (known cases: {', '.join(cases.names())})")
     return selected
 
 
@@ -214,8 +221,12 @@ def _add_selection(p: argparse.ArgumentParser, *, mjcf: bool = True) -> None:
                         "the results do not depend on N")
     if mjcf:
         p.add_argument("--mjcf", type=Path, metavar="PATH",
-                       help="validate this MJCF (your variant of the case's model) against the case's "
-                            "reference and limits; needs exactly one case")
+                       help="validate this MJCF: with no case, any model against its own kinematic tree; with "
+                            "one case, your variant of that case's model against the case's reference and limits")
+        p.add_argument("--keyframe", metavar="NAME", help="with --mjcf and no case: start at this keyframe "
+                                                          "(default: qpos0, every joint set moving)")
+        p.add_argument("--ctrl", type=_state, metavar="NAME=VALUE,...",
+                       help="with --mjcf and no case: actuator controls by name (default: the keyframe's, else 0)")
 
 
 def _positive(text: str) -> int:

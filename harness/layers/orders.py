@@ -371,6 +371,8 @@ def convergence_study(
     path = Path(mjcf) if mjcf is not None else case.mjcf
     base = compile_model(path, timestep=timestep, edit=edit)
     h0 = float(compile_model(case.mjcf).opt.timestep)  # the ladder is the case's, whatever timestep is tested
+    if case.tree is not None:  # a model the user brings: its ladder goes down from its own timestep, not up
+        h0 /= max(max(_ladder(n, fast)) for n in chosen)
     h_max = h0 * max(max(_ladder(n, fast)) for n in chosen)
     span = min(case.horizon, FAST_HORIZON) if fast else case.horizon
     horizon = max(1, math.floor(span / h_max + 1e-9)) * h_max  # at least one largest step

@@ -51,7 +51,7 @@ from typing import Literal
 
 from analytic.solvers import DEFAULT_RTOL
 from harness.budget.trajectory import REFERENCE
-from harness.cases import all_cases
+from harness.cases import Case, all_cases
 from harness.core.errors import ConfigError
 from harness.core.figures import FigureName
 from harness.layers.orders import ORDER_TOLERANCE
@@ -242,6 +242,20 @@ class Limits:
     def limit(self, case: str, figure: str) -> Limit | None:
         """The limit of one figure with its basis (a user override is basis ``user``)."""
         return self.for_case(case).get(figure)
+
+
+def case_limits(limits: Limits, case: Case, figures: Iterable[str]) -> dict[str, Limit]:
+    """The limits ``case`` is judged by: its shipped ones (with a user's overrides), or for a case whose
+    reference is its model's own tree (no limits file: a model the user brings) the default rule's over
+    the ``figures`` it measured, so that every figure the rule gates is judged, never none."""
+    if case.tree is None:
+        return limits.for_case(case.name)
+    names = [FigureName(f) for f in figures]
+    constrained = any(f.quantity in ("force", "violation") for f in names)
+    out = dict(default_limits(case.name, [str(f) for f in names], constrained=constrained).limits)
+    for name, value in limits.overrides.get(case.name, {}).items():
+        out[name] = Limit("user", value, f"set by {limits.source}")
+    return out
 
 
 def _config_section(path: Path) -> dict:

@@ -18,7 +18,7 @@ from pathlib import Path
 from harness import cases
 from harness.core import costs
 from harness.core.checks import Check
-from harness.pipeline.limits import Limits, load_limits
+from harness.pipeline.limits import Limits, case_limits, load_limits
 from harness.pipeline.pool import cpus, fork_pool
 from harness.pipeline.run import CaseResult, RunOptions
 from harness.pipeline.verdict import judge
@@ -67,7 +67,7 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
     bar.close()
     if options.shipped:
         costs.record({r.case.name: sum(v for k, v in r.timings.items() if k not in COLD) for r in results})
-    checks = {r.case.name: judge(r, limits.for_case(r.case.name)) for r in results}
+    checks = {r.case.name: judge(r, case_limits(limits, r.case, (f.name for f in r.figures))) for r in results}
     return results, checks, limits
 
 

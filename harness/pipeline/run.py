@@ -21,7 +21,6 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from analytic import systems
 from harness.budget.measure import (
     ModelUnderTest,
     Settings,
@@ -235,6 +234,8 @@ def _run_case(
     perturb: float | None,
     edit: Callable[[mujoco.MjSpec], None] | None,
 ) -> CaseResult:
+    if case.prepare is not None:  # a tree case: its model prepared (and isolated) before any edit of the user's
+        edit = variants.compose(case.prepare, edit)
     if horizon is not None or q0 or qd0:
         case = case.with_motion(q0=q0, qd0=qd0, horizon=horizon)
     if perturb is not None:
@@ -251,13 +252,14 @@ def _run_case(
     model = mut.compile()
     engine = backends.active()
     chosen, skipped = _backend_integrators(engine, mut, chosen, given=integrators is not None)
-    shipped = compile_model(case.mjcf)
+    shipped = compile_model(case.mjcf, edit=case.prepare)
     compiling = time.perf_counter() - clock  # counted with the reference, which reads the model
     clock = time.perf_counter()
     # numeric dynamics at the model's parameters: loaded from the on-disk cache, or derived (and cached)
-    params = systems.load(case.system).params_from_model(model)
-    derivations.dynamics(case.system, params)
-    derivations.minimal_dynamics(case.system, params)
+    params = case.params_from_model(model)
+    if case.tree is None:  # a tree case has no derivation: its dynamics are read from the model
+        derivations.dynamics(case.system, params)
+        derivations.minimal_dynamics(case.system, params)
     timings["derivation"] = time.perf_counter() - clock
     clock = time.perf_counter()
     ref = case.reference(model)
@@ -336,8 +338,7 @@ def _run_case(
     timings["budget"] = time.perf_counter() - clock
 
     tested = model_settings(model) | {f"param.{k}": v for k, v in ref.params.items()}
-    original = model_settings(shipped) | {f"param.{k}": v for k, v in
-                                          systems.load(case.system).params_from_model(shipped).items()}
+    original = model_settings(shipped) | {f"param.{k}": v for k, v in case.params_from_model(shipped).items()}
     settings: dict[str, object] = model_settings(model) | {
         "mjcf": str(path), "horizon": case.horizon, "settle": settle, "params": dict(ref.params),
         "q0": dict(zip(ref.dynamics.coordinates, ref.initial[0], strict=True)),
@@ -348,6 +349,9 @@ def _run_case(
         settings["changed"] = changed
     if ref.projected:
         settings["projected"] = list(ref.projected)
+    if case.tree is not None:  # what the model's own tree covers, and how its horizon was chosen
+        settings["tree"] = {"not examined": dict(case.tree.uncovered), "horizon": case.tree.horizon_note,
+                            "switched off for the comparison": bool(case.tree.uncovered)}
     fallbacks_here = tuple(dict.fromkeys(simulate_notes()[recorder_notes:]))
     if fallbacks_here:  # the batch recorder handed some runs to the loop: shown, never silent
         settings["recorder_fallbacks"] = list(fallbacks_here)

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 from analytic import systems
 from analytic.dynamics import Compiled, Dynamics
 from harness.core import cache
+from harness.reference.tree import TREE
 
 if TYPE_CHECKING:
     from analytic.lagrangian import Derivation, LagrangianSystem
@@ -101,7 +102,10 @@ def _minimal_dynamics(system: str, params: tuple[tuple[str, float], ...]) -> Dyn
 
 
 def minimal_dynamics(system: str, params: Mapping[str, float]) -> Dynamics | None:
-    """Numeric dynamics of the minimal-coordinate form at ``params`` (cached), or None."""
+    """Numeric dynamics of the minimal-coordinate form at ``params`` (cached), or None (always for a model's
+    own tree, which has one form)."""
+    if system == TREE:
+        return None
     return _minimal_dynamics(system, tuple(sorted(params.items())))
 
 

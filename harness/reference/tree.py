@@ -16,8 +16,8 @@ refused by :func:`refusal` (flex, plugins, a model with nothing that moves).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from functools import cached_property
 
 import mujoco
@@ -340,6 +340,37 @@ def _actuator(model: mujoco.MjModel, a: int, ctrl: float) -> Actuator:
                     gain=tuple(float(v) for v in gain), bias=tuple(float(v) for v in bias), ctrl=ctrl)
 
 
+def isolate(spec: mujoco.MjSpec) -> None:
+    """Switch off, in ``spec``, every force the tree reference does not model: contacts, joint limits, dry
+    friction, fluid forces; spatial and damped tendons' forces; actuators whose force it does not model.
+    Everything it does model is left as it is."""
+    dsbl = mujoco.mjtDisableBit
+    spec.option.disableflags |= int(dsbl.mjDSBL_CONTACT) | int(dsbl.mjDSBL_LIMIT) | int(dsbl.mjDSBL_FRICTIONLOSS)
+    spec.option.density = 0.0
+    spec.option.viscosity = 0.0
+    spec.option.wind = [0.0, 0.0, 0.0]
+    for geom in spec.geoms:
+        geom.fluid_ellipsoid = 0.0
+    model = spec.compile()
+    gaps = {k for k in uncovered(model) if k.startswith(("actuator ", "tendon "))}
+    for actuator in spec.actuators:
+        if f"actuator {actuator.name}" in gaps:
+            actuator.gear = [0.0] * 6
+    for tendon in spec.tendons:
+        if f"tendon {tendon.name}" in gaps:
+            tendon.stiffness = 0.0
+            tendon.damping = 0.0
+            tendon.limited = 0
+            tendon.frictionloss = 0.0
+            tendon.armature = 0.0
+
+
+def prepare_isolated(spec: mujoco.MjSpec) -> None:
+    """:func:`prepare`, then :func:`isolate`: how a model with forces the tree does not model is compared."""
+    prepare(spec)
+    isolate(spec)
+
+
 # ---- a tree case's system: what a hand-derived system module gives, for any model --------------------------
 @dataclass(frozen=True)
 class TreeSystem:
@@ -348,7 +379,14 @@ class TreeSystem:
 
     charts: tuple[tuple[int, tuple[float, ...]], ...] = ()
     ctrl: tuple[float, ...] = ()
-    extra: Mapping[str, str] = field(default_factory=dict)
+    uncovered: tuple[tuple[str, str], ...] = ()
+    horizon_note: str = ""
+
+    @property
+    def edit(self) -> Callable[[mujoco.MjSpec], None]:
+        """What every compile of the model gets first: :func:`prepare`, and :func:`isolate` where the model
+        has forces the tree reference does not model."""
+        return prepare_isolated if self.uncovered else prepare
 
     @cached_property
     def _chart(self) -> dict[int, np.ndarray]:

@@ -1,0 +1,160 @@
+"""A case for any model the user brings: its reference is the model's own kinematic tree.
+
+``from_mjcf(path)`` needs no hand-derived system: the reference is read from
+the compiled model (:mod:`harness.reference.tree`), the start is the model's
+``qpos0`` (or a keyframe, or coordinates given), and the horizon is chosen
+from the motion itself: the time over which a perturbation of the start of
+:data:`SEED` grows by :data:`GROWTH` (past it, any error of the engine is
+amplified as much as the error itself is worth: the chaos horizon), capped at
+:data:`HORIZON_CAP`. Every layer and budget then runs as for a shipped case.
+
+What the tree reference does not model (contacts, joint limits, dry friction,
+fluid forces, spatial tendons, activation dynamics: :func:`uncovered`) is
+switched off in every run of the comparison by :func:`isolate`, an explicit
+edit listed in the settings: the verdict speaks of the model's tree dynamics,
+and the report names every force it did not examine.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from collections.abc import Mapping
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from analytic.solvers import solve
+from analytic.tree import TreeDynamics
+from harness.cases import Case, Wiring
+from harness.core.errors import ModelError
+from harness.engine.bindings import TreeBinding
+from harness.engine.models import compile_model
+from harness.reference.tree import (
+    TREE,
+    TreeSystem,
+    charts,
+    motion,
+    prepare,
+    refusal,
+    start_state,
+    tree_scales,
+    uncovered,
+)
+
+HORIZON_CAP = 1.0
+"""The longest horizon chosen (s): the reference's cost grows with it, and a model's tree dynamics shows its
+faults within it."""
+SEED = 1e-8
+"""The relative size of the perturbation of the start's velocities the chaos horizon is measured with."""
+GROWTH = 1e4
+"""How much the perturbation may grow before the horizon ends."""
+MIN_STEPS = 20
+"""The shortest horizon chosen, in timesteps (a very chaotic motion still gets a trajectory)."""
+
+
+def _start(model: mujoco.MjModel, keyframe: str | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    if keyframe is None:
+        return np.array(model.qpos0), np.zeros(model.nv), np.zeros(model.nu), "qpos0 at rest"
+    kid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, keyframe)
+    if kid < 0:
+        known = [model.key(i).name for i in range(model.nkey)]
+        raise ModelError(f"keyframe {keyframe!r} is not in the model; accepted: {', '.join(known) or 'none defined'}")
+    return (np.array(model.key_qpos[kid]), np.array(model.key_qvel[kid]), np.array(model.key_ctrl[kid]),
+            f"keyframe {keyframe!r}")
+
+
+KICK_SEED = 0
+"""The seed of the start's velocity pattern where the model starts at rest (deterministic: the same case every run)."""
+
+
+def kick(model: mujoco.MjModel, case_tree: TreeSystem, qpos: np.ndarray) -> np.ndarray:
+    """A start velocity that moves every degree of freedom, for a model that starts at rest: a fixed pseudo-random
+    direction (each component of size 0.5–1 and either sign, seeded by :data:`KICK_SEED`) scaled so that the kinetic
+    energy is ½ m g L (the tree's total mass moving over its size under gravity; 9.81 m/s² where gravity is off).
+    At rest at an equilibrium a model would show no dynamics at all: every figure 0, nothing examined."""
+    tree = case_tree.tree(model)
+    dyn = TreeDynamics.of(tree)
+    q0, _ = start_state(model, qpos, np.zeros(model.nv))
+    q = np.array([q0[c] for c in dyn.coordinates])
+    rng = np.random.default_rng(KICK_SEED)
+    direction = rng.uniform(0.5, 1.0, size=dyn.n) * rng.choice([-1.0, 1.0], size=dyn.n)
+    scales = tree_scales(tree)
+    kinetic = 0.5 * float(direction @ dyn.mass_matrix(q) @ direction)
+    return direction * math.sqrt(0.5 * scales.energy / kinetic)
+
+
+def chaos_horizon(case: Case, model: mujoco.MjModel) -> tuple[float, str]:
+    """The horizon for ``case``'s motion and why: the first time a perturbation of :data:`SEED` in the start's
+    velocities (in units of √(g/L)) separates a point by :data:`GROWTH` × SEED × L, capped at
+    :data:`HORIZON_CAP` and at least :data:`MIN_STEPS` timesteps."""
+    dyn = case.tree.dynamics(model)
+    scales = tree_scales(dyn.tree)
+    nominal = case.reference(model, t_end=HORIZON_CAP)
+    q0, qd0 = nominal.q0(), nominal.qd0()
+    signs = np.where(np.arange(dyn.n) % 2 == 0, 1.0, -1.0)
+    kick = SEED * math.sqrt(9.81 / scales.length) * signs
+    moved = solve(dyn, q0=q0, qd0=qd0 + kick, t_end=HORIZON_CAP, rtol=nominal.solution.rtol,
+                  atol=nominal.solution.rtol)
+    t = np.linspace(0.0, HORIZON_CAP, 401)
+    a = dyn.points(nominal.solution.state(t)[0]) if dyn.point_names else dyn.body_coms(nominal.solution.state(t)[0])
+    b = dyn.points(moved.state(t)[0]) if dyn.point_names else dyn.body_coms(moved.state(t)[0])
+    separation = np.max(np.linalg.norm(a - b, axis=-1), axis=-1)
+    over = np.flatnonzero(separation > GROWTH * SEED * scales.length)
+    floor = MIN_STEPS * float(model.opt.timestep)
+    if over.size == 0:
+        return HORIZON_CAP, (f"horizon {HORIZON_CAP:g} s (the cap): a {SEED:g} perturbation of the start grows less "
+                             f"than ×{GROWTH:g} within it")
+    end = float(t[over[0]])
+    chosen = max(floor, float(f"{end:.2g}"))
+    return chosen, (f"horizon {chosen:g} s: a {SEED:g} perturbation of the start grows ×{GROWTH:g} by {end:.3g} s "
+                    "(chaos); past it an engine's error is amplified beyond what a budget can apportion")
+
+
+def _qvel_of(model: mujoco.MjModel, qd: np.ndarray) -> np.ndarray:
+    """MuJoCo's qvel of the analytic q̇ at θ = 0 (where B = I: the charts are centred at the start)."""
+    return np.asarray(qd, dtype=float).copy()
+
+
+def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[str, float] | None = None,
+              horizon: float | None = None) -> Case:
+    """The case of the model at ``path`` judged against its own kinematic tree (no hand-derived system).
+
+    ``keyframe`` starts it at a keyframe of the model (default: qpos0 at rest); ``ctrl`` sets actuator
+    controls by name (default: the keyframe's, else 0); ``horizon`` replaces the chosen one. ModelError
+    (one line) for a model the tree reference cannot read or a keyframe or actuator it lacks."""
+    path = Path(path)
+    model = compile_model(path, edit=prepare)
+    why = refusal(model)
+    if why:
+        raise ModelError(f"{path.name}: {why}")
+    qpos, qvel, controls, start = _start(model, keyframe)
+    for name, value in (ctrl or {}).items():
+        aid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, name)
+        if aid < 0:
+            known = [model.actuator(i).name for i in range(model.nu)]
+            raise ModelError(f"--ctrl names actuator {name!r}, not in the model; accepted: {', '.join(known)}")
+        if not math.isfinite(value):
+            raise ModelError(f"--ctrl {name}={value}: a control must be a finite number")
+        controls[aid] = value
+    gaps = uncovered(model)
+    chart = tuple((j, tuple(float(x) for x in quat)) for j, quat in charts(model, qpos).items())
+    system = TreeSystem(charts=chart, ctrl=tuple(float(c) for c in controls), uncovered=tuple(gaps.items()))
+    if not np.any(qvel):
+        kicked = kick(model, system, qpos)
+        qvel = _qvel_of(model, kicked)
+        start = start.replace(" at rest", "") + " with every joint set moving (kinetic energy ½ m g L)"
+    binding = functools.partial(TreeBinding, charts=chart)
+    description = (f"{path.name}: its own kinematic tree ({model.nv} dof), from {start}"
+                   + (f"; not examined: {', '.join(gaps)}" if gaps else ""))
+    case = Case(name=path.stem, system=TREE, mjcf=path.resolve(),
+                motion=motion(model, qpos, qvel, horizon=horizon or HORIZON_CAP, description=description),
+                wiring=Wiring(binding=binding, description=description), tree=system)
+    if horizon is None:
+        isolated = compile_model(path, edit=case.prepare)
+        chosen, why_horizon = chaos_horizon(case, isolated)
+        case = case.with_motion(horizon=chosen)
+        case = dataclasses.replace(case, tree=dataclasses.replace(system, horizon_note=why_horizon))
+    return case
