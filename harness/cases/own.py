@@ -119,12 +119,14 @@ def _qvel_of(model: mujoco.MjModel, qd: np.ndarray) -> np.ndarray:
 
 
 def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[str, float] | None = None,
-              horizon: float | None = None) -> Case:
+              horizon: float | None = None, reference: Path | str | None = None) -> Case:
     """The case of the model at ``path`` judged against its own kinematic tree (no hand-derived system).
 
     ``keyframe`` starts it at a keyframe of the model (default: qpos0 at rest); ``ctrl`` sets actuator
-    controls by name (default: the keyframe's, else 0); ``horizon`` replaces the chosen one. ModelError
-    (one line) for a model the tree reference cannot read or a keyframe or actuator it lacks."""
+    controls by name (default: the keyframe's, else 0); ``horizon`` replaces the chosen one. ``reference``: read
+    the reference from this file instead (the same model with a fault made on the engine's side alone: what the
+    fault tests inject). ModelError (one line) for a model the tree reference cannot read or a keyframe or
+    actuator it lacks."""
     path = Path(path)
     model = compile_model(path, edit=prepare)
     why = refusal(model)
@@ -141,7 +143,12 @@ def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[st
         controls[aid] = value
     gaps = uncovered(model)
     chart = tuple((j, tuple(float(x) for x in quat)) for j, quat in charts(model, qpos).items())
-    system = TreeSystem(charts=chart, ctrl=tuple(float(c) for c in controls), uncovered=tuple(gaps.items()))
+    source = None
+    if reference is not None:
+        source = str(Path(reference).resolve())
+        compile_model(source, edit=prepare)  # one line for a file that is no model, before any work
+    system = TreeSystem(charts=chart, ctrl=tuple(float(c) for c in controls), uncovered=tuple(gaps.items()),
+                        source=source)
     if not np.any(qvel):
         kicked = kick(model, system, qpos)
         qvel = _qvel_of(model, kicked)

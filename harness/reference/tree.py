@@ -15,6 +15,7 @@ refused by :func:`refusal` (flex, plugins, a model with nothing that moves).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -381,6 +382,7 @@ class TreeSystem:
     ctrl: tuple[float, ...] = ()
     uncovered: tuple[tuple[str, str], ...] = ()
     horizon_note: str = ""
+    source: str | None = None
 
     @property
     def edit(self) -> Callable[[mujoco.MjSpec], None]:
@@ -393,6 +395,10 @@ class TreeSystem:
         return {j: np.array(q) for j, q in self.charts}
 
     def tree(self, model: mujoco.MjModel) -> Tree:
+        """The tree the reference is read from: ``model``'s own, or, where ``source`` names another file, that
+        file's (the engine then runs ``model``: how a fault made on the engine's side alone is injected)."""
+        if self.source is not None:
+            model = _compiled_source(self.source, self.edit)
         return read_tree(model, chart=self._chart, ctrl=np.array(self.ctrl) if self.ctrl else None)
 
     def dynamics(self, model: mujoco.MjModel) -> TreeDynamics:
@@ -403,6 +409,13 @@ class TreeSystem:
 
     def scales(self, model: mujoco.MjModel) -> Scales:
         return tree_scales(self.tree(model))
+
+
+@functools.cache
+def _compiled_source(path: str, edit: Callable[[mujoco.MjSpec], None]) -> mujoco.MjModel:
+    spec = mujoco.MjSpec.from_file(path)
+    edit(spec)
+    return spec.compile()
 
 
 def tree_scales(tree: Tree) -> Scales:
