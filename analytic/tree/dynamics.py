@@ -275,8 +275,8 @@ class TreeDynamics(Dynamics):
                     e = np.swapaxes(s, -1, -2) @ r2
                     f[..., start + 3:start + 6] = vee(e - np.swapaxes(e, -1, -2))
                     trace = np.trace(e, axis1=-2, axis2=-1)[..., None, None]
-                    # d/dt of ½ vee(E − Eᵀ), E = Sᵀ R₂, is ½ (tr E · I − Eᵀ) Sᵀ (ω₂ − ω₁); f is twice that
-                    lead = (trace * np.eye(3) - np.swapaxes(e, -1, -2)) @ np.swapaxes(s, -1, -2)
+                    # Ė = [u]× E with u = Sᵀ(ω₂ − ω₁), and vee([u]× E + Eᵀ [u]×) = (tr E · I − E) u
+                    lead = (trace * np.eye(3) - e) @ np.swapaxes(s, -1, -2)
                     jac[..., start + 3:start + 6, :] = lead @ (a2 - a1)
             else:
                 y = q @ eq.y - eq.y0

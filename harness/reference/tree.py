@@ -67,15 +67,6 @@ def refusal(model: mujoco.MjModel) -> str:
     if model.nplugin:
         return "the model uses engine plugins (e.g. SDF collisions, elasticity), which the tree reference cannot " \
                "read; accepted: a model without <plugin>"
-    for j in range(model.njnt):
-        kind = int(model.jnt_type[j])
-        body = int(model.jnt_bodyid[j])
-        last = int(model.body_jntadr[body]) + int(model.body_jntnum[body]) - 1
-        if kind == int(mujoco.mjtJoint.mjJNT_BALL) and j != last:
-            return (f"joint {model.joint(j).name!r}: a ball joint followed by other joints in the same body; "
-                    "accepted: a ball joint as its body's last joint")
-        if kind == int(mujoco.mjtJoint.mjJNT_FREE) and np.any(model.jnt_pos[j]):
-            return f"free joint {model.joint(j).name!r} has a pos; accepted: a free joint at its body's origin"
     for i in range(model.neq):
         if int(model.eq_type[i]) not in (int(mujoco.mjtEq.mjEQ_CONNECT), int(mujoco.mjtEq.mjEQ_WELD),
                                          int(mujoco.mjtEq.mjEQ_JOINT), int(mujoco.mjtEq.mjEQ_TENDON)):
