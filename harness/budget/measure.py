@@ -49,6 +49,9 @@ class ModelUnderTest:
     path: Path
     timestep: float | None = None
     edit: Callable[[mujoco.MjSpec], None] | None = None
+    floors: bool = True
+    """Whether the reference idealizes point masses (a hand-derived system does: their floor inertia is then a
+    budget part); a model's own tree reads that inertia, so it has no floor to budget."""
 
     def compile(self, *, integrator: str | None = None, timestep: float | None = None,
                 variant: V.SpecEdit | None = None) -> mujoco.MjModel:
@@ -67,9 +70,9 @@ class Settings:
     notes: tuple[str, ...]
 
     @classmethod
-    def of(cls, model: mujoco.MjModel, scales: Scales) -> Settings:
+    def of(cls, model: mujoco.MjModel, scales: Scales, *, floors: bool = True) -> Settings:
         constrained = model.neq > 0 or V.has_contacts(model)
-        bodies = V.point_masses(model, scales.length)
+        bodies = V.point_masses(model, scales.length) if floors else ()
         notes = [*V.softness_notes(model)]
         if bodies:
             notes.append(f"floors: the rotational inertia of the point mass(es) {', '.join(bodies)} "
@@ -92,7 +95,7 @@ def instant_budget(mut: ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref
     ``represented`` the figures' shift with the model's constants in float32 (``InstantEvaluation.represented``),
     and ``completed`` ``as_is`` with the backend's stopped solve completed (``InstantEvaluation.completed``); the
     variants are then taken completed too, so their differences are the settings', not where each stop fell."""
-    settings = Settings.of(model, ref.scales)
+    settings = Settings.of(model, ref.scales, floors=mut.floors)
     exact = V.exact_solver(model)
 
     def evaluate(variant: V.SpecEdit | None) -> list[Deviation]:
@@ -283,7 +286,7 @@ def trajectory_runs(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, s
     failed: dict[str, str] = {}
     if not sims:
         return runs, failed
-    settings = Settings.of(mut.compile(integrator=next(iter(sims))), target.scales)
+    settings = Settings.of(mut.compile(integrator=next(iter(sims))), target.scales, floors=mut.floors)
     floors = None
     if settings.point_masses:
         try:

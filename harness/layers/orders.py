@@ -308,6 +308,32 @@ def _ladder(integrator: str, fast: bool) -> tuple[float, ...]:
     return table[4 if EXPECTED_ORDER[integrator] >= 4 else 1]
 
 
+DOWN_ABOVE = 1e-7
+"""A model the user brings runs its ladder down from its own timestep (h, h/2, h/4) where its error there is at
+least this × L: two halvings shrink an order-4 error 256×, which keeps the smallest 2.6e-10 L, three decades above
+the round-off floor; below it the error at h is already near the floor, and the ladder goes up as a shipped case's
+does (multiples of h: 32, 16, 8 for RK4; 4, 2, 1 for the first-order integrators)."""
+
+
+def _tree_ladder(integrator: str, fast: bool, error_at_h: float) -> tuple[float, ...]:
+    """The multiples of a user's model's own timestep its ladder runs (see :data:`DOWN_ABOVE`)."""
+    base = _ladder(integrator, fast)
+    return tuple(k / max(base) for k in base) if error_at_h >= DOWN_ABOVE else base
+
+
+def _error_at(path: Path, integrator: str, h: float, edit, case: Case, reference: refmod.Reference,
+              span: float) -> float:
+    """The worst point's position error of one run at the model's own timestep over ``span``, / L (inf where it
+    diverges: the ladder then goes down)."""
+    probe = case.probe(reference.dynamics)
+    model = compile_model(path, integrator=integrator, timestep=h, edit=edit)
+    try:
+        sim = simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps_in(span, h))
+    except SimulationDiverged:
+        return math.inf
+    return _point_error(sim.positions, refmod.trajectory(reference, sim.t).positions) / reference.scales.length
+
+
 def _point_error(a: Mapping[str, np.ndarray], b: Mapping[str, np.ndarray]) -> float:
     return max(float(np.max(np.linalg.norm(a[p] - b[p], axis=1))) for p in b)
 
@@ -370,11 +396,14 @@ def convergence_study(
             raise ValueError(f"unknown integrator {name!r}; this MuJoCo offers {list(available)}")
     path = Path(mjcf) if mjcf is not None else case.mjcf
     base = compile_model(path, timestep=timestep, edit=edit)
-    h0 = float(compile_model(case.mjcf).opt.timestep)  # the ladder is the case's, whatever timestep is tested
-    if case.tree is not None:  # a model the user brings: its ladder goes down from its own timestep, not up
-        h0 /= max(max(_ladder(n, fast)) for n in chosen)
-    h_max = h0 * max(max(_ladder(n, fast)) for n in chosen)
+    h0 = float(compile_model(case.mjcf, edit=case.prepare).opt.timestep)  # the case's, whatever timestep is tested
     span = min(case.horizon, FAST_HORIZON) if fast else case.horizon
+    multiples = {n: _ladder(n, fast) for n in chosen}
+    if case.tree is not None:  # a model the user brings: the ladder's direction from its error at its own step
+        if reference is None or reference.solution.t_end < span - 1e-12:
+            reference = case.reference(base, t_end=span)
+        multiples = {n: _tree_ladder(n, fast, _error_at(path, n, h0, edit, case, reference, span)) for n in chosen}
+    h_max = h0 * max(max(m) for m in multiples.values())
     horizon = max(1, math.floor(span / h_max + 1e-9)) * h_max  # at least one largest step
     if reference is None or reference.solution.t_end < horizon - 1e-12:
         reference = case.reference(base, t_end=horizon)
@@ -411,7 +440,7 @@ def convergence_study(
 
     series: list[Series] = []
     for name in chosen:
-        dts = tuple(h0 * k for k in _ladder(name, fast))
+        dts = tuple(h0 * k for k in multiples[name])
         errs: dict[str, list[float]] = {"position": [], "position@rigid": [], "softness": [], "force": []}
         ladder = _ladder_runs(run, name, dts, double_softness if constrained else None, probe=probe, path=path,
                               edit=edit, start=(reference.q0(), reference.qd0()), horizon=horizon)

@@ -248,7 +248,7 @@ def _run_case(
     recorder_notes = len(simulate_notes())
     clock = time.perf_counter()
     path = Path(mjcf) if mjcf is not None else case.mjcf
-    mut = ModelUnderTest(path=path, timestep=timestep, edit=edit)
+    mut = ModelUnderTest(path=path, timestep=timestep, edit=edit, floors=case.tree is None)
     model = mut.compile()
     engine = backends.active()
     chosen, skipped = _backend_integrators(engine, mut, chosen, given=integrators is not None)
@@ -323,7 +323,7 @@ def _run_case(
                             q0=ref.q0(), qd0=ref.qd0(), rtol=ref.solution.rtol)
     runs, unbudgeted = trajectory_runs(mut, probe, target, sims, orders=EXPECTED_ORDER)
     diverged |= {f"budget.{name}": why for name, why in unbudgeted.items()}
-    settings_here = Settings.of(model, ref.scales)
+    settings_here = Settings.of(model, ref.scales, floors=mut.floors)
     solver_tolerance = settings_here.solver_tolerance  # the runs' solver: the model's, or Newton converged
     if solver_tolerance and not variants.solver_converges(model):
         solver_tolerance = variants.CONVERGED_TOLERANCE
