@@ -31,7 +31,7 @@ import numpy as np
 from analytic.dynamics import Dynamics
 from analytic.tree.kinematics import Layout, Pose, forward, point_jacobians, points_on, velocity_map
 from analytic.tree.model import Tree
-from analytic.tree.rotations import quat_to_mat, vee
+from analytic.tree.rotations import quat_to_mat, skew, vee
 
 Array = np.ndarray
 
@@ -271,13 +271,16 @@ class TreeDynamics(Dynamics):
                 f[..., start:start + 3] = p1 - p2
                 jac[..., start:start + 3, :] = l1 - l2
                 if eq.kind == "weld":
-                    s = r1 @ quat_to_mat(eq.relquat)
-                    e = np.swapaxes(s, -1, -2) @ r2
-                    f[..., start + 3:start + 6] = vee(e - np.swapaxes(e, -1, -2))
-                    trace = np.trace(e, axis1=-2, axis2=-1)[..., None, None]
-                    # Ė = [u]× E with u = Sᵀ(ω₂ − ω₁), and vee([u]× E + Eᵀ [u]×) = (tr E · I − E) u
-                    lead = (trace * np.eye(3) - e) @ np.swapaxes(s, -1, -2)
-                    jac[..., start + 3:start + 6, :] = lead @ (a2 - a1)
+                    s = r1 @ quat_to_mat(eq.frame1) @ quat_to_mat(eq.relquat)
+                    e = np.swapaxes(s, -1, -2) @ r2 @ quat_to_mat(eq.frame2)  # I when the weld holds
+                    # E's quaternion (w, v), w = ½√(1 + tr E) (analytic near a weld that holds), v = vec part
+                    w = 0.5 * np.sqrt(1.0 + np.trace(e, axis1=-2, axis2=-1))
+                    v = vee(e - np.swapaxes(e, -1, -2)) / (4.0 * w[..., None])
+                    # the rows are those of Eᵀ's quaternion, (w, −v): MuJoCo's (checked row by row, tests/test_tree.py)
+                    f[..., start + 3:start + 6] = -eq.torquescale * v
+                    # Ė = [u]× E with u = Sᵀ(ω₂ − ω₁), so q̇_E = ½ (0, u) ⊗ q_E and v̇ = ½ (w I − [v]×) u
+                    lead = -0.5 * eq.torquescale * (w[..., None, None] * np.eye(3) - skew(v))
+                    jac[..., start + 3:start + 6, :] = lead @ np.swapaxes(s, -1, -2) @ (a2 - a1)
             else:
                 y = q @ eq.y - eq.y0
                 s = q @ eq.x - eq.x0 if eq.x is not None else np.zeros(batch, dtype=dtype)

@@ -96,8 +96,10 @@ class Equality:
     """An equality constraint, as a block of rows f(q) = 0.
 
     kinds: ``connect`` (3 rows: world anchor on body1 − world anchor on body2; ``anchor1``/``anchor2`` in
-    their bodies' frames); ``weld`` (6 rows: the anchors as for connect, then the rotation vector of
-    R₁ᵀ R₂ R_relᵀ, which is zero when body2 sits at ``relquat`` in body1); ``joint`` and ``tendon``
+    their bodies' frames); ``weld`` (6 rows: the anchors as for connect, then ``torquescale`` × the vector part of
+    the quaternion of Eᵀ, E = (R₁ F₁ R_rel)ᵀ R₂ F₂ (E = I when is the identity when body2 sits at ``relquat`` in body1: MuJoCo's
+    documented weld, so that its rows and multipliers compare one by one; F₁, F₂ = ``frame1``, ``frame2`` the weld's
+    frames in the bodies, the sites' where it welds sites, else the bodies'); ``joint`` and ``tendon``
     (1 row: y − y₀ − Σₖ aₖ (x − x₀)ᵏ with y, x linear in the coordinates: ``y``/``x`` are the
     coefficient vectors, ``y0``/``x0`` their reference values, ``poly`` the a₀…a₄).
     """
@@ -109,6 +111,9 @@ class Equality:
     anchor1: np.ndarray = field(default_factory=lambda: np.zeros(3))
     anchor2: np.ndarray = field(default_factory=lambda: np.zeros(3))
     relquat: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+    torquescale: float = 1.0
+    frame1: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+    frame2: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
     y: np.ndarray | None = None
     x: np.ndarray | None = None
     y0: float = 0.0

@@ -65,6 +65,7 @@ from harness.engine.points import point_jacobian, point_source
 from harness.engine.probe import Probe
 from harness.layers.reactions import Recorder, reaction_deviations, sensor_names
 from harness.reference.solutions import Reference
+from harness.reference.tree import TREE
 
 DEFAULT_SAMPLES = 24
 STATE_TOLERANCE = 1e-14
@@ -389,8 +390,9 @@ def _deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarr
         missing = [FigureName.instant("sensor", s) for s in sensors] + \
             [FigureName.instant("interaction", b) for b in bodies]
         return out, {str(name): f"not available on backend {backend!r}: {unavailable}" for name in missing}
-    out += reaction_deviations(model, dyn, reactions, q, qd, qdd, lam, force_scale=force_scale, length=length)
-    return out, {}
+    found, skipped = reaction_deviations(model, dyn, reactions, q, qd, qdd, lam, force_scale=force_scale,
+                                         length=length, strict=ref.system != TREE)
+    return out + found, skipped
 
 
 def instantaneous_figures(model: mujoco.MjModel, probe: Probe, ref: Reference,

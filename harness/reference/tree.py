@@ -27,7 +27,6 @@ import numpy as np
 from analytic.systems import Motion, Scales
 from analytic.tree import Actuator, Body, Equality, Joint, Point, Tree, TreeDynamics
 from analytic.tree.model import BALL, FREE, HINGE, SLIDE
-from analytic.tree.rotations import mat_to_quat, quat_to_mat
 from harness.core.errors import ModelError
 
 TREE = "tree"
@@ -72,6 +71,9 @@ def refusal(model: mujoco.MjModel) -> str:
                                          int(mujoco.mjtEq.mjEQ_JOINT), int(mujoco.mjtEq.mjEQ_TENDON)):
             kind = mujoco.mjtEq(int(model.eq_type[i])).name
             return f"equality {model.equality(i).name!r} is {kind}; accepted: connect, weld, joint, tendon"
+        if int(model.eq_type[i]) == int(mujoco.mjtEq.mjEQ_WELD) and model.eq_active0[i] and not model.eq_data[i, 10]:
+            return (f"weld {model.equality(i).name!r} has torquescale 0 (its 3 orientation rows are zero, which the "
+                    "reference's multipliers cannot be solved for); accepted: torquescale > 0, or a connect")
     return ""
 
 
@@ -295,11 +297,11 @@ def _equality(model: mujoco.MjModel, i: int) -> Equality | None:
         # eq_data: anchor on body2 (its frame), the matching point on body1 (its frame), body2's orientation
         # in body1's frame; with sites, the sites themselves (and their frames' relative orientation)
         a1, a2 = (s1, s2) if sites else (data[3:6], data[0:3])
-        if sites:
-            s1q = quat_to_mat(model.site_quat[int(model.eq_obj1id[i])])
-            s2q = quat_to_mat(model.site_quat[int(model.eq_obj2id[i])])
-            relquat = mat_to_quat(s1q @ quat_to_mat(relquat) @ s2q.T)
-        return Equality(name=name, kind="weld", body1=b1, body2=b2, anchor1=a1, anchor2=a2, relquat=relquat)
+        identity = np.array([1.0, 0.0, 0.0, 0.0])
+        f1, f2 = (np.array(model.site_quat[int(model.eq_obj1id[i])], dtype=float),
+                  np.array(model.site_quat[int(model.eq_obj2id[i])], dtype=float)) if sites else (identity, identity)
+        return Equality(name=name, kind="weld", body1=b1, body2=b2, anchor1=a1, anchor2=a2, relquat=relquat,
+                        torquescale=float(data[10]), frame1=f1, frame2=f2)
     if kind == int(mujoco.mjtEq.mjEQ_JOINT):
         j1, j2 = int(model.eq_obj1id[i]), int(model.eq_obj2id[i])
         y = np.zeros(model.nv)
