@@ -97,9 +97,10 @@ class Equality:
 
     kinds: ``connect`` (3 rows: world anchor on body1 − world anchor on body2; ``anchor1``/``anchor2`` in
     their bodies' frames); ``weld`` (6 rows: the anchors as for connect, then ``torquescale`` × the vector part of
-    the quaternion of Eᵀ, E = (R₁ F₁ R_rel)ᵀ R₂ F₂ (E = I when is the identity when body2 sits at ``relquat`` in body1: MuJoCo's
-    documented weld, so that its rows and multipliers compare one by one; F₁, F₂ = ``frame1``, ``frame2`` the weld's
-    frames in the bodies, the sites' where it welds sites, else the bodies'); ``joint`` and ``tendon``
+    the quaternion of Eᵀ, E = (R₁ F₁ R_rel)ᵀ R₂ F₂, which is the identity when body2 sits at ``relquat`` in body1:
+    MuJoCo's weld, row for row, so that its rows and multipliers compare one by one; F₁, F₂ = ``frame1``,
+    ``frame2`` the weld's frames in the bodies, the sites' where it welds sites, else the bodies'); ``joint`` and
+    ``tendon``
     (1 row: y − y₀ − Σₖ aₖ (x − x₀)ᵏ with y, x linear in the coordinates: ``y``/``x`` are the
     coefficient vectors, ``y0``/``x0`` their reference values, ``poly`` the a₀…a₄).
     """
