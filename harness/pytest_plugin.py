@@ -3,7 +3,10 @@
 Installed with the package, it gives every test suite a session fixture
 ``mjharness``::
 
-    def test_my_pendulum(mjharness):
+    def test_my_robot(mjharness):                     # any model, against its own kinematic tree
+        mjharness.assert_valid(mjcf="models/my_robot.xml")
+
+    def test_my_pendulum(mjharness):                  # a variant of a shipped case, against its reference
         result = mjharness.assert_valid("pendulum", mjcf="models/my_pendulum.xml")
         assert result.figure("RK4.position").value < 1e-6     # your own requirement, on top
 
@@ -31,13 +34,13 @@ if TYPE_CHECKING:
 class Harness:
     """The ``mjharness`` fixture's value."""
 
-    def validate(self, case: str, **options: Any) -> Validation:
-        """:func:`harness.api.validate`, unjudged."""
+    def validate(self, case: str | None = None, **options: Any) -> Validation:
+        """:func:`harness.api.validate`, unjudged (no case: ``mjcf=`` judged against its own tree)."""
         from harness.api import validate  # lazy: MuJoCo and the harness load only when a test uses them
 
         return validate(case, **options)
 
-    def assert_valid(self, case: str, **options: Any) -> Validation:
+    def assert_valid(self, case: str | None = None, **options: Any) -> Validation:
         """:func:`harness.api.validate`, failing the test (AssertionError) with each failed check listed."""
         result = self.validate(case, **options)
         result.raise_for_failures()

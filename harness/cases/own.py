@@ -149,6 +149,9 @@ def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[st
         if not math.isfinite(value):
             raise ModelError(f"--ctrl {name}={value}: a control must be a finite number")
         controls[aid] = value
+    limited = model.actuator_ctrllimited.astype(bool)  # as MuJoCo clamps them (the reference bakes them in)
+    controls[limited] = np.clip(controls[limited], model.actuator_ctrlrange[limited, 0],
+                                model.actuator_ctrlrange[limited, 1])
     gaps = uncovered(model)
     chart = tuple((j, tuple(float(x) for x in quat)) for j, quat in charts(model, qpos).items())
     source = None

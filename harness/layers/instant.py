@@ -192,6 +192,7 @@ def _carry(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, fwd: Forwar
     data.qacc[:] = fwd.qacc[k]
     data.qfrc_bias[:] = fwd.qfrc_bias[k]
     data.qfrc_passive[:] = fwd.qfrc_passive[k]
+    data.qfrc_actuator[:] = fwd.actuator(k)
     data.qfrc_constraint[:] = fwd.qfrc_constraint[k]
     for c in probe.constraints:
         data.efc_force[equality_rows(model, data, c)] = fwd.equality[c][k]
@@ -245,8 +246,8 @@ def _measure(model: mujoco.MjModel, probe: Probe, dyn, q: np.ndarray, qd: np.nda
         if coordinates:
             dof, rate = velocity_map(probe.binding, model, q[i], qd[i])
             qacc = data.qacc if rate is None else data.qacc - rate  # B q̈ = qacc − Ḃ q̇
-            bias = data.qfrc_passive - data.qfrc_bias if rate is None else \
-                data.qfrc_passive - data.qfrc_bias - full @ rate
+            smooth = data.qfrc_passive + data.qfrc_actuator - data.qfrc_bias  # every force but the constraints'
+            bias = smooth if rate is None else smooth - full @ rate
             got["mass"].append(dof.T @ full @ dof)
             got["forcing"].append(dof.T @ bias)
             got["qacc"].append(pull_back(dof, full, qacc))
@@ -360,8 +361,8 @@ def _deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarr
             relative(FigureName.instant("mass_matrix"), got["mass"], mass,
                      f"max |{d}ᵀ M_mj {d} − M(q)| / max |M(q)|"),
             relative(FigureName.instant("forcing"), got["forcing"], forcing,
-                     "max |Bᵀ(qfrc_passive − qfrc_bias − M_mj Ḃq̇) − F| / max |F|" if mapped else
-                     "max |Dᵀ(qfrc_passive − qfrc_bias) − F| / max |F|"),
+                     "max |Bᵀ(qfrc_passive + qfrc_actuator − qfrc_bias − M_mj Ḃq̇) − F| / max |F|" if mapped else
+                     "max |Dᵀ(qfrc_passive + qfrc_actuator − qfrc_bias) − F| / max |F|"),
             relative(FigureName.instant("qacc"), got["qacc"], qdd,
                      "max |B⁺(qacc − Ḃq̇) − q̈| / max |q̈| (B⁺: pull-back, kinetic-energy weighted where nv > n)"
                      if mapped else "max |qacc − q̈| / max |q̈|"),

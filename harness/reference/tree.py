@@ -359,10 +359,32 @@ def isolate(spec: mujoco.MjSpec) -> None:
             tendon.armature = 0.0
 
 
-def prepare_isolated(spec: mujoco.MjSpec) -> None:
-    """:func:`prepare`, then :func:`isolate`: how a model with forces the tree does not model is compared."""
-    prepare(spec)
-    isolate(spec)
+@dataclass(frozen=True)
+class TreeEdit:
+    """A tree case's edit of its model (picklable, for workers): :func:`prepare`, then :func:`isolate` where
+    ``isolating``, then each nonzero control ``ctrl`` (by actuator, already clamped to its range) baked into its
+    actuator's affine bias — (g₀ + g₁ l + g₂ l̇) c + b₀ + b₁ l + b₂ l̇ is the bias b + c g at ctrl 0 — so that the
+    engine, whose runs keep ctrl at 0, and the reference read one and the same model."""
+
+    isolating: bool = False
+    ctrl: tuple[float, ...] = ()
+
+    def __call__(self, spec: mujoco.MjSpec) -> None:
+        prepare(spec)
+        if self.isolating:
+            isolate(spec)
+        for actuator, c in zip(spec.actuators, self.ctrl, strict=False):
+            if not c:
+                continue
+            gain = np.array(actuator.gainprm[:3], dtype=float)
+            if actuator.gaintype != mujoco.mjtGain.mjGAIN_AFFINE:
+                gain[1:] = 0.0
+            bias = np.array(actuator.biasprm[:3], dtype=float) \
+                if actuator.biastype == mujoco.mjtBias.mjBIAS_AFFINE else np.zeros(3)
+            params = np.array(actuator.biasprm, dtype=float)
+            params[:3] = bias + c * gain
+            actuator.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+            actuator.biasprm = params
 
 
 # ---- a tree case's system: what a hand-derived system module gives, for any model --------------------------
@@ -379,9 +401,9 @@ class TreeSystem:
 
     @property
     def edit(self) -> Callable[[mujoco.MjSpec], None]:
-        """What every compile of the model gets first: :func:`prepare`, and :func:`isolate` where the model
-        has forces the tree reference does not model."""
-        return prepare_isolated if self.uncovered else prepare
+        """What every compile of the model gets first: :func:`prepare`, :func:`isolate` where the model has forces
+        the tree reference does not model, and the controls baked into the actuators' bias (:class:`TreeEdit`)."""
+        return TreeEdit(isolating=bool(self.uncovered), ctrl=self.ctrl)
 
     @cached_property
     def _chart(self) -> dict[int, np.ndarray]:
@@ -389,10 +411,11 @@ class TreeSystem:
 
     def tree(self, model: mujoco.MjModel) -> Tree:
         """The tree the reference is read from: ``model``'s own, or, where ``source`` names another file, that
-        file's (the engine then runs ``model``: how a fault made on the engine's side alone is injected)."""
+        file's (the engine then runs ``model``: how a fault made on the engine's side alone is injected). The
+        controls are in the model's actuator bias (:class:`TreeEdit`), read at ctrl 0."""
         if self.source is not None:
             model = _compiled_source(self.source, self.edit)
-        return read_tree(model, chart=self._chart, ctrl=np.array(self.ctrl) if self.ctrl else None)
+        return read_tree(model, chart=self._chart)
 
     def dynamics(self, model: mujoco.MjModel) -> TreeDynamics:
         return TreeDynamics.of(self.tree(model))

@@ -83,6 +83,7 @@ class Forward:
         sensordata: (N, nsensordata), where the backend computes the sensors at these states; else None.
         cfrc_int, cfrc_ext: (N, nbody, 6) MuJoCo's c-frame interaction and external wrenches (torque, force),
             where the backend computes them; else None.
+        qfrc_actuator: (N, nv) the actuators' generalized force, where the model has actuators; else None (zero).
     """
 
     qacc: np.ndarray
@@ -94,6 +95,11 @@ class Forward:
     sensordata: np.ndarray | None = None
     cfrc_int: np.ndarray | None = None
     cfrc_ext: np.ndarray | None = None
+    qfrc_actuator: np.ndarray | None = None
+
+    def actuator(self, k: int) -> np.ndarray | float:
+        """The actuators' generalized force at state ``k`` (0 where the model has none)."""
+        return 0.0 if self.qfrc_actuator is None else self.qfrc_actuator[k]
 
 
 def computes_reactions(model: mujoco.MjModel) -> bool:

@@ -49,13 +49,14 @@ class CBackend:
         names = probe.constraints
         reactions = computes_reactions(model)
         rows: dict[str, list] = {k: [] for k in ("qacc", "qfrc_bias", "qfrc_passive", "qfrc_constraint", "mass",
-                                                 "sensordata", "cfrc_int", "cfrc_ext")}
+                                                 "sensordata", "cfrc_int", "cfrc_ext", "qfrc_actuator")}
         eqs: dict[str, list] = {c: [] for c in names}
         for qp, qv in zip(qpos, qvel, strict=True):
             mujoco.mj_resetData(model, data)
             data.qpos[:], data.qvel[:] = qp, qv
             mujoco.mj_forward(model, data)
-            for f in ("qacc", "qfrc_bias", "qfrc_passive", "qfrc_constraint", "sensordata", "cfrc_int", "cfrc_ext"):
+            for f in ("qacc", "qfrc_bias", "qfrc_passive", "qfrc_constraint", "sensordata", "cfrc_int", "cfrc_ext",
+                      "qfrc_actuator"):
                 rows[f].append(getattr(data, f).copy())
             rows["mass"].append(full_mass_matrix(model, data))
             for c in names:
@@ -66,7 +67,8 @@ class CBackend:
                        equality={c: np.array(v, dtype=float).reshape(len(qpos), -1) for c, v in eqs.items()},
                        sensordata=out["sensordata"] if reactions or model.nsensordata else None,
                        cfrc_int=out["cfrc_int"] if reactions else None,
-                       cfrc_ext=out["cfrc_ext"] if reactions else None)
+                       cfrc_ext=out["cfrc_ext"] if reactions else None,
+                       qfrc_actuator=out["qfrc_actuator"] if model.nu else None)
 
 
 def backend(name: str) -> CBackend:

@@ -164,7 +164,7 @@ def completed_forward(model: mujoco.MjModel, fwd: Forward, epsilon: float,
         set_state(data, k)
         mujoco.mj_forward(model, data)
         mass, a = fwd.mass[k], fwd.qacc[k]
-        smooth = fwd.qfrc_bias[k] - fwd.qfrc_passive[k]
+        smooth = fwd.qfrc_bias[k] - fwd.qfrc_passive[k] - fwd.actuator(k)
         residual0 = mass @ a + smooth - fwd.qfrc_constraint[k]
         if data.nefc == 0 or not np.any(residual0):
             continue

@@ -209,7 +209,8 @@ class MjxBackend:
         put = self.mjx.put_model(host_model(model))
         reactions = computes_reactions(model)
         wanted = ("qacc", "qfrc_bias", "qfrc_passive", "qfrc_constraint", "qM", "efc_force",
-                  *(("sensordata",) if model.nsensordata else ()), *(("cfrc_int", "cfrc_ext") if reactions else ()))
+                  *(("sensordata",) if model.nsensordata else ()), *(("cfrc_int", "cfrc_ext") if reactions else ()),
+                  *(("qfrc_actuator",) if model.nu else ()))
         leaves, treedef = jax.tree_util.tree_flatten(put)
         key = ("forward", treedef, tuple(leaf.tobytes() for leaf in leaves if isinstance(leaf, np.ndarray)), wanted)
         data = self.mjx.make_data(put)
@@ -231,7 +232,8 @@ class MjxBackend:
         return Forward(qacc=out["qacc"], qfrc_bias=out["qfrc_bias"], qfrc_passive=out["qfrc_passive"],
                        qfrc_constraint=out["qfrc_constraint"], mass=out["qM"],
                        equality={c: out["efc_force"][:, rows[c]] for c in probe.constraints},
-                       sensordata=out.get("sensordata"), cfrc_int=out.get("cfrc_int"), cfrc_ext=out.get("cfrc_ext"))
+                       sensordata=out.get("sensordata"), cfrc_int=out.get("cfrc_int"), cfrc_ext=out.get("cfrc_ext"),
+                       qfrc_actuator=out.get("qfrc_actuator"))
 
     def _groups(self, requests: Sequence[Request]) -> dict[tuple, tuple[list[int], list]]:
         """Requests that can be one vmap: the same integrator, model structure and static fields."""

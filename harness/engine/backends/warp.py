@@ -410,7 +410,8 @@ class WarpBackend:
             datas.append(SimpleNamespace(nefc=data.nefc, ncon=data.ncon))
         reactions = computes_reactions(model)
         wanted = ("qacc", "qfrc_bias", "qfrc_passive", "qfrc_constraint", "M",
-                  *(("sensordata",) if model.nsensordata else ()), *(("cfrc_int", "cfrc_ext") if reactions else ()))
+                  *(("sensordata",) if model.nsensordata else ()), *(("cfrc_int", "cfrc_ext") if reactions else ()),
+                  *(("qfrc_actuator",) if model.nu else ()))
         mujoco.mj_resetData(host, data)
         fields, eqs = _forward_fields(wm, host, np.array(rows).reshape(len(rows), -1), wanted, probe.constraints,
                                       _capacity(host, datas), data)
@@ -419,7 +420,7 @@ class WarpBackend:
                        qfrc_constraint=fields["qfrc_constraint"], mass=dense_mass(host, fields["M"]),
                        equality={c: force.reshape(len(rows), -1) for c, (force, _) in eqs.items()},
                        sensordata=fields.get("sensordata"), cfrc_int=fields.get("cfrc_int"),
-                       cfrc_ext=fields.get("cfrc_ext"))
+                       cfrc_ext=fields.get("cfrc_ext"), qfrc_actuator=fields.get("qfrc_actuator"))
 
     def simulate_many(self, requests: Sequence[Request], probe: Probe) -> list[Trajectory]:
         if not requests:

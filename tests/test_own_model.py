@@ -1,0 +1,241 @@
+"""A model the user brings, judged against its own kinematic tree: the CLI, the API and the fixture with no case,
+both directions of the verdict (faults made on the engine's side alone fail; legitimate settings pass), the
+shipped double pendulum judged either way, and what is refused.
+
+The models here are written for these tests (nobody's robot); dm_control's and Gymnasium's run in tests/test_zoo.py.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+import harness
+from harness.cases.own import from_mjcf
+from harness.core.errors import ModelError
+from harness.engine.models import compile_model
+
+ROOT = Path(__file__).resolve().parent.parent
+
+# A three-link arm in 3D: capsules (full inertia from geoms), hinge axes not aligned, damping, armature, a position
+# servo holding the elbow, a keyframe away from rest, and a floor it never reaches (contacts listed, switched off).
+ARM = """
+<mujoco model="arm">
+  <option timestep="0.002"/>
+  <default><joint damping="0.02" armature="0.001"/><geom type="capsule" size="0.04" density="800"/></default>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 .1" pos="0 0 -1"/>
+    <body name="shoulder" pos="0 0 1">
+      <joint name="yaw" axis="0 0 1"/>
+      <geom fromto="0 0 0 0 0 0.1"/>
+      <body name="upper" pos="0 0 0.1">
+        <joint name="pitch" axis="0 1 0.1"/>
+        <geom fromto="0 0 0 0.4 0 0"/>
+        <body name="fore" pos="0.4 0 0">
+          <joint name="elbow" axis="0.1 1 0" ref="0.2"/>
+          <geom fromto="0 0 0 0.3 0 0"/>
+          <site name="tip" pos="0.3 0 0"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <actuator><position name="elbow_servo" joint="elbow" kp="2" kv="0.1"/></actuator>
+  <keyframe><key name="reach" qpos="0.3 -0.5 0.6" qvel="0.5 0 -1"/></keyframe>
+</mujoco>
+"""
+
+FREE_TOP = """
+<mujoco model="tumbler">
+  <option gravity="0 0 0"/>
+  <worldbody>
+    <body name="hull" pos="0 0 1" quat="0.9 0.2 0.3 0.1">
+      <freejoint name="root"/>
+      <geom type="box" size="0.2 0.1 0.05" density="500"/>
+      <body name="flap" pos="0.2 0 0">
+        <joint name="flap" type="ball" pos="0.02 0 0" damping="0.001"/>
+        <geom type="capsule" fromto="0 0 0 0.15 0.05 0" size="0.02" density="500"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("own") / "arm.xml"
+    path.write_text(ARM)
+    return path
+
+
+@pytest.fixture(scope="module")
+def tumbler(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("own") / "tumbler.xml"
+    path.write_text(FREE_TOP)
+    return path
+
+
+def _cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "harness.cli", *args], capture_output=True, text=True,
+                          timeout=600, cwd=cwd)
+
+
+def _failed(v) -> set[str]:
+    return {c.name for c in v.checks if not c.passed}
+
+
+# ------------------------------------------------------------------ the entry
+def test_check_judges_any_model_against_its_own_tree(arm, tmp_path):
+    done = _cli("check", "--mjcf", str(arm), "--integrators", "RK4,implicitfast", cwd=tmp_path)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "PASS" in done.stdout and "arm" in done.stdout
+    assert not list(tmp_path.iterdir())  # check writes nothing
+
+
+def test_the_case_says_what_it_did_not_examine_and_how_it_chose_its_horizon(arm):
+    case = from_mjcf(arm, keyframe="reach")
+    notes = dict(case.tree.uncovered)
+    assert "contacts" in notes  # the floor: listed, and switched off for the comparison
+    assert "horizon" in case.tree.horizon_note and case.horizon <= 1.0
+    assert case.qd0["yaw"] == 0.5 and case.q0["elbow"] == 0.6  # the keyframe's state, as given
+
+
+def test_a_model_at_rest_is_set_moving_rather_than_judged_motionless(arm):
+    case = from_mjcf(arm)
+    assert any(abs(v) > 0.1 for v in case.qd0.values())
+    assert "set moving" in case.description
+
+
+# ------------------------------------------------------------------ both directions
+def _heavier(body: str, factor: float):
+    def edit(spec):
+        for b in spec.bodies:
+            if b.name == body:
+                for g in b.geoms:
+                    g.density *= factor
+    return edit
+
+
+def _damped(joint: str, extra: float):
+    def edit(spec):
+        for j in spec.joints:
+            if j.name == joint:
+                j.damping = [j.damping[0] + extra, *list(j.damping)[1:]]
+    return edit
+
+
+def _tilted(joint: str, angle: float):
+    def edit(spec):
+        import numpy as np
+
+        for j in spec.joints:
+            if j.name == joint:
+                axis = np.asarray(j.axis, dtype=float) / np.linalg.norm(j.axis)
+                normal = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+                j.axis = np.cos(angle) * axis + np.sin(angle) * normal / np.linalg.norm(normal)
+    return edit
+
+
+@pytest.mark.parametrize(("fault", "edit"), [
+    ("the forearm 1 % heavier", _heavier("fore", 1.01)),
+    ("0.01 N m s more damping at the elbow", _damped("elbow", 0.01)),
+    ("the pitch axis tilted by 1e-3 rad", _tilted("pitch", 1e-3)),
+])
+def test_a_fault_on_the_engines_side_alone_fails(arm, fault, edit):
+    case = from_mjcf(arm, keyframe="reach", reference=arm)
+    v = harness.validate(case, integrators=["RK4"], edit=edit)
+    assert "RK4.position" in _failed(v), fault
+    assert {"instant.mass_matrix", "instant.forcing", "instant.qacc"} & _failed(v), fault
+
+
+def test_the_same_model_unfaulted_passes(arm):
+    case = from_mjcf(arm, keyframe="reach", reference=arm)
+    v = harness.validate(case, integrators=["RK4"])
+    assert not _failed(v)
+
+
+@pytest.mark.parametrize("setting", [
+    pytest.param({"timestep": 0.001}, id="half the timestep"),
+    pytest.param({"edit": lambda s: setattr(s.option, "solver", 1)}, id="CG solver"),
+    pytest.param({"edit": lambda s: setattr(s.option, "integrator", 1)}, id="RK4 as its own integrator"),
+])
+def test_legitimate_settings_pass(arm, setting):
+    case = from_mjcf(arm, keyframe="reach")
+    v = harness.validate(case, integrators=["RK4", "implicitfast"], **setting)
+    assert not _failed(v), [(c.name, c.value, c.threshold) for c in v.checks if not c.passed]
+
+
+def test_a_floating_body_with_a_ball_joint_passes_and_a_heavier_flap_fails(tumbler):
+    case = from_mjcf(tumbler, reference=tumbler)
+    assert not _failed(harness.validate(case, integrators=["RK4"]))
+    assert "RK4.position" in _failed(harness.validate(case, integrators=["RK4"], edit=_heavier("flap", 1.01)))
+
+
+# ------------------------------------------------------------------ our own double pendulum, either way
+def test_the_shipped_double_pendulum_passes_with_and_without_its_case():
+    mjcf = ROOT / "mjcf" / "double_pendulum.xml"
+    with_case = harness.validate("double_pendulum", integrators=["RK4", "Euler"])
+    without = harness.validate(mjcf=mjcf, integrators=["RK4", "Euler"])
+    assert not _failed(with_case) and not _failed(without)
+    assert {c.name for c in without.checks} >= {c.name for c in with_case.checks if c.name.startswith("instant.")}
+
+
+# ------------------------------------------------------------------ the fixture
+def test_the_fixture_takes_a_model_with_no_case(pytester, arm):
+    pytester.makepyfile(test_user=f"""
+        def test_my_arm(mjharness):
+            mjharness.assert_valid(mjcf={str(arm)!r}, keyframe="reach", integrators=["RK4"])
+    """)
+    result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-q")
+    result.assert_outcomes(passed=1)
+
+
+# ------------------------------------------------------------------ what is refused
+@pytest.mark.parametrize(("xml", "needle"), [
+    ("<mujoco><worldbody><body><geom size='.1'/></body></worldbody></mujoco>", "no degrees of freedom"),
+    ("<mujoco><worldbody><body><joint type='hinge'/><geom size='.1'/></body><flexcomp name='rope' type='grid' "
+     "count='3 1 1' spacing='.1 .1 .1' dim='1' mass='0.1'/></worldbody></mujoco>", "flex elements"),
+    ("<mujoco><worldbody><body><joint type='hinge' damping='nan'/><geom size='.1'/></body></worldbody></mujoco>",
+     "not finite"),
+])
+def test_a_model_it_cannot_judge_is_one_line_exit_2_nothing_written(tmp_path, xml, needle):
+    path = tmp_path / "model.xml"
+    path.write_text(textwrap.dedent(xml))
+    out = tmp_path / "out"
+    done = _cli("run", "--mjcf", str(path), "--out", str(out), "--no-studies", cwd=tmp_path)
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert done.stderr.count("\n") == 1 and needle in done.stderr and "Traceback" not in done.stderr
+    assert not out.exists()
+
+
+def test_an_unknown_keyframe_or_actuator_is_named(arm):
+    with pytest.raises(ModelError, match="keyframe 'nope' is not in the model; accepted: reach"):
+        from_mjcf(arm, keyframe="nope")
+    with pytest.raises(ModelError, match="accepted: elbow_servo"):
+        from_mjcf(arm, ctrl={"shoulder_motor": 1.0})
+
+
+def test_keyframe_without_a_model_of_ones_own_is_refused(tmp_path):
+    done = _cli("check", "pendulum", "--keyframe", "home", cwd=tmp_path)
+    assert done.returncode == 2 and "--keyframe and --ctrl apply to a model judged against its own tree" in done.stderr
+
+
+def test_a_control_is_baked_into_the_model_both_sides_read(arm):
+    """ctrl 0.5 on the elbow servo (kp 2) becomes the bias b₀ = kp · 0.5 of the model every run compiles (the engine's
+    ctrl stays 0), so the reference and the engine see the same servo: the model passes; the servo's stiffness changed
+    on the engine's side alone (kp 2 → 2.02, after the control is baked in) fails."""
+    moved = from_mjcf(arm, keyframe="reach", ctrl={"elbow_servo": 0.5}, reference=arm)
+    model = compile_model(arm, edit=moved.prepare)
+    assert model.actuator_biasprm[0, 0] == pytest.approx(2 * 0.5) and model.actuator_biasprm[0, 1] == -2
+    assert not _failed(harness.validate(moved, integrators=["RK4"]))
+
+    def stiffer(spec):
+        params = list(spec.actuators[0].biasprm)
+        params[1] = -2.02
+        spec.actuators[0].biasprm = params
+
+    assert "RK4.position" in _failed(harness.validate(moved, integrators=["RK4"], edit=stiffer))
