@@ -67,6 +67,7 @@ def solve(
     rtol: float = DEFAULT_RTOL,
     atol: float = DEFAULT_ATOL,
     stabilization_rate: float = 10.0,
+    max_steps: int = dop853.MAX_STEPS,
 ) -> Solution:
     """Integrate from (q0, q̇0) over [0, t_end] with dense output.
 
@@ -93,7 +94,8 @@ def solve(
         return np.concatenate([y[n:], qdd])
 
     try:
-        result = dop853.integrate(rhs, float(t_end), np.concatenate([q0, qd0]), rtol=rtol, atol=atol)
+        result = dop853.integrate(rhs, float(t_end), np.concatenate([q0, qd0]), rtol=rtol, atol=atol,
+                                  max_steps=max_steps)
     except dop853.IntegrationError as exc:
         raise RuntimeError(f"reference solver failed: {exc}") from exc
     return Solution(dynamics=dynamics, t_end=float(t_end), rtol=rtol, nfev=result.nfev, _dense=result.dense)

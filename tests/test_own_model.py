@@ -239,3 +239,8 @@ def test_a_control_is_baked_into_the_model_both_sides_read(arm):
         spec.actuators[0].biasprm = params
 
     assert "RK4.position" in _failed(harness.validate(moved, integrators=["RK4"], edit=stiffer))
+
+
+def test_a_point_mass_on_a_ball_joint_is_refused_rather_than_solved_for_hours():
+    with pytest.raises(ModelError, match="joint 'ball' turns a body with next to no rotational inertia"):
+        from_mjcf(ROOT / "mjcf" / "spherical_pendulum_ball.xml")

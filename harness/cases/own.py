@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import time
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -121,6 +122,31 @@ def chaos_horizon(case: Case, model: mujoco.MjModel) -> tuple[float, str]:
                     "(chaos); past it an engine's error is amplified beyond what a budget can apportion")
 
 
+def _refuse_floor_spins(model: mujoco.MjModel, qpos: np.ndarray) -> None:
+    """ModelError where a ball or free joint moves a mode of the mass matrix with next to no inertia (below
+    :data:`POINT_MASS` of the largest: a point mass on a ball joint). The tree's rotation-vector coordinates turn
+    that mode with θ, so round-off in the forces, divided by its inertia, becomes noise the reference's tolerance
+    cannot meet: measured, a point mass on a ball joint (1e-12 kg m²) ran its solve for hours."""
+    kinds = {int(mujoco.mjtJoint.mjJNT_BALL), int(mujoco.mjtJoint.mjJNT_FREE)}
+    if not any(int(t) in kinds for t in model.jnt_type):
+        return
+    system = TreeSystem(charts=tuple((j, tuple(float(x) for x in quat)) for j, quat in charts(model, qpos).items()))
+    dyn = system.dynamics(model)
+    q0, _ = start_state(model, qpos, np.zeros(model.nv))
+    inertia, modes = np.linalg.eigh(dyn.mass_matrix(np.array([q0[c] for c in dyn.coordinates])))
+    floor = inertia < POINT_MASS * inertia.max()
+    for j in range(model.njnt):
+        if int(model.jnt_type[j]) not in kinds:
+            continue
+        dof = int(model.jnt_dofadr[j]) + (3 if int(model.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_FREE) else 0)
+        if np.any(np.abs(modes[dof:dof + 3][:, floor]) > 0.5):
+            name = model.joint(j).name
+            raise ModelError(f"joint {name!r} turns a body with next to no rotational inertia (a mode of "
+                             f"{inertia[floor].min():.1e} against {inertia.max():.1e}: a point mass on a ball or free "
+                             "joint), which the tree reference cannot solve to its tolerance; accepted: rotational "
+                             f"inertia above {POINT_MASS:g} of the largest, or the point mass on a pair of hinges")
+
+
 def _qvel_of(model: mujoco.MjModel, qd: np.ndarray) -> np.ndarray:
     """MuJoCo's qvel of the analytic q̇ at θ = 0 (where B = I: the charts are centred at the start)."""
     return np.asarray(qd, dtype=float).copy()
@@ -152,6 +178,7 @@ def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[st
     limited = model.actuator_ctrllimited.astype(bool)  # as MuJoCo clamps them (the reference bakes them in)
     controls[limited] = np.clip(controls[limited], model.actuator_ctrlrange[limited, 0],
                                 model.actuator_ctrlrange[limited, 1])
+    _refuse_floor_spins(model, qpos)
     gaps = uncovered(model)
     chart = tuple((j, tuple(float(x) for x in quat)) for j, quat in charts(model, qpos).items())
     source = None
@@ -171,8 +198,10 @@ def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[st
                 motion=motion(model, qpos, qvel, horizon=horizon or HORIZON_CAP, description=description),
                 wiring=Wiring(binding=binding, description=description), tree=system)
     if horizon is None:
+        clock = time.perf_counter()
         isolated = compile_model(path, edit=case.prepare)
         chosen, why_horizon = chaos_horizon(case, isolated)
         case = case.with_motion(horizon=chosen)
-        case = dataclasses.replace(case, tree=dataclasses.replace(system, horizon_note=why_horizon))
+        case = dataclasses.replace(case, tree=dataclasses.replace(system, horizon_note=why_horizon,
+                                                                  horizon_seconds=time.perf_counter() - clock))
     return case

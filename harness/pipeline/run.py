@@ -351,7 +351,8 @@ def _run_case(
         settings["projected"] = list(ref.projected)
     if case.tree is not None:  # what the model's own tree covers, and how its horizon was chosen
         settings["tree"] = {"not examined": dict(case.tree.uncovered), "horizon": case.tree.horizon_note,
-                            "switched off for the comparison": bool(case.tree.uncovered)}
+                            "switched off for the comparison": bool(case.tree.uncovered),
+                            "seconds": {"horizon": case.tree.horizon_seconds, "reference": timings["reference"]}}
     fallbacks_here = tuple(dict.fromkeys(simulate_notes()[recorder_notes:]))
     if fallbacks_here:  # the batch recorder handed some runs to the loop: shown, never silent
         settings["recorder_fallbacks"] = list(fallbacks_here)

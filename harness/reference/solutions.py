@@ -22,6 +22,7 @@ from analytic import systems
 from analytic.dynamics import Dynamics
 from analytic.solvers import DEFAULT_RTOL, Solution, project, solve
 from analytic.systems import Scales
+from harness.core.errors import ModelError
 from harness.core.trajectory import Trajectory
 from harness.reference.derivations import dynamics
 from harness.reference.tree import TreeSystem, tree_scales
@@ -60,6 +61,10 @@ def ordered(values: Mapping[str, float], order: tuple[str, ...], label: str) -> 
         raise ValueError(f"{label} must give exactly the coordinates {order}, got {tuple(values)}")
     return np.array([values[k] for k in order], dtype=float)
 
+
+TREE_MAX_STEPS = 20_000
+"""The most steps a tree reference's solve may take (a humanoid falling for 1 s takes about 50): past it the model
+is refused in one line, never left to run for hours."""
 
 # solutions by (system, params, q0, qd0, rtol, horizon); seeds (exported by another process) wait
 # there without their dynamics until asked for
@@ -107,6 +112,13 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     if sol is None and key in _seeds:
         end, tol, nfev, dense = _seeds.pop(key)
         sol = Solution(dynamics=dyn, t_end=end, rtol=tol, nfev=nfev, _dense=dense)
+    if sol is None and tree is not None:
+        try:
+            sol = solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, atol=rtol, max_steps=TREE_MAX_STEPS)
+        except RuntimeError as exc:
+            raise ModelError(f"the model's tree reference cannot be solved to rtol {rtol:g} over {span:g} s ({exc}); "
+                             "its motion is too stiff or its mass matrix too ill-conditioned for the reference "
+                             "(accepted: a model whose tree solves in fewer steps, or a shorter --horizon)") from None
     if sol is None:
         sol = solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, atol=rtol)
     _solutions[key] = sol

@@ -397,6 +397,7 @@ class TreeSystem:
     ctrl: tuple[float, ...] = ()
     uncovered: tuple[tuple[str, str], ...] = ()
     horizon_note: str = ""
+    horizon_seconds: float = 0.0
     source: str | None = None
 
     @property
