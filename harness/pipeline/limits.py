@@ -72,7 +72,8 @@ def _default_gated(name: FigureName, constrained: bool) -> bool:
         return True
     if name.layer == "reference":
         return name.quantity != "residual" or constrained
-    return name.quantity in ("position", "drift", "force", "violation", "series") or name.quantity.startswith("p_")
+    return name.quantity in ("position", "drift", "force", "violation", "series", "balance") \
+        or name.quantity.startswith("p_")
 
 
 DEFAULT_GATED = _default_gated

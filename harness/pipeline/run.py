@@ -42,12 +42,14 @@ from harness.engine.integrators import available_integrators, integrator_name
 from harness.engine.models import compile_model
 from harness.engine.simulate import recorder, steps_in
 from harness.engine.simulate import recorder_notes as simulate_notes
+from harness.layers.balance import balance_figures
 from harness.layers.instant import engine_findings, instant_evaluation
 from harness.layers.orders import EXPECTED_ORDER, VERDICT_QUANTITY, convergence_study, order_figures
 from harness.layers.reference import reference_figures
 from harness.layers.trajectory import deviations
 from harness.reference import derivations
 from harness.reference import solutions as refmod
+from harness.reference.tree import TreeEdit
 
 
 @dataclass(frozen=True)
@@ -234,6 +236,7 @@ def _run_case(
     perturb: float | None,
     edit: Callable[[mujoco.MjSpec], None] | None,
 ) -> CaseResult:
+    user_edit = edit
     if case.prepare is not None:  # a tree case: its model prepared (and isolated) before any edit of the user's
         edit = variants.compose(case.prepare, edit)
     if horizon is not None or q0 or qd0:
@@ -337,6 +340,17 @@ def _run_case(
                                        notes=notes, epsilon=engine.epsilon) if defects else {}
     timings["budget"] = time.perf_counter() - clock
 
+    if case.tree is not None and case.tree.uncovered:  # the model as it is, by the work–energy balance
+        clock = time.perf_counter()
+        as_is = variants.compose(TreeEdit(isolating=False, ctrl=case.tree.ctrl), user_edit)
+        found, balance_budgets, balance_diverged = balance_figures(
+            path, as_is, probe.binding, integrators=tuple(sims), q0=ref.q0(), qd0=ref.qd0(), horizon=case.horizon,
+            energy_scale=ref.scales.energy, orders=EXPECTED_ORDER, not_examined=tuple(dict(case.tree.uncovered)))
+        figures += found
+        budgets |= balance_budgets
+        diverged |= balance_diverged
+        timings["balance"] = time.perf_counter() - clock
+
     tested = model_settings(model) | {f"param.{k}": v for k, v in ref.params.items()}
     original = model_settings(shipped) | {f"param.{k}": v for k, v in case.params_from_model(shipped).items()}
     settings: dict[str, object] = model_settings(model) | {
@@ -352,6 +366,8 @@ def _run_case(
     if case.tree is not None:  # what the model's own tree covers, and how its horizon was chosen
         settings["tree"] = {"not examined": dict(case.tree.uncovered), "horizon": case.tree.horizon_note,
                             "switched off for the comparison": bool(case.tree.uncovered),
+                            "the model as it is": "judged by the work–energy balance (INTEGRATOR.balance)"
+                            if case.tree.uncovered else "the comparison itself",
                             "seconds": {"horizon": case.tree.horizon_seconds, "reference": timings["reference"]}}
     fallbacks_here = tuple(dict.fromkeys(simulate_notes()[recorder_notes:]))
     if fallbacks_here:  # the batch recorder handed some runs to the loop: shown, never silent

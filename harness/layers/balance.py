@@ -1,0 +1,123 @@
+"""The work–energy balance: a model's motion judged as it is, with every force acting, whatever the forces are.
+
+Where a model the user brings has forces its tree reference does not model (contacts, joint limits, dry
+friction, fluid forces, spatial tendons, …: :func:`harness.reference.tree.uncovered`), the comparison with the
+reference runs with them switched off; the model as it is is judged here, by a truth that holds regardless of
+what the forces are: its energy changes by the work of the forces that are not conservative,
+
+    B(t) = E(t) − E(0) − ∫₀ᵗ P dt ,   P = qvel · (qfrc_passive − qfrc_spring + qfrc_actuator + qfrc_constraint
+                                                 + qfrc_applied)
+
+with E MuJoCo's own energy (gravity's and the springs' potential, whose forces are left out of P, plus the
+kinetic energy) and P the power of everything else MuJoCo applied: damping, gravity compensation, fluid forces,
+actuators, and every constraint row (contacts, limits, dry friction, equalities), all read at each recorded
+state. A run's B is its integrator's truncation error, so it is judged as a trajectory figure is: from the runs
+at h, h/2 and h/4, Richardson removes the leading term (``integration``) and the residual must lie within the
+estimate's own next-order error (measured from h/4) and round-off. Energy that no force accounts for — a force
+missing from MuJoCo's accounts, a kick — does not shrink with h and is left unexplained.
+
+∫ P dt is a fourth-order cumulative quadrature of the samples (the four-point Lagrange rule on each step,
+one-sided at the ends): a trapezoid would cap the balance of RK4 at second order.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+
+import mujoco
+import numpy as np
+
+from harness.core.budget import Budget
+from harness.core.errors import SimulationDiverged, UnmodelledElement
+from harness.core.figures import Figure, FigureName
+from harness.engine.backends import Request, simulate_many
+from harness.engine.models import compile_model
+from harness.engine.probe import Probe
+from harness.engine.readings import Reading
+from harness.engine.simulate import steps_in
+
+POWER_FIELDS = ("qfrc_passive", "qfrc_spring", "qfrc_actuator", "qfrc_constraint", "qfrc_applied")
+
+
+def _power(model: mujoco.MjModel, recorded: Mapping[str, np.ndarray]) -> np.ndarray:
+    force = (recorded["qfrc_passive"] - recorded["qfrc_spring"] + recorded["qfrc_actuator"]
+             + recorded["qfrc_constraint"] + recorded["qfrc_applied"])
+    return np.einsum("ni,ni->n", recorded["qvel"], force)
+
+
+POWER = Reading(fields=POWER_FIELDS, evaluate=_power,
+                description="the power of every force not in MuJoCo's energy (W)")
+ROUNDOFF_PER_STEP = 64 * np.finfo(float).eps
+"""The round-off a step leaves in E and in the work, relative to the energy scale (the float64 allowance of the
+trajectory budget, harness/core/budget.py), accumulating as a random walk."""
+INTEGRATION_UNCERTAINTY = 0.25
+"""What Richardson leaves of the correction, relatively, when no run at h/4 measures it (as the trajectory budget)."""
+
+
+def cumulative_work(power: np.ndarray, h: float) -> np.ndarray:
+    """∫₀^{t_k} P dt at every sample k of uniformly sampled ``power``, fourth-order accurate for a smooth P."""
+    p = np.asarray(power, dtype=float)
+    n = len(p) - 1
+    if n < 3:
+        steps = 0.5 * h * (p[1:] + p[:-1])
+    else:
+        steps = np.empty(n)
+        steps[1:n - 1] = h / 24 * (-p[:n - 2] + 13 * p[1:n - 1] + 13 * p[2:n] - p[3:n + 1])
+        steps[0] = h / 24 * (9 * p[0] + 19 * p[1] - 5 * p[2] + p[3])
+        steps[n - 1] = h / 24 * (9 * p[n] + 19 * p[n - 1] - 5 * p[n - 2] + p[n - 3])
+    return np.concatenate([[0.0], np.cumsum(steps)])
+
+
+def balance(energy: np.ndarray, power: np.ndarray, h: float) -> np.ndarray:
+    """B(t_k) = E(t_k) − E(0) − ∫ P dt at every sample."""
+    energy = np.asarray(energy, dtype=float)
+    return energy - energy[0] - cumulative_work(power, h)
+
+
+def balance_figures(path, edit: Callable[[mujoco.MjSpec], None] | None, binding, *, integrators: Sequence[str],
+                    q0: np.ndarray, qd0: np.ndarray, horizon: float, energy_scale: float, orders: Mapping[str, int],
+                    not_examined: Sequence[str], power: Reading = POWER
+                    ) -> tuple[list[Figure], dict[str, Budget], dict[str, str]]:
+    """Each integrator's ``INTEGRATOR.balance`` figure (max |B| over the horizon / ``energy_scale``), its budget, and
+    the runs that diverged (by figure name, with why), for the model at ``path`` compiled with ``edit`` (as it is:
+    nothing switched off), started from (q0, q̇0) through ``binding``. ``power``: what counts as the work done
+    (:data:`POWER`; the tests leave a force out of it to show the balance sees it)."""
+    probe = Probe(binding=binding, points=(), constraints=(), series={"power": power})
+    figures: list[Figure] = []
+    budgets: dict[str, Budget] = {}
+    diverged: dict[str, str] = {}
+    forces = ", ".join(not_examined)
+    for name in integrators:
+        fig = FigureName.trajectory(name, "balance")
+        base = compile_model(path, integrator=name, edit=edit)
+        h = float(base.opt.timestep)
+        steps = steps_in(horizon, h)
+        requests = [Request(compile_model(path, integrator=name, timestep=h / k, edit=edit), q0, qd0, steps * k)
+                    for k in (1, 2, 4)]
+        try:
+            runs = simulate_many(requests, probe)
+        except (SimulationDiverged, UnmodelledElement) as exc:
+            diverged[str(fig)] = exc.reason
+            continue
+        levels = [balance(r.invariants["energy"], r.series["power"], h / k)[::k] / energy_scale
+                  for r, k in zip(runs, (1, 2, 4), strict=True)]
+        kappa = 2.0 ** orders[name] / (2.0 ** orders[name] - 1.0)
+        correction = kappa * (levels[0] - levels[1])
+        ideal = levels[0] - correction
+        next_order = 2.0 * np.abs(ideal - (levels[1] - kappa * (levels[1] - levels[2])))
+        measured = float(np.max(np.abs(levels[0])))
+        integration = max(INTEGRATION_UNCERTAINTY * float(np.max(np.abs(correction))), float(np.max(next_order)))
+        roundoff = ROUNDOFF_PER_STEP * math.sqrt(4 * steps)
+        budgets[str(fig)] = Budget(
+            measured=measured, explained={"integration": float(np.max(np.abs(correction)))},
+            unexplained=float(np.max(np.abs(ideal))), tolerance={"integration": integration, "roundoff": roundoff},
+            notes=(f"work–energy balance of the model as it is ({forces} acting): E(t) − E(0) − ∫ P dt, P the power "
+                   "of every force not in MuJoCo's energy; integration from the runs at h, h/2, h/4",))
+        worst = int(np.argmax(np.abs(ideal)))
+        figures.append(Figure(name=fig, value=measured, unit="1",
+                              description=f"max |E(t) − E(0) − ∫ P dt| / energy scale ({energy_scale:.4g} J) of the "
+                                          f"model as it is; the unexplained residual peaks at t = "
+                                          f"{worst * h:.3g} s"))
+    return figures, budgets, diverged
+

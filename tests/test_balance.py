@@ -1,0 +1,91 @@
+"""The work–energy balance (harness/layers/balance.py): its quadrature's order, a model with forces the tree does not
+model passing as it is, and energy that no force accounts for failing."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from harness.cases.own import from_mjcf
+from harness.engine.models import compile_model
+from harness.engine.readings import Reading
+from harness.layers.balance import POWER, POWER_FIELDS, balance_figures, cumulative_work
+from harness.layers.orders import EXPECTED_ORDER
+from harness.reference.tree import TreeEdit
+
+# A damped, actuated double pendulum whose lower link reaches a joint limit and a wall: limits, contacts and
+# dry friction act (none of them in the tree reference), with damping and a servo doing work besides.
+WALLED = """
+<mujoco model="walled">
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom name="wall" type="box" size="0.05 0.5 0.5" pos="0.55 0 0.4"/>
+    <body name="upper" pos="0 0 1">
+      <joint name="shoulder" axis="0 1 0" damping="0.05" frictionloss="0.01"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.04"/>
+      <body name="lower" pos="0 0 -0.4">
+        <joint name="elbow" axis="0 1 0" limited="true" range="-1.2 1.2" damping="0.02"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.04"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator><position name="servo" joint="shoulder" kp="3" kv="0.2"/></actuator>
+</mujoco>
+"""
+
+
+def test_the_quadrature_is_fourth_order():
+    t = np.linspace(0, 1, 33)
+    errors = []
+    for k in (1, 2):
+        tk = t[::k]
+        errors.append(abs(cumulative_work(np.cos(3 * tk), tk[1] - tk[0])[-1] - np.sin(3.0) / 3))
+    assert errors[1] / errors[0] > 12  # 16 for order 4; a trapezoid gives 4
+
+
+@pytest.fixture(scope="module")
+def walled(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("balance") / "walled.xml"
+    path.write_text(WALLED)
+    return path
+
+
+def _balance(path: Path, power: Reading = POWER, integrators=("RK4", "Euler")):
+    case = from_mjcf(path, horizon=1.0)
+    ref = case.reference(compile_model(path, edit=case.prepare))
+    as_is = TreeEdit(isolating=False, ctrl=case.tree.ctrl)
+    return balance_figures(path, as_is, case.probe(ref.dynamics).binding, integrators=integrators, q0=ref.q0(),
+                           qd0=ref.qd0(), horizon=case.horizon, energy_scale=ref.scales.energy,
+                           orders=EXPECTED_ORDER, not_examined=[k for k, _ in case.tree.uncovered], power=power)
+
+
+def test_forces_the_tree_does_not_model_are_examined_by_the_balance(walled):
+    case = from_mjcf(walled, horizon=1.0)
+    assert {"contacts", "joint limits", "dry friction"} <= {k for k, _ in case.tree.uncovered}
+    figures, budgets, diverged = _balance(walled)
+    assert not diverged and {str(f.name) for f in figures} == {"RK4.balance", "Euler.balance"}
+    for name, budget in budgets.items():
+        assert budget.passed, (name, budget)
+
+
+@pytest.mark.parametrize("left_out", ["qfrc_constraint", "qfrc_actuator"])
+def test_energy_no_force_accounts_for_fails(walled, left_out):
+    """The same runs with one force's work left out of the accounts (the wall's, limit's and friction's rows; the
+    servo): the energy it moved is then unaccounted for, and no timestep explains it."""
+
+    def partial(model, recorded):
+        return POWER.evaluate(model, {**recorded, left_out: np.zeros_like(recorded[left_out])})
+
+    leaky = Reading(fields=POWER_FIELDS, evaluate=partial, description=f"without {left_out}")
+    _, budgets, _ = _balance(walled, power=leaky)
+    assert all(not b.passed for b in budgets.values()), budgets
+
+
+def test_run_case_reports_the_balance_for_a_model_with_uncovered_forces(walled):
+    import harness
+
+    v = harness.validate(mjcf=walled, integrators=["RK4"])
+    assert "RK4.balance" in {c.name for c in v.checks}
+    assert v.settings["tree"]["the model as it is"].startswith("judged by the work–energy balance")
