@@ -96,6 +96,15 @@ def test_check_judges_any_model_against_its_own_tree(arm, tmp_path):
     assert not list(tmp_path.iterdir())  # check writes nothing
 
 
+def test_run_writes_a_report_that_says_what_was_examined(arm, tmp_path):
+    out = tmp_path / "out"
+    done = _cli("run", "--mjcf", str(arm), "--out", str(out), "--integrators", "RK4", "--no-studies", cwd=tmp_path)
+    assert done.returncode == 0, done.stdout + done.stderr
+    page = (out / "report.html").read_text()
+    assert "What was examined" in page and "<b>contacts</b>" in page and "RK4.<wbr>balance" in page
+    assert "model image unavailable" not in page
+
+
 def test_the_case_says_what_it_did_not_examine_and_how_it_chose_its_horizon(arm):
     case = from_mjcf(arm, keyframe="reach")
     notes = dict(case.tree.uncovered)

@@ -193,7 +193,8 @@ def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[st
         start = start.replace(" at rest", "") + " with every joint set moving (kinetic energy ½ m g L)"
     binding = functools.partial(TreeBinding, charts=chart)
     description = (f"{path.name}: its own kinematic tree ({model.nv} dof), from {start}"
-                   + (f"; not examined: {', '.join(gaps)}" if gaps else ""))
+                   + (f"; not in the reference, judged by the work–energy balance only: {', '.join(gaps)}"
+                      if gaps else ""))
     case = Case(name=path.stem, system=TREE, mjcf=path.resolve(),
                 motion=motion(model, qpos, qvel, horizon=horizon or HORIZON_CAP, description=description),
                 wiring=Wiring(binding=binding, description=description), tree=system)

@@ -43,10 +43,11 @@ def study(kind: str, name: str):
     return run()
 
 
-def case_plots(name: str, result: CaseResult) -> str:
-    """A case's report plots (module-level: a worker runs it), from its result sent without the Case,
-    which holds closures."""
-    return section_plots(dataclasses.replace(result, case=cases.get(name)))
+def case_plots(case: str | cases.Case, result: CaseResult) -> str:
+    """A case's report plots (module-level: a worker runs it), from its result sent without the Case: a shipped
+    case by name (its wiring holds closures), a model's own tree case whole (it is plain data, and no registry
+    holds it)."""
+    return section_plots(dataclasses.replace(result, case=cases.get(case) if isinstance(case, str) else case))
 
 
 def report_parts(selected: Sequence[cases.Case], results: Sequence[CaseResult], *, jobs: int | None,
@@ -58,7 +59,8 @@ def report_parts(selected: Sequence[cases.Case], results: Sequence[CaseResult], 
     start = time.perf_counter()
     layer4 = study_calls(selected) if studies else []
     calls = ([(study, call) for call in layer4]
-             + [(case_plots, (r.case.name, dataclasses.replace(r, case=None))) for r in results])
+             + [(case_plots, (r.case.name if r.case.tree is None else r.case, dataclasses.replace(r, case=None)))
+                for r in results])
     labels = [" ".join(c) for c in layer4] + [f"plots {r.case.name}" for r in results]
     workers = min(jobs or cpus(), len(calls))
     bar = progress(calls, "report", unit="part")

@@ -29,12 +29,14 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
+import mujoco
 import numpy as np
 
 from analytic.claims.notation import latex_text
 from harness.core import VERSION as __version__
 from harness.core.budget import PARTS
 from harness.core.checks import Check
+from harness.engine.models import compile_model
 from harness.outputs.equations import equations, png_data_uri
 from harness.outputs.files import REPORT_FILES, prepare_output, write_atomic
 from harness.outputs.jsondoc import render_json, versions
@@ -47,6 +49,7 @@ from harness.pipeline.outcome import Outcome
 from harness.pipeline.require import Fitness
 from harness.pipeline.run import CaseResult
 from harness.reference.derivations import derivation
+from harness.reference.tree import TREE
 from harness.studies.formulas import text_html
 
 
@@ -256,7 +259,11 @@ def section_model(result: CaseResult, still: Still | None) -> str:
 @functools.cache
 def equations_html(system: str) -> str:
     """The system's equations of motion as typeset images, once per system (a system's cases share
-    them; sympy's simplification and mathtext cost about 0.2 s)."""
+    them; sympy's simplification and mathtext cost about 0.2 s); for a model's own tree, what they are."""
+    if system == TREE:
+        return ("<dl class='eqs'><dt>equations of motion</dt><dd>Lagrange's equations of the model's own kinematic "
+                "tree: T and V from our forward kinematics of the compiled model, every derivative by complex step "
+                "(docs/design.md, \"Any model\"); numeric, so not typeset</dd></dl>")
     rows = []
     for eq in equations(derivation(system)):
         uri = png_data_uri(eq.shown)
@@ -287,6 +294,25 @@ def _differences(result: CaseResult) -> str:
              f"{_esc('; '.join(projected))}.</p>") if projected else ""
     return (f"<h3>What differs from the shipped model</h3><p class='dim'>The reference is built from the "
             f"model run: these parameters are its own.</p>{table}{moved}")
+
+
+def _examined(result: CaseResult) -> str:
+    """For a model judged against its own tree: what the reference covers, what it does not (switched off for the
+    comparison), how the model as it is was judged instead, and how the horizon was chosen; '' for a shipped case."""
+    tree = result.settings.get("tree")
+    if not tree:
+        return ""
+    gaps = tree.get("not examined") or {}
+    covered = ("<p>Checked against the reference derived from the model's own tree: gravity, every body's mass and "
+               "inertia, the joints (their kind, anchor, axis and ref), armature, joint springs and damping, gravity "
+               "compensation, actuators at the control given, equality constraints.</p>")
+    if gaps:
+        rows = "".join(f"<li><b>{_esc(k)}</b>: {_esc(v)}</li>" for k, v in gaps.items())
+        covered += (f"<p>Not in the reference, so switched off for that comparison:</p><ul>{rows}</ul>"
+                    "<p>The model as it is, with these acting, is judged by the work–energy balance "
+                    "(<code>INTEGRATOR.balance</code>: its energy change against the work of every force MuJoCo "
+                    "applied).</p>")
+    return (f"<h3>What was examined</h3>{covered}<p class='dim'>{_esc(tree.get('horizon', ''))}.</p>")
 
 
 def _findings(result: CaseResult) -> str:
@@ -323,10 +349,10 @@ def section_case(result: CaseResult, checks: Sequence[Check], still: Still | Non
                    f"<td>{_esc(f.unit)}</td><td class='dim'>{_esc(f.description)}</td></tr>"
                    for f in result.figures if f.name not in gated)
     settings = "".join(f"<tr><td>{_esc(k)}</td><td>{_esc(_setting(v))} {_UNITS.get(k, '')}</td></tr>"
-                       for k, v in result.settings.items() if k not in ("changed", "projected"))
+                       for k, v in result.settings.items() if k not in ("changed", "projected", "tree"))
     return (f"<section id='{_esc(c.name)}'><h2>{_esc(c.name)} <span class='badge {verdict.lower()}'>"
             f"{verdict} {len(checks) - failed}/{len(checks)}</span></h2><p>{_esc(c.description)}</p>"
-            f"{section_model(result, still)}{_differences(result)}{_findings(result)}{fitness}"
+            f"{section_model(result, still)}{_examined(result)}{_differences(result)}{_findings(result)}{fitness}"
             f"<h3>Gated checks</h3>{_checks_table(result, checks)}"
             f"<h3>Plots</h3><div class='plots'>{plots}</div>"
             f"<details class='more'><summary><h3>Other figures (measured, not gated)</h3> "
@@ -395,8 +421,19 @@ footer{margin-top:2em;font-size:.8em;color:#666}
 def model_stills(results: Sequence[CaseResult]) -> dict[str, Still]:
     """A still of each case's model (the file actually run), rendered in a child process."""
     return stills([Request(case=r.case.name, mjcf=str(r.settings["mjcf"]),
-                           coordinates=tuple(q.name for q in derivation(r.case.system).system.q))
+                           coordinates=tuple(r.settings["q0"]) if r.case.tree is not None
+                           else tuple(q.name for q in derivation(r.case.system).system.q),
+                           qpos=_start_qpos(r) if r.case.tree is not None else ())
                    for r in results])
+
+
+def _start_qpos(result: CaseResult) -> tuple[float, ...]:
+    """MuJoCo's qpos at a tree case's start, through its binding (the render child knows no such case)."""
+    model = compile_model(result.case.mjcf, edit=result.case.prepare)
+    data = mujoco.MjData(model)
+    q0 = result.settings["q0"]
+    result.case.binding(tuple(q0)).set_state(model, data, list(q0.values()), [0.0] * len(q0))
+    return tuple(float(x) for x in data.qpos)
 
 
 def render_html(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]], *,

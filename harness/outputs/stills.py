@@ -55,18 +55,20 @@ class Still:
 
 @dataclass(frozen=True)
 class Request:
-    """One model to render: which case (for its binding and initial state) and which file."""
+    """One model to render: which case (for its binding and initial state) and which file; ``qpos``, where given,
+    is the initial state itself (a model judged against its own tree is in no registry the child could ask)."""
 
     case: str
     mjcf: str
     coordinates: tuple[str, ...]
+    qpos: tuple[float, ...] = ()
 
 
 def stills(requests: Sequence[Request], *, timeout: float = TIMEOUT_S) -> dict[str, Still]:
     """A still per request's case; never raises for GL trouble (the reason goes in ``note``)."""
     if not requests:
         return {}
-    payload = json.dumps([{"case": r.case, "mjcf": r.mjcf, "coordinates": list(r.coordinates)}
+    payload = json.dumps([{"case": r.case, "mjcf": r.mjcf, "coordinates": list(r.coordinates), "qpos": list(r.qpos)}
                           for r in requests])
     user = os.environ.get("MUJOCO_GL")
     reasons = []
@@ -178,7 +180,10 @@ def _render_one(item: Mapping[str, object]) -> bytes:
 
     model = _staged(str(item["mjcf"]))
     data = mujoco.MjData(model)
-    _pose(model, data, str(item["case"]), list(item["coordinates"]))  # type: ignore[arg-type]
+    if item.get("qpos"):
+        data.qpos[:] = item["qpos"]
+    else:
+        _pose(model, data, str(item["case"]), list(item["coordinates"]))  # type: ignore[arg-type]
     mujoco.mj_forward(model, data)
     model.vis.headlight.ambient[:] = 0.45
     model.vis.headlight.diffuse[:] = 0.55
