@@ -269,6 +269,10 @@ class Dynamics:
     def momenta(self, q: Array, qd: Array) -> Array:
         return self._call("momenta", q, qd)[..., 0]
 
+    def extra_invariants(self, q: Array, qd: Array) -> dict[str, Array]:
+        """Conserved quantities beyond the energy and the cyclic momenta, by name (none for a derived system)."""
+        return {}
+
     def points(self, q: Array) -> Array:
         """World positions, shape (..., npoints, 3), in ``point_names`` order."""
         return self._call("points", q, np.zeros_like(q))

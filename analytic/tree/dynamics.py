@@ -30,7 +30,7 @@ import numpy as np
 
 from analytic.dynamics import Dynamics
 from analytic.tree.kinematics import Layout, Pose, forward, point_jacobians, points_on, velocity_map
-from analytic.tree.model import Tree
+from analytic.tree.model import FREE, Tree
 from analytic.tree.rotations import quat_to_mat, skew, vee
 
 Array = np.ndarray
@@ -197,6 +197,41 @@ class TreeDynamics(Dynamics):
 
     def momenta(self, q: Array, qd: Array) -> Array:
         return np.zeros((*np.shape(q)[:-1], 0))
+
+    @cached_property
+    def free_floating(self) -> bool:
+        """Whether the tree's total linear and angular momentum are conserved: no gravity, every moving body hangs
+        from a free joint at its root, and no constraint holds a body to the world or to a body that never moves."""
+        tree = self.tree
+        if np.any(tree.gravity):
+            return False
+        moves = self.layout.moves.any(axis=1)
+        for b in range(len(tree.bodies)):
+            root = b
+            while tree.bodies[root].parent >= 0:
+                root = tree.bodies[root].parent
+            first = tree.bodies[root].joints[:1]
+            if moves[b] and not (first and tree.joints[first[0]].kind == FREE):
+                return False
+        anchored = [e for e in tree.equalities if e.kind in ("connect", "weld")
+                    and (e.body1 < 0 or e.body2 < 0 or not moves[e.body1] or not moves[e.body2])]
+        return not anchored
+
+    def extra_invariants(self, q: Array, qd: Array) -> dict[str, Array]:
+        """For a free-floating tree (:attr:`free_floating`), its total linear momentum Σ m ċ (``p_lin_x`` …) and its
+        angular momentum about the world origin Σ (c × m ċ + I ω) (``p_ang_x`` …); else none."""
+        if not self.free_floating:
+            return {}
+        q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
+        com, lin, ang, inertia = self._com_jacobians(forward(self.tree, self.layout, q))
+        m = self._bodies["mass"]
+        v = np.einsum("...bij,...j->...bi", lin, qd)
+        w = np.einsum("...bij,...j->...bi", ang, qd)
+        linear = np.einsum("b,...bi->...i", m, v)
+        angular = (np.einsum("b,...bi->...i", m, np.cross(com, v))
+                   + np.einsum("...bij,...bj->...i", inertia, w))
+        return ({f"p_lin_{a}": linear[..., k] for k, a in enumerate("xyz")}
+                | {f"p_ang_{a}": angular[..., k] for k, a in enumerate("xyz")})
 
     # ---- points ------------------------------------------------------------------------------------
     @cached_property

@@ -33,6 +33,7 @@ from harness.cases import Case, Wiring
 from harness.core.errors import ModelError
 from harness.engine.bindings import TreeBinding
 from harness.engine.models import compile_model
+from harness.engine.readings.momentum import total_momentum
 from harness.engine.variants import POINT_MASS
 from harness.reference.tree import (
     TREE,
@@ -195,9 +196,11 @@ def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[st
     description = (f"{path.name}: its own kinematic tree ({model.nv} dof), from {start}"
                    + (f"; not in the reference, judged by the work–energy balance only: {', '.join(gaps)}"
                       if gaps else ""))
+    floating = system.dynamics(compile_model(path, edit=system.edit)).free_floating
     case = Case(name=path.stem, system=TREE, mjcf=path.resolve(),
                 motion=motion(model, qpos, qvel, horizon=horizon or HORIZON_CAP, description=description),
-                wiring=Wiring(binding=binding, description=description), tree=system)
+                wiring=Wiring(binding=binding, description=description,
+                              invariants=total_momentum() if floating else {}), tree=system)
     if horizon is None:
         clock = time.perf_counter()
         isolated = compile_model(path, edit=case.prepare)

@@ -162,6 +162,7 @@ def trajectory(ref: Reference, t: np.ndarray) -> Trajectory:
     for k, name in enumerate(dyn.coordinates):
         if name in dyn.cyclic:
             invariants[f"p_{name}"] = momenta[:, k]
+    invariants |= dyn.extra_invariants(q, qd)
     return Trajectory(
         t=np.asarray(t, dtype=float),
         positions={p: pts[:, i] for i, p in enumerate(dyn.point_names)},

@@ -18,6 +18,7 @@ tests/test_spherical_pendulum.py and tests/test_hoop_plane.py).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 
 import mujoco
@@ -84,3 +85,34 @@ def axial_angular_momentum(*, body: str, site: str, axis: Sequence[float] = (0.0
     return Reading(fields=fields, evaluate=evaluate,
                    description=f"axis {unit.tolist()}{where} · angular momentum of subtree {body!r} about site "
                                f"{site!r} (kg m²/s)")
+
+
+def _total(model: mujoco.MjModel, recorded: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Every body's momentum summed: (linear, angular about the world origin), each (3, N)."""
+    n = len(recorded["time"])
+    linear, angular = np.zeros((3, n)), np.zeros((3, n))
+    for b in range(1, model.nbody):
+        spin, push = _spatial_momentum(recorded["cinert"][:, b].T, recorded["cvel"][:, b].T)
+        c = recorded["subtree_com"][:, int(model.body_rootid[b])].T
+        linear += push
+        angular += spin + _cross(c, push)
+    return linear, angular
+
+
+def _component(model: mujoco.MjModel, recorded: Mapping[str, np.ndarray], *, which: int, k: int) -> np.ndarray:
+    return _total(model, recorded)[which][k]
+
+
+def total_momentum() -> dict[str, Reading]:
+    """Readings of the whole model's linear momentum (``p_lin_x`` …, kg m/s) and angular momentum about the world
+    origin (``p_ang_x`` …, kg m²/s), conserved by a free-floating tree without gravity: the names the tree
+    reference gives the same quantities (:meth:`analytic.tree.TreeDynamics.extra_invariants`)."""
+    fields = ("cinert", "cvel", "subtree_com")
+    out = {}
+    for k, axis in enumerate("xyz"):
+        out[f"p_lin_{axis}"] = Reading(fields=fields, evaluate=functools.partial(_component, which=0, k=k),
+                                       description=f"the model's linear momentum along world {axis} (kg m/s)")
+        out[f"p_ang_{axis}"] = Reading(fields=fields, evaluate=functools.partial(_component, which=1, k=k),
+                                       description=f"the model's angular momentum about the world origin, {axis} "
+                                                   "(kg m²/s)")
+    return out
