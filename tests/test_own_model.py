@@ -218,6 +218,9 @@ def test_the_fixture_takes_a_model_with_no_case(pytester, arm):
      "count='3 1 1' spacing='.1 .1 .1' dim='1' mass='0.1'/></worldbody></mujoco>", "flex elements"),
     ("<mujoco><worldbody><body><joint type='hinge' damping='nan'/><geom size='.1'/></body></worldbody></mujoco>",
      "not finite"),
+    ("<mujoco><extension><plugin plugin='mujoco.pid'><instance name='pid'><config key='kp' value='4'/></instance>"
+     "</plugin></extension><worldbody><body><joint name='j'/><geom size='.1' mass='1'/></body></worldbody>"
+     "<actuator><plugin joint='j' plugin='mujoco.pid' instance='pid'/></actuator></mujoco>", "engine plugins"),
 ])
 def test_a_model_it_cannot_judge_is_one_line_exit_2_nothing_written(tmp_path, xml, needle):
     path = tmp_path / "model.xml"
