@@ -269,6 +269,10 @@ class Dynamics:
     def momenta(self, q: Array, qd: Array) -> Array:
         return self._call("momenta", q, qd)[..., 0]
 
+    def mass_and_forcing(self, q: Array, qd: Array) -> tuple[Array, Array]:
+        """M(q) and F(q, q̇) together (a dynamics that shares work between them computes them at once)."""
+        return self.mass_matrix(q), self.forcing(q, qd)
+
     def extra_invariants(self, q: Array, qd: Array) -> dict[str, Array]:
         """Conserved quantities beyond the energy and the cyclic momenta, by name (none for a derived system)."""
         return {}
@@ -321,8 +325,7 @@ class Dynamics:
         """
         q = np.asarray(q, dtype=float)
         qd = np.asarray(qd, dtype=float)
-        mass = self.mass_matrix(q)
-        force = self.forcing(q, qd)
+        mass, force = self.mass_and_forcing(q, qd)
         m = self.rows
         if m == 0:
             return np.linalg.solve(mass, force[..., None])[..., 0], np.zeros((*q.shape[:-1], 0))

@@ -39,13 +39,6 @@ STEP = 1e-30
 """The complex step h: Im f(q + i h v)/h = f′(q) v + O(h² |v|³), so any h far below round-off will do."""
 
 
-def _real(pose: Pose, k: int) -> Pose:
-    """Configuration ``k`` of a batch of poses (the batch axis just before each field's own axes), real part."""
-    return Pose(origin=pose.origin[..., k, :, :].real, rotation=pose.rotation[..., k, :, :, :].real,
-                axes=pose.axes[..., k, :, :].real, anchors=pose.anchors[..., k, :, :].real,
-                shifts=pose.shifts[..., k, :, :].real)
-
-
 @dataclass(frozen=True, kw_only=True)
 class TreeDynamics(Dynamics):
     """:class:`~analytic.dynamics.Dynamics` of a :class:`~analytic.tree.model.Tree`: the same interface the
@@ -154,10 +147,11 @@ class TreeDynamics(Dynamics):
         q = np.asarray(q, dtype=float)
         return self._mass(q, forward(self.tree, self.layout, q))
 
-    def _momentum_and_kinetic(self, c: Array, qd: Array, pose: Pose) -> tuple[Array, Array]:
+    def _momentum_and_kinetic(self, c: Array, qd: Array, pose: Pose) -> tuple[Array, Array, tuple[Array, ...]]:
         """At configurations c (..., k, n) with the real velocity q̇ (..., n): the momentum ∂T/∂q̇ = M(c) q̇
-        (..., k, n) and T(c, q̇) (..., k), without forming M."""
-        _, lin, ang, inertia = self._com_jacobians(pose)
+        (..., k, n) and T(c, q̇) (..., k), without forming M; and the Jacobians and inertias they came from."""
+        parts = self._com_jacobians(pose)
+        _, lin, ang, inertia = parts
         m = self._bodies["mass"]
         per_body = qd[..., None, None, :, None]  # against (..., k, nb, 3, n)
         v = (lin @ per_body)[..., 0]
@@ -170,22 +164,31 @@ class TreeDynamics(Dynamics):
                     + np.einsum("...ij,...i->...j", b, aq))
         kinetic = 0.5 * (np.einsum("b,...bi,...bi->...", m, v, v) + np.einsum("...bi,...bi->...", w, iw)
                          + np.einsum("...i,...i->...", qvel, aq))
-        return momentum, kinetic
+        return momentum, kinetic, parts
 
-    def forcing(self, q: Array, qd: Array) -> Array:
+    def mass_and_forcing(self, q: Array, qd: Array) -> tuple[Array, Array]:
+        """M(q) and F(q, q̇) from one batched evaluation: the real configuration, q + i h q̇ (for Ṁ q̇ = d/dt ∂T/∂q̇
+        at q̈ = 0), and q + i h e_k (for ∂L/∂q_k)."""
         q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
         n = self.tree.n
-        # the real state, then q + i h q̇ (for Ṁ q̇ = d/dt ∂T/∂q̇ at q̈ = 0), then q + i h e_k (for ∂L/∂q_k)
         directions = np.concatenate([np.zeros_like(qd)[..., None, :], qd[..., None, :],
                                      np.broadcast_to(np.eye(n), (*q.shape[:-1], n, n))], axis=-2)
         c = self._perturbed(q, directions)
         pose = forward(self.tree, self.layout, c)
-        momentum, kinetic = self._momentum_and_kinetic(c, qd, pose)
+        momentum, kinetic, (_, lin, ang, inertia) = self._momentum_and_kinetic(c, qd, pose)
         mdot_qd = momentum[..., 1, :].imag / STEP
         potential = self._potential(pose, c)
         dl_dq = (kinetic[..., 2:] - potential[..., 2:]).imag / STEP
-        _, lin, _, _ = self._com_jacobians(_real(pose, 0))
-        return self._applied(q, qd, lin) - mdot_qd + dl_dq
+        lin0, ang0, inertia0 = lin[..., 0, :, :, :].real, ang[..., 0, :, :, :].real, inertia[..., 0, :, :, :].real
+        m = self._bodies["mass"]
+        b = velocity_map(self.tree, self.layout, q)
+        mass = (np.einsum("b,...bik,...bil->...kl", m, lin0, lin0)
+                + np.einsum("...bik,...bij,...bjl->...kl", ang0, inertia0, ang0)
+                + np.einsum("...ik,i,...il->...kl", b, self._armature, b))
+        return mass, self._applied(q, qd, lin0) - mdot_qd + dl_dq
+
+    def forcing(self, q: Array, qd: Array) -> Array:
+        return self.mass_and_forcing(q, qd)[1]
 
     def energy(self, q: Array, qd: Array) -> Array:
         """T + V with V gravity's and the joint springs' (MuJoCo's energy: gravity compensation and
