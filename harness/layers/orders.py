@@ -69,7 +69,7 @@ from harness.engine.compat import joint_types, known_defect
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
 from harness.engine.simulate import steps_in
-from harness.engine.variants import heavier_floors, point_masses
+from harness.engine.variants import floors_pair, point_masses
 from harness.reference import solutions as refmod
 
 # Documented order of accuracy (see the module docstring for the doc passages).
@@ -402,7 +402,7 @@ def convergence_study(
         try:
             runs = [simulate(compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra)), probe,
                              q0=reference.q0(), qd0=reference.qd0(), steps=steps_in(horizon, h))
-                    for extra in (None, heavier_floors(bodies))]
+                    for extra in floors_pair(base, bodies)]
         except SimulationDiverged:
             return math.nan
         return _point_error(runs[0].positions, runs[1].positions)
