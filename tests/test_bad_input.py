@@ -266,6 +266,24 @@ def test_a_failed_run_marks_the_earlier_report_stale(tmp_path, cached_runs, caps
     assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT)
 
 
+@pytest.mark.parametrize("variant", ["no slide r", "atwood as pendulum"])
+def test_a_model_lacking_what_its_case_reads_is_refused_in_one_line(tmp_path, capsys, variant):
+    """The issue's inputs: the pendulum without its slide ``r`` (and the rod on it), and atwood.xml run as
+    the pendulum. The system reads its parameters by name: the model does not fit, in one line (exit 2),
+    not a KeyError traceback."""
+    if variant == "no slide r":
+        path = _variant(tmp_path, '<joint name="r" type="slide" axis="0 0 -1" ref="1" damping="0" armature="0"/>', "")
+        text = path.read_text()
+        start = text.index('<joint name="rod"')
+        path.write_text(text[:start] + text[text.index("/>", start) + 2:])
+        missing = "'r'"
+    else:
+        path, missing = MJCF.parent / "atwood.xml", "'bob'"
+    assert main(["check", CASE, "--mjcf", str(path), "-q"]) == 2
+    _one_line(capsys.readouterr().err, f"the model is not a pendulum system: it lacks an element the system reads "
+                                       f"its parameters from (MuJoCo: Invalid name {missing}")
+
+
 @pytest.mark.parametrize("args", [["list"], ["check", CASE, "--json"]])
 def test_a_closed_output_pipe_ends_the_command_quietly(args):
     """``mjharness check | head -1``: the reader is gone before the command writes. It stops as a Unix

@@ -21,7 +21,6 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from analytic import systems
 from harness.budget.measure import (
     ModelUnderTest,
     Settings,
@@ -255,7 +254,7 @@ def _run_case(
     compiling = time.perf_counter() - clock  # counted with the reference, which reads the model
     clock = time.perf_counter()
     # numeric dynamics at the model's parameters: loaded from the on-disk cache, or derived (and cached)
-    params = systems.load(case.system).params_from_model(model)
+    params = derivations.params_of(case.system, model)
     derivations.dynamics(case.system, params)
     derivations.minimal_dynamics(case.system, params)
     timings["derivation"] = time.perf_counter() - clock
@@ -337,7 +336,7 @@ def _run_case(
 
     tested = model_settings(model) | {f"param.{k}": v for k, v in ref.params.items()}
     original = model_settings(shipped) | {f"param.{k}": v for k, v in
-                                          systems.load(case.system).params_from_model(shipped).items()}
+                                          derivations.params_of(case.system, shipped).items()}
     settings: dict[str, object] = model_settings(model) | {
         "mjcf": str(path), "horizon": case.horizon, "settle": settle, "params": dict(ref.params),
         "q0": dict(zip(ref.dynamics.coordinates, ref.initial[0], strict=True)),

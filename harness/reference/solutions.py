@@ -23,7 +23,7 @@ from analytic.dynamics import Dynamics
 from analytic.solvers import DEFAULT_RTOL, Solution, project, solve
 from analytic.systems import Scales
 from harness.core.trajectory import Trajectory
-from harness.reference.derivations import dynamics
+from harness.reference.derivations import dynamics, params_of
 
 
 @dataclass(frozen=True)
@@ -81,7 +81,7 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     ``t_end`` gets the horizon's solution, whose dense output covers it.
     """
     module = systems.load(system)
-    params = module.params_from_model(model)
+    params = params_of(system, model)
     dyn = dynamics(system, params)
     asked_q = ordered(q0, dyn.coordinates, "q0")
     asked_qd = ordered(qd0, dyn.coordinates, "qd0")
