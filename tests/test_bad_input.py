@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -244,10 +245,10 @@ def test_a_report_set_is_replaced_whole_or_not_at_all(tmp_path, cached_runs, cap
     assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT if n != "summary.md")
 
 
-@pytest.mark.parametrize("failure", ["unknown case", "interrupted"])
+@pytest.mark.parametrize("failure", ["unknown case", "interrupted", "internal error"])
 def test_a_failed_run_marks_the_earlier_report_stale(tmp_path, cached_runs, capsys, monkeypatch, failure):
-    """After an exit 2 or an interrupt the directory holds no report a CI step (``if: always()``) could
-    publish as this run's: the earlier one is renamed NAME.stale."""
+    """After an exit 2, an interrupt or a bug of ours the directory holds no report a CI step
+    (``if: always()``) could publish as this run's: the earlier one is renamed NAME.stale."""
     code, out = _report(tmp_path)
     assert code == 0
     first = {name: (out / name).read_bytes() for name in REPORT}
@@ -258,12 +259,42 @@ def test_a_failed_run_marks_the_earlier_report_stale(tmp_path, cached_runs, caps
         from harness.pipeline import run as pipeline
 
         def interrupt(*_a, **_k):
-            raise KeyboardInterrupt
+            raise KeyboardInterrupt if failure == "interrupted" else KeyError("a bug")
 
         monkeypatch.setattr(pipeline.RunOptions, "run", interrupt)
-        assert _report(tmp_path)[0] == 130
+        capsys.readouterr()
+        assert _report(tmp_path)[0] == (130 if failure == "interrupted" else 2)
+        if failure == "internal error":
+            _one_line(capsys.readouterr().err, "mjharness: internal error: KeyError: 'a bug' (a bug in mjharness")
     assert sorted(p.name for p in out.iterdir()) == sorted(f"{n}.stale" for n in REPORT)
     assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT)
+
+
+def test_an_internal_error_is_one_line_in_a_real_process_and_its_traceback_on_request(tmp_path):
+    """A bug of ours (here: a config file whose reading raises something no input check names, forced
+    through a sitecustomize that breaks tomllib) is one line with the hint to report it, exit 2; with
+    MJHARNESS_TRACEBACK=1 the traceback follows it."""
+    (tmp_path / "sitecustomize.py").write_text("import tomllib\n"
+                                               "def _broken(*a, **k):\n    raise RuntimeError('injected')\n"
+                                               "tomllib.load = tomllib.loads = _broken\n")
+    config = tmp_path / "c.toml"
+    config.write_text("")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path])}
+    args = [sys.executable, "-m", "harness.cli", "check", CASE, "--config", str(config)]
+    proc = subprocess.run(args, capture_output=True, text=True, timeout=300, env=env)
+    assert proc.returncode == 2 and proc.stdout == ""
+    _one_line(proc.stderr, "mjharness: internal error: RuntimeError: injected (a bug in mjharness")
+    proc = subprocess.run(args, capture_output=True, text=True, timeout=300, env={**env, "MJHARNESS_TRACEBACK": "1"})
+    assert proc.returncode == 2 and "Traceback" in proc.stderr and "RuntimeError: injected" in proc.stderr
+
+
+def test_a_junit_file_that_is_a_report_file_is_refused(tmp_path, capsys):
+    """``--junit OUT/report.json`` would replace the report with JUnit XML: refused before any work."""
+    out = tmp_path / "report"
+    for name in ("report.json", "summary.md", "report.html"):
+        assert main(["run", CASE, "--out", str(out), "--junit", str(out / ".." / "report" / name)]) == 2
+        _one_line(capsys.readouterr().err, f"is a file of the report in {str(out)!r}")
+    assert not out.exists()
 
 
 @pytest.mark.parametrize("variant", ["no slide r", "atwood as pendulum"])
