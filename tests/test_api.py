@@ -128,6 +128,33 @@ def test_bad_arguments_are_one_line_value_errors(kwargs, needle):
     assert "\n" not in str(err.value)
 
 
+def _returns_a_spec(spec):
+    spec.option.timestep = 0.002
+    return spec
+
+
+@pytest.mark.parametrize("kwargs, error, needle", [
+    ({"accept_known_defects": "no"}, TypeError, "accept_known_defects must be True or False, got 'no'"),
+    ({"integrators": "RK4"}, TypeError, r"integrators must be a list of integrator names, e.g. \['RK4'\], got 'RK4'"),
+    ({"timestep": "0.001"}, TypeError, r"timestep must be a number of seconds .* got '0.001' \(str\)"),
+    ({"timestep": -0.001}, ValueError, "timestep must be a finite number of seconds > 0, got -0.001"),
+    ({"horizon": float("nan")}, ValueError, "horizon must be a finite number of seconds > 0, got nan"),
+    ({"limits": [1]}, TypeError, r"limits must be a mapping of names to numbers, e.g. .* got \[1\] \(list\)"),
+    ({"limits": {"RK4.position": "1e-6"}}, TypeError, "limits must map names .* not 'RK4.position': '1e-6'"),
+    ({"require": {"position": None}}, TypeError, "require must map names"),
+    ({"q0": {"theta": "0.3"}}, TypeError, "q0 must map names"),
+    ({"edit": "timestep=0.002"}, TypeError, "edit must be a function of a mujoco.MjSpec"),
+    ({"edit": _returns_a_spec}, TypeError, "edit must change the mujoco.MjSpec it is given in place and return "
+                                           "None; it returned MjSpec"),
+])
+def test_arguments_of_the_wrong_type_are_refused_naming_them(kwargs, error, needle):
+    """The issue's inputs: each refused naming the argument and what it accepts, never read as something
+    else ("no" as true, "RK4" letter by letter), a raw error from inside, or an edit's result ignored."""
+    with pytest.raises(error, match=needle) as err:
+        harness.validate("pendulum", **kwargs)
+    assert "\n" not in str(err.value)
+
+
 USER_TESTS = '''
 from pathlib import Path
 
