@@ -297,6 +297,39 @@ def test_a_junit_file_that_is_a_report_file_is_refused(tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.parametrize("args, needle", [
+    (["--timestep", "1e-9"], "a run of 5 s at a timestep of 1e-09 s is 5e+09 steps, more than the bound of 1e+06 "
+                             "(at least 15 days and 2.6e+04 GB of memory a case); fix: a longer --timestep or a "
+                             "shorter --horizon, or MJHARNESS_MAX_STEPS=5000000000 to run it anyway"),
+    (["--horizon", "1e6"], "a run of 1e+06 s at a timestep of 0.001 s is 1e+09 steps, more than the bound"),
+    (["--qd0", "theta=1e6"], "the reference of this motion is too long to solve: it would take about 7.1e+05 steps "
+                             "of the reference's solver (500 steps covered 0.00351 s of 5 s"),
+])
+def test_a_run_past_its_bounds_is_refused_before_it_starts_with_an_estimate(capsys, args, needle):
+    """The issue's inputs: a MemoryError traceback after minutes (1e-9 s), hours with no output (a horizon
+    of 1e6 s), 15 min before the solver's own cap (10⁶ rad/s). Each is refused at once, in one line, with
+    its estimate and how to run it anyway (harness.core.bounds)."""
+    import time
+
+    clock = time.perf_counter()
+    assert main(["check", CASE, "-q", *args]) == 2
+    _one_line(capsys.readouterr().err, needle)
+    assert time.perf_counter() - clock < 60
+
+
+def test_the_bounds_are_overridden_by_their_variables(monkeypatch, capsys):
+    monkeypatch.setenv("MJHARNESS_MAX_STEPS", "1000")
+    assert main(["check", CASE, "-q"]) == 2
+    _one_line(capsys.readouterr().err, "is 5e+03 steps, more than the bound of 1000")
+    monkeypatch.setenv("MJHARNESS_MAX_STEPS", "many")
+    assert main(["check", CASE, "-q"]) == 2
+    _one_line(capsys.readouterr().err, "MJHARNESS_MAX_STEPS='many'; accepted: a positive whole number of steps")
+    monkeypatch.delenv("MJHARNESS_MAX_STEPS")
+    monkeypatch.setenv("MJHARNESS_MAX_REFERENCE_STEPS", "50")  # the pendulum's reference takes 104 over 5 s
+    assert main(["check", CASE, "-q", "--horizon", "4.5"]) == 2
+    _one_line(capsys.readouterr().err, "more than the bound of 50")
+
+
 @pytest.mark.parametrize("variant", ["no slide r", "atwood as pendulum"])
 def test_a_model_lacking_what_its_case_reads_is_refused_in_one_line(tmp_path, capsys, variant):
     """The issue's inputs: the pendulum without its slide ``r`` (and the rod on it), and atwood.xml run as

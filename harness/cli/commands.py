@@ -51,7 +51,7 @@ from harness.outputs.junit import junit_xml
 from harness.outputs.table import checks_table, failures_table, fitness_line, fitness_table, verdict_line
 from harness.pipeline import limits as limits_data
 from harness.pipeline import require
-from harness.pipeline.matrix import run_all, run_backends
+from harness.pipeline.matrix import LogProgress, run_all, run_backends
 from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
 from harness.pipeline.pool import cpus, run_tasks
 from harness.pipeline.run import RunOptions
@@ -689,12 +689,16 @@ def cmd_sensitivity(args: argparse.Namespace) -> int:
 
 
 def _progress(total: int) -> Callable[[int, object], None]:
-    """A progress line on stderr (a terminal only) as each of ``total`` runs finishes."""
+    """A progress line on stderr as each of ``total`` runs finishes: rewritten in place on a terminal;
+    elsewhere (a log) a line of its own at most every :data:`~harness.pipeline.matrix.PROGRESS_INTERVAL`."""
+    log = None if sys.stderr.isatty() else LogProgress(range(total), "mjharness", "run")
     done = [0]
 
     def report(_i: int, _result: object) -> None:
         done[0] += 1
-        if sys.stderr.isatty():
+        if log is not None:
+            log.update()
+        else:
             print(f"\r{done[0]}/{total}", end="" if done[0] < total else "\n", file=sys.stderr, flush=True)
     return report
 

@@ -30,6 +30,7 @@ from harness.budget.measure import (
     trajectory_runs,
 )
 from harness.cases import Case
+from harness.core import bounds
 from harness.core.budget import Budget
 from harness.core.errors import BackendUnavailable, SimulationDiverged, UnmodelledElement
 from harness.core.figures import Figure, FigureName
@@ -248,6 +249,8 @@ def _run_case(
     path = Path(mjcf) if mjcf is not None else case.mjcf
     mut = ModelUnderTest(path=path, timestep=timestep, edit=edit)
     model = mut.compile()
+    h = float(model.opt.timestep)
+    bounds.check_steps(steps_in(case.horizon, h), horizon=case.horizon, timestep=h)  # before any work
     engine = backends.active()
     chosen, skipped = _backend_integrators(engine, mut, chosen, given=integrators is not None)
     shipped = compile_model(case.mjcf)

@@ -20,8 +20,9 @@ import numpy as np
 
 from analytic import systems
 from analytic.dynamics import Dynamics
-from analytic.solvers import DEFAULT_RTOL, Solution, project, solve
+from analytic.solvers import DEFAULT_RTOL, Solution, TooManySteps, project, solve
 from analytic.systems import Scales
+from harness.core import bounds
 from harness.core.trajectory import Trajectory
 from harness.reference.derivations import dynamics, params_of
 
@@ -97,7 +98,10 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
         end, tol, nfev, dense = _seeds.pop(key)
         sol = Solution(dynamics=dyn, t_end=end, rtol=tol, nfev=nfev, _dense=dense)
     if sol is None:
-        sol = solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, atol=rtol)
+        try:
+            sol = solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, atol=rtol, max_steps=bounds.max_reference_steps())
+        except TooManySteps as exc:
+            raise bounds.reference_too_long(str(exc)) from None
     _solutions[key] = sol
     return Reference(system=system, params=params, scales=module.scales(params), solution=sol,
                      initial=(tuple(q.tolist()), tuple(qd.tolist())), projected=projected)
