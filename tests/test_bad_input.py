@@ -330,6 +330,25 @@ def test_the_bounds_are_overridden_by_their_variables(monkeypatch, capsys):
     _one_line(capsys.readouterr().err, "more than the bound of 50")
 
 
+@pytest.mark.parametrize("old, new, needle", [
+    # the point mass's centre of mass 1 cm off its body's origin: the bob is not where the system has it
+    ('<inertial pos="0 0 0" mass="1"', '<inertial pos="0.01 0 0" mass="1"', "RK4.position"),
+    # a contact made active by a margin: the floor pushes the bob, a force the system does not have
+    ('<geom name="bob" type="sphere" size="0.05" mass="0" contype="0" conaffinity="0"',
+     '<geom name="bob" type="sphere" size="0.05" mass="0" contype="1" conaffinity="1" margin="0.5"',
+     "FAIL: not measurable: body 'bob' in the sensor's subtree is loaded from outside its joints"),
+], ids=["com-offset", "margin-contact"])
+def test_a_fault_the_sensors_cannot_place_is_a_failure_not_bad_input(tmp_path, capsys, old, new, needle):
+    """The issue's inputs, both refused as bad input (exit 2) before: real faults, so exit 1 with the checks
+    that show them."""
+    path = _variant(tmp_path, old, new)
+    if "margin" in new:
+        path.write_text(path.read_text().replace(' contact="disable"', ""))
+    assert main(["check", CASE, "--mjcf", str(path), "-q", "--integrators", "RK4"]) == 1
+    out = capsys.readouterr().out
+    assert needle in out and out.splitlines()[-1].startswith("FAIL — "), out
+
+
 @pytest.mark.parametrize("variant", ["no slide r", "atwood as pendulum"])
 def test_a_model_lacking_what_its_case_reads_is_refused_in_one_line(tmp_path, capsys, variant):
     """The issue's inputs: the pendulum without its slide ``r`` (and the rod on it), and atwood.xml run as

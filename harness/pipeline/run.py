@@ -80,7 +80,7 @@ class CaseResult:
     orders: Mapping[str, float] = field(default_factory=dict)
     findings: tuple[Finding, ...] = ()
     unmeasured: Mapping[str, str] = field(default_factory=dict)
-    diverged: dict[str, str] = field(default_factory=dict)  # run (INTEGRATOR, converge.INTEGRATOR) -> reason
+    diverged: dict[str, str] = field(default_factory=dict)  # INTEGRATOR, converge.INTEGRATOR, instant figure -> why
 
     def figure(self, name: str) -> Figure:
         for f in self.figures:
@@ -316,6 +316,7 @@ def _run_case(
         unmeasured = {str(FigureName.converge(s.integrator, "order_shortfall")): s.note for s in study.series
                       if s.quantity == gated and s.expected is None and s.note and not s.diverged}
     unmeasured |= instant.unavailable  # a figure the backend's arrays cannot give: n/a, with the reason
+    diverged |= instant.failing  # a figure the model's own forces make unmeasurable: fails, with the reason
     timings["converge"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
