@@ -85,6 +85,24 @@ def test_a_legitimate_setting_passes_and_says_what_differs():
     assert heavier.settings["changed"]["param.m"] == {"shipped": 1.0, "tested": 2.0}
 
 
+def test_what_differs_lists_every_change_of_the_model(tmp_path):
+    """The issue's run listed the mass and the timestep, not the joint damping that made it fail: every
+    attribute the model under test is written with differently is listed, however it was changed."""
+    text = get("pendulum").mjcf.read_text()
+    path = tmp_path / "damped.xml"
+    path.write_text(text.replace('axis="0 -1 0" damping="0"', 'axis="0 -1 0" damping="0.001"')
+                    .replace('<inertial pos="0 0 0" mass="1"', '<inertial pos="0 0 0" mass="1.02"'))
+    result = harness.validate("pendulum", mjcf=path, integrators=RK4, timestep=0.002)
+    changed = result.settings["changed"]
+    assert changed["mjcf: joint 'theta' damping"] == {"shipped": "default", "tested": "0.001"}
+    assert changed["param.m"] == {"shipped": 1.0, "tested": 1.02}
+    assert changed["timestep"] == {"shipped": 0.001, "tested": 0.002}
+    assert changed["mjcf: body 'bob'/inertial mass"] == {"shipped": "1", "tested": "1.02"}
+    assert not any("timestep" in k for k in changed if k.startswith("mjcf:"))  # listed once, as the setting
+    edited = harness.validate("pendulum", integrators=RK4, edit=lambda spec: setattr(spec.geom("bob"), "margin", 0.1))
+    assert edited.settings["changed"] == {"mjcf: geom 'bob' margin": {"shipped": "default", "tested": "0.1"}}
+
+
 def test_a_requirement_is_a_second_verdict_on_the_models_own_integrator(shipped):
     """The pendulum's own integrator is RK4: its position error (about 1e-7 m over 5 s, mostly the rod's softness) is
     within 1 mm and not within 1e-15 m. Unmet, the run still passes its checks, and raise_for_failures
