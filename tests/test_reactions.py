@@ -210,6 +210,29 @@ def test_an_accelerometer_the_system_has_no_acceleration_for_is_not_compared(tmp
         in row, row
 
 
+def test_the_pendulum_written_with_its_body_frame_at_the_pivot_is_the_same_system(tmp_path, capsys):
+    """The issue's equivalent model: the bob's body frame at the pivot (hinge, rod and sensors' sites at its
+    origin, the point mass 1 m below). Judged as the same system: it passes, the accelerometer now at the
+    pivot end n/a (it was exit 2)."""
+    from harness.cli.commands import main
+
+    text = PENDULUM.read_text()
+    for old, new in [('<body name="bob" pos="0 0 -1">', '<body name="bob" pos="0 0 0">'),
+                     ('type="hinge" pos="0 0 1"', 'type="hinge" pos="0 0 0"'),
+                     ('<inertial pos="0 0 0" mass="1"', '<inertial pos="0 0 -1" mass="1"'),
+                     ('<geom name="bob" type="sphere" size="0.05"', '<geom name="bob" type="sphere" pos="0 0 -1" '
+                                                                    'size="0.05"'),
+                     ('<site name="rod_end" pos="0 0 1"', '<site name="rod_end" pos="0 0 0"'),
+                     ('fromto="0 0 0 0 0 1"', 'fromto="0 0 -1 0 0 0"')]:
+        assert old in text
+        text = text.replace(old, new)
+    path = tmp_path / "pivot_frame.xml"
+    path.write_text(text)
+    assert main(["check", "pendulum", "--mjcf", str(path), "-q"]) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == ("PASS — 39 of 40 checks of 1 case(s) within what their budgets "
+                                                        "explain; 1 n/a")
+
+
 @pytest.mark.skipif(not _available("atwood_tendon"), reason="atwood_tendon needs a newer MuJoCo")
 def test_an_undeclared_external_load_fails_the_sensors_it_loads(capsys):
     """atwood_tendon without its wiring's loads: the strings pull the pulley from outside its joints
