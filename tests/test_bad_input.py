@@ -371,6 +371,20 @@ def test_a_body_that_breaks_its_systems_assumption_is_refused_naming_it(tmp_path
     _one_line(capsys.readouterr().err, needle)
 
 
+@pytest.mark.parametrize("case, joint", [("pendulum", '<joint name="theta" type="hinge"'),
+                                         ("atwood", '<joint name="theta" type="hinge"'),
+                                         ("double_pendulum", '<joint name="theta2" type="hinge"')])
+def test_a_hinge_ref_moves_only_the_angles_zero(tmp_path, capsys, case, joint):
+    """A hinge's ``ref`` (the issue's ``ref="0.1"``: 24 checks failed) is the qpos of the pose the model is
+    written in: the same system, whose angle is counted from there. It passes."""
+    text = (MJCF.parent / f"{case}.xml").read_text()
+    assert joint in text
+    path = tmp_path / f"{case}.xml"
+    path.write_text(text.replace(joint, f'{joint} ref="0.1"'))
+    assert compile_model(path).qpos0.max() >= 0.1
+    assert main(["check", case, "--mjcf", str(path), "-q"]) == 0, capsys.readouterr().out
+
+
 @pytest.mark.parametrize("variant", ["no slide r", "atwood as pendulum"])
 def test_a_model_lacking_what_its_case_reads_is_refused_in_one_line(tmp_path, capsys, variant):
     """The issue's inputs: the pendulum without its slide ``r`` (and the rod on it), and atwood.xml run as
