@@ -190,6 +190,16 @@ def test_a_fluid_force_is_not_explained_as_the_point_masss_floor(tmp_path, capsy
     assert capsys.readouterr().out.splitlines()[-1].startswith("FAIL — ")
 
 
+@pytest.mark.parametrize("fault", ["drag", "viscosity", "wind"])
+def test_a_fluid_fails_on_a_point_mass_at_the_size_the_catalog_claims(fault):
+    """The catalog's fluids (harness/studies/faults.py; every case in tests/test_budget_matrix.py, slow) on the
+    pendulum, whose bob's inertia box is the floor the budget doubles: each fails at its claimed size."""
+    change = faults.by_name(fault)
+    assert change.kind == "fault" and change in faults.FAULTS
+    trial = sensitivity.trial(cases.get("pendulum"), change)
+    assert trial.verdict == "FAIL" and trial.as_expected, trial
+
+
 def test_contacts_settle_over_forty_response_times():
     model = compile_model(cases.get("hoop_plane").mjcf)
     assert V.contact_timeconst(model) == pytest.approx(0.002)

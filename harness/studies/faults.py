@@ -379,6 +379,25 @@ def _friction(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
     return edit
 
 
+WIND = 10.0
+"""The speed (m/s, along x) of the ``wind`` fault's fluid: a breeze."""
+
+
+def _fluid(option: str) -> Callable[[Case, mujoco.MjModel, float], SpecEdit]:
+    """A fluid MuJoCo applies to every body (XMLreference.rst, "option"): ``density`` or ``viscosity`` at
+    ``size``, still (a drag on the motion), or ``wind``: density ``size`` moving at :data:`WIND` along x (a
+    push the motion does not cause). The analytic systems are in vacuum: any fluid force is a fault."""
+    def make(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+        def edit(spec: mujoco.MjSpec) -> None:
+            if option == "wind":
+                spec.option.density = size
+                spec.option.wind = [WIND, 0.0, 0.0]
+            else:
+                setattr(spec.option, option, size)
+        return edit
+    return make
+
+
 def _timestep(factor: float) -> Change:
     return Change(f"timestep×{factor:g}", "setting", f"the model's timestep × {factor:g}", timestep=factor)
 
@@ -416,6 +435,12 @@ FAULTS: tuple[Change, ...] = (
            applies=_gravity_does_work, sizes=(1e-2, 1e-2)),
     Change("joint-limit", "fault", "joint limits the motion reaches", make=_joint_limit,
            applies=_has("hinge_or_slide"), sizes=(1.0, 1.0)),
+    Change("drag", "fault", "a fluid of density {size} (still: drag)", "kg/m³", make=_fluid("density"),
+           sizes=(10.0, 10.0)),
+    Change("viscosity", "fault", "a fluid of viscosity {size} (still)", "Pa s", make=_fluid("viscosity"),
+           sizes=(1e-5, 1e-5)),
+    Change("wind", "fault", f"a {WIND:g} m/s wind along x, of density {{size}}", "kg/m³", make=_fluid("wind"),
+           sizes=(10.0, 10.0)),
     Change("low-friction", "fault", "contact friction less {size} of it (relative), too little to roll",
            make=_friction, applies=_has("pair"), sizes=(0.99, 0.99)),
 )
