@@ -351,13 +351,14 @@ def test_a_fault_the_sensors_cannot_place_is_a_failure_not_bad_input(tmp_path, c
 
 @pytest.mark.parametrize("case, old, new, needle", [
     ("hoop_plane", 'mass="1" diaginertia="0.125 0.25 0.125"', 'mass="1" diaginertia="0.125 0.2 0.125"',
-     "the hoop (body 'hoop') is a thin hoop, its mass on its rim: its inertia must be m a² = 0.25 kg m² about its "
-     "axle ('phi') and m a²/2 = 0.125 about its diameters (m = 1 kg, a = 0.5 m); the model's principal moments are "
-     "0.125, 0.2, 0.125"),
+     "the hoop (body 'hoop') is a thin hoop, its mass on its rim: its principal moments of inertia must be m a² = "
+     "0.25 kg m² about its axis and m a²/2 = 0.125 about its diameters (m = 1 kg, a = 0.5 m); the model's are "
+     "0.125, 0.125, 0.2"),
     ("hoop_ramp", 'mass="1" diaginertia="0.03125 0.0625 0.03125"', 'mass="2" diaginertia="0.03125 0.0625 0.03125"',
      "the hoop (body 'hoop') is a thin hoop"),
     ("atwood", 'mass="0.4" diaginertia="0.002 0.004 0.002"', 'mass="0.5" diaginertia="0.002 0.004 0.002"',
-     "the pulley (body 'pulley') is a thin hoop, its mass on its rim: its inertia must be m a² = 0.005 kg m²"),
+     "the pulley (body 'pulley') is a thin hoop, its mass on its rim: its principal moments of inertia must be "
+     "m a² = 0.005 kg m²"),
 ])
 def test_a_body_that_breaks_its_systems_assumption_is_refused_naming_it(tmp_path, capsys, case, old, new, needle):
     """The issue's inputs: a hoop whose inertia, or an Atwood pulley whose mass, was changed alone. The

@@ -117,7 +117,9 @@ def params_from_model(model) -> dict[str, float]:
         "g": float(-model.opt.gravity[2]),
         "h": float(model.body("pulley").pos[2]),
     }
-    thin_hoop(model, "pulley", "theta", mass=params["m_p"], radius=params["a"], what="pulley")
+    # the pulley's own radius (its geom's), not a string's coefficient: a string wound on another radius is a
+    # fault of that string, not another pulley
+    thin_hoop(model, "pulley", mass=params["m_p"], radius=float(model.geom("pulley").size[0]), what="pulley")
     return params
 
 

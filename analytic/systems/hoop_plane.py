@@ -113,7 +113,7 @@ def params_from_model(model) -> dict[str, float]:
         "a": float(model.joint("z").qpos0[0]),
         "g": float(-model.opt.gravity[2]),
     }
-    thin_hoop(model, "hoop", "phi", mass=params["m"], radius=params["a"], what="hoop")
+    thin_hoop(model, "hoop", mass=params["m"], radius=params["a"], what="hoop")
     return params
 
 

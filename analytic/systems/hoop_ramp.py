@@ -132,7 +132,7 @@ def params_from_model(model: mujoco.MjModel) -> dict[str, float]:
         "g": float(-model.opt.gravity[2]),
         "alpha": math.atan2(-downhill[2], downhill[0]),
     }
-    thin_hoop(model, "hoop", "phi", mass=params["m"], radius=params["a"], what="hoop")
+    thin_hoop(model, "hoop", mass=params["m"], radius=params["a"], what="hoop")
     return params
 
 
