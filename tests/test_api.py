@@ -103,6 +103,18 @@ def test_what_differs_lists_every_change_of_the_model(tmp_path):
     assert edited.settings["changed"] == {"mjcf: geom 'bob' margin": {"shipped": "default", "tested": "0.1"}}
 
 
+def test_a_model_mujoco_cannot_write_is_said_not_compared(monkeypatch):
+    from harness.pipeline import run as pipeline
+
+    def unwritable(*_a, **_k):
+        raise RuntimeError("to_xml: plugin cannot be written")
+
+    monkeypatch.setattr(pipeline, "authored", unwritable)
+    edited = harness.validate("pendulum", integrators=RK4, edit=lambda spec: setattr(spec.geom("bob"), "margin", 0.1))
+    assert "not compared attribute by attribute: to_xml: plugin cannot be written" in \
+        edited.settings["changed"]["mjcf"]["tested"]
+
+
 def test_a_requirement_is_a_second_verdict_on_the_models_own_integrator(shipped):
     """The pendulum's own integrator is RK4: its position error (about 1e-7 m over 5 s, mostly the rod's softness) is
     within 1 mm and not within 1e-15 m. Unmet, the run still passes its checks, and raise_for_failures
