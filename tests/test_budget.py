@@ -200,6 +200,20 @@ def test_a_fluid_fails_on_a_point_mass_at_the_size_the_catalog_claims(fault):
     assert trial.verdict == "FAIL" and trial.as_expected, trial
 
 
+@pytest.mark.parametrize("name, read", [
+    ("noslip=10", lambda m: m.opt.noslip_iterations == 10),
+    ("warmstart-off", lambda m: bool(int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_WARMSTART))),
+    ("iterations=1000", lambda m: m.opt.iterations == 1000),
+])
+def test_the_solver_settings_of_the_catalog_change_what_they_name(name, read):
+    """The settings MuJoCo documents as changing how constraints are solved (issue 30's item 3; every case
+    passes each: tests/test_budget_matrix.py, slow) are in the catalog, each setting what it names."""
+    change = faults.by_name(name)
+    case = cases.get("hoop_plane")
+    assert change.kind == "setting" and not read(compile_model(case.mjcf))
+    assert read(compile_model(case.mjcf, edit=change.edit(case)))
+
+
 def test_contacts_settle_over_forty_response_times():
     model = compile_model(cases.get("hoop_plane").mjcf)
     assert V.contact_timeconst(model) == pytest.approx(0.002)

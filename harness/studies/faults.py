@@ -147,6 +147,22 @@ def _solver(name: str, tolerance: float | None = None) -> Callable[[Case, mujoco
     return make
 
 
+def _option(name: str, value: object) -> Callable[[Case, mujoco.MjModel, float], SpecEdit]:
+    """``<option name=value>``: one of the settings MuJoCo documents as changing how the constraints are solved
+    (computation/index.rst, "Solver"; XMLreference.rst, "option"), not what they are."""
+    def make(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+        def edit(spec: mujoco.MjSpec) -> None:
+            setattr(spec.option, name, value)
+        return edit
+    return make
+
+
+def _no_warmstart(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+    def edit(spec: mujoco.MjSpec) -> None:
+        spec.option.disableflags = int(spec.option.disableflags) | int(mujoco.mjtDisableBit.mjDSBL_WARMSTART)
+    return edit
+
+
 def _masses(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
     """Every body's mass and rotational inertia × 2: the same system, twice as heavy."""
     def edit(spec: mujoco.MjSpec) -> None:
@@ -411,6 +427,9 @@ SETTINGS: tuple[Change, ...] = (
     Change("solver=CG", "setting", "the CG solver", make=_solver("CG")),
     Change("solver=PGS", "setting", "the PGS solver", make=_solver("PGS")),
     Change("tolerance=1e-8", "setting", "the solver's tolerance 1e-8", make=_solver("Newton", 1e-8)),
+    Change("noslip=10", "setting", "10 noslip iterations after the main solver", make=_option("noslip_iterations", 10)),
+    Change("warmstart-off", "setting", "the solver not warm-started", make=_no_warmstart),
+    Change("iterations=1000", "setting", "the solver's iteration cap 1000", make=_option("iterations", 1000)),
     Change("masses×2", "setting", "every body twice as heavy (mass and inertia)", make=_masses),
     Change("lengths×1.5", "setting", f"every length × {LENGTH_FACTOR:g}", make=_lengths),
     Change("gravity=9.0", "setting", "gravity 9.0 m/s² instead of 9.81", make=_gravity, applies=_has("gravity")),
