@@ -120,6 +120,17 @@ class IntegrationError(RuntimeError):
     right-hand side, a tolerance the arithmetic cannot meet) or the step budget ran out."""
 
 
+class StepBudgetExceeded(IntegrationError):
+    """The step budget ran out: ``steps`` steps reached ``t`` of ``t_end``."""
+
+    def __init__(self, steps: int, t: float, t_end: float) -> None:
+        super().__init__(f"more than {steps} steps before t = {t_end} (reached t = {t:.6g})")
+        self.steps, self.t, self.t_end = int(steps), float(t), float(t_end)
+
+    def __reduce__(self):  # pickled with its parts (a worker sends it to the parent)
+        return (type(self), (self.steps, self.t, self.t_end))
+
+
 RightHandSide = Callable[[float, Array], Array]
 
 
@@ -188,7 +199,7 @@ def integrate(fun: RightHandSide, t_end: float, y0: Array, *, rtol: float, atol:
     t_starts, hs, y_starts, coeffs = [], [], [], []
     while t < t_end:
         if len(hs) >= max_steps:
-            raise IntegrationError(f"more than {max_steps} steps before t = {t_end} (reached t = {t:.6g})")
+            raise StepBudgetExceeded(max_steps, t, t_end)
         t_new, h, y_new, factor, rejections = _step(fun, t, y, f, h, t_end, K, rtol, atol)
         coeffs.append(_dense_coefficients(fun, t, y, y_new, h, K))
         nfev += (rejections + 1) * table.N_STAGES + len(table.C) - table.N_STAGES - 1

@@ -17,6 +17,7 @@ asks for.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,7 +74,10 @@ def solve(
 
     Raises ValueError if the initial state violates a constraint (a
     reference must start on the manifold MuJoCo starts on), or if an
-    argument is out of range.
+    argument is out of range; :class:`~analytic.dop853.IntegrationError` where
+    the solver cannot go on, and :class:`TooManySteps` at once (after at most
+    :data:`TRIAL_STEPS` steps) where the solve would take more than ``max_steps``
+    steps, with the estimate.
     """
     q0 = np.asarray(q0, dtype=float)
     qd0 = np.asarray(qd0, dtype=float)
@@ -93,12 +97,40 @@ def solve(
         qdd, _ = dynamics.accelerations(y[:n], y[n:], stabilization=stab)
         return np.concatenate([y[n:], qdd])
 
+    y0 = np.concatenate([q0, qd0])
+    trial = min(TRIAL_STEPS, max_steps)
+    clock = time.perf_counter()
     try:
-        result = dop853.integrate(rhs, float(t_end), np.concatenate([q0, qd0]), rtol=rtol, atol=atol,
-                                  max_steps=max_steps)
-    except dop853.IntegrationError as exc:
-        raise RuntimeError(f"reference solver failed: {exc}") from exc
+        result = dop853.integrate(rhs, float(t_end), y0, rtol=rtol, atol=atol, max_steps=trial)
+    except dop853.StepBudgetExceeded as exc:
+        estimate = trial * t_end / max(exc.t, 1e-300)
+        if estimate > max_steps or trial == max_steps:
+            raise TooManySteps(estimate, max_steps, trial, exc.t, float(t_end),
+                               time.perf_counter() - clock) from None
+        result = dop853.integrate(rhs, float(t_end), y0, rtol=rtol, atol=atol, max_steps=max_steps)
     return Solution(dynamics=dynamics, t_end=float(t_end), rtol=rtol, nfev=result.nfev, _dense=result.dense)
+
+
+TRIAL_STEPS = 500
+"""The steps a solve takes before it judges its length: twice the longest shipped reference (227 steps,
+spherical_pendulum), so a shipped case is solved in one go; where they cover only part of the span, the
+whole is estimated as proportional to the time they covered."""
+
+
+class TooManySteps(dop853.IntegrationError):
+    """A solve estimated, after its first steps, to need more than its bound: refused before it is made."""
+
+    def __init__(self, estimate: float, bound: int, trial: int, reached: float, t_end: float,
+                 seconds: float) -> None:
+        self.estimate, self.bound, self.trial, self.reached, self.t_end, self.seconds = (
+            float(estimate), int(bound), int(trial), float(reached), float(t_end), float(seconds))
+        hours = seconds * estimate / max(trial, 1) / 3600.0
+        super().__init__(f"it would take about {estimate:.2g} steps of the reference's solver ({trial} steps covered "
+                         f"{reached:.3g} s of {t_end:g} s, in {seconds:.2g} s: about {hours:.2g} h in all), more "
+                         f"than the bound of {bound:g}")
+
+    def __reduce__(self):  # pickled with its parts (a worker sends it to the parent)
+        return (type(self), (self.estimate, self.bound, self.trial, self.reached, self.t_end, self.seconds))
 
 
 def _check_consistent(dynamics: Dynamics, q0: Array, qd0: Array, tol: float = 1e-9) -> None:

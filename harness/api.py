@@ -21,11 +21,14 @@ budget, judged by the case's limits, overridden by ``config`` and
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+import math
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from numbers import Real
 from pathlib import Path
 
 import mujoco
+import numpy as np
 
 from harness import cases
 from harness.cases import Case
@@ -157,6 +160,66 @@ class Validation:
             raise ValidationFailed(self)
 
 
+def _number(value: object) -> bool:
+    """A real number (int or float, numpy's included), not a bool or a string."""
+    return isinstance(value, Real) and not isinstance(value, bool)
+
+
+def _seconds(name: str, value: object) -> None:
+    """TypeError unless ``value`` is None or a number; ValueError unless it is finite and positive."""
+    if value is None:
+        return
+    if not _number(value):
+        raise TypeError(f"{name} must be a number of seconds (a float such as 0.001), got {value!r} "
+                        f"({type(value).__name__})")
+    if not (math.isfinite(float(value)) and float(value) > 0):
+        raise ValueError(f"{name} must be a finite number of seconds > 0, got {value!r}")
+
+
+def _numbers_by_name(name: str, value: object, example: str) -> None:
+    """TypeError unless ``value`` is None or a mapping of names (str) to numbers."""
+    if value is None:
+        return
+    if not isinstance(value, Mapping):
+        raise TypeError(f"{name} must be a mapping of names to numbers, e.g. {example}, got {value!r} "
+                        f"({type(value).__name__})")
+    bad = [f"{k!r}: {v!r}" for k, v in value.items() if not isinstance(k, str) or not _number(v)]
+    if bad:
+        raise TypeError(f"{name} must map names (str) to numbers, e.g. {example}; not {', '.join(bad)}")
+
+
+def _check_arguments(*, integrators: object, timestep: object, horizon: object, q0: object, qd0: object,
+                     limits: object, require: object, accept_known_defects: object, edit: object) -> None:
+    """Each argument of :func:`validate` of the type it must have, before any work: TypeError (or
+    ValueError for a value out of range) naming the argument and what it accepts, never an error from deep
+    inside the run or a value silently read as something else (``"no"`` as true, ``"RK4"`` letter by
+    letter)."""
+    if integrators is not None and (isinstance(integrators, str) or not isinstance(integrators, Iterable)
+                                    or not all(isinstance(n, str) for n in integrators)):
+        raise TypeError(f"integrators must be a list of integrator names, e.g. ['RK4'], got {integrators!r}")
+    _seconds("timestep", timestep)
+    _seconds("horizon", horizon)
+    _numbers_by_name("q0", q0, "{'theta': 0.3}")
+    _numbers_by_name("qd0", qd0, "{'theta': 0.0}")
+    _numbers_by_name("limits", limits, "{'RK4.position': 1e-6}")
+    _numbers_by_name("require", require, "{'position': 1e-3}")
+    if not isinstance(accept_known_defects, bool | np.bool_):
+        raise TypeError(f"accept_known_defects must be True or False, got {accept_known_defects!r}")
+    if edit is not None and not callable(edit):
+        raise TypeError(f"edit must be a function of a mujoco.MjSpec (or None), got {edit!r}")
+
+
+def _in_place(edit: Callable[[mujoco.MjSpec], None]) -> Callable[[mujoco.MjSpec], None]:
+    """``edit``, refusing a result: an edit changes the spec it is given and returns None, so a function
+    that returns something (a new spec, a model) would otherwise be run for nothing, silently."""
+    def checked(spec: mujoco.MjSpec) -> None:
+        returned = edit(spec)
+        if returned is not None:
+            raise TypeError(f"edit must change the mujoco.MjSpec it is given in place and return None; it "
+                            f"returned {type(returned).__name__} (what it returns is not used)")
+    return checked
+
+
 def case_names() -> tuple[str, ...]:
     """Every case this harness knows, as :func:`validate` accepts them."""
     return cases.names()
@@ -202,12 +265,18 @@ def validate(
         limits: fixed limits by figure name, overriding the shipped ones and ``config``'s.
         require: the accuracy you need by measure (``{"position": 1e-3}``), judged on the model's own
             integrator: :attr:`Validation.fit`.
-        accept_known_defects: let a failure with a documented defect's signature pass the gate.
-        edit: a function changing the model through ``mujoco.MjSpec`` before it is compiled.
+        accept_known_defects: let a failure with a documented defect's signature pass the gate (True or
+            False).
+        edit: a function changing the model through ``mujoco.MjSpec`` before it is compiled, in place (it
+            returns None).
         backend: the engine every run goes to: ``c`` (MuJoCo's C engine), ``mjx`` (float32), or ``mjx-f64``
             (:data:`harness.engine.backends.BACKENDS`); a backend not installed, or a model feature
             it lacks, raises :class:`~harness.core.errors.BackendUnavailable` naming the fix.
+
+    An argument of the wrong type raises TypeError naming it and what it accepts, before any work.
     """
+    _check_arguments(integrators=integrators, timestep=timestep, horizon=horizon, q0=q0, qd0=qd0, limits=limits,
+                     require=require, accept_known_defects=accept_known_defects, edit=edit)
     if case is None and mjcf is None:
         raise ValueError("validate needs a case name (or Case) or an mjcf path; known cases: "
                          + ", ".join(cases.names()))
@@ -227,7 +296,8 @@ def validate(
     requirements = (*shipped.requirements,
                     *(requirement_of(str(k), v, source="validate(require=...)") for k, v in (require or {}).items()))
     result = run_case(chosen, mjcf=mjcf, integrators=tuple(integrators) if integrators is not None else None,
-                      timestep=timestep, horizon=horizon, q0=q0, qd0=qd0, edit=edit, backend=backend)
+                      timestep=timestep, horizon=horizon, q0=q0, qd0=qd0,
+                      edit=_in_place(edit) if edit is not None else None, backend=backend)
     checks = judge(result, case_limits(shipped, chosen, (f.name for f in result.figures)) | given)
     check_known(requirements, [result])
     source = shipped.source + (" + limits given to validate()" if limits else "")

@@ -85,6 +85,36 @@ def test_a_legitimate_setting_passes_and_says_what_differs():
     assert heavier.settings["changed"]["param.m"] == {"shipped": 1.0, "tested": 2.0}
 
 
+def test_what_differs_lists_every_change_of_the_model(tmp_path):
+    """The issue's run listed the mass and the timestep, not the joint damping that made it fail: every
+    attribute the model under test is written with differently is listed, however it was changed."""
+    text = get("pendulum").mjcf.read_text()
+    path = tmp_path / "damped.xml"
+    path.write_text(text.replace('axis="0 -1 0" damping="0"', 'axis="0 -1 0" damping="0.001"')
+                    .replace('<inertial pos="0 0 0" mass="1"', '<inertial pos="0 0 0" mass="1.02"'))
+    result = harness.validate("pendulum", mjcf=path, integrators=RK4, timestep=0.002)
+    changed = result.settings["changed"]
+    assert changed["mjcf: joint 'theta' damping"] == {"shipped": "default", "tested": "0.001"}
+    assert changed["param.m"] == {"shipped": 1.0, "tested": 1.02}
+    assert changed["timestep"] == {"shipped": 0.001, "tested": 0.002}
+    assert changed["mjcf: body 'bob'/inertial mass"] == {"shipped": "1", "tested": "1.02"}
+    assert not any("timestep" in k for k in changed if k.startswith("mjcf:"))  # listed once, as the setting
+    edited = harness.validate("pendulum", integrators=RK4, edit=lambda spec: setattr(spec.geom("bob"), "margin", 0.1))
+    assert edited.settings["changed"] == {"mjcf: geom 'bob' margin": {"shipped": "default", "tested": "0.1"}}
+
+
+def test_a_model_mujoco_cannot_write_is_said_not_compared(monkeypatch):
+    from harness.pipeline import run as pipeline
+
+    def unwritable(*_a, **_k):
+        raise RuntimeError("to_xml: plugin cannot be written")
+
+    monkeypatch.setattr(pipeline, "authored", unwritable)
+    edited = harness.validate("pendulum", integrators=RK4, edit=lambda spec: setattr(spec.geom("bob"), "margin", 0.1))
+    assert "not compared attribute by attribute: to_xml: plugin cannot be written" in \
+        edited.settings["changed"]["mjcf"]["tested"]
+
+
 def test_a_requirement_is_a_second_verdict_on_the_models_own_integrator(shipped):
     """The pendulum's own integrator is RK4: its position error (about 1e-7 m over 5 s, mostly the rod's softness) is
     within 1 mm and not within 1e-15 m. Unmet, the run still passes its checks, and raise_for_failures
@@ -125,6 +155,33 @@ def test_limits_and_cases_can_be_given(shipped):
 def test_bad_arguments_are_one_line_value_errors(kwargs, needle):
     with pytest.raises(ValueError, match=needle) as err:
         harness.validate(**kwargs)
+    assert "\n" not in str(err.value)
+
+
+def _returns_a_spec(spec):
+    spec.option.timestep = 0.002
+    return spec
+
+
+@pytest.mark.parametrize("kwargs, error, needle", [
+    ({"accept_known_defects": "no"}, TypeError, "accept_known_defects must be True or False, got 'no'"),
+    ({"integrators": "RK4"}, TypeError, r"integrators must be a list of integrator names, e.g. \['RK4'\], got 'RK4'"),
+    ({"timestep": "0.001"}, TypeError, r"timestep must be a number of seconds .* got '0.001' \(str\)"),
+    ({"timestep": -0.001}, ValueError, "timestep must be a finite number of seconds > 0, got -0.001"),
+    ({"horizon": float("nan")}, ValueError, "horizon must be a finite number of seconds > 0, got nan"),
+    ({"limits": [1]}, TypeError, r"limits must be a mapping of names to numbers, e.g. .* got \[1\] \(list\)"),
+    ({"limits": {"RK4.position": "1e-6"}}, TypeError, "limits must map names .* not 'RK4.position': '1e-6'"),
+    ({"require": {"position": None}}, TypeError, "require must map names"),
+    ({"q0": {"theta": "0.3"}}, TypeError, "q0 must map names"),
+    ({"edit": "timestep=0.002"}, TypeError, "edit must be a function of a mujoco.MjSpec"),
+    ({"edit": _returns_a_spec}, TypeError, "edit must change the mujoco.MjSpec it is given in place and return "
+                                           "None; it returned MjSpec"),
+])
+def test_arguments_of_the_wrong_type_are_refused_naming_them(kwargs, error, needle):
+    """The issue's inputs: each refused naming the argument and what it accepts, never read as something
+    else ("no" as true, "RK4" letter by letter), a raw error from inside, or an edit's result ignored."""
+    with pytest.raises(error, match=needle) as err:
+        harness.validate("pendulum", **kwargs)
     assert "\n" not in str(err.value)
 
 

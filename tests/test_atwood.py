@@ -267,8 +267,10 @@ def _damp(spec: mujoco.MjSpec) -> None:
     compat.set_damping(spec.joint("theta"), 1e-3)
 
 
-def _inertia(spec: mujoco.MjSpec) -> None:
-    spec.body("pulley").inertia = [x * 1.1 for x in spec.body("pulley").inertia]
+def _armature(spec: mujoco.MjSpec) -> None:
+    """10 % more inertia on the pulley's axle, as joint armature: the pulley stays a thin hoop of its mass (an
+    inertia changed alone is another pulley, which the system refuses: tests/test_bad_input.py)."""
+    spec.joint("theta").armature = 0.1 * spec.body("pulley").inertia[1]
 
 
 def _offset(name: str, value: float):
@@ -306,9 +308,9 @@ _INSTANT_FORCES = {"instant.force.string1", "instant.force.string2", "instant.qa
 
 # Faults: physics the machine of the seed does not have -> the gates they must trip. A string wound on
 # another radius than the other (polycoef a +2% on one string) is a different constraint: forces and
-# motion; damping on the pulley drains energy (forcing, drift); extra pulley inertia beyond the disc of
-# mass m_p and radius a changes the mass matrix and the kinetic energy, and the strings' tensions, whose
-# difference turns the pulley (T2 − T1 = I θ̈ / a); mass1 moved 1 mm off the rim
+# motion; damping on the pulley drains energy (forcing, drift); extra inertia on the pulley's axle
+# (armature) beyond the hoop of mass m_p and radius a changes the mass matrix and the kinetic energy, and the
+# strings' tensions, whose difference turns the pulley (T2 − T1 = I θ̈ / a); mass1 moved 1 mm off the rim
 # (x = −a) hangs its string off the tangent: kinematics; an offset in a string's polycoef holds its mass 1 cm
 # away from where the reference starts it, so MuJoCo pulls the machine onto its own constraint: violation.
 # The wrong radius is required to trip RK4's string forces, not the first-order integrators': where the
@@ -320,8 +322,8 @@ FAULTS = {
     "string2 polycoef a +2%": (dict(edit=_polycoef("string2", -0.102)), _WRONG_RADIUS),
     "string1 polycoef a +2%": (dict(edit=_polycoef("string1", 0.102)), _WRONG_RADIUS),
     "pulley damping 1e-3 N m s": (dict(edit=_damp), {"instant.forcing"} | _each("position", "drift.energy")),
-    "pulley inertia +10%": (dict(edit=_inertia), {"instant.mass_matrix", "instant.kinetic_energy"}
-                            | _each("force.string1", "force.string2")),
+    "pulley armature +10%": (dict(edit=_armature), {"instant.mass_matrix", "instant.kinetic_energy"}
+                             | _each("force.string1", "force.string2")),
     "mass1 1 mm off x = -a": (dict(edit=_move_mass1), {"instant.kinematics"}),
     "string1 offset 1 cm": (dict(edit=_offset("string1", 0.01)), _each("violation.string1")),
     "string2 offset 1 cm": (dict(edit=_offset("string2", 0.01)), _each("violation.string2")),

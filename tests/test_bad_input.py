@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -244,10 +245,10 @@ def test_a_report_set_is_replaced_whole_or_not_at_all(tmp_path, cached_runs, cap
     assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT if n != "summary.md")
 
 
-@pytest.mark.parametrize("failure", ["unknown case", "interrupted"])
+@pytest.mark.parametrize("failure", ["unknown case", "interrupted", "internal error"])
 def test_a_failed_run_marks_the_earlier_report_stale(tmp_path, cached_runs, capsys, monkeypatch, failure):
-    """After an exit 2 or an interrupt the directory holds no report a CI step (``if: always()``) could
-    publish as this run's: the earlier one is renamed NAME.stale."""
+    """After an exit 2, an interrupt or a bug of ours the directory holds no report a CI step
+    (``if: always()``) could publish as this run's: the earlier one is renamed NAME.stale."""
     code, out = _report(tmp_path)
     assert code == 0
     first = {name: (out / name).read_bytes() for name in REPORT}
@@ -258,12 +259,159 @@ def test_a_failed_run_marks_the_earlier_report_stale(tmp_path, cached_runs, caps
         from harness.pipeline import run as pipeline
 
         def interrupt(*_a, **_k):
-            raise KeyboardInterrupt
+            raise KeyboardInterrupt if failure == "interrupted" else KeyError("a bug")
 
         monkeypatch.setattr(pipeline.RunOptions, "run", interrupt)
-        assert _report(tmp_path)[0] == 130
+        capsys.readouterr()
+        assert _report(tmp_path)[0] == (130 if failure == "interrupted" else 2)
+        if failure == "internal error":
+            _one_line(capsys.readouterr().err, "mjharness: internal error: KeyError: 'a bug' (a bug in mjharness")
     assert sorted(p.name for p in out.iterdir()) == sorted(f"{n}.stale" for n in REPORT)
     assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT)
+
+
+def test_an_internal_error_is_one_line_in_a_real_process_and_its_traceback_on_request(tmp_path):
+    """A bug of ours (here: a config file whose reading raises something no input check names, forced
+    through a sitecustomize that breaks tomllib) is one line with the hint to report it, exit 2; with
+    MJHARNESS_TRACEBACK=1 the traceback follows it."""
+    (tmp_path / "sitecustomize.py").write_text("import tomllib\n"
+                                               "def _broken(*a, **k):\n    raise RuntimeError('injected')\n"
+                                               "tomllib.load = tomllib.loads = _broken\n")
+    config = tmp_path / "c.toml"
+    config.write_text("")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path])}
+    args = [sys.executable, "-m", "harness.cli", "check", CASE, "--config", str(config)]
+    proc = subprocess.run(args, capture_output=True, text=True, timeout=300, env=env)
+    assert proc.returncode == 2 and proc.stdout == ""
+    _one_line(proc.stderr, "mjharness: internal error: RuntimeError: injected (a bug in mjharness")
+    proc = subprocess.run(args, capture_output=True, text=True, timeout=300, env={**env, "MJHARNESS_TRACEBACK": "1"})
+    assert proc.returncode == 2 and "Traceback" in proc.stderr and "RuntimeError: injected" in proc.stderr
+
+
+def test_a_junit_file_that_is_a_report_file_is_refused(tmp_path, capsys):
+    """``--junit OUT/report.json`` would replace the report with JUnit XML: refused before any work."""
+    out = tmp_path / "report"
+    for name in ("report.json", "summary.md", "report.html"):
+        assert main(["run", CASE, "--out", str(out), "--junit", str(out / ".." / "report" / name)]) == 2
+        _one_line(capsys.readouterr().err, f"is a file of the report in {str(out)!r}")
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--timestep", "1e-9"], "a run of 5 s at a timestep of 1e-09 s is 5e+09 steps, more than the bound of 1e+06 "
+                             "(at least 15 days and 2.6e+04 GB of memory a case); fix: a longer --timestep or a "
+                             "shorter --horizon, or MJHARNESS_MAX_STEPS=5000000000 to run it anyway"),
+    (["--horizon", "1e6"], "a run of 1e+06 s at a timestep of 0.001 s is 1e+09 steps, more than the bound"),
+    (["--qd0", "theta=1e6"], "the reference of this motion is too long to solve: it would take about 7.1e+05 steps "
+                             "of the reference's solver (500 steps covered 0.00351 s of 5 s"),
+])
+def test_a_run_past_its_bounds_is_refused_before_it_starts_with_an_estimate(capsys, args, needle):
+    """The issue's inputs: a MemoryError traceback after minutes (1e-9 s), hours with no output (a horizon
+    of 1e6 s), 15 min before the solver's own cap (10⁶ rad/s). Each is refused at once, in one line, with
+    its estimate and how to run it anyway (harness.core.bounds)."""
+    import time
+
+    clock = time.perf_counter()
+    assert main(["check", CASE, "-q", *args]) == 2
+    _one_line(capsys.readouterr().err, needle)
+    assert time.perf_counter() - clock < 60
+
+
+def test_the_bounds_are_overridden_by_their_variables(monkeypatch, capsys):
+    monkeypatch.setenv("MJHARNESS_MAX_STEPS", "1000")
+    assert main(["check", CASE, "-q"]) == 2
+    _one_line(capsys.readouterr().err, "is 5e+03 steps, more than the bound of 1000")
+    monkeypatch.setenv("MJHARNESS_MAX_STEPS", "many")
+    assert main(["check", CASE, "-q"]) == 2
+    _one_line(capsys.readouterr().err, "MJHARNESS_MAX_STEPS='many'; accepted: a positive whole number of steps")
+    monkeypatch.delenv("MJHARNESS_MAX_STEPS")
+    monkeypatch.setenv("MJHARNESS_MAX_REFERENCE_STEPS", "50")  # the pendulum's reference takes 104 over 5 s
+    assert main(["check", CASE, "-q", "--horizon", "4.5"]) == 2
+    _one_line(capsys.readouterr().err, "more than the bound of 50")
+
+
+@pytest.mark.parametrize("old, new, needle", [
+    # the point mass's centre of mass 1 cm off its body's origin: the bob is not where the system has it
+    ('<inertial pos="0 0 0" mass="1"', '<inertial pos="0.01 0 0" mass="1"', "RK4.position"),
+    # a contact made active by a margin: the floor pushes the bob, a force the system does not have
+    ('<geom name="bob" type="sphere" size="0.05" mass="0" contype="0" conaffinity="0"',
+     '<geom name="bob" type="sphere" size="0.05" mass="0" contype="1" conaffinity="1" margin="0.5"',
+     "FAIL: not measurable: body 'bob' in the sensor's subtree is loaded from outside its joints"),
+], ids=["com-offset", "margin-contact"])
+def test_a_fault_the_sensors_cannot_place_is_a_failure_not_bad_input(tmp_path, capsys, old, new, needle):
+    """The issue's inputs, both refused as bad input (exit 2) before: real faults, so exit 1 with the checks
+    that show them."""
+    path = _variant(tmp_path, old, new)
+    if "margin" in new:
+        path.write_text(path.read_text().replace(' contact="disable"', ""))
+    assert main(["check", CASE, "--mjcf", str(path), "-q", "--integrators", "RK4"]) == 1
+    out = capsys.readouterr().out
+    assert needle in out and out.splitlines()[-1].startswith("FAIL — "), out
+
+
+@pytest.mark.parametrize("case, old, new, needle", [
+    ("hoop_plane", 'mass="1" diaginertia="0.125 0.25 0.125"', 'mass="1" diaginertia="0.125 0.2 0.125"',
+     "the hoop (body 'hoop') is a thin hoop, its mass on its rim: its principal moments of inertia must be m a² = "
+     "0.25 kg m² about its axis and m a²/2 = 0.125 about its diameters (m = 1 kg, a = 0.5 m); the model's are "
+     "0.125, 0.125, 0.2"),
+    ("hoop_ramp", 'mass="1" diaginertia="0.03125 0.0625 0.03125"', 'mass="2" diaginertia="0.03125 0.0625 0.03125"',
+     "the hoop (body 'hoop') is a thin hoop"),
+    ("atwood", 'mass="0.4" diaginertia="0.002 0.004 0.002"', 'mass="0.5" diaginertia="0.002 0.004 0.002"',
+     "the pulley (body 'pulley') is a thin hoop, its mass on its rim: its principal moments of inertia must be "
+     "m a² = 0.005 kg m²"),
+])
+def test_a_body_that_breaks_its_systems_assumption_is_refused_naming_it(tmp_path, capsys, case, old, new, needle):
+    """The issue's inputs: a hoop whose inertia, or an Atwood pulley whose mass, was changed alone. The
+    systems take a thin hoop's inertia from its mass and radius: refused in one line naming that
+    assumption (they failed 14-58 checks, judged against another body's physics)."""
+    text = (MJCF.parent / f"{case}.xml").read_text()
+    assert old in text
+    path = tmp_path / f"{case}.xml"
+    path.write_text(text.replace(old, new))
+    assert main(["check", case, "--mjcf", str(path), "-q"]) == 2
+    _one_line(capsys.readouterr().err, needle)
+
+
+@pytest.mark.parametrize("case, joint", [("pendulum", '<joint name="theta" type="hinge"'),
+                                         ("atwood", '<joint name="theta" type="hinge"'),
+                                         ("double_pendulum", '<joint name="theta2" type="hinge"')])
+def test_a_hinge_ref_moves_only_the_angles_zero(tmp_path, capsys, case, joint):
+    """A hinge's ``ref`` (the issue's ``ref="0.1"``: 24 checks failed) is the qpos of the pose the model is
+    written in: the same system, whose angle is counted from there. It passes."""
+    text = (MJCF.parent / f"{case}.xml").read_text()
+    assert joint in text
+    path = tmp_path / f"{case}.xml"
+    path.write_text(text.replace(joint, f'{joint} ref="0.1"'))
+    assert compile_model(path).qpos0.max() >= 0.1
+    assert main(["check", case, "--mjcf", str(path), "-q"]) == 0, capsys.readouterr().out
+
+
+@pytest.mark.parametrize("solver", ["CG", "PGS"])
+def test_a_solver_stopped_at_a_loose_tolerance_passes(tmp_path, capsys, solver):
+    """``solver="CG" tolerance="1e-6"`` (the issue's; its order checks failed): the solver's stop is no
+    error of the integrator. The convergence ladder solves the constraints exactly, as the budget's runs
+    do, and the solver's part is in the budget."""
+    path = _variant(tmp_path, 'solver="Newton"', f'solver="{solver}"')
+    path.write_text(path.read_text().replace('tolerance="1e-12"', 'tolerance="1e-6"'))
+    assert main(["check", CASE, "--mjcf", str(path), "-q"]) == 0, capsys.readouterr().out
+
+
+@pytest.mark.parametrize("variant", ["no slide r", "atwood as pendulum"])
+def test_a_model_lacking_what_its_case_reads_is_refused_in_one_line(tmp_path, capsys, variant):
+    """The issue's inputs: the pendulum without its slide ``r`` (and the rod on it), and atwood.xml run as
+    the pendulum. The system reads its parameters by name: the model does not fit, in one line (exit 2),
+    not a KeyError traceback."""
+    if variant == "no slide r":
+        path = _variant(tmp_path, '<joint name="r" type="slide" axis="0 0 -1" ref="1" damping="0" armature="0"/>', "")
+        text = path.read_text()
+        start = text.index('<joint name="rod"')
+        path.write_text(text[:start] + text[text.index("/>", start) + 2:])
+        missing = "'r'"
+    else:
+        path, missing = MJCF.parent / "atwood.xml", "'bob'"
+    assert main(["check", CASE, "--mjcf", str(path), "-q"]) == 2
+    _one_line(capsys.readouterr().err, f"the model is not a pendulum system: it lacks an element the system reads "
+                                       f"its parameters from (MuJoCo: Invalid name {missing}")
 
 
 @pytest.mark.parametrize("args", [["list"], ["check", CASE, "--json"]])

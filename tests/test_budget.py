@@ -161,6 +161,59 @@ def test_point_masses_are_bodies_whose_inertia_is_a_floor():
     assert V.point_masses(heavier, 1.0) == ()
 
 
+def test_the_floors_pair_holds_the_fluid_forces_off():
+    """A budget part varies only what it names. MuJoCo's inertia-box fluid force is sized by the body's
+    rotational inertia, which the floors' variant doubles: with a fluid, both runs of the pair have none."""
+    def water(spec: mujoco.MjSpec) -> None:
+        spec.option.density, spec.option.wind = 1000.0, [20.0, 0.0, 0.0]
+
+    assert not V.has_fluid(_pendulum()) and V.has_fluid(_pendulum(water))
+    base, heavier = V.floors_pair(_pendulum(), ("bob",))
+    assert base is None and _pendulum(heavier).body_inertia[1].tolist() == [2e-10] * 3
+    base, heavier = V.floors_pair(_pendulum(water), ("bob",))
+    lighter, doubled = _pendulum(V.compose(water, base)), _pendulum(V.compose(water, heavier))
+    assert lighter.opt.density == doubled.opt.density == lighter.opt.viscosity == doubled.opt.viscosity == 0.0
+    assert lighter.body_inertia[1].tolist() == [1e-10] * 3 and doubled.body_inertia[1].tolist() == [2e-10] * 3
+
+
+@pytest.mark.parametrize("option, integrators", [
+    ('density="1000" wind="20 0 0"', None),  # the issue's probe: exit 0, the floors "explained" the wind
+    ('density="1000"', "Euler,implicit,implicitfast,discrete"),  # passed without RK4's order check
+])
+def test_a_fluid_force_is_not_explained_as_the_point_masss_floor(tmp_path, capsys, option, integrators):
+    path = tmp_path / "fluid.xml"
+    text = cases.get("pendulum").mjcf.read_text()
+    path.write_text(text.replace('tolerance="1e-12">', f'tolerance="1e-12" {option}>'))
+    assert option in path.read_text()
+    args = ["check", "pendulum", "--mjcf", str(path), "-q"] + (["--integrators", integrators] if integrators else [])
+    assert main(args) == 1
+    assert capsys.readouterr().out.splitlines()[-1].startswith("FAIL — ")
+
+
+@pytest.mark.parametrize("fault", ["drag", "viscosity", "wind"])
+def test_a_fluid_fails_on_a_point_mass_at_the_size_the_catalog_claims(fault):
+    """The catalog's fluids (harness/studies/faults.py; every case in tests/test_budget_matrix.py, slow) on the
+    pendulum, whose bob's inertia box is the floor the budget doubles: each fails at its claimed size."""
+    change = faults.by_name(fault)
+    assert change.kind == "fault" and change in faults.FAULTS
+    trial = sensitivity.trial(cases.get("pendulum"), change)
+    assert trial.verdict == "FAIL" and trial.as_expected, trial
+
+
+@pytest.mark.parametrize("name, read", [
+    ("noslip=10", lambda m: m.opt.noslip_iterations == 10),
+    ("warmstart-off", lambda m: bool(int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_WARMSTART))),
+    ("iterations=1000", lambda m: m.opt.iterations == 1000),
+])
+def test_the_solver_settings_of_the_catalog_change_what_they_name(name, read):
+    """The settings MuJoCo documents as changing how constraints are solved (issue 30's item 3; every case
+    passes each: tests/test_budget_matrix.py, slow) are in the catalog, each setting what it names."""
+    change = faults.by_name(name)
+    case = cases.get("hoop_plane")
+    assert change.kind == "setting" and not read(compile_model(case.mjcf))
+    assert read(compile_model(case.mjcf, edit=change.edit(case)))
+
+
 def test_contacts_settle_over_forty_response_times():
     model = compile_model(cases.get("hoop_plane").mjcf)
     assert V.contact_timeconst(model) == pytest.approx(0.002)

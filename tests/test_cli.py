@@ -23,6 +23,7 @@ few go through a real subprocess to pin "no traceback" and the process exit code
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -236,15 +237,34 @@ def test_check_junit(tmp_path, cached_runs, strict, tight, code, capsys):
     assert "passed" in capsys.readouterr().out
 
 
-def test_progress_bar_only_on_a_terminal(monkeypatch):
+def test_progress_is_a_bar_on_a_terminal_and_lines_in_a_log(monkeypatch, capsys):
+    """A terminal gets tqdm's bar; a log (stderr not a terminal) a plain line when a case finishes and
+    PROGRESS_INTERVAL has passed since the last one (none for a short run, none after the last case)."""
     from harness.pipeline import matrix as runner
 
-    monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
-    assert runner.progress([1], "x").disable
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
     bar = runner.progress([1], "x")
     assert not bar.disable
     bar.close()
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
+    capsys.readouterr()
+    assert list(runner.progress(["a", "b", "c"], "x")) == ["a", "b", "c"]
+    assert capsys.readouterr().err == ""  # quicker than the interval: nothing
+    monkeypatch.setattr(runner, "PROGRESS_INTERVAL", 0.0)
+    log = runner.progress(["a", "b", "c"], "mjharness")
+    for name in log:
+        log.set_postfix_str(name)
+    assert capsys.readouterr().err.splitlines() == ["mjharness: 1 of 3 cases done after 0 s (a)",
+                                                    "mjharness: 2 of 3 cases done after 0 s (b)"]
+
+
+def test_a_long_check_prints_progress_lines_in_a_log(monkeypatch, capsys, cached_runs):
+    from harness.pipeline import matrix as runner
+
+    monkeypatch.setattr(runner, "PROGRESS_INTERVAL", 0.0)
+    assert main(["check", CASE, "spring", "-j", "1", "-q"]) == 0
+    (line,) = capsys.readouterr().err.splitlines()
+    assert re.fullmatch(r"mjharness: 1 of 2 cases done after \d+ s \(pendulum\)", line), line
 
 
 # ------------------------------------------------------------------- errors

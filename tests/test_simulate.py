@@ -55,6 +55,21 @@ def test_recording_is_bit_identical_to_mj_step(integrator, method):
     assert np.array_equal(traj.positions["bob"][-1], data.xipos[model.body("bob").id])
 
 
+def test_a_run_of_many_steps_ends_at_the_horizon_its_reference_covers():
+    """250 000 steps of 2e-5 s (the issue's ``--timestep 2e-5``): MuJoCo's clock reads 5.000000000015821 s
+    at the end, past the reference's 5 s by its round-off. The samples are at k h, so the last is the
+    horizon and the reference is sampled there (it refused 5.000000000015821 before)."""
+    from harness.reference import solutions
+
+    case, probe, q0, qd0 = _case_probe("pendulum")
+    model = compile_model(case.mjcf, integrator="Euler", timestep=2e-5)
+    steps = simmod.steps_in(case.horizon, model.opt.timestep)
+    traj = simulate(model, probe, q0=q0, qd0=qd0, steps=steps)
+    assert steps == 250_000 and traj.t[-1] == case.horizon and np.array_equal(traj.t, np.arange(steps + 1) * 2e-5)
+    reference = solutions.trajectory(case.reference(model), traj.t)
+    assert reference.t[-1] == case.horizon
+
+
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("integrator", available_integrators())
 def test_recorded_fields_belong_to_the_recorded_state(integrator, method):
@@ -96,7 +111,8 @@ def test_every_recorded_quantity_belongs_to_its_state(name, integrator):
         mujoco.mj_getState(model, data, state, spec)
         mujoco.mj_setState(model, fresh, state, spec)
         mujoco.mj_forward(model, fresh)
-        assert traj.t[k] == fresh.time
+        assert traj.t[k] == k * model.opt.timestep  # the state's time; MuJoCo's clock only rounds it
+        assert abs(traj.t[k] - fresh.time) <= 4 * k * np.finfo(float).eps * max(fresh.time, model.opt.timestep)
         for p in probe.points:
             x, v = point_state(model, fresh, p)
             assert np.array_equal(traj.positions[p][k], x) and np.array_equal(traj.velocities[p][k], v)

@@ -396,3 +396,44 @@ def test_the_noise_runs_move_the_state_by_a_few_units_of_the_backends_own_round_
     assert 4 <= 5e-7 / np.finfo(np.float32).eps <= 5
     with pytest.raises(ValueError, match="unknown precision 'float16'; accepted: float64, float32"):
         noise_runs("float16")
+
+
+# ------------------------------------------------------------ a regular install
+def test_versions_builds_the_harness_from_a_regular_install(tmp_path):
+    """After README's ``pip install .`` (no pyproject.toml beside the packages) ``versions`` refused: "installs
+    the harness from its source tree … run it from a checkout". From a regular install it now makes a source
+    tree of what is installed, with a pyproject.toml from the installed metadata, and builds with uv (the real
+    one) a wheel holding exactly the installed files, the same entry points, so each environment gets the
+    same harness."""
+    import os
+    import subprocess
+    import zipfile
+
+    root = Path(__file__).resolve().parent.parent
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    pip = subprocess.run([str(venv / "bin" / "python"), "-m", "pip", "install", "--quiet", "--no-deps", str(root)],
+                         capture_output=True, text=True, timeout=600)
+    if pip.returncode != 0:
+        pytest.skip(f"pip cannot make a regular install here (no index?): {pip.stderr.strip().splitlines()[-1:]}")
+    script = ("import sys; from harness.versions import envs; root = envs.source_root(); "
+              "print(root); print(envs.Builder(uv=sys.argv[1], root=envs.envs_root(), "
+              "source=root).wheel(envs.source_hash(root)))")
+    uv = envs.find_uv()
+    uv_cache = subprocess.run([uv, "cache", "dir"], capture_output=True, text=True, check=True).stdout.strip()
+    environ = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache"), "UV_CACHE_DIR": uv_cache}  # uv's own cache
+    environ.pop("PYTHONPATH", None)  # the installed copy, not a checkout
+    done = subprocess.run([str(venv / "bin" / "python"), "-P", "-c", script, uv], capture_output=True,
+                          text=True, timeout=600, cwd=tmp_path, env=environ)
+    assert done.returncode == 0, done.stderr
+    tree, wheel = (Path(line) for line in done.stdout.split())
+    assert tree.is_relative_to(tmp_path / "cache" / "mjharness" / "versions" / "installed-source")
+    site = next((venv / "lib").glob("python*/site-packages"))
+    record = next(site.glob("mjharness-*.dist-info")) / "RECORD"
+    installed = {line.split(",")[0] for line in record.read_text().splitlines()
+                 if ".dist-info/" not in line and "__pycache__" not in line and not line.startswith("..")}
+    with zipfile.ZipFile(wheel) as built:
+        files = {n for n in built.namelist() if ".dist-info/" not in n}
+        points = next(built.read(n).decode() for n in built.namelist() if n.endswith("entry_points.txt"))
+    assert files == installed and any(f.endswith("mjcf/pendulum.xml") for f in files)
+    assert "mjharness = harness.cli.entry:entry" in points and "mjharness = harness.pytest_plugin" in points

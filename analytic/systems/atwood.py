@@ -48,6 +48,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from analytic.assumptions import thin_hoop
 from analytic.systems import Motion, Parameters, Scales
 
 if TYPE_CHECKING:
@@ -108,7 +109,7 @@ def params_from_model(model) -> dict[str, float]:
 
     string1 = model.equality("string1")
     joint = int(model.eq_type[string1.id]) == int(mujoco.mjtEq.mjEQ_JOINT)
-    return {
+    params = {
         "m1": float(model.body("mass1").mass[0]),
         "m2": float(model.body("mass2").mass[0]),
         "m_p": float(model.body("pulley").mass[0]),
@@ -116,6 +117,10 @@ def params_from_model(model) -> dict[str, float]:
         "g": float(-model.opt.gravity[2]),
         "h": float(model.body("pulley").pos[2]),
     }
+    # the pulley's own radius (its geom's), not a string's coefficient: a string wound on another radius is a
+    # fault of that string, not another pulley
+    thin_hoop(model, "pulley", mass=params["m_p"], radius=float(model.geom("pulley").size[0]), what="pulley")
+    return params
 
 
 def scales(params: dict[str, float]) -> Scales:

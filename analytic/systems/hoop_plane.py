@@ -48,6 +48,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from analytic.assumptions import thin_hoop
 from analytic.systems import Motion, Parameters, Scales
 
 if TYPE_CHECKING:
@@ -107,11 +108,13 @@ def build(p: Parameters) -> LagrangianSystem:
 def params_from_model(model) -> dict[str, float]:
     """m from body ``hoop``; a from the slide ``z``'s reference (qpos0, the centre's
     height in contact); g from gravity."""
-    return {
+    params = {
         "m": float(model.body("hoop").mass[0]),
         "a": float(model.joint("z").qpos0[0]),
         "g": float(-model.opt.gravity[2]),
     }
+    thin_hoop(model, "hoop", mass=params["m"], radius=params["a"], what="hoop")
+    return params
 
 
 def scales(params: dict[str, float]) -> Scales:

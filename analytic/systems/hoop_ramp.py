@@ -53,6 +53,7 @@ from typing import TYPE_CHECKING, Literal
 
 import mujoco
 
+from analytic.assumptions import thin_hoop
 from analytic.systems import Motion, Parameters, Scales
 
 if TYPE_CHECKING:
@@ -125,12 +126,14 @@ def params_from_model(model: mujoco.MjModel) -> dict[str, float]:
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     downhill = data.xaxis[model.joint("x").id]
-    return {
+    params = {
         "m": float(model.body("hoop").mass[0]),
         "a": float(model.joint("s").qpos0[0]),
         "g": float(-model.opt.gravity[2]),
         "alpha": math.atan2(-downhill[2], downhill[0]),
     }
+    thin_hoop(model, "hoop", mass=params["m"], radius=params["a"], what="hoop")
+    return params
 
 
 def scales(params: dict[str, float]) -> Scales:

@@ -62,7 +62,8 @@ mass matrix (condition number up to 1e4)."""
 
 
 def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation]] = (),
-                    heavier: Sequence[Deviation] | None = None, converged: Sequence[Deviation] | None = None,
+                    heavier: Sequence[Deviation] | None = None, lighter: Sequence[Deviation] | None = None,
+                    converged: Sequence[Deviation] | None = None,
                     eps_factor: float = 2.0, solver_tolerance: float = 0.0, notes: Sequence[str] = (),
                     perturbed: Sequence[Sequence[Deviation]] = (),
                     represented: Mapping[FigureName, float] | None = None,
@@ -70,12 +71,15 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
                     completed: Sequence[Deviation] | None = None) -> dict[FigureName, Budget]:
     """Every instantaneous figure's budget from the model's deviations at the sampled states (A) and,
     where they apply, the model's with every ε × s, s² (``softness``, s = ``eps_factor``) and with
-    heavier floors (D) at the same states. ``converged``: A with the constraints solved exactly, where
-    the model's own solver does not converge (the other evaluations are then made that way too).
+    heavier floors (D) at the same states; ``lighter``: where given, the floors' part is D − ``lighter``
+    instead of D − A (the pair :func:`~harness.engine.variants.floors_pair` makes without fluid forces).
+    ``converged``: A with the constraints solved exactly, where the model's own solver does not converge
+    (the other evaluations are then made that way too).
     ``completed``: on a float32 backend, A with the backend's stopped solve completed in float64
     (:mod:`harness.engine.backends.completion`; the other evaluations are then passed completed too)."""
     levels = [{d.name: d.values for d in group} for group in softness]
     floors = {d.name: d.values for d in heavier or ()}
+    floors_base = {d.name: d.values for d in lighter or ()}
     exact = {d.name: d.values for d in converged or ()}
     stopped = {d.name: d.values for d in completed or ()}
     noise = (gain(len(levels) + 1, eps_factor) if levels else 1.0) + (2.0 if floors else 0.0) \
@@ -100,7 +104,7 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
             parts["softness"] = a - ideal_eps
             softness_unc = None if uncertainty is None else dev.magnitude(uncertainty)
         if dev.name in floors:
-            parts["floors"] = floors[dev.name] - a
+            parts["floors"] = floors[dev.name] - floors_base.get(dev.name, a)
         ideal = dev.values - sum(parts.values()) if parts else dev.values
         explained = {part: dev.magnitude(values) for part, values in parts.items()}
         # float64: noise × ROUNDOFF × size, in that order (the C backend's limits bit for bit as before)

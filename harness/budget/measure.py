@@ -76,7 +76,9 @@ class Settings:
         notes = [*V.softness_notes(model)]
         if bodies:
             notes.append(f"floors: the rotational inertia of the point mass(es) {', '.join(bodies)} "
-                         f"(≤ {V.POINT_MASS:g} m L²), doubled and extrapolated to 0")
+                         f"(≤ {V.POINT_MASS:g} m L²), doubled and extrapolated to 0"
+                         + (" with the fluid forces off (the inertia box they act on is the floor: they are "
+                            "not the floor's to explain)" if V.has_fluid(model) else ""))
         return cls(soft=V.has_soft_constraints(model), contacts=V.has_contacts(model), point_masses=bodies,
                    solver_tolerance=float(model.opt.tolerance) if constrained else 0.0, notes=tuple(notes))
 
@@ -105,9 +107,13 @@ def instant_budget(mut: ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref
     eps_factor = V.softness_factor(model)
     levels = (eps_factor, eps_factor**2) if eps_factor < 1 else (eps_factor,)
     softness = tuple(evaluate(V.variant(model, eps_factor=f)) for f in levels) if settings.soft else ()
-    heavier = evaluate(V.heavier_floors(settings.point_masses)) if settings.point_masses else None
+    heavier = lighter = None
+    if settings.point_masses:
+        base, more = V.floors_pair(model, settings.point_masses)
+        heavier, lighter = evaluate(more), (evaluate(base) if base is not None else None)
     converged = evaluate(None) if exact is not None else None
-    return instant_budgets(as_is, softness=softness, heavier=heavier, converged=converged, eps_factor=eps_factor,
+    return instant_budgets(as_is, softness=softness, heavier=heavier, lighter=lighter, converged=converged,
+                           eps_factor=eps_factor,
                            solver_tolerance=V.CONVERGED_TOLERANCE if exact is not None else settings.solver_tolerance,
                            notes=(*settings.notes, *((completion_note,) if completion_note else ())),
                            perturbed=perturbed, represented=represented, epsilon=active().epsilon,
@@ -179,17 +185,20 @@ def _variant_run(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, mode
 
 def _floors(mut: ModelUnderTest, probe: Probe, target: TrajectoryRuns, sims: Mapping[str, Trajectory],
             bodies: tuple[str, ...]) -> dict[str, np.ndarray]:
-    """D − A per figure measure: the point masses' floors doubled, run once with the most accurate
-    integrator (a floor moves an explicit integrator's error too: a ball joint's spin carries the floor
-    alone), shared by every integrator: a floor is physics, not integration."""
+    """D − A per figure measure: the point masses' floors doubled (both runs without fluid forces where the
+    model has them: :func:`~harness.engine.variants.floors_pair`), run once with the most accurate integrator
+    (a floor moves an explicit integrator's error too: a ball joint's spin carries the floor alone),
+    shared by every integrator: a floor is physics, not integration."""
     name = "RK4" if "RK4" in sims else next(iter(sims))
     steps = len(sims[name].t) - 1
     model = mut.compile(integrator=name)
     exact = V.exact_solver(model)
-    heavier = simulate(mut.compile(integrator=name, variant=V.compose(exact, V.heavier_floors(bodies))),
+    lighter, more = V.floors_pair(model, bodies)
+    heavier = simulate(mut.compile(integrator=name, variant=V.compose(exact, more)),
                        probe, q0=target.q0, qd0=target.qd0, steps=steps)
-    base = sims[name] if exact is None else simulate(mut.compile(integrator=name, variant=exact), probe,
-                                                     q0=target.q0, qd0=target.qd0, steps=steps)
+    base = sims[name] if exact is None and lighter is None else \
+        simulate(mut.compile(integrator=name, variant=V.compose(exact, lighter)), probe, q0=target.q0,
+                 qd0=target.qd0, steps=steps)
     as_is = {d.name.measure: d.values for d in _deviations(target, _completed(base), name)}
     return {d.name.measure: d.values - as_is[d.name.measure] for d in _deviations(target, _completed(heavier), name)}
 

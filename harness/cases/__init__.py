@@ -41,7 +41,7 @@ from harness.engine.models import compile_model
 from harness.engine.probe import Probe
 from harness.engine.readings import Reading
 from harness.engine.sensors import Load
-from harness.reference.derivations import dynamics_of
+from harness.reference.derivations import dynamics_of, params_of
 from harness.reference.solutions import Reference, build_reference
 from harness.reference.tree import TREE, TreeSystem
 
@@ -212,7 +212,7 @@ class Case:
         """The physical parameters the reference reads from ``model``."""
         if self.tree is not None:
             return self.tree.params_from_model(model)
-        return systems.load(self.system).params_from_model(model)
+        return params_of(self.system, model)
 
     def reference(self, model: mujoco.MjModel, *, t_end: float | None = None, **solve: float) -> Reference:
         """The case's motion solved with the parameters of ``model`` (over at least ``t_end``)."""

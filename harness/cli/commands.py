@@ -4,7 +4,8 @@ Exit codes (:data:`EXIT_CODES`, printed by ``--help`` and a bare ``mjharness``):
 1 a check fails (a run that diverged fails its checks with the reason; for ``baseline --compare``, a
 figure regressed), 2 bad usage or input (unknown case, invalid MJCF or config, a model that does not
 fit its case, unwritable output). User mistakes give one line on stderr, never a traceback, and never a
-half-written file. ``diff`` is informational: 0 unless its input is bad (2). A command whose stdout is
+half-written file; so does a bug of ours (an unexpected exception: "internal error", exit 2, with the hint
+to report it). ``diff`` is informational: 0 unless its input is bad (2). A command whose stdout is
 closed (``| head -1``) stops quietly with 141 (128 + SIGPIPE); one interrupted exits 130 (Ctrl-C) or
 143 (SIGTERM), and marks stale the report files it would have written.
 
@@ -27,6 +28,7 @@ import signal
 import sys
 import textwrap
 import time
+import traceback
 import warnings
 from collections.abc import Callable, Sequence
 from concurrent.futures.process import BrokenProcessPool
@@ -44,13 +46,13 @@ from harness.engine import backends, messages
 from harness.engine.integrators import available_integrators
 from harness.outputs import baseline
 from harness.outputs.diff import diff_runs, format_diff, load_run, select
-from harness.outputs.files import REPORT_FILES, check_output, mark_stale, prepare_output, write_atomic
+from harness.outputs.files import REPORT_FILES, STALE, check_output, mark_stale, prepare_output, write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
 from harness.outputs.junit import junit_xml
 from harness.outputs.table import checks_table, failures_table, fitness_line, fitness_table, verdict_line
 from harness.pipeline import limits as limits_data
 from harness.pipeline import require
-from harness.pipeline.matrix import run_all, run_backends
+from harness.pipeline.matrix import LogProgress, run_all, run_backends
 from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
 from harness.pipeline.pool import cpus, run_tasks
 from harness.pipeline.run import RunOptions
@@ -61,13 +63,15 @@ EXIT_CODES = {EXIT_OK: "every check passes (and every --require is met)",
                          "or a known defect of this MuJoCo not accepted (baseline --compare: a figure regressed or "
                          "a case is missing; converge: an order falls short)",
               EXIT_USAGE: "bad usage or input: unknown case, unreadable or invalid MJCF or config, a model "
-                          "that does not fit its case, an unwritable output",
+                          "that does not fit its case, an unwritable output; or an internal error (a bug: one "
+                          "line asking you to report it, the report files marked stale)",
               EXIT_UNFIT: "every check passes, but these settings do not meet a --require",
               141: "stdout closed (| head): stopped quietly",
               130: "interrupted (Ctrl-C); 143: terminated (SIGTERM); the report files it would have written "
                    "are marked stale"}
 INTERRUPTED = (128 + signal.SIGINT, 128 + signal.SIGTERM)  # Ctrl-C, SIGTERM
 EXIT_PIPE = 128 + signal.SIGPIPE  # stdout's reader went away: what a shell reports for a tool SIGPIPE stopped
+TRACEBACK_VARIABLE = "MJHARNESS_TRACEBACK"  # set to 1: an internal error prints its traceback after its line
 
 
 class _Parser(argparse.ArgumentParser):
@@ -259,12 +263,22 @@ def _add_junit(p: argparse.ArgumentParser) -> None:
     p.add_argument("--junit", type=Path, metavar="FILE", help="also write JUnit XML (one testcase per check)")
 
 
-def _check_junit(path: Path | None) -> None:
-    """Refuse an unusable --junit path before any work is done."""
+def _check_junit(path: Path | None, report: Path | None = None) -> None:
+    """Refuse an unusable --junit path before any work is done: a directory, an unwritable place, or (with
+    ``report``, the --out of ``run``) one of the report's own files, which the JUnit would replace."""
     if path is not None:
         if path.is_dir():
             raise ValueError(f"--junit {str(path)!r} is a directory; give a file name")
+        if report is not None and any(_same_file(path, report / name) for name in (*REPORT_FILES,
+                                                                                  *(n + STALE for n in REPORT_FILES))):
+            raise ValueError(f"--junit {str(path)!r} is a file of the report in {str(report)!r} "
+                             f"({', '.join(REPORT_FILES)}); give another name, e.g. {str(report / 'junit.xml')!r}")
         check_output(path.parent)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether ``a`` and ``b`` name the same file (neither need exist): their absolute paths with links resolved."""
+    return a.resolve() == b.resolve()
 
 
 def _junit(path: Path | None, outcome: Outcome) -> dict[Path, str]:
@@ -292,7 +306,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     start = time.perf_counter()
     check_output(args.out)  # fail before minutes of work, not after
-    _check_junit(args.junit)
+    _check_junit(args.junit, args.out)
     selected = _selected(args)
     options = _options(args, selected, several=True)
     results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs)
@@ -686,12 +700,16 @@ def cmd_sensitivity(args: argparse.Namespace) -> int:
 
 
 def _progress(total: int) -> Callable[[int, object], None]:
-    """A progress line on stderr (a terminal only) as each of ``total`` runs finishes."""
+    """A progress line on stderr as each of ``total`` runs finishes: rewritten in place on a terminal;
+    elsewhere (a log) a line of its own at most every :data:`~harness.pipeline.matrix.PROGRESS_INTERVAL`."""
+    log = None if sys.stderr.isatty() else LogProgress(range(total), "mjharness", "run")
     done = [0]
 
     def report(_i: int, _result: object) -> None:
         done[0] += 1
-        if sys.stderr.isatty():
+        if log is not None:
+            log.update()
+        else:
             print(f"\r{done[0]}/{total}", end="" if done[0] < total else "\n", file=sys.stderr, flush=True)
     return report
 
@@ -845,6 +863,15 @@ def _main(args: argparse.Namespace) -> int:
         print("mjharness: terminated (SIGTERM)" if isinstance(exc, Terminated) else "mjharness: interrupted",
               file=sys.stderr)
         return exit_code(exc)
+    except MemoryError:
+        print("mjharness: error: out of memory; fix: a longer --timestep, a shorter --horizon, fewer cases or "
+              "workers (-j 1)", file=sys.stderr)
+    except Exception as exc:  # a bug of ours: still one line, and no report passes for the run
+        print(f"mjharness: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} (a bug in mjharness, "
+              f"not in your input: please report it with the command line; {TRACEBACK_VARIABLE}=1 prints the "
+              "traceback)", file=sys.stderr)
+        if os.environ.get(TRACEBACK_VARIABLE, "").strip() not in ("", "0"):
+            traceback.print_exc()
     return EXIT_USAGE
 
 

@@ -21,6 +21,11 @@ class ModelMismatch(ValueError):
     """The MJCF does not fit the case (missing joints, equalities or bodies)."""
 
 
+class RunTooLong(ValueError):
+    """A run whose steps (MuJoCo's, or the reference solver's) would pass a bound (:mod:`harness.core.bounds`):
+    refused before it starts, with the estimate and how to raise the bound."""
+
+
 class SimulationDiverged(RuntimeError):
     """MuJoCo produced non-finite values or raised warnings (instability): ``what`` (the warnings' names,
     e.g. ``mjWARN_BADQACC``) at time ``t``. A finding, never a number: :attr:`reason` is the verdict a

@@ -61,7 +61,12 @@ def require_joint(model: mujoco.MjModel, name: str, types: tuple[int, ...], kind
 
 @dataclass(frozen=True)
 class JointBinding:
-    """Analytic coordinate k is the MuJoCo joint ``joints[k]`` (hinge or slide)."""
+    """Analytic coordinate k is the MuJoCo joint ``joints[k]`` (hinge or slide).
+
+    A hinge's angle is counted from the pose the model is written in, where MuJoCo's qpos is the joint's
+    ``ref`` (qpos0): qpos = θ + ref, so a hinge ``ref`` moves only the angle's zero, as MuJoCo documents it
+    (0 in every shipped model). A slide's qpos is its coordinate: its ``ref`` is a length the systems read
+    (the pendulum's l is the slide ``r``'s qpos0)."""
 
     joints: tuple[str, ...]
 
@@ -73,7 +78,9 @@ class JointBinding:
                   q: Sequence[float], qd: Sequence[float]) -> None:
         for name, qk, vk in zip(self.joints, q, qd, strict=True):
             jnt = model.joint(name)
-            data.qpos[jnt.qposadr[0]] = qk
+            adr = int(jnt.qposadr[0])
+            hinge = int(model.jnt_type[jnt.id]) == int(mujoco.mjtJoint.mjJNT_HINGE)
+            data.qpos[adr] = qk + (float(model.qpos0[adr]) if hinge else 0.0)
             data.qvel[jnt.dofadr[0]] = vk
 
     def dof_matrix(self, model: mujoco.MjModel) -> np.ndarray:

@@ -41,6 +41,20 @@ def load_spec(path: Path | str) -> mujoco.MjSpec:
         raise ModelError(f"invalid MJCF {str(path)!r}: {_one_line(exc)}") from None
 
 
+def authored(path: Path | str, *, timestep: float | None = None,
+             edit: Callable[[mujoco.MjSpec], None] | None = None) -> str:
+    """The model of ``path`` (with ``edit`` and ``timestep`` applied, as :func:`compile_model` applies them) as
+    MuJoCo writes it (``MjSpec.to_xml``: every element, each attribute that differs from MuJoCo's default):
+    what two models differ in is what their texts differ in (:func:`harness.pipeline.run.authored_differences`)."""
+    spec = load_spec(path)
+    if edit is not None:
+        edit(spec)
+    if timestep is not None:
+        spec.option.timestep = timestep
+    spec.compile()
+    return spec.to_xml()
+
+
 def compile_model(
     path: Path | str,
     *,

@@ -321,6 +321,32 @@ def point_masses(model: mujoco.MjModel, length: float) -> tuple[str, ...]:
     return tuple(out)
 
 
+def has_fluid(model: mujoco.MjModel) -> bool:
+    """Whether MuJoCo applies fluid forces (``density`` or ``viscosity`` on ``<option>``; ``wind`` acts only
+    through them). Its default inertia-box model sizes each body's box from the body's rotational inertia,
+    so the force changes with a point mass's floor (XMLreference.rst, "fluidshape")."""
+    return float(model.opt.density) > 0 or float(model.opt.viscosity) > 0
+
+
+def without_fluid(spec: mujoco.MjSpec) -> None:
+    """No fluid forces (density and viscosity 0): the floors' pair of runs is made so, because the
+    inertia-box fluid force scales with the floor it doubles and would be explained as the floor's
+    (:func:`floors_pair`)."""
+    spec.option.density = 0.0
+    spec.option.viscosity = 0.0
+
+
+def floors_pair(model: mujoco.MjModel, bodies: tuple[str, ...]) -> tuple[SpecEdit | None, SpecEdit]:
+    """(base, heavier): the two variants whose difference is the floors' part. A budget part varies only
+    what it names: where the model has fluid forces, both runs hold them off, so a force that also changes
+    with the inertia (the inertia box's drag and wind) is not explained as the floor; the floor's own
+    effect differs from the one with the fluid forces on at second order (floor × fluid). Else the model
+    as it is, and the floors doubled."""
+    if has_fluid(model):
+        return without_fluid, compose(without_fluid, heavier_floors(bodies))
+    return None, heavier_floors(bodies)
+
+
 def heavier_floors(bodies: tuple[str, ...]) -> SpecEdit:
     """Double the rotational inertia of ``bodies`` (their explicit <inertial>)."""
     def edit(spec: mujoco.MjSpec) -> None:

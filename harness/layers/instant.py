@@ -158,7 +158,11 @@ class InstantEvaluation:
             states rounded to float32), reduced as the figure is: what no copy moves (atwood's forcing
             (m₁ − m₂)g), and the soft constraints' response to the state's own rounding (a coordinate held by
             an equality, off by half an ulp); empty on a float64 backend.
-        unavailable: figures the backend's arrays cannot give at these states, each with the one-line reason.
+        unavailable: figures the backend's arrays cannot give at these states, or that are not compared (an
+            accelerometer at a site the analytic system has no acceleration for), each with the one-line reason.
+        failing: figures that cannot be measured because of what the model does (a body in a sensor's subtree
+            loaded from outside its joints: :func:`harness.layers.reactions.reaction_deviations`), each with the
+            reason its check fails with.
         completed: on a float32 backend, the figures with the backend's stopped constraint solve completed in
             float64 at every state where the stop is its precision's (:mod:`harness.engine.backends.completion`): the
             difference from ``deviations`` is what the solver's stop left in each figure; None on a float64
@@ -170,6 +174,7 @@ class InstantEvaluation:
     perturbed: tuple[list[Deviation], ...] = ()
     represented: dict[FigureName, float] = field(default_factory=dict)
     unavailable: dict[str, str] = field(default_factory=dict)
+    failing: dict[str, str] = field(default_factory=dict)
     completed: list[Deviation] | None = None
     completion_note: str = ""
 
@@ -294,7 +299,7 @@ def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
             copies = [forward_many(V.roundoff_copy(model, epsilon=backend.epsilon, index=k), probe, qpos, qvel)
                       for k in range(1, PERTURBED_RUNS + 1)]
     measured = _measure(model, probe, dyn, q, qd, states=None, fwd=fwd, offset=0)
-    deviations, unavailable = _deviations(model, probe, ref, q, qd, measured, backend.name)
+    deviations, unavailable, failing = _deviations(model, probe, ref, q, qd, measured, backend.name)
     completed, completion_note = None, ""
     if fwd is not None and backend.epsilon > float(np.finfo(np.float64).eps):
         completion = completed_forward(model, fwd, backend.epsilon,
@@ -319,12 +324,14 @@ def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
             others.append([d for d in _deviations(model, probe, ref, q, qd, again, backend.name)[0]
                            if d.name != FigureName.instant("kinematics")])
     return InstantEvaluation(deviations=deviations, perturbed=tuple(others), represented=represented,
-                             unavailable=unavailable, completed=completed, completion_note=completion_note)
+                             unavailable=unavailable, failing=failing, completed=completed,
+                             completion_note=completion_note)
 
 
 def _deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarray, qd: np.ndarray, measured,
-                backend: str) -> tuple[list[Deviation], dict[str, str]]:
-    """The figures from the engine's side (:func:`_measure`) against the analytic values at (q, q̇)."""
+                backend: str) -> tuple[list[Deviation], dict[str, str], dict[str, str]]:
+    """The figures from the engine's side (:func:`_measure`) against the analytic values at (q, q̇); the
+    figures n/a and those failing, each with why (:attr:`InstantEvaluation.unavailable`, ``.failing``)."""
     got, got_lam, got_block_gen, reactions, unavailable = measured
     dyn = ref.dynamics
     qdd, lam = dyn.accelerations(q, qd)
@@ -390,10 +397,10 @@ def _deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarr
         sensors, bodies = sensor_names(model)
         missing = [FigureName.instant("sensor", s) for s in sensors] + \
             [FigureName.instant("interaction", b) for b in bodies]
-        return out, {str(name): f"not available on backend {backend!r}: {unavailable}" for name in missing}
-    found, skipped = reaction_deviations(model, dyn, reactions, q, qd, qdd, lam, force_scale=force_scale,
-                                         length=length, strict=ref.system != TREE)
-    return out + found, skipped
+        return out, {str(name): f"not available on backend {backend!r}: {unavailable}" for name in missing}, {}
+    sensed, skipped, failing = reaction_deviations(model, dyn, reactions, q, qd, qdd, lam, force_scale=force_scale,
+                                                   length=length, strict=ref.system != TREE)
+    return out + sensed, skipped, failing
 
 
 def instantaneous_figures(model: mujoco.MjModel, probe: Probe, ref: Reference,

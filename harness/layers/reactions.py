@@ -12,12 +12,14 @@ state:
   (:class:`harness.engine.sensors.Load`: the forces MuJoCo counts in ``cfrc_ext``, a spatial
   tendon's pull, a connect's pin force, a weld's force and moment — the moment through MuJoCo's
   frame at the state, :func:`harness.engine.sensors.weld_moment_map` —, a contact at MuJoCo's contact
-  point); a subtree body that MuJoCo loads from outside its joints with no load declared is refused
-  (the comparison would be meaningless);
+  point); where a subtree body is loaded from outside its joints with no load declared (a contact the
+  model under test makes: a force the analytic system lacks) the figure cannot be measured, and fails
+  with that reason;
 - ``cfrc_int`` of every body with a force or torque sensor: the same wrench, its moment about
   MuJoCo's c-frame origin (figure ``instant.interaction.BODY``);
 - ``accelerometer`` at a site: the site's proper acceleration a − g (0 − g on the world body; the
-  analytic point named like the site, else the analytic body whose centre of mass the site marks).
+  analytic point named like the site, else the analytic body whose centre of mass the site marks; a
+  site elsewhere is not compared: its figure is n/a, with why).
 
 Figures ``instant.sensor.NAME``: max over states of |MuJoCo (rotated to the world) − analytic|, for
 a force over the case's force scale, a torque over force × length, an acceleration over the largest
@@ -134,36 +136,51 @@ def _check_load(model: mujoco.MjModel, dyn: Dynamics, load: S.Load) -> None:
 
 
 def _accelerometer_point(model: mujoco.MjModel, dyn: Dynamics, sensor: S.Sensor, site_pos: np.ndarray,
-                         coms: Sequence[Mapping[str, np.ndarray]], length: float) -> tuple[str, int]:
+                         coms: Sequence[Mapping[str, np.ndarray]], length: float) -> tuple[str, int, str]:
     """Where the analytic side reads an accelerometer's acceleration: ``("static", -1)``, ``("point", i)`` or
-    ``("body", i)`` (ModelMismatch where neither applies)."""
+    ``("body", i)``, and '' ; or ("", -1, why) where neither applies (the site is elsewhere: the figure is
+    n/a, with why)."""
     if model.body(sensor.body).id == 0:
-        return "static", -1
+        return "static", -1, ""
     if sensor.site in dyn.point_names:
-        return "point", dyn.point_names.index(sensor.site)
+        return "point", dyn.point_names.index(sensor.site), ""
     at_com = max(float(np.linalg.norm(p - c[sensor.name])) for p, c in zip(site_pos, coms, strict=True))
     if sensor.body in dyn.body_names and at_com <= 1e-12 * length:
-        return "body", dyn.body_names.index(sensor.body)
-    raise ModelMismatch(f"accelerometer {sensor.name!r}: site {sensor.site!r} is neither an analytic point nor at "
-                        f"the centre of mass of an analytic body ({sensor.body!r}); name the site as a point of the "
-                        "system, or put it at its body's centre of mass")
+        return "body", dyn.body_names.index(sensor.body), ""
+    return "", -1, (f"not compared: accelerometer {sensor.name!r} is at site {sensor.site!r}, neither an analytic "
+                    f"point nor at the centre of mass of an analytic body ({sensor.body!r}, {at_com:.3g} m from "
+                    "its centre of mass); a site named as a point of the system, or at its body's centre of mass, "
+                    "is compared")
 
 
 def reaction_deviations(model: mujoco.MjModel, dyn: Dynamics, rec: Recorder, q: np.ndarray, qd: np.ndarray,
                         qdd: np.ndarray, lam: np.ndarray, *, force_scale: float, length: float,
-                        strict: bool = True) -> tuple[list[Deviation], dict[str, str]]:
+                        strict: bool = True) -> tuple[list[Deviation], dict[str, str], dict[str, str]]:
     """The figures of the module docstring from the states (q, q̇) with the reference's q̈ and λ, and
-    MuJoCo's records at the same states; and the figures not measured, each with why.
-
-    A body in a sensor's subtree loaded from outside its joints by a load the case does not declare is a
-    ModelMismatch where ``strict`` (a shipped case's wiring is wrong), else that sensor's figure is not
-    measured (a model's own tree declares no loads: its welds' and connects' pulls are not modelled here)."""
+    MuJoCo's records at the same states; then the figures not compared, each with why (n/a: an
+    accelerometer at a site the analytic system has no acceleration for), and the figures that cannot be
+    measured, each with why (they fail: a body in the sensor's subtree loaded from outside its joints
+    with no load declared — a contact the model under test makes, an unmodelled force). Without ``strict`` (a
+    model judged against its own tree, which declares no loads: its constraints' pulls are not modelled here)
+    such a figure is not compared (n/a) instead."""
     if not rec:
-        return [], {}
+        return [], {}, {}
     gravity = np.asarray(model.opt.gravity, dtype=float)
     n = len(q)
     site_pos = {s: np.array([row[i] for row in rec.rows["site"]]) for i, s in enumerate(rec.sites)}
     blocks = dyn.blocks
+
+    def undeclared(tree: Sequence[str]) -> str:
+        """Why the subtree's wrench cannot be compared: a body MuJoCo loads from outside its joints with no
+        load declared ('' where none)."""
+        loaded = {ld.body for ld in rec.loads}
+        for b in tree:
+            worst = max(row[b] for row in rec.rows["external"])
+            if b not in loaded and worst > UNLOADED * force_scale:
+                return (f"not measurable: body {b!r} in the sensor's subtree is loaded from outside its joints "
+                        f"(|cfrc_ext| up to {worst:.3g} N: a contact, connect, weld or spatial tendon) and the case "
+                        "declares no load for it (Wiring(loads=...)): a force the subtree's wrench cannot account for")
+        return ""
 
     def loads_on(tree: Sequence[str]) -> list[AnalyticLoad]:
         out = []
@@ -181,13 +198,6 @@ def reaction_deviations(model: mujoco.MjModel, dyn: Dynamics, rec: Recorder, q: 
                 else:
                     force = lam[:, rows]
                 out.append(AnalyticLoad(force=ld.sign * force, at=rec.load_point(ld, site_pos), moment=moment))
-        loaded = {ld.body for ld in rec.loads}
-        for b in tree:
-            worst = max(row[b] for row in rec.rows["external"])
-            if b not in loaded and worst > UNLOADED * force_scale:
-                raise ModelMismatch(f"body {b!r} in a sensor's subtree is loaded from outside its joints (|cfrc_ext| "
-                                    f"up to {worst:.3g}: a contact, connect, weld or spatial tendon) and the case "
-                                    "declares no load for it (Wiring(loads=...))")
         return out
 
     def massive(tree: Sequence[str]) -> list[str]:
@@ -195,22 +205,17 @@ def reaction_deviations(model: mujoco.MjModel, dyn: Dynamics, rec: Recorder, q: 
 
     out = []
     skipped: dict[str, str] = {}
-
-    def loads_or_skip(name: FigureName, tree: Sequence[str]) -> list[AnalyticLoad] | None:
-        try:
-            return loads_on(tree)
-        except ModelMismatch as exc:
-            if strict:
-                raise
-            skipped[str(name)] = f"not measured: {exc}"
-            return None
-
+    failing: dict[str, str] = {}
     readings = np.array(rec.rows["reading"]).reshape(n, len(rec.sensors), 3)
     for k, sensor in enumerate(rec.sensors):
         got = readings[:, k]
+        name = FigureName.instant("sensor", sensor.name)
         if sensor.kind == "accelerometer":
-            kind, i = _accelerometer_point(model, dyn, sensor, site_pos[sensor.site],
-                                           rec.rows["com"], length)
+            kind, i, why = _accelerometer_point(model, dyn, sensor, site_pos[sensor.site],
+                                                rec.rows["com"], length)
+            if why:
+                skipped[str(name)] = why
+                continue
             if kind == "static":
                 acc = np.zeros((n, 3))
             elif kind == "point":
@@ -224,11 +229,12 @@ def reaction_deviations(model: mujoco.MjModel, dyn: Dynamics, rec: Recorder, q: 
                                  f"frame) / max |a − g| ({scale:.4g} m/s²)", scale=scale or 1.0))
             continue
         tree = rec.subtrees[sensor.body]
-        loads = loads_or_skip(FigureName.instant("sensor", sensor.name), tree)
-        if loads is None:
+        why = undeclared(tree)
+        if why:
+            (failing if strict else skipped)[str(name)] = why
             continue
         force, torque = subtree_wrench(dyn, massive(tree), q, qd, qdd, gravity=gravity, about=site_pos[sensor.site],
-                                       loads=loads)
+                                       loads=loads_on(tree))
         expected, scale, what = (force, force_scale, "F") if sensor.kind == "force" else \
             (torque, force_scale * length, "τ about the site")
         out.append(Deviation(FigureName.instant("sensor", sensor.name), got - expected, "vector", "1",
@@ -238,17 +244,19 @@ def reaction_deviations(model: mujoco.MjModel, dyn: Dynamics, rec: Recorder, q: 
     interactions = np.array(rec.rows["interaction"]).reshape(n, len(rec.wrenched), 9)
     for k, body in enumerate(rec.wrenched):
         tree = rec.subtrees[body]
-        got_force, got_torque, about = interactions[:, k, :3], interactions[:, k, 3:6], interactions[:, k, 6:]
-        loads = loads_or_skip(FigureName.instant("interaction", body), tree)
-        if loads is None:
+        why = undeclared(tree)
+        if why:
+            (failing if strict else skipped)[str(FigureName.instant("interaction", body))] = why
             continue
-        force, torque = subtree_wrench(dyn, massive(tree), q, qd, qdd, gravity=gravity, about=about, loads=loads)
+        got_force, got_torque, about = interactions[:, k, :3], interactions[:, k, 3:6], interactions[:, k, 6:]
+        force, torque = subtree_wrench(dyn, massive(tree), q, qd, qdd, gravity=gravity, about=about,
+                                       loads=loads_on(tree))
         values = np.stack([got_force - force, (got_torque - torque) / length], axis=1)
         size = float(np.max(np.linalg.norm(np.stack([force, torque / length], axis=1), axis=-1))) / force_scale
         out.append(Deviation(FigureName.instant("interaction", body), values, "vector", "1",
                              f"max |cfrc_int of {body!r} − (F, τ/L) by the parent on its subtree| / force scale "
                              f"({force_scale:.4g} N)", scale=force_scale, size=max(size, 1.0)))
-    return out, skipped
+    return out, skipped, failing
 
 
 def sensor_names(model: mujoco.MjModel) -> tuple[tuple[str, ...], tuple[str, ...]]:

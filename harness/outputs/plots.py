@@ -136,7 +136,8 @@ PLOTS = (("overlay", plot_overlay), ("errors", plot_errors), ("forces", plot_for
 
 def section_plots(result: CaseResult) -> str:
     """The case's plots, of every run that did not diverge, and a note naming those that did."""
-    diverged = {run: why for run, why in result.diverged.items() if run not in result.simulations}
+    diverged = {run: why for run, why in result.diverged.items()
+                if run not in result.simulations and not run.startswith("instant.")}  # (not runs: figures)
     note = ("<p class='note'>Not plotted: " + "; ".join(f"{html.escape(run)} {html.escape(why)}"
                                                         for run, why in diverged.items()) + "</p>") if diverged else ""
     if not result.simulations:

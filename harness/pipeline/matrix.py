@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import sys
+import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import as_completed
 from pathlib import Path
@@ -29,12 +30,52 @@ from harness.reference import solutions as refmod
 COLD = ("derivation",)  # the timings of run_case that a warm run (derivations cached) does not pay
 
 
+PROGRESS_INTERVAL = 30.0
+"""Seconds between two progress lines where stderr is not a terminal (a CI log, a pipe): a run shorter
+than this prints none."""
+
+
+class LogProgress:
+    """Progress for a log: tqdm's interface (iterate, ``update``, ``set_postfix_str``, ``close``), one plain
+    line on stderr when something finishes and :data:`PROGRESS_INTERVAL` has passed since the start or the
+    last line ("mjharness: 3 of 15 cases done after 1.5 min (pendulum)"). Written by the thread that
+    counts, never a thread of its own: a process pool forks from this process."""
+
+    def __init__(self, items: Sequence, desc: str, unit: str) -> None:
+        self.items, self.desc, self.unit = items, desc, unit
+        self.n, self.postfix = 0, ""
+        self.start = self.last = time.monotonic()
+
+    def __iter__(self):
+        for item in self.items:
+            yield item
+            self.update()
+
+    def set_postfix_str(self, text: str, refresh: bool = True) -> None:
+        self.postfix = text
+
+    def update(self, n: int = 1) -> None:
+        self.n += n
+        now = time.monotonic()
+        if now - self.last >= PROGRESS_INTERVAL and self.n < len(self.items):
+            self.last = now
+            elapsed = now - self.start
+            when = f"{elapsed / 60:.1f} min" if elapsed >= 60 else f"{elapsed:.0f} s"
+            print(f"{self.desc}: {self.n} of {len(self.items)} {self.unit}s done after {when}"
+                  + (f" ({self.postfix})" if self.postfix else ""), file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        pass
+
+
 def progress(items: Sequence, desc: str, unit: str = "case"):
-    """A tqdm bar on stderr, silent when stderr is not a terminal (CI logs, pipes)."""
+    """A tqdm bar on stderr where stderr is a terminal; elsewhere (CI logs, pipes) a plain line now and then
+    (:class:`LogProgress`), so a long run is seen to go on."""
+    if not sys.stderr.isatty():
+        return LogProgress(items, desc, unit)
     from tqdm import tqdm  # lazy: 0.03 s, only where a bar is drawn
 
-    return tqdm(items, desc=desc, unit=unit, file=sys.stderr, leave=False,
-                disable=not sys.stderr.isatty())
+    return tqdm(items, desc=desc, unit=unit, file=sys.stderr, leave=False)
 
 
 def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: RunOptions | None = None, *,

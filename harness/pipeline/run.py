@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import time
+import xml.etree.ElementTree as ET
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,6 +31,7 @@ from harness.budget.measure import (
     trajectory_runs,
 )
 from harness.cases import Case
+from harness.core import bounds
 from harness.core.budget import Budget
 from harness.core.errors import BackendUnavailable, SimulationDiverged, UnmodelledElement
 from harness.core.figures import Figure, FigureName
@@ -39,7 +41,7 @@ from harness.engine import backends, variants
 from harness.engine.backends import simulate
 from harness.engine.compat import applicable_defect, fallbacks, joint_types, unavailable_reason
 from harness.engine.integrators import available_integrators, integrator_name
-from harness.engine.models import compile_model
+from harness.engine.models import authored, compile_model
 from harness.engine.simulate import recorder, steps_in
 from harness.engine.simulate import recorder_notes as simulate_notes
 from harness.layers.balance import balance_figures
@@ -81,7 +83,7 @@ class CaseResult:
     orders: Mapping[str, float] = field(default_factory=dict)
     findings: tuple[Finding, ...] = ()
     unmeasured: Mapping[str, str] = field(default_factory=dict)
-    diverged: dict[str, str] = field(default_factory=dict)  # run (INTEGRATOR, converge.INTEGRATOR) -> reason
+    diverged: dict[str, str] = field(default_factory=dict)  # INTEGRATOR, converge.INTEGRATOR, instant figure -> why
 
     def figure(self, name: str) -> Figure:
         for f in self.figures:
@@ -173,6 +175,62 @@ def changed_settings(shipped: Mapping[str, object], tested: Mapping[str, object]
             for k in dict.fromkeys([*shipped, *tested]) if shipped.get(k) != tested.get(k)}
 
 
+_SETTINGS_OF = {"option": {"timestep", "integrator", "solver", "iterations", "tolerance", "cone", "impratio",
+                            "noslip_iterations"},
+                "equality": {"solref", "solimp"}, "pair": {"solref", "solimp", "friction", "margin"}}
+"""Attributes :func:`model_settings` lists already, by the element kind (equalities of every type)."""
+
+
+def _element_key(element: ET.Element, parent: str, index: int) -> str:
+    """An element's label: its kind and name where it has one (MuJoCo's names are unique per kind), else its
+    parent's label and its place among its kind there."""
+    name = element.get("name")
+    if name is not None:
+        return f"{element.tag} {name!r}"
+    own = element.tag + (f"[{index}]" if index else "")
+    return f"{parent}/{own}" if parent and parent != "mujoco" else own
+
+
+def _covered(element: ET.Element, parent: ET.Element | None, attribute: str) -> bool:
+    kind = "equality" if parent is not None and parent.tag == "equality" else element.tag
+    return attribute in _SETTINGS_OF.get(kind, set())
+
+
+def authored_differences(shipped: str, tested: str) -> dict[str, dict[str, object]]:
+    """Every attribute of every element in which two models as MuJoCo writes them differ
+    (:func:`harness.engine.models.authored`): ``{"mjcf: ELEMENT ATTRIBUTE": {"shipped": a, "tested": b}}``
+    ("default": MuJoCo's; an element one lacks: ``{"mjcf: ELEMENT": "absent" / "present"}``), less what
+    :func:`model_settings` lists. Compared as written, so a joint's added damping, a geom's margin or a new
+    body shows however the model was changed."""
+    out: dict[str, dict[str, object]] = {}
+
+    def children(element: ET.Element | None, label: str) -> dict[str, ET.Element]:
+        found: dict[str, ET.Element] = {}
+        counts: dict[str, int] = {}
+        for child in element if element is not None else ():
+            index = counts.get(child.tag, 0)
+            counts[child.tag] = index + 1
+            found[_element_key(child, label, index)] = child
+        return found
+
+    def walk(a: ET.Element | None, b: ET.Element | None, label: str, parent: ET.Element | None) -> None:
+        if a is None or b is None:
+            out[f"mjcf: {label}"] = {"shipped": "absent" if a is None else "present",
+                                     "tested": "absent" if b is None else "present"}
+            return
+        for attribute in dict.fromkeys([*a.attrib, *b.attrib]):
+            if a.get(attribute) != b.get(attribute) and not _covered(a, parent, attribute):
+                out[f"mjcf: {label} {attribute}"] = {"shipped": a.get(attribute, "default"),
+                                                     "tested": b.get(attribute, "default")}
+        ca, cb = children(a, label), children(b, label)
+        for key in dict.fromkeys([*ca, *cb]):
+            walk(ca.get(key), cb.get(key), key, a)
+
+    root_a, root_b = ET.fromstring(shipped), ET.fromstring(tested)
+    walk(root_a, root_b, "mujoco", None)
+    return out
+
+
 def settle_time(case: Case, model: mujoco.MjModel, horizon: float) -> tuple[float, str]:
     """When the force and MuJoCo-only figures start counting: the case's ``settle``, or
     :data:`~harness.engine.variants.SETTLE_TIMECONSTS` response times of the model's slowest contact
@@ -253,6 +311,8 @@ def _run_case(
     path = Path(mjcf) if mjcf is not None else case.mjcf
     mut = ModelUnderTest(path=path, timestep=timestep, edit=edit, floors=case.tree is None)
     model = mut.compile()
+    h = float(model.opt.timestep)
+    bounds.check_steps(steps_in(case.horizon, h), horizon=case.horizon, timestep=h)  # before any work
     engine = backends.active()
     chosen, skipped = _backend_integrators(engine, mut, chosen, given=integrators is not None)
     shipped = compile_model(case.mjcf, edit=case.prepare)
@@ -319,6 +379,7 @@ def _run_case(
         unmeasured = {str(FigureName.converge(s.integrator, "order_shortfall")): s.note for s in study.series
                       if s.quantity == gated and s.expected is None and s.note and not s.diverged}
     unmeasured |= instant.unavailable  # a figure the backend's arrays cannot give: n/a, with the reason
+    diverged |= instant.failing  # a figure the model's own forces make unmeasurable: fails, with the reason
     timings["converge"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
@@ -359,6 +420,12 @@ def _run_case(
         "qd0": dict(zip(ref.dynamics.coordinates, ref.initial[1], strict=True)),
         "integrators": list(sims), "recorder": recorder()}
     changed = changed_settings(original, tested)
+    if changed or path != case.mjcf or edit is not None:  # and every other difference, as the files are written
+        try:
+            changed |= authored_differences(authored(case.mjcf), authored(path, timestep=timestep, edit=edit))
+        except Exception as exc:  # MuJoCo cannot write one of them (to_xml): said, never silent, never fatal
+            changed["mjcf"] = {"shipped": str(case.mjcf), "tested": f"{path} (not compared attribute by attribute: "
+                                                                    f"{' '.join(str(exc).split())})"}
     if changed:
         settings["changed"] = changed
     if ref.projected:

@@ -95,10 +95,10 @@ def judge(result: CaseResult, limits: Mapping[str, Limit]) -> list[Check]:
 def diverged_run(name: str, diverged: Mapping[str, str]) -> str:
     """Why the figure ``name`` was not measured where the run it comes from diverged ('' otherwise): its
     integrator's run over the horizon (key ``INTEGRATOR``) or, for an order, that run or its ladder's
-    (``converge.INTEGRATOR``)."""
+    (``converge.INTEGRATOR``); an instantaneous figure the model made unmeasurable, by its own name."""
     figure = FigureName(name)
     if figure.layer == "trajectory":
         return diverged.get(figure.integrator, "")
     if figure.layer == "converge":
         return diverged.get(figure.integrator, "") or diverged.get(f"converge.{figure.integrator}", "")
-    return ""
+    return diverged.get(name, "")

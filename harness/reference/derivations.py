@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 from analytic import systems
 from analytic.dynamics import Compiled, Dynamics
 from harness.core import cache
+from harness.core.errors import ModelMismatch
 from harness.reference.tree import TREE
 
 if TYPE_CHECKING:
@@ -119,6 +120,17 @@ def dynamics(system: str, params: Mapping[str, float]) -> Dynamics:
     return _dynamics(system, tuple(sorted(params.items())))
 
 
+def params_of(system: str, model) -> dict[str, float]:
+    """``system``'s parameters read from the compiled ``model`` (its ``params_from_model``); ModelMismatch
+    in one line where the model lacks an element it reads them from (MuJoCo's KeyError for a name)."""
+    try:
+        return systems.load(system).params_from_model(model)
+    except KeyError as exc:
+        why = exc.args[0] if exc.args else exc
+        raise ModelMismatch(f"the model is not a {system} system: it lacks an element the system reads its "
+                            f"parameters from (MuJoCo: {why})") from None
+
+
 def dynamics_of(system: str, model) -> Dynamics:
     """Numeric dynamics of ``system`` at the parameters read from the compiled ``model``."""
-    return dynamics(system, systems.load(system).params_from_model(model))
+    return dynamics(system, params_of(system, model))

@@ -147,6 +147,22 @@ def _solver(name: str, tolerance: float | None = None) -> Callable[[Case, mujoco
     return make
 
 
+def _option(name: str, value: object) -> Callable[[Case, mujoco.MjModel, float], SpecEdit]:
+    """``<option name=value>``: one of the settings MuJoCo documents as changing how the constraints are solved
+    (computation/index.rst, "Solver"; XMLreference.rst, "option"), not what they are."""
+    def make(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+        def edit(spec: mujoco.MjSpec) -> None:
+            setattr(spec.option, name, value)
+        return edit
+    return make
+
+
+def _no_warmstart(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+    def edit(spec: mujoco.MjSpec) -> None:
+        spec.option.disableflags = int(spec.option.disableflags) | int(mujoco.mjtDisableBit.mjDSBL_WARMSTART)
+    return edit
+
+
 def _masses(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
     """Every body's mass and rotational inertia × 2: the same system, twice as heavy."""
     def edit(spec: mujoco.MjSpec) -> None:
@@ -379,6 +395,25 @@ def _friction(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
     return edit
 
 
+WIND = 10.0
+"""The speed (m/s, along x) of the ``wind`` fault's fluid: a breeze."""
+
+
+def _fluid(option: str) -> Callable[[Case, mujoco.MjModel, float], SpecEdit]:
+    """A fluid MuJoCo applies to every body (XMLreference.rst, "option"): ``density`` or ``viscosity`` at
+    ``size``, still (a drag on the motion), or ``wind``: density ``size`` moving at :data:`WIND` along x (a
+    push the motion does not cause). The analytic systems are in vacuum: any fluid force is a fault."""
+    def make(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+        def edit(spec: mujoco.MjSpec) -> None:
+            if option == "wind":
+                spec.option.density = size
+                spec.option.wind = [WIND, 0.0, 0.0]
+            else:
+                setattr(spec.option, option, size)
+        return edit
+    return make
+
+
 def _timestep(factor: float) -> Change:
     return Change(f"timestep×{factor:g}", "setting", f"the model's timestep × {factor:g}", timestep=factor)
 
@@ -392,6 +427,9 @@ SETTINGS: tuple[Change, ...] = (
     Change("solver=CG", "setting", "the CG solver", make=_solver("CG")),
     Change("solver=PGS", "setting", "the PGS solver", make=_solver("PGS")),
     Change("tolerance=1e-8", "setting", "the solver's tolerance 1e-8", make=_solver("Newton", 1e-8)),
+    Change("noslip=10", "setting", "10 noslip iterations after the main solver", make=_option("noslip_iterations", 10)),
+    Change("warmstart-off", "setting", "the solver not warm-started", make=_no_warmstart),
+    Change("iterations=1000", "setting", "the solver's iteration cap 1000", make=_option("iterations", 1000)),
     Change("masses×2", "setting", "every body twice as heavy (mass and inertia)", make=_masses),
     Change("lengths×1.5", "setting", f"every length × {LENGTH_FACTOR:g}", make=_lengths),
     Change("gravity=9.0", "setting", "gravity 9.0 m/s² instead of 9.81", make=_gravity, applies=_has("gravity")),
@@ -416,6 +454,12 @@ FAULTS: tuple[Change, ...] = (
            applies=_gravity_does_work, sizes=(1e-2, 1e-2)),
     Change("joint-limit", "fault", "joint limits the motion reaches", make=_joint_limit,
            applies=_has("hinge_or_slide"), sizes=(1.0, 1.0)),
+    Change("drag", "fault", "a fluid of density {size} (still: drag)", "kg/m³", make=_fluid("density"),
+           sizes=(10.0, 10.0)),
+    Change("viscosity", "fault", "a fluid of viscosity {size} (still)", "Pa s", make=_fluid("viscosity"),
+           sizes=(1e-5, 1e-5)),
+    Change("wind", "fault", f"a {WIND:g} m/s wind along x, of density {{size}}", "kg/m³", make=_fluid("wind"),
+           sizes=(10.0, 10.0)),
     Change("low-friction", "fault", "contact friction less {size} of it (relative), too little to roll",
            make=_friction, applies=_has("pair"), sizes=(0.99, 0.99)),
 )

@@ -1,6 +1,7 @@
 """One isolated environment per MuJoCo release, built with uv and kept for the next run.
 
-An environment holds one MuJoCo release, the harness built from the source that runs this command, and
+An environment holds one MuJoCo release, the harness built from the source that runs this command (from a
+regular install, a source tree made of the installed packages and metadata: :func:`installed_source`), and
 the harness's dependencies, with numpy and sympy pinned to the versions this interpreter has (the
 reference is computed by them: pinned, it is the same in every environment, and what differs between
 two environments is MuJoCo alone). Extra packages (a backend's, ``--with``) are installed beside them.
@@ -23,7 +24,9 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import hashlib
+import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -68,13 +71,78 @@ index has no such release of (mujoco-mjx stops at 3.17.0; there is none for 4.0.
 
 
 def source_root() -> Path:
-    """The source tree this harness runs from (the folder holding ``pyproject.toml`` beside ``harness/``);
-    ValueError where it runs from an installed copy, which cannot be rebuilt into another environment."""
+    """The source tree this harness runs from (the folder holding ``pyproject.toml`` beside ``harness/``). From
+    a regular install (``pip install .``, a wheel: the packages in site-packages, no ``pyproject.toml``) the
+    tree is made from what is installed (:func:`installed_source`), so the command works from any install."""
     root = Path(__file__).resolve().parents[2]
-    if not (root / "pyproject.toml").is_file():
-        raise ValueError(f"mjharness versions installs the harness from its source tree, and {root} has no "
-                         "pyproject.toml: run it from a checkout (pip install -e . or python -m harness)")
-    return root
+    if (root / "pyproject.toml").is_file():
+        return root
+    return installed_source(root, envs_root() / "installed-source")
+
+
+def installed_source(site: Path, to: Path) -> Path:
+    """A source tree of the installed harness under ``to`` (one per installed set of files, made once): its
+    packages copied from ``site`` (where they are installed), and a ``pyproject.toml`` written from the
+    installed distribution's metadata (name, version, Python, dependencies and extras, scripts and entry
+    points), every file of the packages their package data. Its wheel installs the same harness again, into
+    each environment. ValueError where the harness is not an installed distribution at all."""
+    from importlib.metadata import distribution  # lazy: only from an installed copy
+
+    try:
+        dist = distribution("mjharness")
+    except PackageNotFoundError:
+        raise ValueError(f"mjharness versions installs the harness into each environment, and the one in {site} is "
+                         "neither a source checkout (no pyproject.toml) nor an installed distribution") from None
+    missing = [p for p in SOURCE_PACKAGES if not (site / p).is_dir()]
+    if missing:
+        raise ValueError(f"the installed harness in {site} lacks its package(s) {', '.join(missing)}")
+    record = dist.read_text("RECORD") or ""  # every installed file with its hash: another install, another tree
+    tree = to / hashlib.sha256(record.encode()).hexdigest()[:16]
+    with _locked(to / "lock"):
+        if not (tree / "pyproject.toml").is_file():  # written last: a tree without it is unfinished
+            scratch = tree.with_name(tree.name + ".tmp")
+            shutil.rmtree(scratch, ignore_errors=True)
+            _copy_source(site, scratch)
+            (scratch / "pyproject.toml").write_text(_pyproject(dist))
+            shutil.rmtree(tree, ignore_errors=True)
+            scratch.rename(tree)
+    return tree
+
+
+def _toml(value: object) -> str:
+    """A TOML string or array of strings (JSON's quoting is TOML's for these)."""
+    return json.dumps(value, ensure_ascii=False)
+
+
+def _pyproject(dist) -> str:
+    """The ``pyproject.toml`` that builds ``dist`` (an installed distribution) again from its packages."""
+    meta = dist.metadata
+    plain: list[str] = []
+    extras: dict[str, list[str]] = {}
+    for requirement in dist.requires or []:
+        spec, _, marker = requirement.partition(";")
+        found = re.search(r"""extra\s*==\s*['"]([^'"]+)['"]""", marker)
+        if found is None:
+            plain.append(requirement.strip())
+            continue
+        rest = re.sub(r"""\s*(and\s+)?extra\s*==\s*['"][^'"]+['"](\s+and)?\s*""", "", marker).strip()
+        extras.setdefault(found.group(1), []).append(spec.strip() + (f"; {rest}" if rest else ""))
+    lines = ["[build-system]", 'requires = ["setuptools>=61"]', 'build-backend = "setuptools.build_meta"', "",
+             "[project]", f"name = {_toml(meta['Name'])}", f"version = {_toml(meta['Version'])}"]
+    if meta.get("Requires-Python"):
+        lines.append(f"requires-python = {_toml(meta['Requires-Python'])}")
+    lines.append(f"dependencies = {_toml(plain)}")
+    if extras:
+        lines += ["", "[project.optional-dependencies]", *(f"{_toml(k)} = {_toml(v)}" for k, v in extras.items())]
+    groups: dict[str, dict[str, str]] = {}
+    for ep in dist.entry_points:
+        groups.setdefault(ep.group, {})[ep.name] = ep.value
+    for group, points in groups.items():
+        header = "[project.scripts]" if group == "console_scripts" else f"[project.entry-points.{_toml(group)}]"
+        lines += ["", header, *(f"{_toml(k)} = {_toml(v)}" for k, v in points.items())]
+    lines += ["", "[tool.setuptools.packages.find]", f"include = {_toml([p + '*' for p in SOURCE_PACKAGES])}", "",
+              "[tool.setuptools.package-data]", '"*" = ["*", "*/*"]', ""]
+    return "\n".join(lines)
 
 
 def source_hash(root: Path) -> str:

@@ -36,7 +36,7 @@ How a run is made, and why:
   MJX's ``cdof`` and ``subtree_com``, as ``mj_jac``), each equality's
   ``efc_force``/``efc_pos`` from MJX's constraint rows (which MJX orders by
   equality type: connect, weld, joint, tendon).
-- Times are k·h accumulated in float64 as the C engine's ``time``: MJX carries
+- Times are k·h in float64, as the C engine's runs record them: MJX carries
   its ``time`` in its own precision (float32 drifts by up to N·ε·t), and no
   case's forces depend on time, so the nominal time of sample k is the one the
   reference is compared at.
@@ -372,7 +372,7 @@ def energy(model: mujoco.MjModel, rec: dict[str, np.ndarray]) -> tuple[np.ndarra
 def _trajectory(request: Request, probe: Probe, rec: dict[str, np.ndarray]) -> Trajectory:
     model = request.model
     finite = np.isfinite(rec["qpos"]).all(axis=1) & np.isfinite(rec["qvel"]).all(axis=1)
-    t = np.cumsum(np.r_[0.0, np.full(request.steps, float(model.opt.timestep))])  # time += h, in float64
+    t = np.arange(request.steps + 1) * float(model.opt.timestep)  # k h, as the C engine's runs
     if not finite.all():
         raise SimulationDiverged("non-finite state (MJX)", float(t[int(np.argmin(finite))]))
     positions, velocities = {}, {}
