@@ -334,10 +334,11 @@ def test_bad_model_exits_2_and_writes_nothing(tmp_path, make, needle, capsys):
     assert not out.exists()
 
 
-@pytest.mark.parametrize("names", [[], [CASE, "spring"]])
-def test_mjcf_needs_exactly_one_case(tmp_path, names, capsys):
-    assert main(["check", *names, "--mjcf", str(MJCF)]) == 2
-    _one_line_error(capsys.readouterr().err, "--mjcf validates one model against one case")
+def test_mjcf_with_cases_needs_exactly_one(tmp_path, capsys):
+    """With cases, --mjcf judges one model against one case; with none it is the model's own tree
+    (tests/test_own_model.py)."""
+    assert main(["check", CASE, "spring", "--mjcf", str(MJCF)]) == 2
+    _one_line_error(capsys.readouterr().err, "--mjcf with cases judges one model against one case")
 
 
 def test_unwritable_output_exits_2_and_writes_nothing(tmp_path):
