@@ -110,6 +110,8 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     key = (system, identity, tuple(sorted(params.items())), tuple(q.tolist()), tuple(qd.tolist()), float(rtol),
            span)
     sol = _solutions.get(key)
+    if sol is None:  # a solve over a longer span from the same start covers this one (its dense output)
+        sol = next((found for k, found in _solutions.items() if k[:-1] == key[:-1] and k[-1] >= span), None)
     if sol is None and key in _seeds:
         end, tol, nfev, dense = _seeds.pop(key)
         sol = Solution(dynamics=dyn, t_end=end, rtol=tol, nfev=nfev, _dense=dense)
@@ -154,7 +156,8 @@ def trajectory(ref: Reference, t: np.ndarray) -> Trajectory:
     """The reference sampled at times t, in the common schema."""
     dyn = ref.dynamics
     q, qd = ref.solution.state(t)
-    _, lam = dyn.accelerations(q, qd)
+    # λ: the multipliers (none without constraints, where M and F at every sample would be computed for nothing)
+    lam = dyn.accelerations(q, qd)[1] if dyn.rows else np.zeros((len(q), 0))
     pts = dyn.points(q)
     vels = dyn.point_velocities(q, qd)
     jac = dyn.jacobian(q)
