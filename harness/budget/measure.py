@@ -87,8 +87,8 @@ def instant_budget(mut: ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref
                    as_is: Sequence[Deviation], *, integrator: str | None = None,
                    perturbed: Sequence[Sequence[Deviation]] = (),
                    represented: Mapping[FigureName, float] | None = None,
-                   completed: Sequence[Deviation] | None = None, completion_note: str = ""
-                   ) -> dict[FigureName, Budget]:
+                   completed: Sequence[Deviation] | None = None, completion_note: str = "",
+                   conditioning: float = 1.0) -> dict[FigureName, Budget]:
     """The instantaneous figures' budgets: ``as_is`` (the deviations of ``model``, compiled from ``mut``
     with ``integrator``) beside the same states on the variants: softer, heavier floors, and with the
     constraints solved exactly where the model's own solver does not converge; every evaluation on the
@@ -112,7 +112,8 @@ def instant_budget(mut: ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref
         base, more = V.floors_pair(model, settings.point_masses)
         heavier, lighter = evaluate(more), (evaluate(base) if base is not None else None)
     converged = evaluate(None) if exact is not None else None
-    return instant_budgets(as_is, softness=softness, heavier=heavier, lighter=lighter, converged=converged,
+    return instant_budgets(as_is, conditioning=conditioning, softness=softness, heavier=heavier, lighter=lighter,
+                           converged=converged,
                            eps_factor=eps_factor,
                            solver_tolerance=V.CONVERGED_TOLERANCE if exact is not None else settings.solver_tolerance,
                            notes=(*settings.notes, *((completion_note,) if completion_note else ())),

@@ -89,12 +89,21 @@ def sample_states(ref: Reference, count: int = DEFAULT_SAMPLES, seed: int = 0
     return np.array([s[0] for s in states]), np.array([s[1] for s in states])
 
 
-def _scale(expected: np.ndarray, *, vector: bool = False) -> float:
-    """What a relative figure divides by: the largest entry (vector norm) of the analytic quantity, or
-    1 where it is 0 (the figure is then absolute)."""
+ROUNDOFF_QUANTITY = 1e-9
+"""An analytic quantity whose largest value over the states is below this × its physical scale is zero up to
+round-off (a body nothing pushes: its acceleration is 1e-17 m/s²); a figure relative to it would divide round-off by
+round-off, so it is taken relative to the physical scale instead."""
+
+
+def _scale(expected: np.ndarray, *, vector: bool = False, physical: float = 0.0) -> float:
+    """What a relative figure divides by: the largest entry (vector norm) of the analytic quantity; its physical
+    scale where the quantity is zero up to round-off (:data:`ROUNDOFF_QUANTITY`); 1 where it is 0 and no scale is
+    given (the figure is then absolute)."""
     if not expected.size:
         return 1.0
     largest = float(np.max(np.linalg.norm(expected, axis=-1) if vector else np.abs(expected)))
+    if physical > 0 and largest < ROUNDOFF_QUANTITY * physical:
+        return physical
     return largest if largest > 0 else 1.0
 
 
@@ -347,9 +356,15 @@ def _deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarr
     length = ref.scales.length
 
     def relative(name: FigureName, got_: list, expected: np.ndarray, description: str, *,
-                 vector: bool = False) -> Deviation:
+                 vector: bool = False, physical: float = 0.0) -> Deviation:
         return Deviation(name, np.reshape(got_, expected.shape) - expected, "vector" if vector else "scalar", "1",
-                         description, scale=_scale(expected, vector=vector))
+                         description, scale=_scale(expected, vector=vector, physical=physical))
+
+    sc = ref.scales  # the physical scales of each relative figure: g = L (E/p)², ω₀² = (E/p)²
+    rate = (sc.energy / sc.momentum) ** 2
+    physical = {"kinetic_energy": sc.energy, "point_acceleration": sc.length * rate, "mass_matrix": sc.energy / rate,
+                "forcing": min(sc.force, sc.energy), "qacc": min(rate, sc.length * rate),
+                "generalized_force": min(sc.force, sc.energy)}
 
     sites = any(point_source(model, p).kind == "site" for p in dyn.point_names)
     where, what = ("point position (site or body com)", "site or body com") if sites else ("body position", "body com")
@@ -357,26 +372,26 @@ def _deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarr
         Deviation(FigureName.instant("kinematics"), np.array(got["pts"]) - pts, "scalar", "m",
                   f"max |MuJoCo {where} − analytic point| over {n} states", size=length),
         relative(FigureName.instant("kinetic_energy"), got["kinetic"], kinetic,
-                 "max |½ qvelᵀ M_mj qvel − ½ q̇ᵀ M q̇| / max ½ q̇ᵀ M q̇"),
+                 "max |½ qvelᵀ M_mj qvel − ½ q̇ᵀ M q̇| / max ½ q̇ᵀ M q̇", physical=physical["kinetic_energy"]),
         relative(FigureName.instant("point_acceleration"), got["acc"], acc,
                  f"max |J qacc + J̇ qvel − ẍ| / max |ẍ| over named points (world acceleration of the {what})",
-                 vector=True),
+                 vector=True, physical=physical["point_acceleration"]),
     ]
     d = "B" if mapped else "D"  # velocity_map wins where a binding gives both (bindings.velocity_map)
     if coordinates:
         out += [
             relative(FigureName.instant("mass_matrix"), got["mass"], mass,
-                     f"max |{d}ᵀ M_mj {d} − M(q)| / max |M(q)|"),
+                     f"max |{d}ᵀ M_mj {d} − M(q)| / max |M(q)|", physical=physical["mass_matrix"]),
             relative(FigureName.instant("forcing"), got["forcing"], forcing,
                      "max |Bᵀ(qfrc_passive + qfrc_actuator − qfrc_bias − M_mj Ḃq̇) − F| / max |F|" if mapped else
-                     "max |Dᵀ(qfrc_passive + qfrc_actuator − qfrc_bias) − F| / max |F|"),
+                     "max |Dᵀ(qfrc_passive + qfrc_actuator − qfrc_bias) − F| / max |F|", physical=physical["forcing"]),
             relative(FigureName.instant("qacc"), got["qacc"], qdd,
                      "max |B⁺(qacc − Ḃq̇) − q̈| / max |q̈| (B⁺: pull-back, kinetic-energy weighted where nv > n)"
-                     if mapped else "max |qacc − q̈| / max |q̈|"),
+                     if mapped else "max |qacc − q̈| / max |q̈|", physical=physical["qacc"]),
         ]
     if probe.constraints and coordinates:
         out.append(relative(FigureName.instant("generalized_force"), got["gen"], gen,
-                            f"max |{d}ᵀ qfrc_constraint − Jᵀλ| / max |Jᵀλ|"))
+                            f"max |{d}ᵀ qfrc_constraint − Jᵀλ| / max |Jᵀλ|", physical=physical["generalized_force"]))
     jac = dyn.jacobian(q)
     force_scale = ref.scales.force
     for c, rows in dyn.blocks.items():

@@ -110,8 +110,10 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     key = (system, identity, tuple(sorted(params.items())), tuple(q.tolist()), tuple(qd.tolist()), float(rtol),
            span)
     sol = _solutions.get(key)
-    if sol is None:  # a solve over a longer span from the same start covers this one (its dense output)
-        sol = next((found for k, found in _solutions.items() if k[:-1] == key[:-1] and k[-1] >= span), None)
+    if sol is None:  # a solve over a longer span from the same start covers this one: its dense output, cut to span
+        longer = next((found for k, found in _solutions.items() if k[:-1] == key[:-1] and k[-1] >= span), None)
+        if longer is not None:  # (what samples the motion, e.g. the instant layer's states, reads t_end)
+            sol = Solution(dynamics=dyn, t_end=span, rtol=longer.rtol, nfev=longer.nfev, _dense=longer._dense)
     if sol is None and key in _seeds:
         end, tol, nfev, dense = _seeds.pop(key)
         sol = Solution(dynamics=dyn, t_end=end, rtol=tol, nfev=nfev, _dense=dense)
