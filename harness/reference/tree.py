@@ -352,11 +352,10 @@ def isolate(spec: mujoco.MjSpec) -> None:
             actuator.gear = [0.0] * 6
     for tendon in spec.tendons:
         if f"tendon {tendon.name}" in gaps:
-            tendon.stiffness = 0.0
-            tendon.damping = 0.0
+            for attribute in ("stiffness", "damping", "frictionloss", "armature"):
+                if hasattr(tendon, attribute):  # a scalar on MuJoCo 3, MuJoCo 4's polynomial (a, b, c) where it is one
+                    setattr(tendon, attribute, np.zeros_like(np.asarray(getattr(tendon, attribute), dtype=float)))
             tendon.limited = 0
-            tendon.frictionloss = 0.0
-            tendon.armature = 0.0
 
 
 @dataclass(frozen=True)
