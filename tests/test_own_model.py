@@ -12,11 +12,13 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import harness
 from harness.cases.own import from_mjcf
 from harness.core.errors import ModelError
+from harness.engine.compat import set_damping
 from harness.engine.models import compile_model
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -85,7 +87,9 @@ def _cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
 
 
 def _failed(v) -> set[str]:
-    return {c.name for c in v.checks if not c.passed}
+    """The failing checks, but for those that fail with a documented defect's signature of this MuJoCo (3.3's RK4 on
+    ball and free joints): those are labelled as such, and are no verdict on the model."""
+    return {c.name for c in v.checks if not c.passed and not c.known}
 
 
 # ------------------------------------------------------------------ the entry
@@ -133,7 +137,7 @@ def _damped(joint: str, extra: float):
     def edit(spec):
         for j in spec.joints:
             if j.name == joint:
-                j.damping = [j.damping[0] + extra, *list(j.damping)[1:]]
+                set_damping(j, float(np.atleast_1d(j.damping)[0]) + extra)
     return edit
 
 
