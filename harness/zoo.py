@@ -16,18 +16,21 @@ budget, every integrator unless told otherwise), and ends in one of four verdict
   not an error of the harness;
 - ``refused``: a model the tree reference cannot read (no degrees of freedom, flex,
   plugins, ...) or whose reference cannot be integrated, in one line (``check`` exits 2);
-- ``crashed``: anything else raised: a bug of the harness, with the exception's last line.
+- ``crashed``: anything else raised: a bug of the harness, with the exception's last line;
+- ``unfinished``: stopped at the zoo's time limit (``--timeout``) before a verdict.
 
 Each model's wall time is measured from reading the file to the verdict.
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import math
+import signal
 import time
 import traceback
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -37,9 +40,34 @@ import numpy as np
 from analytic.dop853 import IntegrationError
 from harness.core.checks import Check
 
-PASS, FAIL, REFUSED, CRASHED = "pass", "fail", "refused", "crashed"
-EXIT = {PASS: 0, FAIL: 1, REFUSED: 2, CRASHED: 2}
-"""What ``mjharness check --mjcf FILE`` exits with for each verdict (a crash: 2, the harness's error)."""
+PASS, FAIL, REFUSED, CRASHED, UNFINISHED = "pass", "fail", "refused", "crashed", "unfinished"
+EXIT = {PASS: 0, FAIL: 1, REFUSED: 2, CRASHED: 2, UNFINISHED: None}
+"""What ``mjharness check --mjcf FILE`` exits with for each verdict (a crash: 2, the harness's error; unfinished:
+stopped at the zoo's time limit, no exit)."""
+
+
+class TimeLimit(BaseException):
+    """Raised in a zoo task that runs past its time limit (a BaseException: no ``except Exception`` on the way
+    swallows it)."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float | None) -> Iterator[None]:
+    """:class:`TimeLimit` raised in this (main) thread after ``seconds`` (None: no limit), by SIGALRM."""
+    if not seconds:
+        yield
+        return
+
+    def expire(_signum, _frame):
+        raise TimeLimit(f"stopped at the time limit of {seconds:g} s")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
 
 
 @dataclass(frozen=True)
@@ -255,7 +283,7 @@ class ZooResult:
     horizon: str = ""
 
     @property
-    def exit(self) -> int:
+    def exit(self) -> int | None:
         return EXIT[self.verdict]
 
     def line(self) -> str:
@@ -285,8 +313,9 @@ def _described(path: Path) -> tuple[mujoco.MjModel | None, str]:
         return None, " ".join(str(exc).split())
 
 
-def judge(model: ZooModel, *, integrators: Sequence[str] | None = None) -> ZooResult:
-    """``model`` judged as ``mjharness check --mjcf FILE`` judges it; never raises (a crash is a verdict)."""
+def judge(model: ZooModel, *, integrators: Sequence[str] | None = None, timeout: float | None = None) -> ZooResult:
+    """``model`` judged as ``mjharness check --mjcf FILE`` judges it; never raises (a crash is a verdict, and so
+    is running past ``timeout`` seconds: unfinished)."""
     import harness
     from harness.cases.own import from_mjcf
     from harness.reference.tree import uncovered
@@ -300,8 +329,11 @@ def judge(model: ZooModel, *, integrators: Sequence[str] | None = None) -> ZooRe
     have = {"nv": int(compiled.nv), "joints": joint_kinds(compiled), "features": features(compiled, gaps),
             "not_examined": gaps}
     try:
-        case = from_mjcf(model.path)
-        v = harness.validate(case, integrators=integrators)
+        with time_limit(timeout):
+            case = from_mjcf(model.path)
+            v = harness.validate(case, integrators=integrators)
+    except TimeLimit as exc:
+        return ZooResult(**base, **have, verdict=UNFINISHED, seconds=time.perf_counter() - clock, reason=str(exc))
     except (ValueError, IntegrationError) as exc:  # ModelError and every input check: what check exits 2 with
         reason = " ".join(str(exc).split())
         if isinstance(exc, IntegrationError):
@@ -320,10 +352,10 @@ def judge(model: ZooModel, *, integrators: Sequence[str] | None = None) -> ZooRe
                      failed=tuple(str(c.name) for c in v.failures), horizon=str(tree.get("horizon", "")))
 
 
-def judge_named(name: str, integrators: tuple[str, ...] | None) -> ZooResult:
+def judge_named(name: str, integrators: tuple[str, ...] | None, timeout: float | None = None) -> ZooResult:
     """:func:`judge` by name (what a worker process is sent)."""
     models, _ = discover()
-    return judge(select([name], models)[0], integrators=integrators)
+    return judge(select([name], models)[0], integrators=integrators, timeout=timeout)
 
 
 # ---- the whole zoo ------------------------------------------------------------------------------------------
@@ -353,6 +385,12 @@ class ZooRun:
         """The models on which ``fault`` is caught at its claimed size or smaller."""
         return tuple(c.model for c in self.faults if c.fault == fault and c.caught_at_claim)
 
+    @property
+    def unfinished(self) -> tuple[str, ...]:
+        """Every model (and fault study) stopped at the time limit."""
+        return (*(r.model for r in self.results if r.verdict == UNFINISHED),
+                *dict.fromkeys(c.model for c in self.faults if c.unfinished))
+
     def faults_short(self) -> dict[str, str]:
         """Each fault caught on fewer models than :data:`MIN_MODELS` (or than it applies to), and on how many."""
         from harness.studies.engine_faults import FAULTS
@@ -371,30 +409,32 @@ class ZooRun:
     @property
     def exit_code(self) -> int:
         """0: every model ran to a verdict (a finding is about the model or MuJoCo, in the report) and every fault
-        is caught where asked; 1: a fault caught on too few models; 2: a crash (a bug of the harness)."""
+        is caught where asked; 1: a fault caught on too few models, or a model stopped at the time limit before
+        its verdict; 2: a crash (a bug of the harness)."""
         if self.crashed:
             return 2
-        return 1 if self.faults_short() else 0
+        return 1 if self.faults_short() or self.unfinished else 0
 
 
 def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str] | None = None,
         faults: bool = False, fault_max_nv: int | None = None, skipped: Sequence[Skipped] = (),
-        on_done=None, command: str = "") -> ZooRun:
+        on_done=None, command: str = "", timeout: float | None = None) -> ZooRun:
     """Judge every model (and, with ``faults``, size each engine-side fault on those of at most
-    ``fault_max_nv`` dofs) on ``jobs`` worker processes, costliest first; ``on_done(result)`` as each ends."""
+    ``fault_max_nv`` dofs) on ``jobs`` worker processes, costliest first; ``on_done(result)`` as each ends.
+    ``timeout``: each model's verdict, and each model's fault study, stops after so many seconds (unfinished)."""
     from harness.pipeline.pool import run_tasks
-    from harness.studies.engine_faults import smallest_caught_named
+    from harness.studies.engine_faults import FAULTS, smallest_caught_named
 
     clock = time.perf_counter()
     nv = {m.name: _nv(m.path) for m in models}
     order = sorted(models, key=lambda m: -nv[m.name])  # the costliest first: the pool ends together
     chosen = tuple(integrators) if integrators is not None else None
-    calls = [(judge_named, (m.name, chosen)) for m in order]
+    calls = [(judge_named, (m.name, chosen, timeout)) for m in order]
     left_out: list[str] = []
     if faults:
         sized = [m for m in order if fault_max_nv is None or nv[m.name] <= fault_max_nv]
         left_out = [f"{m.name} (nv {nv[m.name]})" for m in order if m not in sized]
-        calls += [(smallest_caught_named, (m.name,)) for m in sized]
+        calls += [(smallest_caught_named, (m.name, FAULTS, timeout)) for m in sized]
     rows = run_tasks(calls, jobs, on_done=(lambda _i, r: on_done(r)) if on_done else None)
     verdicts = {r.model: r for r in rows if isinstance(r, ZooResult)}
     sized_rows = [c for r in rows if isinstance(r, list) for c in r]
@@ -430,7 +470,7 @@ def zoo_markdown(z: ZooRun) -> str:
     from harness.core import VERSION
     from harness.studies.engine_faults import CLAIMED, FAULTS, SIZES, UNITS
 
-    counts = {v: sum(r.verdict == v for r in z.results) for v in (PASS, FAIL, REFUSED, CRASHED)}
+    counts = {v: sum(r.verdict == v for r in z.results) for v in (PASS, FAIL, REFUSED, CRASHED, UNFINISHED)}
     lines = [
         "# The zoo: models nobody here wrote, judged against their own kinematic trees", "",
         f"Written by `{z.command or 'mjharness zoo'}` (mjharness {VERSION}, MuJoCo {mujoco.__version__}) "
@@ -441,7 +481,8 @@ def zoo_markdown(z: ZooRun) -> str:
         "(one line) or crashed (a bug of the harness). Seconds: wall time per model, on a shared 2-core machine "
         "with other work running.", "",
         f"{len(z.results)} models: {counts[PASS]} pass, {counts[FAIL]} fail with a named finding, "
-        f"{counts[REFUSED]} refused, {counts[CRASHED]} crashed.", ""]
+        f"{counts[REFUSED]} refused, {counts[CRASHED]} crashed"
+        + (f", {counts[UNFINISHED]} unfinished (stopped at the time limit)" if counts[UNFINISHED] else "") + ".", ""]
     lines += [f"- skipped: {s.line()}" for s in z.skipped]
     if z.skipped:
         lines.append("")
@@ -454,7 +495,8 @@ def zoo_markdown(z: ZooRun) -> str:
             deciding = f"closest: {deciding}"
         lines.append("| " + " | ".join(_cell(x) for x in (
             r.model, str(r.nv), joints, ", ".join(r.features) or "-",
-            ", ".join(not_examined_summary(r.not_examined)) or "-", _verdict_cell(r), str(r.exit), deciding,
+            ", ".join(not_examined_summary(r.not_examined)) or "-", _verdict_cell(r),
+            "-" if r.exit is None else str(r.exit), deciding,
             f"{r.seconds:.1f}")) + " |")
     failed = [r for r in z.results if r.verdict == FAIL]
     if failed:
@@ -478,7 +520,7 @@ def zoo_markdown(z: ZooRun) -> str:
             row = {c.fault: c for c in z.faults if c.model == model}
             where = ", ".join(dict.fromkeys(c.target for c in row.values() if c.target))
             cells = [row[f].cell() if f in row else "" for f in FAULTS]
-            if all(row[f].size is None and not row[f].crashed for f in row):
+            if all(row[f].size is None and not row[f].crashed and not row[f].unfinished for f in row):
                 cells = ["refused"] * len(FAULTS)
             lines.append("| " + " | ".join(_cell(x) for x in (model, where or "-", *cells,
                                                               f"{sum(c.seconds for c in row.values()):.0f}")) + " |")
@@ -492,6 +534,8 @@ def zoo_markdown(z: ZooRun) -> str:
             lines.append(f"- not sized (over --fault-max-nv): {', '.join(z.fault_models_left_out)}")
     if z.crashed:
         lines += ["", f"**Crashed (bugs of the harness)**: {', '.join(z.crashed)}"]
+    if z.unfinished:
+        lines += ["", f"**Unfinished (stopped at the time limit)**: {', '.join(z.unfinished)}"]
     return "\n".join(lines) + "\n"
 
 

@@ -199,3 +199,13 @@ def test_the_whole_zoo_runs_and_every_fault_is_caught_on_three_models():
             assert r.reason and "\n" not in r.reason
     for fault in ef.FAULTS:
         assert len(run.caught_on(fault)) >= zoo.MIN_MODELS, (fault, run.caught_on(fault))
+
+
+def test_a_model_past_the_time_limit_is_unfinished_not_lost():
+    model = _model("dm_control/acrobot")
+    result = zoo.judge(model, timeout=0.05)
+    assert result.verdict == "unfinished" and result.exit is None
+    assert "time limit of 0.05 s" in result.reason
+    assert zoo.ZooRun(results=(result,)).exit_code == 1
+    caught = ef.smallest_caught_named("dm_control/acrobot", timeout=0.05)
+    assert [c.fault for c in caught] == list(ef.FAULTS) and all(c.unfinished for c in caught)

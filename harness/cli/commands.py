@@ -695,6 +695,8 @@ def _args_zoo(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fault-max-nv", type=_positive, metavar="N", help="size the faults on models of ≤ N dofs only")
     p.add_argument("--integrators", type=_names, metavar="NAMES",
                    help="judge the verdicts on these integrators only (default: every one, as check)")
+    p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
+                   help="stop each model's verdict, and each model's fault study, after so long (unfinished)")
     p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
 
 
@@ -712,20 +714,21 @@ def cmd_zoo(args: argparse.Namespace) -> int:
     def done(result) -> None:  # one line per model (and per model's faults) as it ends, terminal or not
         if isinstance(result, zoo.ZooResult):
             lines = [result.line()]
-        elif all(c.size is None and not c.crashed for c in result):  # refused: no fault to size
+        elif all(c.size is None and not c.crashed and not c.unfinished for c in result):  # refused: no fault to size
             lines = [f"{result[0].model}: faults n/a ({result[0].note})"]
         else:
             lines = [f"{c.model}: fault {c.fault} on {c.target}: {c.cell()}" for c in result]
         print("\n".join(lines), flush=True)
 
     run = zoo.run(chosen, jobs=args.jobs or cpus(), integrators=args.integrators, faults=args.faults,
-                  fault_max_nv=args.fault_max_nv, skipped=skipped, on_done=done,
+                  fault_max_nv=args.fault_max_nv, skipped=skipped, on_done=done, timeout=args.timeout,
                   command=" ".join(["mjharness", *sys.argv[1:]]) if sys.argv[1:2] == ["zoo"] else "mjharness zoo")
     prepare_output(args.out)
     paths = write_atomic({args.out / "zoo.md": zoo.zoo_markdown(run), args.out / "zoo.json": dumps(zoo.zoo_json(run))})
     short = run.faults_short()
     print(f"{len(run.results)} models in {run.seconds:.0f} s: "
-          + ", ".join(f"{sum(r.verdict == v for r in run.results)} {v}" for v in ("pass", "fail", "refused", "crashed"))
+          + ", ".join(f"{sum(r.verdict == v for r in run.results)} {v}"
+                      for v in ("pass", "fail", "refused", "crashed", "unfinished"))
           + "".join(f"; fault {f} {why}" for f, why in short.items())
           + f"; wrote {', '.join(str(p) for p in paths)}")
     return run.exit_code

@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -190,6 +190,7 @@ class Caught:
     runs: int = 0
     seconds: float = 0.0
     crashed: str = ""
+    unfinished: str = ""
 
     @property
     def caught_at_claim(self) -> bool:
@@ -199,6 +200,8 @@ class Caught:
     def cell(self) -> str:
         if self.crashed:
             return f"crashed ({self.crashed})"
+        if self.unfinished:
+            return f"unfinished ({self.unfinished})"
         if self.size is None:
             return f"n/a ({self.note})"
         if math.isnan(self.size):
@@ -236,8 +239,8 @@ def bisect_decades(detects: Callable[[float], str], sizes: Sequence[float] = SIZ
 
 
 def smallest_caught(path: Path | str, faults: Sequence[str] = FAULTS, *, name: str | None = None,
-                    integrators: Sequence[str] = INTEGRATORS) -> list[Caught]:
-    """For each of ``faults``, the smallest size caught on the model at ``path`` (engine side only)."""
+                    integrators: Sequence[str] = INTEGRATORS) -> Iterator[Caught]:
+    """For each of ``faults`` in turn, the smallest size caught on the model at ``path`` (engine side only)."""
     from harness.cases.own import from_mjcf
 
     path = Path(path)
@@ -245,12 +248,11 @@ def smallest_caught(path: Path | str, faults: Sequence[str] = FAULTS, *, name: s
     case = from_mjcf(path, reference=path)
     target = Target.of(path)
     already = _failed(case, integrators, None)
-    out = []
     for fault in faults:
         clock = time.perf_counter()
         where = target.where(fault)
         if where is None:
-            out.append(Caught(name, fault, None, None, note="no hinge"))
+            yield Caught(name, fault, None, None, note="no hinge")
             continue
 
         def detects(s: float, fault: str = fault) -> str:
@@ -259,13 +261,14 @@ def smallest_caught(path: Path | str, faults: Sequence[str] = FAULTS, *, name: s
 
         size, deciding, runs = bisect_decades(detects)
         note = f"fails unfaulted: {', '.join(sorted(already))}" if already and math.isnan(size) else ""
-        out.append(Caught(name, fault, where, size, deciding, note, runs, time.perf_counter() - clock))
-    return out
+        yield Caught(name, fault, where, size, deciding, note, runs, time.perf_counter() - clock)
 
 
-def smallest_caught_named(model: str, faults: tuple[str, ...] = FAULTS) -> list[Caught]:
-    """:func:`smallest_caught` on the zoo model called ``model`` (what a worker process is sent); an exception
-    is returned as a crash of each fault (a bug of the harness, with its last line), never raised."""
+def smallest_caught_named(model: str, faults: tuple[str, ...] = FAULTS, timeout: float | None = None
+                          ) -> list[Caught]:
+    """:func:`smallest_caught` on the zoo model called ``model`` (what a worker process is sent), stopped after
+    ``timeout`` seconds (the faults not sized by then: unfinished); an exception is returned as a crash of
+    each fault not sized (a bug of the harness, with its last line), never raised."""
     import traceback
 
     from harness import zoo
@@ -273,11 +276,18 @@ def smallest_caught_named(model: str, faults: tuple[str, ...] = FAULTS) -> list[
     models, _ = zoo.discover()
     chosen = zoo.select([model], models)[0]
     clock = time.perf_counter()
+    done: list[Caught] = []
+    rest = lambda: [f for f in faults if f not in {c.fault for c in done}]  # noqa: E731
     try:
-        return smallest_caught(chosen.path, faults, name=chosen.name)
+        with zoo.time_limit(timeout):
+            done.extend(smallest_caught(chosen.path, faults, name=chosen.name))
+    except zoo.TimeLimit as exc:
+        done += [Caught(chosen.name, f, None, None, unfinished=str(exc), seconds=time.perf_counter() - clock)
+                 for f in rest()]
     except ValueError as exc:  # a model the tree reference refuses: no faults to judge
-        return [Caught(chosen.name, f, None, None, note=" ".join(str(exc).split())) for f in faults]
+        done += [Caught(chosen.name, f, None, None, note=" ".join(str(exc).split())) for f in rest()]
     except Exception as exc:
         last = traceback.format_exception_only(exc)[-1].strip()
-        return [Caught(chosen.name, f, None, None, crashed=last, seconds=time.perf_counter() - clock)
-                for f in faults]
+        done += [Caught(chosen.name, f, None, None, crashed=last, seconds=time.perf_counter() - clock)
+                 for f in rest()]
+    return done
