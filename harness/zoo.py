@@ -313,6 +313,12 @@ def _described(path: Path) -> tuple[mujoco.MjModel | None, str]:
         return None, " ".join(str(exc).split())
 
 
+def one_line(exc: BaseException, width: int = 300) -> str:
+    """The exception's type and message on one line, at most ``width`` characters."""
+    text = " ".join("".join(traceback.format_exception_only(exc)).split())
+    return text if len(text) <= width else text[:width - 1] + "…"
+
+
 def judge(model: ZooModel, *, integrators: Sequence[str] | None = None, timeout: float | None = None) -> ZooResult:
     """``model`` judged as ``mjharness check --mjcf FILE`` judges it; never raises (a crash is a verdict, and so
     is running past ``timeout`` seconds: unfinished)."""
@@ -340,9 +346,8 @@ def judge(model: ZooModel, *, integrators: Sequence[str] | None = None, timeout:
             reason = f"the reference cannot be computed for this model: {reason}"
         return ZooResult(**base, **have, verdict=REFUSED, seconds=time.perf_counter() - clock, reason=reason)
     except Exception as exc:
-        last = traceback.format_exception_only(exc)[-1].strip()
         return ZooResult(**base, **have, verdict=CRASHED, seconds=time.perf_counter() - clock,
-                         reason=f"{last} (a bug of the harness)")
+                         reason=f"{one_line(exc)} (a bug of the harness)")
     tree = v.settings.get("tree", {})
     deciding = deciding_check(v.checks)
     return ZooResult(**base, **have | {"not_examined": dict(tree.get("not examined", gaps))},
@@ -378,8 +383,8 @@ class ZooRun:
     @property
     def crashed(self) -> tuple[str, ...]:
         """Every model (and fault study) that crashed: bugs of the harness."""
-        return (*(r.model for r in self.results if r.verdict == CRASHED),
-                *dict.fromkeys(c.model for c in self.faults if c.crashed))
+        return tuple(dict.fromkeys([*(r.model for r in self.results if r.verdict == CRASHED),
+                                    *(c.model for c in self.faults if c.crashed)]))
 
     def caught_on(self, fault: str) -> tuple[str, ...]:
         """The models on which ``fault`` is caught at its claimed size or smaller."""
@@ -388,8 +393,8 @@ class ZooRun:
     @property
     def unfinished(self) -> tuple[str, ...]:
         """Every model (and fault study) stopped at the time limit."""
-        return (*(r.model for r in self.results if r.verdict == UNFINISHED),
-                *dict.fromkeys(c.model for c in self.faults if c.unfinished))
+        return tuple(dict.fromkeys([*(r.model for r in self.results if r.verdict == UNFINISHED),
+                                    *(c.model for c in self.faults if c.unfinished)]))
 
     def faults_short(self) -> dict[str, str]:
         """Each fault caught on fewer models than :data:`MIN_MODELS` (or than it applies to), and on how many."""

@@ -269,8 +269,6 @@ def smallest_caught_named(model: str, faults: tuple[str, ...] = FAULTS, timeout:
     """:func:`smallest_caught` on the zoo model called ``model`` (what a worker process is sent), stopped after
     ``timeout`` seconds (the faults not sized by then: unfinished); an exception is returned as a crash of
     each fault not sized (a bug of the harness, with its last line), never raised."""
-    import traceback
-
     from harness import zoo
 
     models, _ = zoo.discover()
@@ -287,7 +285,6 @@ def smallest_caught_named(model: str, faults: tuple[str, ...] = FAULTS, timeout:
     except ValueError as exc:  # a model the tree reference refuses: no faults to judge
         done += [Caught(chosen.name, f, None, None, note=" ".join(str(exc).split())) for f in rest()]
     except Exception as exc:
-        last = traceback.format_exception_only(exc)[-1].strip()
-        done += [Caught(chosen.name, f, None, None, crashed=last, seconds=time.perf_counter() - clock)
+        done += [Caught(chosen.name, f, None, None, crashed=zoo.one_line(exc), seconds=time.perf_counter() - clock)
                  for f in rest()]
     return done
