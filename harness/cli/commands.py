@@ -793,13 +793,13 @@ COMMANDS: dict[str, Command] = {
                            cmd_sensitivity, "the smallest size of each fault each case detects, at the shipped "
                                             "settings and at 2 × the timestep with MuJoCo's default softness "
                                             "(dozens of runs per case: minutes)"),
-    "zoo": Command("models nobody here wrote (dm_control, Gymnasium), each against its own tree", _args_zoo, cmd_zoo,
+    "zoo": Command("models nobody here wrote, each against its own tree", _args_zoo, cmd_zoo,
                    "judge every MuJoCo model that the installed dm_control and Gymnasium ship (pip install "
                    "'mjharness[zoo]') as check --mjcf FILE does, one line per model as it ends, and write zoo.md and "
                    "zoo.json; --faults also sizes engine-side faults. A failing model is a finding about the model "
                    "or MuJoCo, in the report: exit 0 when every model ran to a verdict (pass, finding or refusal) "
-                   "and each fault is caught on at least 3 models, 1 when a fault is caught on fewer, 2 when a "
-                   "model crashed (a bug of the harness) or on bad input"),
+                   "and each fault is caught on at least 3 models, 1 when a fault is caught on fewer or a model "
+                   "stopped at --timeout, 2 when a model crashed (a bug of the harness) or on bad input"),
     "audit": Command("the seed documents' claims, checked", _args_audit, cmd_audit,
                      "the seed documents' claims: confirmed, refuted (with the correction) or ambiguous"),
 }
