@@ -699,6 +699,55 @@ def cmd_sensitivity(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _args_zoo(p: argparse.ArgumentParser) -> None:
+    p.add_argument("models", nargs="*", metavar="MODEL",
+                   help="zoo models (dm_control/acrobot, or a stem: acrobot; default: every model installed)")
+    p.add_argument("--out", type=Path, default=Path("reports/zoo"), metavar="DIR",
+                   help="where zoo.md and zoo.json go (default: reports/zoo)")
+    p.add_argument("--faults", action="store_true",
+                   help="also find the smallest size of each engine-side fault (inertia, damping, axis tilt) caught")
+    p.add_argument("--fault-max-nv", type=_positive, metavar="N", help="size the faults on models of ≤ N dofs only")
+    p.add_argument("--integrators", type=_names, metavar="NAMES",
+                   help="judge the verdicts on these integrators only (default: every one, as check)")
+    p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
+                   help="stop each model's verdict, and each model's fault study, after so long (unfinished)")
+    p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
+
+
+def cmd_zoo(args: argparse.Namespace) -> int:
+    from harness import zoo  # lazy: only this command reads the zoo
+
+    check_output(args.out)
+    models, skipped = zoo.discover()
+    chosen = zoo.select(args.models, models, skipped)
+    for s in skipped:
+        print(f"skipped: {s.line()}", flush=True)
+    if not chosen:
+        raise ValueError("no zoo model is installed; " + "; ".join(s.pip for s in skipped))
+
+    def done(result) -> None:  # one line per model (and per model's faults) as it ends, terminal or not
+        if isinstance(result, zoo.ZooResult):
+            lines = [result.line()]
+        elif all(c.size is None and not c.crashed and not c.unfinished for c in result):  # refused: no fault to size
+            lines = [f"{result[0].model}: faults n/a ({result[0].note})"]
+        else:
+            lines = [f"{c.model}: fault {c.fault} on {c.target}: {c.cell()}" for c in result]
+        print("\n".join(lines), flush=True)
+
+    run = zoo.run(chosen, jobs=args.jobs or cpus(), integrators=args.integrators, faults=args.faults,
+                  fault_max_nv=args.fault_max_nv, skipped=skipped, on_done=done, timeout=args.timeout,
+                  command=" ".join(["mjharness", *sys.argv[1:]]) if sys.argv[1:2] == ["zoo"] else "mjharness zoo")
+    prepare_output(args.out)
+    paths = write_atomic({args.out / "zoo.md": zoo.zoo_markdown(run), args.out / "zoo.json": dumps(zoo.zoo_json(run))})
+    short = run.faults_short()
+    print(f"{len(run.results)} models in {run.seconds:.0f} s: "
+          + ", ".join(f"{sum(r.verdict == v for r in run.results)} {v}"
+                      for v in ("pass", "fail", "refused", "crashed", "unfinished"))
+          + "".join(f"; fault {f} {why}" for f, why in short.items())
+          + f"; wrote {', '.join(str(p) for p in paths)}")
+    return run.exit_code
+
+
 def _progress(total: int) -> Callable[[int, object], None]:
     """A progress line on stderr as each of ``total`` runs finishes: rewritten in place on a terminal;
     elsewhere (a log) a line of its own at most every :data:`~harness.pipeline.matrix.PROGRESS_INTERVAL`."""
@@ -762,6 +811,13 @@ COMMANDS: dict[str, Command] = {
                            cmd_sensitivity, "the smallest size of each fault each case detects, at the shipped "
                                             "settings and at 2 × the timestep with MuJoCo's default softness "
                                             "(dozens of runs per case: minutes)"),
+    "zoo": Command("models nobody here wrote, each against its own tree", _args_zoo, cmd_zoo,
+                   "judge every MuJoCo model that the installed dm_control and Gymnasium ship (pip install "
+                   "'mjharness[zoo]') as check --mjcf FILE does, one line per model as it ends, and write zoo.md and "
+                   "zoo.json; --faults also sizes engine-side faults. A failing model is a finding about the model "
+                   "or MuJoCo, in the report: exit 0 when every model ran to a verdict (pass, finding or refusal) "
+                   "and each fault is caught on at least 3 models, 1 when a fault is caught on fewer or a model "
+                   "stopped at --timeout, 2 when a model crashed (a bug of the harness) or on bad input"),
     "audit": Command("the seed documents' claims, checked", _args_audit, cmd_audit,
                      "the seed documents' claims: confirmed, refuted (with the correction) or ambiguous"),
 }

@@ -1,0 +1,553 @@
+"""The zoo: models nobody here wrote, installed from PyPI, each judged against its own kinematic tree.
+
+The zoo is found, not listed: every MJCF file that the installed packages of
+:data:`SOURCES` ship (dm_control's suite, Gymnasium's MuJoCo assets). A package
+that is not installed gives no models and one line saying what it would give and
+the pip command that installs it, never an error.
+
+Each model runs case-free, exactly as ``mjharness check --mjcf FILE`` runs it
+(:func:`harness.cases.own.from_mjcf`, then :func:`harness.validate`: every layer and
+budget, every integrator unless told otherwise), and ends in one of four verdicts:
+
+- ``pass``: every check within its budget's limit (``check`` exits 0);
+- ``fail``: a finding, named by the check that decides it (the failed check furthest over
+  its limit, or a run that could not be measured): figure, measured, unexplained, limit
+  and the budget's parts (``check`` exits 1). A finding is about the model or MuJoCo,
+  not an error of the harness;
+- ``refused``: a model the tree reference cannot read (no degrees of freedom, flex,
+  plugins, ...) or whose reference cannot be integrated, in one line (``check`` exits 2);
+- ``crashed``: anything else raised: a bug of the harness, with the exception's last line;
+- ``unfinished``: stopped at the zoo's time limit (``--timeout``) before a verdict.
+
+Each model's wall time is measured from reading the file to the verdict.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import math
+import signal
+import time
+import traceback
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from analytic.dop853 import IntegrationError
+from harness.core.checks import Check
+
+PASS, FAIL, REFUSED, CRASHED, UNFINISHED = "pass", "fail", "refused", "crashed", "unfinished"
+EXIT = {PASS: 0, FAIL: 1, REFUSED: 2, CRASHED: 2, UNFINISHED: None}
+"""What ``mjharness check --mjcf FILE`` exits with for each verdict (a crash: 2, the harness's error; unfinished:
+stopped at the zoo's time limit, no exit)."""
+
+
+class TimeLimit(BaseException):
+    """Raised in a zoo task that runs past its time limit (a BaseException: no ``except Exception`` on the way
+    swallows it)."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float | None) -> Iterator[None]:
+    """:class:`TimeLimit` raised in this (main) thread after ``seconds`` (None: no limit), by SIGALRM."""
+    if not seconds:
+        yield
+        return
+
+    def expire(_signum, _frame):
+        raise TimeLimit(f"stopped at the time limit of {seconds:g} s")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+@dataclass(frozen=True)
+class Source:
+    """A PyPI package that ships MuJoCo models: where in it they lie, and the models it gave when this
+    was written (listed only to say what a missing package would give)."""
+
+    package: str
+    folder: str
+    pip: str
+    expected: tuple[str, ...]
+
+
+SOURCES: tuple[Source, ...] = (
+    Source("dm_control", "suite", "pip install dm_control",
+           ("acrobot", "ball_in_cup", "cartpole", "cheetah", "dog", "finger", "fish", "hopper", "humanoid",
+            "humanoid_CMU", "lqr", "manipulator", "pendulum", "point_mass", "quadruped", "reacher", "stacker",
+            "swimmer", "walker")),
+    Source("gymnasium", "envs/mujoco/assets", "pip install gymnasium",
+           ("ant", "half_cheetah", "hopper", "humanoid", "humanoidstandup", "inverted_double_pendulum",
+            "inverted_pendulum", "point", "pusher", "pusher_v5", "reacher", "swimmer", "walker2d", "walker2d_v5")),
+)
+
+
+@dataclass(frozen=True)
+class ZooModel:
+    """One model of the zoo: ``name`` is ``package/stem`` (``dm_control/acrobot``)."""
+
+    name: str
+    package: str
+    path: Path
+
+    @property
+    def stem(self) -> str:
+        return self.path.stem
+
+
+@dataclass(frozen=True)
+class Skipped:
+    """A source whose package is not installed: the models it would give, and how to install it."""
+
+    package: str
+    pip: str
+    models: tuple[str, ...]
+
+    def line(self) -> str:
+        return (f"{self.package}: not installed, {len(self.models)} models skipped "
+                f"({', '.join(self.models)}); install with: {self.pip}")
+
+
+def _package_dir(package: str) -> Path | None:
+    """Where ``package`` is installed (None where it is not), found without importing it."""
+    try:
+        spec = importlib.util.find_spec(package)
+    except (ImportError, ValueError):
+        return None
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    return Path(next(iter(spec.submodule_search_locations)))
+
+
+def discover(sources: Sequence[Source] = SOURCES) -> tuple[tuple[ZooModel, ...], tuple[Skipped, ...]]:
+    """Every model file the installed sources ship, sorted by name, and the sources not installed."""
+    models: list[ZooModel] = []
+    skipped: list[Skipped] = []
+    for source in sources:
+        root = _package_dir(source.package)
+        if root is None or not (root / source.folder).is_dir():
+            skipped.append(Skipped(source.package, source.pip,
+                                   tuple(f"{source.package}/{m}" for m in source.expected)))
+            continue
+        models += [ZooModel(f"{source.package}/{p.stem}", source.package, p)
+                   for p in sorted((root / source.folder).glob("*.xml"))]
+    return tuple(models), tuple(skipped)
+
+
+def select(names: Sequence[str], models: Sequence[ZooModel], skipped: Sequence[Skipped] = ()) -> tuple[ZooModel, ...]:
+    """The models named (``package/stem``, or a stem alone: every package's model of that stem); all where
+    none is named. ValueError listing the known names for a name that matches none."""
+    if not names:
+        return tuple(models)
+    chosen: dict[str, ZooModel] = {}
+    for name in names:
+        found = [m for m in models if name in (m.name, m.stem)]
+        if not found:
+            missing = [s for s in skipped if name in s.models or any(m.endswith(f"/{name}") for m in s.models)]
+            if missing:
+                raise ValueError(f"zoo model {name!r} needs {missing[0].package}: {missing[0].pip}")
+            raise ValueError(f"unknown zoo model {name!r}; known: {', '.join(m.name for m in models)}")
+        chosen |= {m.name: m for m in found}
+    return tuple(chosen.values())
+
+
+# ---- what a model has ---------------------------------------------------------------------------------------
+_JOINT_KINDS = {int(mujoco.mjtJoint.mjJNT_HINGE): "hinge", int(mujoco.mjtJoint.mjJNT_SLIDE): "slide",
+                int(mujoco.mjtJoint.mjJNT_BALL): "ball", int(mujoco.mjtJoint.mjJNT_FREE): "free"}
+
+
+def joint_kinds(model: mujoco.MjModel) -> dict[str, int]:
+    """How many joints of each kind (hinge, slide, ball, free)."""
+    kinds = [_JOINT_KINDS[int(k)] for k in model.jnt_type]
+    return {k: kinds.count(k) for k in ("free", "ball", "hinge", "slide") if k in kinds}
+
+
+def features(model: mujoco.MjModel, not_examined: Mapping[str, str]) -> tuple[str, ...]:
+    """What the model has that shapes its dynamics, each named once: the forces the tree reference models
+    (damping, springs, armature, gravcomp, actuators, equalities, fixed tendons) and those it does not."""
+    out = []
+    if "contacts" in not_examined:
+        out.append("contacts")
+    if np.any(model.jnt_limited):
+        out.append("limits")
+    if model.nu:
+        out.append(_count(model.nu, "actuator"))
+    if model.neq:
+        kinds = sorted({mujoco.mjtEq(int(t)).name.removeprefix("mjEQ_").lower() for t in model.eq_type})
+        out.append(f"{_count(model.neq, 'equality').replace('ys', 'ies')} ({', '.join(kinds)})")
+    if model.ntendon:
+        out.append(_count(model.ntendon, "tendon"))
+    for name, present in (("damping", np.any(model.dof_damping)), ("springs", np.any(model.jnt_stiffness)),
+                          ("armature", np.any(model.dof_armature)), ("frictionloss", np.any(model.dof_frictionloss)),
+                          ("gravcomp", np.any(model.body_gravcomp)), ("fluid", "fluid forces" in not_examined)):
+        if present:
+            out.append(name)
+    return tuple(out)
+
+
+def not_examined_summary(not_examined: Mapping[str, str]) -> tuple[str, ...]:
+    """The forces not examined, grouped: ``actuator a``, ``actuator b`` read ``2 actuators (why)``."""
+    grouped: dict[str, list[str]] = {}
+    for key, why in not_examined.items():
+        kind = key.split(" ", 1)[0] if key.startswith(("actuator ", "tendon ")) or key.endswith(" spring") else key
+        grouped.setdefault(kind, []).append(why)
+    labels = {"actuator": "actuator", "tendon": "tendon", "joint": "joint spring"}
+    return tuple(f"{_count(len(whys), labels[kind])} ({'; '.join(dict.fromkeys(whys))})" if kind in labels else kind
+                 for kind, whys in grouped.items())
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+# ---- one model judged ---------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Deciding:
+    """The check that decides a model's verdict, with its budget's parts."""
+
+    name: str
+    unit: str
+    measured: float
+    limit: float
+    unexplained: float | None = None
+    explained: Mapping[str, float] = field(default_factory=dict)
+    diverged: str = ""
+
+    @classmethod
+    def of(cls, c: Check) -> Deciding:
+        if c.budget is None:
+            return cls(str(c.name), c.unit, float(c.value), float(c.threshold), diverged=c.diverged)
+        b = c.budget
+        return cls(str(c.name), c.unit, float(c.value), float(b.limit), float(b.unexplained),
+                   {k: float(v) for k, v in b.explained.items() if v}, c.diverged)
+
+    def text(self) -> str:
+        """``RK4.position: measured 1.2e-03 m = integration 1e-5 + unexplained 1.2e-03 > limit 5e-7``."""
+        if self.diverged:
+            return f"{self.name}: {self.diverged}"
+        unit = "" if self.unit in ("", "1") else f" {self.unit}"
+        if self.unexplained is None:
+            return f"{self.name}: {self.measured:.3g}{unit} vs limit {self.limit:.3g}"
+        parts = ", ".join(f"{k} {v:.2g}" for k, v in self.explained.items())
+        return (f"{self.name}: measured {self.measured:.3g}{unit} = {parts or 'nothing explained'} + "
+                f"unexplained {self.unexplained:.2g}; limit {self.limit:.2g}")
+
+
+def deciding_check(checks: Sequence[Check]) -> Check | None:
+    """The check that decides: among the failures the one that could not be measured, else the one furthest
+    over its limit; with none failed, the one closest to its limit."""
+    judged = [c for c in checks if not c.note]
+    failed = [c for c in judged if not c.passed]
+    def ratio(c: Check) -> float:
+        return c.ratio if math.isfinite(c.ratio) else math.inf
+    if failed:
+        return max(failed, key=lambda c: (bool(c.diverged), ratio(c)))
+    return max(judged, key=lambda c: c.ratio if math.isfinite(c.ratio) else -1.0, default=None)
+
+
+@dataclass(frozen=True)
+class ZooResult:
+    """One zoo model's verdict (see the module's docstring), what it has, and what it cost.
+
+    Attributes:
+        failed: every failed check's name (empty unless ``verdict`` is fail).
+        reason: why it was refused, or the crash's exception in one line.
+        horizon: the horizon chosen from the motion, and why.
+        seconds: wall time from reading the file to the verdict.
+    """
+
+    model: str
+    package: str
+    path: str
+    verdict: str
+    seconds: float
+    nv: int = 0
+    joints: Mapping[str, int] = field(default_factory=dict)
+    features: tuple[str, ...] = ()
+    not_examined: Mapping[str, str] = field(default_factory=dict)
+    integrators: tuple[str, ...] = ()
+    checks: int = 0
+    deciding: Deciding | None = None
+    failed: tuple[str, ...] = ()
+    reason: str = ""
+    horizon: str = ""
+
+    @property
+    def exit(self) -> int | None:
+        return EXIT[self.verdict]
+
+    def line(self) -> str:
+        """One line for the terminal as the model finishes."""
+        head = f"{self.model}: {self.verdict}"
+        if self.verdict == PASS:
+            tail = f"{self.checks} checks" + (f", closest {self.deciding.name}" if self.deciding else "")
+        elif self.verdict == FAIL and self.deciding is not None:
+            tail = f"{len(self.failed)} of {self.checks} checks failed; deciding {self.deciding.text()}"
+        else:
+            tail = self.reason
+        return f"{head} (nv {self.nv}, {self.seconds:.1f} s): {tail}"
+
+    def as_dict(self) -> dict[str, object]:
+        out = asdict(self)
+        out["exit"] = self.exit
+        return out
+
+
+def _described(path: Path) -> tuple[mujoco.MjModel | None, str]:
+    from harness.engine.models import compile_model
+    from harness.reference.tree import prepare
+
+    try:
+        return compile_model(path, edit=prepare), ""
+    except ValueError as exc:
+        return None, " ".join(str(exc).split())
+
+
+def one_line(exc: BaseException, width: int = 300) -> str:
+    """The exception's type and message on one line, at most ``width`` characters."""
+    text = " ".join("".join(traceback.format_exception_only(exc)).split())
+    return text if len(text) <= width else text[:width - 1] + "…"
+
+
+def judge(model: ZooModel, *, integrators: Sequence[str] | None = None, timeout: float | None = None) -> ZooResult:
+    """``model`` judged as ``mjharness check --mjcf FILE`` judges it; never raises (a crash is a verdict, and so
+    is running past ``timeout`` seconds: unfinished)."""
+    import harness
+    from harness.cases.own import from_mjcf
+    from harness.reference.tree import uncovered
+
+    clock = time.perf_counter()
+    base = {"model": model.name, "package": model.package, "path": str(model.path)}
+    compiled, why = _described(model.path)
+    if compiled is None:
+        return ZooResult(**base, verdict=REFUSED, seconds=time.perf_counter() - clock, reason=why)
+    gaps = uncovered(compiled)
+    have = {"nv": int(compiled.nv), "joints": joint_kinds(compiled), "features": features(compiled, gaps),
+            "not_examined": gaps}
+    try:
+        with time_limit(timeout):
+            case = from_mjcf(model.path)
+            v = harness.validate(case, integrators=integrators)
+    except TimeLimit as exc:
+        return ZooResult(**base, **have, verdict=UNFINISHED, seconds=time.perf_counter() - clock, reason=str(exc))
+    except (ValueError, IntegrationError) as exc:  # ModelError and every input check: what check exits 2 with
+        reason = " ".join(str(exc).split())
+        if isinstance(exc, IntegrationError):
+            reason = f"the reference cannot be computed for this model: {reason}"
+        return ZooResult(**base, **have, verdict=REFUSED, seconds=time.perf_counter() - clock, reason=reason)
+    except Exception as exc:
+        return ZooResult(**base, **have, verdict=CRASHED, seconds=time.perf_counter() - clock,
+                         reason=f"{one_line(exc)} (a bug of the harness)")
+    tree = v.settings.get("tree", {})
+    deciding = deciding_check(v.checks)
+    return ZooResult(**base, **have | {"not_examined": dict(tree.get("not examined", gaps))},
+                     verdict=PASS if v.passed else FAIL, seconds=time.perf_counter() - clock,
+                     integrators=tuple(v.settings.get("integrators", ())), checks=len(v.checks),
+                     deciding=Deciding.of(deciding) if deciding is not None else None,
+                     failed=tuple(str(c.name) for c in v.failures), horizon=str(tree.get("horizon", "")))
+
+
+def judge_named(name: str, integrators: tuple[str, ...] | None, timeout: float | None = None) -> ZooResult:
+    """:func:`judge` by name (what a worker process is sent)."""
+    models, _ = discover()
+    return judge(select([name], models)[0], integrators=integrators, timeout=timeout)
+
+
+# ---- the whole zoo ------------------------------------------------------------------------------------------
+MIN_MODELS = 3
+"""Each engine-side fault must be caught, at the size issue 29 names, on at least this many zoo models (or on
+every model it applies to, where fewer ran)."""
+
+
+@dataclass(frozen=True)
+class ZooRun:
+    """The zoo's verdicts, the sources not installed, and (with faults) each fault's smallest size caught."""
+
+    results: tuple[ZooResult, ...]
+    skipped: tuple[Skipped, ...] = ()
+    faults: tuple = ()  # harness.studies.engine_faults.Caught, by model then fault
+    fault_models_left_out: tuple[str, ...] = ()
+    command: str = ""
+    seconds: float = 0.0
+
+    @property
+    def crashed(self) -> tuple[str, ...]:
+        """Every model (and fault study) that crashed: bugs of the harness."""
+        return tuple(dict.fromkeys([*(r.model for r in self.results if r.verdict == CRASHED),
+                                    *(c.model for c in self.faults if c.crashed)]))
+
+    def caught_on(self, fault: str) -> tuple[str, ...]:
+        """The models on which ``fault`` is caught at its claimed size or smaller."""
+        return tuple(c.model for c in self.faults if c.fault == fault and c.caught_at_claim)
+
+    @property
+    def unfinished(self) -> tuple[str, ...]:
+        """Every model (and fault study) stopped at the time limit."""
+        return tuple(dict.fromkeys([*(r.model for r in self.results if r.verdict == UNFINISHED),
+                                    *(c.model for c in self.faults if c.unfinished)]))
+
+    def faults_short(self) -> dict[str, str]:
+        """Each fault caught on fewer models than :data:`MIN_MODELS` (or than it applies to), and on how many."""
+        from harness.studies.engine_faults import FAULTS
+
+        out = {}
+        for fault in FAULTS:
+            applies = [c for c in self.faults if c.fault == fault and c.size is not None and not c.crashed]
+            if not applies:
+                continue
+            need = min(MIN_MODELS, len(applies))
+            caught = self.caught_on(fault)
+            if len(caught) < need:
+                out[fault] = f"caught on {len(caught)} of {len(applies)} models (at least {need} needed)"
+        return out
+
+    @property
+    def exit_code(self) -> int:
+        """0: every model ran to a verdict (a finding is about the model or MuJoCo, in the report) and every fault
+        is caught where asked; 1: a fault caught on too few models, or a model stopped at the time limit before
+        its verdict; 2: a crash (a bug of the harness)."""
+        if self.crashed:
+            return 2
+        return 1 if self.faults_short() or self.unfinished else 0
+
+
+def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str] | None = None,
+        faults: bool = False, fault_max_nv: int | None = None, skipped: Sequence[Skipped] = (),
+        on_done=None, command: str = "", timeout: float | None = None) -> ZooRun:
+    """Judge every model (and, with ``faults``, size each engine-side fault on those of at most
+    ``fault_max_nv`` dofs) on ``jobs`` worker processes, costliest first; ``on_done(result)`` as each ends.
+    ``timeout``: each model's verdict, and each model's fault study, stops after so many seconds (unfinished)."""
+    from harness.pipeline.pool import run_tasks
+    from harness.studies.engine_faults import FAULTS, smallest_caught_named
+
+    clock = time.perf_counter()
+    nv = {m.name: _nv(m.path) for m in models}
+    order = sorted(models, key=lambda m: -nv[m.name])  # the costliest first: the pool ends together
+    chosen = tuple(integrators) if integrators is not None else None
+    calls = [(judge_named, (m.name, chosen, timeout)) for m in order]
+    left_out: list[str] = []
+    if faults:
+        sized = [m for m in order if fault_max_nv is None or nv[m.name] <= fault_max_nv]
+        left_out = [f"{m.name} (nv {nv[m.name]})" for m in order if m not in sized]
+        calls += [(smallest_caught_named, (m.name, FAULTS, timeout)) for m in sized]
+    rows = run_tasks(calls, jobs, on_done=(lambda _i, r: on_done(r)) if on_done else None)
+    verdicts = {r.model: r for r in rows if isinstance(r, ZooResult)}
+    sized_rows = [c for r in rows if isinstance(r, list) for c in r]
+    by_name = [m.name for m in models]
+    return ZooRun(results=tuple(verdicts[n] for n in by_name),
+                  skipped=tuple(skipped),
+                  faults=tuple(sorted(sized_rows, key=lambda c: by_name.index(c.model))),
+                  fault_models_left_out=tuple(left_out), command=command, seconds=time.perf_counter() - clock)
+
+
+def _nv(path: Path) -> int:
+    try:
+        return int(mujoco.MjModel.from_xml_path(str(path)).nv)
+    except ValueError:
+        return 0
+
+
+# ---- the report ---------------------------------------------------------------------------------------------
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|").replace("\n", " ")
+
+
+def _verdict_cell(r: ZooResult) -> str:
+    if r.verdict == FAIL:
+        return f"**fail** ({len(r.failed)} of {r.checks})"
+    if r.verdict == PASS:
+        return f"pass ({r.checks} checks)"
+    return f"**{r.verdict}**: {r.reason}"
+
+
+def zoo_markdown(z: ZooRun) -> str:
+    """zoo.md: the command, the verdict table, the findings named, the fault table."""
+    from harness.core import VERSION
+    from harness.studies.engine_faults import CLAIMED, FAULTS, SIZES, UNITS
+
+    counts = {v: sum(r.verdict == v for r in z.results) for v in (PASS, FAIL, REFUSED, CRASHED, UNFINISHED)}
+    lines = [
+        "# The zoo: models nobody here wrote, judged against their own kinematic trees", "",
+        f"Written by `{z.command or 'mjharness zoo'}` (mjharness {VERSION}, MuJoCo {mujoco.__version__}) "
+        f"in {z.seconds:.0f} s wall. Each model runs as `mjharness check --mjcf FILE` runs it: reference from the "
+        "model's own tree, start at qpos0 with every joint set moving, horizon chosen from the motion, the forces "
+        "the tree does not model switched off and listed under *not examined*. `exit` is what `check` exits "
+        "with: 0 pass, 1 a finding (named by the deciding check: the failure furthest over its limit), 2 refused "
+        "(one line) or crashed (a bug of the harness). Seconds: wall time per model, on a shared 2-core machine "
+        "with other work running.", "",
+        f"{len(z.results)} models: {counts[PASS]} pass, {counts[FAIL]} fail with a named finding, "
+        f"{counts[REFUSED]} refused, {counts[CRASHED]} crashed"
+        + (f", {counts[UNFINISHED]} unfinished (stopped at the time limit)" if counts[UNFINISHED] else "") + ".", ""]
+    lines += [f"- skipped: {s.line()}" for s in z.skipped]
+    if z.skipped:
+        lines.append("")
+    lines += ["| model | nv | joints | features | not examined | verdict | exit | deciding figure | seconds |",
+              "|---|---:|---|---|---|---|---:|---|---:|"]
+    for r in z.results:
+        joints = ", ".join(f"{n} {k}" for k, n in r.joints.items())
+        deciding = r.deciding.text() if r.deciding is not None and r.verdict in (PASS, FAIL) else ""
+        if r.verdict == PASS and r.deciding is not None:
+            deciding = f"closest: {deciding}"
+        lines.append("| " + " | ".join(_cell(x) for x in (
+            r.model, str(r.nv), joints, ", ".join(r.features) or "-",
+            ", ".join(not_examined_summary(r.not_examined)) or "-", _verdict_cell(r),
+            "-" if r.exit is None else str(r.exit), deciding,
+            f"{r.seconds:.1f}")) + " |")
+    failed = [r for r in z.results if r.verdict == FAIL]
+    if failed:
+        lines += ["", "## Findings", ""]
+        for r in failed:
+            lines.append(f"- **{r.model}**: {r.deciding.text() if r.deciding else ''}; failed: "
+                         f"{', '.join(r.failed)}")
+    if z.faults or z.fault_models_left_out:
+        lines += ["", "## Faults made on the engine's side alone", "",
+                  "The reference is built from the unmodified file; only the engine's model is changed "
+                  "(harness/studies/engine_faults.py): **inertia**: the heaviest moving body's mass and inertia × "
+                  "(1 + s); **damping**: extra damping s × M_jj √(g/L) on the hinge carrying the most mass; "
+                  "**axis**: that hinge's axis tilted by s rad. Each cell: the smallest size caught in a bisection "
+                  f"over the decades {SIZES[0]:g} … {SIZES[-1]:g} (RK4 only), and the check that caught it there "
+                  "(a check failing that does not fail unfaulted). Sizes named in issue 29: "
+                  + ", ".join(f"{f} {CLAIMED[f]:g} ({UNITS[f]})" for f in FAULTS) + ".", ""]
+        models = list(dict.fromkeys(c.model for c in z.faults))
+        lines += ["| model | where | " + " | ".join(FAULTS) + " | seconds |", "|---|---|" + "---|" * len(FAULTS)
+                  + "---:|"]
+        for model in models:
+            row = {c.fault: c for c in z.faults if c.model == model}
+            where = ", ".join(dict.fromkeys(c.target for c in row.values() if c.target))
+            cells = [row[f].cell() if f in row else "" for f in FAULTS]
+            if all(row[f].size is None and not row[f].crashed and not row[f].unfinished for f in row):
+                cells = ["refused"] * len(FAULTS)
+            lines.append("| " + " | ".join(_cell(x) for x in (model, where or "-", *cells,
+                                                              f"{sum(c.seconds for c in row.values()):.0f}")) + " |")
+        lines.append("")
+        for fault in FAULTS:
+            caught = z.caught_on(fault)
+            lines.append(f"- {fault}: caught at {CLAIMED[fault]:g} or smaller on {len(caught)} models")
+        for fault, why in z.faults_short().items():
+            lines.append(f"- **{fault} short**: {why}")
+        if z.fault_models_left_out:
+            lines.append(f"- not sized (over --fault-max-nv): {', '.join(z.fault_models_left_out)}")
+    if z.crashed:
+        lines += ["", f"**Crashed (bugs of the harness)**: {', '.join(z.crashed)}"]
+    if z.unfinished:
+        lines += ["", f"**Unfinished (stopped at the time limit)**: {', '.join(z.unfinished)}"]
+    return "\n".join(lines) + "\n"
+
+
+def zoo_json(z: ZooRun) -> dict[str, object]:
+    """zoo.json: every model's result, the skipped sources, the faults, the exit code."""
+    return {"command": z.command, "seconds": z.seconds, "mujoco": mujoco.__version__, "exit": z.exit_code,
+            "models": [r.as_dict() for r in z.results],
+            "skipped": [asdict(s) for s in z.skipped],
+            "faults": [asdict(c) | {"caught_at_claim": c.caught_at_claim} for c in z.faults],
+            "faults_not_sized": list(z.fault_models_left_out), "faults_short": z.faults_short()}
