@@ -321,6 +321,22 @@ def test_the_progress_bar_counts_cases_done_in_workers(monkeypatch):
     assert "mjharness" in sys.stderr.getvalue() and "case" in sys.stderr.getvalue()
 
 
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_log_gets_a_line_per_finished_case(jobs, capsys, monkeypatch):
+    """Where stderr is not a terminal (a CI log), run and check print one line per case as it finishes, with
+    its checks, its failures and its seconds; a tightened figure shows as one failure."""
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
+    results, checks, _ = runner.run_all(cases.select(["spring", "atwood"]), None, jobs=jobs, figures_only=True,
+                                        lines=True)
+    lines = capsys.readouterr().err.splitlines()
+    assert sorted(lines) == sorted(
+        f"case {r.case.name}: {len(checks[r.case.name])} checks, "
+        f"{sum(not c.passed for c in checks[r.case.name])} fail ({sum(r.timings.values()):.1f} s)" for r in results)
+    assert all(len(checks[name]) > 0 for name in checks)
+    runner.run_all(cases.select(["spring"]), None, jobs=jobs, figures_only=True)  # a library call: no lines
+    assert capsys.readouterr().err == ""
+
+
 @pytest.mark.parametrize("value", ["0", "-1", "two"])
 def test_jobs_must_be_a_positive_integer(value, capsys):
     with pytest.raises(SystemExit) as info:
