@@ -44,8 +44,10 @@ SYSTEM = "pendulum"
 
 @pytest.fixture
 def cache_home(tmp_path, monkeypatch):
-    """An empty cache directory, and no derivation cached in this process."""
+    """An empty cache directory, and no derivation cached in this process; the package's prebuilt dynamics
+    unused (tests/test_prebuilt.py), so that a run finds nothing stored."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    monkeypatch.setenv("MJHARNESS_NO_PREBUILT", "1")
     monkeypatch.delenv("MJHARNESS_NO_CACHE", raising=False)
     _clear()
     yield tmp_path / "xdg" / "mjharness"
@@ -85,13 +87,14 @@ def _python(*args: str, timeout: float = 60, **env: str | None) -> subprocess.Co
     return subprocess.run([sys.executable, *args], capture_output=True, text=True, timeout=timeout, env=environ)
 
 
-def _check_imports(cases_: str, *modules: str, cache_dir=None) -> str:
-    """The last line ``check CASES --jobs 1`` prints in a fresh process: which of ``modules`` it
-    imported, then main's exit code."""
+def _check_imports(cases_: str, *modules: str, cache_dir=None, **env: str | None) -> str:
+    """The last line ``check CASES --jobs 1`` prints in a fresh process (``env`` applied to its
+    environment): which of ``modules`` it imported, then main's exit code."""
     code = (f"import sys; from harness.cli import commands as cli; "
             f"code = cli.main(['check', {cases_}, '--jobs', '1']); "
             f"print(sorted({{m.split('.')[0] for m in sys.modules}} & {set(modules)!r}), code)")
-    env = {} if cache_dir is None else {"XDG_CACHE_HOME": str(cache_dir), "MJHARNESS_NO_CACHE": None}
+    if cache_dir is not None:
+        env = {"XDG_CACHE_HOME": str(cache_dir), "MJHARNESS_NO_CACHE": None} | env
     proc = _python("-c", code, timeout=300, **env)
     return proc.stdout.strip().splitlines()[-1] if proc.stdout.strip() else proc.stderr
 
@@ -221,8 +224,10 @@ def test_stored_numeric_code_that_does_not_run_is_made_anew(cache_home):
 def test_a_check_with_its_derivations_cached_never_imports_sympy(tmp_path):
     """sympy costs 0.15 s to import and 0.08 s to tear down in every process; with the numeric
     dynamics cached, check needs numpy and MuJoCo only (the first run derives and stores them)."""
-    first = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", "scipy", cache_dir=tmp_path)
-    again = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", "scipy", cache_dir=tmp_path)
+    first = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", "scipy", cache_dir=tmp_path,
+                           MJHARNESS_NO_PREBUILT="1")  # not the package's: derived here
+    again = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", "scipy", cache_dir=tmp_path,
+                           MJHARNESS_NO_PREBUILT="1")
     assert first == "['sympy'] 0"  # derived: the probe can fail
     assert again == "[] 0"
 
