@@ -18,6 +18,7 @@ import pytest
 from harness import cases
 from harness.cli.commands import main
 from harness.engine.compat import spec_from_file
+from harness.engine.compat import version as mujoco_version
 from harness.engine.models import compile_model
 from harness.engine.variants import compose
 from harness.studies.faults import COARSE, FAULTS, SETTINGS, Change
@@ -29,7 +30,9 @@ FAST = {("pendulum", "masses×2"), ("pendulum", "damping"), ("double_pendulum", 
 
 
 def _matrix(changes, *, fast: bool = True) -> list:
-    """(case name, change) for every case and change, as ``NAME-CHANGE``; slow but for :data:`FAST`."""
+    """(case name, change) for every case and change, as ``NAME-CHANGE``; slow but for :data:`FAST` (on MuJoCo 4:
+    3.3 writes a spec only once compiled, and then refuses double_pendulum's point masses, so it never ran this)."""
+    fast = fast and mujoco_version() >= (4, 0, 0)
     return [pytest.param(name, change, id=f"{name}-{change.name}",
                          marks=() if fast and (name, change.name) in FAST else pytest.mark.slow)
             for name in cases.names() for change in changes]
@@ -79,6 +82,7 @@ def test_a_fault_fails_at_twice_the_timestep_with_default_softness(tmp_path, cap
     assert code == 1, text[-3000:]
 
 
+@pytest.mark.slow  # as the rest of the matrix (it writes specs, which MuJoCo 3.3 does only once compiled)
 def test_the_variants_are_what_the_catalog_says(tmp_path):
     """A variant written to MJCF compiles to the model the edit makes (to_xml loses nothing the
     harness reads)."""
