@@ -56,6 +56,8 @@ def _vectorized(source: str, rows: int, cols: int) -> Callable[..., Array]:
         fn = namespace["_lambdifygenerated"]
 
     def evaluate(*values: Array) -> Array:
+        if fn is not None and all(type(v) is np.float64 for v in values):  # one state: the same numbers, no
+            return np.asarray(fn(*values), dtype=float).reshape(rows, cols)  # broadcasting (most of a call's cost)
         batch = np.broadcast_shapes(*(np.shape(v) for v in values))
         if fn is None:
             return np.zeros((*batch, rows, cols))
@@ -241,6 +243,8 @@ class Dynamics:
     def _call(self, key: str, q: Array, qd: Array) -> Array:
         q = np.asarray(q, dtype=float)
         qd = np.asarray(qd, dtype=float)
+        if q.ndim == qd.ndim == 1:  # one state: its entries, numpy scalars, as moveaxis would give them
+            return self._funcs[key](*q, *qd)
         return self._funcs[key](*np.moveaxis(q, -1, 0), *np.moveaxis(qd, -1, 0))
 
     def mass_matrix(self, q: Array) -> Array:

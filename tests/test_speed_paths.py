@@ -38,14 +38,17 @@ from harness.pipeline import matrix as runner
 from harness.pipeline import run as pipeline
 from harness.reference import derivations
 from harness.reference import solutions as refmod
+from tests.conftest import without_progress
 
 SYSTEM = "pendulum"
 
 
 @pytest.fixture
 def cache_home(tmp_path, monkeypatch):
-    """An empty cache directory, and no derivation cached in this process."""
+    """An empty cache directory, and no derivation cached in this process; the package's prebuilt dynamics
+    unused (tests/test_prebuilt.py), so that a run finds nothing stored."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    monkeypatch.setenv("MJHARNESS_NO_PREBUILT", "1")
     monkeypatch.delenv("MJHARNESS_NO_CACHE", raising=False)
     _clear()
     yield tmp_path / "xdg" / "mjharness"
@@ -85,13 +88,14 @@ def _python(*args: str, timeout: float = 60, **env: str | None) -> subprocess.Co
     return subprocess.run([sys.executable, *args], capture_output=True, text=True, timeout=timeout, env=environ)
 
 
-def _check_imports(cases_: str, *modules: str, cache_dir=None) -> str:
-    """The last line ``check CASES --jobs 1`` prints in a fresh process: which of ``modules`` it
-    imported, then main's exit code."""
+def _check_imports(cases_: str, *modules: str, cache_dir=None, **env: str | None) -> str:
+    """The last line ``check CASES --jobs 1`` prints in a fresh process (``env`` applied to its
+    environment): which of ``modules`` it imported, then main's exit code."""
     code = (f"import sys; from harness.cli import commands as cli; "
             f"code = cli.main(['check', {cases_}, '--jobs', '1']); "
             f"print(sorted({{m.split('.')[0] for m in sys.modules}} & {set(modules)!r}), code)")
-    env = {} if cache_dir is None else {"XDG_CACHE_HOME": str(cache_dir), "MJHARNESS_NO_CACHE": None}
+    if cache_dir is not None:
+        env = {"XDG_CACHE_HOME": str(cache_dir), "MJHARNESS_NO_CACHE": None} | env
     proc = _python("-c", code, timeout=300, **env)
     return proc.stdout.strip().splitlines()[-1] if proc.stdout.strip() else proc.stderr
 
@@ -221,8 +225,10 @@ def test_stored_numeric_code_that_does_not_run_is_made_anew(cache_home):
 def test_a_check_with_its_derivations_cached_never_imports_sympy(tmp_path):
     """sympy costs 0.15 s to import and 0.08 s to tear down in every process; with the numeric
     dynamics cached, check needs numpy and MuJoCo only (the first run derives and stores them)."""
-    first = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", "scipy", cache_dir=tmp_path)
-    again = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", "scipy", cache_dir=tmp_path)
+    first = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", "scipy", cache_dir=tmp_path,
+                           MJHARNESS_NO_PREBUILT="1")  # not the package's: derived here
+    again = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", "scipy", cache_dir=tmp_path,
+                           MJHARNESS_NO_PREBUILT="1")
     assert first == "['sympy'] 0"  # derived: the probe can fail
     assert again == "[] 0"
 
@@ -301,7 +307,7 @@ def test_a_failing_case_in_a_pool_is_the_one_line_exit_2(monkeypatch, capsys):
 
     monkeypatch.setattr(pipeline.RunOptions, "run", run)
     assert cli.main(["check", "spring", "atwood", "--jobs", "2"]) == 2
-    err = capsys.readouterr().err
+    err = without_progress(capsys.readouterr().err)  # spring's line, if it finished first
     assert err.strip() == "mjharness: error: model has no equality 'string1'"
 
 
@@ -319,6 +325,22 @@ def test_the_progress_bar_counts_cases_done_in_workers(monkeypatch):
     (bar,) = bars
     assert bar.n == bar.total == 2  # (a closed bar reads as disabled)
     assert "mjharness" in sys.stderr.getvalue() and "case" in sys.stderr.getvalue()
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_log_gets_a_line_per_finished_case(jobs, capsys, monkeypatch):
+    """Where stderr is not a terminal (a CI log), run and check print one line per case as it finishes, with
+    its checks, its failures and its seconds; a tightened figure shows as one failure."""
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
+    results, checks, _ = runner.run_all(cases.select(["spring", "atwood"]), None, jobs=jobs, figures_only=True,
+                                        lines=True)
+    lines = capsys.readouterr().err.splitlines()
+    assert sorted(lines) == sorted(
+        f"case {r.case.name}: {len(checks[r.case.name])} checks, "
+        f"{sum(not c.passed for c in checks[r.case.name])} fail ({sum(r.timings.values()):.1f} s)" for r in results)
+    assert all(len(checks[name]) > 0 for name in checks)
+    runner.run_all(cases.select(["spring"]), None, jobs=jobs, figures_only=True)  # a library call: no lines
+    assert capsys.readouterr().err == ""
 
 
 @pytest.mark.parametrize("value", ["0", "-1", "two"])

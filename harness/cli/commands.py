@@ -309,7 +309,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     _check_junit(args.junit, args.out)
     selected = _selected(args)
     options = _options(args, selected, several=True)
-    results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs)
+    results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs, lines=True)
     outcome = _outcome(args, results, checks, limits)
     extras, appendix, plots = report_parts(selected, results, jobs=args.jobs,
                                            studies=args.studies and options.shipped)
@@ -351,7 +351,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     # prints "Failed to import warp" to stdout when it is imported without Warp)
     with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
         results, checks, limits = run_all(selected, args.config, _options(args, selected), jobs=args.jobs,
-                                          figures_only=True)
+                                          figures_only=True, lines=True)
     outcome = _outcome(args, results, checks, limits)
     write_atomic(_junit(args.junit, outcome))
     if args.json:

@@ -75,17 +75,18 @@ def _sympy_release() -> bytes:
     return version("sympy").encode()
 
 
-def key(*parts: str | bytes) -> str:
-    """A hex digest of ``parts`` and of the versions every entry depends on."""
+def key(*parts: str | bytes, versions: bool = True) -> str:
+    """A hex digest of ``parts`` and (``versions``) of the Python and sympy versions every entry of the user's
+    cache depends on."""
     digest = hashlib.sha256()
-    for part in (FORMAT, sys.version.split()[0], _sympy_release(), *parts):
+    for part in (FORMAT, *((sys.version.split()[0], _sympy_release()) if versions else ()), *parts):
         data = part if isinstance(part, bytes) else part.encode()
         digest.update(len(data).to_bytes(8, "little"))
         digest.update(data)
     return digest.hexdigest()
 
 
-def source_key(files: Iterable[Path | str]) -> str:
+def source_key(files: Iterable[Path | str], *, versions: bool = True) -> str:
     """:func:`key` of the text of ``files`` (a missing file counts as empty)."""
     texts = []
     for f in files:
@@ -93,7 +94,7 @@ def source_key(files: Iterable[Path | str]) -> str:
             texts.append(Path(f).read_bytes())
         except OSError:
             texts.append(b"")
-    return key(*(str(Path(f).name) for f in files), *texts)
+    return key(*(str(Path(f).name) for f in files), *texts, versions=versions)
 
 
 def _path(kind: str, name: str, digest: str) -> Path | None:
@@ -124,7 +125,13 @@ def _identity(kind: str, name: str, digest: str, payload: bytes) -> dict[str, st
             "sha256": hashlib.sha256(payload).hexdigest()}
 
 
-def _entry_bytes(kind: str, name: str, digest: str, payload: bytes) -> bytes:
+def entry_bytes(kind: str, name: str, digest: str, value: object) -> bytes | None:
+    """An entry's bytes: its header (what it holds, the checksum of its pickled bytes), then ``value``
+    pickled; None for a value that does not pickle."""
+    try:
+        payload = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception:  # a value that does not pickle
+        return None
     return json.dumps(_identity(kind, name, digest, payload), sort_keys=True).encode() + b"\n" + payload
 
 
@@ -142,8 +149,11 @@ def load(kind: str, name: str, digest: str, expected: type) -> object | None:
     """The entry, or None when it is absent, not the entry of (kind, name, digest), altered since it was
     written, or unusable for any other reason."""
     path = _path(kind, name, digest)
-    if path is None:
-        return None
+    return None if path is None else load_file(path, kind, name, digest, expected)
+
+
+def load_file(path: Path, kind: str, name: str, digest: str, expected: type) -> object | None:
+    """:func:`load` of the entry stored at ``path``, wherever it is (the package's own entries too)."""
     try:
         head, _, payload = path.read_bytes().partition(b"\n")
         if json.loads(head) != _identity(kind, name, digest, payload):
@@ -176,13 +186,10 @@ def store(kind: str, name: str, digest: str, value: object, *, seconds: float | 
     """Write the entry atomically (and, if given, the ``seconds`` it took to compute); False where that
     is not possible."""
     path = _path(kind, name, digest)
-    if path is None:
+    data = None if path is None else entry_bytes(kind, name, digest, value)
+    if path is None or data is None:
         return False
-    try:
-        data = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
-    except Exception:  # a value that does not pickle
-        return False
-    stored = write_atomic(path, _entry_bytes(kind, name, digest, data))
+    stored = write_atomic(path, data)
     if stored and seconds is not None:
         write_atomic(path.with_suffix(".seconds"), f"{seconds:.6f}".encode())
     return stored

@@ -61,7 +61,7 @@ import numpy as np
 from harness.core.errors import SimulationDiverged
 from harness.core.trajectory import Trajectory
 from harness.engine.bindings import ONE_DOF
-from harness.engine.constraints import equality_block, equality_size
+from harness.engine.constraints import EQUALITY_ROWS, equality_block, equality_size
 from harness.engine.integrators import STEP_FUNCTIONS, integrator_name
 from harness.engine.points import point_jacobian, point_source
 from harness.engine.probe import Probe
@@ -685,10 +685,49 @@ def _read_at_states(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, ru
     n = len(run.states)
     for c in equalities:
         run.lam[c], run.viol[c] = _rows(model, c, n), _rows(model, c, n)
-    for k in range(n):
-        _forward_at(model, data, run.states[k])
-        for c in equalities:
-            run.lam[c][k], run.viol[c][k] = _block(model, data, c, probe.sign(c))
+    fixed = _fixed_rows(model, run.states)
+    if fixed is None:
+        for k in range(n):
+            _forward_at(model, data, run.states[k])
+            for c in equalities:
+                run.lam[c][k], run.viol[c][k] = _block(model, data, c, probe.sign(c))
+        return
+    # the same numbers with no search per sample: each equality's rows are a fixed slice of efc_*
+    slices = [(run.lam[c], run.viol[c], fixed[c]) for c in equalities]
+    force, pos = data.efc_force, data.efc_pos
+    for k, state in enumerate(run.states):
+        mujoco.mj_setState(model, data, state, _STATE)
+        mujoco.mj_forward(model, data)
+        for lam, viol, rows in slices:
+            lam[k], viol[k] = force[rows], pos[rows]
+    for c in equalities:
+        if probe.sign(c) != 1.0:  # elementwise, as _block multiplies each sample
+            run.lam[c], run.viol[c] = probe.sign(c) * run.lam[c], probe.sign(c) * run.viol[c]
+
+
+def _fixed_rows(model: mujoco.MjModel, states: np.ndarray) -> dict[str, slice | int] | None:
+    """Each equality's rows in efc_* where they are the same at every state of ``states``, else None.
+
+    MuJoCo makes the equalities' rows first, in equality order, one block per active equality
+    (engine_core_constraint.c); where every equality is of a type with a fixed number of rows
+    (:data:`EQUALITY_ROWS`) and active at every state, equality k's rows follow those of 0..k−1. A
+    one-row block is an index (a float per sample), a longer one a slice. Checked bit for bit against
+    the rows found by search (:func:`equality_block`) at one sample, as every batch run is."""
+    kinds = [int(t) for t in model.eq_type]
+    off = int(mujoco.mjtDisableBit.mjDSBL_EQUALITY) | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    if any(k not in EQUALITY_ROWS for k in kinds) or model.opt.disableflags & off:
+        return None
+    start = _state_offset(model, mujoco.mjtState.mjSTATE_EQ_ACTIVE)
+    if not np.all(states[:, start:start + model.neq] == 1):
+        return None
+    out, row = {}, 0
+    for eq, kind in enumerate(kinds):
+        size = EQUALITY_ROWS[kind]
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_EQUALITY, eq)
+        if name:
+            out[name] = row if size == 1 else slice(row, row + size)
+        row += size
+    return out
 
 
 def _verify(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run) -> list[str]:

@@ -78,8 +78,15 @@ def progress(items: Sequence, desc: str, unit: str = "case"):
     return tqdm(items, desc=desc, unit=unit, file=sys.stderr, leave=False)
 
 
+def case_line(result: CaseResult, checks: Sequence[Check]) -> str:
+    """One finished case as a progress line: its checks, how many fail, and the seconds it took."""
+    failing = sum(not c.passed for c in checks)
+    return (f"case {result.case.name}: {len(checks)} checks, {failing} fail "
+            f"({sum(result.timings.values()):.1f} s)")
+
+
 def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: RunOptions | None = None, *,
-            jobs: int | None = None, figures_only: bool = False
+            jobs: int | None = None, figures_only: bool = False, lines: bool = False
             ) -> tuple[list[CaseResult], dict[str, list[Check]], Limits]:
     """run_case for each case (as ``options`` ask), then its verdict; (results, checks by case, limits).
 
@@ -90,26 +97,36 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
     ``baseline``), so workers send back no trajectories (several MB a case,
     which the parent would unpickle while the workers wait on the pipe) and no
     reference solutions (for studies).
+    ``lines``: where stderr is not a terminal (a CI log, a pipe), which shows no progress bar, each case
+    prints :func:`case_line` there as it finishes.
     """
     options = options or RunOptions()
     limits = load_limits(config_path)
+    checks: dict[str, list[Check]] = {}
+
+    def finished(result: CaseResult) -> None:  # judged as it comes in, so its line can say how it went
+        checks[result.case.name] = judge(result, case_limits(limits, result.case, (f.name for f in result.figures)))
+        if lines and not sys.stderr.isatty():
+            print(case_line(result, checks[result.case.name]), file=sys.stderr, flush=True)
+
     check_config(limits.overrides, cases.all_cases(), source=repr(str(config_path)))  # the cases not run too
     workers = min(jobs or cpus(), len(selected))
     bar = progress(selected, "mjharness")
     if options.backend != "c" and len(selected) > 1 and options.mjcf is None:
-        results = _run_isolated(selected, bar, figures_only=figures_only, options=options)
+        results = _run_isolated(selected, bar, figures_only=figures_only, options=options, finished=finished)
     elif workers <= 1 or options.mjcf is not None:
         results = []
         for case in bar:
             bar.set_postfix_str(case.name)
             results.append(options.run(case))
+            finished(results[-1])
     else:
-        results = _run_parallel(selected, workers, bar, figures_only=figures_only, options=options)
+        results = _run_parallel(selected, workers, bar, figures_only=figures_only, options=options,
+                                finished=finished)
     bar.close()
     if options.shipped:
         costs.record({r.case.name: sum(v for k, v in r.timings.items() if k not in COLD) for r in results})
-    checks = {r.case.name: judge(r, case_limits(limits, r.case, (f.name for f in r.figures))) for r in results}
-    return results, checks, limits
+    return results, {r.case.name: checks[r.case.name] for r in results}, limits
 
 
 def groups(selected: Sequence[cases.Case], *, derived: Callable[[str], bool] | None = None) -> list[list[int]]:
@@ -151,7 +168,7 @@ def _run_group(names: Sequence[str], figures_only: bool, options: RunOptions):
 
 
 def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_only: bool,
-                  options: RunOptions) -> list[CaseResult]:
+                  options: RunOptions, finished: Callable[[CaseResult], None]) -> list[CaseResult]:
     """run_case on a process pool, a system's cases in one worker; results in registry order. A
     case's error is raised once every case before it in the registry has finished, as a serial run
     would raise it."""
@@ -170,6 +187,9 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_
             done, seeds = future.result()
             refmod.import_solutions(seeds)  # the run's studies reuse these solves
             outcomes.update(zip(group, done, strict=False))  # cases after a failure never ran
+            for i, (result, _) in zip(group, done, strict=False):
+                if result is not None:
+                    finished(dataclasses.replace(result, case=selected[i]))
             bar.set_postfix_str(", ".join(selected[i].name for i in group[:len(done)]), refresh=False)
             bar.update(len(done))
             while next_in_order in outcomes:
@@ -180,8 +200,8 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_
     return [dataclasses.replace(outcomes[i][0], case=case) for i, case in enumerate(selected)]
 
 
-def _run_isolated(selected: Sequence[cases.Case], bar, *, figures_only: bool, options: RunOptions
-                  ) -> list[CaseResult]:
+def _run_isolated(selected: Sequence[cases.Case], bar, *, figures_only: bool, options: RunOptions,
+                  finished: Callable[[CaseResult], None]) -> list[CaseResult]:
     """An accelerated backend's cases, each in a fresh worker process of its own, one at a time, from this
     process (which imports neither JAX nor Warp: neither survives a fork). XLA's CPU compiles of every case
     in one process ran it out of memory (MJX over the fifteen cases, one process or two workers: "LLVM
@@ -197,6 +217,7 @@ def _run_isolated(selected: Sequence[cases.Case], bar, *, figures_only: bool, op
         if error is not None:
             raise error
         results.append(dataclasses.replace(result, case=case))
+        finished(results[-1])
         bar.update(1)
     return results
 

@@ -6,7 +6,8 @@ what was edited since the last one; within a process each is loaded once. So
 are the numeric functions made from them at a model's parameter values
 (:class:`analytic.dynamics.Compiled`, keyed also by ``analytic/dynamics.py`` and
 the values): a run that finds them cached needs no derivation and never
-imports sympy.
+imports sympy. Those of the default cases ship with the package
+(:mod:`.prebuilt`), so a fresh install's first run finds them too.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from analytic import systems
 from analytic.dynamics import Compiled, Dynamics
 from harness.core import cache
 from harness.core.errors import ModelMismatch
+from harness.reference import prebuilt
 from harness.reference.tree import TREE
 
 if TYPE_CHECKING:
@@ -66,8 +68,10 @@ def derivation(system: str) -> Derivation:
 
 
 def derivation_stored(system: str) -> bool:
-    """Whether the on-disk cache holds ``system``'s derivation for its current source (no loading)."""
-    return cache.has("derivation", system, cache.source_key(_sources(system)))
+    """Whether the on-disk cache holds ``system``'s derivation for its current source, or the package ships
+    its numeric dynamics, so that its shipped cases need no derivation (no loading: a hint)."""
+    return (cache.has("derivation", system, cache.source_key(_sources(system)))
+            or prebuilt.covers("dynamics", system, numeric_sources(system)))
 
 
 def derivation_cost(system: str) -> float | None:
@@ -86,13 +90,34 @@ def minimal_derivation(system: str) -> Derivation | None:
                         _derivation_type())
 
 
+def numeric_sources(system: str) -> list[Path]:
+    """The files numeric dynamics of ``system`` depend on."""
+    return [*_sources(system), _module_file("analytic.dynamics")]
+
+
+def _opened(compiled: Compiled) -> Dynamics:
+    return Dynamics.load(compiled).checked()
+
+
 def _compiled(kind: str, system: str, params: tuple[tuple[str, float], ...],
               deriving: Callable[[str], Derivation | None]) -> Dynamics:
-    """Dynamics from the on-disk entry for (system, params), made from ``deriving(system)`` if absent
-    or if its code does not run here (e.g. a numpy that lacks a function it names)."""
-    digest = cache.key(cache.source_key([*_sources(system), _module_file("analytic.dynamics")]), repr(params))
-    return cache.cached(kind, system, digest, lambda: Compiled.of(deriving(system), dict(params)), Compiled,
-                        lambda compiled: Dynamics.load(compiled).checked())
+    """Dynamics from the on-disk entry for (system, params), else from the package's prebuilt one, else made
+    from ``deriving(system)``; an entry whose code does not run here (e.g. a numpy that lacks a function it
+    names) counts as absent."""
+    sources = numeric_sources(system)
+    digest = cache.key(cache.source_key(sources), repr(params))
+
+    def compute() -> Compiled:
+        shipped = prebuilt.load(kind, system, sources, params)
+        if shipped is not None:
+            try:
+                _opened(shipped)
+                return shipped
+            except Exception:  # unusable here: derived below like an absent one
+                pass
+        return Compiled.of(deriving(system), dict(params))
+
+    return cache.cached(kind, system, digest, compute, Compiled, _opened)
 
 
 @functools.cache
