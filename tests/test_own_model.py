@@ -155,8 +155,8 @@ def _tilted(joint: str, angle: float):
 
 @pytest.mark.parametrize(("fault", "edit"), [
     ("the forearm 1 % heavier", _heavier("fore", 1.01)),
-    ("0.01 N m s more damping at the elbow", _damped("elbow", 0.01)),
-    ("the pitch axis tilted by 1e-3 rad", _tilted("pitch", 1e-3)),
+    pytest.param("0.01 N m s more damping at the elbow", _damped("elbow", 0.01), marks=pytest.mark.slow),
+    pytest.param("the pitch axis tilted by 1e-3 rad", _tilted("pitch", 1e-3), marks=pytest.mark.slow),
 ])
 def test_a_fault_on_the_engines_side_alone_fails(arm, fault, edit):
     case = from_mjcf(arm, keyframe="reach", reference=arm)
@@ -173,8 +173,9 @@ def test_the_same_model_unfaulted_passes(arm):
 
 @pytest.mark.parametrize("setting", [
     pytest.param({"timestep": 0.001}, id="half the timestep"),
-    pytest.param({"edit": lambda s: setattr(s.option, "solver", 1)}, id="CG solver"),
-    pytest.param({"edit": lambda s: setattr(s.option, "integrator", 1)}, id="RK4 as its own integrator"),
+    pytest.param({"edit": lambda s: setattr(s.option, "solver", 1)}, id="CG solver", marks=pytest.mark.slow),
+    pytest.param({"edit": lambda s: setattr(s.option, "integrator", 1)}, id="RK4 as its own integrator",
+                 marks=pytest.mark.slow),
 ])
 def test_legitimate_settings_pass(arm, setting):
     case = from_mjcf(arm, keyframe="reach")
@@ -182,6 +183,7 @@ def test_legitimate_settings_pass(arm, setting):
     assert not _failed(v), [(c.name, c.value, c.threshold) for c in v.checks if not c.passed]
 
 
+@pytest.mark.slow
 def test_a_floating_body_with_a_ball_joint_passes_and_a_heavier_flap_fails(tumbler):
     """Without gravity the tumbler's linear and angular momentum are conserved, and checked: MuJoCo's own drift and
     against the reference. A flap 1 % heavier on the engine's side alone: MuJoCo still conserves its own momentum,
@@ -197,6 +199,7 @@ def test_a_floating_body_with_a_ball_joint_passes_and_a_heavier_flap_fails(tumbl
 
 
 # ------------------------------------------------------------------ our own double pendulum, either way
+@pytest.mark.slow
 def test_the_shipped_double_pendulum_passes_with_and_without_its_case():
     mjcf = ROOT / "mjcf" / "double_pendulum.xml"
     with_case = harness.validate("double_pendulum", integrators=["RK4", "Euler"])
@@ -248,6 +251,7 @@ def test_keyframe_without_a_model_of_ones_own_is_refused(tmp_path):
     assert done.returncode == 2 and "--keyframe and --ctrl apply to a model judged against its own tree" in done.stderr
 
 
+@pytest.mark.slow
 def test_a_control_is_baked_into_the_model_both_sides_read(arm):
     """ctrl 0.5 on the elbow servo (kp 2) becomes the bias b₀ = kp · 0.5 of the model every run compiles (the engine's
     ctrl stays 0), so the reference and the engine see the same servo: the model passes; the servo's stiffness changed

@@ -299,8 +299,9 @@ def test_the_tree_agrees_with_the_hand_derived_system(name):
             assert np.abs(gen_t - gen).max() <= 1e-9 * scale
 
 
-@pytest.mark.parametrize("name", [n for n in ("double_pendulum", "physical_pendulum", "torque_free_body",
-                                               "slider_crank") if n in cases.names()])
+@pytest.mark.parametrize("name", [pytest.param(n, marks=() if n == "double_pendulum" else pytest.mark.slow)
+                                  for n in ("double_pendulum", "physical_pendulum", "torque_free_body", "slider_crank")
+                                  if n in cases.names()])
 def test_the_tree_trajectory_agrees_with_the_hand_derived_one(name):
     """The two references solved from the same state over the case's horizon: every named point to 1e-9 L."""
     case = cases.get(name)
