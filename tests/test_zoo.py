@@ -180,7 +180,7 @@ def test_each_engine_fault_fails_on_acrobot_and_the_unfaulted_model_passes():
         assert harness.validate(case, integrators=["RK4"], edit=target.edit(fault, 1e-15)).passed, fault
 
 
-@pytest.mark.slow
+@pytest.mark.zoo
 def test_the_whole_zoo_runs_and_every_fault_is_caught_on_three_models():
     """Every installed zoo model to a verdict (pass, a named finding, or a refusal in one line) or stopped at the
     time limit (10 minutes a model: dog and humanoid_CMU are over it on 2 cores), none crashing; each
