@@ -151,6 +151,8 @@ class Tree:
     points: tuple[Point, ...] = ()
     equalities: tuple[Equality, ...] = ()
     actuators: tuple[Actuator, ...] = ()
+    size: float = 0.0
+    """The mean size of the bodies (the length scale where the bodies' layout gives none: a lone point mass)."""
 
     def __post_init__(self) -> None:
         for i, b in enumerate(self.bodies):

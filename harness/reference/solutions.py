@@ -129,6 +129,9 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
                                  "--horizon)") from None
             raise bounds.reference_too_long(str(exc)) from None
     _solutions[key] = sol
+    if tree is not None:  # a model of one's own: its length is at least how far its motion goes
+        points = dyn.points(sol.state(np.linspace(0.0, span, 65))[0]) if dyn.point_names else np.zeros((1, 1, 3))
+        scales = tree_scales(dyn.tree, excursion=float(np.max(np.linalg.norm(points - points[:1], axis=-1))))
     return Reference(system=system, params=params, scales=scales, solution=sol,
                      initial=(tuple(q.tolist()), tuple(qd.tolist())), projected=projected)
 

@@ -244,7 +244,7 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
         _actuator(model, a, 0.0 if ctrl is None else float(ctrl[a])) for a in range(model.nu)
         if not _actuator_gap(model, a))
     return Tree(bodies=tuple(bodies), joints=tuple(joints), gravity=gravity, points=points,
-                equalities=equalities, actuators=actuators)
+                equalities=equalities, actuators=actuators, size=float(model.stat.meansize))
 
 
 def _points(model: mujoco.MjModel) -> tuple[Point, ...]:
@@ -434,16 +434,18 @@ def _compiled_source(path: str, edit: Callable[[mujoco.MjSpec], None]) -> mujoco
     return spec.compile()
 
 
-def tree_scales(tree: Tree) -> Scales:
+def tree_scales(tree: Tree, *, excursion: float = 0.0) -> Scales:
     """The scales of a tree: its total mass moving over its size (the largest distance of a point from
-    the first body's frame at the reference configuration, at least 1 mm) under gravity (9.81 m/s²
-    where gravity is off, to keep a scale)."""
+    the first body's frame at the reference configuration; at least the bodies' mean size, MuJoCo's
+    ``stat.meansize``, where that layout gives none, as for a lone point mass at its frame's origin; and at least
+    ``excursion``, the farthest a point moves in the motion judged) under gravity (9.81 m/s² where gravity is off,
+    to keep a scale)."""
     dyn = TreeDynamics.of(tree)
     q = np.zeros(tree.n)
     coms = dyn.body_coms(q)
     pts = np.concatenate([coms, dyn.points(q)], axis=0) if tree.points else coms
     origin = tree.bodies[0].pos
-    length = max(float(np.max(np.linalg.norm(pts - origin, axis=-1), initial=0.0)), 1e-3)
+    length = max(float(np.max(np.linalg.norm(pts - origin, axis=-1), initial=0.0)), tree.size, excursion, 1e-3)
     g = float(np.linalg.norm(tree.gravity)) or 9.81
     mass = max(sum(b.mass for b in tree.bodies), 1e-9)
     return Scales.gravity(mass=mass, g=g, length=length)
