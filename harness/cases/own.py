@@ -155,11 +155,6 @@ def _refuse_floor_spins(model: mujoco.MjModel, qpos: np.ndarray) -> None:
                              f"inertia above {POINT_MASS:g} of the largest, or the point mass on a pair of hinges")
 
 
-def _qvel_of(model: mujoco.MjModel, qd: np.ndarray) -> np.ndarray:
-    """MuJoCo's qvel of the analytic q̇ at θ = 0 (where B = I: the charts are centred at the start)."""
-    return np.asarray(qd, dtype=float).copy()
-
-
 def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[str, float] | None = None,
               horizon: float | None = None, reference: Path | str | None = None) -> Case:
     """The case of the model at ``path`` judged against its own kinematic tree (no hand-derived system).
@@ -197,7 +192,7 @@ def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[st
                         source=source)
     if not np.any(qvel):
         kicked = kick(model, system, qpos)
-        qvel = _qvel_of(model, kicked)
+        qvel = kicked  # at θ = 0 (the charts are centred at the start) MuJoCo's qvel is q̇ itself
         start = start.replace(" at rest", "") + " with every joint set moving (kinetic energy ½ m g L)"
     binding = functools.partial(TreeBinding, charts=chart)
     description = (f"{path.name}: its own kinematic tree ({model.nv} dof), from {start}"
