@@ -38,7 +38,14 @@ import mujoco
 import numpy as np
 
 from analytic.dop853 import IntegrationError
+from harness.api import validate
+from harness.cases.own import from_mjcf
+from harness.core import VERSION
 from harness.core.checks import Check
+from harness.engine.models import compile_model
+from harness.pipeline.pool import run_tasks
+from harness.reference.tree import prepare, uncovered
+from harness.studies.engine_faults import CLAIMED, FAULTS, SIZES, UNITS, Caught, smallest_caught
 
 PASS, FAIL, REFUSED, CRASHED, UNFINISHED = "pass", "fail", "refused", "crashed", "unfinished"
 EXIT = {PASS: 0, FAIL: 1, REFUSED: 2, CRASHED: 2, UNFINISHED: None}
@@ -304,9 +311,6 @@ class ZooResult:
 
 
 def _described(path: Path) -> tuple[mujoco.MjModel | None, str]:
-    from harness.engine.models import compile_model
-    from harness.reference.tree import prepare
-
     try:
         return compile_model(path, edit=prepare), ""
     except ValueError as exc:
@@ -322,10 +326,6 @@ def one_line(exc: BaseException, width: int = 300) -> str:
 def judge(model: ZooModel, *, integrators: Sequence[str] | None = None, timeout: float | None = None) -> ZooResult:
     """``model`` judged as ``mjharness check --mjcf FILE`` judges it; never raises (a crash is a verdict, and so
     is running past ``timeout`` seconds: unfinished)."""
-    import harness
-    from harness.cases.own import from_mjcf
-    from harness.reference.tree import uncovered
-
     clock = time.perf_counter()
     base = {"model": model.name, "package": model.package, "path": str(model.path)}
     compiled, why = _described(model.path)
@@ -337,7 +337,7 @@ def judge(model: ZooModel, *, integrators: Sequence[str] | None = None, timeout:
     try:
         with time_limit(timeout):
             case = from_mjcf(model.path)
-            v = harness.validate(case, integrators=integrators)
+            v = validate(case, integrators=integrators)
     except TimeLimit as exc:
         return ZooResult(**base, **have, verdict=UNFINISHED, seconds=time.perf_counter() - clock, reason=str(exc))
     except (ValueError, IntegrationError) as exc:  # ModelError and every input check: what check exits 2 with
@@ -398,7 +398,6 @@ class ZooRun:
 
     def faults_short(self) -> dict[str, str]:
         """Each fault caught on fewer models than :data:`MIN_MODELS` (or than it applies to), and on how many."""
-        from harness.studies.engine_faults import FAULTS
 
         out = {}
         for fault in FAULTS:
@@ -427,8 +426,6 @@ def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str]
     """Judge every model (and, with ``faults``, size each engine-side fault on those of at most
     ``fault_max_nv`` dofs) on ``jobs`` worker processes, costliest first; ``on_done(result)`` as each ends.
     ``timeout``: each model's verdict, and each model's fault study, stops after so many seconds (unfinished)."""
-    from harness.pipeline.pool import run_tasks
-    from harness.studies.engine_faults import FAULTS, smallest_caught_named
 
     clock = time.perf_counter()
     nv = {m.name: _nv(m.path) for m in models}
@@ -472,8 +469,6 @@ def _verdict_cell(r: ZooResult) -> str:
 
 def zoo_markdown(z: ZooRun) -> str:
     """zoo.md: the command, the verdict table, the findings named, the fault table."""
-    from harness.core import VERSION
-    from harness.studies.engine_faults import CLAIMED, FAULTS, SIZES, UNITS
 
     counts = {v: sum(r.verdict == v for r in z.results) for v in (PASS, FAIL, REFUSED, CRASHED, UNFINISHED)}
     lines = [
@@ -551,3 +546,27 @@ def zoo_json(z: ZooRun) -> dict[str, object]:
             "skipped": [asdict(s) for s in z.skipped],
             "faults": [asdict(c) | {"caught_at_claim": c.caught_at_claim} for c in z.faults],
             "faults_not_sized": list(z.fault_models_left_out), "faults_short": z.faults_short()}
+
+
+def smallest_caught_named(model: str, faults: tuple[str, ...] = FAULTS, timeout: float | None = None
+                          ) -> list[Caught]:
+    """:func:`smallest_caught` on the zoo model called ``model`` (what a worker process is sent), stopped after
+    ``timeout`` seconds (the faults not sized by then: unfinished); an exception is returned as a crash of
+    each fault not sized (a bug of the harness, with its last line), never raised."""
+    models, _ = discover()
+    chosen = select([model], models)[0]
+    clock = time.perf_counter()
+    done: list[Caught] = []
+    rest = lambda: [f for f in faults if f not in {c.fault for c in done}]  # noqa: E731
+    try:
+        with time_limit(timeout):
+            done.extend(smallest_caught(chosen.path, faults, name=chosen.name))
+    except TimeLimit as exc:
+        done += [Caught(chosen.name, f, None, None, unfinished=str(exc), seconds=time.perf_counter() - clock)
+                 for f in rest()]
+    except ValueError as exc:  # a model the tree reference refuses: no faults to judge
+        done += [Caught(chosen.name, f, None, None, note=" ".join(str(exc).split())) for f in rest()]
+    except Exception as exc:
+        done += [Caught(chosen.name, f, None, None, crashed=one_line(exc), seconds=time.perf_counter() - clock)
+                 for f in rest()]
+    return done

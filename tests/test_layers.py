@@ -24,7 +24,8 @@ PACKAGES = ("analytic", "harness", "mjcf")
 LAYERS = ("analytic", "harness.core", "harness.reference", "harness.engine", "harness.cases", "mjcf",
           "harness.layers", "harness.budget", "harness.pipeline", "harness.studies", "harness.outputs",
           "harness.versions", "harness.api", "harness.cli", "harness")
-SAME_LAYER = {"harness.pytest_plugin": "harness.api", "harness.__main__": "harness.cli"}
+SAME_LAYER = {"harness.pytest_plugin": "harness.api", "harness.__main__": "harness.cli",
+              "harness.zoo": "harness.api"}  # the zoo runs models as the API does, for the CLI's `zoo`
 LAZY = "# lazy:"
 
 
@@ -126,10 +127,11 @@ def test_dependencies_point_down_the_layers():
 
 
 def test_every_harness_module_is_in_a_layer_package():
-    """harness/ is grouped by role: nothing but the API face, the plugin and the entry points at its top."""
+    """harness/ is grouped by role: nothing but the API face (the API, the zoo's runner beside it), the plugin and the
+    entry points at its top."""
     top = sorted(m for m in _modules() if m.startswith("harness.") and m.count(".") == 1
                  and not (ROOT / m.replace(".", "/")).is_dir())
-    assert top == ["harness.__main__", "harness.api", "harness.pytest_plugin"]
+    assert top == ["harness.__main__", "harness.api", "harness.pytest_plugin", "harness.zoo"]
 
 
 def test_an_import_inside_a_function_is_a_marked_lazy_one():

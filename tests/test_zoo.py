@@ -94,7 +94,7 @@ def test_a_crash_is_a_verdict_not_an_exception(monkeypatch):
     def broken(*_a, **_k):
         raise RuntimeError("boom\n  on two lines")
 
-    monkeypatch.setattr(harness, "validate", broken)
+    monkeypatch.setattr(zoo, "validate", broken)
     result = zoo.judge(model)
     assert (result.verdict, result.exit) == ("crashed", 2)
     assert "RuntimeError: boom on two lines" in result.reason and "\n" not in result.reason
@@ -208,5 +208,5 @@ def test_a_model_past_the_time_limit_is_unfinished_not_lost():
     assert result.verdict == "unfinished" and result.exit is None
     assert "time limit of 0.05 s" in result.reason
     assert zoo.ZooRun(results=(result,)).exit_code == 1
-    caught = ef.smallest_caught_named("dm_control/acrobot", timeout=0.05)
+    caught = zoo.smallest_caught_named("dm_control/acrobot", timeout=0.05)
     assert [c.fault for c in caught] == list(ef.FAULTS) and all(c.unfinished for c in caught)

@@ -41,8 +41,8 @@ class LogProgress:
     last line ("mjharness: 3 of 15 cases done after 1.5 min (pendulum)"). Written by the thread that
     counts, never a thread of its own: a process pool forks from this process."""
 
-    def __init__(self, items: Sequence, desc: str, unit: str) -> None:
-        self.items, self.desc, self.unit = items, desc, unit
+    def __init__(self, items: Sequence, desc: str, unit: str, *, quiet: bool = False) -> None:
+        self.items, self.desc, self.unit, self.quiet = items, desc, unit, quiet
         self.n, self.postfix = 0, ""
         self.start = self.last = time.monotonic()
 
@@ -57,7 +57,7 @@ class LogProgress:
     def update(self, n: int = 1) -> None:
         self.n += n
         now = time.monotonic()
-        if now - self.last >= PROGRESS_INTERVAL and self.n < len(self.items):
+        if not self.quiet and now - self.last >= PROGRESS_INTERVAL and self.n < len(self.items):
             self.last = now
             elapsed = now - self.start
             when = f"{elapsed / 60:.1f} min" if elapsed >= 60 else f"{elapsed:.0f} s"
@@ -68,11 +68,12 @@ class LogProgress:
         pass
 
 
-def progress(items: Sequence, desc: str, unit: str = "case"):
+def progress(items: Sequence, desc: str, unit: str = "case", *, quiet: bool = False):
     """A tqdm bar on stderr where stderr is a terminal; elsewhere (CI logs, pipes) a plain line now and then
-    (:class:`LogProgress`), so a long run is seen to go on."""
+    (:class:`LogProgress`), so a long run is seen to go on — none where ``quiet``: the caller prints a line per
+    item itself."""
     if not sys.stderr.isatty():
-        return LogProgress(items, desc, unit)
+        return LogProgress(items, desc, unit, quiet=quiet)
     from tqdm import tqdm  # lazy: 0.03 s, only where a bar is drawn
 
     return tqdm(items, desc=desc, unit=unit, file=sys.stderr, leave=False)
@@ -111,7 +112,7 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
 
     check_config(limits.overrides, cases.all_cases(), source=repr(str(config_path)))  # the cases not run too
     workers = min(jobs or cpus(), len(selected))
-    bar = progress(selected, "mjharness")
+    bar = progress(selected, "mjharness", quiet=lines)  # with lines, each case's own line says the progress
     if options.backend != "c" and len(selected) > 1 and options.mjcf is None:
         results = _run_isolated(selected, bar, figures_only=figures_only, options=options, finished=finished)
     elif workers <= 1 or options.mjcf is not None:

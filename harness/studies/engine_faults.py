@@ -34,6 +34,13 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from harness.cases.own import from_mjcf
+from harness.engine.models import compile_model
+from harness.pipeline.limits import case_limits, load_limits
+from harness.pipeline.run import run_case
+from harness.pipeline.verdict import judge
+from harness.reference.tree import prepare, read_tree, tree_scales
+
 FAULTS = ("inertia", "damping", "axis")
 CLAIMED = {"inertia": 1e-2, "damping": 1e-2, "axis": 1e-3}
 """The sizes issue 29 names for each fault (× 1.01, an extra damping, 1e-3 rad): caught there or smaller."""
@@ -101,8 +108,6 @@ def inertia_fault(body: str, s: float) -> Edit:
 def damping_scale(model: mujoco.MjModel, joint: str) -> float:
     """M_jj √(g/L) of ``joint`` at qpos0 (N·m·s/rad): the damping that decays its motion at the model's
     natural rate √(g/L), L the tree's size."""
-    from harness.reference.tree import read_tree, tree_scales
-
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     dof = int(model.jnt_dofadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint)])
@@ -154,9 +159,6 @@ class Target:
 
     @classmethod
     def of(cls, path: Path | str) -> Target:
-        from harness.engine.models import compile_model
-        from harness.reference.tree import prepare
-
         model = compile_model(Path(path), edit=prepare)
         hinge = main_hinge(model)
         return cls(heaviest_body(model), hinge, damping_scale(model, hinge) if hinge else math.nan)
@@ -211,12 +213,12 @@ class Caught:
 
 
 def _failed(case, integrators: Sequence[str], edit: Edit | None) -> dict[str, float]:
-    """Each failed check's name and how far over its limit (inf: a run that could not be measured)."""
-    import harness
-
-    v = harness.validate(case, integrators=list(integrators), edit=edit)
+    """Each failed check's name and how far over its limit (inf: a run that could not be measured), as ``check``
+    judges the run."""
+    result = run_case(case, integrators=tuple(integrators), edit=edit)
+    checks = judge(result, case_limits(load_limits(), case, (f.name for f in result.figures)))
     return {str(c.name): c.ratio if math.isfinite(c.ratio) and not c.diverged else math.inf
-            for c in v.checks if not c.passed and not c.note}
+            for c in checks if not c.passed and not c.note}
 
 
 def bisect_decades(detects: Callable[[float], str], sizes: Sequence[float] = SIZES) -> tuple[float, str, int]:
@@ -241,8 +243,6 @@ def bisect_decades(detects: Callable[[float], str], sizes: Sequence[float] = SIZ
 def smallest_caught(path: Path | str, faults: Sequence[str] = FAULTS, *, name: str | None = None,
                     integrators: Sequence[str] = INTEGRATORS) -> Iterator[Caught]:
     """For each of ``faults`` in turn, the smallest size caught on the model at ``path`` (engine side only)."""
-    from harness.cases.own import from_mjcf
-
     path = Path(path)
     name = name or path.stem
     case = from_mjcf(path, reference=path)
@@ -262,29 +262,3 @@ def smallest_caught(path: Path | str, faults: Sequence[str] = FAULTS, *, name: s
         size, deciding, runs = bisect_decades(detects)
         note = f"fails unfaulted: {', '.join(sorted(already))}" if already and math.isnan(size) else ""
         yield Caught(name, fault, where, size, deciding, note, runs, time.perf_counter() - clock)
-
-
-def smallest_caught_named(model: str, faults: tuple[str, ...] = FAULTS, timeout: float | None = None
-                          ) -> list[Caught]:
-    """:func:`smallest_caught` on the zoo model called ``model`` (what a worker process is sent), stopped after
-    ``timeout`` seconds (the faults not sized by then: unfinished); an exception is returned as a crash of
-    each fault not sized (a bug of the harness, with its last line), never raised."""
-    from harness import zoo
-
-    models, _ = zoo.discover()
-    chosen = zoo.select([model], models)[0]
-    clock = time.perf_counter()
-    done: list[Caught] = []
-    rest = lambda: [f for f in faults if f not in {c.fault for c in done}]  # noqa: E731
-    try:
-        with zoo.time_limit(timeout):
-            done.extend(smallest_caught(chosen.path, faults, name=chosen.name))
-    except zoo.TimeLimit as exc:
-        done += [Caught(chosen.name, f, None, None, unfinished=str(exc), seconds=time.perf_counter() - clock)
-                 for f in rest()]
-    except ValueError as exc:  # a model the tree reference refuses: no faults to judge
-        done += [Caught(chosen.name, f, None, None, note=" ".join(str(exc).split())) for f in rest()]
-    except Exception as exc:
-        done += [Caught(chosen.name, f, None, None, crashed=zoo.one_line(exc), seconds=time.perf_counter() - clock)
-                 for f in rest()]
-    return done
