@@ -318,7 +318,7 @@ def test_the_progress_bar_counts_cases_done_in_workers(monkeypatch):
 
     bars = []
     real = runner.progress
-    monkeypatch.setattr(runner, "progress", lambda *a: bars.append(real(*a)) or bars[-1])
+    monkeypatch.setattr(runner, "progress", lambda *a, **k: bars.append(real(*a, **k)) or bars[-1])
     monkeypatch.setattr(sys, "stderr", Terminal())
     results, checks, _ = runner.run_all(cases.select(["spring", "atwood"]), None, jobs=2)
     assert [r.case.name for r in results] == ["spring", "atwood"] and list(checks) == ["spring", "atwood"]
