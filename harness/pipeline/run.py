@@ -409,12 +409,13 @@ def _run_case(
     if case.tree is not None and case.tree.uncovered:  # the model as it is, by the work–energy balance
         clock = time.perf_counter()
         as_is = variants.compose(TreeEdit(isolating=False, ctrl=case.tree.ctrl), user_edit)
-        found, balance_budgets, balance_diverged = balance_figures(
+        found, balance_budgets, balance_diverged, balance_unjudged = balance_figures(
             path, as_is, probe.binding, integrators=tuple(sims), q0=ref.q0(), qd0=ref.qd0(), horizon=case.horizon,
             energy_scale=ref.scales.energy, orders=EXPECTED_ORDER, not_examined=tuple(dict(case.tree.uncovered)))
         figures += found
         budgets |= balance_budgets
         diverged |= balance_diverged
+        unmeasured |= balance_unjudged  # n/a with why: impacts the timestep does not resolve
         timings["balance"] = time.perf_counter() - clock
 
     tested = model_settings(model) | {f"param.{k}": v for k, v in ref.params.items()}
