@@ -298,7 +298,8 @@ def validate(
     result = run_case(chosen, mjcf=mjcf, integrators=tuple(integrators) if integrators is not None else None,
                       timestep=timestep, horizon=horizon, q0=q0, qd0=qd0,
                       edit=_in_place(edit) if edit is not None else None, backend=backend)
-    checks = judge(result, case_limits(shipped, chosen, (f.name for f in result.figures)) | given)
+    measured = [*(f.name for f in result.figures), *result.unmeasured]
+    checks = judge(result, case_limits(shipped, chosen, measured) | given)
     check_known(requirements, [result])
     source = shipped.source + (" + limits given to validate()" if limits else "")
     return Validation(case=chosen.name, mjcf=str(result.settings.get("mjcf", chosen.mjcf)), checks=tuple(checks),

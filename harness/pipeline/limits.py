@@ -248,7 +248,8 @@ class Limits:
 def case_limits(limits: Limits, case: Case, figures: Iterable[str]) -> dict[str, Limit]:
     """The limits ``case`` is judged by: its shipped ones (with a user's overrides), or for a case whose
     reference is its model's own tree (no limits file: a model the user brings) the default rule's over
-    the ``figures`` it measured, so that every figure the rule gates is judged, never none."""
+    the ``figures`` it measured or could not (give both: one it could not is then n/a with its reason, never
+    absent), so that every figure the rule gates is judged, never none."""
     if case.tree is None:
         return limits.for_case(case.name)
     names = [FigureName(f) for f in figures]

@@ -106,7 +106,8 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
     checks: dict[str, list[Check]] = {}
 
     def finished(result: CaseResult) -> None:  # judged as it comes in, so its line can say how it went
-        checks[result.case.name] = judge(result, case_limits(limits, result.case, (f.name for f in result.figures)))
+        measured = [*(f.name for f in result.figures), *result.unmeasured]
+        checks[result.case.name] = judge(result, case_limits(limits, result.case, measured))
         if lines and not sys.stderr.isatty():
             print(case_line(result, checks[result.case.name]), file=sys.stderr, flush=True)
 
