@@ -38,9 +38,15 @@ def cpus() -> int:
         return os.cpu_count() or 1
 
 
+HELD = {signal.SIGTERM, signal.SIGINT}
+"""The signals a parent holds while it forks its workers: a child forked as the parent dies would otherwise get the
+parent-death signal inside Python's after-fork hooks, before its own handlers are set, and print a traceback."""
+
+
 def _worker_init(parent: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops the workers
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler, inherited by the fork
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD)  # held by the parent while it forked (fork_pool)
     die_with_parent(parent)
     simulate.set_threads(1)  # one worker per CPU: the workers, not MuJoCo's threads, share the cores
 
@@ -61,6 +67,11 @@ def fork_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_worker_init,
                                initargs=(os.getpid(),))
     try:
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, HELD)
+        try:  # every worker forked now (a forking pool starts them all at its first task), the signals held
+            pool.submit(int).result()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)  # one that came meanwhile is raised here
         yield pool
     except BaseException:
         for process in list(getattr(pool, "_processes", {}).values()):
