@@ -175,7 +175,7 @@ def _soft(spec: mujoco.MjSpec) -> None:
 
 
 # Faults -> the gates they must trip. Damping on the pulley: the hinge transmits its moment, which the
-# ideal axle does not (axle_torque), and drains energy. Extra pulley inertia (as axle armature) changes the accelerations
+# ideal axle does not (axle_torque), and drains energy. Extra pulley inertia (axle armature) changes the accelerations
 # and the tensions the axle carries. mass1 1 mm off the tangent tilts string1: the slide must hold it
 # sideways (slide1_force, cfrc_int of mass1) and kinematics. No gravity in MuJoCo while the reference has it: the static
 # accelerometer reads 0 instead of +g. A string held 1 cm longer than it starts: its violation and stretch.
