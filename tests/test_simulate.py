@@ -174,6 +174,32 @@ def test_a_batch_result_that_differs_from_mj_forward_is_not_used(monkeypatch):
 
 
 @pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo")
+@pytest.mark.parametrize("name, integrator", [("slider_crank", "Euler"), ("welded_pendulum", "implicitfast"),
+                                              ("atwood_tendon", "RK4")])
+def test_equalities_read_beside_the_rollout_are_the_same_on_any_number_of_threads(name, integrator):
+    """A connect, a weld and tendon equalities, which no recorded field gives: read after mj_forward at every
+    state, on one thread after the rollout or, with two, chunk by chunk beside it (1000 steps: several
+    chunks). Both equal the loop bit for bit."""
+    case, probe, q0, qd0 = _case_probe(name)
+    model = compile_model(case.mjcf, integrator=integrator)
+    assert probe.constraints and not simmod._joint_equalities(model, probe.constraints)
+    assert len(simmod._even_chunk_sizes(1000)) > 2
+    notes = len(simmod.recorder_notes())
+    try:
+        simmod.set_threads(1)
+        one = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000))
+        simmod.set_threads(2)
+        two = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000))
+    finally:
+        simmod.set_threads(None)
+    assert simmod.recorder_notes()[notes:] == (), "the batch recorder fell back to the loop"
+    loop = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000, method="loop"))
+    assert one.keys() == two.keys() == loop.keys()
+    assert any(k.startswith("multipliers.") for k in loop)
+    assert [k for k in one if not (np.array_equal(one[k], two[k]) and np.array_equal(one[k], loop[k]))] == []
+
+
+@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo")
 @pytest.mark.parametrize("name", ["pendulum", "spherical_pendulum", "hoop_plane"])
 def test_rk4_recomputation_is_the_same_on_any_number_of_threads(name):
     """One thread: one rollout, then every state recomputed. Two: the rollout in chunks, each chunk

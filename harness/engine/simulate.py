@@ -35,7 +35,10 @@ that is exact (:class:`_JointEquality`). The case's readings
 the fixed-size fields they need; those are recorded with the rest and
 the readings evaluated once over the whole run, by both recorders alike.
 Equalities that cannot be recovered exactly are read after ``mj_forward`` at
-every recorded state (``mj_setState`` of its row), as the loop reads them.
+every recorded state (``mj_setState`` of its row, sensors skipped), as the loop
+reads them; with a second thread, on that thread, chunk by chunk, while the
+rollout steps the next chunk (efc_* has no fixed size: ``mujoco.batch`` cannot
+record it, and a forward per state costs about a step).
 
 Every batch run is checked against a fresh ``mj_forward`` at a few samples,
 bit for bit; a mismatch (another MuJoCo's arithmetic) hands the equalities,
@@ -51,7 +54,7 @@ import itertools
 import math
 import os
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -85,6 +88,7 @@ _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 
 _PARALLEL_SIMS = 256  # fewer recomputed states than this run on the caller's thread alone
 _MIN_CHUNK = 32  # RK4 rollouts with a second thread go in halving chunks down to about this many steps
+_EVEN_CHUNKS = 16  # other rollouts that read equalities per state go in this many equal chunks
 
 _SPARE_DATA = 4  # MjData kept for reuse, by model layout
 
@@ -438,14 +442,6 @@ def _warning_time(states: np.ndarray) -> float:
     return float(states[max(after - 1, 0), 0])
 
 
-def _rollout(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record, steps: int) -> None:
-    """States 1..steps and the fields mj_step computed at states 0..steps−1, into ``rec``."""
-    b = _take_batch(model, data)
-    b.state[0] = rec.states[0]
-    _step(b, steps, [_STATE, *rec.fields], rec.out(0, steps, with_fields=True), rec.states)
-    _give_back_batch(model, b)  # not after an error: its warning counters would stop the next run
-
-
 def _take_batch(model: mujoco.MjModel, data: mujoco.MjData) -> _batch.Batch:
     """A one-simulation batch of ``model`` (this very object: a batch keeps its model), reused from an
     earlier run where one was given back (making one costs about 0.1 ms, 3 % of a short rollout).
@@ -475,33 +471,54 @@ def _chunk_sizes(steps: int) -> list[int]:
     return [*sizes, left]
 
 
-def _rollout_recomputed(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record, steps: int) -> None:
-    """States 1..steps and the fields after mj_forward at every state 0..steps (RK4), into ``rec``.
-    With a second thread, chunk i's states are recomputed while chunk i + 1 steps (both calls
-    release the GIL)."""
-    sizes = _chunk_sizes(steps)
+def _even_chunk_sizes(steps: int) -> list[int]:
+    """About _EVEN_CHUNKS equal chunks of at least _MIN_CHUNK steps. Reading a state's equalities costs
+    about what stepping it does (a forward), so the other thread keeps pace with chunks of one size and
+    what is left after the last step is the last chunk's reading."""
+    size = max(_MIN_CHUNK, -(-steps // _EVEN_CHUNKS))
+    return [size] * (steps // size) + ([steps % size] if steps % size else [])
+
+
+# work(data, start, stop): what the other thread does with states start..stop−1 once they are recorded
+_Work = Callable[[mujoco.MjData, int, int], None]
+
+
+def _rollout(model: mujoco.MjModel, data: mujoco.MjData, rec: _Record, steps: int, *, recomputed: bool,
+             work: _Work | None) -> None:
+    """States 1..steps into ``rec`` and, unless ``recomputed`` (RK4, whose recorded fields are its last
+    stage's), the fields mj_step computed at states 0..steps−1; then ``work`` on every state 0..steps
+    (RK4: after its fields' recomputation). With a second thread the rollout goes in chunks and each
+    chunk's states are worked on the other thread while the next steps (both calls release the GIL)."""
+    def each(helper: mujoco.MjData, start: int, stop: int) -> None:
+        if recomputed:  # states start..stop−1
+            _forward_all(model, helper, rec.states[start:stop],
+                         {f: v[start:stop] for f, v in rec.fields.items()}, threads=1)
+        if work is not None:
+            work(helper, start, stop)
+
+    record = [_STATE] if recomputed else [_STATE, *rec.fields]
+    sizes = _chunk_sizes(steps) if recomputed else _even_chunk_sizes(steps)
     b = _take_batch(model, data)
     b.state[0] = rec.states[0]
-    if _threads_allowed() < 2 or len(sizes) < 2:
-        _step(b, steps, [_STATE], rec.out(0, steps, with_fields=False), rec.states)
-        _give_back_batch(model, b)
-        _forward_all(model, data, rec.states, rec.fields)
+    if _threads_allowed() < 2 or len(sizes) < 2 or (not recomputed and work is None):
+        _step(b, steps, record, rec.out(0, steps, with_fields=not recomputed), rec.states)
+        _give_back_batch(model, b)  # not after an error: its warning counters would stop the next run
+        if recomputed:
+            _forward_all(model, data, rec.states, rec.fields)
+        if work is not None:
+            work(data, 0, steps + 1)
         return
-    def recompute(start: int, stop: int) -> None:  # states start..stop−1, on the other thread
-        _forward_all(model, helper, rec.states[start:stop], {f: v[start:stop] for f, v in rec.fields.items()},
-                     threads=1)
-
     bounds = np.cumsum([0, *sizes])
-    helper = _take_data(model, spare=True)  # the other thread's template: not the rollout's own
+    helper = _take_data(model, spare=True)  # the other thread's: not the rollout's own
     try:
         with ThreadPoolExecutor(max_workers=1) as pool:
             pending = []
             for start, stop in itertools.pairwise(bounds):
-                _step(b, int(stop - start), [_STATE], rec.out(int(start), int(stop), with_fields=False),
+                _step(b, int(stop - start), record, rec.out(int(start), int(stop), with_fields=not recomputed),
                       rec.states[int(start):int(stop) + 1])
-                pending.append(pool.submit(recompute, int(start), int(stop)))
+                pending.append(pool.submit(each, helper, int(start), int(stop)))
             _give_back_batch(model, b)
-            pending.append(pool.submit(recompute, steps, steps + 1))
+            pending.append(pool.submit(each, helper, steps, steps + 1))
             for f in pending:
                 f.result()
     finally:
@@ -523,10 +540,17 @@ def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
                  shifted: bool, timings: dict[str, float]) -> _Run | None:
     """:func:`_record_batch` with its scratch arrays."""
     mujoco.mj_getState(model, data, rec.states[0], _STATE)
-    if shifted:
-        _rollout(model, data, rec, steps)
-    else:
-        _rollout_recomputed(model, data, rec, steps)
+    # the equalities no recorded field gives: read after mj_forward at every state, beside the rollout
+    recoverable = _joint_equalities(model, probe.constraints)
+    read = [c for c in probe.constraints if c not in recoverable]
+    lam = {c: _rows(model, c, steps + 1) for c in read}
+    viol = {c: _rows(model, c, steps + 1) for c in read}
+
+    def work(helper: mujoco.MjData, start: int, stop: int) -> None:
+        _read_equalities(model, helper, rec.states[start:stop], {c: lam[c][start:stop] for c in read},
+                         {c: viol[c][start:stop] for c in read})
+
+    _rollout(model, data, rec, steps, recomputed=not shifted, work=work if read else None)
     states, fields = rec.states, rec.fields
     # the last state, which no step follows, gets the checks mj_step would make (as in the loop)
     mujoco.mj_setState(model, data, states[-1], _STATE)
@@ -542,6 +566,9 @@ def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
         if not finite.all():
             raise SimulationDiverged("non-finite state", float(states[np.argmin(finite), 0]))
     run = _assemble(model, probe, states, fields)
+    for c in read:  # × the sign elementwise, as _block multiplies each sample
+        sign = probe.sign(c)
+        run.lam[c], run.viol[c] = (lam[c], viol[c]) if sign == 1.0 else (sign * lam[c], sign * viol[c])
     clock = time.perf_counter()
     run.readings = _evaluate_readings(model, probe, run.t, states[:, 1:1 + model.nq],
                                       states[:, 1 + model.nq:1 + model.nq + model.nv], fields)
@@ -683,26 +710,36 @@ def _read_at_states(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, ru
     if not equalities:
         return
     n = len(run.states)
-    for c in equalities:
-        run.lam[c], run.viol[c] = _rows(model, c, n), _rows(model, c, n)
-    fixed = _fixed_rows(model, run.states)
+    lam = {c: _rows(model, c, n) for c in equalities}
+    viol = {c: _rows(model, c, n) for c in equalities}
+    _read_equalities(model, data, run.states, lam, viol)
+    for c in equalities:  # × the sign elementwise, as _block multiplies each sample
+        sign = probe.sign(c)
+        run.lam[c], run.viol[c] = (lam[c], viol[c]) if sign == 1.0 else (sign * lam[c], sign * viol[c])
+
+
+def _read_equalities(model: mujoco.MjModel, data: mujoco.MjData, states: np.ndarray,
+                     lam: Mapping[str, np.ndarray], viol: Mapping[str, np.ndarray]) -> None:
+    """efc_force and efc_pos of the equalities ``lam`` names (unsigned) after mj_forward at every row of
+    ``states``, into ``lam`` and ``viol`` (arrays of len(states) rows). Sensors are skipped: nothing
+    of the constraint solver reads them (the efc rows are bit for bit mj_forward's, checked with the
+    rest by :func:`_verify`)."""
+    fixed = _fixed_rows(model, states)
     if fixed is None:
-        for k in range(n):
-            _forward_at(model, data, run.states[k])
-            for c in equalities:
-                run.lam[c][k], run.viol[c][k] = _block(model, data, c, probe.sign(c))
+        for k, state in enumerate(states):
+            _forward_at(model, data, state)
+            for c in lam:
+                lam[c][k], viol[c][k] = _block(model, data, c)
         return
     # the same numbers with no search per sample: each equality's rows are a fixed slice of efc_*
-    slices = [(run.lam[c], run.viol[c], fixed[c]) for c in equalities]
-    force, pos = data.efc_force, data.efc_pos
-    for k, state in enumerate(run.states):
+    slices = [(lam[c], viol[c], fixed[c]) for c in lam]
+    none = mujoco.mjtStage.mjSTAGE_NONE
+    for k, state in enumerate(states):
         mujoco.mj_setState(model, data, state, _STATE)
-        mujoco.mj_forward(model, data)
-        for lam, viol, rows in slices:
-            lam[k], viol[k] = force[rows], pos[rows]
-    for c in equalities:
-        if probe.sign(c) != 1.0:  # elementwise, as _block multiplies each sample
-            run.lam[c], run.viol[c] = probe.sign(c) * run.lam[c], probe.sign(c) * run.viol[c]
+        mujoco.mj_forwardSkip(model, data, none, 1)
+        force, pos = data.efc_force, data.efc_pos  # views sized by this forward's nefc
+        for values, errors, rows in slices:
+            values[k], errors[k] = force[rows], pos[rows]
 
 
 def _fixed_rows(model: mujoco.MjModel, states: np.ndarray) -> dict[str, slice | int] | None:
