@@ -124,10 +124,12 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
         explained = {part: dev.magnitude(values) for part, values in parts.items()}
         # float64: noise × ROUNDOFF × size, in that order (the C backend's limits bit for bit as before)
         solved = dev.name.quantity not in UNSOLVED  # passes through M⁻¹: its round-off grows with cond(M)
-        roundoff = noise * (PERTURBED_FACTOR * max(dev.magnitude(c - dev.values) for c in copies[dev.name])
-                            + (represented or {}).get(dev.name, 0.0) + READ_ULPS * epsilon * dev.size) \
-            if dev.name in copies else \
-            noise * max(ROUNDOFF, CONDITIONED * conditioning * FLOAT64 if solved else 0.0) * dev.size
+        roundoff = noise * max(ROUNDOFF, CONDITIONED * conditioning * FLOAT64 if solved else 0.0) * dev.size
+        if dev.name in copies:
+            spread = noise * (PERTURBED_FACTOR * max(dev.magnitude(c - dev.values) for c in copies[dev.name])
+                              + (represented or {}).get(dev.name, 0.0) + READ_ULPS * epsilon * dev.size)
+            # float32: the copies' spread is the round-off; float64 (a contact's solve): the larger of the two
+            roundoff = spread if epsilon > FLOAT64 else max(roundoff, spread)
         tolerance = {"softness": SOFTNESS_UNCERTAINTY * explained.get("softness", 0.0) if softness_unc is None
                      else softness_unc,
                      "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),

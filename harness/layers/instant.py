@@ -281,6 +281,14 @@ def instant_deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
     return instant_evaluation(model, probe, ref, count=count).deviations
 
 
+def has_contacts(model: mujoco.MjModel) -> bool:
+    """Whether ``model`` can make contacts: explicit pairs, or collision on with geoms that may collide."""
+    off = int(mujoco.mjtDisableBit.mjDSBL_CONTACT) | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    if model.opt.disableflags & off:
+        return False
+    return bool(model.npair) or bool(np.any((model.geom_contype != 0) | (model.geom_conaffinity != 0)))
+
+
 def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, count: int = DEFAULT_SAMPLES,
                        perturbed: bool = False) -> InstantEvaluation:
     """The instantaneous figures on the active backend (:func:`harness.engine.backends.active`).
@@ -295,7 +303,8 @@ def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
     ``instant.kinematics``. On the C backend everything is ``mj_forward``'s, as it always was.
 
     ``perturbed``: on a float32 backend, also the backend's forward of the model's round-off copies
-    (:func:`harness.engine.variants.roundoff_copy`) at the same states (:attr:`InstantEvaluation.perturbed`)."""
+    (:func:`harness.engine.variants.roundoff_copy`) at the same states (:attr:`InstantEvaluation.perturbed`);
+    on the C backend, the float64 copies' where the model has contacts (:func:`has_contacts`)."""
     probe.validate(model)
     dyn = ref.dynamics
     q, qd = sample_states(ref, count)
@@ -309,6 +318,16 @@ def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
                       for k in range(1, PERTURBED_RUNS + 1)]
     measured = _measure(model, probe, dyn, q, qd, states=None, fwd=fwd, offset=0)
     deviations, unavailable, failing = _deviations(model, probe, ref, q, qd, measured, backend.name)
+    if perturbed and backend.name == "c" and has_contacts(model):
+        # float64 too: a contact's solve amplifies round-off by its conditioning (impratio sets the friction
+        # rows' regularizer), which the assumed ROUNDOFF does not bound; the copies measure it
+        epsilon = float(np.finfo(np.float64).eps)
+        c_copies = [V.roundoff_copy(model, epsilon=epsilon, index=k) for k in range(1, PERTURBED_RUNS + 1)]
+        others = [[d for d in _deviations(copy, probe, ref, q, qd, _measure(copy, probe, dyn, q, qd, states=None,
+                                                                             fwd=None, offset=0), "c")[0]
+                   if d.name != FigureName.instant("kinematics")] for copy in c_copies]
+        return InstantEvaluation(deviations=deviations, perturbed=tuple(others), unavailable=unavailable,
+                                 failing=failing)
     completed, completion_note = None, ""
     if fwd is not None and backend.epsilon > float(np.finfo(np.float64).eps):
         completion = completed_forward(model, fwd, backend.epsilon,

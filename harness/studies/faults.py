@@ -157,6 +157,16 @@ def _option(name: str, value: object) -> Callable[[Case, mujoco.MjModel, float],
     return make
 
 
+def _impratio(factor: float) -> Callable[[Case, mujoco.MjModel, float], SpecEdit]:
+    """``impratio`` × ``factor``: how stiff the friction rows are against the normal one (XMLreference.rst,
+    "option/impratio"): how the contact is regularized, not the friction law."""
+    def make(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+        def edit(spec: mujoco.MjSpec) -> None:
+            spec.option.impratio = float(model.opt.impratio) * factor
+        return edit
+    return make
+
+
 def _no_warmstart(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
     def edit(spec: mujoco.MjSpec) -> None:
         spec.option.disableflags = int(spec.option.disableflags) | int(mujoco.mjtDisableBit.mjDSBL_WARMSTART)
@@ -430,6 +440,8 @@ SETTINGS: tuple[Change, ...] = (
     Change("noslip=10", "setting", "10 noslip iterations after the main solver", make=_option("noslip_iterations", 10)),
     Change("warmstart-off", "setting", "the solver not warm-started", make=_no_warmstart),
     Change("iterations=1000", "setting", "the solver's iteration cap 1000", make=_option("iterations", 1000)),
+    Change("impratio×10", "setting", "the friction rows' impedance ratio × 10 (impratio)", make=_impratio(10.0),
+           applies=_has("pair")),
     Change("masses×2", "setting", "every body twice as heavy (mass and inertia)", make=_masses),
     Change("lengths×1.5", "setting", f"every length × {LENGTH_FACTOR:g}", make=_lengths),
     Change("gravity=9.0", "setting", "gravity 9.0 m/s² instead of 9.81", make=_gravity, applies=_has("gravity")),
