@@ -220,13 +220,13 @@ def test_the_gated_checks_table_is_driven_by_its_list_of_columns(run):
     rows = table.split("<tr")[1:]
     assert "<th>headroom</th>" in rows[0]
     # a budget part's column is shown where some check has that part: the pendulum's budgets have
-    # integration, softness (its rod) and floors (its point mass), no solver part (Newton converges) and no
-    # stop part (the C engine is float64)
+    # integration, softness (its rod) and floors (its point mass), no margin part (no contact), no solver part
+    # (Newton converges) and no stop part (the C engine is float64)
     present = {p for c in checks[CASE] if c.budget is not None for p in c.budget.explained}
     assert present == {"integration", "softness", "floors"}
-    assert "<th>solver</th>" not in rows[0] and "<th>stop</th>" not in rows[0]
+    assert all(f"<th>{p}</th>" not in rows[0] for p in ("margin", "solver", "stop"))
     assert all(f"<th>{p}</th>" in rows[0] for p in present)
-    shown = len(report.CHECK_COLUMNS) - 2 + 1  # every column but the solver's and the stop's, and the new one
+    shown = len(report.CHECK_COLUMNS) - 3 + 1  # all but the margin, solver and stop columns, and the new one
     data = [r for r in rows if "class='group'" not in r][1:]
     assert len(data) == len(checks[CASE]) and all(r.count("<td") == shown for r in data)
     assert all(f"colspan='{shown}'" in r for r in rows if "class='group'" in r)

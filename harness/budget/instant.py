@@ -77,7 +77,7 @@ FLOAT64 = float(np.finfo(float).eps)
 
 def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation]] = (),
                     heavier: Sequence[Deviation] | None = None, lighter: Sequence[Deviation] | None = None,
-                    converged: Sequence[Deviation] | None = None,
+                    converged: Sequence[Deviation] | None = None, margins: Sequence[Deviation] | None = None,
                     eps_factor: float = 2.0, solver_tolerance: float = 0.0, notes: Sequence[str] = (),
                     perturbed: Sequence[Sequence[Deviation]] = (),
                     represented: Mapping[FigureName, float] | None = None,
@@ -88,6 +88,8 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
     where they apply, the model's with every ε × s, s² (``softness``, s = ``eps_factor``) and with
     heavier floors (D) at the same states; ``lighter``: where given, the floors' part is D − ``lighter``
     instead of D − A (the pair :func:`~harness.engine.variants.floors_pair` makes without fluid forces).
+    ``margins``: A with every contact margin doubled (:func:`~harness.engine.variants.wider_margins`); the
+    margin part is that minus A, linear in the margin.
     ``converged``: A with the constraints solved exactly, where the model's own solver does not converge
     (the other evaluations are then made that way too).
     ``completed``: on a float32 backend, A with the backend's stopped solve completed in float64
@@ -97,8 +99,9 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
     floors_base = {d.name: d.values for d in lighter or ()}
     exact = {d.name: d.values for d in converged or ()}
     stopped = {d.name: d.values for d in completed or ()}
+    wider = {d.name: d.values for d in margins or ()}
     noise = (gain(len(levels) + 1, eps_factor) if levels else 1.0) + (2.0 if floors else 0.0) \
-        + (2.0 if exact else 0.0)
+        + (2.0 if exact else 0.0) + (2.0 if wider else 0.0)
     copies: dict[FigureName, list[np.ndarray]] = {}
     for group in perturbed:
         for d in group:
@@ -120,6 +123,8 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
             softness_unc = None if uncertainty is None else dev.magnitude(uncertainty)
         if dev.name in floors:
             parts["floors"] = floors[dev.name] - floors_base.get(dev.name, a)
+        if dev.name in wider:
+            parts["margin"] = wider[dev.name] - a
         ideal = dev.values - sum(parts.values()) if parts else dev.values
         explained = {part: dev.magnitude(values) for part, values in parts.items()}
         # float64: noise × ROUNDOFF × size, in that order (the C backend's limits bit for bit as before)
@@ -133,6 +138,7 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
         tolerance = {"softness": SOFTNESS_UNCERTAINTY * explained.get("softness", 0.0) if softness_unc is None
                      else softness_unc,
                      "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),
+                     "margin": FLOOR_UNCERTAINTY * explained.get("margin", 0.0),
                      "solver": SOLVER_PART_UNCERTAINTY * explained.get("solver", 0.0),
                      "stop": SOLVER_PART_UNCERTAINTY * explained.get("stop", 0.0),
                      "roundoff": roundoff,

@@ -112,8 +112,10 @@ def instant_budget(mut: ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref
         base, more = V.floors_pair(model, settings.point_masses)
         heavier, lighter = evaluate(more), (evaluate(base) if base is not None else None)
     converged = evaluate(None) if exact is not None else None
+    wider = V.wider_margins(model)
+    margins = evaluate(wider) if wider is not None else None
     return instant_budgets(as_is, conditioning=conditioning, softness=softness, heavier=heavier, lighter=lighter,
-                           converged=converged,
+                           converged=converged, margins=margins,
                            eps_factor=eps_factor,
                            solver_tolerance=V.CONVERGED_TOLERANCE if exact is not None else settings.solver_tolerance,
                            notes=(*settings.notes, *((completion_note,) if completion_note else ())),

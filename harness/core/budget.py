@@ -65,8 +65,9 @@ a force spike no copy of the arithmetic reproduces at the same instant. Measured
 RK4, 1000 steps): spikes of the rod's force up to 2.5 × that response (1.9e-3 of the tension at step 4);
 4 is that × 1.6, the margin."""
 
-PARTS = ("integration", "softness", "floors", "solver", "stop")
-TOLERANCES = ("integration", "softness", "floors", "solver", "stop", "roundoff", "reference", "convergence")
+PARTS = ("integration", "softness", "floors", "margin", "solver", "stop")
+TOLERANCES = ("integration", "softness", "floors", "margin", "solver", "stop", "roundoff", "reference",
+              "convergence")
 
 
 def ulp_states(x: Sequence[float], *, epsilon: float, seed: int) -> np.ndarray:

@@ -347,6 +347,22 @@ def floors_pair(model: mujoco.MjModel, bodies: tuple[str, ...]) -> tuple[SpecEdi
     return None, heavier_floors(bodies)
 
 
+def wider_margins(model: mujoco.MjModel) -> SpecEdit | None:
+    """Double every contact margin (explicit pairs' and geoms'), or None where none is set. A contact is
+    active below its margin and pushes towards it: at a state in contact (distance 0) its reference
+    acceleration holds k·margin (k = 1/(d_max τ ζ)², computation/index.rst, "Soft constraints"), linear in
+    the margin and independent of 1 − d, which the softness part does not remove."""
+    if not (np.any(model.pair_margin > 0) or np.any(model.geom_margin > 0)):
+        return None
+
+    def edit(spec: mujoco.MjSpec) -> None:
+        for pair in spec.pairs:
+            pair.margin = 2.0 * float(pair.margin)
+        for geom in spec.geoms:
+            geom.margin = 2.0 * float(geom.margin)
+    return edit
+
+
 def heavier_floors(bodies: tuple[str, ...]) -> SpecEdit:
     """Double the rotational inertia of ``bodies`` (their explicit <inertial>)."""
     def edit(spec: mujoco.MjSpec) -> None:

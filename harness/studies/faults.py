@@ -157,6 +157,16 @@ def _option(name: str, value: object) -> Callable[[Case, mujoco.MjModel, float],
     return make
 
 
+def _other_cone(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+    """The other friction cone (XMLreference.rst, "option/cone"): another approximation of one friction law,
+    the same forces wherever the contact sticks inside the cone."""
+    elliptic = int(model.opt.cone) == int(mujoco.mjtCone.mjCONE_ELLIPTIC)
+
+    def edit(spec: mujoco.MjSpec) -> None:
+        spec.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL if elliptic else mujoco.mjtCone.mjCONE_ELLIPTIC
+    return edit
+
+
 def _impratio(factor: float) -> Callable[[Case, mujoco.MjModel, float], SpecEdit]:
     """``impratio`` × ``factor``: how stiff the friction rows are against the normal one (XMLreference.rst,
     "option/impratio"): how the contact is regularized, not the friction law."""
@@ -440,6 +450,8 @@ SETTINGS: tuple[Change, ...] = (
     Change("noslip=10", "setting", "10 noslip iterations after the main solver", make=_option("noslip_iterations", 10)),
     Change("warmstart-off", "setting", "the solver not warm-started", make=_no_warmstart),
     Change("iterations=1000", "setting", "the solver's iteration cap 1000", make=_option("iterations", 1000)),
+    Change("other-cone", "setting", "the other friction cone (pyramidal for elliptic, and back)", make=_other_cone,
+           applies=_has("pair")),
     Change("impratio×10", "setting", "the friction rows' impedance ratio × 10 (impratio)", make=_impratio(10.0),
            applies=_has("pair")),
     Change("masses×2", "setting", "every body twice as heavy (mass and inertia)", make=_masses),
