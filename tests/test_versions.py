@@ -437,3 +437,19 @@ def test_versions_builds_the_harness_from_a_regular_install(tmp_path):
         points = next(built.read(n).decode() for n in built.namelist() if n.endswith("entry_points.txt"))
     assert files == installed and any(f.endswith("mjcf/pendulum.xml") for f in files)
     assert "mjharness = harness.cli.entry:entry" in points and "mjharness = harness.pytest_plugin" in points
+
+
+@pytest.mark.slow
+def test_versions_judges_a_users_own_model_on_each_release(tmp_path, capsys):
+    """Issue 30: ``versions … -- --mjcf FILE`` on a model no case describes (the case-free path: its own tree's
+    reference on every release), here the 7-DoF arm of benchmarks/, on the oldest supported MuJoCo and 4.0.0:
+    both run, the figures of the arm compared, and the integrator 4.0 added shown as arrived."""
+    arm = Path(__file__).resolve().parent.parent / "benchmarks" / "models" / "arm7.xml"
+    out = tmp_path / "out"
+    code = main(["versions", "3.3.0", "4.0.0", "--out", str(out), "--no-plots", "--", "--mjcf", str(arm)])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    assert "2 of 2 release(s) run (3.3.0, 4.0.0)" in text and f"check options: --mjcf {arm}" in text
+    doc = json.loads((out / "versions.json").read_text())
+    assert list(doc["figures"]) == ["arm7"] and doc["releases"] == ["3.3.0", "4.0.0"]
+    assert "appeared: 6 figure(s) of discrete in 1 case(s) (arm7)" in text

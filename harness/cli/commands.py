@@ -794,7 +794,8 @@ COMMANDS: dict[str, Command] = {
                         "report what changed from release to release: verdict flips (known defects included), "
                         "figures that moved beyond their noise, figures that appeared or vanished. Options for "
                         "the check go after --, e.g. mjharness versions 3.17.0 4.0.0 -- --case pendulum --mjcf "
-                        "my.xml. Exit 1 where a release could not be run."),
+                        "my.xml, or -- --mjcf robot.xml for a model of your own. Exit 1 where a release could "
+                        "not be run."),
     "baseline": Command("write or compare the regression baseline", _args_baseline, cmd_baseline,
                         "write or compare the regression baseline (reports/baseline/)"),
     "limits": Command("each case's limits with their basis", _args_limits, cmd_limits,
