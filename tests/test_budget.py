@@ -18,6 +18,7 @@ from harness.core.figures import FigureName
 from harness.engine import variants as V
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
+from harness.layers import orders
 from harness.pipeline.limits import load_limits
 from harness.pipeline.run import run_case
 from harness.pipeline.verdict import judge
@@ -209,6 +210,7 @@ def test_a_fluid_fails_on_a_point_mass_at_the_size_the_catalog_claims(fault):
     ("iterations=1000", lambda m: m.opt.iterations == 1000),
     ("impratio×10", lambda m: m.opt.impratio == 100.0),
     ("other-cone", lambda m: int(m.opt.cone) == int(mujoco.mjtCone.mjCONE_PYRAMIDAL)),
+    ("refsafe-off", lambda m: bool(int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_REFSAFE))),
 ])
 def test_the_solver_settings_of_the_catalog_change_what_they_name(name, read):
     """The settings MuJoCo documents as changing how constraints are solved (issue 30's item 3; every case
@@ -240,6 +242,22 @@ def test_the_pyramidal_cone_passes_on_the_contact_case_its_margin_explained():
     qacc = result.budgets["instant.qacc"]
     assert qacc.explained["margin"] > 1e3 * qacc.unexplained  # 2.5e-6 of qacc's scale against 9.5e-10
     assert V.wider_margins(compile_model(cases.get("pendulum").mjcf)) is None  # no margin: no part, no run
+
+
+def test_refsafe_off_passes_its_ladder_run_down_from_the_models_step():
+    """refsafe off on the pendulum failed 4 order checks, 3 of them diverged (mjWARN_BADQACC at h = 4 ms):
+    the ladder ran above the model's step, where the rod's 2 ms time constant, no longer raised to 2h, is
+    unstable. Its ladder now runs down from h, as a user's model with equalities does; the orders pass (RK4's
+    is n/a, its error on the softness's floor, saying so)."""
+    case = cases.get("pendulum")
+    change = faults.by_name("refsafe-off")
+    model = compile_model(case.mjcf, edit=change.edit(case))
+    assert orders.refsafe_off(model) and not orders.refsafe_off(compile_model(case.mjcf))
+    trial = sensitivity.trial(case, change)
+    assert trial.verdict == "pass" and trial.as_expected, trial
+    study = orders.convergence_study(case, fast=True, edit=change.edit(case))
+    assert all(max(s.dts) <= model.opt.timestep * (1 + 1e-12) for s in study.series)
+    assert study.verdicts and all(s.passed for s in study.verdicts) and not any(s.diverged for s in study.series)
 
 
 def test_float64_round_off_is_measured_where_contacts_are_and_only_there():

@@ -359,6 +359,15 @@ def _compose(*edits: Callable[[mujoco.MjSpec], None] | None) -> Callable[[mujoco
     return edit
 
 
+def refsafe_off(model: mujoco.MjModel) -> bool:
+    """Whether ``model`` has soft constraints (equalities, contact pairs) with MuJoCo's refsafe flag off: its
+    time constants are then taken as written at any timestep (no floor at 2h; XMLreference.rst, "flag/refsafe"),
+    and a step well above them is unstable, so its ladder runs down from its own timestep, as a user's model with
+    equalities does (:data:`DOWN_ABOVE`)."""
+    off = bool(model.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_REFSAFE))
+    return off and bool(model.neq or model.npair)
+
+
 def _ladder(integrator: str, fast: bool) -> tuple[float, ...]:
     table = FAST_LADDER if fast else FULL_LADDER
     return table[4 if EXPECTED_ORDER[integrator] >= 4 else 1]
@@ -481,6 +490,8 @@ def convergence_study(
             multiples = {n: _tree_ladder(n, fast, math.inf) for n in chosen}
         else:
             multiples = {n: _tree_ladder(n, fast, _error_at(path, n, h0, edit, case, reference, span)) for n in chosen}
+    elif refsafe_off(base):  # no 2h floor on the time constants: above h a stiff row is unstable, not softer
+        multiples = {n: tuple(k / max(m) for k in m) for n, m in multiples.items()}
     h_max = h0 * max(max(m) for m in multiples.values())
     horizon = max(1, math.floor(span / h_max + 1e-9)) * h_max  # at least one largest step
     if reference is None or reference.solution.t_end < horizon - 1e-12:

@@ -157,6 +157,14 @@ def _option(name: str, value: object) -> Callable[[Case, mujoco.MjModel, float],
     return make
 
 
+def _refsafe_off(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+    """refsafe off (XMLreference.rst, "flag/refsafe"): solref's time constant no longer raised to 2h; at the
+    model's own step (every case's stiff rows sit at 2h) nothing changes, above it the regularization would."""
+    def edit(spec: mujoco.MjSpec) -> None:
+        spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_REFSAFE)
+    return edit
+
+
 def _other_cone(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
     """The other friction cone (XMLreference.rst, "option/cone"): another approximation of one friction law,
     the same forces wherever the contact sticks inside the cone."""
@@ -450,6 +458,8 @@ SETTINGS: tuple[Change, ...] = (
     Change("noslip=10", "setting", "10 noslip iterations after the main solver", make=_option("noslip_iterations", 10)),
     Change("warmstart-off", "setting", "the solver not warm-started", make=_no_warmstart),
     Change("iterations=1000", "setting", "the solver's iteration cap 1000", make=_option("iterations", 1000)),
+    Change("refsafe-off", "setting", "the refsafe flag off: time constants as written at every timestep",
+           make=_refsafe_off, applies=_has("soft")),
     Change("other-cone", "setting", "the other friction cone (pyramidal for elliptic, and back)", make=_other_cone,
            applies=_has("pair")),
     Change("impratio×10", "setting", "the friction rows' impedance ratio × 10 (impratio)", make=_impratio(10.0),
