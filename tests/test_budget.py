@@ -211,12 +211,15 @@ def test_a_fluid_fails_on_a_point_mass_at_the_size_the_catalog_claims(fault):
     ("impratio×10", lambda m: m.opt.impratio == 100.0),
     ("other-cone", lambda m: int(m.opt.cone) == int(mujoco.mjtCone.mjCONE_PYRAMIDAL)),
     ("refsafe-off", lambda m: bool(int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_REFSAFE))),
+    ("other-jacobian", lambda m: bool(mujoco.mj_isSparse(m))),
+    ("ls_tolerance=1e-3", lambda m: m.opt.ls_tolerance == 1e-3),
+    ("solreffriction", lambda m: m.pair_solreffriction.tolist() == [[0.004, 1.0]]),
 ])
 def test_the_solver_settings_of_the_catalog_change_what_they_name(name, read):
     """The settings MuJoCo documents as changing how constraints are solved (issue 30's item 3; every case
     passes each: tests/test_budget_matrix.py, slow) are in the catalog, each setting what it names."""
     change = faults.by_name(name)
-    case = cases.get("hoop_ramp_contact" if name in ("impratio×10", "other-cone") else "hoop_plane")
+    case = cases.get("hoop_ramp_contact" if name in ("impratio×10", "other-cone", "solreffriction") else "hoop_plane")
     assert change.kind == "setting" and not read(compile_model(case.mjcf))
     assert read(compile_model(case.mjcf, edit=change.edit(case)))
 

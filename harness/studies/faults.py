@@ -157,6 +157,25 @@ def _option(name: str, value: object) -> Callable[[Case, mujoco.MjModel, float],
     return make
 
 
+def _other_jacobian(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+    """The other layout of the constraint Jacobian (XMLreference.rst, "option/jacobian"): the same matrix stored
+    another way, a numerical method only."""
+    sparse = bool(mujoco.mj_isSparse(model))
+
+    def edit(spec: mujoco.MjSpec) -> None:
+        spec.option.jacobian = mujoco.mjtJacobian.mjJAC_DENSE if sparse else mujoco.mjtJacobian.mjJAC_SPARSE
+    return edit
+
+
+def _solreffriction(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+    """Each pair's friction rows at a solref of their own (XMLreference.rst, "pair/solreffriction"): how those
+    rows are regularized, 2 × the shipped normal time constant."""
+    def edit(spec: mujoco.MjSpec) -> None:
+        for pair in spec.pairs:
+            pair.solreffriction = [0.004, 1.0]
+    return edit
+
+
 def _refsafe_off(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
     """refsafe off (XMLreference.rst, "flag/refsafe"): solref's time constant no longer raised to 2h; at the
     model's own step (every case's stiff rows sit at 2h) nothing changes, above it the regularization would."""
@@ -458,6 +477,12 @@ SETTINGS: tuple[Change, ...] = (
     Change("noslip=10", "setting", "10 noslip iterations after the main solver", make=_option("noslip_iterations", 10)),
     Change("warmstart-off", "setting", "the solver not warm-started", make=_no_warmstart),
     Change("iterations=1000", "setting", "the solver's iteration cap 1000", make=_option("iterations", 1000)),
+    Change("other-jacobian", "setting", "the other constraint Jacobian layout (sparse for dense, and back)",
+           make=_other_jacobian),
+    Change("ls_tolerance=1e-3", "setting", "the solver's line search stopped at tolerance 1e-3",
+           make=_option("ls_tolerance", 1e-3)),
+    Change("solreffriction", "setting", "the contact pairs' friction rows at their own solref (0.004 1)",
+           make=_solreffriction, applies=_has("pair")),
     Change("refsafe-off", "setting", "the refsafe flag off: time constants as written at every timestep",
            make=_refsafe_off, applies=_has("soft")),
     Change("other-cone", "setting", "the other friction cone (pyramidal for elliptic, and back)", make=_other_cone,
