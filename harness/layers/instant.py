@@ -304,7 +304,7 @@ def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
 
     ``perturbed``: on a float32 backend, also the backend's forward of the model's round-off copies
     (:func:`harness.engine.variants.roundoff_copy`) at the same states (:attr:`InstantEvaluation.perturbed`);
-    on the C backend, the float64 copies' where the model has contacts (:func:`has_contacts`)."""
+    on the C backend, the float64 copies' where the model has constraints (equalities, :func:`has_contacts`)."""
     probe.validate(model)
     dyn = ref.dynamics
     q, qd = sample_states(ref, count)
@@ -318,9 +318,10 @@ def instant_evaluation(model: mujoco.MjModel, probe: Probe, ref: Reference, *, c
                       for k in range(1, PERTURBED_RUNS + 1)]
     measured = _measure(model, probe, dyn, q, qd, states=None, fwd=fwd, offset=0)
     deviations, unavailable, failing = _deviations(model, probe, ref, q, qd, measured, backend.name)
-    if perturbed and backend.name == "c" and has_contacts(model):
-        # float64 too: a contact's solve amplifies round-off by its conditioning (impratio sets the friction
-        # rows' regularizer), which the assumed ROUNDOFF does not bound; the copies measure it
+    if perturbed and backend.name == "c" and (model.neq > 0 or has_contacts(model)):
+        # float64 too: a constraint solve amplifies round-off by its conditioning (a contact's friction rows by
+        # impratio; redundant rows, as slider_crank's, by 1/(1 − d)), which the assumed ROUNDOFF does not bound;
+        # the copies measure it
         epsilon = float(np.finfo(np.float64).eps)
         c_copies = [V.roundoff_copy(model, epsilon=epsilon, index=k) for k in range(1, PERTURBED_RUNS + 1)]
         others = [[d for d in _deviations(copy, probe, ref, q, qd, _measure(copy, probe, dyn, q, qd, states=None,

@@ -157,6 +157,43 @@ def _option(name: str, value: object) -> Callable[[Case, mujoco.MjModel, float],
     return make
 
 
+def _disable(flag: str) -> Callable[[Case, mujoco.MjModel, float], SpecEdit]:
+    """``<flag NAME="disable">`` (XMLreference.rst, "option/flag")."""
+    def make(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+        def edit(spec: mujoco.MjSpec) -> None:
+            spec.option.disableflags |= int(getattr(mujoco.mjtDisableBit, f"mjDSBL_{flag}"))
+        return edit
+    return make
+
+
+def _toggle_enabled(flag: str) -> Callable[[Case, mujoco.MjModel, float], SpecEdit]:
+    """``<flag NAME=...>`` the other way from the model's (XMLreference.rst, "option/flag")."""
+    def make(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+        def edit(spec: mujoco.MjSpec) -> None:
+            spec.option.enableflags ^= int(getattr(mujoco.mjtEnableBit, f"mjENBL_{flag}"))
+        return edit
+    return make
+
+
+def _flag_exists(name: str) -> Callable[[Case, mujoco.MjModel], str]:
+    kind = mujoco.mjtEnableBit if name.startswith("mjENBL") else mujoco.mjtDisableBit
+
+    def applies(case: Case, model: mujoco.MjModel) -> str:
+        return "" if hasattr(kind, name) else f"no {name} in MuJoCo {mujoco.__version__}"
+    return applies
+
+
+def _island_toggled(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
+    """Island discovery the other way: a disable flag since MuJoCo 3.3.6 (on by default there, its changelog), an
+    enable flag before; how the constraint problem is split and solved, not what it is."""
+    def edit(spec: mujoco.MjSpec) -> None:
+        if hasattr(mujoco.mjtDisableBit, "mjDSBL_ISLAND"):
+            spec.option.disableflags ^= int(mujoco.mjtDisableBit.mjDSBL_ISLAND)
+        else:
+            spec.option.enableflags ^= int(mujoco.mjtEnableBit.mjENBL_ISLAND)
+    return edit
+
+
 def _other_jacobian(case: Case, model: mujoco.MjModel, size: float) -> SpecEdit:
     """The other layout of the constraint Jacobian (XMLreference.rst, "option/jacobian"): the same matrix stored
     another way, a numerical method only."""
@@ -483,6 +520,11 @@ SETTINGS: tuple[Change, ...] = (
            make=_option("ls_tolerance", 1e-3)),
     Change("solreffriction", "setting", "the contact pairs' friction rows at their own solref (0.004 1)",
            make=_solreffriction, applies=_has("pair")),
+    Change("island-toggled", "setting", "constraint island discovery the other way (on for off, and back)",
+           make=_island_toggled),
+    Change("diagexact-toggled", "setting", "the regularizer from A's exact diagonal or its approximation, the "
+           "other one", make=_toggle_enabled("DIAGEXACT"), applies=_flag_exists("mjENBL_DIAGEXACT")),
+    Change("eulerdamp-off", "setting", "Euler without its implicit joint damping", make=_disable("EULERDAMP")),
     Change("refsafe-off", "setting", "the refsafe flag off: time constants as written at every timestep",
            make=_refsafe_off, applies=_has("soft")),
     Change("other-cone", "setting", "the other friction cone (pyramidal for elliptic, and back)", make=_other_cone,
