@@ -183,6 +183,41 @@ def test_legitimate_settings_pass(arm, setting):
     assert not _failed(v), [(c.name, c.value, c.threshold) for c in v.checks if not c.passed]
 
 
+def _pivot_frame_pendulum(path: Path) -> Path:
+    """The shipped pendulum written with its bob's body frame at the pivot (tests/test_reactions.py's variant)."""
+    text = (ROOT / "mjcf" / "pendulum.xml").read_text()
+    for old, new in [('<body name="bob" pos="0 0 -1">', '<body name="bob" pos="0 0 0">'),
+                     ('type="hinge" pos="0 0 1"', 'type="hinge" pos="0 0 0"'),
+                     ('<inertial pos="0 0 0" mass="1"', '<inertial pos="0 0 -1" mass="1"'),
+                     ('<geom name="bob" type="sphere" size="0.05"', '<geom name="bob" type="sphere" pos="0 0 -1" '
+                                                                    'size="0.05"'),
+                     ('<site name="rod_end" pos="0 0 1"', '<site name="rod_end" pos="0 0 0"'),
+                     ('fromto="0 0 0 0 0 1"', 'fromto="0 0 -1 0 0 0"')]:
+        assert old in text
+        text = text.replace(old, new)
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("variant", ["MuJoCo's default softness", "body frame at the pivot"])
+def test_a_legitimate_rewrite_of_a_model_passes_with_no_case(tmp_path, variant):
+    """Both directions case-free: the welded pendulum with its weld at MuJoCo's default solref and solimp (its order
+    checks n/a, the error on the softness's floor, saying so) and the pendulum with its body frame moved to the pivot
+    each pass against their own trees, as the shipped files do; the gate fails on a fault
+    (test_a_fault_on_the_engines_side_alone_fails)."""
+    if variant == "MuJoCo's default softness":
+        text = (ROOT / "mjcf" / "welded_pendulum.xml").read_text()
+        path = tmp_path / "welded_default.xml"
+        path.write_text(text.replace(' solref="0.002 1"', "").replace(' solimp="0.9999 0.9999 0.001 0.5 2"', ""))
+        assert compile_model(path).eq_solimp[0, 0] == pytest.approx(0.9)
+    else:
+        path = _pivot_frame_pendulum(tmp_path / "pivot.xml")
+    v = harness.validate(mjcf=path)
+    assert not _failed(v), [(c.name, c.value, c.threshold) for c in v.checks if not c.passed]
+    assert sum(c.passed for c in v.checks) >= 30
+
+
 @pytest.mark.slow
 def test_a_floating_body_with_a_ball_joint_passes_and_a_heavier_flap_fails(tumbler):
     """Without gravity the tumbler's linear and angular momentum are conserved, and checked: MuJoCo's own drift and
