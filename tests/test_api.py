@@ -148,6 +148,7 @@ def test_limits_and_cases_can_be_given(shipped):
 
 @pytest.mark.parametrize("kwargs, needle", [
     ({"case": "pendulumm"}, "known cases: atwood"),
+    ({"case": "pendulm"}, r"unknown case 'pendulm'; did you mean 'pendulum'\? known cases: atwood"),
     ({"case": 3}, "case must be a case name"),
     ({"case": "pendulum", "integrators": []}, "at least one integrator"),
     ({"case": "pendulum", "integrators": ["Verlet"]}, "unknown integrator 'Verlet'"),
