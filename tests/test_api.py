@@ -4,15 +4,20 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
 import harness
 from harness.cases import get
+from harness.core.budget import Budget
+from harness.core.checks import Check
 from harness.engine.compat import set_damping
 from harness.outputs.jsondoc import dumps
+from harness.outputs.table import verdict_line
 from harness.studies.faults import by_name
 
 RK4 = ["RK4"]  # one integrator keeps these runs short; the others are judged by the generic tests
@@ -59,8 +64,47 @@ def test_a_fault_fails_with_every_failure_listed(damped):
         damped.raise_for_failures()
     assert isinstance(err.value, AssertionError) and err.value.validation is damped
     message = str(err.value)
-    assert f"{len(damped.failures)} of {len(damped.checks)} checks failed" in message
-    assert all(c.name in message for c in damped.failures) and "RK4.position" in message
+    verdict, *lines = message.splitlines()
+    assert verdict.startswith(f"FAIL — {len(damped.failures)} of {len(damped.checks)} checks fail, in 1 of 1 case(s)")
+    assert verdict.endswith(f"; model {damped.mjcf}")
+    assert [line.split(":")[0] for line in lines] == [f"  pendulum {c.name}" for c in damped.failures]
+    position = next(line for line in lines if " RK4.position: " in line)
+    check = damped.check("RK4.position")
+    assert position == (f"  pendulum RK4.position: measured {check.value:.3g} m, unexplained "
+                        f"{check.budget.unexplained:.3g} m vs limit {check.threshold:.3g} m "
+                        f"({check.budget.unexplained / check.threshold:.3g}× over)")
+    assert "Validation(" not in message and "Check(" not in message
+    assert repr(damped) == (f"<Validation 'pendulum' ({Path(damped.mjcf).name}): {len(damped.failures)} of "
+                            f"{len(damped.checks)} checks failed>")
+
+
+def test_the_failure_message_has_one_line_per_kind_of_failure():
+    """A budget's, a fixed limit's (a dimensionless figure: no unit), a run that diverged, a figure with no
+    budget, a known defect and a figure that is not finite: each on its line, after the verdict."""
+    budget = Budget(measured=3e-4, explained={"integration": 1e-4}, unexplained=2e-4, tolerance={"floors": 1e-5})
+    diverged = "diverged: mjWARN_BADQACC at t = 0.25 s"
+    known = "RK4 order 1 on a ball joint; observed order 1.0"
+    checks = (Check("pendulum", "RK4.position", 3e-4, 1e-5, "m", budget=budget),
+              Check("pendulum", "converge.RK4.order_shortfall", 0.55, 0.3, "1"),
+              Check("pendulum", "Euler.position", math.nan, math.nan, "", diverged=diverged),
+              Check("pendulum", "implicit.position", 1.0, math.nan, "m", diverged="no budget was computed"),
+              Check("pendulum", "RK4.force.rod", 2.0, 1.0, "N", known=known),
+              Check("pendulum", "RK4.drift.energy", math.inf, 1e-9, "1"),
+              Check("pendulum", "RK4.velocity", 1e-9, 1e-6, "m/s"),  # passes: not listed
+              Check("pendulum", "Euler.velocity", math.nan, math.nan, "", note="not in this MuJoCo"))  # n/a: not listed
+    result = harness.Validation(case="pendulum", mjcf="/models/mine.xml", checks=checks, figures=())
+    assert repr(result) == "<Validation 'pendulum' (mine.xml): 6 of 8 checks failed>"
+    assert str(harness.ValidationFailed(result)).splitlines() == [
+        "FAIL — 6 of 8 checks fail, in 1 of 1 case(s): pendulum (6); 1 of them known defects of this MuJoCo "
+        "(RK4 order 1 on a ball joint); 1 n/a; model /models/mine.xml",
+        "  pendulum RK4.position: measured 0.0003 m, unexplained 0.0002 m vs limit 1e-05 m (20× over)",
+        "  pendulum converge.RK4.order_shortfall: measured 0.55 vs limit 0.3 (1.83× over)",
+        "  pendulum Euler.position: diverged: mjWARN_BADQACC at t = 0.25 s",
+        "  pendulum implicit.position: not measurable: no budget was computed",
+        "  pendulum RK4.force.rod: measured 2 N vs limit 1 N (2× over); known defect: RK4 order 1 on a ball joint; "
+        "observed order 1.0",
+        "  pendulum RK4.drift.energy: measured inf vs limit 1e-09 (not finite)",
+    ]
 
 
 def test_the_json_is_the_report_schema(shipped):
@@ -125,8 +169,13 @@ def test_a_requirement_is_a_second_verdict_on_the_models_own_integrator(shipped)
     unfit = harness.validate("pendulum", integrators=RK4, require={"position": 1e-15})
     assert unfit.passed and not unfit.fit and [str(f.figure) for f in unfit.unmet] == ["RK4.position"]
     assert unfit.outcome.exit_code == 3
-    with pytest.raises(harness.ValidationFailed, match=r"0 of \d+ checks failed, 1 requirement\(s\) not met"):
+    with pytest.raises(harness.ValidationFailed) as err:
         unfit.raise_for_failures()
+    (position,) = unfit.unmet
+    assert verdict_line(unfit.outcome).startswith("PASS — ")
+    assert str(err.value).splitlines() == [
+        f"{verdict_line(unfit.outcome)}; 1 requirement(s) not met; model {unfit.mjcf}",
+        f"  pendulum RK4.position: measured {position.value:.3g} m vs required 1e-15 (requirement position not met)"]
     with pytest.raises(ValueError, match="matches no figure"):
         harness.validate("pendulum", integrators=RK4, require={"posture": 1e-3})
 
@@ -203,9 +252,10 @@ def test_my_damped_pendulum(mjharness):
 '''
 
 
-def test_the_plugin_validates_a_users_variant_in_their_own_suite(pytester):
+def test_the_plugin_validates_a_users_variant_in_their_own_suite(pytester, monkeypatch):
     """An outside test file, run by pytest in a fresh process with only the installed plugin: the fixture
     passes the user's faithful copy of the model and fails their damped one, naming the failed checks."""
+    monkeypatch.setenv("PYTHONPATH", str(Path(harness.__file__).parents[1]))  # this checkout's harness and plugin
     shipped = get("pendulum").mjcf.read_text()
     assert 'damping="0"' in shipped
     pytester.makefile(".xml", my_pendulum=shipped,
@@ -214,5 +264,6 @@ def test_the_plugin_validates_a_users_variant_in_their_own_suite(pytester):
     result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-v")
     result.assert_outcomes(passed=1, failed=1)
     result.stdout.fnmatch_lines(["*mjharness 0.1.0, MuJoCo *", "*test_my_pendulum_is_valid PASSED*",
-                                 "*ValidationFailed: case 'pendulum' (*my_damped_pendulum.xml): * checks failed*",
-                                 "*RK4.position: measured * m, unexplained * > limit *"])
+                                 "*ValidationFailed: FAIL — * checks fail, in 1 of 1 case(s): pendulum (*); model "
+                                 "*my_damped_pendulum.xml",
+                                 "*  pendulum RK4.position: measured * m, unexplained * m vs limit * m (*× over)"])
