@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -238,32 +239,72 @@ def test_arguments_of_the_wrong_type_are_refused_naming_them(kwargs, error, need
 USER_TESTS = '''
 from pathlib import Path
 
-MODEL = Path(__file__).parent / "my_pendulum.xml"
-BROKEN = Path(__file__).parent / "my_damped_pendulum.xml"
+MODEL = Path(__file__).parent / "models" / "my_pendulum.xml"
 
 
-def test_my_pendulum_is_valid(mjharness):
+def test_my_pendulum_is_valid(mjharness):  # an absolute path: unchanged
     result = mjharness.assert_valid("pendulum", mjcf=MODEL, integrators=["RK4"])
     assert result.figure("RK4.position").value < 1e-6
 
 
-def test_my_damped_pendulum(mjharness):
-    mjharness.assert_valid("pendulum", mjcf=BROKEN, integrators=["RK4"])
+def test_my_damped_pendulum(mjharness):  # relative to this file, not to pytest's working directory
+    mjharness.assert_valid("pendulum", mjcf="models/my_damped_pendulum.xml", integrators=["RK4"])
+
+
+def test_a_missing_model(mjharness):
+    mjharness.assert_valid("pendulum", mjcf="models/my_pendulm.xml", integrators=["RK4"])
+
+
+def test_a_mistyped_case(mjharness):
+    mjharness.assert_valid("pendulm", mjcf=MODEL, integrators=["RK4"])
 '''
 
 
+def _section(stdout: str, test: str) -> list[str]:
+    """The lines pytest shows for one failed test (between its ``___ test ___`` header and the next)."""
+    lines = stdout.splitlines()
+    start = next(i for i, line in enumerate(lines) if re.fullmatch(rf"_+ {test} _+", line))
+    end = next((i for i, line in enumerate(lines[start + 1:], start + 1) if re.match(r"^(_{3,} |=+ )", line)),
+               len(lines))
+    return lines[start + 1:end]
+
+
 def test_the_plugin_validates_a_users_variant_in_their_own_suite(pytester, monkeypatch):
-    """An outside test file, run by pytest in a fresh process with only the installed plugin: the fixture
-    passes the user's faithful copy of the model and fails their damped one, naming the failed checks."""
+    """An outside suite, run by pytest in a fresh process with only the installed plugin, from the folder above
+    its test file: the fixture passes the user's faithful copy of the model and fails their damped one (damping on
+    the hinge theta) with a short list, the verdict and one line per failed check, at the test's own line (no
+    frame of the plugin, no Validation repr); a model path is found next to the test file, and a missing one or
+    a mistyped case is one line."""
     monkeypatch.setenv("PYTHONPATH", str(Path(harness.__file__).parents[1]))  # this checkout's harness and plugin
     shipped = get("pendulum").mjcf.read_text()
-    assert 'damping="0"' in shipped
-    pytester.makefile(".xml", my_pendulum=shipped,
-                      my_damped_pendulum=shipped.replace('damping="0"', 'damping="0.01"', 1))
-    pytester.makepyfile(test_user=USER_TESTS)
-    result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-v")
-    result.assert_outcomes(passed=1, failed=1)
-    result.stdout.fnmatch_lines(["*mjharness 0.1.0, MuJoCo *", "*test_my_pendulum_is_valid PASSED*",
-                                 "*ValidationFailed: FAIL — * checks fail, in 1 of 1 case(s): pendulum (*); model "
-                                 "*my_damped_pendulum.xml",
-                                 "*  pendulum RK4.position: measured * m, unexplained * m vs limit * m (*× over)"])
+    assert 'axis="0 -1 0" damping="0"' in shipped  # the hinge theta's
+    models = pytester.mkdir("tests") / "models"
+    models.mkdir()
+    (models / "my_pendulum.xml").write_text(shipped)
+    (models / "my_damped_pendulum.xml").write_text(shipped.replace('axis="0 -1 0" damping="0"',
+                                                                   'axis="0 -1 0" damping="0.01"', 1))
+    (pytester.path / "tests" / "test_user.py").write_text(USER_TESTS)
+    result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-v", "tests")
+    result.assert_outcomes(passed=1, failed=3)
+    out = result.stdout.str()
+    assert "Validation(" not in out and "Check(" not in out and "pytest_plugin.py" not in out, out
+    result.stdout.fnmatch_lines(["*mjharness 0.1.0, MuJoCo *", "*test_my_pendulum_is_valid PASSED*"])
+
+    damped = [line for line in _section(out, "test_my_damped_pendulum") if line.startswith("E ")]
+    verdict, *failures = damped
+    assert re.fullmatch(r"E +harness\.api\.ValidationFailed: FAIL — (\d+) of \d+ checks fail, in 1 of 1 case\(s\): "
+                        r"pendulum \(\1\); model .*/tests/models/my_damped_pendulum\.xml", verdict), verdict
+    assert len(failures) == int(re.search(r"FAIL — (\d+)", verdict)[1])
+    assert all(re.fullmatch(r"E +pendulum \S+: measured .* vs limit \S+( \w+)? \(\S+× over\)", line)
+               for line in failures), failures
+    assert any(re.fullmatch(r"E +pendulum RK4\.position: measured \S+ m, unexplained \S+ m vs limit \S+ m "
+                            r"\(\S+× over\)", line) for line in failures), failures
+
+    missing = [line for line in _section(out, "test_a_missing_model") if line.startswith("E ")]
+    looked = pytester.path / "tests" / "models" / "my_pendulm.xml"
+    assert missing == [f"E       harness.core.errors.ModelError: cannot read MJCF 'models/my_pendulm.xml': no such "
+                       f"file; looked for it at {looked} (relative to the test file test_user.py, not the working "
+                       f"directory)"]
+    typo = [line for line in _section(out, "test_a_mistyped_case") if line.startswith("E ")]
+    assert len(typo) == 1 and typo[0].startswith("E       ValueError: unknown case 'pendulm'; did you mean "
+                                                 "'pendulum'? known cases: atwood, "), typo
