@@ -37,7 +37,7 @@ from harness.core.checks import Check, gate
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
 from harness.outputs.jsondoc import json_doc
-from harness.outputs.table import checks_table
+from harness.outputs.table import checks_table, ratio, ratio_text, verdict_line
 from harness.pipeline.limits import Limit, case_limits, load_limits
 from harness.pipeline.outcome import Outcome
 from harness.pipeline.require import Fitness, check_known, judge_fitness
@@ -49,30 +49,47 @@ from harness.pipeline.vocabulary import check_config
 __all__ = ["Validation", "ValidationFailed", "case_names", "validate"]
 
 
+def _amount(value: float, unit: str) -> str:
+    """A number to 3 significant digits, with its unit unless it has none ("1")."""
+    return f"{value:.3g}" + (f" {unit}" if unit not in ("", "1") else "")
+
+
 def _failure(c: Check) -> str:
+    """One failed check on one line: case, check, what was measured, what is unexplained beside its limit,
+    and by how much it is over; for a run that could not be measured, why."""
+    head = f"{c.case} {c.name}: "
     if c.diverged:
-        return c.diverged
+        reason = c.diverged
+        return head + (reason if reason.startswith(("diverged", "not measurable")) else f"not measurable: {reason}")
+    text = f"measured {_amount(c.value, c.unit)}"
     if c.budget is not None:
-        text = (f"measured {c.value:.3e} {c.unit}, unexplained {c.budget.unexplained:.3e} > limit "
-                f"{c.budget.limit:.3e}")
-    else:
-        text = f"{c.value:.3e} {c.unit} > limit {c.threshold:.3e}"
-    return f"{text} (known defect: {c.known})" if c.known else text
+        text += f", unexplained {_amount(c.budget.unexplained, c.unit)}"
+    over = ratio(c)
+    text += (f" vs limit {_amount(c.threshold, c.unit)} "
+             + (f"({ratio_text(over)})" if math.isfinite(over) else "(not finite)"))
+    return head + text + (f"; known defect: {c.known}" if c.known else "")
+
+
+def _unmet(f: Fitness) -> str:
+    return (f"{f.case} {f.figure}: measured {_amount(f.value, f.unit)} vs required {f.requirement.value:g} "
+            f"(requirement {f.requirement.measure} not met)")
 
 
 class ValidationFailed(AssertionError):
-    """Raised by :meth:`Validation.raise_for_failures`; the message lists every failed check, and
-    ``validation`` is the whole result."""
+    """Raised by :meth:`Validation.raise_for_failures`; ``validation`` is the whole result.
+
+    The message is short, to read in a test's failure: the verdict line (naming the model), then one line
+    per failed check (case, check, measured, unexplained vs limit and how far over, or why it could not be
+    measured) and per unmet requirement.
+    """
 
     def __init__(self, validation: Validation) -> None:
         self.validation = validation
-        lines = [f"{c.name}: {_failure(c)}" for c in validation.failures]
-        unmet = [f"{f.figure} = {f.value:.3e} {f.unit} > required {f.requirement.value:g} (requirement not met)"
-                 for f in validation.unmet]
-        super().__init__(f"case {validation.case!r} ({validation.mjcf}): {len(lines)} of "
-                         f"{len(validation.checks)} checks failed" + (f", {len(unmet)} requirement(s) not met"
-                                                                      if unmet else "")
-                         + "\n  " + "\n  ".join([*lines, *unmet]))
+        verdict = verdict_line(validation.outcome)
+        if validation.unmet:
+            verdict += f"; {len(validation.unmet)} requirement(s) not met"
+        lines = [_failure(c) for c in validation.failures] + [_unmet(f) for f in validation.unmet]
+        super().__init__(f"{verdict}; model {validation.mjcf}" + "".join(f"\n  {line}" for line in lines))
 
 
 @dataclass(frozen=True)
@@ -122,6 +139,14 @@ class Validation:
         """Every requirement given to :func:`validate` met (true where none was)."""
         return not self.unmet
 
+    def __repr__(self) -> str:
+        """One line (the dataclass's repr spelled out every check and figure): the case, the model, the
+        verdict."""
+        failed = len(self.failures)
+        verdict = f"{failed} of {len(self.checks)} checks failed" if failed else f"passed, {len(self.checks)} checks"
+        return (f"<Validation {self.case!r} ({Path(self.mjcf).name}): {verdict}"
+                + (f", {len(self.unmet)} requirement(s) not met" if self.unmet else "") + ">")
+
     def figure(self, name: str) -> Figure:
         """The measured figure called ``name``; KeyError listing the measured ones otherwise."""
         for f in self.figures:
@@ -156,6 +181,7 @@ class Validation:
     def raise_for_failures(self) -> None:
         """Raise :class:`ValidationFailed`, listing every failed check and unmet requirement, unless the
         gate passed and every requirement is met."""
+        __tracebackhide__ = True  # pytest: the failure shows in the test's own line, not here with self's repr
         if not self.passed or not self.fit:
             raise ValidationFailed(self)
 

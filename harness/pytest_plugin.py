@@ -1,7 +1,6 @@
 """The pytest plugin ``mjharness`` (entry point ``pytest11``): validate your own model inside your tests.
 
-Installed with the package, it gives every test suite a session fixture
-``mjharness``::
+Installed with the package, it gives every test suite a fixture ``mjharness``::
 
     def test_my_robot(mjharness):                     # any model, against its own kinematic tree
         mjharness.assert_valid(mjcf="models/my_robot.xml")
@@ -11,9 +10,14 @@ Installed with the package, it gives every test suite a session fixture
         assert result.figure("RK4.position").value < 1e-6     # your own requirement, on top
 
 ``mjharness.validate(...)`` returns the :class:`harness.api.Validation` without
-judging it; ``mjharness.assert_valid(...)`` fails the test with every failed
-check listed. Both take :func:`harness.api.validate`'s options. The header of
-the test session names the mjharness and MuJoCo versions.
+judging it; ``mjharness.assert_valid(...)`` fails the test with a short list:
+the verdict line, then one line per failed check (case, check, measured,
+unexplained vs limit and how far over, or why it could not be measured). Both
+take :func:`harness.api.validate`'s options; a relative ``mjcf=`` or
+``config=`` path is found next to the test file that uses the fixture, not in
+pytest's working directory, and a case name is checked first (an unknown one
+suggests the closest). The header of the test session names the mjharness and
+MuJoCo versions.
 
 The plugin loads in every pytest session of an environment where mjharness
 is installed, so it imports nothing of the harness until a test asks for the
@@ -22,7 +26,9 @@ fixture.
 
 from __future__ import annotations
 
+import os
 from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import pytest
@@ -30,27 +36,66 @@ import pytest
 if TYPE_CHECKING:
     from harness.api import Validation
 
+PATHS = {"mjcf": "MJCF", "config": "config"}  # the options naming a file, found relative to the test file
+
 
 class Harness:
-    """The ``mjharness`` fixture's value."""
+    """The ``mjharness`` fixture's value: :func:`harness.api.validate` for the test file ``test_file``."""
+
+    def __init__(self, test_file: Path | None = None) -> None:
+        self.test_file = test_file
+
+    def __repr__(self) -> str:
+        return f"<mjharness fixture of {self.test_file.name if self.test_file else 'no test file'}>"
+
+    def path(self, option: str, given: object) -> object:
+        """``given`` (a relative path) joined to the test file's folder; absolute, or no path, unchanged.
+        ModelError (or ConfigError, both ValueErrors) in one line naming the path given and where it was looked
+        for, if nothing is there."""
+        __tracebackhide__ = True
+        if self.test_file is None or not isinstance(given, str | os.PathLike):
+            return given
+        path = Path(given)
+        if path.is_absolute():
+            return given
+        where = self.test_file.parent / path
+        if not where.exists():
+            from harness.core.errors import ConfigError, ModelError  # lazy: only for a missing file
+
+            error = ModelError if option == "mjcf" else ConfigError
+            raise error(f"cannot read {PATHS[option]} {str(given)!r}: no such file; looked for it at {where} "
+                        f"(relative to the test file {self.test_file.name}, not the working directory)")
+        return where
 
     def validate(self, case: str | None = None, **options: Any) -> Validation:
         """:func:`harness.api.validate`, unjudged (no case: ``mjcf=`` judged against its own tree)."""
-        from harness.api import validate  # lazy: MuJoCo and the harness load only when a test uses them
+        __tracebackhide__ = True  # pytest: a failure shows at the test's own line
+        from harness import cases  # lazy: MuJoCo and the harness load only when a test uses them
+        from harness.api import validate  # lazy: as above
 
+        if isinstance(case, str):
+            try:
+                cases.get(case)
+            except ValueError as err:  # an unknown case: the one line (with the closest name), no traceback inside
+                raise ValueError(str(err)) from None
+        for option in PATHS.keys() & options.keys():
+            options[option] = self.path(option, options[option])
         return validate(case, **options)
 
     def assert_valid(self, case: str | None = None, **options: Any) -> Validation:
-        """:func:`harness.api.validate`, failing the test (AssertionError) with each failed check listed."""
+        """:func:`harness.api.validate`, failing the test (:class:`~harness.api.ValidationFailed`, an
+        AssertionError) with the verdict line and one line per failed check."""
+        __tracebackhide__ = True
         result = self.validate(case, **options)
         result.raise_for_failures()
         return result
 
 
-@pytest.fixture(scope="session")
-def mjharness() -> Harness:
-    """Validate cases, or your MJCF variants of them, against the analytic reference and the limits."""
-    return Harness()
+@pytest.fixture
+def mjharness(request: pytest.FixtureRequest) -> Harness:
+    """Validate cases, or your MJCF variants of them, against the analytic reference and the limits; a
+    relative model path is found next to the test file."""
+    return Harness(Path(request.path))
 
 
 def pytest_report_header(config: pytest.Config) -> str:

@@ -4,15 +4,21 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
+import re
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
 import harness
 from harness.cases import get
+from harness.core.budget import Budget
+from harness.core.checks import Check
 from harness.engine.compat import set_damping
 from harness.outputs.jsondoc import dumps
+from harness.outputs.table import verdict_line
 from harness.studies.faults import by_name
 
 RK4 = ["RK4"]  # one integrator keeps these runs short; the others are judged by the generic tests
@@ -59,8 +65,47 @@ def test_a_fault_fails_with_every_failure_listed(damped):
         damped.raise_for_failures()
     assert isinstance(err.value, AssertionError) and err.value.validation is damped
     message = str(err.value)
-    assert f"{len(damped.failures)} of {len(damped.checks)} checks failed" in message
-    assert all(c.name in message for c in damped.failures) and "RK4.position" in message
+    verdict, *lines = message.splitlines()
+    assert verdict.startswith(f"FAIL — {len(damped.failures)} of {len(damped.checks)} checks fail, in 1 of 1 case(s)")
+    assert verdict.endswith(f"; model {damped.mjcf}")
+    assert [line.split(":")[0] for line in lines] == [f"  pendulum {c.name}" for c in damped.failures]
+    position = next(line for line in lines if " RK4.position: " in line)
+    check = damped.check("RK4.position")
+    assert position == (f"  pendulum RK4.position: measured {check.value:.3g} m, unexplained "
+                        f"{check.budget.unexplained:.3g} m vs limit {check.threshold:.3g} m "
+                        f"({check.budget.unexplained / check.threshold:.3g}× over)")
+    assert "Validation(" not in message and "Check(" not in message
+    assert repr(damped) == (f"<Validation 'pendulum' ({Path(damped.mjcf).name}): {len(damped.failures)} of "
+                            f"{len(damped.checks)} checks failed>")
+
+
+def test_the_failure_message_has_one_line_per_kind_of_failure():
+    """A budget's, a fixed limit's (a dimensionless figure: no unit), a run that diverged, a figure with no
+    budget, a known defect and a figure that is not finite: each on its line, after the verdict."""
+    budget = Budget(measured=3e-4, explained={"integration": 1e-4}, unexplained=2e-4, tolerance={"floors": 1e-5})
+    diverged = "diverged: mjWARN_BADQACC at t = 0.25 s"
+    known = "RK4 order 1 on a ball joint; observed order 1.0"
+    checks = (Check("pendulum", "RK4.position", 3e-4, 1e-5, "m", budget=budget),
+              Check("pendulum", "converge.RK4.order_shortfall", 0.55, 0.3, "1"),
+              Check("pendulum", "Euler.position", math.nan, math.nan, "", diverged=diverged),
+              Check("pendulum", "implicit.position", 1.0, math.nan, "m", diverged="no budget was computed"),
+              Check("pendulum", "RK4.force.rod", 2.0, 1.0, "N", known=known),
+              Check("pendulum", "RK4.drift.energy", math.inf, 1e-9, "1"),
+              Check("pendulum", "RK4.velocity", 1e-9, 1e-6, "m/s"),  # passes: not listed
+              Check("pendulum", "Euler.velocity", math.nan, math.nan, "", note="not in this MuJoCo"))  # n/a: not listed
+    result = harness.Validation(case="pendulum", mjcf="/models/mine.xml", checks=checks, figures=())
+    assert repr(result) == "<Validation 'pendulum' (mine.xml): 6 of 8 checks failed>"
+    assert str(harness.ValidationFailed(result)).splitlines() == [
+        "FAIL — 6 of 8 checks fail, in 1 of 1 case(s): pendulum (6); 1 of them known defects of this MuJoCo "
+        "(RK4 order 1 on a ball joint); 1 n/a; model /models/mine.xml",
+        "  pendulum RK4.position: measured 0.0003 m, unexplained 0.0002 m vs limit 1e-05 m (20× over)",
+        "  pendulum converge.RK4.order_shortfall: measured 0.55 vs limit 0.3 (1.83× over)",
+        "  pendulum Euler.position: diverged: mjWARN_BADQACC at t = 0.25 s",
+        "  pendulum implicit.position: not measurable: no budget was computed",
+        "  pendulum RK4.force.rod: measured 2 N vs limit 1 N (2× over); known defect: RK4 order 1 on a ball joint; "
+        "observed order 1.0",
+        "  pendulum RK4.drift.energy: measured inf vs limit 1e-09 (not finite)",
+    ]
 
 
 def test_the_json_is_the_report_schema(shipped):
@@ -125,8 +170,13 @@ def test_a_requirement_is_a_second_verdict_on_the_models_own_integrator(shipped)
     unfit = harness.validate("pendulum", integrators=RK4, require={"position": 1e-15})
     assert unfit.passed and not unfit.fit and [str(f.figure) for f in unfit.unmet] == ["RK4.position"]
     assert unfit.outcome.exit_code == 3
-    with pytest.raises(harness.ValidationFailed, match=r"0 of \d+ checks failed, 1 requirement\(s\) not met"):
+    with pytest.raises(harness.ValidationFailed) as err:
         unfit.raise_for_failures()
+    (position,) = unfit.unmet
+    assert verdict_line(unfit.outcome).startswith("PASS — ")
+    assert str(err.value).splitlines() == [
+        f"{verdict_line(unfit.outcome)}; 1 requirement(s) not met; model {unfit.mjcf}",
+        f"  pendulum RK4.position: measured {position.value:.3g} m vs required 1e-15 (requirement position not met)"]
     with pytest.raises(ValueError, match="matches no figure"):
         harness.validate("pendulum", integrators=RK4, require={"posture": 1e-3})
 
@@ -148,6 +198,7 @@ def test_limits_and_cases_can_be_given(shipped):
 
 @pytest.mark.parametrize("kwargs, needle", [
     ({"case": "pendulumm"}, "known cases: atwood"),
+    ({"case": "pendulm"}, r"unknown case 'pendulm'; did you mean 'pendulum'\? known cases: atwood"),
     ({"case": 3}, "case must be a case name"),
     ({"case": "pendulum", "integrators": []}, "at least one integrator"),
     ({"case": "pendulum", "integrators": ["Verlet"]}, "unknown integrator 'Verlet'"),
@@ -188,30 +239,72 @@ def test_arguments_of_the_wrong_type_are_refused_naming_them(kwargs, error, need
 USER_TESTS = '''
 from pathlib import Path
 
-MODEL = Path(__file__).parent / "my_pendulum.xml"
-BROKEN = Path(__file__).parent / "my_damped_pendulum.xml"
+MODEL = Path(__file__).parent / "models" / "my_pendulum.xml"
 
 
-def test_my_pendulum_is_valid(mjharness):
+def test_my_pendulum_is_valid(mjharness):  # an absolute path: unchanged
     result = mjharness.assert_valid("pendulum", mjcf=MODEL, integrators=["RK4"])
     assert result.figure("RK4.position").value < 1e-6
 
 
-def test_my_damped_pendulum(mjharness):
-    mjharness.assert_valid("pendulum", mjcf=BROKEN, integrators=["RK4"])
+def test_my_damped_pendulum(mjharness):  # relative to this file, not to pytest's working directory
+    mjharness.assert_valid("pendulum", mjcf="models/my_damped_pendulum.xml", integrators=["RK4"])
+
+
+def test_a_missing_model(mjharness):
+    mjharness.assert_valid("pendulum", mjcf="models/my_pendulm.xml", integrators=["RK4"])
+
+
+def test_a_mistyped_case(mjharness):
+    mjharness.assert_valid("pendulm", mjcf=MODEL, integrators=["RK4"])
 '''
 
 
-def test_the_plugin_validates_a_users_variant_in_their_own_suite(pytester):
-    """An outside test file, run by pytest in a fresh process with only the installed plugin: the fixture
-    passes the user's faithful copy of the model and fails their damped one, naming the failed checks."""
+def _section(stdout: str, test: str) -> list[str]:
+    """The lines pytest shows for one failed test (between its ``___ test ___`` header and the next)."""
+    lines = stdout.splitlines()
+    start = next(i for i, line in enumerate(lines) if re.fullmatch(rf"_+ {test} _+", line))
+    end = next((i for i, line in enumerate(lines[start + 1:], start + 1) if re.match(r"^(_{3,} |=+ )", line)),
+               len(lines))
+    return lines[start + 1:end]
+
+
+def test_the_plugin_validates_a_users_variant_in_their_own_suite(pytester, monkeypatch):
+    """An outside suite, run by pytest in a fresh process with only the installed plugin, from the folder above
+    its test file: the fixture passes the user's faithful copy of the model and fails their damped one (damping on
+    the hinge theta) with a short list, the verdict and one line per failed check, at the test's own line (no
+    frame of the plugin, no Validation repr); a model path is found next to the test file, and a missing one or
+    a mistyped case is one line."""
+    monkeypatch.setenv("PYTHONPATH", str(Path(harness.__file__).parents[1]))  # this checkout's harness and plugin
     shipped = get("pendulum").mjcf.read_text()
-    assert 'damping="0"' in shipped
-    pytester.makefile(".xml", my_pendulum=shipped,
-                      my_damped_pendulum=shipped.replace('damping="0"', 'damping="0.01"', 1))
-    pytester.makepyfile(test_user=USER_TESTS)
-    result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-v")
-    result.assert_outcomes(passed=1, failed=1)
-    result.stdout.fnmatch_lines(["*mjharness 0.1.0, MuJoCo *", "*test_my_pendulum_is_valid PASSED*",
-                                 "*ValidationFailed: case 'pendulum' (*my_damped_pendulum.xml): * checks failed*",
-                                 "*RK4.position: measured * m, unexplained * > limit *"])
+    assert 'axis="0 -1 0" damping="0"' in shipped  # the hinge theta's
+    models = pytester.mkdir("tests") / "models"
+    models.mkdir()
+    (models / "my_pendulum.xml").write_text(shipped)
+    (models / "my_damped_pendulum.xml").write_text(shipped.replace('axis="0 -1 0" damping="0"',
+                                                                   'axis="0 -1 0" damping="0.01"', 1))
+    (pytester.path / "tests" / "test_user.py").write_text(USER_TESTS)
+    result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-v", "tests")
+    result.assert_outcomes(passed=1, failed=3)
+    out = result.stdout.str()
+    assert "Validation(" not in out and "Check(" not in out and "pytest_plugin.py" not in out, out
+    result.stdout.fnmatch_lines(["*mjharness 0.1.0, MuJoCo *", "*test_my_pendulum_is_valid PASSED*"])
+
+    damped = [line for line in _section(out, "test_my_damped_pendulum") if line.startswith("E ")]
+    verdict, *failures = damped
+    assert re.fullmatch(r"E +harness\.api\.ValidationFailed: FAIL — (\d+) of \d+ checks fail, in 1 of 1 case\(s\): "
+                        r"pendulum \(\1\); model .*/tests/models/my_damped_pendulum\.xml", verdict), verdict
+    assert len(failures) == int(re.search(r"FAIL — (\d+)", verdict)[1])
+    assert all(re.fullmatch(r"E +pendulum \S+: measured .* vs limit \S+( \w+)? \(\S+× over\)", line)
+               for line in failures), failures
+    assert any(re.fullmatch(r"E +pendulum RK4\.position: measured \S+ m, unexplained \S+ m vs limit \S+ m "
+                            r"\(\S+× over\)", line) for line in failures), failures
+
+    missing = [line for line in _section(out, "test_a_missing_model") if line.startswith("E ")]
+    looked = pytester.path / "tests" / "models" / "my_pendulm.xml"
+    assert missing == [f"E       harness.core.errors.ModelError: cannot read MJCF 'models/my_pendulm.xml': no such "
+                       f"file; looked for it at {looked} (relative to the test file test_user.py, not the working "
+                       f"directory)"]
+    typo = [line for line in _section(out, "test_a_mistyped_case") if line.startswith("E ")]
+    assert len(typo) == 1 and typo[0].startswith("E       ValueError: unknown case 'pendulm'; did you mean "
+                                                 "'pendulum'? known cases: atwood, "), typo

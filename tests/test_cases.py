@@ -52,3 +52,18 @@ def test_every_integrator_is_gated(name, config):
 def test_unknown_case_lists_known_ones():
     with pytest.raises(ValueError, match=r"known cases: .*pendulum"):
         cases.get("pendulumm")
+
+
+@pytest.mark.parametrize("typo, closest", [("pendulm", "pendulum"), ("Spring", "spring"),
+                                           ("double-pendulum", "double_pendulum"), ("xyzzy", None)])
+def test_an_unknown_case_suggests_the_closest_name(typo, closest):
+    """A typo is answered with the closest known name first (difflib), in one line; a name close to none
+    gets only the list."""
+    with pytest.raises(ValueError) as err:
+        cases.get(typo)
+    message = str(err.value)
+    assert "\n" not in message and message.startswith(f"unknown case {typo!r}; ")
+    if closest is None:
+        assert "did you mean" not in message
+    else:
+        assert f"; did you mean {closest!r}? known cases: atwood" in message

@@ -278,6 +278,7 @@ def test_a_long_check_prints_progress_lines_in_a_log(monkeypatch, capsys, cached
 @pytest.mark.parametrize("args, needle", [
     (["check", "nosuchcase"], "known cases: atwood"),
     (["run", "nosuchcase"], "known cases: atwood"),
+    (["check", "pendulm"], "unknown case 'pendulm'; did you mean 'pendulum'? known cases: atwood"),
     (["frobnicate"], "invalid choice"),
     (["check", CASE, "--config", "/nonexistent.toml"], "cannot read config"),
     (["baseline", CASE], "one of the arguments --write --compare is required"),
@@ -297,6 +298,7 @@ def test_bad_usage_exits_2_with_one_line(args, needle):
     ("[thresholds.pendulum]\nRK4.position = 1e-3\n", 'quote dotted figure names, e.g. "RK4.position"'),
     ("[thresholds.pendulum]\n\"RK4.nonsense\" = 1\n", "unmeasured figure"),
     ("[thresholds.nosuchcase]\n\"RK4.position\" = 1\n", "unknown case"),
+    ("[thresholds.pendulm]\n\"RK4.position\" = 1\n", "unknown case 'pendulm' in thresholds; did you mean 'pendulum'?"),
     ("thresholds = 3\n", "must be a table of cases"),
     ("[colours]\nred = 1\n", "unknown key"),
     ("[tool.black]\nline-length = 1\n", "no [tool.mjharness] table"),

@@ -20,6 +20,7 @@ CLI, pytest and CI all select from :func:`all_cases`.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import functools
 import importlib
 import importlib.util
@@ -292,14 +293,22 @@ def names() -> tuple[str, ...]:
     return tuple(c.name for c in all_cases())
 
 
+def did_you_mean(name: str, known: Iterable[str]) -> str:
+    """``"did you mean 'pendulum'? "`` for the known name closest to a mistyped ``name``, '' where none is
+    close (:func:`difflib.get_close_matches`)."""
+    close = difflib.get_close_matches(name, list(known), n=1)
+    return f"did you mean {close[0]!r}? " if close else ""
+
+
 def get(name: str) -> Case:
-    """The case called ``name``; ValueError listing the known ones otherwise."""
+    """The case called ``name``; ValueError suggesting the closest name and listing the known ones otherwise."""
     for case in all_cases():
         if case.name == name:
             return case
     if name in unavailable():
         raise ValueError(unavailable()[name])
-    raise ValueError(f"unknown case {name!r}; known cases: {', '.join(names())}")
+    raise ValueError(f"unknown case {name!r}; {did_you_mean(name, [*names(), *unavailable()])}"
+                     f"known cases: {', '.join(names())}")
 
 
 def select(requested: Iterable[str] = (), *, tag: str | None = None) -> tuple[Case, ...]:

@@ -51,7 +51,7 @@ from typing import Literal
 
 from analytic.solvers import DEFAULT_RTOL
 from harness.budget.trajectory import REFERENCE
-from harness.cases import Case, all_cases
+from harness.cases import Case, all_cases, did_you_mean
 from harness.core.errors import ConfigError
 from harness.core.figures import FigureName
 from harness.layers.orders import ORDER_TOLERANCE
@@ -283,7 +283,7 @@ def _overrides(raw: object, path: Path, known_cases: set[str]) -> dict[str, dict
     for case, table in raw.items():
         if case not in known_cases:
             raise ConfigError(f"config {str(path)!r}: unknown case {case!r} in thresholds; "
-                              f"known cases: {', '.join(sorted(known_cases))}")
+                              f"{did_you_mean(case, sorted(known_cases))}known cases: {', '.join(sorted(known_cases))}")
         if not isinstance(table, dict):
             raise ConfigError(f"config {str(path)!r}: thresholds.{case} must be a table")
         for fig, value in table.items():
