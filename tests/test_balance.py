@@ -11,7 +11,7 @@ import pytest
 from harness.cases.own import from_mjcf
 from harness.engine.models import compile_model
 from harness.engine.readings import Reading
-from harness.layers.balance import POWER, POWER_FIELDS, balance_figures, cumulative_work
+from harness.layers.balance import POWER, POWER_FIELDS, attribute, balance_figures, cumulative_work
 from harness.layers.orders import EXPECTED_ORDER
 from harness.reference.tree import TreeEdit
 
@@ -82,8 +82,23 @@ def test_energy_no_force_accounts_for_fails(walled, left_out):
         return POWER.evaluate(model, {**recorded, left_out: np.zeros_like(recorded[left_out])})
 
     leaky = Reading(fields=POWER_FIELDS, evaluate=partial, description=f"without {left_out}")
-    _, budgets, _, _ = _balance(walled, power=leaky)
+    figures, budgets, _, _ = _balance(walled, power=leaky)
     assert budgets and all(not b.passed for b in budgets.values()), budgets
+    # and the failure names the force whose work went missing
+    named = {"qfrc_constraint": "the constraint rows", "qfrc_actuator": "the actuators"}[left_out]
+    for figure in figures:
+        assert f"the unexplained energy follows the work of {named}" in figure.description, figure.description
+
+
+def test_energy_from_nothing_is_attributed_to_no_force():
+    """attribute() sets the unexplained residual against each force's work: a residual that is a multiple of one
+    force's work names it; a steady gain no work follows (a kick every step) names none, and says so."""
+    t = np.linspace(0.0, 1.0, 1001)
+    works = {"the actuators": np.sin(7 * t), "the constraint rows": 1 - np.cos(3 * t)}
+    assert "follows the work of the constraint rows (+0.02" in attribute(0.02 * works["the constraint rows"], works)
+    assert "follows the work of the actuators" in attribute(-0.5 * works["the actuators"] + 1e-3 * t, works)
+    assert attribute(1e-3 * t**3, works).startswith("the unexplained energy follows no force's work")
+    assert attribute(np.zeros_like(t), works) == ""
 
 
 def test_run_case_reports_the_balance_for_a_model_with_uncovered_forces(walled):

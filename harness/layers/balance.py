@@ -16,6 +16,10 @@ at h, h/2 and h/4, Richardson removes the leading term (``integration``) and the
 estimate's own next-order error (measured from h/4) and round-off. Energy that no force accounts for — a force
 missing from MuJoCo's accounts, a kick — does not shrink with h and is left unexplained.
 
+A balance that fails says where and by what: the time its unexplained residual peaks, and the force group whose
+work that residual follows (:func:`attribute`: the passive forces, the actuators, the constraint rows or the applied
+forces, each's work recorded beside it), or that it follows none — energy from nothing MuJoCo reports.
+
 ∫ P dt is a fourth-order cumulative quadrature of the samples (the four-point Lagrange rule on each step,
 one-sided at the ends): a trapezoid would cap the balance of RK4 at second order.
 """
@@ -48,6 +52,27 @@ def _power(model: mujoco.MjModel, recorded: Mapping[str, np.ndarray]) -> np.ndar
 
 POWER = Reading(fields=POWER_FIELDS, evaluate=_power,
                 description="the power of every force not in MuJoCo's energy (W)")
+
+
+def _group(*fields: str, minus: str = "") -> Reading:
+    def evaluate(model: mujoco.MjModel, recorded: Mapping[str, np.ndarray]) -> np.ndarray:
+        force = sum(recorded[f] for f in fields) - (recorded[minus] if minus else 0.0)
+        return np.einsum("ni,ni->n", recorded["qvel"], force)
+    return Reading(fields=(*fields, *((minus,) if minus else ())), evaluate=evaluate,
+                   description=f"the power of {'+'.join(fields)}{' − ' + minus if minus else ''} (W)")
+
+
+FORCES: Mapping[str, Reading] = {
+    "the passive forces (damping, gravity compensation, fluid)": _group("qfrc_passive", minus="qfrc_spring"),
+    "the actuators": _group("qfrc_actuator"),
+    "the constraint rows (contacts, limits, dry friction, equalities)": _group("qfrc_constraint"),
+    "the applied forces": _group("qfrc_applied"),
+}
+"""The groups of :data:`POWER`'s forces, each's work recorded beside the balance so that energy no force accounts
+for can be set against each (:func:`attribute`)."""
+ATTRIBUTED = 0.2
+"""A group is named when a multiple of its work leaves at most this fraction of the unexplained residual (in the
+2-norm over the run): the residual then follows that force's work in time."""
 ROUNDOFF_PER_STEP = 64 * np.finfo(float).eps
 """The round-off a step leaves in E and in the work, relative to the energy scale (the float64 allowance of the
 trajectory budget, harness/core/budget.py), accumulating as a random walk."""
@@ -80,6 +105,31 @@ def balance(energy: np.ndarray, power: np.ndarray, h: float) -> np.ndarray:
     return energy - energy[0] - cumulative_work(power, h)
 
 
+def attribute(residual: np.ndarray, works: Mapping[str, np.ndarray]) -> str:
+    """Which force's work the unexplained ``residual`` (B with its integration part removed, over the run) follows:
+    the group of ``works`` (each ∫ P_k dt at the same samples) whose best multiple c·W_k leaves the least of it, named
+    when that is at most :data:`ATTRIBUTED` of it. Energy from nothing (a kick, an integrator's defect) follows no
+    force's work, and is said so."""
+    r = np.asarray(residual, dtype=float)
+    size = float(np.linalg.norm(r))
+    if not size > 0:
+        return ""
+    best, left, factor = "", 1.0, 0.0
+    for name, work in works.items():
+        w = np.asarray(work, dtype=float)
+        ww = float(w @ w)
+        if not ww > 0:
+            continue
+        c = float(r @ w) / ww
+        rest = float(np.linalg.norm(r - c * w)) / size
+        if rest < left:
+            best, left, factor = name, rest, c
+    if best and left <= ATTRIBUTED:
+        return (f"the unexplained energy follows the work of {best} ({factor:+.3g} × it leaves {left:.0%} of the "
+                "residual): that force's work is missing from MuJoCo's accounts or misstated")
+    return "the unexplained energy follows no force's work: it comes from no force MuJoCo reports (a kick, a defect)"
+
+
 def observed_order(levels: Sequence[np.ndarray], documented: float) -> float:
     """The order at which a balance converges over h, h/2, h/4 (``levels``), from its two differences, clamped to
     [1, ``documented``]: a contact's or a limit's onset is not smooth in time, and the balance across it converges
@@ -101,7 +151,8 @@ def balance_figures(path, edit: Callable[[mujoco.MjSpec], None] | None, binding,
     the runs that diverged (by figure name, with why), for the model at ``path`` compiled with ``edit`` (as it is:
     nothing switched off), started from (q0, q̇0) through ``binding``. ``power``: what counts as the work done
     (:data:`POWER`; the tests leave a force out of it to show the balance sees it)."""
-    probe = Probe(binding=binding, points=(), constraints=(), series={"power": power})
+    probe = Probe(binding=binding, points=(), constraints=(),
+                  series={"power": power, **{f"force {k}": reading for k, reading in enumerate(FORCES.values())}})
     figures: list[Figure] = []
     budgets: dict[str, Budget] = {}
     diverged: dict[str, str] = {}
@@ -143,9 +194,14 @@ def balance_figures(path, edit: Callable[[mujoco.MjSpec], None] | None, binding,
         worst = int(np.argmax(np.abs(ideal)))
         if str(fig) in unresolved:  # no figure: its check is n/a with the reason, not a number without a limit
             continue
+        blame = ""
+        if not budgets[str(fig)].passed:  # name the force whose work the unexplained energy follows, if one does
+            works = {k: cumulative_work(runs[0].series[f"force {i}"], h) / energy_scale
+                     for i, k in enumerate(FORCES)}
+            blame = "; " + attribute(ideal, works)
         figures.append(Figure(name=fig, value=measured, unit="1",
                               description=f"max |E(t) − E(0) − ∫ P dt| / energy scale ({energy_scale:.4g} J) of the "
                                           f"model as it is; the unexplained residual peaks at t = "
-                                          f"{worst * h:.3g} s"))
+                                          f"{worst * h:.3g} s{blame}"))
     return figures, {k: v for k, v in budgets.items() if k not in unresolved}, diverged, unresolved
 
