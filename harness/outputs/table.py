@@ -1,5 +1,10 @@
 """Checks for a terminal: each figure, what its budget explains, the rest beside its limit, the verdict.
 
+What a person reads by default fits the terminal (:func:`terminal_width`): a
+line per case (:func:`case_line`), each failed check with its budget
+(:func:`failures_block`), then the verdict; :func:`checks_table`, a row per
+check, is the verbose view.
+
 A check judged by its error budget shows the figure as measured, the parts the
 model's settings explain (integration, softness, the point masses' floors, a
 constraint solver stopped short), the unexplained residual and the limit the
@@ -9,6 +14,10 @@ a fixed limit (theory, or a user's config) shows the figure beside its limit.
 
 from __future__ import annotations
 
+import os
+import shutil
+import sys
+import textwrap
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -92,15 +101,89 @@ def counts_line(everything: Sequence[Check]) -> str:
             + (f", {na} n/a (not in this MuJoCo, or not measurable at these settings)" if na else ""))
 
 
-def failures_table(checks: Mapping[str, Sequence[Check]]) -> str:
-    """The failed checks as an aligned table ("" when none failed)."""
-    failed = [c for cs in checks.values() for c in cs if not c.passed]
-    if not failed:
-        return ""
-    parts = parts_shown(failed)
-    rows = [(c.case, c.name, *_cells(c, parts), c.unit, ratio_text(ratio(c)), _status(c)) for c in failed]
-    return text_table(("case", "failed check", "measured", *parts, "unexplained", "limit", "unit", "used",
-                       "verdict"), rows)
+NOT_A_TERMINAL_WIDTH = 100
+"""Columns the output fits where stdout is not a terminal (a CI log, a pipe) and COLUMNS is not set."""
+
+
+def terminal_width() -> int:
+    """Columns a line may take: COLUMNS where set, else the terminal's, else (not a terminal)
+    :data:`NOT_A_TERMINAL_WIDTH`; never fewer than 20."""
+    if "COLUMNS" not in os.environ and not _isatty(sys.stdout):
+        return NOT_A_TERMINAL_WIDTH
+    return max(20, shutil.get_terminal_size((NOT_A_TERMINAL_WIDTH, 24)).columns)
+
+
+def _isatty(stream: object) -> bool:
+    try:
+        return bool(stream.isatty())  # type: ignore[attr-defined]
+    except (AttributeError, ValueError):  # no isatty, or closed
+        return False
+
+
+def wrap(text: str, width: int, indent: str = "", more: str = "    ") -> list[str]:
+    """``text`` as lines of at most ``width`` columns: the first indented by ``indent``, the rest by
+    ``more``; a word longer than a line (a path) is broken."""
+    return textwrap.wrap(text, width=width, initial_indent=indent, subsequent_indent=indent + more,
+                         break_on_hyphens=False) or [indent.rstrip()]
+
+
+def worst_text(checks: Sequence[Check], *, short: bool = False) -> str:
+    """The largest share of its limit a case's checks use: "worst 63% of its limit", "worst 31.2× its
+    limit" ("worst 63%", "worst 31.2×" where ``short``), "worst not measured" (a run that could not be
+    measured, a non-finite figure), "all n/a"."""
+    worst = closest(checks)
+    if worst is None:
+        return "all n/a" if checks else "no checks"
+    r = ratio(worst)
+    if not np.isfinite(r):
+        return "worst not measured"
+    share = f"{100 * r:.0f}%" if r <= 1 else f"{r:.3g}×"
+    return f"worst {share}" if short else f"worst {share} {'of its' if r <= 1 else 'its'} limit"
+
+
+def case_line(case: str, checks: Sequence[Check], seconds: float, width: int = 0, columns: int | None = None) -> str:
+    """One finished case: its checks, how many fail, the worst share of a limit, the seconds it took;
+    the name padded to ``width`` (the longest name of the run) so that a run's lines align. Longer than
+    ``columns``: shorter words, and wrapped where that is not enough."""
+    failing = sum(not c.passed for c in checks)
+    line = (f"case {case + ':':<{width + 1}} {len(checks):>3} checks, {failing:>2} fail, {worst_text(checks)} "
+            f"({seconds:.1f} s)")
+    if columns is None or len(line) <= columns:
+        return line
+    line = f"case {case}: {len(checks)} checks, {failing} fail, {worst_text(checks, short=True)} ({seconds:.1f} s)"
+    return "\n".join(wrap(line, columns))
+
+
+def failure_lines(c: Check, width: int) -> list[str]:
+    """A failed check in lines of at most ``width`` columns: its status, case, name and unit and how far
+    over its limit; then the figure measured, the unexplained residual (a fixed limit: the figure) beside
+    the limit; then the parts its budget explains; then the reason (a known defect, a run that could not
+    be measured), each wrapped where it is longer."""
+    r = ratio(c)
+    over = ("not measured" if c.diverged or not np.isfinite(r)
+            else f"{r:.3g}× over its limit" if r > 1 else f"{100 * r:.0f}% of its limit")
+    lines = wrap(f"{c.status} {c.case} {c.name} [{c.unit}]: {over}", width)
+    if not c.diverged and c.budget is not None:
+        b = c.budget
+        lines += wrap(f"measured {fmt_value(b.measured)}, unexplained {fmt_value(b.unexplained)} "
+                      f"{_beside(b.unexplained, b.limit)} limit {fmt_value(b.limit)}", width, "    ")
+        explained = ", ".join(f"{p} {fmt_part(b.explained[p])}" for p in PARTS if p in b.explained)
+        lines += wrap(f"explained: {explained}", width, "    ") if explained else []
+    elif not c.diverged:
+        lines += wrap(f"measured {fmt_value(c.value)} {_beside(c.value, c.threshold)} fixed limit "
+                      f"{fmt_value(c.threshold)}", width, "    ")
+    if c.reason:
+        lines += wrap(f"why: {c.reason}", width, "    ")
+    return lines
+
+
+def _beside(value: float, limit: float) -> str:
+    return "≤" if value <= limit else ">"  # a known defect may be within; nan is not
+
+
+def failures_block(checks: Mapping[str, Sequence[Check]], width: int) -> str:
+    """Every failed check as :func:`failure_lines` ("" when none failed)."""
+    return "\n".join(line for cs in checks.values() for c in cs if not c.passed for line in failure_lines(c, width))
 
 
 def _known_text(known: Sequence[Check]) -> str:
