@@ -107,7 +107,7 @@ def test_list_fits_the_width_and_says_every_description_and_tag(columns, capsys,
 def test_the_width_is_the_terminals_or_100_columns(monkeypatch):
     import shutil
 
-    from harness.outputs import table
+    from harness.core import tables as table
 
     class Terminal:
         def isatty(self) -> bool:

@@ -34,7 +34,6 @@ from harness.core import cache, costs
 from harness.core.errors import ModelMismatch
 from harness.engine.models import compile_model, mjcf_path
 from harness.outputs import parts
-from harness.outputs.table import worst_text
 from harness.pipeline import matrix as runner
 from harness.pipeline import run as pipeline
 from harness.reference import derivations
@@ -338,7 +337,7 @@ def test_a_log_gets_a_line_per_finished_case(jobs, capsys, monkeypatch):
     lines = capsys.readouterr().err.splitlines()
     assert sorted(lines) == sorted(
         f"case {r.case.name + ':':7s} {len(checks[r.case.name]):3d} checks, "
-        f"{sum(not c.passed for c in checks[r.case.name]):2d} fail, {worst_text(checks[r.case.name])} "
+        f"{sum(not c.passed for c in checks[r.case.name]):2d} fail, {runner.worst_text(checks[r.case.name])} "
         f"({sum(r.timings.values()):.1f} s)" for r in results)
     assert all(len(checks[name]) > 0 for name in checks)
     runner.run_all(cases.select(["spring"]), None, jobs=jobs, figures_only=True)  # a library call: no lines

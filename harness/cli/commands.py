@@ -45,6 +45,7 @@ from harness.core import VERSION
 from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
 from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
+from harness.core.tables import terminal_width, wrap
 from harness.engine import backends, messages
 from harness.engine.integrators import available_integrators
 from harness.outputs import baseline
@@ -52,15 +53,7 @@ from harness.outputs.diff import diff_runs, format_diff, load_run, select
 from harness.outputs.files import REPORT_FILES, STALE, check_output, mark_stale, prepare_output, write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
 from harness.outputs.junit import junit_xml
-from harness.outputs.table import (
-    checks_table,
-    failures_block,
-    fitness_line,
-    fitness_table,
-    terminal_width,
-    verdict_line,
-    wrap,
-)
+from harness.outputs.table import checks_table, failures_block, fitness_line, fitness_table, verdict_line
 from harness.pipeline import limits as limits_data
 from harness.pipeline import require
 from harness.pipeline.matrix import LogProgress, run_all, run_backends

@@ -1,7 +1,7 @@
 """Checks for a terminal: each figure, what its budget explains, the rest beside its limit, the verdict.
 
-What a person reads by default fits the terminal (:func:`terminal_width`): a
-line per case (:func:`case_line`), each failed check with its budget
+What a person reads by default fits the terminal (:func:`~harness.core.tables.terminal_width`): a
+line per case (:func:`harness.pipeline.matrix.case_line`), each failed check with its budget
 (:func:`failures_block`), then the verdict; :func:`checks_table`, a row per
 check, is the verbose view.
 
@@ -14,17 +14,13 @@ a fixed limit (theory, or a user's config) shows the figure beside its limit.
 
 from __future__ import annotations
 
-import os
-import shutil
-import sys
-import textwrap
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from harness.core.budget import PARTS
-from harness.core.checks import Check
-from harness.core.tables import text_table
+from harness.core.checks import Check, ratio
+from harness.core.tables import text_table, wrap
 from harness.pipeline.outcome import Outcome
 
 
@@ -35,22 +31,6 @@ def fmt_value(value: float) -> str:
 def fmt_part(value: float | None) -> str:
     """A budget part: '' where it does not apply, else 2 significant digits."""
     return "" if value is None else f"{value:.2e}"
-
-
-def ratio(check: Check) -> float:
-    """Share of its limit a check uses (the unexplained residual's, for a budget): ≤ 1 passes (a
-    non-finite figure fails: inf); nan for a check this MuJoCo cannot measure (n/a)."""
-    if check.note:
-        return float("nan")
-    judged = check.judged
-    if not np.isfinite(judged) or not check.threshold > 0:
-        return float("inf")
-    return judged / check.threshold
-
-
-def closest(checks: Sequence[Check]) -> Check | None:
-    """The measurable check using the largest share of its limit."""
-    return max((c for c in checks if not c.note), key=ratio, default=None)
 
 
 def ratio_text(r: float) -> str:
@@ -99,59 +79,6 @@ def counts_line(everything: Sequence[Check]) -> str:
             + (f" ({known} of them known defects of this MuJoCo)" if known else "")
             + (f" ({diverged} of them on a run that could not be measured)" if diverged else "")
             + (f", {na} n/a (not in this MuJoCo, or not measurable at these settings)" if na else ""))
-
-
-NOT_A_TERMINAL_WIDTH = 100
-"""Columns the output fits where stdout is not a terminal (a CI log, a pipe) and COLUMNS is not set."""
-
-
-def terminal_width() -> int:
-    """Columns a line may take: COLUMNS where set, else the terminal's, else (not a terminal)
-    :data:`NOT_A_TERMINAL_WIDTH`; never fewer than 20."""
-    if "COLUMNS" not in os.environ and not _isatty(sys.stdout):
-        return NOT_A_TERMINAL_WIDTH
-    return max(20, shutil.get_terminal_size((NOT_A_TERMINAL_WIDTH, 24)).columns)
-
-
-def _isatty(stream: object) -> bool:
-    try:
-        return bool(stream.isatty())  # type: ignore[attr-defined]
-    except (AttributeError, ValueError):  # no isatty, or closed
-        return False
-
-
-def wrap(text: str, width: int, indent: str = "", more: str = "    ") -> list[str]:
-    """``text`` as lines of at most ``width`` columns: the first indented by ``indent``, the rest by
-    ``more``; a word longer than a line (a path) is broken."""
-    return textwrap.wrap(text, width=width, initial_indent=indent, subsequent_indent=indent + more,
-                         break_on_hyphens=False) or [indent.rstrip()]
-
-
-def worst_text(checks: Sequence[Check], *, short: bool = False) -> str:
-    """The largest share of its limit a case's checks use: "worst 63% of its limit", "worst 31.2× its
-    limit" ("worst 63%", "worst 31.2×" where ``short``), "worst not measured" (a run that could not be
-    measured, a non-finite figure), "all n/a"."""
-    worst = closest(checks)
-    if worst is None:
-        return "all n/a" if checks else "no checks"
-    r = ratio(worst)
-    if not np.isfinite(r):
-        return "worst not measured"
-    share = f"{100 * r:.0f}%" if r <= 1 else f"{r:.3g}×"
-    return f"worst {share}" if short else f"worst {share} {'of its' if r <= 1 else 'its'} limit"
-
-
-def case_line(case: str, checks: Sequence[Check], seconds: float, width: int = 0, columns: int | None = None) -> str:
-    """One finished case: its checks, how many fail, the worst share of a limit, the seconds it took;
-    the name padded to ``width`` (the longest name of the run) so that a run's lines align. Longer than
-    ``columns``: shorter words, and wrapped where that is not enough."""
-    failing = sum(not c.passed for c in checks)
-    line = (f"case {case + ':':<{width + 1}} {len(checks):>3} checks, {failing:>2} fail, {worst_text(checks)} "
-            f"({seconds:.1f} s)")
-    if columns is None or len(line) <= columns:
-        return line
-    line = f"case {case}: {len(checks)} checks, {failing} fail, {worst_text(checks, short=True)} ({seconds:.1f} s)"
-    return "\n".join(wrap(line, columns))
 
 
 def failure_lines(c: Check, width: int) -> list[str]:

@@ -10,6 +10,7 @@ run's scheduling (:mod:`harness.core.costs`).
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -19,8 +20,8 @@ from typing import TextIO
 
 from harness import cases
 from harness.core import costs
-from harness.core.checks import Check
-from harness.outputs.table import case_line, terminal_width
+from harness.core.checks import Check, closest, ratio
+from harness.core.tables import terminal_width, wrap
 from harness.pipeline.limits import Limits, case_limits, load_limits
 from harness.pipeline.pool import cpus, fork_pool
 from harness.pipeline.run import CaseResult, RunOptions
@@ -81,6 +82,33 @@ def progress(items: Sequence, desc: str, unit: str = "case", *, quiet: bool = Fa
     return tqdm(items, desc=desc, unit=unit, file=sys.stderr, leave=False)
 
 
+def worst_text(checks: Sequence[Check], *, short: bool = False) -> str:
+    """The largest share of its limit a case's checks use: "worst 63% of its limit", "worst 31.2× its
+    limit" ("worst 63%", "worst 31.2×" where ``short``), "worst not measured" (a run that could not be
+    measured, a non-finite figure), "all n/a"."""
+    worst = closest(checks)
+    if worst is None:
+        return "all n/a" if checks else "no checks"
+    r = ratio(worst)
+    if not math.isfinite(r):
+        return "worst not measured"
+    share = f"{100 * r:.0f}%" if r <= 1 else f"{r:.3g}×"
+    return f"worst {share}" if short else f"worst {share} {'of its' if r <= 1 else 'its'} limit"
+
+
+def case_line(case: str, checks: Sequence[Check], seconds: float, width: int = 0, columns: int | None = None) -> str:
+    """One finished case: its checks, how many fail, the worst share of a limit, the seconds it took;
+    the name padded to ``width`` (the longest name of the run) so that a run's lines align. Longer than
+    ``columns``: shorter words, and wrapped where that is not enough."""
+    failing = sum(not c.passed for c in checks)
+    line = (f"case {case + ':':<{width + 1}} {len(checks):>3} checks, {failing:>2} fail, {worst_text(checks)} "
+            f"({seconds:.1f} s)")
+    if columns is None or len(line) <= columns:
+        return line
+    line = f"case {case}: {len(checks)} checks, {failing} fail, {worst_text(checks, short=True)} ({seconds:.1f} s)"
+    return "\n".join(wrap(line, columns))
+
+
 def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: RunOptions | None = None, *,
             jobs: int | None = None, figures_only: bool = False, lines: bool = False, out: TextIO | None = None
             ) -> tuple[list[CaseResult], dict[str, list[Check]], Limits]:
@@ -94,7 +122,7 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
     which the parent would unpickle while the workers wait on the pipe) and no
     reference solutions (for studies).
     ``lines``: where stderr is not a terminal (a CI log, a pipe), which shows no progress bar, each case
-    prints its :func:`~harness.outputs.table.case_line` there as it finishes. ``out``: each case prints
+    prints its :func:`case_line` there as it finishes. ``out``: each case prints
     its line to this stream as it finishes, terminal or not, flushed, and no progress bar is drawn (the
     lines are the progress).
     """
