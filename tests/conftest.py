@@ -49,8 +49,9 @@ def breakable(case: str, names) -> set[str]:
     return {n for n in names if not unavailable_reason(n) and not known_defect(joints, n)}
 
 
-# the line run and check print on stderr as each case finishes where it is not a terminal (harness/pipeline/matrix.py)
-PROGRESS_LINE = re.compile(r"case [\w.-]+: \d+ checks, \d+ fail \(\d+\.\d s\)")
+# the line run and check print as each case finishes (harness/outputs/table.py case_line): on stdout, or with
+# --quiet or --json on stderr where it is not a terminal
+PROGRESS_LINE = re.compile(r"case [\w.-]+: +\d+ checks, +\d+ fail, [^()]+ \(\d+\.\d s\)")
 
 
 def without_progress(err: str) -> str:

@@ -121,10 +121,13 @@ def test_a_diverged_run_is_a_failed_check_with_its_reason_everywhere(tmp_path, c
     out, junit = tmp_path / "report", tmp_path / "junit.xml"
     assert main(["run", "--case", CASE, "--mjcf", str(path), "--out", str(out), "--junit", str(junit)]) == 1
     reason = "diverged: mjWARN_BADQACC at t = 0 s"  # qacc over mjMAXVAL at the first state
-    assert f"FAIL: {reason}" in capsys.readouterr().out
+    printed = capsys.readouterr().out.splitlines()
     checks = json.loads((out / "report.json").read_text())["cases"][CASE]["checks"]
     runs = [name for name in checks if "diverged" in checks[name]]
     assert {FigureName(n).integrator for n in runs} >= {"Euler", "implicit", "implicitfast", "RK4"}
+    for name in runs:  # each printed as a failure not measured, with the reason, and no number
+        k = next(i for i, line in enumerate(printed) if line.startswith(f"FAIL {CASE} {name} ["))
+        assert printed[k].endswith("]: not measured") and printed[k + 1] == f"    why: {reason}", printed[k:k + 2]
     assert all(checks[n]["diverged"] == reason and checks[n]["value"] == "nan" and checks[n]["passed"] is False
                and checks[n]["status"] == "FAIL" for n in runs)
     for name, check in checks.items():  # a diverged run's figures are all diverged; any other has numbers
@@ -340,7 +343,7 @@ def test_the_bounds_are_overridden_by_their_variables(monkeypatch, capsys):
     # a contact made active by a margin: the floor pushes the bob, a force the system does not have
     ('<geom name="bob" type="sphere" size="0.05" mass="0" contype="0" conaffinity="0"',
      '<geom name="bob" type="sphere" size="0.05" mass="0" contype="1" conaffinity="1" margin="0.5"',
-     "FAIL: not measurable: body 'bob' in the sensor's subtree is loaded from outside its joints"),
+     "why: not measurable: body 'bob' in the sensor's subtree is loaded from outside its joints"),
 ], ids=["com-offset", "margin-contact"])
 def test_a_fault_the_sensors_cannot_place_is_a_failure_not_bad_input(tmp_path, capsys, old, new, needle):
     """The issue's inputs, both refused as bad input (exit 2) before: real faults, so exit 1 with the checks
@@ -349,8 +352,8 @@ def test_a_fault_the_sensors_cannot_place_is_a_failure_not_bad_input(tmp_path, c
     if "margin" in new:
         path.write_text(path.read_text().replace(' contact="disable"', ""))
     assert main(["check", CASE, "--mjcf", str(path), "-q", "--integrators", "RK4"]) == 1
-    out = capsys.readouterr().out
-    assert needle in out and out.splitlines()[-1].startswith("FAIL — "), out
+    out = capsys.readouterr().out  # the failures (a reason wrapped to the width), then the verdict
+    assert needle in " ".join(out.split()) and out.splitlines()[-1].startswith("FAIL — "), out
 
 
 @pytest.mark.parametrize("case, old, new, needle", [

@@ -23,6 +23,7 @@ few go through a real subprocess to pin "no traceback" and the process exit code
 from __future__ import annotations
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -33,12 +34,13 @@ import pytest
 
 from harness import cases
 from harness.cli.commands import COMMANDS, main
+from harness.core.budget import PARTS
 from harness.core.errors import ConfigError
 from harness.pipeline import run as pipeline
 from harness.pipeline.limits import load_limits
 from harness.pipeline.verdict import judge
 from harness.studies.faults import by_name
-from tests.conftest import shipped_run, without_progress
+from tests.conftest import PROGRESS_LINE, shipped_run, without_progress
 
 CASE = "pendulum"
 MJCF = Path(__file__).resolve().parent.parent / "mjcf" / f"{CASE}.xml"
@@ -85,10 +87,98 @@ def test_list_names_every_case(capsys):
     assert all(name in out for name in cases.names())
 
 
-def test_check_passes_and_prints_each_figure_beside_its_limit(capsys, config, cached_runs):
-    """A theory limit is printed as the limits file states it; a budget's limit is the one its budget
-    computed for this run, beside the figure measured and the unexplained residual."""
-    assert main(["check", CASE]) == 0
+@pytest.mark.parametrize("columns", [None, 100, 60, 30])
+def test_list_fits_the_width_and_says_every_description_and_tag(columns, capsys, monkeypatch):
+    """Not a terminal (capsys) and no COLUMNS: 100 columns; COLUMNS: its width. Each case's name starts a line,
+    its description and tags wrapped beside or below it, none lost."""
+    if columns is None:
+        monkeypatch.delenv("COLUMNS", raising=False)
+    else:
+        monkeypatch.setenv("COLUMNS", str(columns))
+    assert main(["list"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert max(map(len, lines)) <= (columns or 100), lines
+    flat = "".join("".join(lines).split())  # a word longer than a narrow line is broken: compare without spaces
+    for c in cases.all_cases():
+        assert any(line.split()[:1] == [c.name] for line in lines)
+        assert "".join(f"{c.name} {c.description} [{','.join(sorted(c.tags))}]".split()) in flat
+
+
+def test_the_width_is_the_terminals_or_100_columns(monkeypatch):
+    import shutil
+
+    from harness.core import tables as table
+
+    class Terminal:
+        def isatty(self) -> bool:
+            return True
+
+    monkeypatch.delenv("COLUMNS", raising=False)
+    assert table.terminal_width() == 100  # capsys's stdout is not a terminal
+    monkeypatch.setattr(sys, "stdout", Terminal())
+    monkeypatch.setattr(shutil, "get_terminal_size", lambda fallback=(80, 24): os.terminal_size((132, 50)))
+    assert table.terminal_width() == 132
+    monkeypatch.setenv("COLUMNS", "72")  # shutil reads COLUMNS first; here the stub stands for it
+    monkeypatch.setattr(shutil, "get_terminal_size", lambda fallback=(80, 24): os.terminal_size((72, 50)))
+    assert table.terminal_width() == 72
+
+
+@pytest.mark.parametrize("columns", [100, 72, 40])
+def test_check_fits_the_terminal_passing_or_failing(columns, tmp_path, capsys, monkeypatch, cached_runs):
+    """Every line check prints fits the width, a failing variant's budget lines too (the verdict line stays one
+    line, whatever its length, for what parses it; these are shorter); a line per case in the default view."""
+    monkeypatch.setenv("COLUMNS", str(columns))
+    assert main(["check", CASE, "spring", "atwood"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert max(map(len, lines[:-1])) <= columns, lines
+    if columns >= 72:  # one line per case, then the verdict
+        assert len(lines) == 5 and all(PROGRESS_LINE.fullmatch(ln) for ln in lines[:3]) and lines[3] == ""
+    assert lines[-1].startswith("PASS — ") and lines[-1].endswith(" checks of 3 case(s) within what their budgets "
+                                                                  "explain")
+    damped = _variant(tmp_path, 'axis="0 -1 0" damping="0"', 'axis="0 -1 0" damping="0.01"')
+    assert main(["check", "--case", CASE, "--mjcf", str(damped), "--integrators", "RK4,Euler"]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[-1].startswith("FAIL — ") and f"in 1 of 1 case(s): {CASE} (" in lines[-1]
+    assert max(map(len, lines[:-1])) <= columns, lines
+    assert sum(ln.startswith("FAIL ") for ln in lines[:-1]) == int(lines[-1].split()[2])  # each failure
+
+
+def test_verbose_shows_every_check_and_the_default_only_the_failures(strict, capsys, cached_runs):
+    assert main(["check", CASE, "spring", "--config", str(strict)]) == 1
+    default = capsys.readouterr().out.splitlines()
+    assert main(["check", CASE, "spring", "--config", str(strict), "-v"]) == 1
+    verbose = capsys.readouterr().out.splitlines()
+    limits = load_limits(strict)
+    checks = [c for name in (CASE, "spring") for c in judge(shipped_run(name), limits.for_case(name))]
+    for c in checks:  # a row each in the verbose table: case, check, its figures, its verdict last
+        (row,) = [ln for ln in verbose if ln.split()[:2] == [c.case, c.name]]
+        assert row.split()[-1] == ("n/a" if c.note else "pass" if c.passed else "FAIL") or c.note, row
+        assert any(ln.startswith(f"FAIL {c.case} {c.name} [") for ln in default) is (not c.passed)
+    assert sum(ln.startswith("case ") for ln in verbose) == 3  # the cases' lines and the table's header
+    assert sum(ln.startswith("case ") for ln in default) == 2 and default[-1] == verbose[-1]
+    assert len(default) == 2 + 1 + 2 + 1 + 1  # two cases' lines, the failure's two, the verdict
+
+
+def test_check_lines_stream_in_a_log_in_the_order_the_cases_finish(tmp_path):
+    """Not a terminal (a CI log): the cases' lines come on stdout as the cases finish, before the verdict,
+    each flushed (a child of a pipe reads them while the run goes on), nothing on stderr."""
+    proc = subprocess.Popen([sys.executable, "-m", "harness.cli", "check", "spring", CASE, "-j", "1"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = proc.stdout.readline()  # read while the second case runs: flushed, not held until the end
+    still_running = proc.poll() is None
+    out, err = proc.communicate(timeout=300)
+    lines = [first.rstrip("\n"), *out.splitlines()]
+    assert proc.returncode == 0 and err == "", err
+    assert PROGRESS_LINE.fullmatch(lines[0]) and PROGRESS_LINE.fullmatch(lines[1]), lines
+    order = [ln.split()[1].rstrip(":") for ln in lines[:2]]
+    assert sorted(order) == sorted(["spring", CASE]) and lines[2] == "" and lines[3].startswith("PASS — ")
+    assert still_running  # the first case's line was read while the second ran
+
+
+def test_check_verbose_prints_each_figure_beside_its_limit(capsys, config, cached_runs):
+    """--verbose: a row per check. A theory limit is printed as the limits file states it; a budget's limit
+    is the one its budget computed for this run, beside the figure measured and the unexplained residual."""
+    assert main(["check", CASE, "--verbose"]) == 0
     lines = capsys.readouterr().out.splitlines()
     checks = {c.name: c for c in judge(shipped_run(CASE), config.for_case(CASE))}
     for name, limit in config.for_case(CASE).items():
@@ -134,20 +224,49 @@ def test_bare_command_and_help_list_each_command_on_one_line_and_the_exit_codes(
     assert [c.split()[0] for c in codes if c.startswith("  ") and not c.startswith("   ")][:3] == ["0", "1", "2"]
 
 
-def test_check_ends_with_the_verdict_and_repeats_the_failures_above_it(strict, capsys, cached_runs):
+def test_check_prints_a_line_per_case_then_the_failures_with_their_budget_then_the_verdict(strict, capsys,
+                                                                                          cached_runs):
+    """By default no row per check: the case's line, the failed check with its budget (measured, the parts
+    explained, unexplained beside the limit, how far over) and the verdict last."""
     assert main(["check", CASE, "--config", str(strict)]) == 1
     lines = capsys.readouterr().out.strip().splitlines()
     assert lines[-1].startswith("FAIL — 1 of ") and f"in 1 of 1 case(s): {CASE} (1)" in lines[-1]
-    failures = lines[lines.index("") + 1:]  # after the table of every check: the failures, then the verdict
-    assert failures[0].split()[:2] == ["case", "failed"] and "RK4.position" in failures[1]
+    check = next(c for c in judge(shipped_run(CASE), load_limits(strict).for_case(CASE)) if not c.passed)
+    b = check.budget
+    assert check.name == "RK4.position" and b is None  # a user's fixed limit: the figure beside it
+    assert PROGRESS_LINE.fullmatch(lines[0]) and f"case {CASE}: " in lines[0] and " 1 fail, worst " in lines[0]
+    assert lines[1] == "" and lines[-2] == ""
+    assert lines[2:-2] == [f"FAIL {CASE} RK4.position [m]: {check.value / 1e-12:.3g}× over its limit",
+                           f"    measured {check.value:.3e} > fixed limit 1.000e-12"]
+
+
+def test_a_failure_shows_its_budget_by_default(tmp_path, capsys):
+    """A fault (joint damping) fails budget-judged checks: each failure's lines give the figure measured, the
+    unexplained residual beside the limit its budget computed and the parts the budget explains."""
+    damped = _variant(tmp_path, 'axis="0 -1 0" damping="0"', 'axis="0 -1 0" damping="0.01"')
+    assert main(["check", "--case", CASE, "--mjcf", str(damped), "--integrators", "RK4"]) == 1
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    checks = judge(pipeline.RunOptions(mjcf=damped, integrators=("RK4",)).run(cases.get(CASE)),
+                   load_limits().for_case(CASE))
+    failed = [c for c in checks if not c.passed and c.budget is not None]
+    assert failed and lines[-1].startswith(f"FAIL — {sum(not c.passed for c in checks)} of ")
+    for c in failed:
+        b = c.budget
+        k = lines.index(f"FAIL {CASE} {c.name} [{c.unit}]: {b.unexplained / b.limit:.3g}× over its limit")
+        assert lines[k + 1] == f"    measured {b.measured:.3e}, unexplained {b.unexplained:.3e} > limit {b.limit:.3e}"
+        assert lines[k + 2] == "    explained: " + ", ".join(f"{p} {b.explained[p]:.2e}" for p in PARTS
+                                                          if p in b.explained)
+    assert max(map(len, lines)) <= 100  # not a terminal: 100 columns
 
 
 @pytest.mark.parametrize("tight", [False, True])
 def test_quiet_prints_the_failures_and_the_verdict_only(tight, strict, capsys, cached_runs):
     assert main(["check", CASE, "--quiet", *(["--config", str(strict)] if tight else [])]) == int(tight)
     lines = capsys.readouterr().out.strip().splitlines()
-    if tight:
-        assert len(lines) == 4 and "RK4.position" in lines[1] and lines[2] == "" and lines[3].startswith("FAIL")
+    if tight:  # the failure (its line and its figure beside the limit), then the verdict
+        assert len(lines) == 4 and lines[0].startswith(f"FAIL {CASE} RK4.position [m]: ") and lines[2] == ""
+        assert lines[1].startswith("    measured ") and lines[3].startswith("FAIL")
     else:
         assert len(lines) == 1 and lines[0].startswith("PASS — ") and "checks of 1 case(s) within" in lines[0]
 
@@ -178,11 +297,14 @@ def test_figures_lists_every_figure_with_its_unit_meaning_and_limit_basis(capsys
     limits = load_limits()
     run = shipped_run(CASE)
     lines = out.splitlines()
-    for f in run.figures:
-        (k,) = [i for i, line in enumerate(lines) if line.split()[:1] == [f.name]]
-        assert f"[{f.unit}]" in lines[k] and f.description in lines[k]
+    assert max(map(len, lines)) <= 100  # not a terminal: 100 columns, the long texts wrapped
+    for f in run.figures:  # "  NAME [unit]: what it measures", its continuation lines at 4, then the basis at 6
+        (k,) = [i for i, line in enumerate(lines) if line.split()[:1] == [f"{f.name}"]]
+        n = next(i for i in range(k + 1, len(lines)) if lines[i].startswith("      "))
+        assert " ".join(" ".join(lines[k:n]).split()) == " ".join(f"{f.name} [{f.unit}]: {f.description}".split())
         lim = limits.limit(CASE, f.name)
-        basis = lines[k + 1].strip()
+        end = next((i for i in range(n, len(lines)) if not lines[i].startswith("      ")), len(lines))
+        basis = " ".join(" ".join(lines[n:end]).split())
         if lim is None:
             assert basis == "not gated"
         elif lim.basis == "budget":  # no number: the budget computes the limit for each run
@@ -193,14 +315,23 @@ def test_figures_lists_every_figure_with_its_unit_meaning_and_limit_basis(capsys
     assert bases == {"budget", "theory"}  # the pendulum has both kinds: both were shown
 
 
+def test_figures_fit_100_columns_when_not_a_terminal(capsys, monkeypatch, cached_runs):
+    monkeypatch.delenv("COLUMNS", raising=False)
+    assert main(["figures", "atwood_tendon", "hoop_ramp_contact", "torque_free_body"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert max(map(len, lines)) <= 100 and sum(ln.startswith("hoop_ramp_contact — ") for ln in lines) == 1
+
+
 def test_check_fails_with_exit_1_when_a_threshold_is_tightened(strict):
     proc = _run("check", CASE, "--config", str(strict))
     assert proc.returncode == 1
     assert "FAIL" in proc.stdout and "Traceback" not in proc.stderr
-    # no progress bar when stderr is not a terminal: one line for the finished case instead, its one failure told
-    line = re.fullmatch(rf"case {CASE}: (\d+) checks, (\d+) fail \(\d+\.\d s\)\n", proc.stderr)
-    assert line is not None, proc.stderr
-    assert int(line[1]) > int(line[2]) == 1  # the one tightened figure
+    # no progress bar, terminal or not: the finished case's line comes first on stdout, its one failure told
+    assert proc.stderr == ""
+    line = re.fullmatch(rf"case {CASE}: +(\d+) checks, +(\d+) fail, worst (\S+)× its limit \(\d+\.\d s\)",
+                        proc.stdout.splitlines()[0])
+    assert line is not None, proc.stdout
+    assert int(line[1]) > int(line[2]) == 1 and float(line[3]) > 1  # the one tightened figure
 
 
 @pytest.mark.parametrize("tight, code", [(False, 0), (True, 1)])
@@ -238,7 +369,8 @@ def test_check_junit(tmp_path, cached_runs, strict, tight, code, capsys):
     assert len(cases_) == len(load_limits().for_case(CASE))
     failures = [tc.get("name") for tc in cases_ if tc.find("failure") is not None]
     assert failures == (["RK4.position"] if tight else [])
-    assert "passed" in capsys.readouterr().out
+    lines = capsys.readouterr().out.splitlines()  # the JUnit besides what check prints, not instead
+    assert lines[0].startswith(f"case {CASE}: ") and lines[-1].startswith("FAIL — " if tight else "PASS — ")
 
 
 def test_progress_is_a_bar_on_a_terminal_and_lines_in_a_log(monkeypatch, capsys):
@@ -270,8 +402,9 @@ def test_a_long_check_prints_progress_lines_in_a_log(monkeypatch, capsys, cached
     monkeypatch.setattr(runner, "PROGRESS_INTERVAL", 0.0)
     assert main(["check", CASE, "spring", "-j", "1", "-q"]) == 0
     lines = capsys.readouterr().err.splitlines()
-    assert [re.sub(r"\(.*\)", "", ln) for ln in lines] == ["case pendulum: 40 checks, 0 fail ",
-                                                           "case spring: 24 checks, 0 fail "], lines
+    assert [re.sub(r", worst .*", "", ln) for ln in lines] == ["case pendulum:  40 checks,  0 fail",
+                                                              "case spring:    24 checks,  0 fail"], lines
+    assert all(PROGRESS_LINE.fullmatch(ln) for ln in lines)
 
 
 # ------------------------------------------------------------------- errors

@@ -205,7 +205,7 @@ def test_an_accelerometer_the_system_has_no_acceleration_for_is_not_compared(tmp
     assert old in text
     path = tmp_path / "variant.xml"
     path.write_text(text.replace(old, '<site name="bob_imu" pos="0 0 0.3" size="0.005"/>'))
-    assert main(["check", "pendulum", "--mjcf", str(path), "--integrators", "RK4"]) == 0
+    assert main(["check", "pendulum", "--mjcf", str(path), "--integrators", "RK4", "--verbose"]) == 0
     row = next(line for line in capsys.readouterr().out.splitlines() if "instant.sensor.bob_accel" in line)
     assert "n/a" in row and "neither an analytic point nor at the centre of mass of an analytic body ('bob', 0.3 m" \
         in row, row

@@ -18,7 +18,7 @@ from pathlib import Path
 import mujoco
 import pytest
 
-from harness.core.checks import Check
+from harness.core.checks import Check, closest
 from harness.core.figures import Figure
 from harness.core.findings import Finding
 from harness.outputs import baseline, files, jsondoc, report
@@ -26,7 +26,7 @@ from harness.outputs.diff import diff_runs, format_diff, load_run
 from harness.outputs.equations import equations, png_data_uri
 from harness.outputs.junit import junit_xml
 from harness.outputs.stills import Request, stills
-from harness.outputs.table import closest, verdict_line
+from harness.outputs.table import verdict_line
 from harness.pipeline.outcome import Outcome, outcome_of
 from harness.pipeline.require import Requirement
 from harness.pipeline.verdict import judge

@@ -38,7 +38,7 @@ from harness.pipeline import matrix as runner
 from harness.pipeline import run as pipeline
 from harness.reference import derivations
 from harness.reference import solutions as refmod
-from tests.conftest import without_progress
+from tests.conftest import PROGRESS_LINE, without_progress
 
 SYSTEM = "pendulum"
 
@@ -336,11 +336,42 @@ def test_a_log_gets_a_line_per_finished_case(jobs, capsys, monkeypatch):
                                         lines=True)
     lines = capsys.readouterr().err.splitlines()
     assert sorted(lines) == sorted(
-        f"case {r.case.name}: {len(checks[r.case.name])} checks, "
-        f"{sum(not c.passed for c in checks[r.case.name])} fail ({sum(r.timings.values()):.1f} s)" for r in results)
+        f"case {r.case.name + ':':7s} {len(checks[r.case.name]):3d} checks, "
+        f"{sum(not c.passed for c in checks[r.case.name]):2d} fail, {runner.worst_text(checks[r.case.name])} "
+        f"({sum(r.timings.values()):.1f} s)" for r in results)
     assert all(len(checks[name]) > 0 for name in checks)
     runner.run_all(cases.select(["spring"]), None, jobs=jobs, figures_only=True)  # a library call: no lines
     assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_case_lines_stream_to_their_stream_in_the_order_the_cases_finish(jobs, capsys, monkeypatch):
+    """check's lines (``out``): each case's line written and flushed as it finishes, terminal or not, in the
+    order the cases finish (not the registry's), and no progress bar or log line besides them."""
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)  # a terminal would get a bar without ``out``
+    monkeypatch.setattr(runner, "PROGRESS_INTERVAL", 0.0)
+    finished: list[str] = []
+    real = runner.judge
+
+    def judge(result, limits):  # called as each case comes in, just before its line
+        finished.append(result.case.name)
+        return real(result, limits)
+
+    class Log(io.StringIO):
+        flushes = 0
+
+        def flush(self) -> None:
+            self.flushes += 1
+
+    monkeypatch.setattr(runner, "judge", judge)
+    log = Log()
+    _, checks, _ = runner.run_all(cases.select(["spring", "atwood", "pendulum"]), None, jobs=jobs,
+                                  figures_only=True, out=log)
+    lines = log.getvalue().splitlines()
+    assert [ln.split()[1].rstrip(":") for ln in lines] == finished and sorted(finished) == sorted(checks)
+    assert all(PROGRESS_LINE.fullmatch(ln) for ln in lines) and log.flushes >= len(lines)
+    assert len({ln.index(" checks") for ln in lines}) == 1  # the names padded to the longest: aligned
+    assert capsys.readouterr().err == ""  # no bar, no periodic line
 
 
 @pytest.mark.parametrize("value", ["0", "-1", "two"])

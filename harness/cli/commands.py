@@ -9,8 +9,11 @@ to report it). ``diff`` is informational: 0 unless its input is bad (2). A comma
 closed (``| head -1``) stops quietly with 141 (128 + SIGPIPE); one interrupted exits 130 (Ctrl-C) or
 143 (SIGTERM), and marks stale the report files it would have written.
 
-``run`` and ``check`` print every check, then the failures again and a verdict line last, where a
-person sees it without scrolling; ``--quiet`` prints the failures and the verdict only.
+``run`` and ``check`` print what fits the terminal: a line per case as it finishes (its checks, how
+many fail, the worst share of a limit, seconds; on stdout, flushed, so a CI log shows them as they
+come), then each failed check with its budget, and the verdict line last, where a person sees it
+without scrolling; ``--verbose`` adds the table of every check; ``--quiet`` prints the failures and the
+verdict only (the cases' lines go to stderr where it is not a terminal, a progress bar where it is).
 
 Each subcommand is one entry in ``COMMANDS``: a function adding its arguments
 and a ``cmd_NAME(args) -> int`` doing the work. The commands that draw
@@ -42,6 +45,7 @@ from harness.core import VERSION
 from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
 from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
+from harness.core.tables import terminal_width, wrap
 from harness.engine import backends, messages
 from harness.engine.integrators import available_integrators
 from harness.outputs import baseline
@@ -49,7 +53,7 @@ from harness.outputs.diff import diff_runs, format_diff, load_run, select
 from harness.outputs.files import REPORT_FILES, STALE, check_output, mark_stale, prepare_output, write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
 from harness.outputs.junit import junit_xml
-from harness.outputs.table import checks_table, failures_table, fitness_line, fitness_table, verdict_line
+from harness.outputs.table import checks_table, failures_block, fitness_line, fitness_table, verdict_line
 from harness.pipeline import limits as limits_data
 from harness.pipeline import require
 from harness.pipeline.matrix import LogProgress, run_all, run_backends
@@ -97,19 +101,33 @@ def _selected(args: argparse.Namespace) -> tuple[cases.Case, ...]:
 
 
 def _add_quiet(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--quiet", "-q", action="store_true", help="print the failures and the verdict line only")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--quiet", "-q", action="store_true", help="print the failures and the verdict line only")
+    g.add_argument("--verbose", "-v", action="store_true",
+                   help="also print every check as a table: its figure, budget parts, limit and verdict")
 
 
-def _print_checks(outcome: Outcome, *, quiet: bool, written: str = "") -> None:
-    """Every check (unless ``quiet``), the failures again, the requirements judged, ``written`` (what was
-    written, unless ``quiet``), and the verdict line last (and the requirements' line, where stated)."""
-    failures = failures_table(outcome.checks)
+def _case_lines(args: argparse.Namespace) -> dict:
+    """Where run_all prints each case's line as it finishes: stdout (flushed, terminal or not) unless
+    --quiet or --json, which keep stdout for the verdict or the document (then stderr where it is not a
+    terminal, a progress bar where it is)."""
+    return {"lines": True} if args.quiet or getattr(args, "json", False) else {"out": sys.stdout}
+
+
+def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, written: str = "") -> None:
+    """After the cases' lines: every check as a table (``verbose``), each failed check with its budget,
+    the requirements judged, ``written`` (what was written), and the verdict line last (and the
+    requirements' line, where stated); ``quiet``: the failures and the verdict only. All but the table
+    and the verdict's lines fit the terminal (:func:`~harness.outputs.table.terminal_width`)."""
+    width = terminal_width()
+    failures = failures_block(outcome.checks, width)
     fitness = fitness_table(outcome)
-    parts = ([] if quiet else [checks_table(outcome.checks)]) + ([failures] if failures else [])
+    parts = [checks_table(outcome.checks)] if verbose and not quiet else []
+    parts += [failures] if failures else []
     parts += [fitness] if fitness and not quiet else []
-    parts += [written] if written and not quiet else []
+    parts += ["\n".join(wrap(written, width))] if written and not quiet else []
     last = "\n".join(line for line in (verdict_line(outcome), fitness_line(outcome)) if line)
-    print("\n\n".join([*parts, last]))
+    print("\n\n".join([*parts, last]) if quiet else "\n" + "\n\n".join([*parts, last]))
 
 
 def _add_run_options(p: argparse.ArgumentParser) -> None:
@@ -249,13 +267,19 @@ def _args_list(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_list(args: argparse.Namespace) -> int:
-    everything = cases.all_cases()
-    tags = {c.name: f"[{','.join(sorted(c.tags))}]" for c in everything}
-    width, tag_width = max(map(len, tags)), max(map(len, tags.values()))
-    for c in everything:
-        print(f"{c.name.ljust(width)}  {tags[c.name].ljust(tag_width)}  {c.description}")
-    for name, why in cases.unavailable().items():
-        print(f"{name.ljust(width)}  {'[n/a]'.ljust(tag_width)}  not run here: {why}")
+    """A case a line or a few: its name, then its description and tags wrapped beside it to the terminal's
+    width (:func:`~harness.outputs.table.terminal_width`)."""
+    unavailable = cases.unavailable()
+    rows = [(c.name, f"{c.description} [{','.join(sorted(c.tags))}]") for c in cases.all_cases()]
+    rows += [(name, f"not run here: {why} [n/a]") for name, why in unavailable.items()]
+    names = max(len(name) for name, _ in rows) + 2
+    width = terminal_width()
+    for name, text in rows:
+        if width - names >= 30:  # the text beside the name, in a column of its own
+            lines = textwrap.wrap(text, width - names, break_on_hyphens=False)
+            print("\n".join(f"{name if i == 0 else '':<{names}}{line}" for i, line in enumerate(lines)))
+        else:  # too narrow for a column: the text below the name
+            print("\n".join([name, *wrap(text, width, "    ", "")]))
     return EXIT_OK
 
 
@@ -309,7 +333,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     _check_junit(args.junit, args.out)
     selected = _selected(args)
     options = _options(args, selected, several=True)
-    results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs, lines=True)
+    results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs, **_case_lines(args))
     outcome = _outcome(args, results, checks, limits)
     extras, appendix, plots = report_parts(selected, results, jobs=args.jobs,
                                            studies=args.studies and options.shipped)
@@ -326,7 +350,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                          appendix=appendix, plots=plots)
     prepare_output(args.out)
     paths = write_atomic(files | _junit(args.junit, outcome))  # the report and its JUnit: all or none
-    _print_checks(outcome, quiet=args.quiet,
+    _print_checks(outcome, quiet=args.quiet, verbose=args.verbose,
                   written=f"wrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - start:.1f} s")
     return outcome.exit_code
 
@@ -351,13 +375,13 @@ def cmd_check(args: argparse.Namespace) -> int:
     # prints "Failed to import warp" to stdout when it is imported without Warp)
     with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
         results, checks, limits = run_all(selected, args.config, _options(args, selected), jobs=args.jobs,
-                                          figures_only=True, lines=True)
+                                          figures_only=True, **_case_lines(args))
     outcome = _outcome(args, results, checks, limits)
     write_atomic(_junit(args.junit, outcome))
     if args.json:
         sys.stdout.write(dumps(json_doc(results, outcome)))
     else:
-        _print_checks(outcome, quiet=args.quiet)
+        _print_checks(outcome, quiet=args.quiet, verbose=args.verbose)
     return outcome.exit_code
 
 
@@ -590,19 +614,19 @@ def cmd_figures(args: argparse.Namespace) -> int:
     descriptions are those the code that measures the figures gives them, so the cases run (as ``check``
     does: seconds, no report)."""
     results, _, limits = run_all(cases.select(args.cases), args.config, jobs=args.jobs, figures_only=True)
-    print("unit 1 = relative to the case's scale (m·g for forces, m·g·l for energy); a budget-gated figure "
-          "passes when what its budget does not explain is within the limit the budget computes, a figure "
-          "with a fixed limit when it is finite and ≤ it")
-    for r in results:
-        print(f"\n{r.case.name} — {r.case.description}")
-        width = max(len(f.name) for f in r.figures)
-        units = max(len(f.unit) for f in r.figures) + 2
+    width = terminal_width()
+    print("\n".join(wrap("unit 1 = relative to the case's scale (m·g for forces, m·g·l for energy); a "
+                         "budget-gated figure passes when what its budget does not explain is within the limit "
+                         "the budget computes, a figure with a fixed limit when it is finite and ≤ it", width,
+                         more="")))
+    for r in results:  # per figure: its name, unit and what it measures; below, its limit and basis
+        print("\n" + "\n".join(wrap(f"{r.case.name} — {r.case.description}", width, more="  ")))
         for f in r.figures:
             lim = limits.limit(r.case.name, f.name)
             gate = ("not gated" if lim is None else lim.describe() if lim.value is None
                     else f"limit {lim.value:.3g}: {lim.describe()}")
-            print(f"  {f.name.ljust(width)}  {f'[{f.unit}]'.ljust(units)}  {f.description}")
-            print(f"  {' ' * (width + units + 2)}  {gate}")
+            print("\n".join([*wrap(f"{f.name} [{f.unit}]: {f.description}", width, "  ", "  "),
+                             *wrap(gate, width, "      ", "  ")]))
     return EXIT_OK
 
 

@@ -12,7 +12,7 @@ A gated figure is judged one of two ways (its limit's basis, :mod:`harness.pipel
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 from harness.core.budget import Budget
@@ -88,3 +88,19 @@ def gate(checks: Iterable[Check], *, accept_known_defects: bool = False) -> bool
     """Whether a run passes: every check passes, or (with ``accept_known_defects``) every failure is a
     documented defect of this MuJoCo whose signature the figure shows."""
     return all(c.passed or (accept_known_defects and c.known) for c in checks)
+
+
+def ratio(check: Check) -> float:
+    """Share of its limit a check uses (the unexplained residual's, for a budget): ≤ 1 passes (a
+    non-finite figure fails: inf); nan for a check this MuJoCo cannot measure (n/a)."""
+    if check.note:
+        return float("nan")
+    judged = check.judged
+    if not math.isfinite(judged) or not check.threshold > 0:
+        return float("inf")
+    return judged / check.threshold
+
+
+def closest(checks: Sequence[Check]) -> Check | None:
+    """The measurable check using the largest share of its limit."""
+    return max((c for c in checks if not c.note), key=ratio, default=None)

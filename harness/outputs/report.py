@@ -36,6 +36,7 @@ from analytic.claims.notation import latex_text
 from harness.core import VERSION as __version__
 from harness.core.budget import PARTS
 from harness.core.checks import Check
+from harness.core.checks import closest as closest_check
 from harness.engine.models import compile_model
 from harness.outputs.equations import equations, png_data_uri
 from harness.outputs.files import REPORT_FILES, prepare_output, write_atomic
@@ -43,7 +44,6 @@ from harness.outputs.jsondoc import render_json, versions
 from harness.outputs.page import table_of_contents, unbroken_numbers
 from harness.outputs.plots import section_plots, shipped_integrator
 from harness.outputs.stills import Request, Still, stills
-from harness.outputs.table import closest as closest_check
 from harness.outputs.table import fitness_line, fmt_value, parts_shown, ratio, ratio_text, verdict_line
 from harness.pipeline.outcome import Outcome
 from harness.pipeline.require import Fitness

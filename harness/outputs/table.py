@@ -1,5 +1,10 @@
 """Checks for a terminal: each figure, what its budget explains, the rest beside its limit, the verdict.
 
+What a person reads by default fits the terminal (:func:`~harness.core.tables.terminal_width`): a
+line per case (:func:`harness.pipeline.matrix.case_line`), each failed check with its budget
+(:func:`failures_block`), then the verdict; :func:`checks_table`, a row per
+check, is the verbose view.
+
 A check judged by its error budget shows the figure as measured, the parts the
 model's settings explain (integration, softness, the point masses' floors, a
 constraint solver stopped short), the unexplained residual and the limit the
@@ -14,8 +19,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from harness.core.budget import PARTS
-from harness.core.checks import Check
-from harness.core.tables import text_table
+from harness.core.checks import Check, ratio
+from harness.core.tables import text_table, wrap
 from harness.pipeline.outcome import Outcome
 
 
@@ -26,22 +31,6 @@ def fmt_value(value: float) -> str:
 def fmt_part(value: float | None) -> str:
     """A budget part: '' where it does not apply, else 2 significant digits."""
     return "" if value is None else f"{value:.2e}"
-
-
-def ratio(check: Check) -> float:
-    """Share of its limit a check uses (the unexplained residual's, for a budget): ≤ 1 passes (a
-    non-finite figure fails: inf); nan for a check this MuJoCo cannot measure (n/a)."""
-    if check.note:
-        return float("nan")
-    judged = check.judged
-    if not np.isfinite(judged) or not check.threshold > 0:
-        return float("inf")
-    return judged / check.threshold
-
-
-def closest(checks: Sequence[Check]) -> Check | None:
-    """The measurable check using the largest share of its limit."""
-    return max((c for c in checks if not c.note), key=ratio, default=None)
 
 
 def ratio_text(r: float) -> str:
@@ -92,15 +81,36 @@ def counts_line(everything: Sequence[Check]) -> str:
             + (f", {na} n/a (not in this MuJoCo, or not measurable at these settings)" if na else ""))
 
 
-def failures_table(checks: Mapping[str, Sequence[Check]]) -> str:
-    """The failed checks as an aligned table ("" when none failed)."""
-    failed = [c for cs in checks.values() for c in cs if not c.passed]
-    if not failed:
-        return ""
-    parts = parts_shown(failed)
-    rows = [(c.case, c.name, *_cells(c, parts), c.unit, ratio_text(ratio(c)), _status(c)) for c in failed]
-    return text_table(("case", "failed check", "measured", *parts, "unexplained", "limit", "unit", "used",
-                       "verdict"), rows)
+def failure_lines(c: Check, width: int) -> list[str]:
+    """A failed check in lines of at most ``width`` columns: its status, case, name and unit and how far
+    over its limit; then the figure measured, the unexplained residual (a fixed limit: the figure) beside
+    the limit; then the parts its budget explains; then the reason (a known defect, a run that could not
+    be measured), each wrapped where it is longer."""
+    r = ratio(c)
+    over = ("not measured" if c.diverged or not np.isfinite(r)
+            else f"{r:.3g}× over its limit" if r > 1 else f"{100 * r:.0f}% of its limit")
+    lines = wrap(f"{c.status} {c.case} {c.name} [{c.unit}]: {over}", width)
+    if not c.diverged and c.budget is not None:
+        b = c.budget
+        lines += wrap(f"measured {fmt_value(b.measured)}, unexplained {fmt_value(b.unexplained)} "
+                      f"{_beside(b.unexplained, b.limit)} limit {fmt_value(b.limit)}", width, "    ")
+        explained = ", ".join(f"{p} {fmt_part(b.explained[p])}" for p in PARTS if p in b.explained)
+        lines += wrap(f"explained: {explained}", width, "    ") if explained else []
+    elif not c.diverged:
+        lines += wrap(f"measured {fmt_value(c.value)} {_beside(c.value, c.threshold)} fixed limit "
+                      f"{fmt_value(c.threshold)}", width, "    ")
+    if c.reason:
+        lines += wrap(f"why: {c.reason}", width, "    ")
+    return lines
+
+
+def _beside(value: float, limit: float) -> str:
+    return "≤" if value <= limit else ">"  # a known defect may be within; nan is not
+
+
+def failures_block(checks: Mapping[str, Sequence[Check]], width: int) -> str:
+    """Every failed check as :func:`failure_lines` ("" when none failed)."""
+    return "\n".join(line for cs in checks.values() for c in cs if not c.passed for line in failure_lines(c, width))
 
 
 def _known_text(known: Sequence[Check]) -> str:

@@ -10,15 +10,18 @@ run's scheduling (:mod:`harness.core.costs`).
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import as_completed
 from pathlib import Path
+from typing import TextIO
 
 from harness import cases
 from harness.core import costs
-from harness.core.checks import Check
+from harness.core.checks import Check, closest, ratio
+from harness.core.tables import terminal_width, wrap
 from harness.pipeline.limits import Limits, case_limits, load_limits
 from harness.pipeline.pool import cpus, fork_pool
 from harness.pipeline.run import CaseResult, RunOptions
@@ -79,15 +82,35 @@ def progress(items: Sequence, desc: str, unit: str = "case", *, quiet: bool = Fa
     return tqdm(items, desc=desc, unit=unit, file=sys.stderr, leave=False)
 
 
-def case_line(result: CaseResult, checks: Sequence[Check]) -> str:
-    """One finished case as a progress line: its checks, how many fail, and the seconds it took."""
+def worst_text(checks: Sequence[Check], *, short: bool = False) -> str:
+    """The largest share of its limit a case's checks use: "worst 63% of its limit", "worst 31.2× its
+    limit" ("worst 63%", "worst 31.2×" where ``short``), "worst not measured" (a run that could not be
+    measured, a non-finite figure), "all n/a"."""
+    worst = closest(checks)
+    if worst is None:
+        return "all n/a" if checks else "no checks"
+    r = ratio(worst)
+    if not math.isfinite(r):
+        return "worst not measured"
+    share = f"{100 * r:.0f}%" if r <= 1 else f"{r:.3g}×"
+    return f"worst {share}" if short else f"worst {share} {'of its' if r <= 1 else 'its'} limit"
+
+
+def case_line(case: str, checks: Sequence[Check], seconds: float, width: int = 0, columns: int | None = None) -> str:
+    """One finished case: its checks, how many fail, the worst share of a limit, the seconds it took;
+    the name padded to ``width`` (the longest name of the run) so that a run's lines align. Longer than
+    ``columns``: shorter words, and wrapped where that is not enough."""
     failing = sum(not c.passed for c in checks)
-    return (f"case {result.case.name}: {len(checks)} checks, {failing} fail "
-            f"({sum(result.timings.values()):.1f} s)")
+    line = (f"case {case + ':':<{width + 1}} {len(checks):>3} checks, {failing:>2} fail, {worst_text(checks)} "
+            f"({seconds:.1f} s)")
+    if columns is None or len(line) <= columns:
+        return line
+    line = f"case {case}: {len(checks)} checks, {failing} fail, {worst_text(checks, short=True)} ({seconds:.1f} s)"
+    return "\n".join(wrap(line, columns))
 
 
 def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: RunOptions | None = None, *,
-            jobs: int | None = None, figures_only: bool = False, lines: bool = False
+            jobs: int | None = None, figures_only: bool = False, lines: bool = False, out: TextIO | None = None
             ) -> tuple[list[CaseResult], dict[str, list[Check]], Limits]:
     """run_case for each case (as ``options`` ask), then its verdict; (results, checks by case, limits).
 
@@ -99,7 +122,9 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
     which the parent would unpickle while the workers wait on the pipe) and no
     reference solutions (for studies).
     ``lines``: where stderr is not a terminal (a CI log, a pipe), which shows no progress bar, each case
-    prints :func:`case_line` there as it finishes.
+    prints its :func:`case_line` there as it finishes. ``out``: each case prints
+    its line to this stream as it finishes, terminal or not, flushed, and no progress bar is drawn (the
+    lines are the progress).
     """
     options = options or RunOptions()
     limits = load_limits(config_path)
@@ -108,12 +133,18 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
     def finished(result: CaseResult) -> None:  # judged as it comes in, so its line can say how it went
         measured = [*(f.name for f in result.figures), *result.unmeasured]
         checks[result.case.name] = judge(result, case_limits(limits, result.case, measured))
-        if lines and not sys.stderr.isatty():
-            print(case_line(result, checks[result.case.name]), file=sys.stderr, flush=True)
+        stream = out if out is not None else sys.stderr if lines and not sys.stderr.isatty() else None
+        if stream is not None:
+            print(case_line(result.case.name, checks[result.case.name], sum(result.timings.values()), width,
+                            terminal_width()), file=stream, flush=True)
 
     check_config(limits.overrides, cases.all_cases(), source=repr(str(config_path)))  # the cases not run too
     workers = min(jobs or cpus(), len(selected))
-    bar = progress(selected, "mjharness", quiet=lines)  # with lines, each case's own line says the progress
+    width = max((len(c.name) for c in selected), default=0)
+    if out is not None:  # the cases' lines are the progress: no bar among them
+        bar = LogProgress(selected, "mjharness", "case", quiet=True)
+    else:  # with lines, each case's own line says the progress
+        bar = progress(selected, "mjharness", quiet=lines)
     if options.backend != "c" and len(selected) > 1 and options.mjcf is None:
         results = _run_isolated(selected, bar, figures_only=figures_only, options=options, finished=finished)
     elif workers <= 1 or options.mjcf is not None:
