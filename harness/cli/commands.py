@@ -351,7 +351,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     prepare_output(args.out)
     paths = write_atomic(files | _junit(args.junit, outcome))  # the report and its JUnit: all or none
     _print_checks(outcome, quiet=args.quiet, verbose=args.verbose,
-                  written=f"wrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - start:.1f} s")
+                  written=f"wrote in {time.perf_counter() - start:.1f} s: {', '.join(str(p) for p in paths)}")
     return outcome.exit_code
 
 
