@@ -518,7 +518,10 @@ def test_run_writes_complete_deterministic_report(tmp_path, cached_runs, capsys)
     assert "http://" not in page and "https://" not in page  # self-contained
     assert page.count("data:image/png;base64,") >= 4
     out = capsys.readouterr().out.strip().splitlines()
-    assert out[-3].startswith("wrote ") and out[-1].startswith("PASS — ")  # the verdict last
+    # what was written (wrapped to the width: continuation lines indented), then the verdict last
+    wrote = max(i for i, line in enumerate(out) if line.startswith("wrote in "))
+    assert all(not line or line.startswith(" ") for line in out[wrote + 1:-1]) and out[-1].startswith("PASS — ")
+    assert all(name in " ".join(out[wrote:-1]) for name in ("report.html", "report.json", "summary.md"))
     assert main(["run", CASE, "--out", str(out2), "--quiet", "--no-studies"]) == 0  # the verdict: the same
     assert capsys.readouterr().out.strip().splitlines() == [out[-1]]
 
