@@ -133,8 +133,8 @@ def test_check_fits_the_terminal_passing_or_failing(columns, tmp_path, capsys, m
     assert max(map(len, lines[:-1])) <= columns, lines
     if columns >= 72:  # one line per case, then the verdict
         assert len(lines) == 5 and all(PROGRESS_LINE.fullmatch(ln) for ln in lines[:3]) and lines[3] == ""
-    assert lines[-1].startswith("PASS — ") and lines[-1].endswith(" checks of 3 case(s) within what their budgets "
-                                                                  "explain")
+    # (an older MuJoCo appends its n/a and engine findings to the verdict)
+    assert lines[-1].startswith("PASS — ") and " checks of 3 case(s) within what their budgets explain" in lines[-1]
     damped = _variant(tmp_path, 'axis="0 -1 0" damping="0"', 'axis="0 -1 0" damping="0.01"')
     assert main(["check", "--case", CASE, "--mjcf", str(damped), "--integrators", "RK4,Euler"]) == 1
     lines = capsys.readouterr().out.splitlines()
@@ -257,7 +257,7 @@ def test_a_failure_shows_its_budget_by_default(tmp_path, capsys):
         assert lines[k + 1] == f"    measured {b.measured:.3e}, unexplained {b.unexplained:.3e} > limit {b.limit:.3e}"
         assert lines[k + 2] == "    explained: " + ", ".join(f"{p} {b.explained[p]:.2e}" for p in PARTS
                                                           if p in b.explained)
-    assert max(map(len, lines)) <= 100  # not a terminal: 100 columns
+    assert max(map(len, lines[:-1])) <= 100  # not a terminal: 100 columns (the verdict line stays whole)
 
 
 @pytest.mark.parametrize("tight", [False, True])
@@ -317,7 +317,8 @@ def test_figures_lists_every_figure_with_its_unit_meaning_and_limit_basis(capsys
 
 def test_figures_fit_100_columns_when_not_a_terminal(capsys, monkeypatch, cached_runs):
     monkeypatch.delenv("COLUMNS", raising=False)
-    assert main(["figures", "atwood_tendon", "hoop_ramp_contact", "torque_free_body"]) == 0
+    chosen = [n for n in ("atwood_tendon", "hoop_ramp_contact", "torque_free_body") if n in cases.names()]
+    assert main(["figures", *chosen]) == 0  # (atwood_tendon needs a newer MuJoCo than 3.3)
     lines = capsys.readouterr().out.splitlines()
     assert max(map(len, lines)) <= 100 and sum(ln.startswith("hoop_ramp_contact — ") for ln in lines) == 1
 
