@@ -255,7 +255,8 @@ def test_the_pyramidal_cone_passes_on_the_contact_case_its_margin_explained():
     assert trial.verdict == "pass" and trial.as_expected, trial
     result = run_case(cases.get("hoop_ramp_contact"))
     qacc = result.budgets["instant.qacc"]
-    assert qacc.explained["margin"] > 1e3 * qacc.unexplained  # 2.5e-6 of qacc's scale against 9.5e-10
+    # 2.5e-6 of qacc's scale against 9.5e-10 (MuJoCo 4.0.0), 3.8e-9 (3.3.0): without the part, all of it was left
+    assert qacc.explained["margin"] > 100 * qacc.unexplained
     assert V.wider_margins(compile_model(cases.get("pendulum").mjcf)) is None  # no margin: no part, no run
 
 
@@ -295,8 +296,8 @@ def test_float64_round_off_is_measured_where_constraints_are_and_only_there(name
 def test_diagexact_toggled_passes_on_the_slider_crank():
     """diagexact off on slider_crank (shipped with it on) failed instant.sensor.crank_pin_torque at 1.18× its limit:
     round-off of its redundant rows' solve, 64× the assumed ROUNDOFF; measured by the copies, it passes."""
-    if faults.by_name("diagexact-toggled").reason_not(cases.get("slider_crank")):
-        pytest.skip("no diagexact flag in this MuJoCo")
+    if "slider_crank" not in cases.names() or faults.by_name("diagexact-toggled").reason_not(cases.get("slider_crank")):
+        pytest.skip("no slider_crank or no diagexact flag in this MuJoCo")
     trial = sensitivity.trial(cases.get("slider_crank"), faults.by_name("diagexact-toggled"))
     assert trial.verdict == "pass" and trial.as_expected, trial
 
