@@ -61,6 +61,23 @@ def without_progress(err: str) -> str:
     return "".join(kept)
 
 
+def pivot_frame_pendulum(path):
+    """The shipped pendulum written with its bob's body frame at the pivot (hinge, rod and sensors' sites at its
+    origin, the point mass 1 m below): the same system written differently, at ``path``."""
+    text = cases.get("pendulum").mjcf.read_text()
+    for old, new in [('<body name="bob" pos="0 0 -1">', '<body name="bob" pos="0 0 0">'),
+                     ('type="hinge" pos="0 0 1"', 'type="hinge" pos="0 0 0"'),
+                     ('<inertial pos="0 0 0" mass="1"', '<inertial pos="0 0 -1" mass="1"'),
+                     ('<geom name="bob" type="sphere" size="0.05"', '<geom name="bob" type="sphere" pos="0 0 -1" '
+                                                                    'size="0.05"'),
+                     ('<site name="rod_end" pos="0 0 1"', '<site name="rod_end" pos="0 0 0"'),
+                     ('fromto="0 0 0 0 0 1"', 'fromto="0 0 -1 0 0 0"')]:
+        assert old in text
+        text = text.replace(old, new)
+    path.write_text(text)
+    return path
+
+
 def case_ids() -> list[str]:
     return list(cases.names())
 

@@ -20,6 +20,7 @@ from harness.cases.own import from_mjcf
 from harness.core.errors import ModelError
 from harness.engine.compat import set_damping
 from harness.engine.models import compile_model
+from tests.conftest import pivot_frame_pendulum
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -183,22 +184,6 @@ def test_legitimate_settings_pass(arm, setting):
     assert not _failed(v), [(c.name, c.value, c.threshold) for c in v.checks if not c.passed]
 
 
-def _pivot_frame_pendulum(path: Path) -> Path:
-    """The shipped pendulum written with its bob's body frame at the pivot (tests/test_reactions.py's variant)."""
-    text = (ROOT / "mjcf" / "pendulum.xml").read_text()
-    for old, new in [('<body name="bob" pos="0 0 -1">', '<body name="bob" pos="0 0 0">'),
-                     ('type="hinge" pos="0 0 1"', 'type="hinge" pos="0 0 0"'),
-                     ('<inertial pos="0 0 0" mass="1"', '<inertial pos="0 0 -1" mass="1"'),
-                     ('<geom name="bob" type="sphere" size="0.05"', '<geom name="bob" type="sphere" pos="0 0 -1" '
-                                                                    'size="0.05"'),
-                     ('<site name="rod_end" pos="0 0 1"', '<site name="rod_end" pos="0 0 0"'),
-                     ('fromto="0 0 0 0 0 1"', 'fromto="0 0 -1 0 0 0"')]:
-        assert old in text
-        text = text.replace(old, new)
-    path.write_text(text)
-    return path
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("variant", ["MuJoCo's default softness", "body frame at the pivot"])
 def test_a_legitimate_rewrite_of_a_model_passes_with_no_case(tmp_path, variant):
@@ -212,7 +197,7 @@ def test_a_legitimate_rewrite_of_a_model_passes_with_no_case(tmp_path, variant):
         path.write_text(text.replace(' solref="0.002 1"', "").replace(' solimp="0.9999 0.9999 0.001 0.5 2"', ""))
         assert compile_model(path).eq_solimp[0, 0] == pytest.approx(0.9)
     else:
-        path = _pivot_frame_pendulum(tmp_path / "pivot.xml")
+        path = pivot_frame_pendulum(tmp_path / "pivot.xml")
     v = harness.validate(mjcf=path)
     assert not _failed(v), [(c.name, c.value, c.threshold) for c in v.checks if not c.passed]
     assert sum(c.passed for c in v.checks) >= 30

@@ -173,17 +173,9 @@ def test_a_batch_result_that_differs_from_mj_forward_is_not_used(monkeypatch):
     assert "read per sample instead" in simmod.recorder_notes()[notes]
 
 
-@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo")
-@pytest.mark.parametrize("name, integrator", [("slider_crank", "Euler"), ("welded_pendulum", "implicitfast"),
-                                              ("atwood_tendon", "RK4")])
-def test_equalities_read_beside_the_rollout_are_the_same_on_any_number_of_threads(name, integrator):
-    """A connect, a weld and tendon equalities, which no recorded field gives: read after mj_forward at every
-    state, on one thread after the rollout or, with two, chunk by chunk beside it (1000 steps: several
-    chunks). Both equal the loop bit for bit."""
-    case, probe, q0, qd0 = _case_probe(name)
-    model = compile_model(case.mjcf, integrator=integrator)
-    assert probe.constraints and not simmod._joint_equalities(model, probe.constraints)
-    assert len(simmod._even_chunk_sizes(1000)) > 2
+def _on_one_and_two_threads_and_the_loop(model, probe, q0, qd0) -> tuple[dict, dict, dict]:
+    """1000 steps recorded by the batch recorder on one thread and on two (never falling back to the loop), and
+    by the loop: the three runs' arrays, with the same keys."""
     notes = len(simmod.recorder_notes())
     try:
         simmod.set_threads(1)
@@ -195,6 +187,21 @@ def test_equalities_read_beside_the_rollout_are_the_same_on_any_number_of_thread
     assert simmod.recorder_notes()[notes:] == (), "the batch recorder fell back to the loop"
     loop = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000, method="loop"))
     assert one.keys() == two.keys() == loop.keys()
+    return one, two, loop
+
+
+@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo")
+@pytest.mark.parametrize("name, integrator", [("slider_crank", "Euler"), ("welded_pendulum", "implicitfast"),
+                                              ("atwood_tendon", "RK4")])
+def test_equalities_read_beside_the_rollout_are_the_same_on_any_number_of_threads(name, integrator):
+    """A connect, a weld and tendon equalities, which no recorded field gives: read after mj_forward at every
+    state, on one thread after the rollout or, with two, chunk by chunk beside it (1000 steps: several
+    chunks). Both equal the loop bit for bit."""
+    case, probe, q0, qd0 = _case_probe(name)
+    model = compile_model(case.mjcf, integrator=integrator)
+    assert probe.constraints and not simmod._joint_equalities(model, probe.constraints)
+    assert len(simmod._even_chunk_sizes(1000)) > 2
+    one, two, loop = _on_one_and_two_threads_and_the_loop(model, probe, q0, qd0)
     assert any(k.startswith("multipliers.") for k in loop)
     assert [k for k in one if not (np.array_equal(one[k], two[k]) and np.array_equal(one[k], loop[k]))] == []
 
@@ -208,17 +215,7 @@ def test_rk4_recomputation_is_the_same_on_any_number_of_threads(name):
     case, probe, q0, qd0 = _case_probe(name)
     model = compile_model(case.mjcf, integrator="RK4")
     assert len(simmod._chunk_sizes(1000)) > 2
-    notes = len(simmod.recorder_notes())
-    try:
-        simmod.set_threads(1)
-        one = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000))
-        simmod.set_threads(2)
-        two = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000))
-    finally:
-        simmod.set_threads(None)
-    assert simmod.recorder_notes()[notes:] == (), "the batch recorder fell back to the loop"
-    loop = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000, method="loop"))
-    assert one.keys() == two.keys() == loop.keys()
+    one, two, loop = _on_one_and_two_threads_and_the_loop(model, probe, q0, qd0)
     assert [k for k in one if not (np.array_equal(one[k], two[k]) and np.array_equal(one[k], loop[k]))] == []
     with pytest.raises(ValueError, match="thread count"):
         simmod.set_threads(0)
