@@ -133,7 +133,7 @@ def instant_budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[D
         if dev.name in copies:
             spread = noise * (PERTURBED_FACTOR * max(dev.magnitude(c - dev.values) for c in copies[dev.name])
                               + (represented or {}).get(dev.name, 0.0) + READ_ULPS * epsilon * dev.size)
-            # float32: the copies' spread is the round-off; float64 (a contact's solve): the larger of the two
+            # float32: the copies' spread is the round-off; float64 (a constraint solve): the larger of the two
             roundoff = spread if epsilon > FLOAT64 else max(roundoff, spread)
         tolerance = {"softness": SOFTNESS_UNCERTAINTY * explained.get("softness", 0.0) if softness_unc is None
                      else softness_unc,
