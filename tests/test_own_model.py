@@ -292,3 +292,16 @@ def test_a_control_is_baked_into_the_model_both_sides_read(arm):
 def test_a_point_mass_on_a_ball_joint_is_refused_rather_than_solved_for_hours():
     with pytest.raises(ModelError, match="joint 'ball' turns a body with next to no rotational inertia"):
         from_mjcf(ROOT / "mjcf" / "spherical_pendulum_ball.xml")
+
+
+def test_the_check_output_says_what_the_tree_covered_and_what_only_the_balance_judged():
+    from harness.outputs.table import coverage_block
+
+    text = coverage_block({"arm": {"contacts": "…", "joint limits": "…"}, "bare": {}, "pendulum": None}, 100)
+    assert "arm: the reference derived from its own tree covers every force but contacts, joint limits" in \
+        " ".join(text.split())
+    assert "work–energy balance" in text
+    assert "bare: every force MuJoCo applies is in the reference derived from its own tree" in text
+    assert "pendulum" not in text  # a hand-derived case has no tree to speak of
+    assert all(len(line) <= 100 for line in text.splitlines())
+    assert coverage_block({"pendulum": None}, 100) == ""

@@ -53,7 +53,14 @@ from harness.outputs.diff import diff_runs, format_diff, load_run, select
 from harness.outputs.files import REPORT_FILES, STALE, check_output, mark_stale, prepare_output, write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
 from harness.outputs.junit import junit_xml
-from harness.outputs.table import checks_table, failures_block, fitness_line, fitness_table, verdict_line
+from harness.outputs.table import (
+    checks_table,
+    coverage_block,
+    failures_block,
+    fitness_line,
+    fitness_table,
+    verdict_line,
+)
 from harness.pipeline import limits as limits_data
 from harness.pipeline import require
 from harness.pipeline.matrix import LogProgress, run_all, run_backends
@@ -114,15 +121,25 @@ def _case_lines(args: argparse.Namespace) -> dict:
     return {"lines": True} if args.quiet or getattr(args, "json", False) else {"out": sys.stdout}
 
 
-def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, written: str = "") -> None:
-    """After the cases' lines: every check as a table (``verbose``), each failed check with its budget,
-    the requirements judged, ``written`` (what was written), and the verdict line last (and the
-    requirements' line, where stated); ``quiet``: the failures and the verdict only. All but the table
-    and the verdict's lines fit the terminal (:func:`~harness.outputs.table.terminal_width`)."""
+def _trees(results: Sequence) -> dict[str, dict[str, str] | None]:
+    """Each case's forces its own tree's reference leaves out (None: a hand-derived case)."""
+    return {r.case.name: (dict(r.settings["tree"]["not examined"]) if "tree" in r.settings else None)
+            for r in results}
+
+
+def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, written: str = "",
+                  trees: dict[str, dict[str, str] | None] | None = None) -> None:
+    """After the cases' lines: what each model's own tree covered (``trees``), every check as a table
+    (``verbose``), each failed check with its budget, the requirements judged, ``written`` (what was
+    written), and the verdict line last (and the requirements' line, where stated); ``quiet``: the
+    failures and the verdict only. All but the table and the verdict's lines fit the terminal
+    (:func:`~harness.outputs.table.terminal_width`)."""
     width = terminal_width()
     failures = failures_block(outcome.checks, width)
     fitness = fitness_table(outcome)
-    parts = [checks_table(outcome.checks)] if verbose and not quiet else []
+    coverage = coverage_block(trees or {}, width)
+    parts = [coverage] if coverage and not quiet else []
+    parts += [checks_table(outcome.checks)] if verbose and not quiet else []
     parts += [failures] if failures else []
     parts += [fitness] if fitness and not quiet else []
     parts += ["\n".join(wrap(written, width))] if written and not quiet else []
@@ -350,7 +367,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                          appendix=appendix, plots=plots)
     prepare_output(args.out)
     paths = write_atomic(files | _junit(args.junit, outcome))  # the report and its JUnit: all or none
-    _print_checks(outcome, quiet=args.quiet, verbose=args.verbose,
+    _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
                   written=f"wrote in {time.perf_counter() - start:.1f} s: {', '.join(str(p) for p in paths)}")
     return outcome.exit_code
 
@@ -381,7 +398,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     if args.json:
         sys.stdout.write(dumps(json_doc(results, outcome)))
     else:
-        _print_checks(outcome, quiet=args.quiet, verbose=args.verbose)
+        _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results))
     return outcome.exit_code
 
 

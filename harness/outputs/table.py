@@ -175,3 +175,21 @@ def fitness_table(outcome: Outcome) -> str:
     if not rows:
         return ""
     return text_table(("case", "figure (own integrator)", "measured", "required", "unit", "verdict"), rows)
+
+
+def coverage_block(trees: Mapping[str, Mapping[str, str] | None], width: int) -> str:
+    """For each model judged against its own tree (``case -> its forces not examined``; None for a
+    hand-derived case, left out), what its reference covered and what only the work–energy balance
+    judged, wrapped to ``width`` ("" when no case is a tree)."""
+    lines: list[str] = []
+    for case, gaps in trees.items():
+        if gaps is None:
+            continue
+        if not gaps:
+            text = f"{case}: every force MuJoCo applies is in the reference derived from its own tree"
+        else:
+            text = (f"{case}: the reference derived from its own tree covers every force but {', '.join(gaps)}; "
+                    "those were switched off for the comparison, and the model as it is was judged by its "
+                    "work–energy balance (INTEGRATOR.balance)")
+        lines += wrap(text, width)
+    return "\n".join(lines)
