@@ -9,7 +9,7 @@ and the pytest fixture ``mjharness`` call the same functions)::
     print(result.summary())
     result.raise_for_failures()          # AssertionError listing each failed check
 
-See README "Python API" and ``harness.api``. The names below are imported on
+See README, "Python API", and ``harness.api``. The names below are imported on
 first use, so that ``import harness`` (which the ``mjharness`` command does
 before it imports MuJoCo without OpenGL) loads nothing heavy.
 """
