@@ -198,6 +198,28 @@ def test_ci_recipe(block):
         _parser().parse_args(shlex.split(command)[1:])  # argparse exits 2 on what it does not accept
 
 
+def indented_code(page: Path) -> list[int]:
+    """The lines where an indented (unfenced) code block starts: markdown shows it as code, this test
+    could not tell how to run it. A list item's continuation is not one."""
+    starts, fenced, lines = [], False, page.read_text().splitlines()
+    for i, line in enumerate(lines):
+        if re.match(r"^\s*```", line):
+            fenced = not fenced
+            continue
+        if fenced or not line.startswith("    ") or not line.strip() or i == 0 or lines[i - 1].strip():
+            continue
+        before = next((b for b in reversed(lines[:i]) if b.strip()), "")
+        if not re.match(r"^(\s|[-*+] |\d+\. |\|)", before):
+            starts.append(i + 1)
+    return starts
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_example_hides_in_an_indented_block(page):
+    assert not indented_code(page), f"{page.relative_to(ROOT)}: indented code blocks at lines {indented_code(page)}; " \
+                                    "fence them with a language (console, pycon, ...) so that this test runs them"
+
+
 @pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
 def test_every_relative_link_leads_to_a_file(page):
     links = re.findall(r"\]\(([^)\s#]+)(?:#[^)]*)?\)", page.read_text())
