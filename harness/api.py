@@ -22,6 +22,7 @@ budget, judged by the case's limits, overridden by ``config`` and
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from numbers import Real
@@ -31,7 +32,7 @@ import mujoco
 import numpy as np
 
 from harness import cases
-from harness.cases import Case
+from harness.cases import Case, sources
 from harness.cases.own import from_mjcf
 from harness.core.checks import Check, gate
 from harness.core.figures import Figure, FigureName
@@ -246,9 +247,26 @@ def _in_place(edit: Callable[[mujoco.MjSpec], None]) -> Callable[[mujoco.MjSpec]
     return checked
 
 
-def case_names() -> tuple[str, ...]:
-    """Every case this harness knows, as :func:`validate` accepts them."""
-    return cases.names()
+def _directories(systems: object) -> tuple[str | os.PathLike, ...]:
+    """``systems`` as a tuple of directories; TypeError for anything but a list of paths (a bare path too:
+    a string would be read letter by letter)."""
+    if systems is None:
+        return ()
+    if isinstance(systems, str | os.PathLike) or not isinstance(systems, Iterable):
+        raise TypeError(f"systems must be a list of directories, e.g. ['my_systems'], got {systems!r}")
+    chosen = tuple(systems)
+    bad = [d for d in chosen if not isinstance(d, str | os.PathLike)]
+    if bad:
+        raise TypeError(f"systems must be a list of directories (str or Path), e.g. ['my_systems']; not "
+                        f"{', '.join(repr(d) for d in bad)}")
+    return chosen
+
+
+def case_names(*, systems: Iterable[str | os.PathLike] | None = None) -> tuple[str, ...]:
+    """Every case this harness knows, as :func:`validate` accepts them: the shipped ones, the installed
+    packages' and those of the ``systems`` directories (:mod:`harness.cases.sources`)."""
+    with sources.using(_directories(systems)):
+        return cases.names()
 
 
 def validate(
@@ -268,6 +286,7 @@ def validate(
     accept_known_defects: bool = False,
     edit: Callable[[mujoco.MjSpec], None] | None = None,
     backend: str = "c",
+    systems: Iterable[str | os.PathLike] | None = None,
 ) -> Validation:
     """Run ``case`` (a name, or a :class:`~harness.cases.Case`), or any model ``mjcf``, through every layer
     and judge it.
@@ -298,11 +317,27 @@ def validate(
         backend: the engine every run goes to: ``c`` (MuJoCo's C engine), ``mjx`` (float32), or ``mjx-f64``
             (:data:`harness.engine.backends.BACKENDS`); a backend not installed, or a model feature
             it lacks, raises :class:`~harness.core.errors.BackendUnavailable` naming the fix.
+        systems: directories of your own systems, each holding ``NAME.py`` (the analytic system), ``NAME.xml``
+            (its MJCF) and ``NAME.limits.toml``, whose cases are discovered for this call as well as the shipped
+            and installed ones (:mod:`harness.cases.sources`); ValueError in one line for a directory that is
+            missing, a module that does not import or a name another source has.
 
     An argument of the wrong type raises TypeError naming it and what it accepts, before any work.
     """
     _check_arguments(integrators=integrators, timestep=timestep, horizon=horizon, q0=q0, qd0=qd0, limits=limits,
                      require=require, accept_known_defects=accept_known_defects, edit=edit)
+    with sources.using(_directories(systems)):
+        return _validate(case, mjcf=mjcf, keyframe=keyframe, ctrl=ctrl, integrators=integrators, timestep=timestep,
+                         horizon=horizon, q0=q0, qd0=qd0, config=config, limits=limits, require=require,
+                         accept_known_defects=accept_known_defects, edit=edit, backend=backend)
+
+
+def _validate(case: str | Case | None, *, mjcf: str | Path | None, keyframe: str | None,
+              ctrl: Mapping[str, float] | None, integrators: Sequence[str] | None, timestep: float | None,
+              horizon: float | None, q0: Mapping[str, float] | None, qd0: Mapping[str, float] | None,
+              config: str | Path | None, limits: Mapping[str, float] | None, require: Mapping[str, float] | None,
+              accept_known_defects: bool, edit: Callable[[mujoco.MjSpec], None] | None, backend: str) -> Validation:
+    """:func:`validate` with its arguments checked and the user's systems in use."""
     if case is None and mjcf is None:
         raise ValueError("validate needs a case name (or Case) or an mjcf path; known cases: "
                          + ", ".join(cases.names()))

@@ -9,6 +9,16 @@ Installed with the package, it gives every test suite a fixture ``mjharness``::
         result = mjharness.assert_valid("pendulum", mjcf="models/my_pendulum.xml")
         assert result.figure("RK4.position").value < 1e-6     # your own requirement, on top
 
+Your own systems (:mod:`harness.cases.sources`: ``NAME.py``, ``NAME.xml``,
+``NAME.limits.toml`` in a directory) are found from the ini option
+``mjharness_systems`` (directories, relative to the ini file), the variable
+``MJHARNESS_SYSTEMS`` (directories separated by ``os.pathsep``, relative to the
+working directory) and a test's own ``systems=[...]`` (relative to the test
+file); installed packages' through their entry points, as everywhere::
+
+    def test_my_cartpole(mjharness):
+        mjharness.assert_valid("cartpole", systems=["systems"])
+
 ``mjharness.validate(...)`` returns the :class:`harness.api.Validation` without
 judging it; ``mjharness.assert_valid(...)`` fails the test with a short list:
 the verdict line, then one line per failed check (case, check, measured,
@@ -37,13 +47,16 @@ if TYPE_CHECKING:
     from harness.api import Validation
 
 PATHS = {"mjcf": "MJCF", "config": "config"}  # the options naming a file, found relative to the test file
+INI = "mjharness_systems"
+VARIABLE = "MJHARNESS_SYSTEMS"
 
 
 class Harness:
     """The ``mjharness`` fixture's value: :func:`harness.api.validate` for the test file ``test_file``."""
 
-    def __init__(self, test_file: Path | None = None) -> None:
+    def __init__(self, test_file: Path | None = None, systems: tuple[Path, ...] = ()) -> None:
         self.test_file = test_file
+        self.systems = systems
 
     def __repr__(self) -> str:
         return f"<mjharness fixture of {self.test_file.name if self.test_file else 'no test file'}>"
@@ -72,15 +85,26 @@ class Harness:
         __tracebackhide__ = True  # pytest: a failure shows at the test's own line
         from harness import cases  # lazy: MuJoCo and the harness load only when a test uses them
         from harness.api import validate  # lazy: as above
+        from harness.cases import sources  # lazy: as above
 
-        if isinstance(case, str):
-            try:
-                cases.get(case)
-            except ValueError as err:  # an unknown case: the one line (with the closest name), no traceback inside
-                raise ValueError(str(err)) from None
         for option in PATHS.keys() & options.keys():
             options[option] = self.path(option, options[option])
-        return validate(case, **options)
+        given = options.pop("systems", None)
+        if isinstance(given, str | os.PathLike):
+            raise TypeError(f"systems must be a list of directories, e.g. ['my_systems'], got {given!r}")
+        systems = [*self.systems, *(self.directory(d) for d in (given or ()))]
+        if isinstance(case, str):
+            with sources.using(systems):
+                try:
+                    cases.get(case)
+                except ValueError as err:  # an unknown case: the one line (with the closest name), no traceback
+                    raise ValueError(str(err)) from None
+        return validate(case, systems=systems, **options)
+
+    def directory(self, given: str | os.PathLike) -> str | os.PathLike:
+        """A ``systems=`` directory: relative to the test file's folder (absolute: as given)."""
+        path = Path(given)
+        return given if self.test_file is None or path.is_absolute() else self.test_file.parent / path
 
     def assert_valid(self, case: str | None = None, **options: Any) -> Validation:
         """:func:`harness.api.validate`, failing the test (:class:`~harness.api.ValidationFailed`, an
@@ -95,7 +119,21 @@ class Harness:
 def mjharness(request: pytest.FixtureRequest) -> Harness:
     """Validate cases, or your MJCF variants of them, against the analytic reference and the limits; a
     relative model path is found next to the test file."""
-    return Harness(Path(request.path))
+    return Harness(Path(request.path), systems=configured_systems(request.config))
+
+
+def configured_systems(config: pytest.Config) -> tuple[Path, ...]:
+    """The systems directories of the ini option (relative to the ini file) and of the variable (relative to
+    the working directory), in that order."""
+    from_ini = tuple(Path(p) for p in config.getini(INI))
+    from_env = tuple(Path(p).absolute() for p in os.environ.get(VARIABLE, "").split(os.pathsep) if p.strip())
+    return (*from_ini, *from_env)
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addini(INI, type="paths", default=[],
+                  help="directories of your own mjharness systems (NAME.py, NAME.xml, NAME.limits.toml), for the "
+                       "mjharness fixture; relative to the ini file")
 
 
 def pytest_report_header(config: pytest.Config) -> str:

@@ -15,6 +15,12 @@ motion it runs. Nothing lists them: for every model ``mjcf/NAME.xml``
 So a new system is its analytic module and its model, and a new model of an
 existing system is its model and, if it needs readings, its small module.
 CLI, pytest and CI all select from :func:`all_cases`.
+
+Users' systems are discovered the same way from their own directories
+(``--systems DIR``, ``validate(systems=...)``) and from installed packages
+(entry point group ``mjharness.systems``), each holding ``NAME.py`` (the system,
+and its ``WIRING`` if it needs one), ``NAME.xml`` and ``NAME.limits.toml``
+(:mod:`harness.cases.sources`).
 """
 
 from __future__ import annotations
@@ -27,7 +33,6 @@ import importlib.util
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +41,7 @@ import mujoco
 from analytic import systems
 from analytic.dynamics import Dynamics
 from analytic.systems import Motion
+from harness.cases import sources
 from harness.engine.bindings import JointBinding
 from harness.engine.compat import version
 from harness.engine.models import compile_model
@@ -124,6 +130,8 @@ class Case:
         tree: where the reference is the model's own kinematic tree (a model the user brings, no
             hand-derived system): how it is read (:class:`~harness.reference.tree.TreeSystem`);
             ``system`` is then :data:`~harness.reference.tree.TREE`.
+        origin: where a user's case was discovered (:mod:`harness.cases.sources`: a systems directory, an
+            installed package); '' for a shipped case.
 
     The motion's and the wiring's parts are read through the properties below
     (``case.q0``, ``case.binding``, ``case.mujoco_forces``, …).
@@ -135,6 +143,7 @@ class Case:
     motion: Motion
     wiring: Wiring = field(default_factory=Wiring)
     tree: TreeSystem | None = None
+    origin: str = ""
 
     def __post_init__(self) -> None:
         if not 0 <= self.settle < self.horizon:
@@ -237,36 +246,50 @@ class Case:
                      signs=self.wiring.equality_signs)
 
 
-def _model_files() -> list[Path]:
-    root = resources.files(MODELS_PACKAGE)
-    return sorted(Path(str(p)) for p in root.iterdir() if p.name.endswith(".xml"))
-
-
-def _wiring(model: str) -> Wiring:
-    """``WIRING`` of ``mjcf/NAME.py``, or the default where the model has no module."""
-    module_name = f"{MODELS_PACKAGE}.{model}"
-    if importlib.util.find_spec(module_name) is None:
-        return Wiring()
-    wiring = getattr(importlib.import_module(module_name), "WIRING", None)
+def _wiring(source: sources.Source, model: str) -> Wiring:
+    """The model's ``WIRING``: of ``mjcf/NAME.py`` for a shipped model, of the source's own ``NAME.py`` for a
+    user's; the default where there is none."""
+    if source.shipped:
+        module_name = f"{MODELS_PACKAGE}.{model}"
+        module = importlib.import_module(module_name) if importlib.util.find_spec(module_name) else None
+    else:
+        module = sources.module(source, model)
+        module_name = str(source.systems / f"{model}.py")
+    wiring = getattr(module, "WIRING", Wiring()) if module is not None else Wiring()
     if not isinstance(wiring, Wiring):
         raise ValueError(f"{module_name} must define WIRING = Wiring(...) (harness.cases.Wiring)")
     return wiring
 
 
-def _case(path: Path) -> Case:
+def _case(source: sources.Source, path: Path) -> Case:
     name = path.stem
-    wiring = _wiring(name)
+    wiring = _wiring(source, name)
     system = wiring.system or name
     if system not in systems.names():
-        raise ValueError(f"model {path.name} has no analytic system: add analytic/systems/{system}.py, or "
-                         f"name the system it models in mjcf/{name}.py (WIRING = Wiring(system=...))")
+        where = "analytic/systems/" if source.shipped else f"{source.systems}/"
+        wired = f"mjcf/{name}.py" if source.shipped else f"{source.systems / name}.py"
+        raise ValueError(f"model {path} has no analytic system: add {where}{system}.py, or name the system it "
+                         f"models in {wired} (WIRING = Wiring(system=...))")
+    if not source.shipped:
+        missing = [a for a in systems.REQUIRED if not hasattr(sources.module(source, system), a)]
+        if missing:
+            raise ValueError(f"{source.systems / system}.py ({source.label}) lacks {', '.join(missing)}; accepted: "
+                             f"a system module defining {', '.join(systems.REQUIRED)} (analytic/systems/__init__.py)")
     return Case(name=name, system=system, mjcf=path, motion=wiring.motion or systems.load(system).MOTION,
-                wiring=wiring)
+                wiring=wiring, origin="" if source.shipped else source.label)
 
 
 @functools.cache
+def _cases_of(found: tuple[sources.Source, ...]) -> tuple[Case, ...]:
+    sources.check_collisions(found)
+    every = [_case(s, path) for s in (sources.SHIPPED, *found) for path in s.model_files()]
+    return tuple(sorted(every, key=lambda c: c.name))
+
+
 def _every_case() -> tuple[Case, ...]:
-    return tuple(_case(path) for path in _model_files())
+    """The cases of every source in use: the shipped ones, the installed packages' and the directories given
+    (:mod:`harness.cases.sources`)."""
+    return _cases_of(sources.current())
 
 
 def _too_new(case: Case) -> str:
@@ -283,7 +306,6 @@ def unavailable() -> dict[str, str]:
     return {c.name: _too_new(c) for c in _every_case() if _too_new(c)}
 
 
-@functools.cache
 def all_cases() -> tuple[Case, ...]:
     """Every case this MuJoCo can run, in the order of their names (:func:`unavailable`: the others)."""
     return tuple(c for c in _every_case() if not _too_new(c))

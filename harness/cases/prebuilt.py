@@ -24,9 +24,10 @@ from harness.reference import derivations, prebuilt
 
 
 def needed() -> Iterator[tuple[str, str, tuple[tuple[str, float], ...]]]:
-    """(kind, system, params) of every numeric dynamics a case's shipped run loads, once each."""
+    """(kind, system, params) of every numeric dynamics a shipped case's run loads, once each (a user's
+    systems, :mod:`harness.cases.sources`, are derived where they run)."""
     seen = set()
-    for case in cases.all_cases():
+    for case in (c for c in cases.all_cases() if not c.origin):
         params = tuple(sorted(systems.load(case.system).params_from_model(compile_model(case.mjcf)).items()))
         kinds = ("dynamics", "minimal-dynamics") if systems.has_minimal(case.system) else ("dynamics",)
         for kind in kinds:

@@ -40,6 +40,7 @@ from pathlib import Path
 
 from analytic.dop853 import IntegrationError
 from harness import cases
+from harness.cases import sources
 from harness.cases.own import from_mjcf
 from harness.core import VERSION
 from harness.core.checks import Check
@@ -249,9 +250,25 @@ def _outcome(args: argparse.Namespace, results: Sequence, checks: dict[str, list
                       accept_known_defects=args.accept_known_defects or limits.accept_known_defects)
 
 
+def _add_systems(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--systems", action="append", type=_systems_directory, metavar="DIR",
+                   help="also discover the cases of your own systems in DIR: NAME.py (the analytic system), "
+                        "NAME.xml (its MJCF), NAME.limits.toml (repeatable; installed packages' come through the "
+                        f"entry point group {sources.GROUP})")
+
+
+def _systems_directory(text: str) -> Path:
+    try:
+        sources.directory_source(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return Path(text)
+
+
 def _add_selection(p: argparse.ArgumentParser, *, mjcf: bool = True) -> None:
     p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
     p.add_argument("--case", action="append", metavar="NAME", help="a case name (same as CASE; repeatable)")
+    _add_systems(p)
     p.add_argument("--config", type=Path, metavar="FILE",
                    help="TOML: limits of your own ([thresholds.CASE] \"FIGURE\" = LIMIT), requirements "
                         "([require] QUANTITY = SIZE) and accept_known_defects = true")
@@ -280,7 +297,7 @@ def _positive(text: str) -> int:
 
 # ----------------------------------------------------------- subcommands
 def _args_list(p: argparse.ArgumentParser) -> None:
-    pass
+    _add_systems(p)
 
 
 def cmd_list(args: argparse.Namespace) -> int:
@@ -582,6 +599,7 @@ def cmd_baseline(args: argparse.Namespace) -> int:
 
 def _args_limits(p: argparse.ArgumentParser) -> None:
     p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    _add_systems(p)
     p.add_argument("--write", action="store_true",
                    help="run the cases that have no limits file and write one by the default rule (the "
                         "figures it gates, each judged by its budget or its theory limit); files that exist "
@@ -621,6 +639,7 @@ def cmd_limits(args: argparse.Namespace) -> int:
 
 def _args_figures(p: argparse.ArgumentParser) -> None:
     p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    _add_systems(p)
     p.add_argument("--config", type=Path, metavar="FILE", help="TOML overriding the shipped limits (shown as "
                                                                "basis 'user')")
     p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
@@ -649,6 +668,7 @@ def cmd_figures(args: argparse.Namespace) -> int:
 
 def _args_converge(p: argparse.ArgumentParser) -> None:
     p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    _add_systems(p)
     p.add_argument("--fast", action="store_true", help="the 3-timestep subset `check` gates (T ≤ 0.5 s)")
     p.add_argument("--softness", action="store_true", help="also sweep solref/solimp of the equality cases")
     p.add_argument("--solvers", action="store_true", help="also compare Newton, CG and PGS on the constrained cases")
@@ -693,6 +713,7 @@ def cmd_audit(args: argparse.Namespace) -> int:
 
 def _args_faults(p: argparse.ArgumentParser) -> None:
     p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    _add_systems(p)
     p.add_argument("--coarse", action="store_true",
                    help="also judge each fault at 2 × the timestep with MuJoCo's default softness, at its coarse size")
     p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
@@ -718,6 +739,7 @@ def cmd_faults(args: argparse.Namespace) -> int:
 
 def _args_sensitivity(p: argparse.ArgumentParser) -> None:
     p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    _add_systems(p)
     p.add_argument("--faults", type=lambda text: text.split(","), metavar="NAME,...",
                    help="the faults to size (default: every fault of the catalog)")
     p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
@@ -940,6 +962,7 @@ def _main(args: argparse.Namespace) -> int:
     """The command, its errors as one line on stderr and their exit code."""
     try:
         with sigterm_as_interrupt():
+            sources.use(getattr(args, "systems", None) or ())  # the cases of --systems DIR, discovered as the others
             code = COMMANDS[args.command].run(args)
             sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
             return code

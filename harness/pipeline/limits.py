@@ -246,11 +246,11 @@ class Limits:
 
 
 def case_limits(limits: Limits, case: Case, figures: Iterable[str]) -> dict[str, Limit]:
-    """The limits ``case`` is judged by: its shipped ones (with a user's overrides), or for a case whose
-    reference is its model's own tree (no limits file: a model the user brings) the default rule's over
-    the ``figures`` it measured or could not (give both: one it could not is then n/a with its reason, never
-    absent), so that every figure the rule gates is judged, never none."""
-    if case.tree is None:
+    """The limits ``case`` is judged by: its limits file's (with a user's overrides), or for a case without
+    one (a model the user brings, judged against its own tree; a user's system whose limits are not written
+    yet) the default rule's over the ``figures`` it measured or could not (give both: one it could not is then
+    n/a with its reason, never absent), so that every figure the rule gates is judged, never none."""
+    if case.tree is None and case.name in limits.cases:
         return limits.for_case(case.name)
     names = [FigureName(f) for f in figures]
     constrained = any(f.quantity in ("force", "violation") for f in names)

@@ -145,6 +145,13 @@ def dynamics(system: str, params: Mapping[str, float]) -> Dynamics:
     return _dynamics(system, tuple(sorted(params.items())))
 
 
+def clear_caches() -> None:
+    """Forget this process's derivations and dynamics (a system's name now names another module: a user's
+    systems directory changed, :mod:`harness.cases.sources`); the on-disk cache, keyed by source, stays."""
+    for cached in (derivation, minimal_derivation, _dynamics, _minimal_dynamics):
+        cached.cache_clear()
+
+
 def params_of(system: str, model) -> dict[str, float]:
     """``system``'s parameters read from the compiled ``model`` (its ``params_from_model``); ModelMismatch
     in one line where the model lacks an element it reads them from (MuJoCo's KeyError for a name)."""
