@@ -212,10 +212,12 @@ def use(directories: Iterable[str | os.PathLike]) -> tuple[Source, ...]:
     of :mod:`analytic.systems`, and what was loaded under one of their names from another file (an earlier
     call's directory) is forgotten. ValueError for a directory that is missing or holds no model."""
     global _given
-    chosen: dict[Path, Source] = {}
+    chosen: dict[Path, Source] = {s.models: s for s in installed()}
     for path in directories:
         source = directory_source(path)
-        chosen.setdefault(source.models, source)  # the same directory twice is one source
+        chosen.setdefault(source.models, source)  # the same directory twice (or installed) is one source
+    for s in installed():
+        chosen.pop(s.models)
     _given = tuple(chosen.values())
     sources = (*installed(), *_given)
     _search(sources)
