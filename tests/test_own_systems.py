@@ -19,7 +19,6 @@ import pytest
 
 import harness
 from harness import cases
-from harness.cases import sources
 from harness.cli.commands import main
 from tests.conftest import without_progress
 
@@ -40,6 +39,8 @@ def example(tmp_path: Path) -> Path:
 def restored():
     """In-process CLI calls set the directories in use for the process: none again after the test."""
     yield
+    from harness.cases import sources
+
     sources.use(())
 
 
@@ -112,6 +113,14 @@ def test_the_api_validates_a_users_system_for_that_call(example):
         harness.validate(CASE, integrators=["RK4"])
     with pytest.raises(TypeError, match="systems must be a list of directories"):
         harness.validate(CASE, systems=str(example / PACKAGE))
+
+
+def test_a_users_case_without_a_limits_file_is_judged_by_the_default_rule(example):
+    """Never by nothing: the figures ``mjharness limits --write`` would gate."""
+    (example / PACKAGE / f"{CASE}.limits.toml").unlink()
+    result = harness.validate(CASE, systems=[example / PACKAGE], integrators=["RK4"])
+    judged = {str(c.name) for c in result.checks}
+    assert {"instant.qacc", "RK4.position", "RK4.drift.energy"} <= judged and result.passed, judged
 
 
 def test_the_pytest_fixture_finds_systems_from_its_ini_option_and_the_test_file(example):
