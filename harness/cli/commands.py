@@ -824,7 +824,7 @@ class Command:
 
 COMMANDS: dict[str, Command] = {
     "list": Command("list the cases", _args_list, cmd_list),
-    "run": Command("run cases, write report.html, report.json and summary.md", _args_run, cmd_run),
+    "run": Command("run cases, write the report's pages, report.json and summary.md", _args_run, cmd_run),
     "check": Command("the CI gate: every gated figure judged by its budget, no report", _args_check, cmd_check,
                      "the CI gate: run the cases and judge every gated figure by its error budget or its "
                      "limit (exit 0 pass, 1 fail, 2 bad input, 3 a --require not met); draws nothing"),
