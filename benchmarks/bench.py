@@ -264,11 +264,11 @@ def report_split(selected) -> None:
     results, checks, config = runner.run_all(selected, None)
     steps["cases (run_case, default --jobs)"] = time.perf_counter() - clock
     clock = time.perf_counter()
-    extras, appendix, plots = parts.report_parts(selected, results, jobs=None, studies=True)
+    pages, appendix, plots = parts.report_parts(selected, results, jobs=None, studies=True)
     steps["studies, seed audit, plots (default --jobs)"] = time.perf_counter() - clock
     clock = time.perf_counter()
     with tempfile.TemporaryDirectory() as out:
-        write_report(out, results, checks, config_source=config.source, extras=extras, appendix=appendix,
+        write_report(out, results, checks, config_source=config.source, pages=pages, appendix=appendix,
                      plots=plots)
     steps["report (HTML, JSON, Markdown, plots, stills)"] = time.perf_counter() - clock
     total = sum(steps.values())

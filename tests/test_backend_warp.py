@@ -269,7 +269,8 @@ def test_run_shows_the_c_engine_and_warp_side_by_side(tmp_path):
                           "--out", str(tmp_path / "r")], cwd=ROOT, capture_output=True, text=True, timeout=1200)
     assert out.returncode in (0, 1), out.stderr[-2000:]
     assert "Traceback" not in out.stderr
-    page = (tmp_path / "r" / "report.html").read_text()
+    page = (tmp_path / "r" / "backends.html").read_text()  # a page of its own, linked from the overview
+    assert "href='backends.html'" in (tmp_path / "r" / "report.html").read_text()
     assert "Backends side by side" in page and "<th>c</th><th>warp</th>" in page
     for case in ("pendulum", "symmetric_top"):
         assert f"<h3>{case}</h3><img alt='{case} error vs time per backend'" in page

@@ -138,6 +138,7 @@ def test_a_diverged_run_is_a_failed_check_with_its_reason_everywhere(tmp_path, c
             assert check["value"] != "nan", name
     assert not any(n.startswith(("instant.", "reference.")) for n in runs)
     assert reason in (out / "report.html").read_text() and reason in (out / "summary.md").read_text()
+    assert reason in (out / "cases" / f"{CASE}.html").read_text()
     failures = ET.parse(junit).getroot().findall(".//failure[@type='Diverged']")
     assert len(failures) == len(runs) and all(reason in f.get("message") for f in failures)
 
@@ -221,7 +222,7 @@ def test_the_python_api_names_a_diverged_run(tmp_path):
 # ----------------------------------------------------------------- outputs
 
 
-REPORT = ("report.html", "report.json", "summary.md", "junit.xml")
+REPORT = ("report.html", f"cases/{CASE}.html", "report.json", "summary.md", "junit.xml")  # a run's files
 
 
 def _report(tmp_path: Path, *extra: str) -> tuple[int, Path]:
@@ -246,8 +247,8 @@ def test_a_report_set_is_replaced_whole_or_not_at_all(tmp_path, cached_runs, cap
     code, _ = _report(tmp_path, "--config", _strict(tmp_path))  # would FAIL: every file differs
     assert code == 2
     _one_line(capsys.readouterr().err, "summary.md")
-    left = {p.name for p in out.iterdir()}
-    assert left == {"summary.md", *(f"{n}.stale" for n in REPORT if n != "summary.md")}, left
+    left = {p.relative_to(out).as_posix() for p in out.rglob("*")}
+    assert left == {"summary.md", "cases", *(f"{n}.stale" for n in REPORT if n != "summary.md")}, left
     assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT if n != "summary.md")
 
 
@@ -272,7 +273,8 @@ def test_a_failed_run_marks_the_earlier_report_stale(tmp_path, cached_runs, caps
         assert _report(tmp_path)[0] == (130 if failure == "interrupted" else 2)
         if failure == "internal error":
             _one_line(capsys.readouterr().err, "mjharness: internal error: KeyError: 'a bug' (a bug in mjharness")
-    assert sorted(p.name for p in out.iterdir()) == sorted(f"{n}.stale" for n in REPORT)
+    left = sorted(p.relative_to(out).as_posix() for p in out.rglob("*"))
+    assert left == sorted(["cases", *(f"{n}.stale" for n in REPORT)])
     assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT)
 
 

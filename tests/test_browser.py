@@ -1,5 +1,6 @@
-"""report.html in a real browser: headless Chromium (Debian's, installed by .ci/run) loads the page at
-1000 px and a script in the page reports what a reader would meet:
+"""The report's pages in a real browser: headless Chromium (Debian's, installed by .ci/run) loads each page
+(the overview report.html, each case's, the studies', the audit's) at 1000 px and a script in the page
+reports what a reader would meet:
 
 - an image that does not decode, or is shown below 3/4 of its drawn size (its text illegible), above 4/3
   (blurred) or stretched out of its proportions;
@@ -8,10 +9,10 @@
 - raw LaTeX in the visible text (``\\frac``, ``$...$``, ``^{``);
 - a number broken across two lines (``4.99e-`` / ``04``).
 
-The full report goes to ``$MJHARNESS_ARTIFACTS/report`` and its screenshots (its top and each section)
-to ``$MJHARNESS_ARTIFACTS/screenshots`` (CI keeps both), or to pytest's temporary directory. Without
-Chromium the tests skip with the reason, unless ``MJHARNESS_REQUIRE_CHROMIUM=1`` (set by .ci/run), where
-a missing browser fails.
+The full report goes to ``$MJHARNESS_ARTIFACTS/report`` and screenshots of the overview, the pendulum's
+page and the studies' (each page's top and each section) to ``$MJHARNESS_ARTIFACTS/screenshots`` (CI keeps
+both), or to pytest's temporary directory. Without Chromium the tests skip with the reason, unless
+``MJHARNESS_REQUIRE_CHROMIUM=1`` (set by .ci/run), where a missing browser fails.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from pathlib import Path
 import pytest
 
 from tests.chromium import Browser, find_chromium, section_screenshots
+from tests.pages import broken_links, python_reprs, visible_text
 
 WIDTH = 1000
 LAPTOP = 1366  # a common laptop screen's width: the page must read there too
@@ -112,17 +114,29 @@ def _artifacts(tmp_path: Path) -> Path:
 
 @pytest.mark.slow
 def test_the_full_report_reads_in_a_browser(tmp_path):
-    """Every case with its studies and the seed audit, as `mjharness run` writes them (about a minute)."""
+    """Every case with its studies and the seed audit, as `mjharness run` writes them (about two minutes): each
+    page (the overview, every case's, the studies', the audit's) reads at both widths, every link reaches a
+    written page and anchor, and no page shows a raw Python repr."""
     binary = _browser_or_skip()
     out = _artifacts(tmp_path) / "report"
     proc = subprocess.run([sys.executable, "-m", "harness.cli", "run", "--out", str(out), "--quiet"],
                           capture_output=True, text=True, timeout=900, check=False)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    with Browser(binary, width=WIDTH) as browser:
-        found = problems(browser, out / "report.html")
-        shots = section_screenshots(browser, _artifacts(tmp_path) / "screenshots")
-    with Browser(binary, width=LAPTOP) as browser:
-        found |= {f"{kind} at {LAPTOP} px": items for kind, items in problems(browser, out / "report.html").items()}
+    pages = sorted(out.rglob("*.html"))
+    names = {p.relative_to(out).as_posix() for p in pages}
+    assert {"report.html", "studies.html", "audit.html", "cases/pendulum.html"} <= names
+    assert broken_links(out) == {}
+    reprs = {p.relative_to(out).as_posix(): python_reprs(visible_text(p.read_text(encoding="utf-8"))) for p in pages}
+    assert {name: found for name, found in reprs.items() if found} == {}
+    found: dict[str, list[str]] = {}
+    shots = []
+    for width in (WIDTH, LAPTOP):
+        with Browser(binary, width=width) as browser:
+            for page in pages:
+                name = page.relative_to(out).as_posix()
+                found |= {f"{kind} in {name} at {width} px": items for kind, items in problems(browser, page).items()}
+                if width == WIDTH and name in ("report.html", "studies.html", "cases/pendulum.html"):
+                    shots += section_screenshots(browser, _artifacts(tmp_path) / "screenshots" / page.stem)
     assert len(shots) >= 3
     assert found == {}, "\n".join(f"{kind}: {len(items)}: {items[:8]}" for kind, items in found.items())
 

@@ -509,20 +509,22 @@ def test_run_writes_complete_deterministic_report(tmp_path, cached_runs, capsys)
     assert main(["run", CASE, "--out", str(out1), "--junit", str(tmp_path / "junit.xml")]) == 0
     assert main(["run", CASE, "--out", str(out2)]) == 0
     assert ET.parse(tmp_path / "junit.xml").getroot().get("failures") == "0"
-    names = sorted(p.name for p in out1.iterdir())
-    assert names == ["report.html", "report.json", "summary.md"]
+    names = sorted(p.relative_to(out1).as_posix() for p in out1.rglob("*") if p.is_file())
+    assert names == [f"cases/{CASE}.html", "report.html", "report.json", "summary.md"]
     for name in names:
         assert (out1 / name).read_bytes() == (out2 / name).read_bytes(), name
     doc = json.loads((out1 / "report.json").read_text())
     assert doc["cases"][CASE]["checks"]["RK4.position"]["passed"] is True
-    page = (out1 / "report.html").read_text()
-    assert "http://" not in page and "https://" not in page  # self-contained
-    assert page.count("data:image/png;base64,") >= 4
+    overview, page = (out1 / "report.html").read_text(), (out1 / "cases" / f"{CASE}.html").read_text()
+    assert all("http://" not in p and "https://" not in p for p in (overview, page))  # self-contained
+    assert page.count("data:image/png;base64,") >= 4 and "<img" not in overview
+    assert f"href='cases/{CASE}.html'" in overview
     out = capsys.readouterr().out.strip().splitlines()
     # what was written (wrapped to the width: continuation lines indented), then the verdict last
     wrote = max(i for i, line in enumerate(out) if line.startswith("wrote in "))
     assert all(not line or line.startswith(" ") for line in out[wrote + 1:-1]) and out[-1].startswith("PASS — ")
-    assert all(name in " ".join(out[wrote:-1]) for name in ("report.html", "report.json", "summary.md"))
+    assert all(name in " ".join(out[wrote:-1]) for name in ("report.html", "report.json", "summary.md",
+                                                               "1 case page(s) in"))
     assert main(["run", CASE, "--out", str(out2), "--quiet", "--no-studies"]) == 0  # the verdict: the same
     assert capsys.readouterr().out.strip().splitlines() == [out[-1]]
 
@@ -554,7 +556,10 @@ def test_run_user_variant_against_the_case(tmp_path, capsys, config):
     doc = json.loads((out / "report.json").read_text())
     assert doc["passed"] is False and doc["cases"][CASE]["settings"]["mjcf"] == str(damped)
     assert doc["cases"][CASE]["checks"]["RK4.position"]["passed"] is False
-    assert "variant.xml" in (out / "report.html").read_text()
+    assert "variant.xml" in (out / "cases" / f"{CASE}.html").read_text()
+    # the overview says what differs from the shipped model, the damping that made it fail included
+    differs = (out / "report.html").read_text().split("What differs from the shipped model</h2>")[1]
+    assert "variant.xml" in differs and "<td>mjcf: joint &#x27;theta&#x27; damping</td>" in differs
     assert "FAIL" in capsys.readouterr().out
 
 

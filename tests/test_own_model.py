@@ -105,7 +105,8 @@ def test_run_writes_a_report_that_says_what_was_examined(arm, tmp_path):
     out = tmp_path / "out"
     done = _cli("run", "--mjcf", str(arm), "--out", str(out), "--integrators", "RK4", "--no-studies", cwd=tmp_path)
     assert done.returncode == 0, done.stdout + done.stderr
-    page = (out / "report.html").read_text()
+    page = (out / "cases" / "arm.html").read_text()  # the model's own page, linked from the overview
+    assert "href='cases/arm.html'" in (out / "report.html").read_text()
     assert "What was examined" in page and "<b>contacts</b>" in page and "RK4.<wbr>balance" in page
     assert "model image unavailable" not in page
 

@@ -260,8 +260,9 @@ def test_any_model_through_run_in_a_process(text):
                                "--out", str(out), "--junit", str(out / "junit.xml")],
                               capture_output=True, text=True, timeout=300, cwd=tmp)
         _judge(proc.returncode, proc.stderr, out / "junit.xml")
-        written = sorted(p.name for p in out.iterdir()) if out.exists() else []
-        assert written == ([] if proc.returncode == 2 else ["junit.xml", "report.html", "report.json", "summary.md"])
+        written = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()) if out.exists() else []
+        assert written == ([] if proc.returncode == 2 else [f"cases/{CASE}.html", "junit.xml", "report.html",
+                                                            "report.json", "summary.md"])
         if written:
             assert json.loads((out / "report.json").read_text())["cases"][CASE]
         assert sorted(p.name for p in Path(tmp).iterdir()) == ["model.xml", *(["report"] if written else [])]

@@ -1,14 +1,16 @@
 """The report and its companions as pure functions of one shipped pendulum run.
 
-HTML (self-contained: model still, sympy's equations, plots, settings,
-versions), Markdown, JSON, JUnit, diff, and the regression baseline — plus the
-baseline check of every registry case against reports/baseline.json.
+HTML (self-contained pages: an overview without images, a page per case with its model still, sympy's
+equations, plots and settings, the studies' and the audit's pages; every link resolves, no raw Python repr
+shows), Markdown, JSON, JUnit, diff, and the regression baseline — plus the baseline check of every registry
+case against reports/baseline.json.
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses
+import html
 import json
 import math
 import re
@@ -25,13 +27,17 @@ from harness.outputs import baseline, files, jsondoc, report
 from harness.outputs.diff import diff_runs, format_diff, load_run
 from harness.outputs.equations import equations, png_data_uri
 from harness.outputs.junit import junit_xml
+from harness.outputs.page import Page
+from harness.outputs.plots import section_plots
 from harness.outputs.stills import Request, stills
 from harness.outputs.table import verdict_line
 from harness.pipeline.outcome import Outcome, outcome_of
 from harness.pipeline.require import Requirement
 from harness.pipeline.verdict import judge
 from harness.reference.derivations import derivation
+from harness.studies import contact
 from tests.conftest import case_ids, shipped_run
+from tests.pages import broken_links, python_reprs, visible_text
 
 CASE = "pendulum"
 ROOT = Path(__file__).resolve().parent.parent
@@ -50,8 +56,55 @@ def model_stills(run):
 
 
 @pytest.fixture(scope="module")
-def page(run, model_stills):
-    return report.render_html(*run, stills=model_stills, config_source="pyproject.toml")
+def plots(run):
+    return {CASE: section_plots(run[0][0])}
+
+
+@pytest.fixture(scope="module")
+def pages(run, model_stills, plots):
+    """The report's pages by path: the overview and the pendulum's page."""
+    return report.render_pages(*run, stills=model_stills, config_source="pyproject.toml", plots=plots)
+
+
+@pytest.fixture(scope="module")
+def page(pages):
+    """The pendulum's page: its checks, plots, equations, model and settings."""
+    return pages[report.case_page(CASE)]
+
+
+@pytest.fixture(scope="module")
+def overview(pages):
+    return pages[report.OVERVIEW]
+
+
+def _contact_study() -> contact.StudyResult:
+    """A contact study of two settings, as contact_study returns one (its rendering is what is tested here)."""
+    row = {"cone": "elliptic", "impratio": 10.0, "noslip_iterations": 0, "softness": "shipped", "slip_max": 1e-3,
+           "slip_late": 2e-4, "penetration": 1e-5, "force_error": 3e-3, "position": 4e-4, "drift.energy": 1e-6}
+    return contact.StudyResult(case="hoop_plane", integrator="RK4", timestep=1e-3,
+                               shipped={"cone": "elliptic", "impratio": 10.0, "noslip_iterations": 0},
+                               rows=(row, {**row, "cone": "pyramidal", "impratio": 1.0, "slip_late": 3e-3}))
+
+
+@pytest.fixture(scope="module")
+def audit_rows():
+    from harness.studies import audit  # lazy: sympy and the claims, for the tests that need them
+
+    return audit.audit([c for c in audit.all_claims() if c.id == "000.atwood.lambda2"])
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory, run, model_stills, plots, audit_rows):
+    """The report as `mjharness run` writes it: its pages (the studies' with a contact study, the audit's with
+    one claim), report.json and summary.md with the audit."""
+    from harness.studies import audit  # lazy: as above
+
+    out = tmp_path_factory.mktemp("written") / "report"
+    extra = [Page(files.STUDIES_PAGE, "Studies", "the studies", (contact.html_section([_contact_study()]),)),
+             Page(files.AUDIT_PAGE, "Seed audit", "the audit", (audit.html_section(audit_rows),))]
+    report.write_report(out, *run, stills=model_stills, plots=plots, pages=extra,
+                        appendix={"audit": audit.json_rows(audit_rows)})
+    return out
 
 
 def _unbroken(html: str) -> str:
@@ -75,11 +128,15 @@ def test_page_is_self_contained(page):
     assert page.count("data:image/png;base64,") >= 4 + len(equations(derivation("pendulum")))
 
 
-def test_page_has_every_section(page, run):
-    for heading in ("Summary", "Equations of motion", "Gated checks", "Plots", "Other figures", "Settings used"):
+def test_page_has_every_section(page, overview, run):
+    for heading in ("Equations of motion", "Gated checks", "Plots", "Other figures", "Settings used"):
         assert f">{heading}" in page, heading
-    assert f"mujoco {mujoco.__version__}" in page and "mjharness 0.1.0" in page
-    assert "<p class='banner pass'>PASS — " in page and "checks of 1 case(s) within what their budgets explain" in page
+    for heading in ("Summary", "Failed checks, with their budgets", "What differs from the shipped model"):
+        assert f">{heading}" in overview, heading
+    for shown in (page, overview):
+        assert f"mujoco {mujoco.__version__}" in shown and "mjharness 0.1.0" in shown
+    assert "<p class='banner pass'>PASS — " in overview
+    assert "checks of 1 case(s) within what their budgets explain" in overview
     shown = _unbroken(page)
     for c in run[1][CASE]:
         assert f"<td class='name'>{c.name}</td>" in shown and f"{c.threshold:.3e}" in page
@@ -92,6 +149,8 @@ def test_page_has_every_section(page, run):
     # the shipped model as shipped: nothing differs and nothing was required; an engine function found
     # to disagree (mj_jacDot before MuJoCo 3.3.1) is named where the run found one
     assert "What differs from the shipped model" not in page and "Fitness for purpose" not in page
+    assert "Nothing: every case ran its shipped model at its shipped settings." in overview
+    assert "None: every check is within what its budget explains." in overview
     assert ("Engine finding" in page) == bool(run[0][0].findings)
     assert all(f.function in page for f in run[0][0].findings)
 
@@ -162,10 +221,11 @@ def test_unreadable_model_is_a_note_for_that_model_only(tmp_path):
         pytest.skip(f"no OpenGL here: {got[CASE].note}")
 
 
-def test_identical_inputs_give_identical_pages(run, page):
-    """Rendering again, model still included (re-rendered in a fresh child), gives the same bytes."""
-    again = report.render_html(*run, config_source="pyproject.toml")
-    assert again == page
+def test_identical_inputs_give_identical_pages(run, pages):
+    """Rendering again, model still and plots included (re-rendered, the still in a fresh child), gives the
+    same bytes."""
+    again = report.render_pages(*run, config_source="pyproject.toml")
+    assert again == pages
 
 
 def test_failures_are_flagged_in_banner_summary_and_table(run):
@@ -191,6 +251,9 @@ def test_a_changed_model_its_findings_and_its_fitness_have_their_sections(run):
     section = report.section_case(result, checks[CASE], None, plots="", fitness=outcome.fitness[CASE])
     differs = section.split("What differs from the shipped model")[1]
     assert "<td>param.m</td><td class='num'>1</td><td class='num'>1.02</td>" in differs
+    overview = report.section_differences([result])  # and on the overview, linked to the case's part
+    assert "<td>param.m</td><td class='num'>1</td><td class='num'>1.02</td>" in overview
+    assert f"href='{report.case_page(CASE)}#differences'" in overview and "id='differences'" in section
     assert "Engine finding" in section and "mj_jacDot" in section and "2.500e-03" in section
     assert "Fitness for purpose" in section and "NOT MET" in section
     banner = report.section_banner([result], outcome)
@@ -232,6 +295,117 @@ def test_the_gated_checks_table_is_driven_by_its_list_of_columns(run):
     assert all(f"colspan='{shown}'" in r for r in rows if "class='group'" in r)
 
 
+# -------------------------------------------------------------- the pages
+def test_the_overview_is_short_and_has_no_images_the_case_page_has_them(overview, page):
+    """The overview opens fast: no image at all, and a size that keeps the full run's overview under 2 MB.
+    The bound: a one-case overview within 2 MB / (number of cases in the registry), so the overview of every
+    case together (its fixed part counted once, not once a case) stays under 2 MB as long as each case adds
+    no more than one case's share."""
+    assert "<img" not in overview and "data:image" not in overview
+    # measured on the full default run (15 cases): 11 kB, no image (the single page it replaced: 10.4 MB)
+    assert len(overview.encode()) <= 2_000_000 / len(case_ids())
+    assert page.count("<img") >= 4 and "data:image/png;base64," in page  # the depth is on the case's page
+
+
+def test_the_overview_lists_every_failure_with_its_budget(run):
+    """Every failed check, a budget's (figure, explained parts, unexplained, limit) and a diverged run's (its
+    reason), on the overview, under its case linked to the case's table."""
+    results, checks = run
+    broken = _failing(_failing(checks), "instant.qacc")
+    diverged = Check(CASE, "implicit.velocity", math.nan, math.nan, "m", diverged="diverged: mjWARN_BADQACC at t = 0 s")
+    broken = {CASE: [*broken[CASE], diverged]}
+    overview = report.render_pages(results, broken, stills={}, plots={CASE: "<p>plots</p>"})[report.OVERVIEW]
+    failures = _unbroken(overview.split("id='failures'")[1].split("</section>")[0])
+    failed = [c for c in broken[CASE] if not c.passed]
+    assert len(failed) == 3 and f"href='{report.case_page(CASE)}#checks'" in failures
+    assert "3 of " in failures and failures.count("<tr class='fail'>") == 3
+    for c in failed:
+        row = failures.split(f"<td class='name'>{c.name}</td>")[1].split("</tr>")[0]
+        if c.budget is not None:
+            assert all(f"{x:.3e}" in row for x in (c.budget.measured, c.budget.unexplained, c.budget.limit)), row
+            assert all(f"{x:.2e}" in row for x in c.budget.explained.values()), row
+        else:
+            assert c.diverged in row
+
+
+def test_every_link_of_every_page_reaches_a_written_page_and_anchor(written):
+    """The overview links each case's page, the studies and the audit; each page links back; nothing points
+    at a page or an anchor that was not written."""
+    assert broken_links(written) == {}
+    overview = (written / report.OVERVIEW).read_text(encoding="utf-8")
+    for target in (report.case_page(CASE), files.STUDIES_PAGE, files.AUDIT_PAGE):
+        assert f"href='{target}'" in overview, target
+    case = (written / report.case_page(CASE)).read_text(encoding="utf-8")
+    assert f"href='../{report.OVERVIEW}'" in case and f"href='../{files.STUDIES_PAGE}'" in case
+
+
+def test_no_page_shows_a_raw_python_repr(written):
+    """A dict, list, tuple, object, numpy scalar, dataclass or enum printed with str() reads as Python, not
+    as a report: none may reach the visible text of any page or summary.md."""
+    shown = {p.relative_to(written).as_posix(): visible_text(p.read_text(encoding="utf-8"))
+             for p in written.rglob("*.html")}
+    shown["summary.md"] = (written / "summary.md").read_text(encoding="utf-8")
+    assert set(shown) >= {report.OVERVIEW, report.case_page(CASE), files.STUDIES_PAGE, files.AUDIT_PAGE}
+    found = {name: python_reprs(text) for name, text in shown.items() if python_reprs(text)}
+    assert found == {}
+
+
+@pytest.mark.parametrize("text", [
+    "Shipped settings: {'cone': 'elliptic', 'impratio': 10.0}", "pairs [('a', 1)]", "names ['a', 'b']",
+    "('theta', 'r') projected", "<harness.cases.Case object at 0x7f00aa>", "value np.float64(0.5)",
+    "Check(case='pendulum', name=", "<mjtCone.mjCONE_ELLIPTIC: 1>", "mappingproxy({})"])
+def test_the_repr_scan_finds_each_kind(text):
+    assert python_reprs(visible_text(f"<p>{html.escape(text)}</p>")) != []
+
+
+def test_the_repr_scan_passes_what_the_report_writes():
+    text = ("f(q) = 0, M q̈ = F + Jᵀλ, [numeric] 1.0e-05 / 2.0e-09 (agrees), cone = elliptic, "
+            "max(0, documented order 1 − observed 0.98), λ₂ = (m_p + 2m₁)/(m₁ + m₂) m₂ g, RK4.position (40%)")
+    assert python_reprs(visible_text(f"<style>a{{b:c}}</style><p>{text}</p><img alt=\"{{'x': 1}}\">")) == []
+
+
+def test_case_pages_have_one_file_name_each_whatever_the_name():
+    assert report.case_page("pendulum") == "cases/pendulum.html"
+    names = ["a b", "a_b", "a~20b", "../x", "é", "a.b"]
+    pages = [report.case_page(n) for n in names]
+    assert len(set(pages)) == len(names)
+    assert all(p.startswith("cases/") and "/" not in p.removeprefix("cases/") and ".." not in p for p in pages)
+
+
+def test_an_earlier_reports_pages_go_with_the_new_set_and_stay_when_it_fails(tmp_path, run, monkeypatch):
+    """A case page or the studies' page of an earlier run that this run has not is removed as the new set is
+    written; a run that fails to write leaves the earlier report whole, those pages included."""
+    out = tmp_path / "out"
+    (out / files.CASE_PAGES).mkdir(parents=True)
+    old = {out / files.CASE_PAGES / "gone.html": "old case", out / files.STUDIES_PAGE: "old studies",
+           out / report.OVERVIEW: "old overview"}
+    for path, text in old.items():
+        path.write_text(text)
+    fake = {report.OVERVIEW: "<html>new</html>", report.case_page(CASE): "<html>case</html>"}
+    monkeypatch.setattr(report, "render_pages", lambda *_a, **_k: fake)
+    (out / "summary.md").mkdir()  # in the way of the new set: nothing of it may land
+    with pytest.raises(ValueError, match=r"summary\.md"):
+        report.write_report(out, *run, stills={})
+    assert {p: p.read_text() for p in old} == old and not (out / report.case_page(CASE)).exists()
+    (out / "summary.md").rmdir()
+    report.write_report(out, *run, stills={})
+    assert sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()) == [
+        report.case_page(CASE), "report.html", "report.json", "summary.md"]
+
+
+def test_write_atomic_removes_with_the_set_or_not_at_all(tmp_path):
+    keep, gone = tmp_path / "keep.txt", tmp_path / "gone.txt"
+    keep.write_text("old")
+    gone.write_text("old")
+    (tmp_path / "dir").mkdir()
+    with pytest.raises(ValueError):
+        files.write_atomic({keep: "new", tmp_path / "sub" / "new.txt": "new", tmp_path / "dir": "x"}, remove=[gone])
+    assert (keep.read_text(), gone.read_text()) == ("old", "old") and not (tmp_path / "sub").exists()
+    files.write_atomic({keep: "new", tmp_path / "sub" / "new.txt": "new"}, remove=[gone])
+    assert keep.read_text() == (tmp_path / "sub" / "new.txt").read_text() == "new" and not gone.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dir", "keep.txt", "sub"]
+
+
 # ------------------------------------------------------- Markdown, JSON
 def test_markdown_summary_for_ci(run):
     results, checks = run
@@ -254,7 +428,7 @@ def test_summary_md_carries_the_seed_audit_from_the_report_appendix(tmp_path, ru
              "claims": {"x.ok": {"verdict": "confirmed", "cause": "", "lines": "3", "corrected": "", "readings": []},
                         "x.bad": {"verdict": "refuted", "cause": "transcription slip", "lines": "7",
                                   "corrected": "λ₂ = g m₂", "readings": []}}}
-    monkeypatch.setattr(report, "render_html", lambda *_a, **_k: "<html></html>")
+    monkeypatch.setattr(report, "render_pages", lambda *_a, **_k: {report.OVERVIEW: "<html></html>"})
     report.write_report(tmp_path / "out", results, checks, stills={}, appendix={"audit": entry})
     md = (tmp_path / "out" / "summary.md").read_text(encoding="utf-8")
     assert "## Seed audit" in md and "2 claims: 1 confirmed, 1 refuted (0 errors, 1 transcription slips)" in md
@@ -318,7 +492,7 @@ def test_write_report_is_all_or_nothing(tmp_path, run, monkeypatch):
     def boom(*_args, **_kw):
         raise RuntimeError("rendering failed")
 
-    monkeypatch.setattr(report, "render_html", lambda *_a, **_k: "<html></html>")
+    monkeypatch.setattr(report, "render_pages", lambda *_a, **_k: {report.OVERVIEW: "<html></html>"})
     monkeypatch.setattr(report, "render_markdown", boom)
     with pytest.raises(RuntimeError):
         report.write_report(tmp_path / "out", results, checks, stills={})

@@ -51,7 +51,19 @@ from harness.engine import backends, messages
 from harness.engine.integrators import available_integrators
 from harness.outputs import baseline
 from harness.outputs.diff import diff_runs, format_diff, load_run, select
-from harness.outputs.files import REPORT_FILES, STALE, check_output, mark_stale, prepare_output, write_atomic
+from harness.outputs.files import (
+    BACKENDS_PAGE,
+    CASE_PAGES,
+    PAGES,
+    REPORT_FILES,
+    STALE,
+    check_output,
+    mark_stale,
+    prepare_output,
+    report_pages,
+    superseded,
+    write_atomic,
+)
 from harness.outputs.jsondoc import dumps, json_doc
 from harness.outputs.junit import junit_xml
 from harness.outputs.table import (
@@ -327,8 +339,9 @@ def _check_junit(path: Path | None, report: Path | None = None) -> None:
     if path is not None:
         if path.is_dir():
             raise ValueError(f"--junit {str(path)!r} is a directory; give a file name")
-        if report is not None and any(_same_file(path, report / name) for name in (*REPORT_FILES,
-                                                                                  *(n + STALE for n in REPORT_FILES))):
+        names = (*REPORT_FILES, *PAGES)
+        names = (*names, *(n + STALE for n in names))
+        if report is not None and any(_same_file(path, report / name) for name in names):
             raise ValueError(f"--junit {str(path)!r} is a file of the report in {str(report)!r} "
                              f"({', '.join(REPORT_FILES)}); give another name, e.g. {str(report / 'junit.xml')!r}")
         check_output(path.parent)
@@ -369,24 +382,35 @@ def cmd_run(args: argparse.Namespace) -> int:
     options = _options(args, selected, several=True)
     results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs, **_case_lines(args))
     outcome = _outcome(args, results, checks, limits)
-    extras, appendix, plots = report_parts(selected, results, jobs=args.jobs,
-                                           studies=args.studies and options.shipped)
+    pages, appendix, plots = report_parts(selected, results, jobs=args.jobs,
+                                          studies=args.studies and options.shipped)
     others = backends.expand(args.backend)[1:]
     if others:  # the first backend's report, and every backend side by side (its verdict is the first's)
         from harness.outputs.backends import BackendRun, side_by_side_html, side_by_side_json  # lazy: matplotlib
+        from harness.outputs.page import Page
 
         runs = [BackendRun(options.backend, backends.PRECISION[options.backend], results, checks)]
         runs += [BackendRun(name, backends.PRECISION[name], r, c)
                  for name, r, c in run_backends(selected, args.config, options, others)]
-        extras = [*extras, side_by_side_html(runs)]
+        pages = [*pages, Page(BACKENDS_PAGE, "Backends side by side", "every gated figure of each case on each "
+                              "backend, and the findings", (side_by_side_html(runs),))]
         appendix = (appendix or {}) | {"backends": side_by_side_json(runs)}
-    files = report_files(args.out, results, outcome, config_source=limits.source, extras=extras,
+    files = report_files(args.out, results, outcome, config_source=limits.source, pages=pages,
                          appendix=appendix, plots=plots)
     prepare_output(args.out)
-    paths = write_atomic(files | _junit(args.junit, outcome))  # the report and its JUnit: all or none
+    # the report and its JUnit, all or none, and an earlier report's pages this one has not removed with them
+    paths = write_atomic(files | _junit(args.junit, outcome), remove=superseded(args.out, files))
     _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
-                  written=f"wrote in {time.perf_counter() - start:.1f} s: {', '.join(str(p) for p in paths)}")
+                  written=f"wrote in {time.perf_counter() - start:.1f} s: {_written(args.out, paths)}")
     return outcome.exit_code
+
+
+def _written(out: Path, paths: Sequence[Path]) -> str:
+    """The files written, the case pages counted rather than listed."""
+    cases = out / CASE_PAGES
+    pages = [p for p in paths if p.parent == cases]
+    listed = [str(p) for p in paths if p.parent != cases]
+    return ", ".join(listed + ([f"{len(pages)} case page(s) in {cases}"] if pages else []))
 
 
 def _args_check(p: argparse.ArgumentParser) -> None:
@@ -839,7 +863,7 @@ class Command:
 
 COMMANDS: dict[str, Command] = {
     "list": Command("list the cases", _args_list, cmd_list),
-    "run": Command("run cases, write report.html, report.json and summary.md", _args_run, cmd_run),
+    "run": Command("run cases, write the report's pages, report.json and summary.md", _args_run, cmd_run),
     "check": Command("the CI gate: every gated figure judged by its budget, no report", _args_check, cmd_check,
                      "the CI gate: run the cases and judge every gated figure by its error budget or its "
                      "limit (exit 0 pass, 1 fail, 2 bad input, 3 a --require not met); draws nothing"),
@@ -933,7 +957,7 @@ def _discard_stdout() -> None:
 
 def _outputs(args: argparse.Namespace) -> list[Path]:
     """The report files the command writes: those a failed or interrupted run marks stale."""
-    paths = [args.out / name for name in REPORT_FILES] if args.command == "run" else []
+    paths = [args.out / name for name in REPORT_FILES] + report_pages(args.out) if args.command == "run" else []
     return paths + [p for p in (getattr(args, "junit", None), getattr(args, "html", None)) if p is not None]
 
 

@@ -1,5 +1,6 @@
-"""Passes over the report's assembled HTML: its table of contents, read from the page's own sections, and
-numbers kept on one line.
+"""The report's pages: what a page besides the overview and the case pages is (:class:`Page`), and passes
+over a page's assembled HTML: its table of contents, read from the page's own sections, and numbers kept on
+one line.
 
 The contents are read from the page rather than listed beside it, so that a section added anywhere (a
 case, a study, the audit) is reached from the top without anyone remembering to list it: every
@@ -16,6 +17,18 @@ from dataclasses import dataclass, field
 from html.parser import HTMLParser
 
 CONTENTS_ID = "contents"
+
+
+@dataclass(frozen=True)
+class Page:
+    """A page of the report beside the overview and the case pages (the studies, the seed audit, the backends
+    side by side): its file in the output directory (one of :data:`harness.outputs.files.PAGES`), its title,
+    the line the overview gives it, and its sections."""
+
+    name: str
+    title: str
+    about: str
+    sections: tuple[str, ...]
 
 
 @dataclass

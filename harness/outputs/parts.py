@@ -1,7 +1,7 @@
-"""What the report draws besides its tables — layer 4 studies, the seed audit and each case's plots —
-run serially, or on a process pool forked after the cases, so that the workers hold every reference
-the cases solved. The results are those of a serial run, in the same order (pinned in
-tests/test_speed_paths.py)."""
+"""What the report draws besides its tables — layer 4 studies and the seed audit (each a page of the
+report) and each case's plots — run serially, or on a process pool forked after the cases, so that the
+workers hold every reference the cases solved. The results are those of a serial run, in the same order
+(pinned in tests/test_speed_paths.py)."""
 
 from __future__ import annotations
 
@@ -10,6 +10,8 @@ import time
 from collections.abc import Sequence
 
 from harness import cases
+from harness.outputs.files import AUDIT_PAGE, STUDIES_PAGE
+from harness.outputs.page import Page
 from harness.outputs.plots import section_plots
 from harness.pipeline.matrix import progress
 from harness.pipeline.pool import cpus, run_tasks
@@ -51,8 +53,8 @@ def case_plots(case: str | cases.Case, result: CaseResult) -> str:
 
 
 def report_parts(selected: Sequence[cases.Case], results: Sequence[CaseResult], *, jobs: int | None,
-                 studies: bool) -> tuple[list[str], dict[str, object] | None, dict[str, str]]:
-    """What the report draws besides its tables: layer 4 and the seed audit (HTML sections and JSON
+                 studies: bool) -> tuple[list[Page], dict[str, object] | None, dict[str, str]]:
+    """What the report draws besides its tables: layer 4 and the seed audit (their pages and JSON
     entries, when ``studies``) and each case's plots. With more than one worker the calls share a
     process pool forked now, so the workers hold the references the cases solved; the results are
     those of a serial run, in the same order."""
@@ -74,14 +76,15 @@ def report_parts(selected: Sequence[cases.Case], results: Sequence[CaseResult], 
     drawn = {r.case.name: html for r, html in zip(results, done[len(layer4):], strict=True)}
     if not studies:
         return [], None, drawn
-    extras, appendix = _studies_html(selected, dict(zip(layer4, done, strict=False)),
+    pages, appendix = _studies_pages(selected, dict(zip(layer4, done, strict=False)),
                                      elapsed=time.perf_counter() - start)
-    return extras, appendix, drawn
+    return pages, appendix, drawn
 
 
-def _studies_html(selected: Sequence[cases.Case], done: dict, *, elapsed: float
-                  ) -> tuple[list[str], dict[str, object]]:
-    """The studies' and the audit's HTML sections and JSON entries, from their calls' results."""
+def _studies_pages(selected: Sequence[cases.Case], done: dict, *, elapsed: float
+                   ) -> tuple[list[Page], dict[str, object]]:
+    """The studies' page and the audit's (where it has claims) and their JSON entries, from their calls'
+    results."""
     claims = audit.all_claims()
     rows = []
     for system in dict.fromkeys(c.system for c in selected):  # each in all_claims() order
@@ -95,7 +98,12 @@ def _studies_html(selected: Sequence[cases.Case], done: dict, *, elapsed: float
     found = Studies(convergence=by_kind["convergence"], softness=by_kind["softness"],
                     solvers=by_kind["solvers"], elapsed=elapsed)
     contact_results = list(by_kind["contact"])
-    html = [html_section(found), contact.html_section(contact_results), audit.html_section(rows)]
+    studied = tuple(h for h in (html_section(found), contact.html_section(contact_results)) if h)
+    pages = [Page(STUDIES_PAGE, "Studies", "layer 4: convergence orders per integrator, constraint softness, the "
+                  "constraint solvers and the contact settings", studied)]
+    if rows:
+        pages.append(Page(AUDIT_PAGE, "Seed audit", "every display and statement of the seed documents, checked "
+                          "symbolically and against MuJoCo", (audit.html_section(rows),)))
     appendix = {"audit": audit.json_rows(rows),
                 "contact_study": {r.case: [dict(row) for row in r.rows] for r in contact_results}}
-    return [h for h in html if h], appendix
+    return pages, appendix

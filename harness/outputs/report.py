@@ -1,21 +1,30 @@
-"""Reports: one self-contained HTML page and a Markdown summary (the JSON: :mod:`.jsondoc`).
+"""Reports: self-contained HTML pages and a Markdown summary (the JSON: :mod:`.jsondoc`).
 
 A builder collects independent sections; each section is a function of one
 CaseResult (plus its checks) returning HTML. Images (plots, the derived
 equations, a still of each model) are PNGs embedded as data URIs and there is
-no script or stylesheet from the network, so the page opens offline. Nothing
+no script or stylesheet from the network, so every page opens offline. Nothing
 time-dependent is written, so identical inputs give byte-identical files.
-Files are written to a temporary directory and moved into place, so a failed
-run never leaves a half-written report.
+The pages are written together or not at all (:mod:`.files`), so a failed run
+never leaves a half-written report.
 
-Layout of the page: verdict banner, the table of contents (read from the
-page's own sections, :mod:`.page`), how to read it, summary table (one row per
-case), then per case: model still and equations of motion, gated checks
-grouped by layer (the columns of :data:`CHECK_COLUMNS`), plots, figures
-measured but not gated, settings; versions at the top. The page is laid out
-for a window 1000 px wide and up: nothing overflows it, numbers never break
-across lines, and plots and formulas are shown at the size they are drawn
-(tests/test_browser.py checks it in Chromium).
+The pages (:func:`render_pages`), so that the first one opens fast whatever the
+number of cases:
+
+- the overview, report.html, without images: verdict banner, the table of
+  contents (read from the page's own sections, :mod:`.page`), how to read it,
+  summary table (one row per case, linked to its page), every failed check
+  with its budget, what differs from the shipped model in each case, engine
+  findings and requirements where there are any, and the other pages;
+- a page per case, cases/NAME.html (:func:`case_page`): model still and
+  equations of motion, what differs, gated checks grouped by layer (the
+  columns of :data:`CHECK_COLUMNS`), plots, figures measured but not gated,
+  settings;
+- the studies and the seed audit, each a page of its own (:class:`.page.Page`).
+
+Every page is laid out for a window 1000 px wide and up: nothing overflows it,
+numbers never break across lines, and plots and formulas are shown at the size
+they are drawn (tests/test_browser.py checks it in Chromium).
 """
 
 from __future__ import annotations
@@ -39,9 +48,9 @@ from harness.core.checks import Check
 from harness.core.checks import closest as closest_check
 from harness.engine.models import compile_model
 from harness.outputs.equations import equations, png_data_uri
-from harness.outputs.files import REPORT_FILES, prepare_output, write_atomic
+from harness.outputs.files import CASE_PAGES, PAGES, REPORT_FILES, prepare_output, superseded, write_atomic
 from harness.outputs.jsondoc import render_json, versions
-from harness.outputs.page import table_of_contents, unbroken_numbers
+from harness.outputs.page import Page, table_of_contents, unbroken_numbers
 from harness.outputs.plots import section_plots, shipped_integrator
 from harness.outputs.stills import Request, Still, stills
 from harness.outputs.table import fitness_line, fmt_value, parts_shown, ratio, ratio_text, verdict_line
@@ -65,6 +74,18 @@ def _setting(value: object) -> str:
     if isinstance(value, float):
         return f"{value:.6g}"
     return str(value)
+
+
+OVERVIEW = REPORT_FILES[0]
+
+
+def case_page(name: str) -> str:
+    """Where a case's page lies, relative to the output directory: ``cases/NAME.html``, each character of NAME
+    but ASCII letters, digits, ``_`` and ``-`` written as ``~XX`` (its UTF-8 bytes in hex), so that any name is
+    one file name and no two names the same one."""
+    safe = "".join(ch if ch.isascii() and (ch.isalnum() or ch in "_-") else
+                   "".join(f"~{b:02x}" for b in ch.encode()) for ch in name)
+    return f"{CASE_PAGES}/{safe}.html"
 
 
 # -------------------------------------------------------------- sections
@@ -110,8 +131,8 @@ forces, m·g·l for energy).</li>
 
 
 def section_summary(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]]) -> str:
-    """One row per case: verdict, checks passed, the passing check closest to its limit (the headroom
-    left; the failures have their own column), the failures."""
+    """One row per case, its name linked to its page: verdict, checks passed, the passing check closest to
+    its limit (the headroom left; the failures have their own column), the failures."""
     checks = _outcome(outcome).checks
     rows = []
     for r in results:
@@ -122,10 +143,12 @@ def section_summary(results: Sequence[CaseResult], outcome: Outcome | Mapping[st
         closest = (f"{_esc(tight.name)} <span class='dim'>({ratio_text(ratio(tight))})</span>"
                    if tight else "no passing gates" if cs else "no gates")
         fails = "<br>".join(f"{_esc(c.name)}: {_esc(_failure_text(c))}" for c in failed)
-        rows.append(f"<tr class='{verdict.lower()}'><td><a href='#{_esc(r.case.name)}'>{_esc(r.case.name)}</a></td>"
+        rows.append(f"<tr class='{verdict.lower()}'><td><a href='{_esc(case_page(r.case.name))}'>"
+                    f"{_esc(r.case.name)}</a></td>"
                     f"<td class='verdict'>{verdict}</td><td>{len(cs) - len(failed)}/{len(cs)}</td>"
                     f"<td>{closest}</td><td>{fails}</td></tr>")
-    return ("<section id='summary'><h2>Summary</h2><table class='summary'><tr><th>case</th><th>verdict</th>"
+    return ("<section id='summary'><h2>Summary</h2><p class='dim'>Each case's checks, plots, equations and "
+            "model are on its own page: follow its name.</p><table class='summary'><tr><th>case</th><th>verdict</th>"
             "<th>checks passed</th><th>closest to its limit among those passing (used)</th>"
             f"<th>failed: why</th></tr>{''.join(rows)}</table></section>")
 
@@ -228,18 +251,35 @@ def _columns(checks: Sequence[Check], columns: Sequence[Column]) -> list[Column]
 
 
 def _checks_table(result: CaseResult, checks: Sequence[Check], columns: Sequence[Column] = CHECK_COLUMNS) -> str:
-    columns = _columns(checks, columns)
     groups: dict[str, list[Check]] = {}
     for c in checks:
         groups.setdefault(c.name.group, []).append(c)
+    return _table([(_esc(_group_title(group, result)), result, cs) for group, cs in groups.items()],
+                  _columns(checks, columns))
+
+
+def _table(groups: Sequence[tuple[str, CaseResult, Sequence[Check]]], columns: Sequence[Column]) -> str:
+    """A checks table: per group, a row with its title (HTML) across the table, then a row per check."""
     body = []
-    for group, cs in groups.items():
-        body.append(f"<tr class='group'><td colspan='{len(columns)}'>{_esc(_group_title(group, result))}</td></tr>")
+    for title, result, cs in groups:
+        body.append(f"<tr class='group'><td colspan='{len(columns)}'>{title}</td></tr>")
         body += [f"<tr class='{'na' if c.note else 'pass' if c.passed else 'fail'}'>"
                  + "".join(f"<td class='{col.css}'>{col.cell(c, result)}</td>" if col.css else
                            f"<td>{col.cell(c, result)}</td>" for col in columns) + "</tr>" for c in cs]
     head = "".join(f"<th>{_esc(col.header)}</th>" for col in columns)
     return f"<table class='checks'><tr>{head}</tr>{''.join(body)}</table>"
+
+
+def section_failures(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]]) -> str:
+    """Every failed check of the run with its budget, in the case pages' columns, under its case (linked to
+    the case's table), or that none failed."""
+    checks = _outcome(outcome).checks
+    failed = [(r, [c for c in checks[r.case.name] if not c.passed]) for r in results]
+    groups = [(f"<a href='{_esc(case_page(r.case.name))}#checks'>{_esc(r.case.name)}</a>: {len(cs)} of "
+               f"{len(checks[r.case.name])} checks fail", r, cs) for r, cs in failed if cs]
+    body = (_table(groups, _columns([c for _, cs in failed for c in cs], CHECK_COLUMNS)) if groups
+            else "<p>None: every check is within what its budget explains.</p>")
+    return f"<section id='failures'><h2>Failed checks, with their budgets</h2>{body}</section>"
 
 
 def section_model(result: CaseResult, still: Still | None) -> str:
@@ -280,6 +320,25 @@ _UNITS = {"timestep": "s", "horizon": "s", "tolerance": ""}
 
 
 def _differences(result: CaseResult) -> str:
+    """The case page's part on what the model run differs in from the shipped one: '' where nothing."""
+    table = _difference_table(result)
+    return (f"<section id='differences'><h3>What differs from the shipped model</h3><p class='dim'>The reference "
+            f"is built from the model run: these parameters are its own.</p>{table}</section>") if table else ""
+
+
+def section_differences(results: Sequence[CaseResult]) -> str:
+    """Per case, every way the model run differs from the shipped one (each attribute written otherwise, its
+    damping as any other; its parameters; its settings), or that none does."""
+    parts = [f"<h3><a href='{_esc(case_page(r.case.name))}#differences'>{_esc(r.case.name)}</a> <span class='dim'>"
+             f"({_esc(Path(str(r.settings.get('mjcf', ''))).name)})</span></h3>{table}"
+             for r in results if (table := _difference_table(r))]
+    body = ("<p class='dim'>The reference of each is built from the model run: these parameters are its "
+            f"own.</p>{''.join(parts)}" if parts else "<p>Nothing: every case ran its shipped model at its "
+                                                        "shipped settings.</p>")
+    return f"<section id='differences'><h2>What differs from the shipped model</h2>{body}</section>"
+
+
+def _difference_table(result: CaseResult) -> str:
     """What the model run differs in from the shipped one (its parameters the reference was built with,
     its settings) and how the initial state was brought onto its constraints: '' where nothing."""
     changed = result.settings.get("changed") or {}
@@ -292,8 +351,7 @@ def _differences(result: CaseResult) -> str:
              f"{rows}</table>") if rows else ""
     moved = (f"<p class='dim'>Initial state brought onto the constraints of these parameters: "
              f"{_esc('; '.join(projected))}.</p>") if projected else ""
-    return (f"<h3>What differs from the shipped model</h3><p class='dim'>The reference is built from the "
-            f"model run: these parameters are its own.</p>{table}{moved}")
+    return f"{table}{moved}"
 
 
 def _examined(result: CaseResult) -> str:
@@ -312,7 +370,8 @@ def _examined(result: CaseResult) -> str:
                     "<p>The model as it is, with these acting, is judged by the work–energy balance "
                     "(<code>INTEGRATOR.balance</code>: its energy change against the work of every force MuJoCo "
                     "applied).</p>")
-    return (f"<h3>What was examined</h3>{covered}<p class='dim'>{_esc(tree.get('horizon', ''))}.</p>")
+    return (f"<section id='examined'><h3>What was examined</h3>{covered}<p class='dim'>"
+            f"{_esc(tree.get('horizon', ''))}.</p></section>")
 
 
 def _findings(result: CaseResult) -> str:
@@ -325,15 +384,39 @@ def _findings(result: CaseResult) -> str:
             f"corrects for it to take its own measurement):<ul>{items}</ul></div>")
 
 
-def _fitness_table(fitness: Sequence[Fitness]) -> str:
+def section_findings(results: Sequence[CaseResult]) -> str:
+    """The engine functions found to disagree with what they should compute, per case: '' where none."""
+    found = "".join(f"<h3><a href='{_esc(case_page(r.case.name))}'>{_esc(r.case.name)}</a></h3>{_findings(r)}"
+                    for r in results if r.findings)
+    return f"<section id='findings'><h2>Engine findings</h2>{found}</section>" if found else ""
+
+
+def section_requirements(results: Sequence[CaseResult], outcome: Outcome) -> str:
+    """The requirements stated for the run, judged on each case's own integrator: '' where none was."""
+    tables = "".join(f"<h3><a href='{_esc(case_page(r.case.name))}#fitness'>{_esc(r.case.name)}</a></h3>"
+                     f"{_fitness_table(fit, heading=False)}"
+                     for r in results if (fit := outcome.fitness.get(r.case.name, ())))
+    return (f"<section id='requirements'><h2>Fitness for purpose (each model's own integrator)</h2>{tables}"
+            "</section>") if tables else ""
+
+
+def section_pages(pages: Sequence[Page]) -> str:
+    """The report's other pages (the studies, the seed audit), linked: '' where there are none."""
+    items = "".join(f"<li><a href='{_esc(p.name)}'>{_esc(p.title)}</a>: {_esc(p.about)}</li>" for p in pages)
+    return f"<section id='pages'><h2>Other pages</h2><ul>{items}</ul></section>" if items else ""
+
+
+def _fitness_table(fitness: Sequence[Fitness], *, heading: bool = True) -> str:
     if not fitness:
         return ""
     rows = "".join(f"<tr class='{'pass' if f.met else 'fail'}'><td class='name'>{_esc(f.figure)}</td>"
                    f"<td class='num'>{fmt_value(f.value)}</td><td class='num'>{f.requirement.value:g}</td>"
                    f"<td>{_esc(f.unit)}</td><td class='verdict'>{'met' if f.met else 'NOT MET'}</td></tr>"
                    for f in fitness)
-    return ("<h3>Fitness for purpose (the model's own integrator)</h3><table class='checks'><tr><th>figure</th>"
-            f"<th>measured</th><th>required</th><th>unit</th><th>verdict</th></tr>{rows}</table>")
+    table = ("<table class='checks'><tr><th>figure</th><th>measured</th><th>required</th><th>unit</th>"
+             f"<th>verdict</th></tr>{rows}</table>")
+    return (f"<section id='fitness'><h3>Fitness for purpose (the model's own integrator)</h3>{table}</section>"
+            if heading else table)
 
 
 def section_case(result: CaseResult, checks: Sequence[Check], still: Still | None, *, plots: str,
@@ -350,18 +433,18 @@ def section_case(result: CaseResult, checks: Sequence[Check], still: Still | Non
                    for f in result.figures if f.name not in gated)
     settings = "".join(f"<tr><td>{_esc(k)}</td><td>{_esc(_setting(v))} {_UNITS.get(k, '')}</td></tr>"
                        for k, v in result.settings.items() if k not in ("changed", "projected", "tree"))
-    return (f"<section id='{_esc(c.name)}'><h2>{_esc(c.name)} <span class='badge {verdict.lower()}'>"
+    return (f"<section id='case'><h2>{_esc(c.name)} <span class='badge {verdict.lower()}'>"
             f"{verdict} {len(checks) - failed}/{len(checks)}</span></h2><p>{_esc(c.description)}</p>"
             f"{section_model(result, still)}{_examined(result)}{_differences(result)}{_findings(result)}{fitness}"
-            f"<h3>Gated checks</h3>{_checks_table(result, checks)}"
-            f"<h3>Plots</h3><div class='plots'>{plots}</div>"
-            f"<details class='more'><summary><h3>Other figures (measured, not gated)</h3> "
+            f"<section id='checks'><h3>Gated checks</h3>{_checks_table(result, checks)}</section>"
+            f"<section id='plots'><h3>Plots</h3><div class='plots'>{plots}</div></section>"
+            f"<section id='figures'><details class='more'><summary><h3>Other figures (measured, not gated)</h3> "
             f"<span class='dim'>{len(result.figures) - len(gated & {f.name for f in result.figures})} figures"
             f"</span></summary><table class='info'><tr><th>figure</th><th>value</th>"
-            f"<th>unit</th><th>meaning</th></tr>{info}</table></details>"
-            f"<details class='more'><summary><h3>Settings used</h3> <span class='dim'>timestep, integrator, "
-            f"solver, softness, parameters, the file run</span></summary>"
-            f"<table class='settings'>{settings}</table></details></section>")
+            f"<th>unit</th><th>meaning</th></tr>{info}</table></details></section>"
+            f"<section id='settings'><details class='more'><summary><h3>Settings used</h3> <span class='dim'>"
+            f"timestep, integrator, solver, softness, parameters, the file run</span></summary>"
+            f"<table class='settings'>{settings}</table></details></section></section>")
 
 
 _STYLE = """
@@ -399,6 +482,7 @@ img.eq,img.formula{max-width:100%;display:block}
 section img{max-width:100%}
 .howto{background:#f7f9fc;border:1px solid #dde3ec;padding:.4em .8em;border-radius:5px;margin:.6em 0}
 .howto summary{font-weight:bold;cursor:pointer} .howto li{margin:.25em 0}
+nav.pages{font-size:.9em;margin:.3em 0} nav.pages a{white-space:nowrap}
 nav.toc{border:1px solid #dde3ec;border-radius:5px;padding:.2em .9em .5em;margin:.6em 0;background:#fbfcfe}
 nav.toc h2{font-size:1.1em;border:none;margin:.4em 0 .2em} nav.toc ol{margin:0;padding-left:1.4em}
 nav.toc li{margin:.12em 0} nav.toc ul{display:flex;flex-wrap:wrap;gap:0 1.1em;list-style:none;padding:0;margin:0}
@@ -436,12 +520,15 @@ def _start_qpos(result: CaseResult) -> tuple[float, ...]:
     return tuple(float(x) for x in data.qpos)
 
 
-def render_html(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]], *,
-                stills: Mapping[str, Still] | None = None, config_source: str | None = None,
-                extras: Sequence[str] = (), plots: Mapping[str, str] | None = None) -> str:
-    """The whole page. ``stills`` defaults to rendering each model now (see harness.render);
-    ``extras`` are further sections (studies, audit) appended after the cases; ``plots``, each case's
+def render_pages(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]], *,
+                 stills: Mapping[str, Still] | None = None, config_source: str | None = None,
+                 pages: Sequence[Page] = (), plots: Mapping[str, str] | None = None) -> dict[str, str]:
+    """Every page of the report by its path relative to the output directory: the overview
+    (:data:`OVERVIEW`), a page per case (:func:`case_page`) and ``pages`` (the studies, the seed audit).
+    ``stills`` defaults to rendering each model now (see harness.render); ``plots``, each case's
     :func:`section_plots` by case name, are drawn now where not given."""
+    if bad := [p.name for p in pages if p.name not in PAGES]:
+        raise ValueError(f"pages {bad} are not pages of the report ({', '.join(PAGES)})")
     with ThreadPoolExecutor(max_workers=1) as pool:  # the stills render in a child process meanwhile
         pending = pool.submit(model_stills, results) if stills is None else None
         plots = {r.case.name: (plots or {}).get(r.case.name) or section_plots(r) for r in results}
@@ -449,17 +536,41 @@ def render_html(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, S
             equations_html(system)  # typeset while the stills render
         shown = pending.result() if pending is not None else stills or {}
     outcome = _outcome(outcome)
-    ver = ", ".join(f"{k} {v}" for k, v in versions().items())
     source = f" Limits from {_esc(config_source)}." if config_source else ""
-    body = section_summary(results, outcome) + "".join(
-        section_case(r, outcome.checks[r.case.name], shown.get(r.case.name), plots=plots[r.case.name],
-                     fitness=outcome.fitness.get(r.case.name, ()))
-        for r in results) + "".join(extras)
+    overview = (section_summary(results, outcome) + section_failures(results, outcome)
+                + section_differences(results) + section_findings(results) + section_requirements(results, outcome)
+                + section_pages(pages))
+    out = {OVERVIEW: _document("mjharness report", overview, pages=pages, source=source,
+                               top=section_banner(results, outcome), howto=True)}
+    names = [case_page(r.case.name) for r in results]
+    for k, r in enumerate(results):
+        body = section_case(r, outcome.checks[r.case.name], shown.get(r.case.name), plots=plots[r.case.name],
+                            fitness=outcome.fitness.get(r.case.name, ()))
+        neighbours = [(f"← {results[k - 1].case.name}", names[k - 1])] if k else []
+        neighbours += [(f"{results[k + 1].case.name} →", names[k + 1])] if k + 1 < len(results) else []
+        out[names[k]] = _document(f"mjharness report: {r.case.name}", body, pages=pages, source=source,
+                                  root="../", neighbours=neighbours)
+    for page in pages:
+        out[page.name] = _document(f"mjharness report: {page.title.lower()}", "".join(page.sections), pages=pages,
+                                   source=source)
+    return out
+
+
+def _document(title: str, body: str, *, pages: Sequence[Page], source: str, root: str = "", top: str = "",
+              howto: bool = False, neighbours: Sequence[tuple[str, str]] = ()) -> str:
+    """One page of the report: its title, the versions, the links to the other pages (``root``: the way
+    from this page to the output directory), ``top`` (the verdict), its own contents, how to read it (open
+    on the overview, folded elsewhere), ``body`` and the footer."""
+    ver = ", ".join(f"{k} {v}" for k, v in versions().items())
+    links = [("overview", OVERVIEW), *((p.title, p.name) for p in pages), *neighbours]
+    nav = " · ".join(f"<a href='{_esc(root + href)}'>{_esc(text)}</a>" for text, href in links)
+    howto_box = _HOW_TO_READ if howto else _HOW_TO_READ.replace("<details class='howto' open>",
+                                                               "<details class='howto'>")
     page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
-            f"<meta name='viewport' content='width=device-width, initial-scale=1'><title>mjharness report</title>"
-            f"<style>{_STYLE}</style></head><body><h1>mjharness report</h1>"
+            f"<meta name='viewport' content='width=device-width, initial-scale=1'><title>{_esc(title)}</title>"
+            f"<style>{_STYLE}</style></head><body><h1>{_esc(title)}</h1>"
             f"<p class='dim'>MuJoCo checked against analytical mechanics. Versions: {_esc(ver)}.{source}</p>"
-            f"{section_banner(results, outcome)}{table_of_contents(body)}{_HOW_TO_READ}{body}"
+            f"<nav class='pages'>{nav}</nav>{top}{table_of_contents(body)}{howto_box}{body}"
             f"<footer>Generated by mjharness {_esc(__version__)}; the same figures are in report.json, "
             f"a summary in summary.md.</footer></body></html>\n")
     return unbroken_numbers(page)
@@ -536,21 +647,22 @@ def audit_markdown(audit: Mapping[str, object]) -> str:
 
 def report_files(out: Path | str, results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]], *,
                  stills: Mapping[str, Still] | None = None, config_source: str | None = None,
-                 extras: Sequence[str] = (), appendix: Mapping[str, object] | None = None,
+                 pages: Sequence[Page] = (), appendix: Mapping[str, object] | None = None,
                  plots: Mapping[str, str] | None = None) -> dict[Path, str]:
-    """report.html, report.json and summary.md in ``out``, rendered, by path (:data:`REPORT_FILES`).
-    ``extras``/``appendix``: further HTML sections and JSON entries; ``plots``: each case's plots, already
-    drawn (see :func:`render_html`)."""
-    texts = (render_html(results, outcome, stills=stills, config_source=config_source, extras=extras, plots=plots),
-             render_json(results, outcome, appendix=appendix),
+    """The report's pages (:func:`render_pages`), report.json and summary.md in ``out``, rendered, by path.
+    ``pages``/``appendix``: the further pages and JSON entries; ``plots``: each case's plots, already drawn."""
+    html_pages = render_pages(results, outcome, stills=stills, config_source=config_source, pages=pages, plots=plots)
+    texts = (render_json(results, outcome, appendix=appendix),
              render_markdown(results, outcome, audit=(appendix or {}).get("audit")))  # type: ignore[arg-type]
-    return {Path(out) / name: text for name, text in zip(REPORT_FILES, texts, strict=True)}
+    return ({Path(out) / name: text for name, text in html_pages.items()}
+            | {Path(out) / name: text for name, text in zip(REPORT_FILES[1:], texts, strict=True)})
 
 
 def write_report(out: Path | str, results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]],
                  **options) -> list[Path]:
     """Write :func:`report_files` into ``out``: all rendered before anything is written, then the set
-    replaced as a whole or not at all (:func:`harness.outputs.files.write_atomic`)."""
+    replaced as a whole or not at all, an earlier report's pages this one has not removed with it
+    (:func:`harness.outputs.files.write_atomic`)."""
     files = report_files(out, results, outcome, **options)
     prepare_output(out)
-    return write_atomic(files)
+    return write_atomic(files, remove=superseded(out, files))

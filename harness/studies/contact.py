@@ -195,6 +195,11 @@ def contact_study(
                        rows=tuple(rows))
 
 
+def _settings_text(settings: Mapping[str, object]) -> str:
+    """``cone = elliptic, impratio = 10, noslip_iterations = 0``: the settings as a reader writes them."""
+    return ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}" for k, v in settings.items())
+
+
 def html_section(results: Sequence[StudyResult]) -> str:
     """The contact-settings studies as a report section: a table per case (shipped row marked) and its plot."""
     parts = []
@@ -210,7 +215,7 @@ def html_section(results: Sequence[StudyResult]) -> str:
         img = base64.b64encode(r.plot_png()).decode("ascii")
         parts.append(f"<section id='contact-{html.escape(r.case)}'>"
                      f"<h3>{html.escape(r.case)}: cone, impratio, noslip ({html.escape(r.integrator)}, "
-                     f"h = {r.timestep:g} s)</h3><p>Shipped settings: {html.escape(str(dict(r.shipped)))} "
+                     f"h = {r.timestep:g} s)</h3><p>Shipped settings: {html.escape(_settings_text(r.shipped))} "
                      f"(bold row). slip_late: steady slip velocity (m/s), max over the second half; "
                      f"force_error: worst contact force error / m g; position: max position error (m).</p>"
                      f"<table><tr>{head}</tr>{rows}</table><img src='data:image/png;base64,{img}' "
