@@ -107,3 +107,50 @@ def test_run_case_reports_the_balance_for_a_model_with_uncovered_forces(walled):
     v = harness.validate(mjcf=walled, integrators=["RK4"])
     assert "RK4.balance" in {c.name for c in v.checks}
     assert v.settings["tree"]["the model as it is"].startswith("judged by the work–energy balance")
+
+
+def test_the_smallest_energy_injection_the_balance_catches_is_measured(walled):
+    """An engine-side force feeding energy in (a negative damper on the shoulder) whose work the accounts leave out
+    is energy from nothing to the balance: caught, with contacts, a limit and dry friction acting, at a size whose
+    energy over the horizon is a small share of the motion's (the prototype of issue 29 saw 1–2 % of the peak kinetic
+    energy at h on a walking model); the same force in the accounts is no finding."""
+    from harness.studies.injection import INJECTED, injector, smallest_injection, unaccounted
+
+    found = smallest_injection(walled, horizon=1.0)
+    assert found.joint == "shoulder" and found.deciding.endswith(".balance") and not found.note, found
+    assert found.size <= 1e-2 and 0 < found.of_kinetic <= 0.05, found
+    assert "of the peak kinetic energy" in found.cell()
+
+    case = from_mjcf(walled, horizon=1.0)
+    ref = case.reference(compile_model(walled, edit=case.prepare))
+    strong = 2 * found.rate
+    edit = lambda spec: (TreeEdit(isolating=False, ctrl=case.tree.ctrl)(spec), injector("shoulder", strong)(spec))  # noqa: E731
+    common = dict(integrators=("RK4", "Euler"), q0=ref.q0(), qd0=ref.qd0(), horizon=case.horizon,
+                  energy_scale=ref.scales.energy, orders=EXPECTED_ORDER, not_examined=[])
+    binding = case.probe(ref.dynamics).binding
+    _, hidden, _, _ = balance_figures(walled, edit, binding, power=unaccounted(), **common)
+    _, accounted, _, _ = balance_figures(walled, edit, binding, power=POWER, **common)
+    assert hidden and not any(b.passed for b in hidden.values()), hidden
+    assert accounted and all(b.passed for b in accounted.values()), accounted
+    assert INJECTED.fields == ("actuator_force", "actuator_velocity")
+
+
+def test_energy_from_nothing_fails_where_impacts_leave_the_balance_no_expansion_in_h(walled):
+    """An injection of several m g L: its impacts differ at h, h/2 and h/4, so the balance is no expansion in h, yet
+    it stays far above every change between the three runs; that is energy no timestep explains, a failure, where it
+    was n/a (a silent pass of the gate) before."""
+    from harness.studies.injection import injector, unaccounted
+
+    case = from_mjcf(walled, horizon=1.0)
+    ref = case.reference(compile_model(walled, edit=case.prepare))
+    edit = lambda spec: (TreeEdit(isolating=False, ctrl=case.tree.ctrl)(spec), injector("shoulder", 4.0)(spec))  # noqa: E731
+    figures, budgets, diverged, unjudged = balance_figures(
+        walled, edit, case.probe(ref.dynamics).binding, integrators=("RK4", "Euler"), q0=ref.q0(), qd0=ref.qd0(),
+        horizon=case.horizon, energy_scale=ref.scales.energy, orders=EXPECTED_ORDER, not_examined=[],
+        power=unaccounted())
+    assert not unjudged and not diverged and set(budgets) == {"RK4.balance", "Euler.balance"}
+    for name, budget in budgets.items():
+        assert not budget.passed and budget.unexplained > 1.0, (name, budget)
+        assert "no expansion in h" in budget.notes[0]
+    for figure in figures:
+        assert "above what any convergence in h explains" in figure.description

@@ -81,6 +81,12 @@ RESOLVED = 0.5
 balance above :data:`ASYMPTOTIC` of the energy scale, means h, h/2, h/4 are no converging sequence (gymnasium's ant:
 its balances 2.4-14 × m g L with a next order 0.7-2.6 × the leading term)."""
 ASYMPTOTIC = 0.01
+UNRESOLVED_SPREAD = 4.0
+"""Where h, h/2, h/4 are no expansion in h, the balance can still be judged from below: an integrator of order ≥ 1
+whose error shrinks with h at all leaves at h/4 at most its change from h/2 to h/4 (order 1: exactly that); the
+floor is the smallest |B| of the three runs less this factor × the largest change between them, sample by sample,
+the factor the margin on that assumption. What stays above it, and above :data:`ASYMPTOTIC` of the energy
+scale, is energy that no timestep explains: a failure, never n/a."""
 INTEGRATION_UNCERTAINTY = 0.25
 """What Richardson leaves of the correction, relatively, when no run at h/4 measures it (as the trajectory budget)."""
 
@@ -179,12 +185,30 @@ def balance_figures(path, edit: Callable[[mujoco.MjSpec], None] | None, binding,
         next_order = 2.0 * np.abs(ideal - (levels[1] - kappa * (levels[1] - levels[2])))
         measured = float(np.max(np.abs(levels[0])))
         leading, rest = float(np.max(np.abs(correction))), float(np.max(next_order))
+        integration = max(INTEGRATION_UNCERTAINTY * leading, rest)
+        roundoff = ROUNDOFF_PER_STEP * math.sqrt(4 * steps)
         if rest > RESOLVED * leading and leading > ASYMPTOTIC:
+            spread = np.maximum(np.abs(levels[0] - levels[1]), np.abs(levels[1] - levels[2]))
+            floor = np.min(np.abs(levels), axis=0) - UNRESOLVED_SPREAD * spread
+            at = int(np.argmax(floor))
+            if floor[at] > ASYMPTOTIC:  # energy from nothing that no convergence in h can remove: a failure
+                budgets[str(fig)] = Budget(
+                    measured=measured, explained={"integration": float(UNRESOLVED_SPREAD * np.max(spread))},
+                    unexplained=float(floor[at]), tolerance={"integration": ASYMPTOTIC, "roundoff": roundoff},
+                    notes=(f"work–energy balance of the model as it is ({forces} acting), no expansion in h (impacts "
+                           f"the timestep does not resolve), yet at h, h/2 and h/4 alike it stays at least "
+                           f"{np.min(np.abs(levels), axis=0)[at]:.3g} of the energy scale, {UNRESOLVED_SPREAD:g} × its "
+                           f"largest change between them ({spread[at]:.2g}) removed",))
+                works = {k: cumulative_work(runs[0].series[f"force {i}"], h) / energy_scale
+                         for i, k in enumerate(FORCES)}
+                text = (f"max |E(t) − E(0) − ∫ P dt| / energy scale ({energy_scale:.4g} J) of the model as it is; at "
+                        f"every h it stays {floor[at]:.3g} above what any convergence in h explains, at t = "
+                        f"{at * h:.3g} s; {attribute(levels[0], works)}")
+                figures.append(Figure(name=fig, value=measured, unit="1", description=text))
+                continue
             unresolved[str(fig)] = (f"not judged: the balance at h, h/2, h/4 is no expansion in h (its next-order term "
                                     f"{rest:.2g} against a leading term {leading:.2g} of the energy scale: impacts the "
                                     f"timestep does not resolve); a smaller --timestep judges the model as it is")
-        integration = max(INTEGRATION_UNCERTAINTY * leading, rest)
-        roundoff = ROUNDOFF_PER_STEP * math.sqrt(4 * steps)
         budgets[str(fig)] = Budget(
             measured=measured, explained={"integration": float(np.max(np.abs(correction)))},
             unexplained=float(np.max(np.abs(ideal))), tolerance={"integration": integration, "roundoff": roundoff},

@@ -1,0 +1,184 @@
+"""The smallest energy injection a model's work–energy balance detects: energy that no force in MuJoCo's accounts
+explains.
+
+The balance (harness/layers/balance.py) judges a model as it is, contacts, limits and all: its energy may change
+only by the work of the forces MuJoCo reports. How small an unaccounted gain it sees depends on the model (its
+timestep, its impacts, how well h, h/2, h/4 resolve them), so it is measured per model:
+
+- the engine's model gets one extra force on the hinge or slide that carries the most mass, pushing along its
+  velocity, f = c q̇ with c = s × M_jj √(g/L) (the damping fault's scale, harness/studies/engine_faults.py, with
+  the sign that feeds energy in: a negative damper of s times the model's natural rate);
+- MuJoCo applies it through an actuator, whose work the accounts then leave out (:func:`unaccounted`): to the
+  balance it is energy from nothing, as a force missing from MuJoCo's reports or an integrator's defect would be;
+- :func:`smallest_injection` bisects s over the decades of :data:`~harness.studies.engine_faults.SIZES`: caught
+  where a balance check fails that passes without it, on the integrators given; the size is reported with the
+  energy injected over the horizon at that s, against the model's energy scale and its peak kinetic energy.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from harness.cases.own import from_mjcf
+from harness.engine.backends import Request, simulate_many
+from harness.engine.models import compile_model
+from harness.engine.probe import Probe
+from harness.engine.readings import Reading
+from harness.engine.simulate import steps_in
+from harness.engine.variants import compose
+from harness.layers.balance import POWER, POWER_FIELDS, balance_figures, cumulative_work
+from harness.layers.orders import EXPECTED_ORDER
+from harness.reference.tree import TreeEdit, prepare
+from harness.studies.engine_faults import SIZES, bisect_decades, damping_scale
+
+INJECTOR = "mjharness_injection"
+"""The name of the actuator that injects the energy (added last: the model's own actuators keep their indices)."""
+INTEGRATORS = ("RK4", "Euler")
+"""RK4 resolves the smallest balances; Euler's is judged where RK4's impacts leave its balance not judged."""
+
+Edit = Callable[[mujoco.MjSpec], None]
+
+
+def main_dof_joint(model: mujoco.MjModel) -> str | None:
+    """The hinge or slide whose body carries the most mass (its subtree), first in the model on a tie."""
+    kinds = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+    joints = [j for j in range(model.njnt) if int(model.jnt_type[j]) in kinds]
+    if not joints:
+        return None
+    return model.joint(max(joints, key=lambda j: (float(model.body_subtreemass[int(model.jnt_bodyid[j])]), -j))).name
+
+
+def injector(joint: str, rate: float) -> Edit:
+    """An actuator on ``joint`` whose force is ``rate`` × the joint's velocity (N·m·s/rad or N·s/m), whatever the
+    control: a negative damper, feeding energy in at ``rate`` q̇²."""
+    def edit(spec: mujoco.MjSpec) -> None:
+        actuator = spec.add_actuator(name=INJECTOR, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        actuator.gaintype = mujoco.mjtGain.mjGAIN_FIXED  # a unit gain: the runs keep ctrl at 0 (MuJoCo 4.0 compiles
+        gain = np.zeros(len(actuator.gainprm))           # a zero gain's bias to zero as well)
+        gain[0] = 1.0
+        actuator.gainprm = gain
+        actuator.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        bias = np.zeros(len(actuator.biasprm))
+        bias[2] = rate
+        actuator.biasprm = bias
+        actuator.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    edit.__qualname__ = f"injector({joint!r}, {rate:g})"
+    return edit
+
+
+def _injected_power(model: mujoco.MjModel, recorded: Mapping[str, np.ndarray]) -> np.ndarray:
+    k = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, INJECTOR)
+    if k < 0:
+        return np.zeros(len(recorded["qvel"]))
+    return recorded["actuator_force"][:, k] * recorded["actuator_velocity"][:, k]
+
+
+INJECTED = Reading(fields=("actuator_force", "actuator_velocity"), evaluate=_injected_power,
+                   description="the injector's power (W)")
+
+
+def _unaccounted_power(model: mujoco.MjModel, recorded: Mapping[str, np.ndarray]) -> np.ndarray:
+    return POWER.evaluate(model, recorded) - _injected_power(model, recorded)
+
+
+def unaccounted() -> Reading:
+    """The balance's power without the injector's: the energy it feeds in is then accounted to no force."""
+    return Reading(fields=(*POWER_FIELDS, *INJECTED.fields), evaluate=_unaccounted_power,
+                   description="the power of every force but the injector's (W)")
+
+
+def _kinetic(model: mujoco.MjModel, recorded: Mapping[str, np.ndarray]) -> np.ndarray:
+    return recorded["energy"][:, 1]
+
+
+KINETIC = Reading(fields=("energy",), evaluate=_kinetic, description="MuJoCo's kinetic energy (J)")
+
+
+@dataclass(frozen=True)
+class Injection:
+    """The smallest injection caught on one model: s (nan: not caught at the largest; None: no hinge or slide to
+    inject on, ``note`` says why), its rate, the balance check that caught it there, and the energy it fed in over
+    the horizon against the model's energy scale and its peak kinetic energy."""
+
+    model: str
+    joint: str | None
+    size: float | None
+    rate: float = math.nan
+    deciding: str = ""
+    energy: float = math.nan
+    of_scale: float = math.nan
+    of_kinetic: float = math.nan
+    note: str = ""
+    runs: int = 0
+    seconds: float = 0.0
+
+    def cell(self) -> str:
+        if self.size is None:
+            return f"n/a ({self.note})"
+        if math.isnan(self.size):
+            return f"> {SIZES[0]:g}" + (f" ({self.note})" if self.note else "")
+        floor = "≤ " if self.size <= SIZES[-1] else ""
+        return (f"{floor}{self.size:.0e}: {self.of_kinetic:.1e} of the peak kinetic energy, {self.of_scale:.1e} of "
+                f"m g L ({self.deciding})")
+
+
+def smallest_injection(path: Path | str, *, name: str | None = None, horizon: float | None = None,
+                       integrators: Sequence[str] = INTEGRATORS) -> Injection:
+    """The smallest injection the balance of the model at ``path`` catches, judged as ``check --mjcf`` judges the
+    model as it is (its start, its horizon, its control)."""
+    path = Path(path)
+    name = name or path.stem
+    clock = time.perf_counter()
+    case = from_mjcf(path, horizon=horizon)
+    joint = main_dof_joint(compile_model(path, edit=prepare))
+    if joint is None:
+        return Injection(name, None, None, note="no hinge or slide")
+    ref = case.reference(compile_model(path, edit=case.prepare))
+    as_is = TreeEdit(isolating=False, ctrl=case.tree.ctrl)
+    binding = case.probe(ref.dynamics).binding
+    scale = damping_scale(compile_model(path, edit=prepare), joint)
+    not_examined = [k for k, _ in case.tree.uncovered]
+
+    def failing(rate: float) -> dict[str, float]:
+        edit = compose(as_is, injector(joint, rate))
+        _, budgets, diverged, _ = balance_figures(
+            path, edit, binding, integrators=integrators, q0=ref.q0(), qd0=ref.qd0(), horizon=case.horizon,
+            energy_scale=ref.scales.energy, orders=EXPECTED_ORDER, not_examined=not_examined, power=unaccounted())
+        return {k: (b.unexplained / b.limit if b.limit > 0 else math.inf) for k, b in budgets.items()
+                if not b.passed} | dict.fromkeys(diverged, math.inf)
+
+    already = failing(0.0)
+
+    def detects(s: float) -> str:
+        new = {k: r for k, r in failing(s * scale).items() if k not in already}
+        return max(new, key=new.get) if new else ""
+
+    size, deciding, runs = bisect_decades(detects)
+    note = f"fails without an injection: {', '.join(sorted(already))}" if already else ""
+    if math.isnan(size):
+        return Injection(name, joint, size, note=note, runs=runs + 1, seconds=time.perf_counter() - clock)
+    rate = size * scale
+    energy, peak = _injected(path, compose(as_is, injector(joint, rate)), binding, q0=ref.q0(), qd0=ref.qd0(),
+                             horizon=case.horizon)
+    return Injection(name, joint, size, rate, deciding, energy, energy / ref.scales.energy,
+                     energy / peak if peak > 0 else math.inf, note, runs + 1, time.perf_counter() - clock)
+
+
+def _injected(path: Path, edit: Edit, binding, *, q0: np.ndarray, qd0: np.ndarray, horizon: float
+              ) -> tuple[float, float]:
+    """The energy the injector fed in over the horizon (J) and the run's peak kinetic energy (J), at the model's
+    own integrator and timestep."""
+    model = compile_model(path, edit=edit)
+    h = float(model.opt.timestep)
+    probe = Probe(binding=binding, points=(), constraints=(), series={"injected": INJECTED, "kinetic": KINETIC})
+    run = simulate_many([Request(model, q0, qd0, steps_in(horizon, h))], probe)[0]
+    return float(cumulative_work(run.series["injected"], h)[-1]), float(np.max(run.series["kinetic"]))
+
