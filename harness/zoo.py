@@ -46,6 +46,7 @@ from harness.engine.models import compile_model
 from harness.pipeline.pool import run_tasks
 from harness.reference.tree import prepare, uncovered
 from harness.studies.engine_faults import CLAIMED, FAULTS, SIZES, UNITS, Caught, smallest_caught
+from harness.studies.injection import Injection, smallest_injection
 
 PASS, FAIL, REFUSED, CRASHED, UNFINISHED = "pass", "fail", "refused", "crashed", "unfinished"
 EXIT = {PASS: 0, FAIL: 1, REFUSED: 2, CRASHED: 2, UNFINISHED: None}
@@ -377,6 +378,7 @@ class ZooRun:
     skipped: tuple[Skipped, ...] = ()
     faults: tuple = ()  # harness.studies.engine_faults.Caught, by model then fault
     fault_models_left_out: tuple[str, ...] = ()
+    injections: tuple[Injection, ...] = ()  # by model: the smallest energy injection its balance catches
     command: str = ""
     seconds: float = 0.0
 
@@ -384,7 +386,7 @@ class ZooRun:
     def crashed(self) -> tuple[str, ...]:
         """Every model (and fault study) that crashed: bugs of the harness."""
         return tuple(dict.fromkeys([*(r.model for r in self.results if r.verdict == CRASHED),
-                                    *(c.model for c in self.faults if c.crashed)]))
+                                    *(c.model for c in (*self.faults, *self.injections) if c.crashed)]))
 
     def caught_on(self, fault: str) -> tuple[str, ...]:
         """The models on which ``fault`` is caught at its claimed size or smaller."""
@@ -394,7 +396,7 @@ class ZooRun:
     def unfinished(self) -> tuple[str, ...]:
         """Every model (and fault study) stopped at the time limit."""
         return tuple(dict.fromkeys([*(r.model for r in self.results if r.verdict == UNFINISHED),
-                                    *(c.model for c in self.faults if c.unfinished)]))
+                                    *(c.model for c in (*self.faults, *self.injections) if c.unfinished)]))
 
     def faults_short(self) -> dict[str, str]:
         """Each fault caught on fewer models than :data:`MIN_MODELS` (or than it applies to), and on how many."""
@@ -421,11 +423,12 @@ class ZooRun:
 
 
 def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str] | None = None,
-        faults: bool = False, fault_max_nv: int | None = None, skipped: Sequence[Skipped] = (),
-        on_done=None, command: str = "", timeout: float | None = None) -> ZooRun:
-    """Judge every model (and, with ``faults``, size each engine-side fault on those of at most
-    ``fault_max_nv`` dofs) on ``jobs`` worker processes, costliest first; ``on_done(result)`` as each ends.
-    ``timeout``: each model's verdict, and each model's fault study, stops after so many seconds (unfinished)."""
+        faults: bool = False, fault_max_nv: int | None = None, injection: bool = False,
+        skipped: Sequence[Skipped] = (), on_done=None, command: str = "", timeout: float | None = None) -> ZooRun:
+    """Judge every model (and, with ``faults``, size each engine-side fault, with ``injection`` the smallest energy
+    injection its balance catches, on those of at most ``fault_max_nv`` dofs) on ``jobs`` worker processes,
+    costliest first; ``on_done(result)`` as each ends. ``timeout``: each model's verdict, and each model's fault
+    or injection study, stops after so many seconds (unfinished)."""
 
     clock = time.perf_counter()
     nv = {m.name: _nv(m.path) for m in models}
@@ -433,10 +436,13 @@ def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str]
     chosen = tuple(integrators) if integrators is not None else None
     calls = [(judge_named, (m.name, chosen, timeout)) for m in order]
     left_out: list[str] = []
-    if faults:
-        sized = [m for m in order if fault_max_nv is None or nv[m.name] <= fault_max_nv]
+    sized = [m for m in order if fault_max_nv is None or nv[m.name] <= fault_max_nv]
+    if faults or injection:
         left_out = [f"{m.name} (nv {nv[m.name]})" for m in order if m not in sized]
+    if faults:
         calls += [(smallest_caught_named, (m.name, FAULTS, timeout)) for m in sized]
+    if injection:
+        calls += [(smallest_injection_named, (m.name, timeout)) for m in sized]
     rows = run_tasks(calls, jobs, on_done=(lambda _i, r: on_done(r)) if on_done else None)
     verdicts = {r.model: r for r in rows if isinstance(r, ZooResult)}
     sized_rows = [c for r in rows if isinstance(r, list) for c in r]
@@ -444,7 +450,10 @@ def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str]
     return ZooRun(results=tuple(verdicts[n] for n in by_name),
                   skipped=tuple(skipped),
                   faults=tuple(sorted(sized_rows, key=lambda c: by_name.index(c.model))),
-                  fault_models_left_out=tuple(left_out), command=command, seconds=time.perf_counter() - clock)
+                  fault_models_left_out=tuple(left_out),
+                  injections=tuple(sorted((r for r in rows if isinstance(r, Injection)),
+                                          key=lambda c: by_name.index(c.model))),
+                  command=command, seconds=time.perf_counter() - clock)
 
 
 def _nv(path: Path) -> int:
@@ -532,6 +541,19 @@ def zoo_markdown(z: ZooRun) -> str:
             lines.append(f"- **{fault} short**: {why}")
         if z.fault_models_left_out:
             lines.append(f"- not sized (over --fault-max-nv): {', '.join(z.fault_models_left_out)}")
+    if z.injections:
+        lines += ["", "## Energy from nothing: the smallest injection each model's balance catches", "",
+                  "The engine's model gets a force that feeds energy in, f = c q̇ on the hinge or slide carrying the "
+                  "most mass with c = s × M_jj √(g/L), and the balance's accounts leave its work out "
+                  "(harness/studies/injection.py): to the work–energy balance it is energy from nothing. Each cell: "
+                  f"the smallest s caught in a bisection over the decades {SIZES[0]:g} … {SIZES[-1]:g} (RK4 and "
+                  "Euler), "
+                  "the energy it fed in over the horizon against the peak kinetic energy and against m g L, and the "
+                  "check that caught it.", "", "| model | joint | smallest injection caught | seconds |",
+                  "|---|---|---|---:|"]
+        for c in z.injections:
+            lines.append("| " + " | ".join(_cell(x) for x in (c.model, c.joint or "-", c.cell(), f"{c.seconds:.0f}"))
+                         + " |")
     if z.crashed:
         lines += ["", f"**Crashed (bugs of the harness)**: {', '.join(z.crashed)}"]
     if z.unfinished:
@@ -545,7 +567,8 @@ def zoo_json(z: ZooRun) -> dict[str, object]:
             "models": [r.as_dict() for r in z.results],
             "skipped": [asdict(s) for s in z.skipped],
             "faults": [asdict(c) | {"caught_at_claim": c.caught_at_claim} for c in z.faults],
-            "faults_not_sized": list(z.fault_models_left_out), "faults_short": z.faults_short()}
+            "faults_not_sized": list(z.fault_models_left_out), "faults_short": z.faults_short(),
+            "injections": [asdict(c) for c in z.injections]}
 
 
 def smallest_caught_named(model: str, faults: tuple[str, ...] = FAULTS, timeout: float | None = None
@@ -570,3 +593,21 @@ def smallest_caught_named(model: str, faults: tuple[str, ...] = FAULTS, timeout:
         done += [Caught(chosen.name, f, None, None, crashed=one_line(exc), seconds=time.perf_counter() - clock)
                  for f in rest()]
     return done
+
+
+def smallest_injection_named(model: str, timeout: float | None = None) -> Injection:
+    """:func:`~harness.studies.injection.smallest_injection` on the zoo model called ``model`` (what a worker
+    process is sent), stopped after ``timeout`` seconds (unfinished); an exception is returned as a crash (a bug
+    of the harness, with its last line) or, where the tree reference refuses the model, as n/a, never raised."""
+    models, _ = discover()
+    chosen = select([model], models)[0]
+    clock = time.perf_counter()
+    try:
+        with time_limit(timeout):
+            return smallest_injection(chosen.path, name=chosen.name)
+    except TimeLimit as exc:
+        return Injection(chosen.name, None, None, unfinished=str(exc), seconds=time.perf_counter() - clock)
+    except ValueError as exc:  # a model the tree reference refuses: nothing to inject into
+        return Injection(chosen.name, None, None, note=" ".join(str(exc).split()))
+    except Exception as exc:
+        return Injection(chosen.name, None, None, crashed=one_line(exc), seconds=time.perf_counter() - clock)

@@ -190,7 +190,7 @@ def test_the_whole_zoo_runs_and_every_fault_is_caught_on_three_models():
         pytest.skip("the zoo needs dm_control and gymnasium: pip install 'mjharness[zoo]'")
     from harness.pipeline.pool import cpus
 
-    run = zoo.run(models, jobs=cpus(), faults=True, fault_max_nv=9, timeout=600)  # as reports/zoo was made
+    run = zoo.run(models, jobs=cpus(), faults=True, injection=True, fault_max_nv=9, timeout=600)  # as docs/findings
     assert run.crashed == ()
     for r in run.results:
         assert r.verdict in ("pass", "fail", "refused", "unfinished")
@@ -200,6 +200,9 @@ def test_the_whole_zoo_runs_and_every_fault_is_caught_on_three_models():
             assert r.reason and "\n" not in r.reason
     for fault in ef.FAULTS:
         assert len(run.caught_on(fault)) >= zoo.MIN_MODELS, (fault, run.caught_on(fault))
+    # the smallest energy injection each model's balance catches: measured on every sized model with a hinge or slide
+    measured = [c for c in run.injections if c.size is not None and not c.unfinished]
+    assert len(measured) >= zoo.MIN_MODELS and all(math.isfinite(c.size) for c in measured), run.injections
 
 
 def test_a_model_past_the_time_limit_is_unfinished_not_lost():
@@ -210,3 +213,16 @@ def test_a_model_past_the_time_limit_is_unfinished_not_lost():
     assert zoo.ZooRun(results=(result,)).exit_code == 1
     caught = zoo.smallest_caught_named("dm_control/acrobot", timeout=0.05)
     assert [c.fault for c in caught] == list(ef.FAULTS) and all(c.unfinished for c in caught)
+
+
+def test_the_zoo_report_lists_each_models_smallest_injection():
+    from harness.studies.injection import Injection
+
+    run = zoo.ZooRun(results=(), injections=(
+        Injection("dm_control/acrobot", "shoulder", 1e-7, 3e-7, "RK4.balance", 1e-6, 2.2e-7, 3.0e-7),
+        Injection("x/bare", None, None, note="no hinge or slide")))
+    text = zoo.zoo_markdown(run)
+    assert "| dm_control/acrobot | shoulder | 1e-07: 3.0e-07 of the peak kinetic energy, 2.2e-07 of m g L " \
+           "(RK4.balance) |" in text
+    assert "| x/bare | - | n/a (no hinge or slide) |" in text
+    assert zoo.zoo_json(run)["injections"][0]["deciding"] == "RK4.balance"

@@ -793,7 +793,10 @@ def _args_zoo(p: argparse.ArgumentParser) -> None:
                    help="where zoo.md and zoo.json go (default: reports/zoo)")
     p.add_argument("--faults", action="store_true",
                    help="also find the smallest size of each engine-side fault (inertia, damping, axis tilt) caught")
-    p.add_argument("--fault-max-nv", type=_positive, metavar="N", help="size the faults on models of ≤ N dofs only")
+    p.add_argument("--injection", action="store_true",
+                   help="also find the smallest energy injection (energy from no force) each model's balance catches")
+    p.add_argument("--fault-max-nv", type=_positive, metavar="N",
+                   help="size the faults and injections on models of ≤ N dofs only")
     p.add_argument("--integrators", type=_names, metavar="NAMES",
                    help="judge the verdicts on these integrators only (default: every one, as check)")
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
@@ -815,6 +818,8 @@ def cmd_zoo(args: argparse.Namespace) -> int:
     def done(result) -> None:  # one line per model (and per model's faults) as it ends, terminal or not
         if isinstance(result, zoo.ZooResult):
             lines = [result.line()]
+        elif isinstance(result, zoo.Injection):
+            lines = [f"{result.model}: injection on {result.joint or '-'}: {result.cell()}"]
         elif all(c.size is None and not c.crashed and not c.unfinished for c in result):  # refused: no fault to size
             lines = [f"{result[0].model}: faults n/a ({result[0].note})"]
         else:
@@ -822,7 +827,8 @@ def cmd_zoo(args: argparse.Namespace) -> int:
         print("\n".join(lines), flush=True)
 
     run = zoo.run(chosen, jobs=args.jobs or cpus(), integrators=args.integrators, faults=args.faults,
-                  fault_max_nv=args.fault_max_nv, skipped=skipped, on_done=done, timeout=args.timeout,
+                  fault_max_nv=args.fault_max_nv, injection=args.injection, skipped=skipped, on_done=done,
+                  timeout=args.timeout,
                   command=" ".join(["mjharness", *sys.argv[1:]]) if sys.argv[1:2] == ["zoo"] else "mjharness zoo")
     prepare_output(args.out)
     paths = write_atomic({args.out / "zoo.md": zoo.zoo_markdown(run), args.out / "zoo.json": dumps(zoo.zoo_json(run))})

@@ -119,8 +119,14 @@ class Injection:
     note: str = ""
     runs: int = 0
     seconds: float = 0.0
+    crashed: str = ""
+    unfinished: str = ""
 
     def cell(self) -> str:
+        if self.crashed:
+            return f"crashed ({self.crashed})"
+        if self.unfinished:
+            return f"unfinished ({self.unfinished})"
         if self.size is None:
             return f"n/a ({self.note})"
         if math.isnan(self.size):
