@@ -210,3 +210,20 @@ def test_a_model_past_the_time_limit_is_unfinished_not_lost():
     assert zoo.ZooRun(results=(result,)).exit_code == 1
     caught = zoo.smallest_caught_named("dm_control/acrobot", timeout=0.05)
     assert [c.fault for c in caught] == list(ef.FAULTS) and all(c.unfinished for c in caught)
+
+
+@pytest.mark.zoo
+@pytest.mark.parametrize("name", ["dm_control/manipulator", "dm_control/stacker"])
+def test_the_stiff_arms_reach_a_verdict(name):
+    """Issue 29: the two arms whose finger links' damping (M⁻¹D up to 2.4e5/s) DOP853 could not follow within its bound
+    are solved by Radau IIA and judged, not refused. stacker passes; manipulator's tendon equality fails on Euler,
+    implicit and implicitfast where the budget's parts, measured from runs at h, h/2, h/4 that all leave the finger
+    mode unresolved (h λ ≥ 35), do not add up (docs/findings/zoo.md)."""
+    model = _model(name)
+    v = harness.validate(mjcf=model.path)
+    assert v.settings["tree"]["reference solver"].startswith("Radau IIA: stiff")
+    assert "joint damping on light links" in v.settings["tree"]["reference solver"]
+    failed = {c.name for c in v.checks if not c.passed}
+    allowed = {f"{i}.{q}.coupling" for i in ("Euler", "implicit", "implicitfast") for q in ("force", "violation")}
+    assert failed <= allowed
+    assert bool(failed) == (name == "dm_control/manipulator")
