@@ -12,7 +12,11 @@ no constraint rows, which makes it a plain ODE.
 
 Both are integrated by our DOP853 (:mod:`analytic.dop853`, order 8, 7th-order
 dense output): one solve serves every timestep, integrator and setting a study
-asks for.
+asks for. A stiff motion (a fast decaying mode, e.g. joint damping on a light
+link, bounds an explicit method's step by stability, not accuracy) can be
+handed to our Radau IIA (:mod:`analytic.radau`, L-stable, order 5) instead:
+the same index-1 ODE with the same stabilization, so the constraint residuals
+and every figure read from the solution mean the same.
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analytic import dop853
+from analytic import dop853, radau
 from analytic.dynamics import Array, Dynamics
 
 DEFAULT_RTOL = 1e-12
@@ -37,7 +41,11 @@ class Solution:
     t_end: float
     rtol: float
     nfev: int
-    _dense: dop853.Dense
+    _dense: dop853.Dense | radau.Dense
+    method: str = "DOP853"
+    why: str = ""
+    """``method``: the integrator that solved it (DOP853 or Radau IIA); ``why``: the reason, where Radau IIA
+    was chosen."""
 
     def state(self, t: Array) -> tuple[Array, Array]:
         """q and q̇ at times t, shapes (N, n)."""
@@ -69,6 +77,7 @@ def solve(
     atol: float = DEFAULT_ATOL,
     stabilization_rate: float = 10.0,
     max_steps: int = dop853.MAX_STEPS,
+    stiff: bool = False,
 ) -> Solution:
     """Integrate from (q0, q̇0) over [0, t_end] with dense output.
 
@@ -78,6 +87,10 @@ def solve(
     the solver cannot go on, and :class:`TooManySteps` at once (after at most
     :data:`TRIAL_STEPS` steps) where the solve would take more than ``max_steps``
     steps, with the estimate.
+
+    ``stiff``: where DOP853's first steps estimate more than ``max_steps``, the
+    motion is handed to Radau IIA, judged by its own first steps against the same
+    bound, before it is refused (:class:`TooManySteps` then gives both estimates).
     """
     q0 = np.asarray(q0, dtype=float)
     qd0 = np.asarray(qd0, dtype=float)
@@ -93,9 +106,9 @@ def solve(
     stab = (2.0 * omega, omega * omega)
     n = dynamics.n
 
-    def rhs(_t: float, y: Array) -> Array:
-        qdd, _ = dynamics.accelerations(y[:n], y[n:], stabilization=stab)
-        return np.concatenate([y[n:], qdd])
+    def rhs(_t: float | Array, y: Array) -> Array:  # also a batch: y of shape (k, 2n)
+        qdd, _ = dynamics.accelerations(y[..., :n], y[..., n:], stabilization=stab)
+        return np.concatenate([y[..., n:], qdd], axis=-1)
 
     y0 = np.concatenate([q0, qd0])
     trial = min(TRIAL_STEPS, max_steps)
@@ -104,11 +117,49 @@ def solve(
         result = dop853.integrate(rhs, float(t_end), y0, rtol=rtol, atol=atol, max_steps=trial)
     except dop853.StepBudgetExceeded as exc:
         estimate = trial * t_end / max(exc.t, 1e-300)
-        if estimate > max_steps or trial == max_steps:
-            raise TooManySteps(estimate, max_steps, trial, exc.t, float(t_end),
-                               time.perf_counter() - clock) from None
-        result = dop853.integrate(rhs, float(t_end), y0, rtol=rtol, atol=atol, max_steps=max_steps)
+        too_many = TooManySteps(estimate, max_steps, trial, exc.t, float(t_end), time.perf_counter() - clock)
+        if estimate <= max_steps and trial < max_steps:
+            result = dop853.integrate(rhs, float(t_end), y0, rtol=rtol, atol=atol, max_steps=max_steps)
+        elif stiff:
+            return _solve_stiff(dynamics, rhs, y0, t_end=float(t_end), rtol=rtol, atol=atol, max_steps=max_steps,
+                                explicit=too_many)
+        else:
+            raise too_many from None
     return Solution(dynamics=dynamics, t_end=float(t_end), rtol=rtol, nfev=result.nfev, _dense=result.dense)
+
+
+def _solve_stiff(dynamics: Dynamics, rhs: dop853.RightHandSide, y0: Array, *, t_end: float, rtol: float,
+                 atol: float, max_steps: int, explicit: TooManySteps) -> Solution:
+    """The solve by Radau IIA, after DOP853's first steps estimated ``explicit``: its own first
+    :data:`TRIAL_STEPS` steps judge its length against ``max_steps`` as DOP853's did."""
+
+    def jacobian(t: float, y: Array, f: Array) -> Array:  # forward differences, every column in one batch
+        delta = np.sqrt(np.finfo(float).eps) * np.maximum(np.abs(y), atol / rtol)
+        delta = (y + delta) - y
+        return ((rhs(t, y + np.diag(delta)) - f) / delta[:, None]).T
+
+    fastest = float(np.max(np.abs(np.linalg.eigvals(jacobian(0.0, y0, rhs(0.0, y0))))))
+    why = (f"stiff: DOP853 would take about {explicit.estimate:.2g} steps (its stability bounds the step: the "
+           f"fastest mode decays at {fastest:.2g}/s)")
+    trial = min(TRIAL_STEPS, max_steps)
+    clock = time.perf_counter()
+    try:
+        result = radau.integrate(rhs, t_end, y0, rtol=rtol, atol=atol, max_steps=trial, jac=jacobian,
+                                 vectorized=True)
+    except radau.StepsTaken as exc:  # judged by the step it reached: its first steps resolve a transient
+        estimate = trial + (t_end - exc.t) / exc.h
+        if estimate > max_steps or trial == max_steps:
+            raise TooManySteps(estimate, max_steps, trial, exc.t, t_end, time.perf_counter() - clock,
+                               solver=f"Radau IIA (after DOP853: {explicit})") from None
+        try:  # on from where the trial stopped
+            rest = radau.integrate(rhs, t_end, exc.y, rtol=rtol, atol=atol, max_steps=max_steps - trial,
+                                   jac=jacobian, vectorized=True, t0=exc.t, first_step=exc.h)
+        except dop853.StepBudgetExceeded as over:
+            raise TooManySteps(max_steps, max_steps, trial, over.t, t_end, time.perf_counter() - clock,
+                               solver=f"Radau IIA (after DOP853: {explicit})") from None
+        result = radau.joined(exc.partial, rest)
+    return Solution(dynamics=dynamics, t_end=t_end, rtol=rtol, nfev=result.nfev, _dense=result.dense,
+                    method="Radau IIA", why=why)
 
 
 TRIAL_STEPS = 500
@@ -121,16 +172,18 @@ class TooManySteps(dop853.IntegrationError):
     """A solve estimated, after its first steps, to need more than its bound: refused before it is made."""
 
     def __init__(self, estimate: float, bound: int, trial: int, reached: float, t_end: float,
-                 seconds: float) -> None:
-        self.estimate, self.bound, self.trial, self.reached, self.t_end, self.seconds = (
-            float(estimate), int(bound), int(trial), float(reached), float(t_end), float(seconds))
+                 seconds: float, solver: str = "") -> None:
+        self.estimate, self.bound, self.trial, self.reached, self.t_end, self.seconds, self.solver = (
+            float(estimate), int(bound), int(trial), float(reached), float(t_end), float(seconds), solver)
         hours = seconds * estimate / max(trial, 1) / 3600.0
-        super().__init__(f"it would take about {estimate:.2g} steps of the reference's solver ({trial} steps covered "
+        which = f"the reference's solver, {solver}" if solver else "the reference's solver"
+        super().__init__(f"it would take about {estimate:.2g} steps of {which} ({trial} steps covered "
                          f"{reached:.3g} s of {t_end:g} s, in {seconds:.2g} s: about {hours:.2g} h in all), more "
                          f"than the bound of {bound:g}")
 
     def __reduce__(self):  # pickled with its parts (a worker sends it to the parent)
-        return (type(self), (self.estimate, self.bound, self.trial, self.reached, self.t_end, self.seconds))
+        return (type(self), (self.estimate, self.bound, self.trial, self.reached, self.t_end, self.seconds,
+                             self.solver))
 
 
 def _check_consistent(dynamics: Dynamics, q0: Array, qd0: Array, tol: float = 1e-9) -> None:

@@ -67,6 +67,31 @@ FREE_TOP = """
 </mujoco>
 """
 
+# A whip: a 0.4 m link and a 1 g tip on a heavily damped hinge, its damping decaying at ~1e6/s (a time constant of
+# ~1 µs, far below the 2 ms step MuJoCo takes with its damping implicit): a stiff motion, beyond DOP853's bound.
+WHIP = """
+<mujoco model="whip">
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="shoulder" axis="0 1 0" damping="0.01"/>
+      <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03" density="800"/>
+      <body name="tip" pos="0.4 0 0">
+        <joint name="flick" axis="0 1 0" damping="0.5"/>
+        <geom type="sphere" pos="0.02 0 0" size="0.008" mass="0.001"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.fixture(scope="module")
+def whip(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("own") / "whip.xml"
+    path.write_text(WHIP)
+    return path
+
 
 @pytest.fixture(scope="module")
 def arm(tmp_path_factory) -> Path:
@@ -288,6 +313,35 @@ def test_a_control_is_baked_into_the_model_both_sides_read(arm):
         spec.actuators[0].biasprm = params
 
     assert "RK4.position" in _failed(harness.validate(moved, integrators=["RK4"], edit=stiffer))
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # DOP853's trial steps past its stability diverge, rejected
+def test_a_stiff_model_is_solved_by_radau_iia_rather_than_refused(whip):
+    """DOP853's first steps estimate ~4e4 over 0.2 s (the refusal of issue 29); Radau IIA solves it, the solution says
+    so and why, the kick spared the damped mode (it would be gone within a step), and the constraint-free reference
+    keeps the work–energy balance of its damping: E(t) − E(0) = −∫ q̇ᵀ D q̇ dt to the tolerance's order."""
+    case = from_mjcf(whip, horizon=0.2)
+    assert abs(case.qd0["flick"]) < 1e-3 * abs(case.qd0["shoulder"])
+    model = compile_model(whip, edit=case.prepare)
+    ref = case.reference(model)
+    assert ref.solution.method == "Radau IIA"
+    assert ref.solution.why.startswith("stiff: DOP853 would take about")
+    assert "joint damping on light links" in ref.solution.why
+    t = np.linspace(0.0, 0.2, 4001)
+    q, qd = ref.solution.state(t)
+    energy = ref.dynamics.energy(q, qd)
+    power = -(0.01 * qd[:, 0] ** 2 + 0.5 * qd[:, 1] ** 2)
+    work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(t))])  # trapezoid: O(dt²)
+    assert np.max(np.abs(energy - energy[0] - work)) < 1e-6 * abs(energy[0])
+
+
+@pytest.mark.slow
+def test_a_stiff_model_reaches_a_verdict(whip, tmp_path):
+    """The whole check of the whip (its reference by Radau IIA, the horizon chosen by its own chaos): it passes, and
+    the settings name the solver and why."""
+    v = harness.validate(mjcf=whip)
+    assert not _failed(v)
+    assert v.settings["tree"]["reference solver"].startswith("Radau IIA: stiff")
 
 
 def test_a_point_mass_on_a_ball_joint_is_refused_rather_than_solved_for_hours():

@@ -226,3 +226,20 @@ def test_the_zoo_report_lists_each_models_smallest_injection():
            "(RK4.balance) |" in text
     assert "| x/bare | - | n/a (no hinge or slide) |" in text
     assert zoo.zoo_json(run)["injections"][0]["deciding"] == "RK4.balance"
+
+
+@pytest.mark.zoo
+@pytest.mark.parametrize("name", ["dm_control/manipulator", "dm_control/stacker"])
+def test_the_stiff_arms_reach_a_verdict(name):
+    """Issue 29: the two arms whose finger links' damping (M⁻¹D up to 2.4e5/s) DOP853 could not follow within its bound
+    are solved by Radau IIA and judged, not refused. stacker passes; manipulator's tendon equality fails on Euler,
+    implicit and implicitfast where the budget's parts, measured from runs at h, h/2, h/4 that all leave the finger
+    mode unresolved (h λ ≥ 35), do not add up (docs/findings/zoo.md)."""
+    model = _model(name)
+    v = harness.validate(mjcf=model.path)
+    assert v.settings["tree"]["reference solver"].startswith("Radau IIA: stiff")
+    assert "joint damping on light links" in v.settings["tree"]["reference solver"]
+    failed = {c.name for c in v.checks if not c.passed}
+    allowed = {f"{i}.{q}.coupling" for i in ("Euler", "implicit", "implicitfast") for q in ("force", "violation")}
+    assert failed <= allowed
+    assert bool(failed) == (name == "dm_control/manipulator")

@@ -117,6 +117,19 @@ class TreeDynamics(Dynamics):
                 v = v + 0.5 * joint.stiffness * x * x
         return v
 
+    def damping_modes(self, q: Array) -> tuple[Array, Array]:
+        """The decay rates (1/s) the joints' linear damping gives the motion at a configuration q, fastest
+        first, and their modes (columns, M-orthonormal): D v = r M v, D = Bᵀ diag(a) B in these coordinates.
+        Far above the motion's own rates (damping on a light link) they make the motion stiff."""
+        q = np.asarray(q, dtype=float)
+        b = velocity_map(self.tree, self.layout, q)
+        damping = b.T @ (self._damping[:, 0][:, None] * b)
+        chol = np.linalg.cholesky(self.mass_matrix(q))
+        half = np.linalg.solve(chol, damping)
+        rates, vectors = np.linalg.eigh(np.linalg.solve(chol, half.T))
+        order = np.argsort(rates)[::-1]
+        return rates[order], np.linalg.solve(chol.T, vectors[:, order])
+
     def _applied(self, q: Array, qd: Array, lin: Array) -> Array:
         """The non-conservative generalized forces Q at real (q, q̇): damping, gravity compensation,
         actuators."""

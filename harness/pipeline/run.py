@@ -441,6 +441,8 @@ def _run_case(
                             "switched off for the comparison": bool(case.tree.uncovered),
                             "the model as it is": "judged by the work–energy balance (INTEGRATOR.balance)"
                             if case.tree.uncovered else "the comparison itself",
+                            "reference solver": ref.solution.method + (f": {ref.solution.why}" if ref.solution.why
+                                                                       else ""),
                             "seconds": {"horizon": case.tree.horizon_seconds, "reference": timings["reference"]}}
     fallbacks_here = tuple(dict.fromkeys(simulate_notes()[recorder_notes:]))
     if fallbacks_here:  # the batch recorder handed some runs to the loop: shown, never silent

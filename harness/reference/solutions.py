@@ -12,6 +12,8 @@ worker process can be handed to the parent (:func:`export_solutions`,
 
 from __future__ import annotations
 
+import dataclasses
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -22,6 +24,7 @@ from analytic import systems
 from analytic.dynamics import Dynamics
 from analytic.solvers import DEFAULT_RTOL, Solution, TooManySteps, project, solve
 from analytic.systems import Scales
+from analytic.tree import TreeDynamics
 from harness.core import bounds
 from harness.core.errors import ModelError
 from harness.core.trajectory import Trajectory
@@ -70,7 +73,7 @@ second): past it the model is refused in one line, after the solver's first 500 
 # solutions by (system, params, q0, qd0, rtol, horizon); seeds (exported by another process) wait
 # there without their dynamics until asked for
 _solutions: dict[tuple, Solution] = {}
-_seeds: dict[tuple, tuple[float, float, int, object]] = {}
+_seeds: dict[tuple, tuple[float, float, int, object, str, str]] = {}
 _exported: set[tuple] = set()
 
 
@@ -113,14 +116,14 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     if sol is None:  # a solve over a longer span from the same start covers this one: its dense output, cut to span
         longer = next((found for k, found in _solutions.items() if k[:-1] == key[:-1] and k[-1] >= span), None)
         if longer is not None:  # (what samples the motion, e.g. the instant layer's states, reads t_end)
-            sol = Solution(dynamics=dyn, t_end=span, rtol=longer.rtol, nfev=longer.nfev, _dense=longer._dense)
+            sol = dataclasses.replace(longer, dynamics=dyn, t_end=span)
     if sol is None and key in _seeds:
-        end, tol, nfev, dense = _seeds.pop(key)
-        sol = Solution(dynamics=dyn, t_end=end, rtol=tol, nfev=nfev, _dense=dense)
+        end, tol, nfev, dense, method, why = _seeds.pop(key)
+        sol = Solution(dynamics=dyn, t_end=end, rtol=tol, nfev=nfev, _dense=dense, method=method, why=why)
     if sol is None:
         bound = min(TREE_MAX_STEPS, bounds.max_reference_steps()) if tree is not None else bounds.max_reference_steps()
         try:
-            sol = solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, atol=rtol, max_steps=bound)
+            sol = solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, atol=rtol, max_steps=bound, stiff=tree is not None)
         except TooManySteps as exc:
             if tree is not None:  # a model the user brings: its motion, not the run asked for, is what is too long
                 raise ModelError(f"the model's tree reference cannot be solved to rtol {rtol:g} over {span:g} s: "
@@ -128,6 +131,8 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
                                  "reference (accepted: a model whose tree solves within the bound, or a shorter "
                                  "--horizon)") from None
             raise bounds.reference_too_long(str(exc)) from None
+        if tree is not None and sol.why:
+            sol = dataclasses.replace(sol, why=stiffness_cause(dyn, q, sol.why))
     _solutions[key] = sol
     if tree is not None:  # a model of one's own: its length is at least how far its motion goes
         points = dyn.points(sol.state(np.linspace(0.0, span, 65))[0]) if dyn.point_names else np.zeros((1, 1, 3))
@@ -136,14 +141,25 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
                      initial=(tuple(q.tolist()), tuple(qd.tolist())), projected=projected)
 
 
-def export_solutions() -> dict[tuple, tuple[float, float, int, object]]:
+def stiffness_cause(dyn: TreeDynamics, q: np.ndarray, why: str) -> str:
+    """``why`` (a stiff solve's reason) with its cause named where the joints' damping explains it: the
+    fastest decay rate of M⁻¹D at the start within a factor 2 of the fastest mode's."""
+    fastest = float(dyn.damping_modes(q)[0][0])
+    stated = re.search(r"decays at ([0-9.e+]+)/s", why)
+    if stated is None or not fastest >= 0.5 * float(stated.group(1)):
+        return why
+    return f"{why}; joint damping on light links (M⁻¹D up to {fastest:.2g}/s)"
+
+
+def export_solutions() -> dict[tuple, tuple[float, float, int, object, str, str]]:
     """The solutions of this process not exported before, in a picklable form (no dynamics)."""
-    out = {k: (s.t_end, s.rtol, s.nfev, s._dense) for k, s in _solutions.items() if k not in _exported}
+    out = {k: (s.t_end, s.rtol, s.nfev, s._dense, s.method, s.why) for k, s in _solutions.items()
+           if k not in _exported}
     _exported.update(out)
     return out
 
 
-def import_solutions(seeds: Mapping[tuple, tuple[float, float, int, object]]) -> None:
+def import_solutions(seeds: Mapping[tuple, tuple[float, float, int, object, str, str]]) -> None:
     """Solutions exported by another process: :func:`build_reference` uses them instead of solving."""
     for key, seed in seeds.items():
         if key not in _solutions:
