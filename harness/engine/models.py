@@ -10,6 +10,7 @@ its formats is a :class:`ModelError` naming the attribute.
 
 from __future__ import annotations
 
+import math
 import stat
 from collections.abc import Callable
 from importlib import resources
@@ -47,11 +48,18 @@ def authored(path: Path | str, *, timestep: float | None = None,
     MuJoCo writes it (``MjSpec.to_xml``: every element, each attribute that differs from MuJoCo's default):
     what two models differ in is what their texts differ in (:func:`harness.pipeline.run.authored_differences`)."""
     spec = load_spec(path)
+    # the compiles (the edit's, if it compiles, and the one below) generate the named textures small; the text
+    # has each as written, or as the edit set it
+    shrunk = small_textures(spec, named_only=True)
     if edit is not None:
         edit(spec)
     if timestep is not None:
         spec.option.timestep = timestep
     spec.compile()
+    for texture in spec.textures:
+        written, small = shrunk.get(texture.name, (None, None))
+        if written is not None and (texture.width, texture.height) == small:
+            texture.width, texture.height = written
     return spec.to_xml()
 
 
@@ -63,8 +71,10 @@ def compile_model(
     edit: Callable[[mujoco.MjSpec], None] | None = None,
 ) -> mujoco.MjModel:
     """Compile ``path`` with a spec edit and optional integrator/timestep overrides (applied after the
-    edit, so that they hold whatever the edit sets)."""
+    edit, so that they hold whatever the edit sets), for simulation: its generated textures are made small
+    (:func:`small_textures`)."""
     spec = load_spec(path)
+    small_textures(spec)
     if edit is not None:
         edit(spec)
     if integrator is not None:
@@ -87,6 +97,35 @@ def compile_model(
         raise ModelError(f"invalid MJCF {str(path)!r}: {exc}") from None
     after_compile(model, str(path))  # fallbacks for an older MuJoCo (harness.compat)
     return model
+
+
+SMALL_TEXTURE = 8
+"""The largest side, in texels, :func:`small_textures` leaves a generated texture."""
+
+
+def small_textures(spec: mujoco.MjSpec, *, named_only: bool = False) -> dict[str, tuple[tuple[int, int],
+                                                                                      tuple[int, int]]]:
+    """Every texture MuJoCo generates (``builtin``: a gradient sky, a checker floor) made at most
+    :data:`SMALL_TEXTURE` texels a side, its aspect kept (a skybox's six faces stay six). Textures are drawn,
+    never simulated: nothing the harness measures reads them, and generating them dominates compiling a model
+    such as dm_control's (an 800 × 800 sky, compiled again for every variant). A picture of the model
+    (:mod:`harness.outputs.stills`) compiles the file itself, textures as written.
+
+    ``named_only``: only the textures with a name. Returns each named texture changed: its (width, height)
+    as written and as made."""
+    changed = {}
+    for texture in spec.textures:
+        if texture.builtin == mujoco.mjtBuiltin.mjBUILTIN_NONE or texture.width < 1 or texture.height < 1 \
+                or (named_only and not texture.name):
+            continue
+        written = (int(texture.width), int(texture.height))
+        common = math.gcd(*written)
+        aspect = (written[0] // common, written[1] // common)
+        k = max(1, min(common, SMALL_TEXTURE // max(aspect)))
+        texture.width, texture.height = aspect[0] * k, aspect[1] * k
+        if texture.name:
+            changed[texture.name] = (written, (aspect[0] * k, aspect[1] * k))
+    return changed
 
 
 def _not_a_file(path: Path) -> str:
