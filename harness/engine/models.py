@@ -19,7 +19,7 @@ from pathlib import Path
 import mujoco
 
 from harness.core.errors import ModelError
-from harness.engine.compat import after_compile, spec_from_file
+from harness.engine.compat import after_compile, missing_flags, spec_from_file
 from harness.engine.integrators import integrator_enum
 from harness.engine.validity import InvalidModel, check_model, check_spec
 
@@ -32,14 +32,39 @@ def mjcf_path(name: str) -> Path:
     return path
 
 
+_PARSED: dict[tuple[str, bytes], mujoco.MjSpec] = {}
+_PARSED_MAX = 64
+
+
 def load_spec(path: Path | str) -> mujoco.MjSpec:
+    """The spec of the MJCF file ``path``, a fresh one each call (the caller edits it)."""
     path = Path(path)
     if not path.is_file():
         raise ModelError(f"cannot read MJCF {str(path)!r}: {_not_a_file(path)}; accepted: an MJCF (XML) file")
     try:
-        return spec_from_file(str(path))  # MjSpec.from_file, with fallbacks for an older MuJoCo
+        return _parsed(str(path))
     except Exception as exc:  # MuJoCo raises ValueError with the parser's message
         raise ModelError(f"invalid MJCF {str(path)!r}: {_one_line(exc)}") from None
+
+
+def _parsed(path: str) -> mujoco.MjSpec:
+    """``spec_from_file`` (MjSpec.from_file, with fallbacks for an older MuJoCo), or a copy of the spec parsed
+    before from the same path and the same text: a run compiles its model's file again for every variant, and
+    parsing costs as much as compiling. Parsed anew where another file's text enters the parse (an <include>),
+    where this MuJoCo needs the fallbacks (they record and warn per parse), or lacks ``MjSpec.copy``."""
+    try:
+        with open(path, "rb") as fh:
+            text = fh.read()
+    except OSError:
+        text = b"<include"  # unreadable here: the parser says why
+    if b"<include" in text or missing_flags() or not hasattr(mujoco.MjSpec, "copy"):
+        return spec_from_file(path)
+    key = (path, text)
+    if key not in _PARSED:
+        if len(_PARSED) >= _PARSED_MAX:
+            del _PARSED[next(iter(_PARSED))]
+        _PARSED[key] = spec_from_file(path)
+    return _PARSED[key].copy()
 
 
 def authored(path: Path | str, *, timestep: float | None = None,
