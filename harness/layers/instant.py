@@ -45,6 +45,7 @@ both slow and fast states are covered.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 
 import mujoco
@@ -79,6 +80,25 @@ def sample_states(ref: Reference, count: int = DEFAULT_SAMPLES, seed: int = 0
     meet MuJoCo's constraint feedback −b v − k r, which no softness setting removes."""
     if count < 2:
         raise ValueError(f"count must be >= 2, got {count}")
+    # the same states for every evaluation of a run (the model as it is, each variant, the engine findings): made
+    # once per solution, count and seed, each caller given its own copy
+    key = (id(ref.solution), count, seed)
+    found = _SAMPLED.get(key)
+    if found is not None and found[0]() is ref.solution:
+        return found[1].copy(), found[2].copy()
+    q, qd = _sampled(ref, count, seed)
+    if len(_SAMPLED) >= _SAMPLED_MAX:
+        del _SAMPLED[next(iter(_SAMPLED))]
+    _SAMPLED[key] = (weakref.ref(ref.solution), q, qd)
+    return q.copy(), qd.copy()
+
+
+_SAMPLED: dict[tuple[int, int, int], tuple[weakref.ref, np.ndarray, np.ndarray]] = {}
+_SAMPLED_MAX = 64
+
+
+def _sampled(ref: Reference, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`sample_states`, made."""
     half = count // 2
     t = np.linspace(0.0, ref.solution.t_end, half)
     q, qd = ref.solution.state(t)
