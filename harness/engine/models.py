@@ -19,7 +19,8 @@ from pathlib import Path
 import mujoco
 
 from harness.core.errors import ModelError
-from harness.engine.compat import after_compile, missing_flags, spec_from_file
+from harness.engine import compat
+from harness.engine.compat import after_compile, spec_from_file
 from harness.engine.integrators import integrator_enum
 from harness.engine.validity import InvalidModel, check_model, check_spec
 
@@ -57,7 +58,7 @@ def _parsed(path: str) -> mujoco.MjSpec:
             text = fh.read()
     except OSError:
         text = b"<include"  # unreadable here: the parser says why
-    if b"<include" in text or missing_flags() or not hasattr(mujoco.MjSpec, "copy"):
+    if b"<include" in text or compat.missing_flags() or not hasattr(mujoco.MjSpec, "copy"):
         return spec_from_file(path)
     key = (path, text)
     if key not in _PARSED:
