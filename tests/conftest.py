@@ -85,6 +85,11 @@ def case_ids() -> list[str]:
 @pytest.fixture
 def cached_runs(monkeypatch):
     """A shipped case run as shipped returns the session's cached run (variants still run for real)."""
+    use_cached_runs(monkeypatch)
+
+
+def use_cached_runs(monkeypatch) -> None:
+    """:func:`cached_runs` with ``monkeypatch`` (a fixture of a wider scope uses ``pytest.MonkeyPatch.context()``)."""
     from harness.pipeline import run as pipeline
 
     real = pipeline.RunOptions.run

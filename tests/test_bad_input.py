@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -23,7 +24,7 @@ from harness.core.errors import ModelError
 from harness.core.figures import FigureName
 from harness.engine.models import compile_model
 from harness.reference.solutions import clear_caches
-from tests.conftest import without_progress
+from tests.conftest import use_cached_runs, without_progress
 
 CASE = "pendulum"
 MJCF = Path(__file__).resolve().parent.parent / "mjcf" / f"{CASE}.xml"
@@ -236,12 +237,28 @@ def _strict(tmp_path: Path) -> str:
     return str(path)
 
 
-def test_a_report_set_is_replaced_whole_or_not_at_all(tmp_path, cached_runs, capsys):
+@pytest.fixture(scope="module")
+def first_report(tmp_path_factory) -> Path:
+    """The report set of a passing run of CASE (its session's cached run), written once for the tests below, each
+    of which copies it (:func:`_first_report`) before a second run in the same directory."""
+    with pytest.MonkeyPatch.context() as mp:
+        use_cached_runs(mp)
+        code, out = _report(tmp_path_factory.mktemp("first"))
+    assert code == 0
+    return out
+
+
+def _first_report(tmp_path: Path, first_report: Path) -> tuple[Path, dict[str, bytes]]:
+    """``first_report`` copied where :func:`_report` writes in ``tmp_path``, and its files' bytes."""
+    out = tmp_path / "report"
+    shutil.copytree(first_report, out)
+    return out, {name: (out / name).read_bytes() for name in REPORT}
+
+
+def test_a_report_set_is_replaced_whole_or_not_at_all(tmp_path, first_report, cached_runs, capsys):
     """The second run's summary.md cannot be written (a directory is in its way): none of its files may
     replace the first run's, and the first run's, no longer this run's verdict, are marked stale."""
-    code, out = _report(tmp_path)
-    assert code == 0
-    first = {name: (out / name).read_bytes() for name in REPORT}
+    out, first = _first_report(tmp_path, first_report)
     (out / "summary.md").unlink()
     (out / "summary.md").mkdir()
     code, _ = _report(tmp_path, "--config", _strict(tmp_path))  # would FAIL: every file differs
@@ -253,12 +270,11 @@ def test_a_report_set_is_replaced_whole_or_not_at_all(tmp_path, cached_runs, cap
 
 
 @pytest.mark.parametrize("failure", ["unknown case", "interrupted", "internal error"])
-def test_a_failed_run_marks_the_earlier_report_stale(tmp_path, cached_runs, capsys, monkeypatch, failure):
+def test_a_failed_run_marks_the_earlier_report_stale(tmp_path, first_report, cached_runs, capsys, monkeypatch,
+                                                     failure):
     """After an exit 2, an interrupt or a bug of ours the directory holds no report a CI step
     (``if: always()``) could publish as this run's: the earlier one is renamed NAME.stale."""
-    code, out = _report(tmp_path)
-    assert code == 0
-    first = {name: (out / name).read_bytes() for name in REPORT}
+    out, first = _first_report(tmp_path, first_report)
     if failure == "unknown case":
         code = main(["run", "nosuchcase", "--out", str(out), "--junit", str(out / "junit.xml")])
         assert code == 2

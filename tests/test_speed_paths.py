@@ -311,7 +311,9 @@ def test_a_failing_case_in_a_pool_is_the_one_line_exit_2(monkeypatch, capsys):
     assert err.strip() == "mjharness: error: model has no equality 'string1'"
 
 
-def test_the_progress_bar_counts_cases_done_in_workers(monkeypatch):
+def test_the_progress_bar_counts_cases_done_in_workers(monkeypatch, cached_runs):
+    # cached_runs here and in the two tests of lines below: the runs are the session's (what a pool's workers
+    # compute is test_parallel_check_is_the_serial_check's and test_figures_only_workers_send_no_trajectories...)
     class Terminal(io.StringIO):
         def isatty(self) -> bool:
             return True
@@ -328,7 +330,7 @@ def test_the_progress_bar_counts_cases_done_in_workers(monkeypatch):
 
 
 @pytest.mark.parametrize("jobs", [1, 2])
-def test_a_log_gets_a_line_per_finished_case(jobs, capsys, monkeypatch):
+def test_a_log_gets_a_line_per_finished_case(jobs, capsys, monkeypatch, cached_runs):
     """Where stderr is not a terminal (a CI log), run and check print one line per case as it finishes, with
     its checks, its failures and its seconds; a tightened figure shows as one failure."""
     monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
@@ -345,7 +347,7 @@ def test_a_log_gets_a_line_per_finished_case(jobs, capsys, monkeypatch):
 
 
 @pytest.mark.parametrize("jobs", [1, 2])
-def test_case_lines_stream_to_their_stream_in_the_order_the_cases_finish(jobs, capsys, monkeypatch):
+def test_case_lines_stream_to_their_stream_in_the_order_the_cases_finish(jobs, capsys, monkeypatch, cached_runs):
     """check's lines (``out``): each case's line written and flushed as it finishes, terminal or not, in the
     order the cases finish (not the registry's), and no progress bar or log line besides them."""
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True)  # a terminal would get a bar without ``out``

@@ -405,15 +405,21 @@ def test_versions_builds_the_harness_from_a_regular_install(tmp_path):
     tree of what is installed, with a pyproject.toml from the installed metadata, and builds with uv (the real
     one) a wheel holding exactly the installed files, the same entry points, so each environment gets the
     same harness."""
+    import importlib.util
     import os
     import subprocess
     import zipfile
 
     root = Path(__file__).resolve().parent.parent
     venv = tmp_path / "venv"
-    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
-    pip = subprocess.run([str(venv / "bin" / "python"), "-m", "pip", "install", "--quiet", "--no-deps", str(root)],
-                         capture_output=True, text=True, timeout=600)
+    # pip install . into the venv: with this environment's pip where it has one (--python: installed there as the
+    # venv's own pip would, without the seconds of bootstrapping one), else with the venv's own
+    ours = importlib.util.find_spec("pip") is not None
+    subprocess.run([sys.executable, "-m", "venv", *(["--without-pip"] if ours else []), str(venv)], check=True)
+    installer = [sys.executable, "-m", "pip", "--python", str(venv / "bin" / "python")] if ours else \
+        [str(venv / "bin" / "python"), "-m", "pip"]
+    pip = subprocess.run([*installer, "install", "--quiet", "--no-deps", str(root)], capture_output=True, text=True,
+                         timeout=600)
     if pip.returncode != 0:
         pytest.skip(f"pip cannot make a regular install here (no index?): {pip.stderr.strip().splitlines()[-1:]}")
     script = ("import sys; from harness.versions import envs; root = envs.source_root(); "

@@ -165,12 +165,24 @@ class SymbolicResult:
 def _vanishes(expr: sp.Expr | sp.Matrix) -> bool:
     if isinstance(expr, sp.MatrixBase):
         return all(_vanishes(e) for e in expr)
-    expr = sp.simplify(sp.expand_trig(sp.simplify(expr)))
-    return expr == 0
+    return _vanishes_simplified(sp.simplify(expr))
+
+
+def _vanishes_simplified(expr: sp.Expr | sp.Matrix) -> bool:
+    """:func:`_vanishes` of an expression ``expr`` is already :func:`_simplified` (the first simplify done)."""
+    if isinstance(expr, sp.MatrixBase):
+        return all(_vanishes_simplified(e) for e in expr)
+    return sp.simplify(sp.expand_trig(expr)) == 0
 
 
 def _simplified(expr: sp.Expr | sp.Matrix) -> sp.Expr | sp.Matrix:
     return expr.applyfunc(sp.simplify) if isinstance(expr, sp.MatrixBase) else sp.simplify(expr)
+
+
+def _checked(residual: sp.Expr | sp.Matrix) -> SymbolicResult:
+    """Whether ``residual`` vanishes, and it simplified: one simplification serves both (it is the costly part)."""
+    simplified = _simplified(residual)
+    return SymbolicResult(_vanishes_simplified(simplified), simplified)
 
 
 def symbolic_check(claim: Claim, view: DocView, formula: object = None) -> SymbolicResult:
@@ -183,11 +195,10 @@ def symbolic_check(claim: Claim, view: DocView, formula: object = None) -> Symbo
         claimed = claimed.lhs - claimed.rhs
     claimed = sp.sympify(claimed).subs(claim.aliases, simultaneous=True) if claim.aliases else claimed
     if claim.kind == "equation":
-        residual = view.on_motion(claimed, claim)
-        return SymbolicResult(_vanishes(residual), _simplified(residual))
+        return _checked(view.on_motion(claimed, claim))
     truth = claim.truth(view)  # type: ignore[misc]
     residual = view.on_motion(claimed - truth, claim)
     if claim.kind == "value_up_to_constant":
         variables = [*view.frame.q, *view.frame.qd]
         return SymbolicResult(all(_vanishes(sp.diff(residual, v)) for v in variables), _simplified(residual))
-    return SymbolicResult(_vanishes(residual), _simplified(residual))
+    return _checked(residual)

@@ -10,6 +10,7 @@ its formats is a :class:`ModelError` naming the attribute.
 
 from __future__ import annotations
 
+import math
 import stat
 from collections.abc import Callable
 from importlib import resources
@@ -18,6 +19,7 @@ from pathlib import Path
 import mujoco
 
 from harness.core.errors import ModelError
+from harness.engine import compat
 from harness.engine.compat import after_compile, spec_from_file
 from harness.engine.integrators import integrator_enum
 from harness.engine.validity import InvalidModel, check_model, check_spec
@@ -31,14 +33,39 @@ def mjcf_path(name: str) -> Path:
     return path
 
 
+_PARSED: dict[tuple[str, bytes], mujoco.MjSpec] = {}
+_PARSED_MAX = 64
+
+
 def load_spec(path: Path | str) -> mujoco.MjSpec:
+    """The spec of the MJCF file ``path``, a fresh one each call (the caller edits it)."""
     path = Path(path)
     if not path.is_file():
         raise ModelError(f"cannot read MJCF {str(path)!r}: {_not_a_file(path)}; accepted: an MJCF (XML) file")
     try:
-        return spec_from_file(str(path))  # MjSpec.from_file, with fallbacks for an older MuJoCo
+        return _parsed(str(path))
     except Exception as exc:  # MuJoCo raises ValueError with the parser's message
         raise ModelError(f"invalid MJCF {str(path)!r}: {_one_line(exc)}") from None
+
+
+def _parsed(path: str) -> mujoco.MjSpec:
+    """``spec_from_file`` (MjSpec.from_file, with fallbacks for an older MuJoCo), or a copy of the spec parsed
+    before from the same path and the same text: a run compiles its model's file again for every variant, and
+    parsing costs as much as compiling. Parsed anew where another file's text enters the parse (an <include>),
+    where this MuJoCo needs the fallbacks (they record and warn per parse), or lacks ``MjSpec.copy``."""
+    try:
+        with open(path, "rb") as fh:
+            text = fh.read()
+    except OSError:
+        text = b"<include"  # unreadable here: the parser says why
+    if b"<include" in text or compat.missing_flags() or not hasattr(mujoco.MjSpec, "copy"):
+        return spec_from_file(path)
+    key = (path, text)
+    if key not in _PARSED:
+        if len(_PARSED) >= _PARSED_MAX:
+            del _PARSED[next(iter(_PARSED))]
+        _PARSED[key] = spec_from_file(path)
+    return _PARSED[key].copy()
 
 
 def authored(path: Path | str, *, timestep: float | None = None,
@@ -47,11 +74,18 @@ def authored(path: Path | str, *, timestep: float | None = None,
     MuJoCo writes it (``MjSpec.to_xml``: every element, each attribute that differs from MuJoCo's default):
     what two models differ in is what their texts differ in (:func:`harness.pipeline.run.authored_differences`)."""
     spec = load_spec(path)
+    # the compiles (the edit's, if it compiles, and the one below) generate the named textures small; the text
+    # has each as written, or as the edit set it
+    shrunk = small_textures(spec, named_only=True)
     if edit is not None:
         edit(spec)
     if timestep is not None:
         spec.option.timestep = timestep
     spec.compile()
+    for texture in spec.textures:
+        written, small = shrunk.get(texture.name, (None, None))
+        if written is not None and (texture.width, texture.height) == small:
+            texture.width, texture.height = written
     return spec.to_xml()
 
 
@@ -63,8 +97,10 @@ def compile_model(
     edit: Callable[[mujoco.MjSpec], None] | None = None,
 ) -> mujoco.MjModel:
     """Compile ``path`` with a spec edit and optional integrator/timestep overrides (applied after the
-    edit, so that they hold whatever the edit sets)."""
+    edit, so that they hold whatever the edit sets), for simulation: its generated textures are made small
+    (:func:`small_textures`)."""
     spec = load_spec(path)
+    small_textures(spec)
     if edit is not None:
         edit(spec)
     if integrator is not None:
@@ -87,6 +123,35 @@ def compile_model(
         raise ModelError(f"invalid MJCF {str(path)!r}: {exc}") from None
     after_compile(model, str(path))  # fallbacks for an older MuJoCo (harness.compat)
     return model
+
+
+SMALL_TEXTURE = 8
+"""The largest side, in texels, :func:`small_textures` leaves a generated texture."""
+
+
+def small_textures(spec: mujoco.MjSpec, *, named_only: bool = False) -> dict[str, tuple[tuple[int, int],
+                                                                                      tuple[int, int]]]:
+    """Every texture MuJoCo generates (``builtin``: a gradient sky, a checker floor) made at most
+    :data:`SMALL_TEXTURE` texels a side, its aspect kept (a skybox's six faces stay six). Textures are drawn,
+    never simulated: nothing the harness measures reads them, and generating them dominates compiling a model
+    such as dm_control's (an 800 × 800 sky, compiled again for every variant). A picture of the model
+    (:mod:`harness.outputs.stills`) compiles the file itself, textures as written.
+
+    ``named_only``: only the textures with a name. Returns each named texture changed: its (width, height)
+    as written and as made."""
+    changed = {}
+    for texture in spec.textures:
+        if texture.builtin == mujoco.mjtBuiltin.mjBUILTIN_NONE or texture.width < 1 or texture.height < 1 \
+                or (named_only and not texture.name):
+            continue
+        written = (int(texture.width), int(texture.height))
+        common = math.gcd(*written)
+        aspect = (written[0] // common, written[1] // common)
+        k = max(1, min(common, SMALL_TEXTURE // max(aspect)))
+        texture.width, texture.height = aspect[0] * k, aspect[1] * k
+        if texture.name:
+            changed[texture.name] = (written, (aspect[0] * k, aspect[1] * k))
+    return changed
 
 
 def _not_a_file(path: Path) -> str:
