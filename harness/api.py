@@ -359,8 +359,7 @@ def _validate(case: str | Case | None, *, mjcf: str | Path | None, keyframe: str
     result = run_case(chosen, mjcf=mjcf, integrators=tuple(integrators) if integrators is not None else None,
                       timestep=timestep, horizon=horizon, q0=q0, qd0=qd0,
                       edit=_in_place(edit) if edit is not None else None, backend=backend)
-    measured = [*(f.name for f in result.figures), *result.unmeasured]
-    checks = judge(result, case_limits(shipped, chosen, measured) | given)
+    checks = judge(result, case_limits(shipped, chosen, result.judged_names) | given)
     check_known(requirements, [result])
     source = shipped.source + (" + limits given to validate()" if limits else "")
     return Validation(case=chosen.name, mjcf=str(result.settings.get("mjcf", chosen.mjcf)), checks=tuple(checks),

@@ -337,11 +337,41 @@ def test_a_stiff_model_is_solved_by_radau_iia_rather_than_refused(whip):
 
 @pytest.mark.slow
 def test_a_stiff_model_reaches_a_verdict(whip, tmp_path):
-    """The whole check of the whip (its reference by Radau IIA, the horizon chosen by its own chaos): it passes, and
-    the settings name the solver and why."""
+    """The whole check of the whip (its reference by Radau IIA, the horizon chosen by its own chaos): it passes but
+    for RK4, which cannot run at the model's step (its damping decays at ~1e6/s, h λ ~ 1e3, far past explicit RK4's
+    stability bound of 2.8) and diverges: a failure that says so. The settings name the solver and why."""
     v = harness.validate(mjcf=whip)
-    assert not _failed(v)
+    failed = [c for c in v.checks if not c.passed]
+    assert failed and all(c.name.startswith(("RK4.", "converge.RK4.")) and c.diverged for c in failed), failed
     assert v.settings["tree"]["reference solver"].startswith("Radau IIA: stiff")
+
+
+SPRING = """
+<mujoco model="stiff_spring">
+  <option timestep="0.01"/>
+  <worldbody>
+    <body name="rotor">
+      <joint name="twist" type="hinge" axis="0 0 1" stiffness="1e3"/>
+      <geom type="cylinder" size="0.1 0.05" mass="1"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_an_integrator_whose_run_diverges_fails_rather_than_vanishing(tmp_path):
+    """A spring of ω ≈ 450 rad/s at h = 10 ms (ω h ≈ 4.5, past RK4's and semi-implicit Euler's stability): both runs
+    diverge. A model judged against its own tree gets its limits from the figures it measured, so a diverged
+    integrator's checks vanished with its figures and the gate passed on the instantaneous checks alone; each is now
+    a failure that names the divergence, as on a shipped case."""
+    path = tmp_path / "spring.xml"
+    path.write_text(SPRING)
+    v = harness.validate(mjcf=path, integrators=["RK4", "Euler"], horizon=0.2)
+    assert not v.passed
+    for integrator in ("RK4", "Euler"):
+        for name in (f"{integrator}.position", f"{integrator}.drift.energy", f"converge.{integrator}.order_shortfall"):
+            check = v.check(name)
+            assert not check.passed and check.diverged.startswith("diverged: mjWARN_BADQACC"), check
 
 
 def test_a_point_mass_on_a_ball_joint_is_refused_rather_than_solved_for_hours():

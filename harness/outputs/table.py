@@ -89,7 +89,8 @@ def failure_lines(c: Check, width: int) -> list[str]:
     r = ratio(c)
     over = ("not measured" if c.diverged or not np.isfinite(r)
             else f"{r:.3g}× over its limit" if r > 1 else f"{100 * r:.0f}% of its limit")
-    lines = wrap(f"{c.status} {c.case} {c.name} [{c.unit}]: {over}", width)
+    unit = f" [{c.unit}]" if c.unit else ""  # a run that diverged has no figure, so no unit
+    lines = wrap(f"{c.status} {c.case} {c.name}{unit}: {over}", width)
     if not c.diverged and c.budget is not None:
         b = c.budget
         lines += wrap(f"measured {fmt_value(b.measured)}, unexplained {fmt_value(b.unexplained)} "

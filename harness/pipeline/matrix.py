@@ -131,8 +131,7 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
     checks: dict[str, list[Check]] = {}
 
     def finished(result: CaseResult) -> None:  # judged as it comes in, so its line can say how it went
-        measured = [*(f.name for f in result.figures), *result.unmeasured]
-        checks[result.case.name] = judge(result, case_limits(limits, result.case, measured))
+        checks[result.case.name] = judge(result, case_limits(limits, result.case, result.judged_names))
         stream = out if out is not None else sys.stderr if lines and not sys.stderr.isatty() else None
         if stream is not None:
             print(case_line(result.case.name, checks[result.case.name], sum(result.timings.values()), width,

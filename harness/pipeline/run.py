@@ -91,6 +91,24 @@ class CaseResult:
                 return f
         raise KeyError(name)
 
+    @property
+    def judged_names(self) -> list[str]:
+        """Every figure the run measured, could not measure (n/a with why), or would have measured had its run not
+        diverged: a diverged integrator has no figure of its own, and where limits are made from the figures (a
+        model judged against its own tree) its checks would vanish with them, a silent pass. Its names are its
+        siblings' (the same quantities of every other integrator run), else those every run has."""
+        names = [*(str(f.name) for f in self.figures), *self.unmeasured]
+        lost = [k for k in self.diverged if "." not in k]  # the integrators whose run diverged
+        if lost:
+            kinds = {(f.layer, f.quantity, f.detail) for f in map(FigureName, names) if f.integrator}
+            kinds |= {("trajectory", "position", ""), ("trajectory", "drift", "energy"),
+                      ("converge", "order_shortfall", "")}
+            for integrator in lost:
+                for layer, quantity, detail in sorted(kinds):
+                    names.append(str(FigureName.converge(integrator, quantity) if layer == "converge"
+                                     else FigureName.trajectory(integrator, quantity, detail)))
+        return list(dict.fromkeys(names))
+
 
 @dataclass(frozen=True)
 class RunOptions:

@@ -216,7 +216,7 @@ def _failed(case, integrators: Sequence[str], edit: Edit | None) -> dict[str, fl
     """Each failed check's name and how far over its limit (inf: a run that could not be measured), as ``check``
     judges the run."""
     result = run_case(case, integrators=tuple(integrators), edit=edit)
-    checks = judge(result, case_limits(load_limits(), case, [*(f.name for f in result.figures), *result.unmeasured]))
+    checks = judge(result, case_limits(load_limits(), case, result.judged_names))
     return {str(c.name): c.ratio if math.isfinite(c.ratio) and not c.diverged else math.inf
             for c in checks if not c.passed and not c.note}
 
