@@ -387,7 +387,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     others = backends.expand(args.backend)[1:]
     if others:  # the first backend's report, and every backend side by side (its verdict is the first's)
         from harness.outputs.backends import BackendRun, side_by_side_html, side_by_side_json  # lazy: matplotlib
-        from harness.outputs.page import Page
+        from harness.outputs.page import Page  # lazy: with the backends' page it belongs to
 
         runs = [BackendRun(options.backend, backends.PRECISION[options.backend], results, checks)]
         runs += [BackendRun(name, backends.PRECISION[name], r, c)
