@@ -66,6 +66,21 @@ class Layout:
         return k, k @ k, charts
 
     @cached_property
+    def hinges(self) -> np.ndarray:
+        """The indices of the hinge joints."""
+        return np.array([j for j, joint in enumerate(self.tree.joints) if joint.kind == HINGE], dtype=int)
+
+    @cached_property
+    def hinge_coordinates(self) -> np.ndarray:
+        """Each hinge's coordinate, in :attr:`hinges` order."""
+        return np.array([self.first[j] for j in self.hinges], dtype=int)
+
+    @cached_property
+    def hinge_refs(self) -> np.ndarray:
+        """Each hinge's ``ref`` (its coordinate where the body sits at its frame), in :attr:`hinges` order."""
+        return np.array([self.tree.joints[j].ref for j in self.hinges], dtype=float)
+
+    @cached_property
     def body_of_coordinate(self) -> np.ndarray:
         out = np.empty(self.tree.n, dtype=int)
         for j, joint in enumerate(self.tree.joints):
@@ -107,6 +122,12 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
     anchors = np.zeros((*batch, n, 3), dtype=dtype)
     shifts = np.zeros((*batch, n, 3), dtype=dtype)
     skews, squares, charts = layout.joint_constants
+    hinges = layout.hinges
+    if hinges.size:  # every hinge's rotation at once (Rodrigues), not one joint at a time
+        angle = q[..., layout.hinge_coordinates] - layout.hinge_refs
+        turns = (np.eye(3) + np.sin(angle)[..., None, None] * skews[hinges]
+                 + (1 - np.cos(angle))[..., None, None] * squares[hinges])
+        turn_of = {int(j): i for i, j in enumerate(hinges)}
     for b, body in enumerate(tree.bodies):
         if body.parent >= 0:
             p_par, r_par = origin[..., body.parent, :], rotation[..., body.parent, :, :]
@@ -122,9 +143,7 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
                 anchor = p + r @ joint.pos
                 axes[..., k, :] = r @ joint.axis
                 anchors[..., k, :] = anchor
-                angle = x[..., 0] - joint.ref
-                r = r @ (np.eye(3) + np.sin(angle)[..., None, None] * skews[j]
-                         + (1 - np.cos(angle))[..., None, None] * squares[j])
+                r = r @ turns[..., turn_of[j], :, :]
                 p = anchor - r @ joint.pos
             elif joint.kind == SLIDE:
                 shifts[..., k, :] = r @ joint.axis
