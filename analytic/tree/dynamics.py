@@ -179,11 +179,11 @@ class TreeDynamics(Dynamics):
         move_k = (_cross(pose.anchors - ref, pose.axes) + pose.shifts) * qdk
         omega = mask @ omega_k  # (..., k, nb, 3)
         rel = points_on(pose, bodies["index"], bodies["ipos"]) - ref
-        rot = pose.rotation[..., bodies["index"], :, :] @ bodies["irot"]
+        rot = np.einsum("...bij,bjk->...bik", pose.rotation[..., bodies["index"], :, :], bodies["irot"])
         m = bodies["mass"][:, None]
         v = mask @ move_k + _cross(omega, rel)
-        # I ω = R diag(I) Rᵀ ω in the body's principal frame
-        iw = (rot @ (bodies["inertia"] * (np.swapaxes(rot, -1, -2) @ omega[..., None])[..., 0])[..., None])[..., 0]
+        # I ω = R diag(I) Rᵀ ω, R the principal frame's rotation (einsum: no BLAS call per 3×3)
+        iw = np.einsum("...ij,...j->...i", rot, bodies["inertia"] * np.einsum("...ji,...j->...i", rot, omega))
         linear = m * v
         linear_k = mask.T @ linear  # (..., k, n, 3): the momentum of everything coordinate k moves
         angular_k = mask.T @ (_cross(rel, linear) + iw) - _cross(pose.anchors - ref, linear_k)
