@@ -8,8 +8,10 @@ differentiated exactly by complex step.
 T is quadratic in q̇, so M(q) = ∂²T/∂q̇² is read off the quadratic form built
 from the point Jacobians (:mod:`analytic.tree.kinematics`). Every derivative
 with respect to q is a complex step, f′(q) v = Im f(q + i h v)/h with
-h = 1e-30, exact to round-off: Ṁ q̇ from M at q + i h q̇, ∂T/∂q and ∂V/∂q from
-T and V at q + i h e_k, all in one batched evaluation. The non-conservative Q
+h = 1e-30, exact to round-off: Ṁ q̇ from the momentum M q̇ at q + i h q̇, ∂T/∂q
+and ∂V/∂q from T and V at q + i h e_k, all in one batched evaluation; at those
+n + 2 configurations T and M q̇ are summed through each coordinate's world twist
+(:meth:`TreeDynamics._momentum_and_kinetic`), no Jacobian formed. The non-conservative Q
 are applied forces through their Jacobians: joint damping −Bᵀ d(qvel)
 (MuJoCo's polynomial), gravity compensation Jᵀ(−m g · gravcomp) at each
 centre of mass, and actuators at a fixed control, moment × force. Nothing here
