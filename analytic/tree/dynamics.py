@@ -135,23 +135,31 @@ class TreeDynamics(Dynamics):
     def _applied(self, q: Array, qd: Array, lin: Array) -> Array:
         """The non-conservative generalized forces Q at real (q, q̇): damping, gravity compensation,
         actuators."""
-        b = velocity_map(self.tree, self.layout, q)
-        qvel = np.einsum("...ij,...j->...i", b, qd)
+        qvel = self._qvel(q, qd)
         d = self._damping
         damper = -(d[:, 0] * qvel + d[:, 1] * qvel * np.abs(qvel) + d[:, 2] * qvel ** 3)
-        out = np.einsum("...ij,...i->...j", b, damper)
+        out = self._qvel(q, damper, transpose=True)
         comp = self._bodies["gravcomp"]
         if np.any(comp):
             force = -(self._bodies["mass"] * comp)[:, None] * self.tree.gravity  # (nb, 3)
             out = out + np.einsum("...bik,bi->...k", lin, force)
-        for act in self.tree.actuators:
-            length = q @ act.moment
-            speed = qvel @ act.moment
-            g0, g1, g2 = act.gain
-            b0, b1, b2 = act.bias
-            force = (g0 + g1 * length + g2 * speed) * act.ctrl + b0 + b1 * length + b2 * speed
-            out = out + force[..., None] * act.moment
+        if self.tree.actuators:  # every actuator at once: moments (na, n), gains and biases (na, 3)
+            acts = self._actuators
+            length = q @ acts["moment"].T
+            speed = qvel @ acts["moment"].T
+            gain, bias = acts["gain"], acts["bias"]
+            force = ((gain[:, 0] + gain[:, 1] * length + gain[:, 2] * speed) * acts["ctrl"]
+                     + bias[:, 0] + bias[:, 1] * length + bias[:, 2] * speed)
+            out = out + force @ acts["moment"]
         return out
+
+    @cached_property
+    def _actuators(self) -> dict[str, Array]:
+        acts = self.tree.actuators
+        return {"moment": np.array([a.moment for a in acts], dtype=float).reshape(len(acts), self.n),
+                "gain": np.array([a.gain for a in acts], dtype=float).reshape(-1, 3),
+                "bias": np.array([a.bias for a in acts], dtype=float).reshape(-1, 3),
+                "ctrl": np.array([a.ctrl for a in acts], dtype=float)}
 
     def _perturbed(self, q: Array, directions: Array) -> Array:
         """Configurations q + i h d for each direction d (..., k, n) -> (..., k, n) complex."""
@@ -225,7 +233,7 @@ class TreeDynamics(Dynamics):
         """M(q) and F(q, q̇) from one batched evaluation: the real configuration, q + i h q̇ (for Ṁ q̇ = d/dt ∂T/∂q̇
         at q̈ = 0), and q + i h e_k (for ∂L/∂q_k)."""
         q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
-        n = self.tree.n
+        n = self.n
         directions = np.concatenate([np.zeros_like(qd)[..., None, :], qd[..., None, :],
                                      np.broadcast_to(np.eye(n), (*q.shape[:-1], n, n))], axis=-2)
         c = self._perturbed(q, directions)

@@ -41,6 +41,11 @@ class Layout:
         return tuple(int(s) for s in starts[:-1])
 
     @cached_property
+    def n(self) -> int:
+        """The number of coordinates (the tree's, computed once)."""
+        return self.tree.n
+
+    @cached_property
     def moves(self) -> np.ndarray:
         """(nbodies, n) boolean: coordinate k moves body b."""
         tree = self.tree
@@ -115,7 +120,7 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
     q = np.asarray(q)
     batch = q.shape[:-1]
     dtype = np.result_type(q.dtype, float)
-    nb, n = len(tree.bodies), tree.n
+    nb, n = len(tree.bodies), layout.n
     origin = np.zeros((*batch, nb, 3), dtype=dtype)
     rotation = np.zeros((*batch, nb, 3, 3), dtype=dtype)
     axes = np.zeros((*batch, n, 3), dtype=dtype)
@@ -189,14 +194,11 @@ def velocity_map(tree: Tree, layout: Layout, q: Array) -> Array:
     """B(q), (..., n, n): MuJoCo's qvel = B(q) q̇ (identity for hinges and slides, J_r(θ) on a ball's
     and a free joint's rotation vector)."""
     q = np.asarray(q)
-    out = np.zeros((*q.shape[:-1], tree.n, tree.n), dtype=np.result_type(q.dtype, float))
+    n = layout.n
+    out = np.zeros((*q.shape[:-1], n, n), dtype=np.result_type(q.dtype, float))
+    out[..., np.arange(n), np.arange(n)] = 1.0
     for j, joint in enumerate(tree.joints):
-        k = layout.first[j]
-        if joint.kind in (HINGE, SLIDE):
-            out[..., k, k] = 1.0
-        elif joint.kind == BALL:
+        if joint.kind in (BALL, FREE):
+            k = layout.first[j] + (3 if joint.kind == FREE else 0)
             out[..., k:k + 3, k:k + 3] = right_jacobian(q[..., k:k + 3])
-        else:
-            out[..., k:k + 3, k:k + 3] = np.eye(3)
-            out[..., k + 3:k + 6, k + 3:k + 6] = right_jacobian(q[..., k + 3:k + 6])
     return out
