@@ -145,11 +145,12 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
             k = layout.first[j]
             x = _split(q, layout, j)
             if joint.kind == HINGE:
-                anchor = p + r @ joint.pos
+                centred = not np.any(joint.pos)  # at the body's origin (most hinges): the origin stays put
+                anchor = p if centred else p + r @ joint.pos
                 axes[..., k, :] = r @ joint.axis
                 anchors[..., k, :] = anchor
                 r = r @ turns[..., turn_of[j], :, :]
-                p = anchor - r @ joint.pos
+                p = anchor if centred else anchor - r @ joint.pos
             elif joint.kind == SLIDE:
                 shifts[..., k, :] = r @ joint.axis
                 p = p + shifts[..., k, :] * (x[..., 0] - joint.ref)[..., None]
