@@ -46,15 +46,22 @@ def model_path(name: str) -> Path | None:
     return suite / f"{name}.xml" if suite is not None and (suite / f"{name}.xml").exists() else None
 
 
+def _judged(check: dict) -> tuple[float, float]:
+    """What a check is judged by and its limit: a budget's unexplained residual, else the figure itself."""
+    budget = check.get("budget")
+    if budget:
+        return abs(budget.get("unexplained", float("nan"))), budget.get("limit", float("nan"))
+    return abs(check.get("value", float("nan"))), check.get("threshold", float("nan"))
+
+
 def _ratio(check: dict) -> float:
-    value, limit = check.get("value"), check.get("threshold")
-    if not isinstance(value, int | float) or not isinstance(limit, int | float) or not limit:
-        return float("nan")
-    return abs(value) / limit
+    judged, limit = _judged(check)
+    return judged / limit if isinstance(limit, int | float) and limit > 0 else float("nan")
 
 
 def deciding(doc: dict) -> str:
-    """The deciding figure of a ``check --json`` run: the failure furthest over its limit, else the closest."""
+    """The deciding figure of a ``check --json`` run (as the zoo names it): the failure furthest over its limit,
+    else the check closest to it, by its unexplained residual where it has a budget."""
     case = next(iter(doc["cases"].values()))
     checks = [(name, c) for name, c in case["checks"].items() if c.get("status") in ("pass", "fail")]
     failed = [x for x in checks if x[1]["status"] == "fail"]
@@ -62,8 +69,10 @@ def deciding(doc: dict) -> str:
     if not pool:
         return "no judged check"
     name, c = max(pool, key=lambda x: -1.0 if np.isnan(_ratio(x[1])) else _ratio(x[1]))
+    judged, limit = _judged(c)
     head = "worst failure" if failed else "closest"
-    return f"{head}: {name}: {c.get('value'):.3g} vs limit {c.get('threshold'):.3g}"
+    what = "unexplained" if c.get("budget") else "figure"
+    return f"{head}: {name}: {what} {judged:.2g} vs limit {limit:.2g} (measured {c.get('value'):.3g})"
 
 
 def check_cold(path: Path, *, timeout: float) -> dict[str, object]:
