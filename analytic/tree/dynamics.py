@@ -8,8 +8,10 @@ differentiated exactly by complex step.
 T is quadratic in q̇, so M(q) = ∂²T/∂q̇² is read off the quadratic form built
 from the point Jacobians (:mod:`analytic.tree.kinematics`). Every derivative
 with respect to q is a complex step, f′(q) v = Im f(q + i h v)/h with
-h = 1e-30, exact to round-off: Ṁ q̇ from M at q + i h q̇, ∂T/∂q and ∂V/∂q from
-T and V at q + i h e_k, all in one batched evaluation. The non-conservative Q
+h = 1e-30, exact to round-off: Ṁ q̇ from the momentum M q̇ at q + i h q̇, ∂T/∂q
+and ∂V/∂q from T and V at q + i h e_k, all in one batched evaluation; at those
+n + 2 configurations T and M q̇ are summed through each coordinate's world twist
+(:meth:`TreeDynamics._momentum_and_kinetic`), no Jacobian formed. The non-conservative Q
 are applied forces through their Jacobians: joint damping −Bᵀ d(qvel)
 (MuJoCo's polynomial), gravity compensation Jᵀ(−m g · gravcomp) at each
 centre of mass, and actuators at a fixed control, moment × force. Nothing here
@@ -30,13 +32,20 @@ import numpy as np
 
 from analytic.dynamics import Dynamics
 from analytic.tree.kinematics import Layout, Pose, forward, point_jacobians, points_on, velocity_map
-from analytic.tree.model import FREE, Tree
-from analytic.tree.rotations import quat_to_mat, skew, vee
+from analytic.tree.model import BALL, FREE, Tree
+from analytic.tree.rotations import quat_to_mat, right_jacobian, skew, vee
 
 Array = np.ndarray
 
 STEP = 1e-30
 """The complex step h: Im f(q + i h v)/h = f′(q) v + O(h² |v|³), so any h far below round-off will do."""
+
+
+def _cross(a: Array, b: Array) -> Array:
+    """a × b over the last axis (3), broadcasting; by components, which numpy's cross does with more copying."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -102,11 +111,17 @@ class TreeDynamics(Dynamics):
 
     def _mass(self, q: Array, pose: Pose) -> Array:
         _, lin, ang, inertia = self._com_jacobians(pose)
-        m = self._bodies["mass"]
-        mass = (np.einsum("b,...bik,...bil->...kl", m, lin, lin)
-                + np.einsum("...bik,...bij,...bjl->...kl", ang, inertia, ang))
+        return self._mass_from(q, lin, ang, inertia)
+
+    def _mass_from(self, q: Array, lin: Array, ang: Array, inertia: Array) -> Array:
+        """M = Σ_b m J_vᵀ J_v + J_ωᵀ I J_ω + Bᵀ diag(armature) B, (..., n, n), from the real Jacobians (..., nb, 3, n)
+        and world inertias (..., nb, 3, 3): the bodies' and their three rows stacked, one matrix product each."""
+        stacked = (*lin.shape[:-3], -1, lin.shape[-1])
+        m = self._bodies["mass"][:, None, None]
+        mass = (np.swapaxes(lin.reshape(stacked), -1, -2) @ (m * lin).reshape(stacked)
+                + np.swapaxes(ang.reshape(stacked), -1, -2) @ (inertia @ ang).reshape(stacked))
         b = velocity_map(self.tree, self.layout, q)
-        return mass + np.einsum("...ik,i,...il->...kl", b, self._armature, b)
+        return mass + np.swapaxes(b, -1, -2) @ (self._armature[:, None] * b)
 
     def _potential(self, pose: Pose, q: Array) -> Array:
         com = points_on(pose, self._bodies["index"], self._bodies["ipos"])
@@ -133,23 +148,31 @@ class TreeDynamics(Dynamics):
     def _applied(self, q: Array, qd: Array, lin: Array) -> Array:
         """The non-conservative generalized forces Q at real (q, q̇): damping, gravity compensation,
         actuators."""
-        b = velocity_map(self.tree, self.layout, q)
-        qvel = np.einsum("...ij,...j->...i", b, qd)
+        qvel = self._qvel(q, qd)
         d = self._damping
         damper = -(d[:, 0] * qvel + d[:, 1] * qvel * np.abs(qvel) + d[:, 2] * qvel ** 3)
-        out = np.einsum("...ij,...i->...j", b, damper)
+        out = self._qvel(q, damper, transpose=True)
         comp = self._bodies["gravcomp"]
         if np.any(comp):
             force = -(self._bodies["mass"] * comp)[:, None] * self.tree.gravity  # (nb, 3)
             out = out + np.einsum("...bik,bi->...k", lin, force)
-        for act in self.tree.actuators:
-            length = q @ act.moment
-            speed = qvel @ act.moment
-            g0, g1, g2 = act.gain
-            b0, b1, b2 = act.bias
-            force = (g0 + g1 * length + g2 * speed) * act.ctrl + b0 + b1 * length + b2 * speed
-            out = out + force[..., None] * act.moment
+        if self.tree.actuators:  # every actuator at once: moments (na, n), gains and biases (na, 3)
+            acts = self._actuators
+            length = q @ acts["moment"].T
+            speed = qvel @ acts["moment"].T
+            gain, bias = acts["gain"], acts["bias"]
+            force = ((gain[:, 0] + gain[:, 1] * length + gain[:, 2] * speed) * acts["ctrl"]
+                     + bias[:, 0] + bias[:, 1] * length + bias[:, 2] * speed)
+            out = out + force @ acts["moment"]
         return out
+
+    @cached_property
+    def _actuators(self) -> dict[str, Array]:
+        acts = self.tree.actuators
+        return {"moment": np.array([a.moment for a in acts], dtype=float).reshape(len(acts), self.n),
+                "gain": np.array([a.gain for a in acts], dtype=float).reshape(-1, 3),
+                "bias": np.array([a.bias for a in acts], dtype=float).reshape(-1, 3),
+                "ctrl": np.array([a.ctrl for a in acts], dtype=float)}
 
     def _perturbed(self, q: Array, directions: Array) -> Array:
         """Configurations q + i h d for each direction d (..., k, n) -> (..., k, n) complex."""
@@ -160,45 +183,83 @@ class TreeDynamics(Dynamics):
         q = np.asarray(q, dtype=float)
         return self._mass(q, forward(self.tree, self.layout, q))
 
-    def _momentum_and_kinetic(self, c: Array, qd: Array, pose: Pose) -> tuple[Array, Array, tuple[Array, ...]]:
+    def _momentum_and_kinetic(self, c: Array, qd: Array, pose: Pose) -> tuple[Array, Array]:
         """At configurations c (..., k, n) with the real velocity q̇ (..., n): the momentum ∂T/∂q̇ = M(c) q̇
-        (..., k, n) and T(c, q̇) (..., k), without forming M; and the Jacobians and inertias they came from."""
-        parts = self._com_jacobians(pose)
-        _, lin, ang, inertia = parts
-        m = self._bodies["mass"]
-        per_body = qd[..., None, None, :, None]  # against (..., k, nb, 3, n)
-        v = (lin @ per_body)[..., 0]
-        w = (ang @ per_body)[..., 0]
-        iw = (inertia @ w[..., None])[..., 0]
-        b = velocity_map(self.tree, self.layout, c)
-        qvel = (b @ qd[..., None, :, None])[..., 0]
+        (..., k, n) and T(c, q̇) (..., k), without forming M or any Jacobian.
+
+        The same sums as Σ_b J_bᵀ (m v, I ω), reassociated: each coordinate's world twist (its axis a times q̇_k
+        and the velocity (o − r) × a + s it gives the world point r) summed over the coordinates that move a body
+        gives the body's ω and velocity; each body's linear and angular momentum summed over the bodies a
+        coordinate moves gives that coordinate's momentum. Two products with the (bodies × coordinates) mask,
+        O(nb · n) per configuration instead of the Jacobians' O(nb · n) entries each multiplied out.
+        The reference point r is the first body's origin at the real configuration (a constant: it changes
+        no derivative), so that nothing cancels over the tree's distance from the world origin."""
+        bodies = self._bodies
+        mask = self._mask
+        ref = pose.origin[(*(0,) * (pose.origin.ndim - 2), 0)].real
+        qdk = qd[..., None, :, None]  # against (..., k, n, 3)
+        omega_k = pose.axes * qdk
+        move_k = (_cross(pose.anchors - ref, pose.axes) + pose.shifts) * qdk
+        omega = mask @ omega_k  # (..., k, nb, 3)
+        rel = points_on(pose, bodies["index"], bodies["ipos"]) - ref
+        rot = np.einsum("...bij,bjk->...bik", pose.rotation[..., bodies["index"], :, :], bodies["irot"])
+        m = bodies["mass"][:, None]
+        v = mask @ move_k + _cross(omega, rel)
+        # I ω = R diag(I) Rᵀ ω, R the principal frame's rotation (einsum: no BLAS call per 3×3)
+        iw = np.einsum("...ij,...j->...i", rot, bodies["inertia"] * np.einsum("...ji,...j->...i", rot, omega))
+        linear = m * v
+        linear_k = mask.T @ linear  # (..., k, n, 3): the momentum of everything coordinate k moves
+        angular_k = mask.T @ (_cross(rel, linear) + iw) - _cross(pose.anchors - ref, linear_k)
+        momentum = np.sum(pose.axes * angular_k + pose.shifts * linear_k, axis=-1)
+        qvel = self._qvel(c, np.broadcast_to(qd[..., None, :], c.shape))
         aq = self._armature * qvel
-        momentum = (np.einsum("...bij,...bi->...j", lin, m[:, None] * v) + np.einsum("...bij,...bi->...j", ang, iw)
-                    + np.einsum("...ij,...i->...j", b, aq))
-        kinetic = 0.5 * (np.einsum("b,...bi,...bi->...", m, v, v) + np.einsum("...bi,...bi->...", w, iw)
-                         + np.einsum("...i,...i->...", qvel, aq))
-        return momentum, kinetic, parts
+        momentum = momentum + self._qvel(c, aq, transpose=True)
+        kinetic = 0.5 * (np.sum(linear * v, axis=(-1, -2)) + np.sum(omega * iw, axis=(-1, -2))
+                         + np.sum(qvel * aq, axis=-1))
+        return momentum, kinetic
+
+    @cached_property
+    def _mask(self) -> Array:
+        """(bodies with mass, n) as floats: coordinate k moves body b."""
+        return self.layout.moves[self._bodies["index"]].astype(float)
+
+    @cached_property
+    def _rotation_blocks(self) -> tuple[int, ...]:
+        """The first coordinate of each rotation vector (a ball's, a free joint's last three): where B(q) ≠ I."""
+        return tuple(self.layout.first[j] + (3 if joint.kind == FREE else 0)
+                     for j, joint in enumerate(self.tree.joints) if joint.kind in (BALL, FREE))
+
+    def _qvel(self, c: Array, x: Array, *, transpose: bool = False) -> Array:
+        """B(c) x (MuJoCo's qvel for x = q̇), or B(c)ᵀ x, without forming B: J_r(θ) on each rotation vector's
+        block, the identity elsewhere."""
+        if not self._rotation_blocks:
+            return x
+        out = np.array(x, dtype=np.result_type(c.dtype, x.dtype))
+        for k in self._rotation_blocks:
+            jr = right_jacobian(c[..., k:k + 3])
+            if transpose:
+                jr = np.swapaxes(jr, -1, -2)
+            out[..., k:k + 3] = (jr @ x[..., k:k + 3, None])[..., 0]
+        return out
 
     def mass_and_forcing(self, q: Array, qd: Array) -> tuple[Array, Array]:
         """M(q) and F(q, q̇) from one batched evaluation: the real configuration, q + i h q̇ (for Ṁ q̇ = d/dt ∂T/∂q̇
         at q̈ = 0), and q + i h e_k (for ∂L/∂q_k)."""
         q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
-        n = self.tree.n
+        n = self.n
         directions = np.concatenate([np.zeros_like(qd)[..., None, :], qd[..., None, :],
                                      np.broadcast_to(np.eye(n), (*q.shape[:-1], n, n))], axis=-2)
         c = self._perturbed(q, directions)
         pose = forward(self.tree, self.layout, c)
-        momentum, kinetic, (_, lin, ang, inertia) = self._momentum_and_kinetic(c, qd, pose)
+        momentum, kinetic = self._momentum_and_kinetic(c, qd, pose)
         mdot_qd = momentum[..., 1, :].imag / STEP
         potential = self._potential(pose, c)
         dl_dq = (kinetic[..., 2:] - potential[..., 2:]).imag / STEP
-        lin0, ang0, inertia0 = lin[..., 0, :, :, :].real, ang[..., 0, :, :, :].real, inertia[..., 0, :, :, :].real
-        m = self._bodies["mass"]
-        b = velocity_map(self.tree, self.layout, q)
-        mass = (np.einsum("b,...bik,...bil->...kl", m, lin0, lin0)
-                + np.einsum("...bik,...bij,...bjl->...kl", ang0, inertia0, ang0)
-                + np.einsum("...ik,i,...il->...kl", b, self._armature, b))
-        return mass, self._applied(q, qd, lin0) - mdot_qd + dl_dq
+        real = Pose(*(x[..., 0, :, :] if x.ndim == pose.origin.ndim else x[..., 0, :, :, :] for x in
+                      (pose.origin, pose.rotation, pose.axes, pose.anchors, pose.shifts)))
+        _, lin, ang, inertia = self._com_jacobians(real)
+        lin0, ang0, inertia0 = lin.real, ang.real, inertia.real
+        return self._mass_from(q, lin0, ang0, inertia0), self._applied(q, qd, lin0) - mdot_qd + dl_dq
 
     def forcing(self, q: Array, qd: Array) -> Array:
         return self.mass_and_forcing(q, qd)[1]

@@ -41,6 +41,11 @@ class Layout:
         return tuple(int(s) for s in starts[:-1])
 
     @cached_property
+    def n(self) -> int:
+        """The number of coordinates (the tree's, computed once)."""
+        return self.tree.n
+
+    @cached_property
     def moves(self) -> np.ndarray:
         """(nbodies, n) boolean: coordinate k moves body b."""
         tree = self.tree
@@ -64,6 +69,21 @@ class Layout:
         k = skew(axes)
         charts = np.array([quat_to_mat(j.chart) for j in self.tree.joints])
         return k, k @ k, charts
+
+    @cached_property
+    def hinges(self) -> np.ndarray:
+        """The indices of the hinge joints."""
+        return np.array([j for j, joint in enumerate(self.tree.joints) if joint.kind == HINGE], dtype=int)
+
+    @cached_property
+    def hinge_coordinates(self) -> np.ndarray:
+        """Each hinge's coordinate, in :attr:`hinges` order."""
+        return np.array([self.first[j] for j in self.hinges], dtype=int)
+
+    @cached_property
+    def hinge_refs(self) -> np.ndarray:
+        """Each hinge's ``ref`` (its coordinate where the body sits at its frame), in :attr:`hinges` order."""
+        return np.array([self.tree.joints[j].ref for j in self.hinges], dtype=float)
 
     @cached_property
     def body_of_coordinate(self) -> np.ndarray:
@@ -100,13 +120,19 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
     q = np.asarray(q)
     batch = q.shape[:-1]
     dtype = np.result_type(q.dtype, float)
-    nb, n = len(tree.bodies), tree.n
+    nb, n = len(tree.bodies), layout.n
     origin = np.zeros((*batch, nb, 3), dtype=dtype)
     rotation = np.zeros((*batch, nb, 3, 3), dtype=dtype)
     axes = np.zeros((*batch, n, 3), dtype=dtype)
     anchors = np.zeros((*batch, n, 3), dtype=dtype)
     shifts = np.zeros((*batch, n, 3), dtype=dtype)
     skews, squares, charts = layout.joint_constants
+    hinges = layout.hinges
+    if hinges.size:  # every hinge's rotation at once (Rodrigues), not one joint at a time
+        angle = q[..., layout.hinge_coordinates] - layout.hinge_refs
+        turns = (np.eye(3) + np.sin(angle)[..., None, None] * skews[hinges]
+                 + (1 - np.cos(angle))[..., None, None] * squares[hinges])
+        turn_of = {int(j): i for i, j in enumerate(hinges)}
     for b, body in enumerate(tree.bodies):
         if body.parent >= 0:
             p_par, r_par = origin[..., body.parent, :], rotation[..., body.parent, :, :]
@@ -119,13 +145,12 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
             k = layout.first[j]
             x = _split(q, layout, j)
             if joint.kind == HINGE:
-                anchor = p + r @ joint.pos
+                centred = not np.any(joint.pos)  # at the body's origin (most hinges): the origin stays put
+                anchor = p if centred else p + r @ joint.pos
                 axes[..., k, :] = r @ joint.axis
                 anchors[..., k, :] = anchor
-                angle = x[..., 0] - joint.ref
-                r = r @ (np.eye(3) + np.sin(angle)[..., None, None] * skews[j]
-                         + (1 - np.cos(angle))[..., None, None] * squares[j])
-                p = anchor - r @ joint.pos
+                r = r @ turns[..., turn_of[j], :, :]
+                p = anchor if centred else anchor - r @ joint.pos
             elif joint.kind == SLIDE:
                 shifts[..., k, :] = r @ joint.axis
                 p = p + shifts[..., k, :] * (x[..., 0] - joint.ref)[..., None]
@@ -170,14 +195,11 @@ def velocity_map(tree: Tree, layout: Layout, q: Array) -> Array:
     """B(q), (..., n, n): MuJoCo's qvel = B(q) q̇ (identity for hinges and slides, J_r(θ) on a ball's
     and a free joint's rotation vector)."""
     q = np.asarray(q)
-    out = np.zeros((*q.shape[:-1], tree.n, tree.n), dtype=np.result_type(q.dtype, float))
+    n = layout.n
+    out = np.zeros((*q.shape[:-1], n, n), dtype=np.result_type(q.dtype, float))
+    out[..., np.arange(n), np.arange(n)] = 1.0
     for j, joint in enumerate(tree.joints):
-        k = layout.first[j]
-        if joint.kind in (HINGE, SLIDE):
-            out[..., k, k] = 1.0
-        elif joint.kind == BALL:
+        if joint.kind in (BALL, FREE):
+            k = layout.first[j] + (3 if joint.kind == FREE else 0)
             out[..., k:k + 3, k:k + 3] = right_jacobian(q[..., k:k + 3])
-        else:
-            out[..., k:k + 3, k:k + 3] = np.eye(3)
-            out[..., k + 3:k + 6, k + 3:k + 6] = right_jacobian(q[..., k + 3:k + 6])
     return out
