@@ -46,7 +46,7 @@ from harness.engine.models import compile_model
 from harness.pipeline.pool import run_tasks
 from harness.reference.tree import prepare, uncovered
 from harness.studies.engine_faults import CLAIMED, FAULTS, SIZES, UNITS, Caught, smallest_caught
-from harness.studies.injection import Injection, smallest_injection
+from harness.studies.injection import SIZES_SEARCHED, Injection, smallest_injection
 
 PASS, FAIL, REFUSED, CRASHED, UNFINISHED = "pass", "fail", "refused", "crashed", "unfinished"
 EXIT = {PASS: 0, FAIL: 1, REFUSED: 2, CRASHED: 2, UNFINISHED: None}
@@ -546,8 +546,8 @@ def zoo_markdown(z: ZooRun) -> str:
                   "The engine's model gets a force that feeds energy in, f = c q̇ on the hinge or slide carrying the "
                   "most mass with c = s × M_jj √(g/L), and the balance's accounts leave its work out "
                   "(harness/studies/injection.py): to the work–energy balance it is energy from nothing. Each cell: "
-                  f"the smallest s caught in a bisection over the decades {SIZES[0]:g} … {SIZES[-1]:g} (RK4 and "
-                  "Euler), "
+                  f"the smallest s caught in a bisection over the decades {SIZES_SEARCHED[0]:g} … "
+                  f"{SIZES_SEARCHED[-1]:g} (RK4 and Euler), "
                   "the energy it fed in over the horizon against the peak kinetic energy and against m g L, and the "
                   "check that caught it.", "", "| model | joint | smallest injection caught | seconds |",
                   "|---|---|---|---:|"]

@@ -10,7 +10,7 @@ timestep, its impacts, how well h, h/2, h/4 resolve them), so it is measured per
   the sign that feeds energy in: a negative damper of s times the model's natural rate);
 - MuJoCo applies it through an actuator, whose work the accounts then leave out (:func:`unaccounted`): to the
   balance it is energy from nothing, as a force missing from MuJoCo's reports or an integrator's defect would be;
-- :func:`smallest_injection` bisects s over the decades of :data:`~harness.studies.engine_faults.SIZES`: caught
+- :func:`smallest_injection` bisects s over the decades :data:`SIZES_SEARCHED`: caught
   where a balance check fails that passes without it, on the integrators given; the size is reported with the
   energy injected over the horizon at that s, against the model's energy scale and its peak kinetic energy.
 """
@@ -41,6 +41,9 @@ from harness.studies.engine_faults import SIZES, bisect_decades, damping_scale
 INJECTOR = "mjharness_injection"
 """The name of the actuator that injects the energy (added last: the model's own actuators keep their indices)."""
 INTEGRATORS = ("RK4", "Euler")
+SIZES_SEARCHED = (10.0, 1.0, *SIZES)
+"""The decades of s searched, largest first: from 10 (a negative damper ten times the model's natural rate, which on a
+joint that barely moves may still feed in little) down to the engine faults' 1e-13."""
 """RK4 resolves the smallest balances; Euler's is judged where RK4's impacts leave its balance not judged."""
 
 Edit = Callable[[mujoco.MjSpec], None]
@@ -130,7 +133,7 @@ class Injection:
         if self.size is None:
             return f"n/a ({self.note})"
         if math.isnan(self.size):
-            return f"> {SIZES[0]:g}" + (f" ({self.note})" if self.note else "")
+            return f"> {SIZES_SEARCHED[0]:g}" + (f" ({self.note})" if self.note else "")
         floor = "≤ " if self.size <= SIZES[-1] else ""
         return (f"{floor}{self.size:.0e}: {self.of_kinetic:.1e} of the peak kinetic energy, {self.of_scale:.1e} of "
                 f"m g L ({self.deciding})")
@@ -167,10 +170,15 @@ def smallest_injection(path: Path | str, *, name: str | None = None, horizon: fl
         new = {k: r for k, r in failing(s * scale).items() if k not in already}
         return max(new, key=new.get) if new else ""
 
-    size, deciding, runs = bisect_decades(detects)
+    size, deciding, runs = bisect_decades(detects, SIZES_SEARCHED)
     note = f"fails without an injection: {', '.join(sorted(already))}" if already else ""
-    if math.isnan(size):
-        return Injection(name, joint, size, note=note, runs=runs + 1, seconds=time.perf_counter() - clock)
+    if math.isnan(size):  # not caught even at the largest: say how much energy that fed in
+        energy, peak = _injected(path, compose(as_is, injector(joint, SIZES_SEARCHED[0] * scale)), binding,
+                                 q0=ref.q0(), qd0=ref.qd0(), horizon=case.horizon)
+        missed = (f"at s = {SIZES_SEARCHED[0]:g} it fed in {energy / peak if peak > 0 else math.inf:.1e} of the peak "
+                  f"kinetic energy, {energy / ref.scales.energy:.1e} of m g L")
+        return Injection(name, joint, size, note="; ".join(n for n in (missed, note) if n), runs=runs + 1,
+                         seconds=time.perf_counter() - clock)
     rate = size * scale
     energy, peak = _injected(path, compose(as_is, injector(joint, rate)), binding, q0=ref.q0(), qd0=ref.qd0(),
                              horizon=case.horizon)
