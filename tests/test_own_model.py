@@ -390,3 +390,33 @@ def test_the_check_output_says_what_the_tree_covered_and_what_only_the_balance_j
     assert "pendulum" not in text  # a hand-derived case has no tree to speak of
     assert all(len(line) <= 100 for line in text.splitlines())
     assert coverage_block({"pendulum": None}, 100) == ""
+
+
+SYRUP = """
+<mujoco model="syrup">
+  <option timestep="0.01" viscosity="10"/>
+  <worldbody>
+    <body name="arm">
+      <joint name="swing" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.02" mass="1"/>
+      <body name="bead" pos="0.5 0 0">
+        <joint name="spin" type="hinge" axis="0 0 1"/>
+        <geom type="sphere" size="0.05" mass="0.001"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_balance_run_that_diverges_fails_rather_than_vanishing(tmp_path):
+    """A 1 g bead in a viscous fluid at h = 10 ms: the drag's rate (6πμr/m ≈ 9e3/s) is far past explicit stability, so
+    the model as it is (fluid acting) diverges, while the comparison with the tree (fluid off) runs. The balance's own
+    run diverging left no figure and, a tree case's limits coming from its figures, no check: the gate passed."""
+    path = tmp_path / "syrup.xml"
+    path.write_text(SYRUP)
+    v = harness.validate(mjcf=path, integrators=["RK4"], horizon=0.2)
+    assert "fluid forces" in v.settings["tree"]["not examined"]
+    check = v.check("RK4.balance")
+    assert not check.passed and check.diverged.startswith("diverged: mjWARN_BADQACC"), check
+    assert not v.passed

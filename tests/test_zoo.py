@@ -232,14 +232,17 @@ def test_the_zoo_report_lists_each_models_smallest_injection():
 @pytest.mark.parametrize("name", ["dm_control/manipulator", "dm_control/stacker"])
 def test_the_stiff_arms_reach_a_verdict(name):
     """Issue 29: the two arms whose finger links' damping (M⁻¹D up to 2.4e5/s) DOP853 could not follow within its bound
-    are solved by Radau IIA and judged, not refused. stacker passes; manipulator's tendon equality fails on Euler,
-    implicit and implicitfast where the budget's parts, measured from runs at h, h/2, h/4 that all leave the finger
-    mode unresolved (h λ ≥ 35), do not add up (docs/findings/zoo.md)."""
+    are solved by Radau IIA and judged, not refused. On both RK4 diverges at the model's step (explicit, h λ ≫ 2.8),
+    a failure that says so; manipulator's tendon equality also fails on Euler, implicit and implicitfast, where the
+    budget's parts, measured from runs at h, h/2, h/4 that all leave the finger mode unresolved (h λ ≥ 35), do not
+    add up (docs/findings/zoo.md)."""
     model = _model(name)
     v = harness.validate(mjcf=model.path)
     assert v.settings["tree"]["reference solver"].startswith("Radau IIA: stiff")
     assert "joint damping on light links" in v.settings["tree"]["reference solver"]
-    failed = {c.name for c in v.checks if not c.passed}
+    failed = {c.name: c for c in v.checks if not c.passed}
+    rk4 = {n for n in failed if n.startswith(("RK4.", "converge.RK4."))}
+    assert rk4 and all(failed[n].diverged for n in rk4)
     allowed = {f"{i}.{q}.coupling" for i in ("Euler", "implicit", "implicitfast") for q in ("force", "violation")}
-    assert failed <= allowed
-    assert bool(failed) == (name == "dm_control/manipulator")
+    assert set(failed) - rk4 <= allowed
+    assert bool(set(failed) - rk4) == (name == "dm_control/manipulator")

@@ -94,10 +94,14 @@ class CaseResult:
     @property
     def judged_names(self) -> list[str]:
         """Every figure the run measured, could not measure (n/a with why), or would have measured had its run not
-        diverged: a diverged integrator has no figure of its own, and where limits are made from the figures (a
-        model judged against its own tree) its checks would vanish with them, a silent pass. Its names are its
-        siblings' (the same quantities of every other integrator run), else those every run has."""
+        diverged (the balance's own runs, an instantaneous figure the model made unmeasurable, every figure of an
+        integrator whose run diverged). A diverged run has no figure of its own, and where limits are made from the
+        figures (a model judged against its own tree) its checks would vanish with them, a silent pass. A diverged
+        integrator's names are its siblings' (the same quantities of every other integrator run), else those every
+        run has."""
         names = [*(str(f.name) for f in self.figures), *self.unmeasured]
+        names += [k for k in self.diverged if "." in k and not k.startswith("budget.")  # a figure's own run diverged
+                  and not (k.startswith("converge.") and k.count(".") == 1)]  # (a ladder's key names no figure)
         lost = [k for k in self.diverged if "." not in k]  # the integrators whose run diverged
         if lost:
             kinds = {(f.layer, f.quantity, f.detail) for f in map(FigureName, names) if f.integrator}

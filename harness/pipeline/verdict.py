@@ -94,11 +94,12 @@ def judge(result: CaseResult, limits: Mapping[str, Limit]) -> list[Check]:
 
 def diverged_run(name: str, diverged: Mapping[str, str]) -> str:
     """Why the figure ``name`` was not measured where the run it comes from diverged ('' otherwise): its
-    integrator's run over the horizon (key ``INTEGRATOR``) or, for an order, that run or its ladder's
-    (``converge.INTEGRATOR``); an instantaneous figure the model made unmeasurable, by its own name."""
+    integrator's run over the horizon (key ``INTEGRATOR``) or a run of the figure's own (the balance's, by its
+    name) or, for an order, that run or its ladder's (``converge.INTEGRATOR``); an instantaneous figure the model
+    made unmeasurable, by its own name."""
     figure = FigureName(name)
-    if figure.layer == "trajectory":
-        return diverged.get(figure.integrator, "")
+    if figure.layer == "trajectory":  # its integrator's run, or a run of its own (the balance's model as it is)
+        return diverged.get(figure.integrator, "") or diverged.get(name, "")
     if figure.layer == "converge":
         return diverged.get(figure.integrator, "") or diverged.get(f"converge.{figure.integrator}", "")
     return diverged.get(name, "")
