@@ -220,11 +220,13 @@ def test_the_zoo_report_lists_each_models_smallest_injection():
 
     run = zoo.ZooRun(results=(), injections=(
         Injection("dm_control/acrobot", "shoulder", 1e-7, 3e-7, "RK4.balance", 1e-6, 2.2e-7, 3.0e-7),
-        Injection("x/bare", None, None, note="no hinge or slide")))
+        Injection("x/bare", None, None, note="no hinge or slide"),
+        Injection("x/blown", "ballx", 10.0, 1.0, "RK4.balance", note="its run diverged: mjWARN_BADQVEL at t = 0.9 s")))
     text = zoo.zoo_markdown(run)
     assert "| dm_control/acrobot | shoulder | 1e-07: 3.0e-07 of the peak kinetic energy, 2.2e-07 of m g L " \
            "(RK4.balance) |" in text
     assert "| x/bare | - | n/a (no hinge or slide) |" in text
+    assert "| x/blown | ballx | 1e+01 (RK4.balance; its run diverged: mjWARN_BADQVEL at t = 0.9 s) |" in text
     assert zoo.zoo_json(run)["injections"][0]["deciding"] == "RK4.balance"
 
 

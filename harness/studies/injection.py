@@ -27,6 +27,7 @@ import mujoco
 import numpy as np
 
 from harness.cases.own import from_mjcf
+from harness.core.errors import SimulationDiverged
 from harness.engine.backends import Request, simulate_many
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
@@ -135,6 +136,8 @@ class Injection:
         if math.isnan(self.size):
             return f"> {SIZES_SEARCHED[0]:g}" + (f" ({self.note})" if self.note else "")
         floor = "≤ " if self.size <= SIZES[-1] else ""
+        if math.isnan(self.energy):
+            return f"{floor}{self.size:.0e} ({self.deciding}; {self.note})"
         return (f"{floor}{self.size:.0e}: {self.of_kinetic:.1e} of the peak kinetic energy, {self.of_scale:.1e} of "
                 f"m g L ({self.deciding})")
 
@@ -173,17 +176,24 @@ def smallest_injection(path: Path | str, *, name: str | None = None, horizon: fl
     size, deciding, runs = bisect_decades(detects, SIZES_SEARCHED)
     note = f"fails without an injection: {', '.join(sorted(already))}" if already else ""
     if math.isnan(size):  # not caught even at the largest: say how much energy that fed in
-        energy, peak = _injected(path, compose(as_is, injector(joint, SIZES_SEARCHED[0] * scale)), binding,
-                                 q0=ref.q0(), qd0=ref.qd0(), horizon=case.horizon)
-        missed = (f"at s = {SIZES_SEARCHED[0]:g} it fed in {energy / peak if peak > 0 else math.inf:.1e} of the peak "
-                  f"kinetic energy, {energy / ref.scales.energy:.1e} of m g L")
+        try:
+            energy, peak = _injected(path, compose(as_is, injector(joint, SIZES_SEARCHED[0] * scale)), binding,
+                                     q0=ref.q0(), qd0=ref.qd0(), horizon=case.horizon)
+            missed = (f"at s = {SIZES_SEARCHED[0]:g} it fed in {energy / peak if peak > 0 else math.inf:.1e} of the "
+                      f"peak kinetic energy, {energy / ref.scales.energy:.1e} of m g L")
+        except SimulationDiverged as exc:  # the model's own integrator could not carry that much
+            missed = f"at s = {SIZES_SEARCHED[0]:g} its run at the model's own integrator {exc.reason}"
         return Injection(name, joint, size, note="; ".join(n for n in (missed, note) if n), runs=runs + 1,
                          seconds=time.perf_counter() - clock)
     rate = size * scale
-    energy, peak = _injected(path, compose(as_is, injector(joint, rate)), binding, q0=ref.q0(), qd0=ref.qd0(),
-                             horizon=case.horizon)
+    try:
+        energy, peak = _injected(path, compose(as_is, injector(joint, rate)), binding, q0=ref.q0(), qd0=ref.qd0(),
+                                 horizon=case.horizon)
+    except SimulationDiverged as exc:  # caught because it blew the run up: no energy to tell
+        note = "; ".join(n for n in (f"its run at the model's own integrator {exc.reason}", note) if n)
+        energy, peak = math.nan, math.nan
     return Injection(name, joint, size, rate, deciding, energy, energy / ref.scales.energy,
-                     energy / peak if peak > 0 else math.inf, note, runs + 1, time.perf_counter() - clock)
+                     energy / peak if peak > 0 else math.nan, note, runs + 1, time.perf_counter() - clock)
 
 
 def _injected(path: Path, edit: Edit, binding, *, q0: np.ndarray, qd0: np.ndarray, horizon: float
