@@ -37,7 +37,7 @@ from harness.engine.variants import compose
 from harness.layers.balance import POWER, POWER_FIELDS, balance_figures, cumulative_work
 from harness.layers.orders import EXPECTED_ORDER
 from harness.reference.tree import TreeEdit, prepare
-from harness.studies.engine_faults import SIZES, bisect_decades, damping_scale
+from harness.studies.engine_faults import SIZES, bisect_decades, damping_scale, sized, unsized_cell
 
 INJECTOR = "mjharness_injection"
 """The name of the actuator that injects the energy (added last: the model's own actuators keep their indices)."""
@@ -127,19 +127,12 @@ class Injection:
     unfinished: str = ""
 
     def cell(self) -> str:
-        if self.crashed:
-            return f"crashed ({self.crashed})"
-        if self.unfinished:
-            return f"unfinished ({self.unfinished})"
-        if self.size is None:
-            return f"n/a ({self.note})"
-        if math.isnan(self.size):
-            return f"> {SIZES_SEARCHED[0]:g}" + (f" ({self.note})" if self.note else "")
-        floor = "≤ " if self.size <= SIZES[-1] else ""
+        if unsized := unsized_cell(self, largest=SIZES_SEARCHED[0]):
+            return unsized
         if math.isnan(self.energy):
-            return f"{floor}{self.size:.0e} ({self.deciding}; {self.note})"
-        return (f"{floor}{self.size:.0e}: {self.of_kinetic:.1e} of the peak kinetic energy, {self.of_scale:.1e} of "
-                f"m g L ({self.deciding})")
+            return f"{sized(self.size)} ({self.deciding}; {self.note})"
+        return (f"{sized(self.size)}: {self.of_kinetic:.1e} of the peak kinetic energy, {self.of_scale:.1e} of m g L "
+                f"({self.deciding})")
 
 
 def smallest_injection(path: Path | str, *, name: str | None = None, horizon: float | None = None,
