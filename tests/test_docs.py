@@ -134,6 +134,7 @@ def test_a_bash_block_only_installs(block):
                                                       "show a command as a console block, which this test runs"
 
 
+@pytest.mark.slow  # runs the guide's commands, each a whole check: with the slow tests, which CI runs
 @pytest.mark.parametrize("block", of("console"))
 def test_console_example(block):
     for command, want in sessions(block.text):
@@ -146,6 +147,7 @@ def test_console_example(block):
         compare(got, want, f"{block.id}: `{command}`")
 
 
+@pytest.mark.slow  # runs the guide's commands, each a whole check: with the slow tests, which CI runs
 @pytest.mark.parametrize("block", of("pycon"))
 def test_python_session(block, monkeypatch):
     monkeypatch.chdir(ROOT)
@@ -164,6 +166,7 @@ class _AnyOutput(doctest.OutputChecker):
         return True
 
 
+@pytest.mark.slow  # runs the guide's commands, each a whole check: with the slow tests, which CI runs
 @pytest.mark.parametrize("block", of("python"))
 def test_pytest_example(block, tmp_path):
     first = block.text.splitlines()[0]

@@ -66,6 +66,7 @@ def _installed(example: Path, site: Path) -> None:
 
 
 # ------------------------------------------------------------------ the CLI
+@pytest.mark.slow  # a whole check or pytest run from outside the repository; the gate's both directions stay fast
 def test_list_and_check_find_a_users_system_in_its_directory(example):
     listed = _cli("list", "--systems", "own_system/mjharness_cartpole", cwd=example.parent)
     assert listed.returncode == 0 and CASE in listed.stdout.split(), listed
@@ -89,6 +90,7 @@ def test_a_fault_in_a_users_model_fails_the_gate(example):
     _passed(_cli("check", "--systems", str(example / PACKAGE), "--case", CASE, "-j", "1", "-q", cwd=example))
 
 
+@pytest.mark.slow  # a whole check or pytest run from outside the repository; the gate's both directions stay fast
 def test_an_installed_package_is_found_through_its_entry_point(example, tmp_path):
     site = tmp_path / "site"
     _installed(example, site)
@@ -123,6 +125,7 @@ def test_a_users_case_without_a_limits_file_is_judged_by_the_default_rule(exampl
     assert {"instant.qacc", "RK4.position", "RK4.drift.energy"} <= judged and result.passed, judged
 
 
+@pytest.mark.slow  # a whole check or pytest run from outside the repository; the gate's both directions stay fast
 def test_the_pytest_fixture_finds_systems_from_its_ini_option_and_the_test_file(example):
     """A user's own suite: the ini option's directory (relative to the ini file), and ``systems=`` relative to
     the test file."""
