@@ -588,3 +588,16 @@ def test_a_worker_killed_under_the_run_is_one_line_and_exit_2(monkeypatch, capsy
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "a worker process died" in err[0] and "-j 1" in err[0], err
     assert not out.exists()
+
+
+def test_a_case_whose_scales_vanish_is_refused_in_one_line(tmp_path, capsys):
+    """The pendulum with gravity off has no force, energy or momentum scale (m g, m g l, m √(g l) l), which every
+    relative figure divides by: it was an internal error (ZeroDivisionError), found by tests/test_properties.py."""
+    from harness import cases
+
+    path = tmp_path / "weightless.xml"
+    path.write_text(cases.get("pendulum").mjcf.read_text().replace('gravity="0 0 -9.81"', 'gravity="0 0 0"'))
+    assert main(["check", "--case", "pendulum", "--mjcf", str(path), "--integrators", "RK4"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("mjharness: error: case 'pendulum' has no force or energy or momentum scale") and \
+        err.count("\n") == 1 and "--mjcf FILE" in err, err

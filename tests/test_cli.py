@@ -510,7 +510,7 @@ def test_run_writes_complete_deterministic_report(tmp_path, cached_runs, capsys)
     assert main(["run", CASE, "--out", str(out2)]) == 0
     assert ET.parse(tmp_path / "junit.xml").getroot().get("failures") == "0"
     names = sorted(p.relative_to(out1).as_posix() for p in out1.rglob("*") if p.is_file())
-    assert names == [f"cases/{CASE}.html", "report.html", "report.json", "summary.md"]
+    assert names == ["audit.html", f"cases/{CASE}.html", "report.html", "report.json", "studies.html", "summary.md"]
     for name in names:
         assert (out1 / name).read_bytes() == (out2 / name).read_bytes(), name
     doc = json.loads((out1 / "report.json").read_text())

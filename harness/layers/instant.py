@@ -427,8 +427,9 @@ def _deviations(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarr
                          description, scale=_scale(expected, vector=vector, physical=physical))
 
     sc = ref.scales  # the physical scales of each relative figure: g = L (E/p)², ω₀² = (E/p)²
-    rate = (sc.energy / sc.momentum) ** 2
-    physical = {"kinetic_energy": sc.energy, "point_acceleration": sc.length * rate, "mass_matrix": sc.energy / rate,
+    rate = (sc.energy / sc.momentum) ** 2 if sc.momentum > 0 else 0.0  # 0 (no floor) where no gravity sets a scale
+    physical = {"kinetic_energy": sc.energy, "point_acceleration": sc.length * rate,
+                "mass_matrix": sc.energy / rate if rate > 0 else 0.0,
                 "forcing": min(sc.force, sc.energy), "qacc": min(rate, sc.length * rate),
                 "generalized_force": min(sc.force, sc.energy)}
 

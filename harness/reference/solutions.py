@@ -102,6 +102,12 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
         params = params_of(system, model)
         dyn = dynamics(system, params)
         scales, identity = module.scales(params), ""
+        vanished = [f.name for f in dataclasses.fields(scales) if not getattr(scales, f.name) > 0]
+        if vanished:  # every relative figure divides by them: such a model is not this case's system
+            raise ModelError(f"case {system!r} has no {' or '.join(vanished)} scale at the model's parameters "
+                             f"({', '.join(f'{k} = {v:g}' for k, v in params.items())}): its figures have nothing to "
+                             "be relative to (gravity off?); accepted: a model with the case's scales, or the model "
+                             "alone with no case (--mjcf FILE), judged against its own tree")
     asked_q = ordered(q0, dyn.coordinates, "q0")
     asked_qd = ordered(qd0, dyn.coordinates, "qd0")
     q, qd = project(dyn, asked_q, asked_qd)
