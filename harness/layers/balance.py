@@ -136,6 +136,12 @@ def attribute(residual: np.ndarray, works: Mapping[str, np.ndarray]) -> str:
     return "the unexplained energy follows no force's work: it comes from no force MuJoCo reports (a kick, a defect)"
 
 
+def _works(run, h: float, energy_scale: float) -> dict[str, np.ndarray]:
+    """Each force group's work over ``run`` (recorded beside the balance), on the energy scale: what
+    :func:`attribute` sets an unexplained residual against."""
+    return {k: cumulative_work(run.series[f"force {i}"], h) / energy_scale for i, k in enumerate(FORCES)}
+
+
 def observed_order(levels: Sequence[np.ndarray], documented: float) -> float:
     """The order at which a balance converges over h, h/2, h/4 (``levels``), from its two differences, clamped to
     [1, ``documented``]: a contact's or a limit's onset is not smooth in time, and the balance across it converges
@@ -199,11 +205,9 @@ def balance_figures(path, edit: Callable[[mujoco.MjSpec], None] | None, binding,
                            f"the timestep does not resolve), yet at h, h/2 and h/4 alike it stays at least "
                            f"{np.min(np.abs(levels), axis=0)[at]:.3g} of the energy scale, {UNRESOLVED_SPREAD:g} × its "
                            f"largest change between them ({spread[at]:.2g}) removed",))
-                works = {k: cumulative_work(runs[0].series[f"force {i}"], h) / energy_scale
-                         for i, k in enumerate(FORCES)}
                 text = (f"max |E(t) − E(0) − ∫ P dt| / energy scale ({energy_scale:.4g} J) of the model as it is; at "
                         f"every h it stays {floor[at]:.3g} above what any convergence in h explains, at t = "
-                        f"{at * h:.3g} s; {attribute(levels[0], works)}")
+                        f"{at * h:.3g} s; {attribute(levels[0], _works(runs[0], h, energy_scale))}")
                 figures.append(Figure(name=fig, value=measured, unit="1", description=text))
                 continue
             unresolved[str(fig)] = (f"not judged: the balance at h, h/2, h/4 is no expansion in h (its next-order term "
@@ -220,9 +224,7 @@ def balance_figures(path, edit: Callable[[mujoco.MjSpec], None] | None, binding,
             continue
         blame = ""
         if not budgets[str(fig)].passed:  # name the force whose work the unexplained energy follows, if one does
-            works = {k: cumulative_work(runs[0].series[f"force {i}"], h) / energy_scale
-                     for i, k in enumerate(FORCES)}
-            blame = "; " + attribute(ideal, works)
+            blame = "; " + attribute(ideal, _works(runs[0], h, energy_scale))
         figures.append(Figure(name=fig, value=measured, unit="1",
                               description=f"max |E(t) − E(0) − ∫ P dt| / energy scale ({energy_scale:.4g} J) of the "
                                           f"model as it is; the unexplained residual peaks at t = "
