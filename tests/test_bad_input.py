@@ -590,14 +590,30 @@ def test_a_worker_killed_under_the_run_is_one_line_and_exit_2(monkeypatch, capsy
     assert not out.exists()
 
 
-def test_a_case_whose_scales_vanish_is_refused_in_one_line(tmp_path, capsys):
+@pytest.mark.parametrize("gravity", ["0 0 0", "0 0 9.81"], ids=["off", "reversed"])
+def test_a_case_whose_scales_vanish_is_refused_in_one_line(gravity, tmp_path, capsys):
     """The pendulum with gravity off has no force, energy or momentum scale (m g, m g l, m √(g l) l), which every
-    relative figure divides by: it was an internal error (ZeroDivisionError), found by tests/test_properties.py."""
+    relative figure divides by: it was an internal error (ZeroDivisionError), found by tests/test_properties.py;
+    reversed, its scales are negative and √(g l) complex (a TypeError, found by the same test)."""
     from harness import cases
 
     path = tmp_path / "weightless.xml"
-    path.write_text(cases.get("pendulum").mjcf.read_text().replace('gravity="0 0 -9.81"', 'gravity="0 0 0"'))
+    path.write_text(cases.get("pendulum").mjcf.read_text().replace('gravity="0 0 -9.81"', f'gravity="{gravity}"'))
     assert main(["check", "--case", "pendulum", "--mjcf", str(path), "--integrators", "RK4"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("mjharness: error: case 'pendulum' has no force or energy or momentum scale") and \
-        err.count("\n") == 1 and "--mjcf FILE" in err, err
+    assert err.startswith("mjharness: error: case 'pendulum' has no positive, finite force or energy or momentum "
+                          "scale") and err.count("\n") == 1 and "--mjcf FILE" in err, err
+
+
+def test_a_tree_whose_scales_overflow_is_refused_in_one_line(tmp_path, capsys):
+    """A model alone keeps 9.81 m/s² as its scale where gravity is off, but a gravity beyond floating point
+    (|g| = inf) leaves no finite scale to divide by."""
+    from harness import cases
+
+    path = tmp_path / "overflow.xml"
+    path.write_text(cases.get("pendulum").mjcf.read_text().replace('gravity="0 0 -9.81"',
+                                                                   'gravity="1e308 1e308 1e308"'))
+    assert main(["check", "--mjcf", str(path), "--integrators", "RK4"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("mjharness: error: the model's force or energy or momentum scale is not finite") and \
+        err.count("\n") == 1, err

@@ -77,6 +77,11 @@ _seeds: dict[tuple, tuple[float, float, int, object, str, str]] = {}
 _exported: set[tuple] = set()
 
 
+def _usable(scale: object) -> bool:
+    """A scale a relative figure can divide by: a positive, finite real (a reversed gravity makes √(g l) complex)."""
+    return isinstance(scale, (int, float, np.floating)) and bool(np.isfinite(scale)) and scale > 0
+
+
 def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, float], qd0: Mapping[str, float],
                     horizon: float, rtol: float = DEFAULT_RTOL, t_end: float | None = None,
                     tree: TreeSystem | None = None) -> Reference:
@@ -102,12 +107,15 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
         params = params_of(system, model)
         dyn = dynamics(system, params)
         scales, identity = module.scales(params), ""
-        vanished = [f.name for f in dataclasses.fields(scales) if not getattr(scales, f.name) > 0]
-        if vanished:  # every relative figure divides by them: such a model is not this case's system
-            raise ModelError(f"case {system!r} has no {' or '.join(vanished)} scale at the model's parameters "
-                             f"({', '.join(f'{k} = {v:g}' for k, v in params.items())}): its figures have nothing to "
-                             "be relative to (gravity off?); accepted: a model with the case's scales, or the model "
-                             "alone with no case (--mjcf FILE), judged against its own tree")
+    vanished = [f.name for f in dataclasses.fields(scales) if not _usable(getattr(scales, f.name))]
+    if vanished:  # every relative figure divides by them: such a model is not this case's system
+        if tree is not None:  # a tree keeps its scales where gravity is off; only an overflowing one loses them
+            raise ModelError(f"the model's {' or '.join(vanished)} scale is not finite (gravity or a mass beyond "
+                             "floating point?); accepted: a model whose masses, sizes and gravity are finite")
+        raise ModelError(f"case {system!r} has no positive, finite {' or '.join(vanished)} scale at the model's "
+                         f"parameters ({', '.join(f'{k} = {v:g}' for k, v in params.items())}): its figures have "
+                         "nothing to be relative to (gravity off or reversed?); accepted: a model with the case's "
+                         "scales, or the model alone with no case (--mjcf FILE), judged against its own tree")
     asked_q = ordered(q0, dyn.coordinates, "q0")
     asked_qd = ordered(qd0, dyn.coordinates, "qd0")
     q, qd = project(dyn, asked_q, asked_qd)
