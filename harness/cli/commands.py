@@ -49,6 +49,7 @@ from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
 from harness.core.tables import terminal_width, wrap
 from harness.engine import backends, messages
 from harness.engine.integrators import available_integrators
+from harness.opinions import threeway
 from harness.outputs import baseline
 from harness.outputs.diff import diff_runs, format_diff, load_run, select
 from harness.outputs.files import (
@@ -140,9 +141,16 @@ def _trees(results: Sequence) -> dict[str, dict[str, str] | None]:
             for r in results}
 
 
+def _peers(results: Sequence) -> dict[str, dict | None]:
+    """Each case's three-way comparison (None where it did not run: a backend other than C)."""
+    return {r.case.name: r.settings.get("peers") for r in results}
+
+
 def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, written: str = "",
-                  trees: dict[str, dict[str, str] | None] | None = None) -> None:
-    """After the cases' lines: what each model's own tree covered (``trees``), every check as a table
+                  trees: dict[str, dict[str, str] | None] | None = None,
+                  peers: dict[str, dict | None] | None = None) -> None:
+    """After the cases' lines: what each model's own tree covered (``trees``), the second opinions' summary
+    (``peers``: each case's three-way comparison, :func:`harness.opinions.threeway.summary`), every check as a table
     (``verbose``), each failed check with its budget, the requirements judged, ``written`` (what was
     written), and the verdict line last (and the requirements' line, where stated); ``quiet``: the
     failures and the verdict only. All but the table and the verdict's lines fit the terminal
@@ -152,6 +160,8 @@ def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, writt
     fitness = fitness_table(outcome)
     coverage = coverage_block(trees or {}, width)
     parts = [coverage] if coverage and not quiet else []
+    opinions = "\n".join(line for text in threeway.summary(peers or {}) for line in wrap(text, width))
+    parts += [opinions] if opinions and not quiet else []
     parts += [checks_table(outcome.checks)] if verbose and not quiet else []
     parts += [failures] if failures else []
     parts += [fitness] if fitness and not quiet else []
@@ -401,6 +411,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     # the report and its JUnit, all or none, and an earlier report's pages this one has not removed with them
     paths = write_atomic(files | _junit(args.junit, outcome), remove=superseded(args.out, files))
     _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
+                  peers=_peers(results),
                   written=f"wrote in {time.perf_counter() - start:.1f} s: {_written(args.out, paths)}")
     return outcome.exit_code
 
@@ -439,7 +450,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     if args.json:
         sys.stdout.write(dumps(json_doc(results, outcome)))
     else:
-        _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results))
+        _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
+                      peers=_peers(results))
     return outcome.exit_code
 
 

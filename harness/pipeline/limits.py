@@ -55,6 +55,7 @@ from harness.cases import Case, all_cases, did_you_mean
 from harness.core.errors import ConfigError
 from harness.core.figures import FigureName
 from harness.layers.orders import ORDER_TOLERANCE
+from harness.opinions import threeway
 from harness.pipeline.require import Requirement, from_config
 
 Basis = Literal["budget", "theory", "user"]
@@ -245,16 +246,26 @@ class Limits:
         return self.for_case(case).get(figure)
 
 
+def peer_limit() -> Limit:
+    """The theory limit every ``instant.peer.*`` figure is judged by (:mod:`harness.opinions.threeway`)."""
+    return Limit("theory", threeway.LIMIT, f"{threeway.LIMIT:g} ε cond(M): a backward-stable evaluation's "
+                                           "round-off (harness/opinions/threeway.py; docs/findings/peers.md)")
+
+
 def case_limits(limits: Limits, case: Case, figures: Iterable[str]) -> dict[str, Limit]:
-    """The limits ``case`` is judged by: its limits file's (with a user's overrides), or for a case without
+    """The limits ``case`` is judged by: the second opinions' theory limit on each ``instant.peer.*`` figure it
+    measured (:mod:`harness.opinions.threeway`), and its limits file's (with a user's overrides), or for a case without
     one (a model the user brings, judged against its own tree; a user's system whose limits are not written
     yet) the default rule's over the ``figures`` it measured or could not (give both: one it could not is then
     n/a with its reason, never absent), so that every figure the rule gates is judged, never none."""
+    figures = list(figures)
+    peers = {f: peer_limit() for f in figures if FigureName(f).quantity == "peer" and FigureName(f).layer == "instant"}
     if case.tree is None and case.name in limits.cases:
-        return limits.for_case(case.name)
-    names = [FigureName(f) for f in figures]
+        return peers | limits.for_case(case.name)
+    names = [FigureName(f) for f in figures if f not in peers]
     constrained = any(f.quantity in ("force", "violation") for f in names)
     out = dict(default_limits(case.name, [str(f) for f in names], constrained=constrained).limits)
+    out |= peers
     for name, value in limits.overrides.get(case.name, {}).items():
         out[name] = Limit("user", value, f"set by {limits.source}")
     return out

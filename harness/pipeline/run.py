@@ -49,6 +49,7 @@ from harness.layers.instant import engine_findings, instant_evaluation
 from harness.layers.orders import EXPECTED_ORDER, VERDICT_QUANTITY, convergence_study, order_figures
 from harness.layers.reference import reference_figures
 from harness.layers.trajectory import deviations
+from harness.opinions.threeway import three_way
 from harness.reference import derivations
 from harness.reference import solutions as refmod
 from harness.reference.tree import TreeEdit
@@ -371,6 +372,12 @@ def _run_case(
                               completed=instant.completed, completion_note=instant.completion_note)
     findings = tuple(engine_findings(instant_model, probe, ref))
     timings["instant"] = time.perf_counter() - clock
+    peers = None
+    if engine.name == "c":  # MuJoCo's C engine, the tree and Pinocchio (a second opinion on the C engine alone)
+        clock = time.perf_counter()
+        peers = three_way(instant_model)
+        figures += peers.figures()
+        timings["peers"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
     sims: dict[str, Trajectory] = {}
@@ -466,6 +473,8 @@ def _run_case(
                             "reference solver": ref.solution.method + (f": {ref.solution.why}" if ref.solution.why
                                                                        else ""),
                             "seconds": {"horizon": case.tree.horizon_seconds, "reference": timings["reference"]}}
+    if peers is not None:
+        settings["peers"] = peers.as_dict()
     fallbacks_here = tuple(dict.fromkeys(simulate_notes()[recorder_notes:]))
     if fallbacks_here:  # the batch recorder handed some runs to the loop: shown, never silent
         settings["recorder_fallbacks"] = list(fallbacks_here)

@@ -22,6 +22,7 @@ from harness.core.figures import FigureName
 from harness.engine.models import compile_model
 from harness.layers.orders import EXPECTED_ORDER
 from harness.layers.reactions import sensor_names
+from harness.opinions import threeway
 
 INSTANT = ("kinematics", "kinetic_energy", "point_acceleration", "mass_matrix", "forcing", "qacc",
            "generalized_force")
@@ -36,6 +37,7 @@ def figure_names(case: Case) -> frozenset[str]:
     constraints = [*(model.equality(i).name for i in range(model.neq)), *case.mujoco_forces]
     invariants = ["energy", *case.mujoco_invariants]
     names = {FigureName.instant(q) for q in INSTANT} | {FigureName.reference(q) for q in REFERENCE}
+    names |= {FigureName.instant("peer", q) for q in threeway.QUANTITIES}  # where Pinocchio is installed
     names |= {FigureName.instant(q, c) for q in ("force", "generalized_force") for c in constraints}
     reading, wrenched = sensor_names(model)
     names |= {FigureName.instant("sensor", s) for s in reading}
