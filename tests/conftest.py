@@ -11,11 +11,17 @@ from harness import cases
 from harness.core.checks import Check
 from harness.engine.compat import joint_types, known_defect, unavailable_reason
 from harness.engine.models import compile_model
+from harness.opinions import pinocchio as peer
+from harness.opinions import threeway
 from harness.pipeline.limits import load_limits
 from harness.pipeline.run import CaseResult, run_case
 from harness.pipeline.verdict import judge
 
 pytest_plugins = ["pytester"]
+
+PEER_CHECKS = len(threeway.QUANTITIES) if peer.available() else 0
+"""The checks the second opinions add to each case run on the C engine (``instant.peer.*``, judged beside the
+case's limits file): none where Pinocchio is not installed."""
 
 
 @functools.cache

@@ -37,10 +37,10 @@ from harness.cli.commands import COMMANDS, main
 from harness.core.budget import PARTS
 from harness.core.errors import ConfigError
 from harness.pipeline import run as pipeline
-from harness.pipeline.limits import load_limits
+from harness.pipeline.limits import case_limits, load_limits
 from harness.pipeline.verdict import judge
 from harness.studies.faults import by_name
-from tests.conftest import PROGRESS_LINE, shipped_run, without_progress
+from tests.conftest import PEER_CHECKS, PROGRESS_LINE, shipped_run, without_progress
 
 CASE = "pendulum"
 MJCF = Path(__file__).resolve().parent.parent / "mjcf" / f"{CASE}.xml"
@@ -180,8 +180,10 @@ def test_check_verbose_prints_each_figure_beside_its_limit(capsys, config, cache
     is the one its budget computed for this run, beside the figure measured and the unexplained residual."""
     assert main(["check", CASE, "--verbose"]) == 0
     lines = capsys.readouterr().out.splitlines()
-    checks = {c.name: c for c in judge(shipped_run(CASE), config.for_case(CASE))}
-    for name, limit in config.for_case(CASE).items():
+    result = shipped_run(CASE)
+    limits = case_limits(config, result.case, result.judged_names)  # the limits file's and the second opinions'
+    checks = {c.name: c for c in judge(result, limits)}
+    for name, limit in limits.items():
         (line,) = [ln for ln in lines if ln.split()[1:2] == [name]]
         if checks[name].note:  # an integrator this MuJoCo lacks
             assert "n/a" in line
@@ -367,7 +369,7 @@ def test_check_junit(tmp_path, cached_runs, strict, tight, code, capsys):
     assert main(["check", CASE, "--junit", str(junit), *(["--config", str(strict)] if tight else [])]) == code
     root = ET.parse(junit).getroot()
     cases_ = root.findall("./testsuite/testcase")
-    assert len(cases_) == len(load_limits().for_case(CASE))
+    assert len(cases_) == len(load_limits().for_case(CASE)) + PEER_CHECKS
     failures = [tc.get("name") for tc in cases_ if tc.find("failure") is not None]
     assert failures == (["RK4.position"] if tight else [])
     lines = capsys.readouterr().out.splitlines()  # the JUnit besides what check prints, not instead
@@ -403,8 +405,9 @@ def test_a_long_check_prints_progress_lines_in_a_log(monkeypatch, capsys, cached
     monkeypatch.setattr(runner, "PROGRESS_INTERVAL", 0.0)
     assert main(["check", CASE, "spring", "-j", "1", "-q"]) == 0
     lines = capsys.readouterr().err.splitlines()
-    assert [re.sub(r", worst .*", "", ln) for ln in lines] == ["case pendulum:  40 checks,  0 fail",
-                                                              "case spring:    24 checks,  0 fail"], lines
+    expected = [f"case pendulum:  {40 + PEER_CHECKS} checks,  0 fail",
+                f"case spring:    {24 + PEER_CHECKS} checks,  0 fail"]
+    assert [re.sub(r", worst .*", "", ln) for ln in lines] == expected, lines
     assert all(PROGRESS_LINE.fullmatch(ln) for ln in lines)
 
 

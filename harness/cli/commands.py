@@ -150,7 +150,8 @@ def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, writt
                   trees: dict[str, dict[str, str] | None] | None = None,
                   peers: dict[str, dict | None] | None = None) -> None:
     """After the cases' lines: what each model's own tree covered (``trees``), the second opinions' summary
-    (``peers``: each case's three-way comparison, :func:`harness.opinions.threeway.summary`), every check as a table
+    (``peers``: each case's three-way comparison, :func:`harness.opinions.threeway.summary`; a hand-derived case's
+    with ``verbose`` only: the model one brings is the one that needs it), every check as a table
     (``verbose``), each failed check with its budget, the requirements judged, ``written`` (what was
     written), and the verdict line last (and the requirements' line, where stated); ``quiet``: the
     failures and the verdict only. All but the table and the verdict's lines fit the terminal
@@ -160,7 +161,8 @@ def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, writt
     fitness = fitness_table(outcome)
     coverage = coverage_block(trees or {}, width)
     parts = [coverage] if coverage and not quiet else []
-    opinions = "\n".join(line for text in threeway.summary(peers or {}) for line in wrap(text, width))
+    shown = {case: doc for case, doc in (peers or {}).items() if verbose or (trees or {}).get(case) is not None}
+    opinions = "\n".join(line for text in threeway.summary(shown) for line in wrap(text, width))
     parts += [opinions] if opinions and not quiet else []
     parts += [checks_table(outcome.checks)] if verbose and not quiet else []
     parts += [failures] if failures else []
