@@ -466,7 +466,8 @@ def _opinions(args: argparse.Namespace):
     if mjcf is None and args.urdf is not None:
         named = cases.select([*args.cases, *(args.case or [])])
         mjcf = named[0].mjcf if len(named) == 1 else None
-    return model_opinions(mjcf, urdf=args.urdf, mapping=args.urdf_map, parser=args.mjcf is not None)
+    own = args.mjcf is not None and not [*args.cases, *(args.case or [])]  # a model of your own, no case
+    return model_opinions(mjcf, urdf=args.urdf, mapping=args.urdf_map, parser=own and not args.quiet)
 
 
 def _print_opinions(opinions, *, quiet: bool) -> None:

@@ -166,6 +166,11 @@ def model_opinions(mjcf: Path | str | None, *, urdf: Path | str | None = None,
     if urdf is not None:
         load_map(mapping)  # a bad map or URDF is named before the MJCF is compiled
         load_urdf(urdf)
-    model = compile_model(mjcf)
+    try:
+        model = compile_model(mjcf)
+    except ValueError:
+        if urdf is not None:
+            raise
+        return Opinions()  # the check itself names what is wrong with the MJCF
     return Opinions(urdf=compare_urdf(urdf, model, mjcf=str(mjcf), mapping=mapping) if urdf is not None else None,
                     parser=parser_opinion(mjcf, model) if parser else None)
