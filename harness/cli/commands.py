@@ -184,6 +184,13 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
                         "then brought onto the constraints")
     g.add_argument("--qd0", type=_state, metavar="NAME=VALUE,...", help="initial velocities, as --q0")
     _add_backend(g)
+    g = p.add_argument_group("a second opinion on the model (needs pip install 'mjharness[pin]')")
+    g.add_argument("--urdf", type=Path, metavar="FILE",
+                   help="the robot's URDF, compared with the MJCF (--mjcf, or the one case's) body by body and joint "
+                        "by joint: mass, centre of mass, inertia, axes, limits, M(q) and gravity torques; a "
+                        "difference over tolerance fails (exit 1)")
+    g.add_argument("--urdf-map", type=Path, metavar="FILE",
+                   help='TOML renaming the URDF\'s names to the MJCF\'s: [bodies] link = "body", [joints] a = "b"')
     g = p.add_argument_group("verdict")
     g.add_argument("--require", action="append", default=[], metavar="MEASURE=VALUE",
                    help="the accuracy you need, judged on each model's own integrator (e.g. position=1e-3, "
@@ -390,12 +397,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     check_output(args.out)  # fail before minutes of work, not after
     _check_junit(args.junit, args.out)
+    opinions = _opinions(args)
     selected = _selected(args)
     options = _options(args, selected, several=True)
     results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs, **_case_lines(args))
     outcome = _outcome(args, results, checks, limits)
     pages, appendix, plots = report_parts(selected, results, jobs=args.jobs,
                                           studies=args.studies and options.shipped)
+    appendix = (appendix or {}) | ({"opinions": opinions.as_dict()} if opinions.as_dict() else {})
     others = backends.expand(args.backend)[1:]
     if others:  # the first backend's report, and every backend side by side (its verdict is the first's)
         from harness.outputs.backends import BackendRun, side_by_side_html, side_by_side_json  # lazy: matplotlib
@@ -412,10 +421,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     prepare_output(args.out)
     # the report and its JUnit, all or none, and an earlier report's pages this one has not removed with them
     paths = write_atomic(files | _junit(args.junit, outcome), remove=superseded(args.out, files))
+    _print_opinions(opinions, quiet=args.quiet)
     _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
                   peers=_peers(results),
                   written=f"wrote in {time.perf_counter() - start:.1f} s: {_written(args.out, paths)}")
-    return outcome.exit_code
+    return _exit_code(outcome, opinions)
 
 
 def _written(out: Path, paths: Sequence[Path]) -> str:
@@ -441,6 +451,7 @@ def _args_check(p: argparse.ArgumentParser) -> None:
 
 def cmd_check(args: argparse.Namespace) -> int:
     _check_junit(args.junit)
+    opinions = _opinions(args)
     selected = _selected(args)
     # with --json, stdout is the document alone: what a library prints meanwhile goes to stderr (mujoco-mjx
     # prints "Failed to import warp" to stdout when it is imported without Warp)
@@ -450,10 +461,41 @@ def cmd_check(args: argparse.Namespace) -> int:
     outcome = _outcome(args, results, checks, limits)
     write_atomic(_junit(args.junit, outcome))
     if args.json:
-        sys.stdout.write(dumps(json_doc(results, outcome)))
+        appendix = {"opinions": opinions.as_dict()} if opinions.as_dict() else None
+        sys.stdout.write(dumps(json_doc(results, outcome, appendix=appendix)))
     else:
+        _print_opinions(opinions, quiet=args.quiet)
         _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
                       peers=_peers(results))
+    return _exit_code(outcome, opinions, json=args.json)
+
+
+def _opinions(args: argparse.Namespace):
+    """The second opinions on the model (harness.opinions.urdf), bad input named before any case is built: the
+    URDF's comparison where --urdf is given (with --mjcf, or one case's model), Pinocchio's MJCF parser's on a
+    model of your own (--mjcf)."""
+    from harness.opinions.urdf import model_opinions  # lazy: Pinocchio is optional
+
+    mjcf = args.mjcf
+    if mjcf is None and args.urdf is not None:
+        named = cases.select([*args.cases, *(args.case or [])])
+        mjcf = named[0].mjcf if len(named) == 1 else None
+    own = args.mjcf is not None and not [*args.cases, *(args.case or [])]  # a model of your own, no case
+    return model_opinions(mjcf, urdf=args.urdf, mapping=args.urdf_map, parser=own and not args.quiet)
+
+
+def _print_opinions(opinions, *, quiet: bool) -> None:
+    lines = opinions.lines(quiet=quiet)
+    if lines:
+        print(("" if quiet else "\n") + "\n".join(lines), flush=True)
+
+
+def _exit_code(outcome: Outcome, opinions, *, json: bool = False) -> int:
+    """The checks' exit code, made a fail where the URDF disagrees with the MJCF (printed under the verdict; on
+    stderr where stdout holds the JSON document alone)."""
+    if opinions.failed:
+        print(opinions.verdict(), file=sys.stderr if json else sys.stdout)
+        return EXIT_FAIL if outcome.exit_code in (EXIT_OK, EXIT_UNFIT) else outcome.exit_code
     return outcome.exit_code
 
 
