@@ -148,10 +148,11 @@ def _peers(results: Sequence) -> dict[str, dict | None]:
 
 def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, written: str = "",
                   trees: dict[str, dict[str, str] | None] | None = None,
-                  peers: dict[str, dict | None] | None = None) -> None:
+                  peers: dict[str, dict | None] | None = None, opinions: Sequence[str] = ()) -> None:
     """After the cases' lines: what each model's own tree covered (``trees``), the second opinions' summary
     (``peers``: each case's three-way comparison, :func:`harness.opinions.threeway.summary`; a hand-derived case's
-    with ``verbose`` only: the model one brings is the one that needs it), every check as a table
+    with ``verbose`` only: the model one brings is the one that needs it) with the other second opinions'
+    ``opinions`` (a URDF's comparison, Pinocchio's MJCF parser's: :mod:`harness.opinions.urdf`), every check as a table
     (``verbose``), each failed check with its budget, the requirements judged, ``written`` (what was
     written), and the verdict line last (and the requirements' line, where stated); ``quiet``: the
     failures and the verdict only. All but the table and the verdict's lines fit the terminal
@@ -162,8 +163,8 @@ def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, writt
     coverage = coverage_block(trees or {}, width)
     parts = [coverage] if coverage and not quiet else []
     shown = {case: doc for case, doc in (peers or {}).items() if verbose or (trees or {}).get(case) is not None}
-    opinions = "\n".join(line for text in threeway.summary(shown) for line in wrap(text, width))
-    parts += [opinions] if opinions and not quiet else []
+    said = [*(threeway.summary(shown) if not quiet else ()), *opinions]
+    parts += ["\n".join(line for text in said for line in wrap(text, width))] if said else []
     parts += [checks_table(outcome.checks)] if verbose and not quiet else []
     parts += [failures] if failures else []
     parts += [fitness] if fitness and not quiet else []
@@ -421,9 +422,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     prepare_output(args.out)
     # the report and its JUnit, all or none, and an earlier report's pages this one has not removed with them
     paths = write_atomic(files | _junit(args.junit, outcome), remove=superseded(args.out, files))
-    _print_opinions(opinions, quiet=args.quiet)
     _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
-                  peers=_peers(results),
+                  peers=_peers(results), opinions=opinions.lines(quiet=args.quiet),
                   written=f"wrote in {time.perf_counter() - start:.1f} s: {_written(args.out, paths)}")
     return _exit_code(outcome, opinions)
 
@@ -464,9 +464,8 @@ def cmd_check(args: argparse.Namespace) -> int:
         appendix = {"opinions": opinions.as_dict()} if opinions.as_dict() else None
         sys.stdout.write(dumps(json_doc(results, outcome, appendix=appendix)))
     else:
-        _print_opinions(opinions, quiet=args.quiet)
         _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
-                      peers=_peers(results))
+                      peers=_peers(results), opinions=opinions.lines(quiet=args.quiet))
     return _exit_code(outcome, opinions, json=args.json)
 
 
@@ -482,12 +481,6 @@ def _opinions(args: argparse.Namespace):
         mjcf = named[0].mjcf if len(named) == 1 else None
     own = args.mjcf is not None and not [*args.cases, *(args.case or [])]  # a model of your own, no case
     return model_opinions(mjcf, urdf=args.urdf, mapping=args.urdf_map, parser=own and not args.quiet)
-
-
-def _print_opinions(opinions, *, quiet: bool) -> None:
-    lines = opinions.lines(quiet=quiet)
-    if lines:
-        print(("" if quiet else "\n") + "\n".join(lines), flush=True)
 
 
 def _exit_code(outcome: Outcome, opinions, *, json: bool = False) -> int:
