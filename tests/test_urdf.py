@@ -11,6 +11,7 @@ import pytest
 
 from harness.cli.commands import main
 from harness.core.errors import ModelMismatch
+from harness.engine.models import compile_model
 from harness.opinions import structure
 from harness.opinions.parser import parser_opinion
 from harness.opinions.urdf import compare_urdf, model_opinions
@@ -136,7 +137,7 @@ def test_the_parsers_disagreements_are_shown_and_never_gate():
 def test_a_file_pinocchios_parser_refuses_is_one_line():
     pytest.importorskip("pinocchio")
     path = ROOT / "mjcf" / "hoop_ramp.xml"
-    opinion = parser_opinion(path, mujoco.MjModel.from_xml_path(str(path)))
+    opinion = parser_opinion(path, compile_model(path))
     assert opinion.comparison is None
     assert opinion.lines() == ["Pinocchio's MJCF parser (advisory, never gates): Pinocchio cannot load this file "
                                "(No such node (body))"]

@@ -207,8 +207,10 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
     if why:
         raise ModelError(why)
     chart = chart or {}
-    passive = not _disabled(model, _DSBL.mjDSBL_SPRING) if hasattr(_DSBL, "mjDSBL_SPRING") else True
-    damper = not _disabled(model, _DSBL.mjDSBL_DAMPER) if hasattr(_DSBL, "mjDSBL_DAMPER") else True
+    # MuJoCo 3.3's one flag for every passive force (springs, dampers, gravity compensation), later two
+    every = hasattr(_DSBL, "mjDSBL_PASSIVE") and _disabled(model, _DSBL.mjDSBL_PASSIVE)
+    passive = not every and not (hasattr(_DSBL, "mjDSBL_SPRING") and _disabled(model, _DSBL.mjDSBL_SPRING))
+    damper = not every and not (hasattr(_DSBL, "mjDSBL_DAMPER") and _disabled(model, _DSBL.mjDSBL_DAMPER))
     gravity = np.zeros(3) if _disabled(model, _DSBL.mjDSBL_GRAVITY) else np.array(model.opt.gravity, dtype=float)
     bodies = []
     for b in range(1, model.nbody):
