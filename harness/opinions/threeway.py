@@ -126,7 +126,7 @@ class ThreeWay:
         if self.skipped:
             return {"skipped": self.skipped}
         return {"states": self.states, "conditioning": self.conditioning, "limit": LIMIT,
-                "agreements": {a.quantity: {"pairs": a.pairs, "mujoco": a.mujoco, "off": a.off}
+                "agreements": {a.quantity: {"pairs": a.pairs, "mujoco": a.mujoco, "off": a.off, "said": a.describe()}
                                for a in self.agreements}}
 
 
