@@ -22,8 +22,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("analytic", "harness", "mjcf")
 LAYERS = ("analytic", "harness.core", "harness.reference", "harness.engine", "harness.cases", "mjcf",
-          "harness.layers", "harness.budget", "harness.pipeline", "harness.studies", "harness.outputs",
-          "harness.versions", "harness.api", "harness.cli", "harness")
+          "harness.layers", "harness.opinions", "harness.budget", "harness.pipeline", "harness.studies",
+          "harness.outputs", "harness.versions", "harness.api", "harness.cli", "harness")
 SAME_LAYER = {"harness.pytest_plugin": "harness.api", "harness.__main__": "harness.cli",
               "harness.zoo": "harness.api"}  # the zoo runs models as the API does, for the CLI's `zoo`
 LAZY = "# lazy:"

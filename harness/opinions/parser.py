@@ -57,7 +57,7 @@ def parser_opinion(mjcf: Path | str, model: mujoco.MjModel) -> ParserOpinion:
     Pinocchio cannot do (not installed, a file its parser refuses): that is the opinion's one line."""
     if not structure.pinocchio_available():  # looked up here: a test can say no
         return ParserOpinion(str(mjcf), skipped=f"skipped: Pinocchio is not installed ({PIN_EXTRA})")
-    import pinocchio as pin
+    import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
     try:
         with captured_stderr():

@@ -136,7 +136,7 @@ class PinocchioModel:
 
     def mass_matrix(self, qpos: np.ndarray) -> np.ndarray:
         """Pinocchio's M (CRBA, symmetrized), mapped to MuJoCo's dofs: Tᵀ M T."""
-        import pinocchio as pin
+        import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
         data = self.model.createData()  # type: ignore[attr-defined]
         upper = np.array(pin.crba(self.model, data, self.q(qpos)))
@@ -161,7 +161,7 @@ class PinocchioModel:
 
     def inverse(self, qpos: np.ndarray, qvel: np.ndarray, qacc: np.ndarray) -> np.ndarray:
         """The generalized force that gives ``qacc`` (RNEA, armature included), in MuJoCo's dofs."""
-        import pinocchio as pin
+        import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
         data = self.model.createData()  # type: ignore[attr-defined]
         tau = pin.rnea(self.model, data, self.q(qpos), self.v(qpos, qvel),
@@ -170,7 +170,7 @@ class PinocchioModel:
 
     def forward(self, qpos: np.ndarray, qvel: np.ndarray, force: np.ndarray) -> np.ndarray:
         """The qacc that the generalized ``force`` gives (ABA, armature included), in MuJoCo's dofs."""
-        import pinocchio as pin
+        import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
         data = self.model.createData()  # type: ignore[attr-defined]
         a = pin.aba(self.model, data, self.q(qpos), self.v(qpos, qvel), self.pin_force(qpos, force))
@@ -200,7 +200,7 @@ def build(model: mujoco.MjModel) -> PinocchioModel:
     order, placed at the joint's anchor in the body frame; each body's inertia on the last joint that moves
     it (a body without joints on its parent's); gravity as MuJoCo applies it (none where its flag disables it).
     ModelError for what Pinocchio cannot represent."""
-    import pinocchio as pin
+    import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
     pm = pin.Model()
     off = int(model.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)

@@ -23,7 +23,7 @@ import importlib.util
 import os
 import tempfile
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
@@ -207,7 +207,7 @@ def _mj_dofs(m: mujoco.MjModel, d: mujoco.MjData, b: int, origin: np.ndarray) ->
 
 def _pin_body_name(pm, i: int) -> str | None:
     """The body (link) a Pinocchio joint carries: the first BODY frame on it."""
-    import pinocchio as pin
+    import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
     for f in pm.frames:
         if f.parentJoint == i and f.type == pin.FrameType.BODY:
@@ -218,7 +218,7 @@ def _pin_body_name(pm, i: int) -> str | None:
 def _pin_dofs(pm, pd, i: int) -> list[_Dof]:
     """Pinocchio joint ``i``'s degrees of freedom as MuJoCo joints: free or ball as one, else one per dof
     (a composite joint's parts, an unbounded revolute's angle), read from its motion subspace in the world."""
-    import pinocchio as pin
+    import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
     joint = pm.joints[i]
     short = joint.shortname()
@@ -259,7 +259,7 @@ class _Pair:
 
 def _pin_q(pm, m: mujoco.MjModel, pairs: list[_Pair], qpos: np.ndarray, origin: np.ndarray) -> np.ndarray:
     """Pinocchio's q of MuJoCo's ``qpos``: a hinge's or slide's angle counted from ``origin``."""
-    import pinocchio as pin
+    import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
     q = pin.neutral(pm)
     for p in pairs:
@@ -334,7 +334,7 @@ class _Dynamics:
 
 
 def _pin_dynamics(pm, qs: list[np.ndarray], pin_v: list[int]) -> _Dynamics:
-    import pinocchio as pin
+    import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
     pd = pm.createData()
     ms, gs = [], []
@@ -388,7 +388,7 @@ def compare(pm, m: mujoco.MjModel, *, bodies: Mapping[str, str] | None = None,
     slide's q on Pinocchio's side is MuJoCo's qpos less ``qpos0`` (a URDF's zero is the pose as written, which
     MuJoCo's ``ref`` moves), or with ``absolute`` MuJoCo's qpos itself (Pinocchio's MJCF parser keeps ``ref``
     as MuJoCo does). Gravity on the Pinocchio side is MuJoCo's ``opt.gravity`` (a URDF does not state it)."""
-    import pinocchio as pin
+    import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
     bodies, joints = dict(bodies or {}), dict(joints or {})
     pm = pm.copy()
@@ -501,8 +501,6 @@ def _attribute(pm, m: mujoco.MjModel, pairs: list[_Pair], diffs: list[Difference
     """M(q) and gravity torques at the sampled states, per joint (a difference over tolerance each), and the
     gravity torque each body difference causes alone: Pinocchio's model with that body's inertia swapped for
     MuJoCo's, at the state where it changes most."""
-    from dataclasses import replace
-
     qposes = _samples(m, pairs, states, seed)
     qs = [_pin_q(pm, m, pairs, qpos, origin) for qpos in qposes]
     pin_v, mj_v, names, free = _dof_map(pm, m, pairs)

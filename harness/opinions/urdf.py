@@ -90,7 +90,7 @@ def load_urdf(path: Path | str, *, free: bool = False):
     if not path.is_file():
         what = "no such file" if not path.exists() else "not a regular file"
         raise ModelError(f"cannot read URDF {str(path)!r}: {what}; accepted: a URDF (XML) file")
-    import pinocchio as pin
+    import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
     try:
         with captured_stderr() as said:
