@@ -615,5 +615,9 @@ def test_a_tree_whose_scales_overflow_is_refused_in_one_line(tmp_path, capsys):
                                                                    'gravity="1e308 1e308 1e308"'))
     assert main(["check", "--mjcf", str(path), "--integrators", "RK4"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("mjharness: error: the model's force or energy or momentum scale is not finite") and \
-        err.count("\n") == 1, err
+    import mujoco  # lazy: this test alone asks the version
+
+    # MuJoCo 3.3 refuses the model itself when the harness first steps it; 4.0 runs it to the scales
+    said = "the model's force or energy or momentum scale is not finite" \
+        if int(mujoco.__version__.split(".")[0]) >= 4 else "invalid MJCF"
+    assert err.startswith(f"mjharness: error: {said}") and err.count("\n") == 1, err
