@@ -24,6 +24,7 @@ from __future__ import annotations
 import copy
 import importlib.util
 from dataclasses import dataclass
+from functools import cached_property
 
 import mujoco
 import numpy as np
@@ -94,19 +95,14 @@ class PinocchioModel:
         return self.frames(qpos) @ self._ordered(qvel)
 
     def _ordered(self, x: np.ndarray) -> np.ndarray:
-        """MuJoCo's dof vector in Pinocchio's order (the same order where the tree was added body by body)."""
-        out = np.zeros(self.model.nv)  # type: ignore[attr-defined]
-        for kind, _, dof, _, iv in self.joints:
-            k = _NDOF[kind]
-            out[iv:iv + k] = x[dof:dof + k]
+        """MuJoCo's dof vector in Pinocchio's order."""
+        out = np.zeros(len(x))
+        out[self._order] = x
         return out
 
     def _mujoco(self, x: np.ndarray) -> np.ndarray:
-        out = np.zeros_like(x)
-        for kind, _, dof, _, iv in self.joints:
-            k = _NDOF[kind]
-            out[dof:dof + k] = x[iv:iv + k]
-        return out
+        """Pinocchio's dof vector in MuJoCo's order."""
+        return x[self._order]
 
     def acceleration(self, qpos: np.ndarray, qvel: np.ndarray, qacc: np.ndarray) -> np.ndarray:
         """Pinocchio's a of MuJoCo's ``qacc``: T qacc, less ω × v_lin on each free joint's linear block."""
@@ -145,7 +141,7 @@ class PinocchioModel:
         order = self._order
         return (t.T @ m @ t)[np.ix_(order, order)]
 
-    @property
+    @cached_property
     def _order(self) -> np.ndarray:
         """Pinocchio's dof index of each MuJoCo dof."""
         out = np.zeros(self.model.nv, dtype=int)  # type: ignore[attr-defined]
