@@ -43,6 +43,7 @@ from harness.cases.own import from_mjcf
 from harness.core import VERSION
 from harness.core.checks import Check
 from harness.engine.models import compile_model
+from harness.pipeline.executor import LOCAL, Executor
 from harness.pipeline.pool import run_tasks
 from harness.reference.tree import prepare, uncovered
 from harness.studies.engine_faults import CLAIMED, FAULTS, SIZES, UNITS, Caught, smallest_caught
@@ -424,11 +425,13 @@ class ZooRun:
 
 def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str] | None = None,
         faults: bool = False, fault_max_nv: int | None = None, injection: bool = False,
-        skipped: Sequence[Skipped] = (), on_done=None, command: str = "", timeout: float | None = None) -> ZooRun:
+        skipped: Sequence[Skipped] = (), on_done=None, command: str = "", timeout: float | None = None,
+        executor: Executor = LOCAL) -> ZooRun:
     """Judge every model (and, with ``faults``, size each engine-side fault, with ``injection`` the smallest energy
     injection its balance catches, on those of at most ``fault_max_nv`` dofs) on ``jobs`` worker processes,
     costliest first; ``on_done(result)`` as each ends. ``timeout``: each model's verdict, and each model's fault
-    or injection study, stops after so many seconds (unfinished)."""
+    or injection study, stops after so many seconds (unfinished). ``executor``: where the calls run (a Ray
+    cluster: one task a call; a task lost for good is its model's row, crashed, saying so)."""
 
     clock = time.perf_counter()
     nv = {m.name: _nv(m.path) for m in models}
@@ -443,7 +446,20 @@ def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str]
         calls += [(smallest_caught_named, (m.name, FAULTS, timeout)) for m in sized]
     if injection:
         calls += [(smallest_injection_named, (m.name, timeout)) for m in sized]
-    rows = run_tasks(calls, jobs, on_done=(lambda _i, r: on_done(r)) if on_done else None)
+    def lost(i: int, reason: str):  # a task the cluster could not run: its rows, never missing
+        fn, (name, *_) = calls[i]
+        why = f"its Ray task failed for good: {reason}"
+        if fn is judge_named:
+            chosen = select([name], models)[0]
+            return ZooResult(name, chosen.package, str(chosen.path), CRASHED, 0.0, nv=nv[name], reason=why)
+        if fn is smallest_caught_named:
+            return [Caught(name, f, None, None, crashed=why) for f in FAULTS]
+        return Injection(name, None, None, crashed=why)
+
+    labels = [f"zoo {fn.__name__.removesuffix('_named')} {args[0]} (MuJoCo {mujoco.__version__}, backend c)"
+              for fn, args in calls]
+    rows = run_tasks(calls, jobs, on_done=(lambda _i, r: on_done(r)) if on_done else None, executor=executor,
+                     failed=lost, labels=labels)
     verdicts = {r.model: r for r in rows if isinstance(r, ZooResult)}
     sized_rows = [c for r in rows if isinstance(r, list) for c in r]
     by_name = [m.name for m in models]

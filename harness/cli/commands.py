@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib.util
 import math
 import os
 import signal
@@ -37,6 +38,8 @@ from collections.abc import Callable, Sequence
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
+
+import mujoco
 
 from analytic.dop853 import IntegrationError
 from harness import cases
@@ -77,6 +80,7 @@ from harness.outputs.table import (
 )
 from harness.pipeline import limits as limits_data
 from harness.pipeline import require
+from harness.pipeline.executor import EXECUTORS, Executor, TaskLost
 from harness.pipeline.matrix import LogProgress, run_all, run_backends
 from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
 from harness.pipeline.pool import cpus, run_tasks
@@ -317,6 +321,24 @@ def _add_selection(p: argparse.ArgumentParser, *, mjcf: bool = True) -> None:
                        help="with --mjcf and no case: actuator controls by name (default: the keyframe's, else 0)")
 
 
+def _add_executor(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--executor", choices=EXECUTORS, default="local",
+                   help="where the runs go: local (worker processes on this machine, the default) or ray (a Ray "
+                        "task each, pip install 'mjharness[ray]'); the results do not depend on it")
+    p.add_argument("--ray-address", metavar="HOST:PORT",
+                   help="with --executor ray: the cluster to use (default: $RAY_ADDRESS, else a local cluster "
+                        "started and stopped by this command)")
+
+
+def _executor(args: argparse.Namespace) -> Executor:
+    """The executor ``--executor``/``--ray-address`` ask for; Ray not installed: one line naming the fix."""
+    if args.ray_address is not None and args.executor != "ray":
+        raise ValueError("--ray-address needs --executor ray")
+    if args.executor == "ray" and importlib.util.find_spec("ray") is None:
+        raise ValueError("--executor ray: Ray is not installed; fix: pip install 'mjharness[ray]'")
+    return Executor(args.executor, args.ray_address)
+
+
 def _positive(text: str) -> int:
     try:
         value = int(text)
@@ -401,9 +423,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     opinions = _opinions(args)
     selected = _selected(args)
     options = _options(args, selected, several=True)
-    results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs, **_case_lines(args))
+    executor = _executor(args)
+    results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs, executor=executor,
+                                      **_case_lines(args))
     outcome = _outcome(args, results, checks, limits)
-    pages, appendix, plots = report_parts(selected, results, jobs=args.jobs,
+    pages, appendix, plots = report_parts(selected, results, jobs=args.jobs, executor=executor,
                                           studies=args.studies and options.shipped)
     appendix = (appendix or {}) | ({"opinions": opinions.as_dict()} if opinions.as_dict() else {})
     others = backends.expand(args.backend)[1:]
@@ -447,6 +471,7 @@ def _args_check(p: argparse.ArgumentParser) -> None:
                         "moves at round-off, its run-to-run noise (mjharness versions measures it so)")
     _add_quiet(p)
     _add_run_options(p)
+    _add_executor(p)
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -457,7 +482,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     # prints "Failed to import warp" to stdout when it is imported without Warp)
     with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
         results, checks, limits = run_all(selected, args.config, _options(args, selected), jobs=args.jobs,
-                                          figures_only=True, **_case_lines(args))
+                                          figures_only=True, executor=_executor(args), **_case_lines(args))
     outcome = _outcome(args, results, checks, limits)
     write_atomic(_junit(args.junit, outcome))
     if args.json:
@@ -790,6 +815,7 @@ def _args_faults(p: argparse.ArgumentParser) -> None:
     p.add_argument("--coarse", action="store_true",
                    help="also judge each fault at 2 × the timestep with MuJoCo's default softness, at its coarse size")
     p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
+    _add_executor(p)
 
 
 def cmd_faults(args: argparse.Namespace) -> int:
@@ -800,7 +826,9 @@ def cmd_faults(args: argparse.Namespace) -> int:
     calls = [(study.trial_named, (case.name, change.name, False)) for case in selected for change in faults.SETTINGS]
     calls += [(study.trial_named, (case.name, fault.name, coarse)) for case in selected for fault in faults.FAULTS
               for coarse in ((False, True) if args.coarse else (False,))]
-    rows = run_tasks(calls, args.jobs or cpus(), on_done=_progress(len(calls)))
+    rows = run_tasks(calls, args.jobs or cpus(), on_done=_progress(len(calls)), executor=_executor(args),
+                     labels=[f"faults {case} {change} (MuJoCo {mujoco.__version__}, backend c)"
+                             for _, (case, change, _) in calls])
     print(study.trials_table(rows))
     judged = [r for r in rows if r.verdict != "n/a"]
     unexpected = [r for r in judged if not r.as_expected]
@@ -816,6 +844,7 @@ def _args_sensitivity(p: argparse.ArgumentParser) -> None:
     p.add_argument("--faults", type=lambda text: text.split(","), metavar="NAME,...",
                    help="the faults to size (default: every fault of the catalog)")
     p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
+    _add_executor(p)
 
 
 def cmd_sensitivity(args: argparse.Namespace) -> int:
@@ -830,7 +859,9 @@ def cmd_sensitivity(args: argparse.Namespace) -> int:
                          f"{', '.join(f.name for f in faults.FAULTS)}")
     calls = [(study.sensitivity_named, (case.name, fault.name, coarse)) for case in selected for fault in chosen
              for coarse in (False, True)]
-    rows = run_tasks(calls, args.jobs or cpus(), on_done=_progress(len(calls)))
+    rows = run_tasks(calls, args.jobs or cpus(), on_done=_progress(len(calls)), executor=_executor(args),
+                     labels=[f"sensitivity {case} {fault} (MuJoCo {mujoco.__version__}, backend c)"
+                             for _, (case, fault, _) in calls])
     print(study.table(rows))
     return EXIT_OK
 
@@ -851,6 +882,7 @@ def _args_zoo(p: argparse.ArgumentParser) -> None:
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
                    help="stop each model's verdict, and each model's fault study, after so long (unfinished)")
     p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
+    _add_executor(p)
 
 
 def cmd_zoo(args: argparse.Namespace) -> int:
@@ -877,7 +909,7 @@ def cmd_zoo(args: argparse.Namespace) -> int:
 
     run = zoo.run(chosen, jobs=args.jobs or cpus(), integrators=args.integrators, faults=args.faults,
                   fault_max_nv=args.fault_max_nv, injection=args.injection, skipped=skipped, on_done=done,
-                  timeout=args.timeout,
+                  timeout=args.timeout, executor=_executor(args),
                   command=" ".join(["mjharness", *sys.argv[1:]]) if sys.argv[1:2] == ["zoo"] else "mjharness zoo")
     prepare_output(args.out)
     paths = write_atomic({args.out / "zoo.md": zoo.zoo_markdown(run), args.out / "zoo.json": dumps(zoo.zoo_json(run))})
@@ -1051,6 +1083,9 @@ def _main(args: argparse.Namespace) -> int:
     except BrokenProcessPool:  # a worker killed under it (the system's out-of-memory killer, a crash)
         print("mjharness: error: a worker process died while running the cases (killed by the system: out of "
               "memory?); fix: fewer workers (-j 1) or fewer cases at once", file=sys.stderr)
+    except TaskLost as exc:  # a Ray task the cluster could not run (harness.pipeline.cluster)
+        print(f"mjharness: error: {exc}; fix: check the cluster's nodes, or run with --executor local",
+              file=sys.stderr)
     except SimulationDiverged as exc:
         print(f"mjharness: error: simulation diverged: {exc}", file=sys.stderr)
     except IntegrationError as exc:  # the model under test gives a reference our solver cannot integrate
@@ -1072,7 +1107,18 @@ def _main(args: argparse.Namespace) -> int:
               "traceback)", file=sys.stderr)
         if os.environ.get(TRACEBACK_VARIABLE, "").strip() not in ("", "0"):
             traceback.print_exc()
+    finally:
+        _disconnect()
     return EXIT_USAGE
+
+
+def _disconnect() -> None:
+    """Leave the Ray cluster a command used (a local one it started stops): the command exits without the
+    interpreter's teardown (:func:`harness.cli.entry.exit_now`), which would otherwise do it."""
+    cluster = sys.modules.get("harness.pipeline.cluster")
+    if cluster is not None:
+        with contextlib.suppress(Exception):  # the run's own outcome stands whatever the disconnection says
+            cluster.shutdown()
 
 
 if __name__ == "__main__":  # the command itself is harness.cli.entry:entry (python -m harness.cli.entry)

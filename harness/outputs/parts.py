@@ -13,6 +13,7 @@ from harness import cases
 from harness.outputs.files import AUDIT_PAGE, STUDIES_PAGE
 from harness.outputs.page import Page
 from harness.outputs.plots import section_plots
+from harness.pipeline.executor import LOCAL, Executor
 from harness.pipeline.matrix import progress
 from harness.pipeline.pool import cpus, run_tasks
 from harness.pipeline.run import CaseResult
@@ -53,11 +54,12 @@ def case_plots(case: str | cases.Case, result: CaseResult) -> str:
 
 
 def report_parts(selected: Sequence[cases.Case], results: Sequence[CaseResult], *, jobs: int | None,
-                 studies: bool) -> tuple[list[Page], dict[str, object] | None, dict[str, str]]:
+                 studies: bool, executor: Executor = LOCAL) -> tuple[list[Page], dict[str, object] | None,
+                                                                    dict[str, str]]:
     """What the report draws besides its tables: layer 4 and the seed audit (their pages and JSON
     entries, when ``studies``) and each case's plots. With more than one worker the calls share a
     process pool forked now, so the workers hold the references the cases solved; the results are
-    those of a serial run, in the same order."""
+    those of a serial run, in the same order. On a Ray cluster (``executor``) each call is a task."""
     start = time.perf_counter()
     layer4 = study_calls(selected) if studies else []
     calls = ([(study, call) for call in layer4]
@@ -71,7 +73,7 @@ def report_parts(selected: Sequence[cases.Case], results: Sequence[CaseResult], 
         bar.set_postfix_str(labels[i], refresh=False)
         bar.update()
 
-    done = run_tasks(calls, workers, on_done=note)
+    done = run_tasks(calls, workers, on_done=note, executor=executor, labels=labels)
     bar.close()
     drawn = {r.case.name: html for r, html in zip(results, done[len(layer4):], strict=True)}
     if not studies:

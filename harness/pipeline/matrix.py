@@ -22,8 +22,9 @@ from harness import cases
 from harness.core import costs
 from harness.core.checks import Check, closest, ratio
 from harness.core.tables import terminal_width, wrap
+from harness.pipeline.executor import LOCAL, Executor
 from harness.pipeline.limits import Limits, case_limits, load_limits
-from harness.pipeline.pool import cpus, fork_pool
+from harness.pipeline.pool import cpus, fork_pool, run_tasks
 from harness.pipeline.run import CaseResult, RunOptions
 from harness.pipeline.verdict import judge
 from harness.pipeline.vocabulary import check_config
@@ -110,8 +111,8 @@ def case_line(case: str, checks: Sequence[Check], seconds: float, width: int = 0
 
 
 def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: RunOptions | None = None, *,
-            jobs: int | None = None, figures_only: bool = False, lines: bool = False, out: TextIO | None = None
-            ) -> tuple[list[CaseResult], dict[str, list[Check]], Limits]:
+            jobs: int | None = None, figures_only: bool = False, lines: bool = False, out: TextIO | None = None,
+            executor: Executor = LOCAL) -> tuple[list[CaseResult], dict[str, list[Check]], Limits]:
     """run_case for each case (as ``options`` ask), then its verdict; (results, checks by case, limits).
 
     ``jobs`` worker processes (default: one per CPU) share the cases; every
@@ -144,7 +145,10 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
         bar = LogProgress(selected, "mjharness", "case", quiet=True)
     else:  # with lines, each case's own line says the progress
         bar = progress(selected, "mjharness", quiet=lines)
-    if options.backend != "c" and len(selected) > 1 and options.mjcf is None:
+    if executor.kind != "local" and options.mjcf is None:
+        results = _run_on_cluster(selected, executor, bar, figures_only=figures_only, options=options,
+                                  finished=finished)
+    elif options.backend != "c" and len(selected) > 1 and options.mjcf is None:
         results = _run_isolated(selected, bar, figures_only=figures_only, options=options, finished=finished)
     elif workers <= 1 or options.mjcf is not None:
         results = []
@@ -229,6 +233,38 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_
                 if error is not None:
                     raise error
                 next_in_order += 1
+    return [dataclasses.replace(outcomes[i][0], case=case) for i, case in enumerate(selected)]
+
+
+def _run_on_cluster(selected: Sequence[cases.Case], executor: Executor, bar, *, figures_only: bool,
+                    options: RunOptions, finished: Callable[[CaseResult], None]) -> list[CaseResult]:
+    """run_case on a Ray cluster, a system's cases as one task (named by its cases, MuJoCo's release and the
+    backend); results in registry order, a case's error raised as :func:`_run_parallel` raises it, a task
+    lost for good as :class:`~harness.pipeline.pool.TaskLost`."""
+    import mujoco  # lazy: already imported by harness.cases; named here for its release in the tasks' names
+
+    order = groups(selected)
+    calls = [(_run_group, ([selected[i].name for i in group], figures_only, options)) for group in order]
+    labels = [f"{', '.join(selected[i].name for i in group)} (MuJoCo {mujoco.__version__}, backend "
+              f"{options.backend})" for group in order]
+
+    def done(k: int, outcome: tuple) -> None:
+        ran, seeds = outcome
+        refmod.import_solutions(seeds)  # the run's studies reuse these solves
+        for i, (result, _) in zip(order[k], ran, strict=False):
+            if result is not None:
+                finished(dataclasses.replace(result, case=selected[i]))
+        bar.update(len(ran))
+
+    outcomes: dict[int, tuple] = {}
+    for group, (ran, _) in zip(order, run_tasks(calls, len(calls), on_done=done, executor=executor, labels=labels),
+                               strict=True):
+        outcomes.update(zip(group, ran, strict=False))
+    for i in range(len(selected)):  # a case's error, as a serial run raises its first
+        if i not in outcomes:
+            continue
+        if outcomes[i][1] is not None:
+            raise outcomes[i][1]
     return [dataclasses.replace(outcomes[i][0], case=case) for i, case in enumerate(selected)]
 
 

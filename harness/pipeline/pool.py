@@ -28,6 +28,7 @@ from typing import Any
 
 from harness.core.lifetime import die_with_parent
 from harness.engine import simulate
+from harness.pipeline.executor import LOCAL, Executor
 
 
 def cpus() -> int:
@@ -85,13 +86,21 @@ def fork_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
 
 
 def run_tasks(calls: Sequence[tuple[Callable[..., Any], tuple]], workers: int, *,
-              on_done: Callable[[int, Any], None] | None = None) -> list:
-    """``fn(*args)`` for every call on ``workers`` processes; results in the order of ``calls``.
+              on_done: Callable[[int, Any], None] | None = None, executor: Executor = LOCAL,
+              failed: Callable[[int, str], Any] | None = None, labels: Sequence[str] | None = None) -> list:
+    """``fn(*args)`` for every call on ``workers`` processes, or as Ray tasks; results in the order of ``calls``.
 
     Calls are submitted in the given order (put the costliest first). ``on_done(i, result)`` runs in
     this process as call i finishes (progress). ``fn`` must be a module-level function and its result
-    picklable. With one worker (or fewer) the calls run here, one after another, with no pool.
+    picklable. With one worker (or fewer) and no cluster the calls run here, one after another, with no
+    pool. On a cluster (:mod:`harness.pipeline.cluster`) ``labels`` name the calls' tasks, and a call that
+    fails for good (not by an error of its own) is replaced by ``failed(i, reason)``, else raises
+    :class:`~harness.pipeline.executor.TaskLost`; a call's own error is raised as here.
     """
+    if executor.kind == "ray":
+        from harness.pipeline import cluster  # lazy: Ray is an optional extra, imported only when asked for
+
+        return cluster.run_tasks(calls, executor, on_done=on_done, failed=failed, labels=labels)
     if workers <= 1:
         done = []
         for i, (fn, args) in enumerate(calls):

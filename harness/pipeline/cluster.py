@@ -1,0 +1,146 @@
+"""Calls as tasks on a Ray cluster: :func:`harness.pipeline.pool.run_tasks` with ``Executor("ray")``.
+
+- **Where.** The cluster at the executor's address, else at ``RAY_ADDRESS``, else a local one that this
+  process starts at its first call (every CPU of the machine, one a task) and stops when it ends
+  (:func:`shutdown`). One connection serves every call of a command.
+- **What travels.** To a cluster of its own address the harness's packages (``analytic``, ``harness``,
+  ``mjcf``) go as the job's ``runtime_env`` ``py_modules``, so every node runs the code of this process
+  (its nodes need the harness's dependencies: ``pip install 'mjharness[ray]'``). A local cluster's
+  workers are started from this process's environment and import what it imports.
+- **A task.** Each call is one task of one CPU, named ``mjharness:LABEL`` (its worker's process title
+  is ``ray::mjharness:LABEL``), running MuJoCo on one thread as the local pool's workers do; a call
+  computes the same numbers wherever it runs, so its result is the local pool's, bit for bit.
+- **Faults.** A worker that dies mid-task (killed, out of memory, its node lost) is rerun by Ray, up
+  to :data:`RETRIES` times; a call is deterministic, so a rerun gives the same result. A call whose
+  reruns are spent, or that the cluster cannot run, fails for good: ``failed(i, reason)`` takes its
+  place, else :class:`~harness.pipeline.pool.TaskLost` is raised with one line naming it. A call's own
+  error is no fault of the cluster: it is not rerun, and is raised once every earlier call has
+  finished, as the local pool raises it.
+- **Ctrl-C.** Every unfinished task is cancelled with force (its worker process killed) before the
+  interrupt goes on, so nothing of the run keeps a cluster's CPUs busy.
+"""
+
+from __future__ import annotations
+
+import atexit
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import ray
+import ray.exceptions
+
+from harness.pipeline.executor import Executor, TaskLost
+
+RETRIES = 3
+"""Ray's reruns of a task whose worker died: a killed worker, a node lost mid-run."""
+
+PACKAGES = ("analytic", "harness", "mjcf")
+"""The harness's own packages, sent to a cluster of its own address with every task."""
+
+_owned = False  # this process started the cluster it is connected to (stopped by shutdown)
+
+
+def address(executor: Executor) -> str | None:
+    """The cluster ``executor`` names: its address, else ``RAY_ADDRESS``, else None (a local one)."""
+    return executor.address or os.environ.get("RAY_ADDRESS") or None
+
+
+def _runtime_env() -> dict:
+    root = Path(__file__).resolve().parents[2]
+    return {"py_modules": [str(root / name) for name in PACKAGES], "excludes": ["__pycache__", "*.pyc"],
+            "env_vars": {"MUJOCO_GL": "disable"}}
+
+
+def connect(executor: Executor) -> None:
+    """Connect to the cluster ``executor`` names, or start a local one, unless connected already."""
+    global _owned
+    if ray.is_initialized():
+        return
+    where = address(executor)
+    try:
+        if where is None:
+            ray.init(include_dashboard=False, log_to_driver=False, logging_level="ERROR",
+                     runtime_env={"env_vars": {"MUJOCO_GL": "disable"}})
+            _owned = True
+        else:
+            ray.init(address=where, log_to_driver=False, logging_level="ERROR", runtime_env=_runtime_env())
+    except (ConnectionError, RuntimeError, ValueError) as exc:
+        raise ValueError(f"cannot connect to the Ray cluster at {where!r}: {' '.join(str(exc).split())[:200]}; "
+                         "accepted: an address that `ray start --head` printed (host:port), or none for a "
+                         "local cluster") from None
+    atexit.register(shutdown)
+
+
+def shutdown() -> None:
+    """Disconnect from the cluster (a local one that this process started stops with it)."""
+    global _owned
+    if ray.is_initialized():
+        ray.shutdown()
+    _owned = False
+
+
+def _call(fn: Callable[..., Any], args: tuple) -> Any:
+    from harness.engine import simulate  # lazy: imported in the worker, where the task runs
+
+    simulate.set_threads(1)  # one task per CPU: the tasks, not MuJoCo's threads, share the cores
+    return fn(*args)
+
+
+_task = ray.remote(num_cpus=1, max_retries=RETRIES, retry_exceptions=False)(_call)
+
+
+def _reason(exc: BaseException) -> str:
+    """One line for a task lost for good."""
+    kinds = {ray.exceptions.WorkerCrashedError: f"its worker died on every try ({RETRIES + 1})",
+             ray.exceptions.NodeDiedError: "its node was lost",
+             ray.exceptions.OutOfMemoryError: "its worker ran out of memory",
+             ray.exceptions.TaskCancelledError: "it was cancelled",
+             ray.exceptions.RuntimeEnvSetupError: "its runtime environment could not be set up"}
+    for kind, text in kinds.items():
+        if isinstance(exc, kind):
+            return text
+    return f"{type(exc).__name__}: {' '.join(str(exc).split())[:160]}"
+
+
+def run_tasks(calls: Sequence[tuple[Callable[..., Any], tuple]], executor: Executor, *,
+              on_done: Callable[[int, Any], None] | None = None, failed: Callable[[int, str], Any] | None = None,
+              labels: Sequence[str] | None = None) -> list:
+    """``fn(*args)`` for every call, each a task on the cluster; results in the order of ``calls``
+    (see the module's docstring for faults and Ctrl-C)."""
+    if not calls:
+        return []
+    connect(executor)
+    names = list(labels) if labels is not None else [f"{fn.__name__} {i}" for i, (fn, _) in enumerate(calls)]
+    refs = [_task.options(name=f"mjharness:{names[i]}").remote(fn, args) for i, (fn, args) in enumerate(calls)]
+    index = {ref: i for i, ref in enumerate(refs)}
+    results: dict[int, Any] = {}
+    errors: dict[int, BaseException] = {}
+    pending = list(refs)
+    next_in_order = 0
+    try:
+        while pending:
+            ready, pending = ray.wait(pending, num_returns=1)
+            i = index[ready[0]]
+            try:
+                results[i] = ray.get(ready[0])
+            except ray.exceptions.RayTaskError as exc:  # the call's own error: raised in call order
+                errors[i] = exc.cause if isinstance(exc.cause, BaseException) else exc
+            except ray.exceptions.RayError as exc:  # lost for good
+                reason = _reason(exc)
+                if failed is None:
+                    errors[i] = TaskLost(f"{names[i]}: its Ray task failed for good: {reason}")
+                else:
+                    results[i] = failed(i, reason)
+            if i in results and on_done is not None:
+                on_done(i, results[i])
+            while next_in_order in results or next_in_order in errors:
+                if next_in_order in errors:
+                    raise errors[next_in_order]
+                next_in_order += 1
+    except BaseException:  # an error raised, or Ctrl-C: nothing of this run goes on on the cluster
+        for ref in pending:
+            ray.cancel(ref, force=True)
+        raise
+    return [results[i] for i in range(len(calls))]

@@ -1,0 +1,167 @@
+"""Runs on a Ray cluster (``--executor ray``): the local pool's results bit for bit, a killed worker rerun, a
+task lost for good named in one line (a row where the command has rows), Ctrl-C stopping the cluster's tasks
+(harness/pipeline/cluster.py). The cluster is a head node on loopback that the tests start and stop."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from harness.outputs.jsondoc import dumps
+from tests.raycluster import AUTH, loopback_cluster, processes
+
+CASES = ("pendulum", "spring")
+
+
+def _mjharness(*args: str, **kwargs) -> subprocess.Popen:
+    env = {**os.environ, **AUTH, "PYTHONUNBUFFERED": "1"}
+    env.pop("RAY_ADDRESS", None)
+    return subprocess.Popen([sys.executable, "-m", "harness.cli.entry", *args], env=env, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, **kwargs)
+
+
+def _done(process: subprocess.Popen, timeout: float = 300) -> tuple[int, str, str]:
+    out, err = process.communicate(timeout=timeout)
+    return process.returncode, out, err
+
+
+def _kill_task(tag: str, *, times: int, timeout: float = 120) -> int:
+    """SIGKILL the worker running the task whose name holds ``tag``, ``times`` times over (each rerun's
+    worker); the kills made."""
+    kills, deadline = 0, time.monotonic() + timeout
+    while kills < times and time.monotonic() < deadline:
+        running = processes(f"ray::mjharness:{tag}")
+        for pid in running:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                continue
+            kills += 1
+            time.sleep(0.5)  # the rerun gets a new worker
+            break
+        else:
+            time.sleep(0.02)
+    return kills
+
+
+@pytest.fixture(scope="module")
+def cluster() -> str:
+    pytest.importorskip("ray")
+    with loopback_cluster() as address:
+        yield address
+
+
+@pytest.fixture(scope="module")
+def local_text() -> str:
+    code, out, err = _done(_mjharness("check", *CASES, "--json", "--jobs", "2"))
+    assert code == 0, err
+    return out
+
+
+@pytest.fixture(scope="module")
+def local_json(local_text) -> dict:
+    return json.loads(local_text)
+
+
+@pytest.mark.slow
+def test_check_on_a_cluster_is_the_local_pools_bit_for_bit(cluster, local_text):
+    """Every figure is written with all its digits (repr), so equal documents are equal figures, bit for bit."""
+    code, out, err = _done(_mjharness("check", *CASES, "--json", "--executor", "ray", "--ray-address", cluster))
+    assert code == 0, err
+    assert out == local_text
+
+
+@pytest.mark.slow
+def test_the_comparison_sees_one_figure_moved(local_text, local_json):
+    """The comparison above can fail: one figure's last bit moved is a different document."""
+    moved = json.loads(local_text)
+    check = moved["cases"]["pendulum"]["checks"]["Euler.drift.energy"]["budget"]
+    check["measured"] = math.nextafter(check["measured"], math.inf)
+    assert dumps(moved) != local_text
+    assert dumps(local_json) == local_text
+
+
+@pytest.mark.slow
+def test_a_worker_killed_mid_task_is_rerun_with_the_same_figures(cluster, local_json):
+    process = _mjharness("check", *CASES, "--json", "--executor", "ray", "--ray-address", cluster)
+    kills = _kill_task("pendulum", times=1)
+    code, out, err = _done(process)
+    assert kills == 1
+    assert code == 0, err
+    assert json.loads(out) == local_json
+
+
+@pytest.mark.slow
+def test_a_task_lost_for_good_is_one_line_naming_case_release_and_backend(cluster):
+    import mujoco
+
+    process = _mjharness("check", "pendulum", "--executor", "ray", "--ray-address", cluster)
+    kills = _kill_task("pendulum", times=pool_retries() + 1)
+    code, _, err = _done(process)
+    assert kills == pool_retries() + 1
+    assert code == 2
+    lines = [line for line in err.splitlines() if line.startswith("mjharness:")]
+    assert lines == [f"mjharness: error: pendulum (MuJoCo {mujoco.__version__}, backend c): its Ray task failed "
+                     f"for good: its worker died on every try ({pool_retries() + 1}); fix: check the cluster's "
+                     "nodes, or run with --executor local"], err
+    assert "Traceback" not in err
+
+
+def pool_retries() -> int:
+    from harness.pipeline import cluster
+
+    return cluster.RETRIES
+
+
+LOST = """
+import json, math, os, sys
+from harness.pipeline import cluster, pool
+from harness.pipeline.executor import Executor, TaskLost
+calls = [(os._exit, (3,)), (math.sqrt, (4.0,))]
+at = Executor("ray", sys.argv[1])
+rows = pool.run_tasks(calls, 2, executor=at, failed=lambda i, why: f"call {i} lost: {why}", labels=["dies", "sqrt"])
+try:
+    pool.run_tasks(calls, 2, executor=at, labels=["dies", "sqrt"])
+    raised = ""
+except TaskLost as exc:
+    raised = str(exc)
+cluster.shutdown()
+print(json.dumps([rows, raised]))
+"""
+
+
+@pytest.mark.slow
+def test_a_lost_call_takes_failed_s_answer_in_its_place(cluster):
+    """A call whose worker dies on every try (os._exit ends it) is ``failed(i, reason)``'s row, in order;
+    without ``failed``, TaskLost names it in one line."""
+    env = {**os.environ, **AUTH}
+    done = subprocess.run([sys.executable, "-c", LOST, cluster], env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    rows, raised = json.loads(done.stdout.splitlines()[-1])
+    tries = pool_retries() + 1
+    assert rows == [f"call 0 lost: its worker died on every try ({tries})", 2.0]
+    assert raised == f"dies: its Ray task failed for good: its worker died on every try ({tries})"
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_the_clusters_tasks(cluster):
+    process = _mjharness("check", "--executor", "ray", "--ray-address", cluster, "--jobs", "2")
+    deadline = time.monotonic() + 120
+    while not processes("ray::mjharness:") and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert processes("ray::mjharness:"), "no task started"
+    process.send_signal(signal.SIGINT)
+    code, _, err = _done(process, timeout=60)
+    assert code == 130
+    assert [line for line in err.splitlines() if line.startswith("mjharness:")] == ["mjharness: interrupted"]
+    deadline = time.monotonic() + 15
+    while processes("ray::mjharness:") and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert processes("ray::mjharness:") == []
