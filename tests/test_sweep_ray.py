@@ -18,6 +18,7 @@ from pathlib import Path
 
 import pytest
 
+from harness import zoo
 from harness.cli.commands import main
 from harness.pipeline.pool import Executor
 from harness.versions import envs, releases, sweep
@@ -85,7 +86,7 @@ def test_a_cell_that_cannot_be_built_is_one_error_line_on_the_cluster(cache, ray
     root = envs.source_root()
     builder = envs.Builder(uv=envs.find_uv(), root=cache, source=root)
     shipped = envs.Shipped.of(builder, envs.source_hash(root))
-    models = sweep.resolve(MODELS[:1])
+    models = zoo.sweep_models(MODELS[:1])
     chosen = [releases.Release(r) for r in RELEASES]
     tasks = sweep.plan(models, chosen, ["c"], shipped=shipped, root=cache, pinned=envs.pins(),
                        packages=lambda _b, r: ("mjharness-no-such-package",) if str(r) == "4.0.0" else ())

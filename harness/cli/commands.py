@@ -646,11 +646,12 @@ def _backend_list(text: str) -> tuple[str, ...]:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
+    from harness import zoo  # lazy: only the zoo's commands read the zoo
     from harness.versions import envs, releases, sweep  # lazy: only this command builds environments
     from harness.versions import sweep_report as report  # lazy: as above
 
     executor = _executor(args)
-    models = sweep.resolve(args.models)
+    models = zoo.sweep_models(args.models)
     chosen = releases.parse_selection(args.releases)
     refused = {(r, b): why for b in args.backends for r, why in _backend_refusals(b, chosen, every=True).items()}
     check_output(args.out)

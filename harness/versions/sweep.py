@@ -15,6 +15,8 @@ was lost with its node), with one line naming the model, the release and the bac
 
 from __future__ import annotations
 
+import contextlib
+import importlib.util
 import itertools
 import json
 import math
@@ -43,58 +45,30 @@ RAN = (PASS, FAIL)
 @dataclass(frozen=True)
 class Model:
     """A model of the sweep: a zoo model (``dm_control/acrobot``), a shipped case (``case:pendulum``) or an
-    MJCF file; ``path`` is its file as this machine sees it (none for a case)."""
+    MJCF file; ``path`` is its file as this machine sees it (none for a case), and a zoo model's ``within``
+    its file's place inside its ``package``, where another node finds its own copy."""
 
     name: str
     kind: str
     path: str = ""
+    package: str = ""
+    within: str = ""
 
     def check_args(self) -> tuple[str, ...]:
-        """How ``check`` is told the model, here (a zoo model found again by name where the zoo is installed:
-        another node's copy lies elsewhere)."""
+        """How ``check`` is told the model, on the node running it."""
         if self.kind == "case":
             return ("--case", self.name.removeprefix("case:"))
         return ("--mjcf", self._here())
 
     def _here(self) -> str:
-        if self.kind == "zoo":
-            from harness import zoo  # lazy: imports MuJoCo's model tools
-
-            found, _ = zoo.discover()
-            for m in found:
-                if m.name == self.name:
-                    return str(m.path)
+        """The file here: a zoo model's in this node's copy of its package where it has one."""
+        if self.package:
+            with contextlib.suppress(ImportError, ValueError):
+                spec = importlib.util.find_spec(self.package)
+                for folder in (spec.submodule_search_locations or []) if spec is not None else []:
+                    if (Path(folder) / self.within).is_file():
+                        return str(Path(folder) / self.within)
         return self.path
-
-
-def resolve(names: Sequence[str]) -> tuple[Model, ...]:
-    """The models ``names`` give, each once in the order given: an MJCF file (a path ending in ``.xml`` or an
-    existing file), a zoo model (``package/stem`` or a stem: every package's model of that stem), or a case
-    (``case:NAME``). ValueError (one line) naming what is accepted for a name that is none of them."""
-    from harness import cases, zoo  # lazy: only the sweep's planning needs them
-
-    if not names:
-        raise ValueError("name at least one model: a zoo model (dm_control/acrobot, or a stem), an MJCF file, "
-                         "or a shipped case (case:pendulum)")
-    models, skipped = zoo.discover()
-    out: dict[str, Model] = {}
-    for name in names:
-        if name.startswith("case:"):
-            cases.select([name.removeprefix("case:")])  # an unknown case: one line naming the known ones
-            out.setdefault(name, Model(name, "case"))
-        elif name.endswith(".xml") or Path(name).is_file():
-            path = Path(name)
-            if not path.is_file():
-                raise ValueError(f"MJCF file {name!r} does not exist")
-            out.setdefault(name, Model(name, "file", str(path.resolve())))
-        else:
-            try:
-                found = zoo.select([name], models, skipped)
-            except ValueError as exc:
-                raise ValueError(f"{exc}; a model is a zoo name, an MJCF file (.xml) or a case (case:NAME)") from None
-            for m in found:
-                out.setdefault(m.name, Model(m.name, "zoo", str(m.path)))
-    return tuple(out.values())
 
 
 @dataclass(frozen=True)
