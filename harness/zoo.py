@@ -48,6 +48,7 @@ from harness.pipeline.pool import run_tasks
 from harness.reference.tree import prepare, uncovered
 from harness.studies.engine_faults import CLAIMED, FAULTS, SIZES, UNITS, Caught, smallest_caught
 from harness.studies.injection import SIZES_SEARCHED, Injection, smallest_injection
+from harness.versions.sweep import Model as SweepModel
 
 PASS, FAIL, REFUSED, CRASHED, UNFINISHED = "pass", "fail", "refused", "crashed", "unfinished"
 EXIT = {PASS: 0, FAIL: 1, REFUSED: 2, CRASHED: 2, UNFINISHED: None}
@@ -168,6 +169,37 @@ def select(names: Sequence[str], models: Sequence[ZooModel], skipped: Sequence[S
             raise ValueError(f"unknown zoo model {name!r}; known: {', '.join(m.name for m in models)}")
         chosen |= {m.name: m for m in found}
     return tuple(chosen.values())
+
+
+def sweep_models(names: Sequence[str]) -> tuple[SweepModel, ...]:
+    """The models of ``mjharness sweep``, each once in the order given: an MJCF file (a path ending in ``.xml``
+    or an existing file), a zoo model (``package/stem`` or a stem: every package's model of that stem), or a
+    case (``case:NAME``). ValueError (one line) saying what is accepted for a name that is none of them."""
+    from harness import cases  # lazy: only the sweep's planning reads the cases
+
+    if not names:
+        raise ValueError("name at least one model: a zoo model (dm_control/acrobot, or a stem), an MJCF file, "
+                         "or a shipped case (case:pendulum)")
+    models, skipped = discover()
+    out: dict[str, SweepModel] = {}
+    for name in names:
+        if name.startswith("case:"):
+            cases.select([name.removeprefix("case:")])  # an unknown case: one line naming the known ones
+            out.setdefault(name, SweepModel(name, "case"))
+        elif name.endswith(".xml") or Path(name).is_file():
+            if not Path(name).is_file():
+                raise ValueError(f"MJCF file {name!r} does not exist")
+            out.setdefault(name, SweepModel(name, "file", str(Path(name).resolve())))
+        else:
+            try:
+                found = select([name], models, skipped)
+            except ValueError as exc:
+                raise ValueError(f"{exc}; a model is a zoo name, an MJCF file (.xml) or a case (case:NAME)") from None
+            for m in found:
+                root = _package_dir(m.package)
+                within = m.path.relative_to(root).as_posix() if root is not None else ""
+                out.setdefault(m.name, SweepModel(m.name, "zoo", str(m.path), m.package, within))
+    return tuple(out.values())
 
 
 # ---- what a model has ---------------------------------------------------------------------------------------

@@ -83,7 +83,7 @@ from harness.pipeline import require
 from harness.pipeline.executor import EXECUTORS, Executor, TaskLost
 from harness.pipeline.matrix import LogProgress, run_all, run_backends
 from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
-from harness.pipeline.pool import cpus, run_tasks
+from harness.pipeline.pool import EXECUTORS, Executor, cpus, run_tasks
 from harness.pipeline.run import RunOptions
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
@@ -557,6 +557,7 @@ def _args_versions(p: argparse.ArgumentParser) -> None:
     p.add_argument("--jobs", "-j", type=_positive, metavar="N",
                    help="worker processes of each release's check (default: the CPUs left per release, at least 1)")
     p.add_argument("--no-plots", dest="plots", action="store_false", help="versions.html without the plots")
+    _add_executor(p)
 
 
 def cmd_versions(args: argparse.Namespace) -> int:
@@ -577,6 +578,10 @@ def cmd_versions(args: argparse.Namespace) -> int:
         cases.select([target.case])  # an unknown case: one line naming the known ones
         if not (checked.cases or checked.case):
             check_args += ["--case", target.case]  # only the case the figure belongs to
+    executor = _executor(args)
+    if executor.kind == "ray" and target is not None:
+        raise ValueError("--bisect runs one release after another (each depends on the last): use it without "
+                         "--executor ray")
     chosen = releases.parse_selection(args.releases)
     refused = _backend_refusals(args.backend, chosen)
     added = {r: envs.backend_packages(args.backend, r) for r in chosen if r not in refused} if args.backend else {}
@@ -601,7 +606,7 @@ def cmd_versions(args: argparse.Namespace) -> int:
     else:
         comparison = session.compare_releases(builder, chosen, digest, command, extras=extras, pinned=envs.pins(),
                                               parallel=parallel, refused=refused, added=added,
-                                              noise=noise, on_done=done)
+                                              noise=noise, on_done=done, executor=executor)
     summary = report.text(comparison)
     prepare_output(args.out)
     write_atomic({args.out / "versions.txt": summary,
@@ -611,6 +616,65 @@ def cmd_versions(args: argparse.Namespace) -> int:
     print(f"wrote {args.out / 'versions.html'}, {args.out / 'versions.json'}, {args.out / 'versions.txt'}")
     stopped = comparison.bisection is not None and comparison.bisection.errors
     return EXIT_FAIL if comparison.errors or stopped else EXIT_OK
+
+
+def _args_sweep(p: argparse.ArgumentParser) -> None:
+    p.add_argument("models", nargs="+", metavar="MODEL",
+                   help="zoo models (dm_control/acrobot, or a stem: acrobot), MJCF files (robot.xml), or shipped "
+                        "cases (case:pendulum)")
+    p.add_argument("--releases", nargs="+", required=True, metavar="RELEASE",
+                   help="MuJoCo releases (3.17.0 4.0.0) or a range LO..HI: every release the package index offers "
+                        "from LO to HI (3.3.0..4.0.0); 3.3.0 and later")
+    p.add_argument("--backends", type=_backend_list, default=("c",), metavar="NAMES",
+                   help="comma-separated backends, each cell run with check --backend NAME (default: c; "
+                        "mjx where the index has mujoco-mjx of the release, else the cell is n/a)")
+    p.add_argument("--integrators", type=_names, metavar="NAMES",
+                   help="judge on these integrators only (default: every one, as check)")
+    p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
+                   help="stop each cell's check after so long (the cell: error)")
+    p.add_argument("--out", type=Path, default=Path("mjharness-sweep"), metavar="DIR",
+                   help="where to write sweep.md and sweep.json (default: ./mjharness-sweep)")
+    p.add_argument("--jobs", "-j", type=_positive, metavar="N",
+                   help="cells at once on this machine (default: one per CPU); on Ray, one task per CPU of the cluster")
+    _add_executor(p)
+
+
+def _backend_list(text: str) -> tuple[str, ...]:
+    """``c,mjx``: the sweep's backends, each once."""
+    from harness.versions import envs  # lazy: only the sweep needs it
+
+    names = tuple(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
+    unknown = [n for n in names if n not in envs.BACKENDS]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(f"unknown backend(s) {', '.join(unknown) or 'none'}; accepted: "
+                                         f"{', '.join(envs.BACKENDS)} (comma-separated)")
+    return names
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from harness import zoo  # lazy: only the zoo's commands read the zoo
+    from harness.versions import envs, releases, sweep  # lazy: only this command builds environments
+    from harness.versions import sweep_report as report  # lazy: as above
+
+    executor = _executor(args)
+    models = zoo.sweep_models(args.models)
+    chosen = releases.parse_selection(args.releases)
+    refused = {(r, b): why for b in args.backends for r, why in _backend_refusals(b, chosen, every=True).items()}
+    check_output(args.out)
+    root = envs.source_root()
+    builder = envs.Builder(uv=envs.find_uv(), root=envs.envs_root(), source=root)
+    shipped = envs.Shipped.of(builder, envs.source_hash(root))  # built once here, carried by every task
+    tasks = sweep.plan(models, chosen, args.backends, shipped=shipped, root=envs.envs_root(), pinned=envs.pins(),
+                       packages=lambda b, r: envs.backend_packages(b, r), refused=refused,
+                       integrators=args.integrators or (), timeout=args.timeout)
+    command = " ".join(["mjharness", *sys.argv[1:]]) if sys.argv[1:2] == ["sweep"] else "mjharness sweep"
+    result = sweep.run(tasks, workers=args.jobs or cpus(), executor=executor, command=command,
+                       on_done=lambda cell: print(cell.line(), flush=True))
+    prepare_output(args.out)
+    paths = write_atomic({args.out / "sweep.md": report.markdown(result),
+                          args.out / "sweep.json": dumps(report.json_doc(result))})
+    print(report.text(result) + f"wrote {', '.join(str(p) for p in paths)}", flush=True)
+    return EXIT_FAIL if result.errors else EXIT_OK
 
 
 def _check_options(check_args: Sequence[str]) -> argparse.Namespace:
@@ -625,10 +689,10 @@ def _check_options(check_args: Sequence[str]) -> argparse.Namespace:
     return parser.parse_args(list(check_args))
 
 
-def _backend_refusals(backend: str | None, chosen: Sequence) -> dict:
+def _backend_refusals(backend: str | None, chosen: Sequence, *, every: bool = False) -> dict:
     """The releases ``backend`` cannot run because the package index has no release of its package under
     the same number (mujoco-mjx for MuJoCo 4.0.0), each with its one-line reason; ValueError where that
-    is every chosen release."""
+    is every chosen release, unless ``every`` (a sweep: each such cell says why)."""
     from harness.versions import envs, releases  # lazy: only the versions command needs them
 
     package = envs.SAME_RELEASE.get(backend or "")
@@ -642,7 +706,7 @@ def _backend_refusals(backend: str | None, chosen: Sequence) -> dict:
         f"{min(offered)} … {max(offered)}"
     refused = {r: f"the package index has no {package} {r} (it offers {span}), which backend {backend!r} needs "
                   "at the same release" for r in chosen if r not in offered}
-    if refused and len(refused) == len(chosen):
+    if refused and len(refused) == len(chosen) and not every:
         raise ValueError(f"--backend {backend}: the package index has no {package} of "
                          f"{', '.join(str(r) for r in chosen)} (it offers {span}); choose releases in that span")
     return refused
@@ -970,6 +1034,12 @@ COMMANDS: dict[str, Command] = {
                         "the check go after --, e.g. mjharness versions 3.17.0 4.0.0 -- --case pendulum --mjcf "
                         "my.xml, or -- --mjcf robot.xml for a model of your own. Exit 1 where a release could "
                         "not be run."),
+    "sweep": Command("models × MuJoCo releases × backends: a verdict table", _args_sweep, cmd_sweep,
+                     "run check on every model (zoo names, MJCF files, case:NAME) in every MuJoCo release's own "
+                     "environment on every backend, one task per cell (--executor ray: a Ray task each), and write "
+                     "sweep.md and sweep.json: per model a row per backend of verdicts by release, with the first "
+                     "release at which the verdict, and at which a figure (bit for bit), changed. Exit 1 where a "
+                     "cell could not be run (its line names the model, release and backend)"),
     "baseline": Command("write or compare the regression baseline", _args_baseline, cmd_baseline,
                         "write or compare the regression baseline (reports/baseline/)"),
     "limits": Command("each case's limits with their basis", _args_limits, cmd_limits,

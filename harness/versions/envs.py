@@ -315,3 +315,31 @@ def _locked(path: Path) -> Iterator[None]:
             yield
         finally:
             fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+@dataclass(frozen=True)
+class Shipped:
+    """The harness's wheel as bytes, with the source hash it was built from: what a task sent to another
+    node (a Ray task) carries so that the node builds its environments without a source tree of its own.
+    The wheel is put under the node's ``root/wheels/DIGEST`` once; :meth:`Builder.wheel` then finds it."""
+
+    digest: str
+    name: str
+    data: bytes
+
+    @classmethod
+    def of(cls, builder: Builder, digest: str) -> Shipped:
+        """The wheel ``builder`` builds (or has built) for ``digest``."""
+        wheel = builder.wheel(digest)
+        return cls(digest, wheel.name, wheel.read_bytes())
+
+    def builder(self, root: Path) -> Builder:
+        """A builder on this node for environments under ``root``, with this wheel in place."""
+        out = root / "wheels" / self.digest
+        with _locked(out.with_suffix(".lock")):
+            if not any(out.glob("mjharness-*.whl")):
+                out.mkdir(parents=True, exist_ok=True)
+                scratch = out / (self.name + ".part")
+                scratch.write_bytes(self.data)
+                scratch.rename(out / self.name)
+        return Builder(uv=find_uv(), root=root, source=out)  # the source is never read: the wheel is there

@@ -11,7 +11,8 @@ arithmetic can do to it (:mod:`harness.versions.changes` compares changes with i
 
 Releases run on a pool of ``parallel`` threads, each building its environment and then running its
 checks one after another with ``jobs`` worker processes each; ``parallel × jobs`` should not exceed
-the machine's cores.
+the machine's cores. On a Ray cluster (``versions --executor ray``) each release's runs are one task
+instead, which carries the harness's wheel and builds the release's environment on its node.
 """
 
 from __future__ import annotations
@@ -22,11 +23,12 @@ import subprocess
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from harness.outputs.schema import SchemaError, check_run
-from harness.versions.envs import Builder, EnvError, Environment, EnvSpec
+from harness.pipeline.pool import LOCAL, Executor, run_tasks
+from harness.versions.envs import Builder, EnvError, Environment, EnvSpec, Shipped
 from harness.versions.releases import Release
 
 PERTURBATION = 1e-15
@@ -130,12 +132,30 @@ def run_release(builder: Builder, spec: EnvSpec, digest: str, command: CheckComm
                       check_seconds=time.perf_counter() - start)
 
 
+def release_task(shipped: Shipped, root: Path, spec: EnvSpec, command: CheckCommand,
+                 noise: Sequence[float]) -> ReleaseRun:
+    """:func:`run_release` as a task on any node: the environment built under ``root`` there with the
+    ``shipped`` harness, the check run with that node's variables (:func:`check_environ`) and in
+    ``command.cwd`` where the node has it."""
+    cwd = command.cwd if command.cwd is not None and command.cwd.is_dir() else None
+    here = replace(command, cwd=cwd, environ=check_environ())
+    return run_release(shipped.builder(root), spec, shipped.digest, here, noise=noise)
+
+
 def run_releases(builder: Builder, specs: Sequence[EnvSpec], digest: str, command: CheckCommand, *,
                  parallel: int, noise: Sequence[float] = NOISE_RUNS,
-                 on_done: Callable[[ReleaseRun], None] | None = None) -> list[ReleaseRun]:
+                 on_done: Callable[[ReleaseRun], None] | None = None,
+                 executor: Executor = LOCAL) -> list[ReleaseRun]:
     """:func:`run_release` for each spec, ``parallel`` at a time; results in the order of ``specs``.
-    The harness's wheel is built first, once, so the releases do not wait on one another for it."""
+    The harness's wheel is built first, once, so the releases do not wait on one another for it. On a Ray
+    ``executor`` each release is a task (:func:`release_task`); one lost for good is a run with its error."""
     builder.wheel(digest)
+    if executor.kind != "local":
+        shipped = Shipped.of(builder, digest)
+        return run_tasks([(release_task, (shipped, builder.root, s, command, tuple(noise))) for s in specs],
+                         parallel, executor=executor, labels=[f"MuJoCo {s.release}" for s in specs],
+                         on_done=None if on_done is None else lambda _i, run: on_done(run),
+                         failed=lambda i, why: ReleaseRun(specs[i].release, error=f"the task was lost: {why}"))
     with ThreadPoolExecutor(max_workers=max(1, parallel)) as pool:
         futures = [pool.submit(run_release, builder, s, digest, command, noise=noise) for s in specs]
         results = []

@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping, Sequence
 
+from harness.pipeline.pool import LOCAL, Executor
 from harness.versions import changes as changes_mod
 from harness.versions.bisect import Target, bisect
 from harness.versions.envs import Builder, EnvSpec
@@ -22,13 +23,15 @@ def compare_releases(builder: Builder, releases: Sequence[Release], digest: str,
                      extras: Sequence[str] = (), pinned: Sequence[str] = (), parallel: int = 1,
                      noise: Sequence[float] = NOISE_RUNS, refused: Mapping[Release, str] | None = None,
                      added: Mapping[Release, Sequence[str]] | None = None,
-                     on_done: Callable[[ReleaseRun], None] | None = None) -> Comparison:
-    """Every release run (``parallel`` at a time) and compared with the one before it; a release in
-    ``refused`` is not built, its reason its run's error; ``added`` are packages of one release's
-    environment besides ``extras`` (a backend's)."""
+                     on_done: Callable[[ReleaseRun], None] | None = None,
+                     executor: Executor = LOCAL) -> Comparison:
+    """Every release run (``parallel`` at a time, or one Ray task each on a Ray ``executor``) and compared
+    with the one before it; a release in ``refused`` is not built, its reason its run's error; ``added`` are
+    packages of one release's environment besides ``extras`` (a backend's)."""
     start = time.perf_counter()
     specs = [_spec(r, extras, pinned, refused, added) for r in releases]
-    runs = run_releases(builder, specs, digest, command, parallel=parallel, noise=noise, on_done=on_done)
+    runs = run_releases(builder, specs, digest, command, parallel=parallel, noise=noise, on_done=on_done,
+                        executor=executor)
     snaps = [_snapshot(r) for r in runs if r.ok]
     found = changes_mod.changes(snaps)
     return Comparison(tuple(runs), tuple(snaps), tuple(found), check_args=command.args,
