@@ -143,3 +143,16 @@ def pytest_collection_modifyitems(config, items):
             if group in seen:
                 item.add_marker(pytest.mark.slow)
             seen.add(group)
+
+
+@pytest.fixture(scope="session")
+def ray_address():
+    """A Ray cluster on loopback (2 CPUs) for the session, stopped after it, with this process set to join it
+    (tests/raycluster.py); skipped where Ray is not installed."""
+    pytest.importorskip("ray")
+    from tests.raycluster import AUTH, loopback_cluster
+
+    with pytest.MonkeyPatch.context() as mp, loopback_cluster() as address:
+        for name, value in AUTH.items():
+            mp.setenv(name, value)
+        yield address

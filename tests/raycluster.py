@@ -1,8 +1,9 @@
 """A Ray cluster on loopback for the tests: ``ray start --head`` in a temporary folder of its own, started by
 a fixture and stopped with every process it made (found by that folder), whatever else runs Ray here.
 
-Token authentication is on (``RAY_AUTH_MODE=token``, Ray's default for new clusters since 2.5x): the
-cluster and every driver the tests start read the same token (``~/.ray/auth_token``, made if missing)."""
+Token authentication is off (``RAY_AUTH_MODE=disabled``) for the cluster and for every driver the tests
+start or are: the cluster listens on loopback alone, and Ray turns authentication on for ``ray start``
+wherever ``~/.ray/auth_token`` exists, which a driver without the token could not then join."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-AUTH = {"RAY_AUTH_MODE": "token"}
+AUTH = {"RAY_AUTH_MODE": "disabled", "RAY_USAGE_STATS_ENABLED": "0"}
 
 
 def processes(tag: str) -> list[int]:
@@ -45,7 +46,6 @@ def loopback_cluster(cpus: int = 2) -> Iterator[str]:
     """A head node on 127.0.0.1 with ``cpus`` CPUs; yields its address; stops it (every process of its
     folder) on leaving."""
     ray = Path(sys.executable).with_name("ray")
-    subprocess.run([str(ray), "get-auth-token", "--generate"], capture_output=True, check=False)
     folder = tempfile.mkdtemp(prefix="mjh-ray-", dir="/tmp")  # short: Ray's socket paths must fit 107 bytes
     port = _free_port()
     env = {**os.environ, **AUTH}

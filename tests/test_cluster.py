@@ -15,7 +15,7 @@ import time
 import pytest
 
 from harness.outputs.jsondoc import dumps
-from tests.raycluster import AUTH, loopback_cluster, processes
+from tests.raycluster import AUTH, processes
 
 CASES = ("pendulum", "spring")
 
@@ -52,10 +52,8 @@ def _kill_task(tag: str, *, times: int, timeout: float = 120) -> int:
 
 
 @pytest.fixture(scope="module")
-def cluster() -> str:
-    pytest.importorskip("ray")
-    with loopback_cluster() as address:
-        yield address
+def cluster(ray_address) -> str:
+    return ray_address
 
 
 @pytest.fixture(scope="module")

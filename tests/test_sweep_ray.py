@@ -9,11 +9,6 @@ Skipped, with the reason printed, where Ray is not installed or the package inde
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import socket
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -27,29 +22,6 @@ from harness.versions import sweep_report as report
 pytestmark = pytest.mark.slow
 MODELS = ["dm_control/pendulum", "case:pendulum"]
 RELEASES = ["3.3.0", "4.0.0"]
-
-
-@pytest.fixture(scope="session")
-def ray_address(tmp_path_factory):
-    """A Ray cluster on loopback for the session (2 CPUs), stopped after it. Token authentication is off for the
-    cluster and this process alike: Ray turns it on for ``ray start`` wherever ``~/.ray/auth_token`` exists.
-    TODO: main's shared fixture of the same name in tests/conftest.py replaces this one once merged."""
-    pytest.importorskip("ray")
-    ray = shutil.which("ray", path=str(Path(sys.executable).parent))
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    temp = tmp_path_factory.mktemp("ray")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("RAY_AUTH_MODE", "disabled")
-        env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
-        subprocess.run([ray, "start", "--head", "--node-ip-address", "127.0.0.1", "--port", str(port),
-                        "--num-cpus", "2", "--include-dashboard", "false", "--temp-dir", str(temp)],
-                       check=True, capture_output=True, env=env)
-        try:
-            yield f"127.0.0.1:{port}"
-        finally:
-            subprocess.run([ray, "stop", "--force"], capture_output=True, env=env, check=False)
 
 
 @pytest.fixture(scope="session")

@@ -83,7 +83,7 @@ from harness.pipeline import require
 from harness.pipeline.executor import EXECUTORS, Executor, TaskLost
 from harness.pipeline.matrix import LogProgress, run_all, run_backends
 from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
-from harness.pipeline.pool import EXECUTORS, Executor, cpus, run_tasks
+from harness.pipeline.pool import cpus, run_tasks
 from harness.pipeline.run import RunOptions
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
