@@ -14,7 +14,9 @@ import time
 
 import pytest
 
+from harness.cli.commands import main as main_cli
 from harness.outputs.jsondoc import dumps
+from harness.pipeline.executor import Executor
 from tests.raycluster import AUTH, processes
 
 CASES = ("pendulum", "spring")
@@ -163,3 +165,57 @@ def test_ctrl_c_stops_the_clusters_tasks(cluster):
     while processes("ray::mjharness:") and time.monotonic() < deadline:
         time.sleep(0.1)
     assert processes("ray::mjharness:") == []
+
+
+# ---- without a cluster (fast) -------------------------------------------------------------------------------
+@pytest.mark.parametrize(("args", "line"), [
+    (["--ray-address", "127.0.0.1:6379"], "mjharness: error: --ray-address needs --executor ray"),
+    (["--executor", "ray", "--ray-address", "nohost"],
+     "mjharness: error: Ray address 'nohost' is not HOST:PORT; accepted: the address `ray start --head` printed "
+     "(HOST:PORT), or none (no --ray-address, no RAY_ADDRESS) for a local cluster"),
+])
+def test_a_bad_executor_is_one_line(args, line, capsys):
+    pytest.importorskip("ray")
+    assert main_cli(["check", "spring", *args]) == 2
+    assert capsys.readouterr().err.strip() == line
+
+
+def test_a_cluster_nobody_answers_at_is_one_line_at_once(capsys):
+    """Ray itself would retry for minutes; the address is tried first (a closed port on loopback)."""
+    pytest.importorskip("ray")
+    start = time.monotonic()
+    assert main_cli(["check", "spring", "--executor", "ray", "--ray-address", "127.0.0.1:1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("mjharness: error: no Ray cluster answers at 127.0.0.1:1 (")
+    assert "\n" not in err
+    assert time.monotonic() - start < 30
+
+
+def test_without_ray_the_executor_names_the_extra(monkeypatch, capsys):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "ray" else real(name, *a))
+    assert main_cli(["check", "spring", "--executor", "ray"]) == 2
+    assert capsys.readouterr().err.strip() == ("mjharness: error: --executor ray: Ray is not installed; fix: pip "
+                                               "install 'mjharness[ray]'")
+
+
+def test_a_zoo_model_whose_task_is_lost_is_its_row_not_a_gap(monkeypatch):
+    """Where the cluster loses a model's task for good, the zoo has that model's row (crashed, saying so)."""
+    from harness import zoo
+
+    models, skipped = zoo.discover()
+    if not models:
+        pytest.skip("no zoo package installed (pip install 'mjharness[zoo]')")
+    chosen = zoo.select(["dm_control/pendulum"], models, skipped)
+
+    def lose_every_call(calls, workers, *, failed, **_):
+        return [failed(i, "its worker died on every try (4)") for i in range(len(calls))]
+
+    monkeypatch.setattr(zoo, "run_tasks", lose_every_call)
+    run = zoo.run(chosen, faults=True, executor=Executor("ray"))
+    assert [(r.model, r.verdict, r.reason) for r in run.results] == [
+        ("dm_control/pendulum", zoo.CRASHED, "its Ray task failed for good: its worker died on every try (4)")]
+    assert {c.crashed for c in run.faults} == {"its Ray task failed for good: its worker died on every try (4)"}
+    assert run.exit_code == 2

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import atexit
 import os
+import socket
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -53,12 +54,29 @@ def _runtime_env() -> dict:
             "env_vars": {"MUJOCO_GL": "disable"}}
 
 
+def _reachable(where: str) -> None:
+    """ValueError (one line) where ``where`` is no HOST:PORT that answers: Ray itself would retry for minutes."""
+    if where == "auto" or "://" in where:  # Ray's own forms (the local node's cluster, Ray Client): Ray checks them
+        return
+    host, _, port = where.rpartition(":")
+    accepted = ("accepted: the address `ray start --head` printed (HOST:PORT), or none (no --ray-address, no "
+                "RAY_ADDRESS) for a local cluster")
+    if not host or not port.isdigit():
+        raise ValueError(f"Ray address {where!r} is not HOST:PORT; {accepted}")
+    try:
+        socket.create_connection((host, int(port)), timeout=5).close()
+    except OSError as exc:
+        raise ValueError(f"no Ray cluster answers at {where} ({exc.strerror or exc}); {accepted}") from None
+
+
 def connect(executor: Executor) -> None:
     """Connect to the cluster ``executor`` names, or start a local one, unless connected already."""
     global _owned
     if ray.is_initialized():
         return
     where = address(executor)
+    if where is not None:
+        _reachable(where)
     try:
         if where is None:
             ray.init(include_dashboard=False, log_to_driver=False, logging_level="ERROR",
