@@ -411,6 +411,7 @@ def _args_run(p: argparse.ArgumentParser) -> None:
     _add_junit(p)
     _add_quiet(p)
     _add_run_options(p)
+    _add_executor(p)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
