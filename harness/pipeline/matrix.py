@@ -239,7 +239,9 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_
 def _run_on_cluster(selected: Sequence[cases.Case], executor: Executor, bar, *, figures_only: bool,
                     options: RunOptions, finished: Callable[[CaseResult], None]) -> list[CaseResult]:
     """run_case on a Ray cluster, a system's cases as one task (named by its cases, MuJoCo's release and the
-    backend); results in registry order, a case's error raised as :func:`_run_parallel` raises it, a task
+    backend), as the local pool groups them: a case's reference may be cut from a longer solve of its
+    system that an earlier case made in the same process, so the grouping is part of the figures' bits;
+    results in registry order, a case's error raised as :func:`_run_parallel` raises it, a task
     lost for good as :class:`~harness.pipeline.pool.TaskLost`."""
     import mujoco  # lazy: already imported by harness.cases; named here for its release in the tasks' names
 
