@@ -15,7 +15,7 @@ import pytest
 
 from harness import zoo
 from harness.cli.commands import main
-from harness.pipeline.pool import Executor
+from harness.pipeline.executor import Executor
 from harness.versions import envs, releases, sweep
 from harness.versions import sweep_report as report
 

@@ -40,8 +40,6 @@ RETRIES = 3
 PACKAGES = ("analytic", "harness", "mjcf")
 """The harness's own packages, sent to a cluster of its own address with every task."""
 
-_owned = False  # this process started the cluster it is connected to (stopped by shutdown)
-
 
 def address(executor: Executor) -> str | None:
     """The cluster ``executor`` names: its address, else ``RAY_ADDRESS``, else None (a local one)."""
@@ -71,7 +69,6 @@ def _reachable(where: str) -> None:
 
 def connect(executor: Executor) -> None:
     """Connect to the cluster ``executor`` names, or start a local one, unless connected already."""
-    global _owned
     if ray.is_initialized():
         return
     where = address(executor)
@@ -81,7 +78,6 @@ def connect(executor: Executor) -> None:
         if where is None:
             ray.init(include_dashboard=False, log_to_driver=False, logging_level="ERROR",
                      runtime_env={"env_vars": {"MUJOCO_GL": "disable"}})
-            _owned = True
         else:
             ray.init(address=where, log_to_driver=False, logging_level="ERROR", runtime_env=_runtime_env())
     except (ConnectionError, RuntimeError, ValueError) as exc:
@@ -93,10 +89,8 @@ def connect(executor: Executor) -> None:
 
 def shutdown() -> None:
     """Disconnect from the cluster (a local one that this process started stops with it)."""
-    global _owned
     if ray.is_initialized():
         ray.shutdown()
-    _owned = False
 
 
 def _call(fn: Callable[..., Any], args: tuple) -> Any:

@@ -27,7 +27,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from harness.outputs.schema import SchemaError, check_run
-from harness.pipeline.pool import LOCAL, Executor, run_tasks
+from harness.pipeline.executor import LOCAL, Executor
+from harness.pipeline.pool import run_tasks
 from harness.versions.envs import Builder, EnvError, Environment, EnvSpec, Shipped
 from harness.versions.releases import Release
 

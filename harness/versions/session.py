@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping, Sequence
 
-from harness.pipeline.pool import LOCAL, Executor
+from harness.pipeline.executor import LOCAL, Executor
 from harness.versions import changes as changes_mod
 from harness.versions.bisect import Target, bisect
 from harness.versions.envs import Builder, EnvSpec

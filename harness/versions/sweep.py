@@ -28,7 +28,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from harness.outputs.schema import SchemaError, check_run
-from harness.pipeline.pool import LOCAL, Executor, run_tasks
+from harness.pipeline.executor import LOCAL, Executor
+from harness.pipeline.pool import run_tasks
 from harness.versions.changes import figures, statuses
 from harness.versions.envs import EnvError, EnvSpec, Shipped
 from harness.versions.releases import Release
