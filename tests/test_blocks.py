@@ -32,6 +32,7 @@ from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
 from analytic.solvers import solve
 from analytic.systems import Scales
 from harness.core.errors import ModelMismatch
+from harness.engine import native
 from harness.engine.bindings import JointBinding
 from harness.engine.compat import full_mass_matrix
 from harness.engine.compat import version as mujoco_version
@@ -177,10 +178,11 @@ def test_the_instant_layer_compares_a_block_per_row_and_as_a_generalized_force(m
 def test_both_recorders_record_the_block(model):
     loop = simulate(model, PROBE, q0=Q0, qd0=QD0, steps=200, method="loop")
     assert loop.multipliers["tip"].shape == (201, 3) and loop.violations["tip"].shape == (201, 3)
-    if hasattr(mujoco, "batch"):
-        batch = simulate(model, PROBE, q0=Q0, qd0=QD0, steps=200, method="batch")
-        np.testing.assert_array_equal(batch.multipliers["tip"], loop.multipliers["tip"])
-        np.testing.assert_array_equal(batch.violations["tip"], loop.violations["tip"])
+    in_c = [m for m, here in (("native", native.library() is not None), ("batch", hasattr(mujoco, "batch"))) if here]
+    for method in in_c:
+        got = simulate(model, PROBE, q0=Q0, qd0=QD0, steps=200, method=method)
+        np.testing.assert_array_equal(got.multipliers["tip"], loop.multipliers["tip"])
+        np.testing.assert_array_equal(got.violations["tip"], loop.violations["tip"])
     # the first sample is the consistent initial state: its block is what the soft rows make of λ there
     lam, gamma = _ideal(Q0, QD0)
     expected = _predicted(model, _forward(model, Q0, QD0), lam, gamma)

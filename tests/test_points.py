@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from harness.core.errors import ModelMismatch
+from harness.engine import native
 from harness.engine import simulate as simmod
 from harness.engine.bindings import JointBinding, velocity_map
 from harness.engine.integrators import available_integrators
@@ -26,7 +27,8 @@ from harness.engine.simulate import point_state, simulate
 from harness.layers.instant import point_acceleration
 from mjcf.spherical_pendulum_ball import BallBinding
 
-HAS_BATCH = simmod._batch is not None
+# the recorders in C this MuJoCo has (the native one where it could be built, the batch one where mujoco.batch is)
+IN_C = [m for m, here in (("native", native.library() is not None), ("batch", simmod._batch is not None)) if here]
 OFFSETS = {"tip1": ("bob1", [0.12, 0.05, -0.2]), "tip2": ("bob2", [-0.07, 0.3, 0.1])}
 
 
@@ -104,21 +106,22 @@ def test_a_site_acceleration_is_the_rate_of_its_velocity(make):
         np.testing.assert_allclose(acc[p], rate, rtol=0, atol=1e-6 * max(1.0, np.linalg.norm(rate)))
 
 
-@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo: the loop records everything")
+@pytest.mark.parametrize("method", IN_C)
 @pytest.mark.parametrize("make", [_chain, _ball])
-def test_the_batch_recorder_reads_sites_as_the_loop_does(make):
-    """Sites and bodies side by side, every integrator: the batch recorder's positions and velocities
-    (site_xpos, J assembled from cdof at the site) equal the loop's, bit for bit, without falling back."""
+def test_the_recorders_in_c_read_sites_as_the_loop_does(make, method):
+    """Sites and bodies side by side, every integrator: the native and batch recorders' positions and
+    velocities (site_xpos, J assembled from cdof at the site) equal the loop's, bit for bit, without falling
+    back."""
     for integrator in available_integrators():
         model, probe, q0, qd0 = make(integrator)
         assert "site_xpos" in simmod.recorded_fields(model, probe)
         notes = len(simmod.recorder_notes())
-        batch = simulate(model, probe, q0=q0, qd0=qd0, steps=120, method="batch")
+        got = simulate(model, probe, q0=q0, qd0=qd0, steps=120, method=method)
         loop = simulate(model, probe, q0=q0, qd0=qd0, steps=120, method="loop")
-        assert simmod.recorder_notes()[notes:] == (), "the batch recorder fell back to the loop"
+        assert simmod.recorder_notes()[notes:] == (), f"the {method} recorder fell back to the loop"
         for p in probe.points:
-            assert np.array_equal(batch.positions[p], loop.positions[p]), (integrator, p)
-            assert np.array_equal(batch.velocities[p], loop.velocities[p]), (integrator, p)
+            assert np.array_equal(got.positions[p], loop.positions[p]), (integrator, p)
+            assert np.array_equal(got.velocities[p], loop.velocities[p]), (integrator, p)
 
 
 def test_bodies_alone_record_no_site_field():

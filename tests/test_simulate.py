@@ -1,8 +1,9 @@
 """The MuJoCo recorders: same steps as mj_step, and every sample belongs to its state.
 
-Both recorders (the batch recorder, in C, where ``mujoco.batch`` exists, and
-the Python loop) are pinned to the same guarantees, and to each other bit for
-bit on every registered case and integrator.
+The three recorders (the native one, built from C on first use where a
+compiler is found; the batch recorder, in C, where ``mujoco.batch`` exists;
+and the Python loop) are pinned to the same guarantees, and to each other bit
+for bit on every registered case and integrator.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import pytest
 
 from harness import cases
 from harness.core.errors import ModelError, ModelMismatch, SimulationDiverged
+from harness.engine import native
 from harness.engine import simulate as simmod
 from harness.engine.bindings import JointBinding
 from harness.engine.constraints import equality_block, equality_force
@@ -24,7 +26,10 @@ from harness.engine.simulate import point_state, simulate
 PROBE = Probe(binding=JointBinding(("theta", "r")), points=("bob",), constraints=("rod",))
 Q0, QD0 = [1.0, 1.0], [0.5, 0.0]
 HAS_BATCH = simmod._batch is not None
-METHODS = ["auto", "loop"]
+HAS_NATIVE = native.library() is not None
+# the recorders that write into reused scratch arrays: each must equal the loop
+IN_C = [m for m, here in (("native", HAS_NATIVE), ("batch", HAS_BATCH)) if here]
+METHODS = ["auto", "loop", *IN_C]
 
 
 def _case_probe(name: str):
@@ -138,23 +143,25 @@ def test_every_recorded_quantity_belongs_to_its_state(name, integrator):
         mujoco.mj_step(model, data)
 
 
-@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo: the loop records everything")
+@pytest.mark.skipif(not IN_C, reason="neither the native recorder nor mujoco.batch here: the loop records everything")
 @pytest.mark.parametrize("name", cases.names())
-def test_batch_recorder_equals_the_loop_bit_for_bit(name):
-    """Every registered case, every integrator: the two recorders give the same arrays, bit for bit."""
+def test_recorders_in_c_equal_the_loop_bit_for_bit(name):
+    """Every registered case, every integrator: the native and batch recorders give the loop's arrays, bit for
+    bit."""
     case, probe, q0, qd0 = _case_probe(name)
     for integrator in available_integrators():
         model = compile_model(case.mjcf, integrator=integrator)
-        notes = len(simmod.recorder_notes())
-        batch = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=120, method="batch"))
         loop = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=120, method="loop"))
-        assert batch.keys() == loop.keys()
-        assert [k for k in batch if not np.array_equal(batch[k], loop[k])] == [], integrator
-        assert simmod.recorder_notes()[notes:] == (), "the batch recorder fell back to the loop"
+        for method in IN_C:
+            notes = len(simmod.recorder_notes())
+            got = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=120, method=method))
+            assert got.keys() == loop.keys()
+            assert [k for k in got if not np.array_equal(got[k], loop[k])] == [], (method, integrator)
+            assert simmod.recorder_notes()[notes:] == (), f"the {method} recorder fell back to the loop"
 
 
-@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo")
-def test_a_batch_result_that_differs_from_mj_forward_is_not_used(monkeypatch):
+@pytest.mark.parametrize("method", IN_C)
+def test_a_result_that_differs_from_mj_forward_is_not_used(monkeypatch, method):
     """The spot check against a fresh mj_forward: wrong velocities send the run to the loop, and a
     wrong recovered equality is read per sample instead; each says so in recorder_notes()."""
     model = compile_model(mjcf_path("pendulum"), integrator="Euler")
@@ -162,13 +169,13 @@ def test_a_batch_result_that_differs_from_mj_forward_is_not_used(monkeypatch):
     real = simmod._point_velocity
     monkeypatch.setattr(simmod, "_point_velocity", lambda *a: real(*a) * (1 + 1e-15))
     notes = len(simmod.recorder_notes())
-    again = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=60))
+    again = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=60, method=method))
     assert all(np.array_equal(again[k], loop[k]) for k in loop)
     assert "velocity" in simmod.recorder_notes()[notes] and "loop instead" in simmod.recorder_notes()[notes]
     monkeypatch.undo()
     monkeypatch.setattr(simmod._JointEquality, "violation", lambda self, qpos: qpos[:, self.qpos1] * 0.0)
     notes = len(simmod.recorder_notes())
-    again = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=60))
+    again = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=60, method=method))
     assert all(np.array_equal(again[k], loop[k]) for k in loop)
     assert "read per sample instead" in simmod.recorder_notes()[notes]
 
@@ -179,9 +186,9 @@ def _on_one_and_two_threads_and_the_loop(model, probe, q0, qd0) -> tuple[dict, d
     notes = len(simmod.recorder_notes())
     try:
         simmod.set_threads(1)
-        one = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000))
+        one = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000, method="batch"))
         simmod.set_threads(2)
-        two = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000))
+        two = _arrays(simulate(model, probe, q0=q0, qd0=qd0, steps=1000, method="batch"))
     finally:
         simmod.set_threads(None)
     assert simmod.recorder_notes()[notes:] == (), "the batch recorder fell back to the loop"
@@ -221,18 +228,18 @@ def test_rk4_recomputation_is_the_same_on_any_number_of_threads(name):
         simmod.set_threads(0)
 
 
-@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo")
+@pytest.mark.parametrize("method", IN_C)
 @pytest.mark.parametrize("integrator", ["Euler", "RK4"])
-def test_a_trajectory_owns_its_arrays(integrator):
-    """The batch recorder reuses its scratch arrays from run to run: a trajectory must not see the
+def test_a_trajectory_owns_its_arrays(integrator, method):
+    """The recorders in C reuse their scratch arrays from run to run: a trajectory must not see the
     next run's numbers."""
     case, probe, q0, qd0 = _case_probe("spherical_pendulum")
     model = compile_model(case.mjcf, integrator=integrator)
     notes = len(simmod.recorder_notes())
-    first = simulate(model, probe, q0=q0, qd0=qd0, steps=300)
+    first = simulate(model, probe, q0=q0, qd0=qd0, steps=300, method=method)
     kept = {k: v.copy() for k, v in _arrays(first).items()}
-    simulate(model, probe, q0=[0.5, 1.0], qd0=[1.0, -3.0], steps=300)
-    assert simmod.recorder_notes()[notes:] == (), "the batch recorder fell back to the loop"
+    simulate(model, probe, q0=[0.5, 1.0], qd0=[1.0, -3.0], steps=300, method=method)
+    assert simmod.recorder_notes()[notes:] == (), f"the {method} recorder fell back to the loop"
     assert [k for k, v in _arrays(first).items() if not np.array_equal(v, kept[k])] == []
 
 
@@ -240,7 +247,10 @@ def test_without_mujoco_batch_the_loop_records_and_says_so(monkeypatch):
     """MuJoCo 3.3 has no mujoco.batch: the loop records, recorder() says why (never silent), and
     asking for the batch recorder is a one-line ValueError."""
     monkeypatch.setattr(simmod, "_batch", None)
+    monkeypatch.setattr(native, "library", lambda: None)
+    monkeypatch.setattr(native, "why_not", lambda: "no C compiler found ($CC, cc, gcc or clang)")
     assert simmod.recorder().startswith("loop") and "no mujoco.batch" in simmod.recorder()
+    assert "no native recorder: no C compiler found" in simmod.recorder()
     model = compile_model(mjcf_path("pendulum"), integrator="RK4")
     traj = simulate(model, PROBE, q0=Q0, qd0=QD0, steps=20)
     assert traj.is_finite() and len(traj.t) == 21
@@ -277,7 +287,7 @@ def test_divergence_is_reported_not_returned(integrator, method):
     assert "\n" not in str(info.value)
 
 
-@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo")
+@pytest.mark.skipif(not IN_C, reason="neither the native recorder nor mujoco.batch here")
 @pytest.mark.parametrize("integrator", ["Euler", "implicitfast", "RK4"])
 @pytest.mark.parametrize("stiffness, gravity, at", [(3e7, -9.81, 0.002), (0.0, -1e12, 0.0)])
 def test_both_recorders_say_when_a_run_diverged(integrator, stiffness, gravity, at):
@@ -293,24 +303,24 @@ def test_both_recorders_say_when_a_run_diverged(integrator, stiffness, gravity, 
 
     model = compile_model(mjcf_path("pendulum"), integrator=integrator, edit=edit)
     said = []
-    for method in ("batch", "loop"):
+    for method in (*IN_C, "loop"):
         with pytest.raises(SimulationDiverged) as info:
             simulate(model, PROBE, q0=Q0, qd0=QD0, steps=2000, method=method)
         said.append((info.value.what, info.value.t))
-    assert said[0] == said[1] == ("mjWARN_BADQACC", pytest.approx(at, abs=1e-12))
+    assert said == [("mjWARN_BADQACC", pytest.approx(at, abs=1e-12))] * len(said)
 
 
-@pytest.mark.skipif(not HAS_BATCH, reason="no mujoco.batch in this MuJoCo")
+@pytest.mark.parametrize("method", IN_C)
 @pytest.mark.parametrize("integrator", ["Euler", "RK4"])
-def test_a_diverged_run_leaves_nothing_to_the_next(integrator):
-    """The batch recorder reuses its batch and scratch arrays: after a run that diverged (a MuJoCo
+def test_a_diverged_run_leaves_nothing_to_the_next(integrator, method):
+    """The recorders in C reuse their data, batch and scratch arrays: after a run that diverged (a MuJoCo
     warning), the next run of the same model is still the loop's, bit for bit."""
     model = compile_model(mjcf_path("pendulum"), integrator=integrator)
     with pytest.raises(SimulationDiverged):
-        simulate(model, PROBE, q0=Q0, qd0=[1e11, 0.0], steps=600)
+        simulate(model, PROBE, q0=Q0, qd0=[1e11, 0.0], steps=600, method=method)
     notes = len(simmod.recorder_notes())
-    batch = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=600))
-    assert simmod.recorder_notes()[notes:] == (), "the batch recorder fell back to the loop"
+    batch = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=600, method=method))
+    assert simmod.recorder_notes()[notes:] == (), f"the {method} recorder fell back to the loop"
     loop = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=600, method="loop"))
     assert [k for k in loop if not np.array_equal(batch[k], loop[k])] == []
 

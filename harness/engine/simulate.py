@@ -2,7 +2,7 @@
 
 After ``mj_step`` the derived fields describe the state *before* the step, and
 after an RK4 step ``efc_force``, ``qfrc_constraint`` and ``energy`` hold the
-last Runge–Kutta stage (design.md, "Conventions"). Two recorders honour that
+last Runge–Kutta stage (design.md, "Conventions"). Three recorders honour that
 and give the same numbers, bit for bit (pinned in tests/test_simulate.py):
 
 ``loop`` (any MuJoCo): each step is ``mj_forward`` (derived fields of the
@@ -11,6 +11,12 @@ current state) between the checks ``mj_step`` makes around it
 record, then the integrator's own function — the same work ``mj_step`` does,
 in the same order, bit-identical to it. It costs a Python round trip per
 sample, several times MuJoCo's own step.
+
+``native`` (where a C compiler is found, :mod:`harness.engine.native`): the
+loop's calls made in C, recording at every sample the integration state, the
+fixed-size fields (:func:`recorded_fields`) and the equalities' ``efc_*`` rows
+(which no fixed-size field holds) as it steps, so nothing is computed twice.
+Then the same assembly, readings and check as the batch recorder's.
 
 ``batch`` (``mujoco.batch``, MuJoCo ≥ 4): the steps run in C
 (``Batch.rollout``), recording after every substep the integration state and
@@ -40,11 +46,11 @@ reads them; with a second thread, on that thread, chunk by chunk, while the
 rollout steps the next chunk (efc_* has no fixed size: ``mujoco.batch`` cannot
 record it, and a forward per state costs about a step).
 
-Every batch run is checked against a fresh ``mj_forward`` at a few samples,
-bit for bit; a mismatch (another MuJoCo's arithmetic) hands the equalities,
-or the whole run, to the loop, and :func:`recorder_notes` says so. Where
-``mujoco.batch`` does not exist (MuJoCo 3.3) the loop records everything and
-:func:`recorder` says why.
+Every native or batch run is checked against a fresh ``mj_forward`` at one
+sample, bit for bit; a mismatch (another MuJoCo's arithmetic) hands the
+equalities, or the whole run, to the loop, and :func:`recorder_notes` says so.
+``auto`` takes the native recorder, else the batch one where ``mujoco.batch``
+exists (MuJoCo ≥ 4), else the loop; :func:`recorder` says which and why.
 """
 
 from __future__ import annotations
@@ -63,6 +69,7 @@ import numpy as np
 
 from harness.core.errors import SimulationDiverged
 from harness.core.trajectory import Trajectory
+from harness.engine import native
 from harness.engine.bindings import ONE_DOF
 from harness.engine.constraints import EQUALITY_ROWS, equality_block, equality_size
 from harness.engine.integrators import STEP_FUNCTIONS, integrator_name
@@ -100,15 +107,20 @@ _spare_batches: dict[int, tuple[mujoco.MjModel, object]] = {}
 
 def recorder() -> str:
     """Which recorder :func:`simulate` uses on this MuJoCo, and why."""
+    if native.library() is not None:
+        return ("native: the loop's MuJoCo calls made in C (harness/engine/native_record.c, built on first use), "
+                "recording state, fixed-size fields and the equalities' efc rows as it steps; readings evaluated "
+                "over the whole run")
     if _batch is None:
         return (f"loop: mj_forward, read, integrator function per step in Python (MuJoCo {mujoco.__version__} "
-                "has no mujoco.batch)")
+                f"has no mujoco.batch; no native recorder: {native.why_not()})")
     return ("batch: steps and fixed-size fields recorded in C (mujoco.batch; RK4's fields recomputed on a "
-            "second thread while it steps), readings evaluated over the whole run")
+            f"second thread while it steps), readings evaluated over the whole run (no native recorder: "
+            f"{native.why_not()})")
 
 
 def recorder_notes() -> tuple[str, ...]:
-    """Every time this process's batch recorder fell back to reading per sample or to the loop, and why,
+    """Every time this process's native or batch recorder fell back to reading per sample or to the loop, and why,
     in order (empty when it never did); ``recorder_notes()[n:]`` are the notes since an earlier count n."""
     return tuple(_notes)
 
@@ -216,22 +228,34 @@ def simulate(
     after 250 000 steps of 2e-5 s), a time that is no property of the state: a reference sampled there
     would be off by the velocity times the drift, and past its horizon. Raises SimulationDiverged
     on NaN or MuJoCo warnings, ModelMismatch if the model lacks what the probe
-    reads. ``method``: ``auto`` (the batch recorder where ``mujoco.batch``
-    exists, else the loop), ``batch`` or ``loop``; all give the same numbers.
+    reads. ``method``: ``auto`` (the native recorder where it could be built, else the
+    batch recorder where ``mujoco.batch`` exists, else the loop), ``native``, ``batch``
+    or ``loop``; all give the same numbers.
     ``timings``, if given, receives the seconds of the Python readings
     (``readings``, batch recorder) or of the whole loop recording (``loop``).
     """
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
-    if method not in ("auto", "batch", "loop"):
-        raise ValueError(f"method must be 'auto', 'batch' or 'loop', got {method!r}")
+    if method not in ("auto", "native", "batch", "loop"):
+        raise ValueError(f"method must be 'auto', 'native', 'batch' or 'loop', got {method!r}")
     if method == "batch" and _batch is None:
         raise ValueError(f"method 'batch' needs mujoco.batch, which MuJoCo {mujoco.__version__} lacks; "
                          "accepted here: 'auto', 'loop'")
     probe.validate(model)
     timings = {} if timings is None else timings
     run = None
-    if _batch is not None and method != "loop":
+    lib = native.library() if method in ("auto", "native") else None
+    if method == "native" and lib is None:
+        raise ValueError(f"method 'native' is not available here: {native.why_not()}; accepted here: 'auto', "
+                         f"{chr(39) + 'batch' + chr(39) + ', ' if _batch is not None else ''}'loop'")
+    if lib is not None:
+        data = _take_data(model)
+        try:
+            probe.binding.set_state(model, data, q0, qd0)
+            run = _record_native(lib, model, probe, data, steps, timings)
+        finally:
+            _give_back_data(model, data)
+    if run is None and _batch is not None and method in ("auto", "batch"):
         data = _take_data(model)
         try:
             probe.binding.set_state(model, data, q0, qd0)
@@ -311,8 +335,11 @@ def set_threads(count: int | None) -> None:
     _threads = count
 
 
-def _layout(model: mujoco.MjModel) -> tuple[int, int, int]:
-    return int(model.signature), int(model.narena), int(model.nbuffer)
+def _layout(model: mujoco.MjModel) -> tuple[int, int, int] | None:
+    """What MjData and scratch arrays of ``model`` share with another model's; None where MuJoCo gives
+    no model signature (3.3, whose runs reuse nothing)."""
+    signature = getattr(model, "signature", None)
+    return None if signature is None else (int(signature), int(model.narena), int(model.nbuffer))
 
 
 def _take_data(model: mujoco.MjModel, *, spare: bool = False) -> mujoco.MjData:
@@ -320,7 +347,8 @@ def _take_data(model: mujoco.MjModel, *, spare: bool = False) -> mujoco.MjData:
     signature and arena, as models compiled from one MJCF with other options are) where one was
     given back: making one costs about 0.35 ms, as much as a short rollout. The batch recorder sets
     every state it reads, so nothing leaks from one run to the next."""
-    data = _spare_data.pop((*_layout(model), spare), None)
+    layout = _layout(model)
+    data = None if layout is None else _spare_data.pop((*layout, spare), None)
     if data is None:
         return mujoco.MjData(model)
     mujoco.mj_resetData(model, data)
@@ -335,7 +363,9 @@ def _keep(pool: dict, key: object, value: object, limit: int) -> None:
 
 
 def _give_back_data(model: mujoco.MjModel, data: mujoco.MjData, *, spare: bool = False) -> None:
-    _keep(_spare_data, (*_layout(model), spare), data, _SPARE_DATA)
+    layout = _layout(model)
+    if layout is not None:
+        _keep(_spare_data, (*layout, spare), data, _SPARE_DATA)
 
 
 def _new_batch(model: mujoco.MjModel, nsim: int, data: mujoco.MjData, *, threads: int | None = None
@@ -378,8 +408,8 @@ class _Record:
 
     @classmethod
     def take(cls, model: mujoco.MjModel, data: mujoco.MjData, steps: int, fields: Sequence[str]) -> _Record:
-        key = (*_layout(model), steps, tuple(fields))
-        spare = _spare_records.pop(key, None)
+        layout = _layout(model)
+        spare = None if layout is None else _spare_records.pop((*layout, steps, tuple(fields)), None)
         if spare is not None:
             return spare
         nstate = mujoco.mj_stateSize(model, _STATE)
@@ -390,7 +420,9 @@ class _Record:
                    fields={f: np.empty((steps + 1, *shape), dtype) for f, (shape, dtype) in shapes.items()})
 
     def give_back(self, model: mujoco.MjModel) -> None:
-        _keep(_spare_records, (*_layout(model), len(self.states) - 1, tuple(self.fields)), self, _SPARE_DATA)
+        layout = _layout(model)
+        if layout is not None:
+            _keep(_spare_records, (*layout, len(self.states) - 1, tuple(self.fields)), self, _SPARE_DATA)
 
     def out(self, start: int, stop: int, *, with_fields: bool) -> dict:
         """``Batch.rollout``'s out= for steps start..stop−1: states start+1..stop and, ``with_fields``,
@@ -559,6 +591,18 @@ def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
     if shifted:  # fields of states 0..steps−1 from the rollout, the last state's from that forward
         for f, v in fields.items():
             v[-1] = getattr(data, f)
+    for c in read:  # × the sign elementwise, as _block multiplies each sample
+        sign = probe.sign(c)
+        lam[c], viol[c] = (lam[c], viol[c]) if sign == 1.0 else (sign * lam[c], sign * viol[c])
+    return _finish(model, probe, data, rec, lam, viol, timings)
+
+
+def _finish(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, rec: _Record, lam: dict[str, np.ndarray],
+            viol: dict[str, np.ndarray], timings: dict[str, float]) -> _Run | None:
+    """A recorded run's assembly, readings and check against a fresh mj_forward (both recorders in C);
+    ``lam``/``viol``: the equalities already read per state, signed. None where the check sends the run back to
+    the loop."""
+    states, fields = rec.states, rec.fields
     # a sum is finite only if every term is (MuJoCo's own checks would have warned long before an
     # overflow); the row-by-row look, only to say where
     if not np.isfinite(states.sum()):
@@ -566,9 +610,8 @@ def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
         if not finite.all():
             raise SimulationDiverged("non-finite state", float(states[np.argmin(finite), 0]))
     run = _assemble(model, probe, states, fields)
-    for c in read:  # × the sign elementwise, as _block multiplies each sample
-        sign = probe.sign(c)
-        run.lam[c], run.viol[c] = (lam[c], viol[c]) if sign == 1.0 else (sign * lam[c], sign * viol[c])
+    run.lam |= lam
+    run.viol |= viol
     clock = time.perf_counter()
     run.readings = _evaluate_readings(model, probe, run.t, states[:, 1:1 + model.nq],
                                       states[:, 1 + model.nq:1 + model.nq + model.nv], fields)
@@ -587,6 +630,42 @@ def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
                       "mj_forward; recorded with the loop instead")
         return None
     return run
+
+
+# -------------------------------------------------------------- native recorder
+def _record_native(lib: object, model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps: int,
+                   timings: dict[str, float]) -> _Run | None:
+    """The native recorder (:mod:`harness.engine.native`): the loop's calls made in C, recording the
+    state, the fixed-size fields and the equalities' efc rows at every sample as it steps; None where
+    the check against a fresh mj_forward sends the run back to the loop."""
+    rec = _Record.take(model, data, steps, recorded_fields(model, probe))
+    try:
+        mujoco.mj_getState(model, data, rec.states[0], _STATE)
+        recoverable = _joint_equalities(model, probe.constraints)
+        read = [c for c in probe.constraints if c not in recoverable]
+        nrows = _equality_rows(model) if read else 0
+        force, pos = np.empty((steps + 1, nrows)), np.empty((steps + 1, nrows))
+        k, rows_ok = native.record(lib, model, data, steps=steps, integrator=integrator_name(model),
+                                   states=rec.states, fields=rec.fields, force=force, pos=pos)
+        if k >= 0:
+            _check_warnings(data.warning.number, float(rec.states[k, 0]))
+        fixed = _fixed_rows(model, rec.states) if nrows and rows_ok else None
+        lam, viol = {}, {}
+        for c in read if fixed is not None else ():  # × the sign elementwise, as _block multiplies each sample
+            sign = probe.sign(c)
+            lam[c], viol[c] = force[:, fixed[c]], pos[:, fixed[c]]
+            if sign != 1.0:
+                lam[c], viol[c] = sign * lam[c], sign * viol[c]
+        return _finish(model, probe, data, rec, lam, viol, timings)
+    finally:
+        rec.give_back(model)
+
+
+def _equality_rows(model: mujoco.MjModel) -> int:
+    """The number of efc rows of all equalities where every one has a fixed count (0 where one has not):
+    where each is active, they are the first rows (:func:`_fixed_rows`)."""
+    kinds = [int(t) for t in model.eq_type]
+    return 0 if any(k not in EQUALITY_ROWS for k in kinds) else sum(EQUALITY_ROWS[k] for k in kinds)
 
 
 def _label(model: mujoco.MjModel) -> str:

@@ -1,0 +1,173 @@
+"""The native recorder: the loop recorder's MuJoCo calls made from C, built on first use.
+
+Why: the constrained cases need ``efc_force``/``efc_pos`` at every state. They
+lie in MuJoCo's arena, whose size changes from step to step, so
+``mujoco.batch`` can neither record nor bind them, and reading them from
+Python costs a forward per state (about a step). ``native_record.c`` makes
+exactly the calls :func:`harness.engine.simulate._record_loop` makes, in the
+same order (checked forward, copy, the integrator's own function) and copies
+the equalities' rows as it goes, so nothing is computed twice.
+
+How: the C file ships with the package; the first run compiles it with the
+system's C compiler (``$CC``, else ``cc``, ``gcc`` or ``clang``) against the
+headers and library that the installed ``mujoco`` wheel ships, into the user
+cache (``$XDG_CACHE_HOME/mjharness/native``, a temporary folder when
+``MJHARNESS_NO_CACHE=1``), keyed by a hash of the source, MuJoCo's version and
+its struct headers, and renamed into place whole. It links the very library
+Python's ``mujoco`` loaded (the loader shares one copy by its soname), so
+callbacks and plugins are the same. Where anything of that is missing, or
+``MJHARNESS_NATIVE=0``, :func:`library` is None, :func:`why_not` says why and
+the batch recorder runs instead (the same numbers, more slowly).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import os
+import shutil
+import subprocess
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from harness.core.cache import cache_dir, key
+
+ABI = 2  # native_record.c's mjh_abi()
+SOURCE = Path(__file__).with_name("native_record.c")
+# the int fields of mjData's info header the recorder copies, in mjh_scalar's order
+SCALARS: tuple[str, ...] = ("ne", "nf", "nl", "nefc", "ncon", "nisland")
+# the integrator's own function after mj_forward (harness.engine.integrators.STEP_FUNCTIONS), as mjh_record numbers it
+INTEGRATOR_CODES: dict[str, int] = {"Euler": 0, "discrete": 0, "implicit": 1, "implicitfast": 1, "RK4": 2}
+
+_why_not: list[str] = []
+
+
+def why_not() -> str | None:
+    """Why :func:`library` is None in this process (None while it is not, or before it was asked)."""
+    return _why_not[0] if _why_not else None
+
+
+@functools.cache
+def library() -> ctypes.CDLL | None:
+    """The built recorder, loaded; None (and :func:`why_not` set) where it cannot be built or loaded."""
+    try:
+        lib = _load()
+    except _Unavailable as exc:
+        _why_not[:] = [str(exc)]
+        return None
+    _why_not.clear()
+    return lib
+
+
+class _Unavailable(Exception):
+    pass
+
+
+def _mujoco_files() -> tuple[Path, Path]:
+    """The wheel's include folder and its shared library."""
+    package = Path(mujoco.__file__).parent
+    include = package / "include"
+    libraries = sorted(package.glob("libmujoco.so*")) + sorted(package.glob("libmujoco*.dylib"))
+    if not (include / "mujoco" / "mujoco.h").is_file() or not libraries:
+        raise _Unavailable(f"the mujoco package at {package} ships no C headers or no libmujoco")
+    return include, libraries[0]
+
+
+def _load() -> ctypes.CDLL:
+    if os.environ.get("MJHARNESS_NATIVE", "").strip() == "0":
+        raise _Unavailable("turned off (MJHARNESS_NATIVE=0)")
+    include, shared = _mujoco_files()
+    compiler = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
+    if not compiler:
+        raise _Unavailable("no C compiler found ($CC, cc, gcc or clang)")
+    headers = [include / "mujoco" / h for h in ("mujoco.h", "mjdata.h", "mjmodel.h")]
+    digest = key(SOURCE.read_bytes(), mujoco.__version__, str(shared), compiler,
+                 *(h.read_bytes() for h in headers), versions=False)
+    root = cache_dir()
+    folder = (root / "native") if root is not None else Path(tempfile.mkdtemp(prefix="mjharness-native-"))
+    target = folder / f"record-{digest[:32]}.so"
+    if not target.is_file():
+        _build(compiler, include, shared, folder, target)
+    try:
+        lib = ctypes.CDLL(str(target))
+    except OSError as exc:
+        raise _Unavailable(f"its library {target} does not load: {exc}") from None
+    if lib.mjh_abi() != ABI:
+        raise _Unavailable(f"its library {target} is of another version (abi {lib.mjh_abi()}, expected {ABI})")
+    lib.mjh_scalar.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    lib.mjh_scalar.restype = ctypes.c_void_p
+    lib.mjh_record.argtypes = [
+        ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_void_p, ctypes.c_int,
+        ctypes.c_int, ctypes.POINTER(ctypes.c_void_p), ctypes.POINTER(ctypes.c_long), ctypes.POINTER(ctypes.c_void_p),
+        ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.POINTER(ctypes.c_int)]
+    lib.mjh_record.restype = ctypes.c_int
+    return lib
+
+
+def _build(compiler: str, include: Path, shared: Path, folder: Path, target: Path) -> None:
+    """Compile into a temporary file beside ``target`` and rename it into place (concurrent builders
+    never leave a half-written library)."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, partial = tempfile.mkstemp(dir=folder, suffix=".so.partial")
+        os.close(fd)
+    except OSError as exc:
+        raise _Unavailable(f"cannot write its library under {folder}: {exc.strerror}") from None
+    command = [compiler, "-O2", "-std=c99", "-shared", "-fPIC", f"-I{include}", str(SOURCE), "-o", partial,
+               f"-L{shared.parent}", f"-l:{shared.name}", f"-Wl,-rpath,{shared.parent}"]
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=120, check=False)
+        if done.returncode != 0:
+            first = next((ln for ln in done.stderr.splitlines() if ln.strip()), f"exit {done.returncode}")
+            raise _Unavailable(f"{Path(compiler).name} could not build it: {first.strip()}")
+        os.replace(partial, target)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        raise _Unavailable(f"{Path(compiler).name} could not build it: {exc}") from None
+    finally:
+        if os.path.exists(partial):
+            os.unlink(partial)
+
+
+def record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, steps: int, integrator: str,
+           states: np.ndarray, fields: Mapping[str, np.ndarray], force: np.ndarray, pos: np.ndarray
+           ) -> tuple[int, bool]:
+    """``steps`` steps of ``data`` from its state (``states[0]``, which the caller wrote), recording states
+    1..steps into ``states`` and, at every sample 0..steps, the fields ``fields`` names (arrays of
+    steps + 1 rows, MjData's dtypes) and the first ``force.shape[1]`` rows of efc_force/efc_pos.
+
+    Returns (the sample at whose checks MuJoCo raised a warning, or −1 when every sample is recorded;
+    whether every sample had exactly that many equality rows)."""
+    n = steps + 1
+    sources, sizes, targets = [], [], []
+    for name, out in fields.items():
+        if not (out.flags.c_contiguous and out.shape[0] == n):
+            raise ValueError(f"field {name!r}: the recording array must be C-contiguous with {n} rows")
+        if name in SCALARS:
+            address = lib.mjh_scalar(data._address, SCALARS.index(name))
+            size = 4
+        else:
+            view = np.asarray(getattr(data, name))
+            if not view.flags.c_contiguous:
+                raise ValueError(f"field {name!r} is not contiguous in MjData")
+            address, size = view.ctypes.data, view.nbytes
+        if out[0].nbytes != size:
+            raise ValueError(f"field {name!r}: {out[0].nbytes} bytes a row to record, MjData has {size}")
+        sources.append(address)
+        sizes.append(size)
+        targets.append(out.ctypes.data)
+    nrows = force.shape[1]
+    for a in (states, force, pos):
+        if not (a.flags.c_contiguous and a.dtype == np.float64 and a.shape[0] == n):
+            raise ValueError("states, force and pos must be C-contiguous float64 arrays of steps + 1 rows")
+    ok = ctypes.c_int(1)
+    k = lib.mjh_record(
+        model._address, data._address, steps, INTEGRATOR_CODES[integrator], states.ctypes.data, states.shape[1],
+        len(sources), (ctypes.c_void_p * len(sources))(*sources), (ctypes.c_long * len(sizes))(*sizes),
+        (ctypes.c_void_p * len(targets))(*targets), nrows, force.ctypes.data, pos.ctypes.data, ctypes.byref(ok))
+    if k == -2:
+        raise ValueError(f"states has {states.shape[1]} columns; this model's integration state has another size")
+    return k, bool(ok.value)
