@@ -282,6 +282,58 @@ def test_solutions_handed_between_processes_are_reused(monkeypatch):
     assert np.array_equal(reused.state(t)[1], solved.state(t)[1])
 
 
+def test_a_stored_solution_is_the_solve_bit_for_bit(cache_home, monkeypatch):
+    """A reference solved in an earlier process loads from the disk cache as the very bits a fresh solve makes
+    (and with the cache off the solve is made again)."""
+    case = cases.get("slider_crank")
+    model = compile_model(case.mjcf)
+    refmod.clear_caches()
+    fresh = case.reference(model).solution
+    assert len(list((cache_home / "solution").glob("slider_crank-*.pickle"))) == 1
+    refmod.clear_caches()
+
+    def no_solve(*args, **kwargs):
+        raise AssertionError("a stored solution was solved again")
+
+    with monkeypatch.context() as m:
+        m.setattr(refmod, "solve", no_solve)
+        loaded = case.reference(model).solution
+    t = np.linspace(0, case.horizon, 101)
+    assert loaded is not fresh and (loaded.nfev, loaded.method) == (fresh.nfev, fresh.method)
+    assert all(np.array_equal(a, b) for a, b in zip(loaded.state(t), fresh.state(t), strict=True))
+    refmod.clear_caches()
+    monkeypatch.setenv("MJHARNESS_NO_CACHE", "1")
+    with monkeypatch.context() as m, pytest.raises(AssertionError, match="solved again"):
+        m.setattr(refmod, "solve", no_solve)
+        case.reference(model)
+
+
+def test_a_stored_solution_serves_only_its_own_key(cache_home, monkeypatch):
+    """Another step bound (which may send a stiff motion to Radau IIA, or refuse it), an entry damaged since it
+    was written, or other code: the solve is made again. The code key covers the solvers, the dynamics, every
+    system and the tree reader."""
+    case = cases.get("spring")
+    model = compile_model(case.mjcf)
+    refmod.clear_caches()
+    case.reference(model)
+    refmod.clear_caches()
+    monkeypatch.setenv("MJHARNESS_MAX_REFERENCE_STEPS", "50")  # the spring's solve takes more
+    with pytest.raises(Exception, match="MJHARNESS_MAX_REFERENCE_STEPS"):
+        case.reference(model)
+    monkeypatch.delenv("MJHARNESS_MAX_REFERENCE_STEPS")
+    refmod.clear_caches()
+    (entry,) = (cache_home / "solution").glob("spring-*.pickle")
+    entry.write_bytes(entry.read_bytes()[:-1] + b"\x00")
+    solved = []
+    real = refmod.solve
+    monkeypatch.setattr(refmod, "solve", lambda *a, **k: solved.append(1) or real(*a, **k))
+    case.reference(model)
+    assert solved == [1]
+    names = {p.relative_to(p.parents[1]).as_posix() for p in refmod.code_files()}
+    assert {"analytic/solvers.py", "analytic/dop853.py", "analytic/radau.py", "analytic/dynamics.py",
+            "systems/spring.py", "tree/dynamics.py", "reference/tree.py", "reference/derivations.py"} <= names
+
+
 def _check_json(*args: str, cache_dir) -> dict:
     proc = _python("-m", "harness.cli", "check", "--json", *args, timeout=300, XDG_CACHE_HOME=str(cache_dir))
     assert proc.returncode == 0, proc.stderr

@@ -1,7 +1,10 @@
 """Solved references: a system's motion integrated once per process and sampled as a Trajectory.
 
-A reference is solved once per process over the motion's horizon (or a
-longer one asked for) and reused, through its dense output, by every
+A reference is solved once per machine over the motion's horizon (or a
+longer one asked for): kept on disk in the user cache (:mod:`harness.core.cache`,
+kind ``solution``), keyed by the solve's own key and the source of everything
+it runs (``analytic/``, the tree reader) and numpy's version, so a warm run
+loads the very bits a fresh solve makes, and in the process, reused through its dense output, by every
 integrator, timestep, setting and study that asks for that horizon or a
 shorter one. The solve is keyed by everything it depends on (system,
 parameters, initial state, tolerance, horizon), never by call order, so a
@@ -13,19 +16,24 @@ worker process can be handed to the parent (:func:`export_solutions`,
 from __future__ import annotations
 
 import dataclasses
+import functools
+import platform
 import re
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 
 import mujoco
 import numpy as np
 
+import analytic
 from analytic import systems
 from analytic.dynamics import Dynamics
 from analytic.solvers import DEFAULT_RTOL, Solution, TooManySteps, project, solve
 from analytic.systems import Scales
 from analytic.tree import TreeDynamics
-from harness.core import bounds
+from harness.core import bounds, cache
 from harness.core.errors import ModelError
 from harness.core.trajectory import Trajectory
 from harness.reference.derivations import dynamics, params_of
@@ -134,8 +142,12 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     if sol is None and key in _seeds:
         end, tol, nfev, dense, method, why = _seeds.pop(key)
         sol = Solution(dynamics=dyn, t_end=end, rtol=tol, nfev=nfev, _dense=dense, method=method, why=why)
+    # the solver's step bound: past it a solve is refused, and below it a stiff motion goes to Radau IIA
+    bound = min(TREE_MAX_STEPS, bounds.max_reference_steps()) if tree is not None else bounds.max_reference_steps()
     if sol is None:
-        bound = min(TREE_MAX_STEPS, bounds.max_reference_steps()) if tree is not None else bounds.max_reference_steps()
+        sol = _stored(key, bound, dyn)
+    if sol is None:
+        clock = time.perf_counter()
         try:
             sol = solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, atol=rtol, max_steps=bound, stiff=tree is not None)
         except TooManySteps as exc:
@@ -147,12 +159,56 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
             raise bounds.reference_too_long(str(exc)) from None
         if tree is not None and sol.why:
             sol = dataclasses.replace(sol, why=stiffness_cause(dyn, q, sol.why))
+        _store(key, bound, sol, time.perf_counter() - clock)
     _solutions[key] = sol
+    return _reference(system, params, scales, sol, dyn, q, qd, projected, span, tree)
+
+
+def _reference(system: str, params: dict[str, float], scales: Scales, sol: Solution, dyn: Dynamics,
+               q: np.ndarray, qd: np.ndarray, projected: tuple[str, ...], span: float,
+               tree: TreeSystem | None) -> Reference:
     if tree is not None:  # a model of one's own: its length is at least how far its motion goes
         points = dyn.points(sol.state(np.linspace(0.0, span, 65))[0]) if dyn.point_names else np.zeros((1, 1, 3))
         scales = tree_scales(dyn.tree, excursion=float(np.max(np.linalg.norm(points - points[:1], axis=-1))))
     return Reference(system=system, params=params, scales=scales, solution=sol,
                      initial=(tuple(q.tolist()), tuple(qd.tolist())), projected=projected)
+
+
+def code_files() -> list[Path]:
+    """The files every solve depends on besides its own key: ``analytic/`` (dynamics, solvers, the tree)
+    and the readers that make dynamics from a system or a model's tree."""
+    roots = [Path(analytic.__file__).parent, Path(__file__).with_name("tree.py"),
+             Path(__file__).with_name("derivations.py")]
+    return sorted(f for r in roots for f in ([r] if r.is_file() else r.rglob("*.py")))
+
+
+@functools.cache
+def _code_key() -> str:
+    return cache.key(cache.source_key(code_files()), np.__version__, platform.machine())
+
+
+def _digest(key: tuple, bound: int) -> str:
+    return cache.key(_code_key(), repr(key), str(bound))
+
+
+def _entry_name(key: tuple) -> str:
+    """The system's name as a file name (a tree's may hold any character)."""
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", str(key[0]))[:64] or "system"
+
+
+def _stored(key: tuple, bound: int, dyn: Dynamics) -> Solution | None:
+    """The solution of ``key`` within ``bound`` steps stored on disk by an earlier run, given these dynamics;
+    None if there is none that loads."""
+    seed = cache.load("solution", _entry_name(key), _digest(key, bound), tuple)
+    if seed is None or len(seed) != 6:
+        return None
+    end, tol, nfev, dense, method, why = seed
+    return Solution(dynamics=dyn, t_end=end, rtol=tol, nfev=nfev, _dense=dense, method=method, why=why)
+
+
+def _store(key: tuple, bound: int, sol: Solution, seconds: float) -> None:
+    cache.store("solution", _entry_name(key), _digest(key, bound),
+                (sol.t_end, sol.rtol, sol.nfev, sol._dense, sol.method, sol.why), seconds=seconds)
 
 
 def stiffness_cause(dyn: TreeDynamics, q: np.ndarray, why: str) -> str:
