@@ -152,7 +152,10 @@ def test_a_lost_call_takes_failed_s_answer_in_its_place(cluster):
 
 @pytest.mark.slow
 def test_ctrl_c_stops_the_clusters_tasks(cluster):
-    process = _mjharness("check", "--executor", "ray", "--ray-address", cluster, "--jobs", "2")
+    # a horizon of 60 s (the cases' is 5): tasks of many seconds, still running when the signal comes (the whole
+    # default check on a warm cache once ended before it)
+    process = _mjharness("check", "pendulum", "spring", "--horizon", "60", "--executor", "ray", "--ray-address",
+                         cluster, "--jobs", "2")
     deadline = time.monotonic() + 120
     while not processes("ray::mjharness:") and time.monotonic() < deadline:
         time.sleep(0.05)

@@ -16,6 +16,18 @@ def _rk4(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     mujoco.mj_RungeKutta(model, data, 4)
 
 
+def _discrete(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """mj_Euler without its implicit damping (``eulerdamp`` off for the call): the damping is already in
+    the step map qacc holds. mj_Euler as it is solves it a second time on a damped model (arm7 at its
+    first step, tests/test_simulate.py)."""
+    flags = model.opt.disableflags
+    model.opt.disableflags = flags | int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
+    try:
+        mujoco.mj_Euler(model, data)
+    finally:
+        model.opt.disableflags = flags
+
+
 # The integration stage each integrator runs after mj_forward inside mj_step.
 # "discrete" folds its implicit update into the constraint solve, so its
 # integration stage is the plain Euler update of the step map in qacc.
@@ -24,7 +36,7 @@ STEP_FUNCTIONS: dict[str, Callable[[mujoco.MjModel, mujoco.MjData], None]] = {
     "implicit": mujoco.mj_implicit,
     "implicitfast": mujoco.mj_implicit,
     "RK4": _rk4,
-    "discrete": mujoco.mj_Euler,
+    "discrete": _discrete,
 }
 
 # Integrators MuJoCo's documentation describes, of which an older MuJoCo lacks some.

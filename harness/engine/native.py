@@ -1,12 +1,13 @@
-"""The native recorder: the loop recorder's MuJoCo calls made from C, built on first use.
+"""The native recorder: MuJoCo's own steps, recorded from C as they are made; built on first use.
 
 Why: the constrained cases need ``efc_force``/``efc_pos`` at every state. They
 lie in MuJoCo's arena, whose size changes from step to step, so
 ``mujoco.batch`` can neither record nor bind them, and reading them from
-Python costs a forward per state (about a step). ``native_record.c`` makes
-exactly the calls :func:`harness.engine.simulate._record_loop` makes, in the
-same order (checked forward, copy, the integrator's own function) and copies
-the equalities' rows as it goes, so nothing is computed twice.
+Python costs a forward per state (about a step). ``native_record.c`` steps with
+``mj_step`` as ``mujoco.batch`` does (RK4: checked forward, copy, then
+``mj_RungeKutta``, as :func:`harness.engine.simulate._record_loop` does) and
+copies the equalities' rows with the fixed-size fields as it goes, so nothing
+is computed twice.
 
 How: the C file ships with the package; the first run compiles it with the
 system's C compiler (``$CC``, else ``cc``, ``gcc`` or ``clang``) against the
@@ -36,12 +37,12 @@ import numpy as np
 
 from harness.core.cache import cache_dir, key
 
-ABI = 2  # native_record.c's mjh_abi()
+ABI = 3  # native_record.c's mjh_abi()
 SOURCE = Path(__file__).with_name("native_record.c")
 # the int fields of mjData's info header the recorder copies, in mjh_scalar's order
 SCALARS: tuple[str, ...] = ("ne", "nf", "nl", "nefc", "ncon", "nisland")
-# the integrator's own function after mj_forward (harness.engine.integrators.STEP_FUNCTIONS), as mjh_record numbers it
-INTEGRATOR_CODES: dict[str, int] = {"Euler": 0, "discrete": 0, "implicit": 1, "implicitfast": 1, "RK4": 2}
+# how mjh_record steps: RK4 (2) as the loop recorder does, every other integrator with mj_step (0)
+INTEGRATOR_CODES: dict[str, int] = {"RK4": 2}
 
 _why_not: list[str] = []
 
@@ -165,7 +166,7 @@ def record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, step
             raise ValueError("states, force and pos must be C-contiguous float64 arrays of steps + 1 rows")
     ok = ctypes.c_int(1)
     k = lib.mjh_record(
-        model._address, data._address, steps, INTEGRATOR_CODES[integrator], states.ctypes.data, states.shape[1],
+        model._address, data._address, steps, INTEGRATOR_CODES.get(integrator, 0), states.ctypes.data, states.shape[1],
         len(sources), (ctypes.c_void_p * len(sources))(*sources), (ctypes.c_long * len(sizes))(*sizes),
         (ctypes.c_void_p * len(targets))(*targets), nrows, force.ctypes.data, pos.ctypes.data, ctypes.byref(ok))
     if k == -2:

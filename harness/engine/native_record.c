@@ -1,20 +1,23 @@
 /* The native recorder's one function (harness/engine/native.py builds and loads it).
 
-   It makes, in C, exactly the MuJoCo calls the loop recorder makes from Python
-   (harness/engine/simulate.py, _record_loop): at every sample k = 0 .. steps,
-   mj_forward between the checks mj_step makes around it, a stop at the first
-   MuJoCo warning, a copy of what is recorded, then the integrator's own
-   function. Recorded: the integration state after every step, the fixed-size
-   fields the caller names (by address in this mjData and in its arrays), and
-   the first `nrows` rows of efc_force and efc_pos (the equalities' rows, which
-   no fixed-size field holds). The same calls in the same order give the same
-   numbers as the loop, bit for bit; the caller checks that as for every run. */
+   It steps with mj_step itself, as mujoco.batch does, and copies at every sample
+   k = 0 .. steps what is recorded: the integration state after every step, the
+   fixed-size fields the caller names (by address in this mjData and in its
+   arrays), and the first `nrows` rows of efc_force and efc_pos (the equalities'
+   rows, which no fixed-size field holds). After mj_step the derived fields
+   describe the state before it (the integrators change only the state), so
+   sample k's are copied after step k + 1. RK4 leaves its last stage in them: there
+   each sample is mj_forward between the checks mj_step makes, the copy, then
+   mj_RungeKutta, as the loop recorder does. The last sample, which no step
+   follows, gets that checked forward too. A MuJoCo warning stops the run at the
+   sample whose checks raised it. The caller checks the fields against a fresh
+   mj_forward, as for every run. */
 #include <string.h>
 
 #include <mujoco/mujoco.h>
 
 /* bumped when a signature below changes: the loader refuses a library of another */
-int mjh_abi(void) { return 2; }
+int mjh_abi(void) { return 3; }
 
 /* The address of an int field of mjData's info header, by its place in this list (the loader's SCALARS);
    NULL for another. A fixed-size array field's address the caller takes from its own view of it. */
@@ -30,7 +33,7 @@ const void* mjh_scalar(const mjData* d, int which) {
   }
 }
 
-/* integrator: 0 mj_Euler (Euler, discrete), 1 mj_implicit (implicit, implicitfast), 2 mj_RungeKutta(4).
+/* integrator: 2 for RK4 (forward, copy, mj_RungeKutta), anything else for mj_step.
    states: (steps + 1) rows of nstate (mjSTATE_INTEGRATION); row 0 is the caller's.
    field k's sample s goes to dst[k] + s * size[k] from src[k] (size[k] bytes).
    force, pos: (steps + 1) rows of nrows, written where the sample has exactly nrows equality rows;
@@ -46,10 +49,14 @@ int mjh_record(const mjModel* m, mjData* d, int steps, int integrator, double* s
   }
   *rows_ok = 1;
   for (int k = 0; k <= steps; k++) {
-    mj_checkPos(m, d);
-    mj_checkVel(m, d);
-    mj_forward(m, d);
-    mj_checkAcc(m, d);
+    if (integrator == 2 || k == steps) {
+      mj_checkPos(m, d);
+      mj_checkVel(m, d);
+      mj_forward(m, d);
+      mj_checkAcc(m, d);
+    } else {
+      mj_step(m, d);
+    }
     for (int w = 0; w < mjNWARNING; w++) {
       if (d->warning[w].number > 0) {
         return k;
@@ -71,10 +78,6 @@ int mjh_record(const mjModel* m, mjData* d, int steps, int integrator, double* s
     }
     if (integrator == 2) {
       mj_RungeKutta(m, d, 4);
-    } else if (integrator == 1) {
-      mj_implicit(m, d);
-    } else {
-      mj_Euler(m, d);
     }
     mj_getState(m, d, states + (size_t)(k + 1) * nstate, sig);
   }

@@ -13,10 +13,11 @@ in the same order, bit-identical to it. It costs a Python round trip per
 sample, several times MuJoCo's own step.
 
 ``native`` (where a C compiler is found, :mod:`harness.engine.native`): the
-loop's calls made in C, recording at every sample the integration state, the
-fixed-size fields (:func:`recorded_fields`) and the equalities' ``efc_*`` rows
-(which no fixed-size field holds) as it steps, so nothing is computed twice.
-Then the same assembly, readings and check as the batch recorder's.
+batch recorder's steps made in C (``mj_step``, fields shifted by one; RK4 as
+the loop), recording at every sample the integration state, the fixed-size
+fields (:func:`recorded_fields`) and the equalities' ``efc_*`` rows (which no
+fixed-size field holds) as it steps, so nothing is computed twice. Then the
+same assembly, readings and check as the batch recorder's.
 
 ``batch`` (``mujoco.batch``, MuJoCo ≥ 4): the steps run in C
 (``Batch.rollout``), recording after every substep the integration state and
@@ -108,9 +109,9 @@ _spare_batches: dict[int, tuple[mujoco.MjModel, object]] = {}
 def recorder() -> str:
     """Which recorder :func:`simulate` uses on this MuJoCo, and why."""
     if native.library() is not None:
-        return ("native: the loop's MuJoCo calls made in C (harness/engine/native_record.c, built on first use), "
-                "recording state, fixed-size fields and the equalities' efc rows as it steps; readings evaluated "
-                "over the whole run")
+        return ("native: mj_step in C (harness/engine/native_record.c, built on first use; RK4 as forward, "
+                "record, mj_RungeKutta), recording state, fixed-size fields and the equalities' efc rows as it "
+                "steps; readings evaluated over the whole run")
     if _batch is None:
         return (f"loop: mj_forward, read, integrator function per step in Python (MuJoCo {mujoco.__version__} "
                 f"has no mujoco.batch; no native recorder: {native.why_not()})")
@@ -635,7 +636,7 @@ def _finish(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, rec: _Reco
 # -------------------------------------------------------------- native recorder
 def _record_native(lib: object, model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps: int,
                    timings: dict[str, float]) -> _Run | None:
-    """The native recorder (:mod:`harness.engine.native`): the loop's calls made in C, recording the
+    """The native recorder (:mod:`harness.engine.native`): MuJoCo's steps made in C, recording the
     state, the fixed-size fields and the equalities' efc rows at every sample as it steps; None where
     the check against a fresh mj_forward sends the run back to the loop."""
     rec = _Record.take(model, data, steps, recorded_fields(model, probe))
