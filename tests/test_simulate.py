@@ -201,8 +201,18 @@ def test_a_result_that_differs_from_mj_forward_is_not_used(monkeypatch, method):
     wrong recovered equality is read per sample instead; each says so in recorder_notes()."""
     model = compile_model(mjcf_path("pendulum"), integrator="Euler")
     loop = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=60, method="loop"))
-    real = simmod._point_velocity
-    monkeypatch.setattr(simmod, "_point_velocity", lambda *a: real(*a) * (1 + 1e-15))
+    if method == "native":  # its velocities come from C: spoil them as they come out
+        real_record = native.record
+
+        def spoiled(*args, velocity, **kwargs):
+            out = real_record(*args, velocity=velocity, **kwargs)
+            velocity *= 1 + 1e-15
+            return out
+
+        monkeypatch.setattr(native, "record", spoiled)
+    else:
+        real = simmod._point_velocity
+        monkeypatch.setattr(simmod, "_point_velocity", lambda *a: real(*a) * (1 + 1e-15))
     notes = len(simmod.recorder_notes())
     again = _arrays(simulate(model, PROBE, q0=Q0, qd0=QD0, steps=60, method=method))
     assert all(np.array_equal(again[k], loop[k]) for k in loop)

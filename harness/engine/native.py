@@ -29,7 +29,8 @@ import os
 import shutil
 import subprocess
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -37,7 +38,7 @@ import numpy as np
 
 from harness.core.cache import cache_dir, key
 
-ABI = 3  # native_record.c's mjh_abi()
+ABI = 6  # native_record.c's mjh_abi()
 SOURCE = Path(__file__).with_name("native_record.c")
 # the int fields of mjData's info header the recorder copies, in mjh_scalar's order
 SCALARS: tuple[str, ...] = ("ne", "nf", "nl", "nefc", "ncon", "nisland")
@@ -45,6 +46,17 @@ SCALARS: tuple[str, ...] = ("ne", "nf", "nl", "nefc", "ncon", "nisland")
 INTEGRATOR_CODES: dict[str, int] = {"RK4": 2}
 
 _why_not: list[str] = []
+
+
+@dataclass(frozen=True)
+class Point:
+    """A point whose velocity the recorder computes: on ``body`` (whose root is ``root``), at ``site`` (−1: at
+    the body's centre of mass), through the dofs ``chain`` (increasing) that move it."""
+
+    body: int
+    site: int
+    root: int
+    chain: tuple[int, ...]
 
 
 def why_not() -> str | None:
@@ -104,7 +116,9 @@ def _load() -> ctypes.CDLL:
     lib.mjh_record.argtypes = [
         ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_void_p, ctypes.c_int,
         ctypes.c_int, ctypes.POINTER(ctypes.c_void_p), ctypes.POINTER(ctypes.c_long), ctypes.POINTER(ctypes.c_void_p),
-        ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.POINTER(ctypes.c_int)]
+        ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.POINTER(ctypes.c_int),
+        ctypes.c_int, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int),
+        ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int), ctypes.c_void_p]
     lib.mjh_record.restype = ctypes.c_int
     return lib
 
@@ -118,8 +132,9 @@ def _build(compiler: str, include: Path, shared: Path, folder: Path, target: Pat
         os.close(fd)
     except OSError as exc:
         raise _Unavailable(f"cannot write its library under {folder}: {exc.strerror}") from None
-    command = [compiler, "-O2", "-std=c99", "-shared", "-fPIC", f"-I{include}", str(SOURCE), "-o", partial,
-               f"-L{shared.parent}", f"-l:{shared.name}", f"-Wl,-rpath,{shared.parent}"]
+    # -ffp-contract=off: a point's velocity is summed as the loop sums it, a product then a sum, never fused
+    command = [compiler, "-O2", "-std=c99", "-ffp-contract=off", "-shared", "-fPIC", f"-I{include}", str(SOURCE),
+               "-o", partial, f"-L{shared.parent}", f"-l:{shared.name}", f"-Wl,-rpath,{shared.parent}"]
     try:
         done = subprocess.run(command, capture_output=True, text=True, timeout=120, check=False)
         if done.returncode != 0:
@@ -134,11 +149,13 @@ def _build(compiler: str, include: Path, shared: Path, folder: Path, target: Pat
 
 
 def record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, steps: int, integrator: str,
-           states: np.ndarray, fields: Mapping[str, np.ndarray], force: np.ndarray, pos: np.ndarray
-           ) -> tuple[int, bool]:
+           states: np.ndarray, fields: Mapping[str, np.ndarray], force: np.ndarray, pos: np.ndarray,
+           points: Sequence[Point] = (), velocity: np.ndarray | None = None) -> tuple[int, bool]:
     """``steps`` steps of ``data`` from its state (``states[0]``, which the caller wrote), recording states
     1..steps into ``states`` and, at every sample 0..steps, the fields ``fields`` names (arrays of
-    steps + 1 rows, MjData's dtypes) and the first ``force.shape[1]`` rows of efc_force/efc_pos.
+    steps + 1 rows, MjData's dtypes), the first ``force.shape[1]`` rows of efc_force/efc_pos and the
+    world velocity of each of ``points`` into ``velocity`` ((len(points), steps + 1, 3)), with the arithmetic of
+    :func:`harness.engine.simulate._point_velocity`.
 
     Returns (the sample at whose checks MuJoCo raised a warning, or −1 when every sample is recorded;
     whether every sample had exactly that many equality rows)."""
@@ -161,14 +178,24 @@ def record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, step
         sizes.append(size)
         targets.append(out.ctypes.data)
     nrows = force.shape[1]
+    velocity = np.empty((0, n, 3)) if velocity is None else velocity
     for a in (states, force, pos):
         if not (a.flags.c_contiguous and a.dtype == np.float64 and a.shape[0] == n):
             raise ValueError("states, force and pos must be C-contiguous float64 arrays of steps + 1 rows")
+    if not (velocity.flags.c_contiguous and velocity.dtype == np.float64 and velocity.shape == (len(points), n, 3)):
+        raise ValueError(f"velocity must be a C-contiguous float64 array of shape ({len(points)}, {n}, 3)")
     ok = ctypes.c_int(1)
+
+    def ints(values: Sequence[int]) -> ctypes.Array:
+        return (ctypes.c_int * max(len(values), 1))(*values)
+
+    starts = np.cumsum([0, *(len(p.chain) for p in points)]).tolist()
     k = lib.mjh_record(
         model._address, data._address, steps, INTEGRATOR_CODES.get(integrator, 0), states.ctypes.data, states.shape[1],
         len(sources), (ctypes.c_void_p * len(sources))(*sources), (ctypes.c_long * len(sizes))(*sizes),
-        (ctypes.c_void_p * len(targets))(*targets), nrows, force.ctypes.data, pos.ctypes.data, ctypes.byref(ok))
+        (ctypes.c_void_p * len(targets))(*targets), nrows, force.ctypes.data, pos.ctypes.data, ctypes.byref(ok),
+        len(points), ints([p.body for p in points]), ints([p.site for p in points]), ints([p.root for p in points]),
+        ints(starts), ints([i for p in points for i in p.chain]), velocity.ctypes.data)
     if k == -2:
         raise ValueError(f"states has {states.shape[1]} columns; this model's integration state has another size")
     return k, bool(ok.value)

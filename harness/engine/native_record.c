@@ -17,7 +17,7 @@
 #include <mujoco/mujoco.h>
 
 /* bumped when a signature below changes: the loader refuses a library of another */
-int mjh_abi(void) { return 3; }
+int mjh_abi(void) { return 6; }
 
 /* The address of an int field of mjData's info header, by its place in this list (the loader's SCALARS);
    NULL for another. A fixed-size array field's address the caller takes from its own view of it. */
@@ -38,15 +38,21 @@ const void* mjh_scalar(const mjData* d, int which) {
    field k's sample s goes to dst[k] + s * size[k] from src[k] (size[k] bytes).
    force, pos: (steps + 1) rows of nrows, written where the sample has exactly nrows equality rows;
    *rows_ok is set to 0 at the first sample that has another number of them.
+   velocity: npoint blocks of (steps + 1) rows of 3, each point's world velocity (a site's where point_site[p] >= 0,
+   else the centre of mass of body point_body[p]); point_root[p] is that body's root, and its chain's dofs
+   are chain[chain_start[p] .. chain_start[p + 1] - 1], increasing.
    Returns -1 when every sample is recorded, else the sample at whose checks MuJoCo raised a warning
    (nothing of it is recorded), or -2 when nstate is not this model's state size. */
 int mjh_record(const mjModel* m, mjData* d, int steps, int integrator, double* states, int nstate,
                int nfield, void* const* src, const long* size, void* const* dst,
-               int nrows, double* force, double* pos, int* rows_ok) {
+               int nrows, double* force, double* pos, int* rows_ok,
+               int npoint, const int* point_body, const int* point_site, const int* point_root,
+               const int* chain_start, const int* chain, double* velocity) {
   const int sig = mjSTATE_INTEGRATION;
   if (mj_stateSize(m, sig) != nstate) {
     return -2;
   }
+  int stopped = -1;
   *rows_ok = 1;
   for (int k = 0; k <= steps; k++) {
     if (integrator == 2 || k == steps) {
@@ -57,10 +63,13 @@ int mjh_record(const mjModel* m, mjData* d, int steps, int integrator, double* s
     } else {
       mj_step(m, d);
     }
-    for (int w = 0; w < mjNWARNING; w++) {
+    for (int w = 0; w < mjNWARNING && stopped < 0; w++) {
       if (d->warning[w].number > 0) {
-        return k;
+        stopped = k;
       }
+    }
+    if (stopped >= 0) {
+      break;
     }
     for (int f = 0; f < nfield; f++) {
       memcpy((char*)dst[f] + (size_t)k * (size_t)size[f], src[f], (size_t)size[f]);
@@ -73,6 +82,29 @@ int mjh_record(const mjModel* m, mjData* d, int steps, int integrator, double* s
         memcpy(pos + (size_t)k * nrows, d->efc_pos, sizeof(mjtNum) * nrows);
       }
     }
+    /* each point's velocity J qvel at sample k, with the arithmetic of simulate._point_velocity (bit for bit
+       the loop's point_state): J's columns as mj_jac makes them, cdof_lin + cdof_ang x (point - subtree_com of
+       the body's root), over the dofs of the body's chain in increasing order, each a product then a sum (no
+       fused multiply-add: -ffp-contract=off). The derived fields are sample k's; qvel is row k of the states
+       (after mj_step, d holds k + 1's). */
+    const double* qvel = states + (size_t)k * nstate + 1 + m->nq;
+    for (int p = 0; p < npoint; p++) {
+      const mjtNum* at = point_site[p] >= 0 ? d->site_xpos + 3 * point_site[p] : d->xipos + 3 * point_body[p];
+      const mjtNum* com = d->subtree_com + 3 * point_root[p];
+      const double o0 = at[0] - com[0], o1 = at[1] - com[1], o2 = at[2] - com[2];
+      double v0 = 0.0, v1 = 0.0, v2 = 0.0;
+      for (int c = chain_start[p]; c < chain_start[p + 1]; c++) {
+        const mjtNum* dof = d->cdof + 6 * chain[c];
+        const double q = qvel[chain[c]];
+        v0 = v0 + (dof[3] + (dof[1] * o2 - dof[2] * o1)) * q;
+        v1 = v1 + (dof[4] + (dof[2] * o0 - dof[0] * o2)) * q;
+        v2 = v2 + (dof[5] + (dof[0] * o1 - dof[1] * o0)) * q;
+      }
+      double* out = velocity + ((size_t)p * (steps + 1) + k) * 3;
+      out[0] = v0;
+      out[1] = v1;
+      out[2] = v2;
+    }
     if (k == steps) {
       break;
     }
@@ -81,5 +113,5 @@ int mjh_record(const mjModel* m, mjData* d, int steps, int integrator, double* s
     }
     mj_getState(m, d, states + (size_t)(k + 1) * nstate, sig);
   }
-  return -1;
+  return stopped;
 }

@@ -599,10 +599,11 @@ def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
 
 
 def _finish(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, rec: _Record, lam: dict[str, np.ndarray],
-            viol: dict[str, np.ndarray], timings: dict[str, float]) -> _Run | None:
+            viol: dict[str, np.ndarray], timings: dict[str, float],
+            velocities: dict[str, np.ndarray] | None = None) -> _Run | None:
     """A recorded run's assembly, readings and check against a fresh mj_forward (both recorders in C);
-    ``lam``/``viol``: the equalities already read per state, signed. None where the check sends the run back to
-    the loop."""
+    ``lam``/``viol``: the equalities already read per state, signed; ``velocities``: the points' (else
+    assembled from the recorded fields). None where the check sends the run back to the loop."""
     states, fields = rec.states, rec.fields
     # a sum is finite only if every term is (MuJoCo's own checks would have warned long before an
     # overflow); the row-by-row look, only to say where
@@ -610,7 +611,7 @@ def _finish(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, rec: _Reco
         finite = np.isfinite(states).all(axis=1)
         if not finite.all():
             raise SimulationDiverged("non-finite state", float(states[np.argmin(finite), 0]))
-    run = _assemble(model, probe, states, fields)
+    run = _assemble(model, probe, states, fields, velocities)
     run.lam |= lam
     run.viol |= viol
     clock = time.perf_counter()
@@ -646,8 +647,15 @@ def _record_native(lib: object, model: mujoco.MjModel, probe: Probe, data: mujoc
         read = [c for c in probe.constraints if c not in recoverable]
         nrows = _equality_rows(model) if read else 0
         force, pos = np.empty((steps + 1, nrows)), np.empty((steps + 1, nrows))
+        sources = [point_source(model, p) for p in probe.points]
+        velocity = np.empty((len(sources), steps + 1, 3))  # a fresh array: the trajectory keeps its rows
         k, rows_ok = native.record(lib, model, data, steps=steps, integrator=integrator_name(model),
-                                   states=rec.states, fields=rec.fields, force=force, pos=pos)
+                                   states=rec.states, fields=rec.fields, force=force, pos=pos,
+                                   points=[native.Point(body=s.body, site=s.index if s.kind == "site" else -1,
+                                                        root=int(model.body_rootid[s.body]),
+                                                        chain=tuple(sorted(_velocity_chain(model, s.body))))
+                                           for s in sources],
+                                   velocity=velocity)
         if k >= 0:
             _check_warnings(data.warning.number, float(rec.states[k, 0]))
         fixed = _fixed_rows(model, rec.states) if nrows and rows_ok else None
@@ -657,7 +665,8 @@ def _record_native(lib: object, model: mujoco.MjModel, probe: Probe, data: mujoc
             lam[c], viol[c] = force[:, fixed[c]], pos[:, fixed[c]]
             if sign != 1.0:
                 lam[c], viol[c] = sign * lam[c], sign * viol[c]
-        return _finish(model, probe, data, rec, lam, viol, timings)
+        velocities = dict(zip(probe.points, velocity, strict=True))
+        return _finish(model, probe, data, rec, lam, viol, timings, velocities)
     finally:
         rec.give_back(model)
 
@@ -759,15 +768,18 @@ def _joint_equalities(model: mujoco.MjModel, names: Sequence[str]) -> dict[str, 
     return out
 
 
-def _assemble(model: mujoco.MjModel, probe: Probe, states: np.ndarray, fields: dict[str, np.ndarray]) -> _Run:
+def _assemble(model: mujoco.MjModel, probe: Probe, states: np.ndarray, fields: dict[str, np.ndarray],
+              velocities: dict[str, np.ndarray] | None = None) -> _Run:
     nq, nv = model.nq, model.nv
     qpos = states[:, 1:1 + nq]
     qvel = states[:, 1 + nq:1 + nq + nv]
-    positions, velocities = {}, {}
+    positions = {}
+    given, velocities = velocities is not None, dict(velocities or {})
     for p in probe.points:
         source = point_source(model, p)
         positions[p] = fields[source.field][:, source.index].copy()
-        velocities[p] = _point_velocity(model, fields, qvel, positions[p], source.body)
+        if not given:
+            velocities[p] = _point_velocity(model, fields, qvel, positions[p], source.body)
     energy = fields["energy"][:, 0] + fields["energy"][:, 1]
     qfrc = np.array(fields["qfrc_constraint"])  # fields are the recorder's scratch space
     lam, viol = {}, {}

@@ -19,6 +19,7 @@ tests/test_spherical_pendulum.py and tests/test_hoop_plane.py).
 from __future__ import annotations
 
 import functools
+import threading
 from collections.abc import Mapping, Sequence
 
 import mujoco
@@ -68,13 +69,7 @@ def axial_angular_momentum(*, body: str, site: str, axis: Sequence[float] = (0.0
     unit = unit / np.linalg.norm(unit)
 
     def evaluate(model: mujoco.MjModel, rec: Mapping[str, np.ndarray]) -> np.ndarray:
-        rows = np.ascontiguousarray  # (3, N) rows of contiguous samples: fast elementwise operations
-        origin = rows(rec["site_xpos"][:, model.site(site).id].T)
-        total = np.zeros((3, origin.shape[1]))
-        for b in subtree(model, model.body(body).id):
-            angular, linear = _spatial_momentum(rows(rec["cinert"][:, b].T), rows(rec["cvel"][:, b].T))
-            lever = rows(rec["subtree_com"][:, model.body_rootid[b]].T) - origin
-            total += angular + _cross(lever, linear)
+        total = _about(model, rec, body, site)
         if frame is None:
             return unit @ total
         turned = np.asarray(rec["xmat"][:, model.body(frame).id]).reshape(-1, 3, 3) @ unit  # (N, 3) world
@@ -85,6 +80,29 @@ def axial_angular_momentum(*, body: str, site: str, axis: Sequence[float] = (0.0
     return Reading(fields=fields, evaluate=evaluate,
                    description=f"axis {unit.tolist()}{where} · angular momentum of subtree {body!r} about site "
                                f"{site!r} (kg m²/s)")
+
+
+# the last run's angular momenta by (model, body, site): a run's readings of one subtree about one site (p_phi, L_x,
+# L_y of a free body) share them. The run's record is held, so its identity is not reused while it is kept.
+_memo = threading.local()
+
+
+def _about(model: mujoco.MjModel, rec: Mapping[str, np.ndarray], body: str, site: str) -> np.ndarray:
+    """L_o (3, N) of the subtree rooted at ``body`` about ``site`` over the run ``rec``, computed once per run."""
+    kept = getattr(_memo, "run", None)
+    if kept is None or kept[0] is not rec:
+        kept = _memo.run = (rec, {})
+    key = (id(model), body, site)
+    if key not in kept[1]:
+        rows = np.ascontiguousarray  # (3, N) rows of contiguous samples: fast elementwise operations
+        origin = rows(rec["site_xpos"][:, model.site(site).id].T)
+        total = np.zeros((3, origin.shape[1]))
+        for b in subtree(model, model.body(body).id):
+            angular, linear = _spatial_momentum(rows(rec["cinert"][:, b].T), rows(rec["cvel"][:, b].T))
+            lever = rows(rec["subtree_com"][:, model.body_rootid[b]].T) - origin
+            total += angular + _cross(lever, linear)
+        kept[1][key] = (model, total)  # the model held too: its id is not reused meanwhile
+    return kept[1][key][1]
 
 
 def _total(model: mujoco.MjModel, recorded: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
