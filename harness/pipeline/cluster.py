@@ -133,7 +133,10 @@ def run_tasks(calls: Sequence[tuple[Callable[..., Any], tuple]], executor: Execu
     next_in_order = 0
     try:
         while pending:
-            ready, pending = ray.wait(pending, num_returns=1)
+            # with a timeout: a wait without one holds Ctrl-C until some task ends (minutes, for a long one)
+            ready, pending = ray.wait(pending, num_returns=1, timeout=0.25)
+            if not ready:
+                continue
             i = index[ready[0]]
             try:
                 results[i] = ray.get(ready[0])
