@@ -22,11 +22,20 @@ from tests.raycluster import AUTH, processes
 CASES = ("pendulum", "spring")
 
 
+def _as_from_a_terminal() -> None:
+    """Ctrl-C as a command started from a terminal gets it: delivered, Python's handler. A child inherits its
+    parent's blocked signals and ignored ones, and by the time the slow suite reaches these tests something in
+    the pytest process has SIGINT blocked (the Ctrl-C test's command then ran to its verdict, exit 1, in CI)."""
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _mjharness(*args: str, **kwargs) -> subprocess.Popen:
     env = {**os.environ, **AUTH, "PYTHONUNBUFFERED": "1"}
     env.pop("RAY_ADDRESS", None)
     return subprocess.Popen([sys.executable, "-m", "harness.cli.entry", *args], env=env, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, **kwargs)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, preexec_fn=_as_from_a_terminal,
+                            **kwargs)
 
 
 def _done(process: subprocess.Popen, timeout: float = 300) -> tuple[int, str, str]:
