@@ -148,6 +148,11 @@ def _build(compiler: str, include: Path, shared: Path, folder: Path, target: Pat
             os.unlink(partial)
 
 
+def _address(array: np.ndarray) -> int:
+    """Where ``array``'s data starts (``ndarray.ctypes.data``'s number, without making a ctypes object)."""
+    return array.__array_interface__["data"][0]
+
+
 def record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, steps: int, integrator: str,
            states: np.ndarray, fields: Mapping[str, np.ndarray], force: np.ndarray, pos: np.ndarray,
            points: Sequence[Point] = (), velocity: np.ndarray | None = None) -> tuple[int, bool]:
@@ -171,12 +176,12 @@ def record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, step
             view = np.asarray(getattr(data, name))
             if not view.flags.c_contiguous:
                 raise ValueError(f"field {name!r} is not contiguous in MjData")
-            address, size = view.ctypes.data, view.nbytes
+            address, size = _address(view), view.nbytes
         if out[0].nbytes != size:
             raise ValueError(f"field {name!r}: {out[0].nbytes} bytes a row to record, MjData has {size}")
         sources.append(address)
         sizes.append(size)
-        targets.append(out.ctypes.data)
+        targets.append(_address(out))
     nrows = force.shape[1]
     velocity = np.empty((0, n, 3)) if velocity is None else velocity
     for a in (states, force, pos):
@@ -191,11 +196,11 @@ def record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, step
 
     starts = np.cumsum([0, *(len(p.chain) for p in points)]).tolist()
     k = lib.mjh_record(
-        model._address, data._address, steps, INTEGRATOR_CODES.get(integrator, 0), states.ctypes.data, states.shape[1],
+        model._address, data._address, steps, INTEGRATOR_CODES.get(integrator, 0), _address(states), states.shape[1],
         len(sources), (ctypes.c_void_p * len(sources))(*sources), (ctypes.c_long * len(sizes))(*sizes),
-        (ctypes.c_void_p * len(targets))(*targets), nrows, force.ctypes.data, pos.ctypes.data, ctypes.byref(ok),
+        (ctypes.c_void_p * len(targets))(*targets), nrows, _address(force), _address(pos), ctypes.byref(ok),
         len(points), ints([p.body for p in points]), ints([p.site for p in points]), ints([p.root for p in points]),
-        ints(starts), ints([i for p in points for i in p.chain]), velocity.ctypes.data)
+        ints(starts), ints([i for p in points for i in p.chain]), _address(velocity))
     if k == -2:
         raise ValueError(f"states has {states.shape[1]} columns; this model's integration state has another size")
     return k, bool(ok.value)
