@@ -166,6 +166,12 @@ def _block(model: mujoco.MjModel, data: mujoco.MjData, name: str, sign: float = 
     return (float(force[0]), float(pos[0])) if force.size == 1 else (force, pos)
 
 
+def _signed(sign: float, lam: np.ndarray, viol: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(λ, violation) of an equality × the probe's ``sign`` elementwise, as :func:`_block` multiplies each
+    sample (the arrays themselves where the sign is 1)."""
+    return (lam, viol) if sign == 1.0 else (sign * lam, sign * viol)
+
+
 def _check_warnings(counts: np.ndarray, time: float) -> None:
     raised = [mujoco.mjtWarning(i).name for i in range(len(counts)) if counts[i] > 0]
     if raised:
@@ -247,22 +253,22 @@ def simulate(
     run = None
     lib = native.library() if method in ("auto", "native") else None
     if method == "native" and lib is None:
-        raise ValueError(f"method 'native' is not available here: {native.why_not()}; accepted here: 'auto', "
-                         f"{chr(39) + 'batch' + chr(39) + ', ' if _batch is not None else ''}'loop'")
+        accepted = ", ".join(repr(m) for m in ("auto", "batch", "loop") if m != "batch" or _batch is not None)
+        raise ValueError(f"method 'native' is not available here: {native.why_not()}; accepted here: {accepted}")
+    in_c: list[Callable[[mujoco.MjData], _Run | None]] = []  # each None where its check sends the run on
     if lib is not None:
+        in_c.append(lambda data: _record_native(lib, model, probe, data, steps, timings))
+    if _batch is not None and method in ("auto", "batch"):
+        in_c.append(lambda data: _record_batch(model, probe, data, steps, timings))
+    for record in in_c:
         data = _take_data(model)
         try:
             probe.binding.set_state(model, data, q0, qd0)
-            run = _record_native(lib, model, probe, data, steps, timings)
+            run = record(data)
         finally:
             _give_back_data(model, data)
-    if run is None and _batch is not None and method in ("auto", "batch"):
-        data = _take_data(model)
-        try:
-            probe.binding.set_state(model, data, q0, qd0)
-            run = _record_batch(model, probe, data, steps, timings)
-        finally:
-            _give_back_data(model, data)
+        if run is not None:
+            break
     if run is None:
         start = time.perf_counter()
         data = mujoco.MjData(model)
@@ -592,9 +598,8 @@ def _record_into(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps
     if shifted:  # fields of states 0..steps−1 from the rollout, the last state's from that forward
         for f, v in fields.items():
             v[-1] = getattr(data, f)
-    for c in read:  # × the sign elementwise, as _block multiplies each sample
-        sign = probe.sign(c)
-        lam[c], viol[c] = (lam[c], viol[c]) if sign == 1.0 else (sign * lam[c], sign * viol[c])
+    for c in read:
+        lam[c], viol[c] = _signed(probe.sign(c), lam[c], viol[c])
     return _finish(model, probe, data, rec, lam, viol, timings)
 
 
@@ -645,7 +650,8 @@ def _record_native(lib: object, model: mujoco.MjModel, probe: Probe, data: mujoc
         mujoco.mj_getState(model, data, rec.states[0], _STATE)
         recoverable = _joint_equalities(model, probe.constraints)
         read = [c for c in probe.constraints if c not in recoverable]
-        nrows = _equality_rows(model) if read else 0
+        layout = _equality_layout(model) if read else None
+        nrows = layout[1] if layout is not None else 0
         force, pos = np.empty((steps + 1, nrows)), np.empty((steps + 1, nrows))
         sources = [point_source(model, p) for p in probe.points]
         velocity = np.empty((len(sources), steps + 1, 3))  # a fresh array: the trajectory keeps its rows
@@ -660,22 +666,12 @@ def _record_native(lib: object, model: mujoco.MjModel, probe: Probe, data: mujoc
             _check_warnings(data.warning.number, float(rec.states[k, 0]))
         fixed = _fixed_rows(model, rec.states) if nrows and rows_ok else None
         lam, viol = {}, {}
-        for c in read if fixed is not None else ():  # × the sign elementwise, as _block multiplies each sample
-            sign = probe.sign(c)
-            lam[c], viol[c] = force[:, fixed[c]], pos[:, fixed[c]]
-            if sign != 1.0:
-                lam[c], viol[c] = sign * lam[c], sign * viol[c]
+        for c in read if fixed is not None else ():
+            lam[c], viol[c] = _signed(probe.sign(c), force[:, fixed[c]], pos[:, fixed[c]])
         velocities = dict(zip(probe.points, velocity, strict=True))
         return _finish(model, probe, data, rec, lam, viol, timings, velocities)
     finally:
         rec.give_back(model)
-
-
-def _equality_rows(model: mujoco.MjModel) -> int:
-    """The number of efc rows of all equalities where every one has a fixed count (0 where one has not):
-    where each is active, they are the first rows (:func:`_fixed_rows`)."""
-    kinds = [int(t) for t in model.eq_type]
-    return 0 if any(k not in EQUALITY_ROWS for k in kinds) else sum(EQUALITY_ROWS[k] for k in kinds)
 
 
 def _label(model: mujoco.MjModel) -> str:
@@ -805,9 +801,8 @@ def _read_at_states(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, ru
     lam = {c: _rows(model, c, n) for c in equalities}
     viol = {c: _rows(model, c, n) for c in equalities}
     _read_equalities(model, data, run.states, lam, viol)
-    for c in equalities:  # × the sign elementwise, as _block multiplies each sample
-        sign = probe.sign(c)
-        run.lam[c], run.viol[c] = (lam[c], viol[c]) if sign == 1.0 else (sign * lam[c], sign * viol[c])
+    for c in equalities:
+        run.lam[c], run.viol[c] = _signed(probe.sign(c), lam[c], viol[c])
 
 
 def _read_equalities(model: mujoco.MjModel, data: mujoco.MjData, states: np.ndarray,
@@ -842,12 +837,19 @@ def _fixed_rows(model: mujoco.MjModel, states: np.ndarray) -> dict[str, slice | 
     (:data:`EQUALITY_ROWS`) and active at every state, equality k's rows follow those of 0..k−1. A
     one-row block is an index (a float per sample), a longer one a slice. Checked bit for bit against
     the rows found by search (:func:`equality_block`) at one sample, as every batch run is."""
+    layout = _equality_layout(model)
+    start = _state_offset(model, mujoco.mjtState.mjSTATE_EQ_ACTIVE)
+    if layout is None or not np.all(states[:, start:start + model.neq] == 1):
+        return None
+    return layout[0]
+
+
+def _equality_layout(model: mujoco.MjModel) -> tuple[dict[str, slice | int], int] | None:
+    """Each named equality's rows where every equality is active, and the number of those rows, where every
+    equality is of a type with a fixed number of rows and none is switched off; else None."""
     kinds = [int(t) for t in model.eq_type]
     off = int(mujoco.mjtDisableBit.mjDSBL_EQUALITY) | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
     if any(k not in EQUALITY_ROWS for k in kinds) or model.opt.disableflags & off:
-        return None
-    start = _state_offset(model, mujoco.mjtState.mjSTATE_EQ_ACTIVE)
-    if not np.all(states[:, start:start + model.neq] == 1):
         return None
     out, row = {}, 0
     for eq, kind in enumerate(kinds):
@@ -856,7 +858,7 @@ def _fixed_rows(model: mujoco.MjModel, states: np.ndarray) -> dict[str, slice | 
         if name:
             out[name] = row if size == 1 else slice(row, row + size)
         row += size
-    return out
+    return out, row
 
 
 def _verify(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: _Run) -> list[str]:
