@@ -21,6 +21,7 @@ budget, judged by the case's limits, overridden by ``config`` and
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -34,18 +35,19 @@ import numpy as np
 from harness import cases
 from harness.cases import Case, sources
 from harness.cases.own import from_mjcf
-from harness.core.checks import Check, gate
+from harness.core.checks import Check, Limit, gate
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
+from harness.core.options import RunOptions
 from harness.outputs.jsondoc import json_doc
 from harness.outputs.table import checks_table, ratio, ratio_text, verdict_line
-from harness.pipeline.limits import Limit, case_limits, load_limits
+from harness.pipeline.limits import case_limits, check_config, load_limits
 from harness.pipeline.outcome import Outcome
 from harness.pipeline.require import Fitness, check_known, judge_fitness
 from harness.pipeline.require import requirement as requirement_of
 from harness.pipeline.run import CaseResult, run_case
+from harness.pipeline.settings import RunSettings
 from harness.pipeline.verdict import judge
-from harness.pipeline.vocabulary import check_config
 
 __all__ = ["Validation", "ValidationFailed", "case_names", "validate"]
 
@@ -102,8 +104,8 @@ class Validation:
         mjcf: the model file that ran (the shipped model, or yours).
         checks: each gated figure beside its limit.
         figures: every figure measured, gated or not.
-        settings: timestep, integrator, solver, softness, parameters, … as the report lists them (what
-            differs from the shipped model under ``changed``).
+        settings: the settings it ran with (:class:`~harness.pipeline.settings.RunSettings`: timestep, integrator,
+            solver, softness, parameters, …; what differs from the shipped model in ``changed``).
         limits: where the limits came from.
         fitness: each figure of the model's own integrator a requirement judged.
         findings: engine functions found to disagree while measuring.
@@ -114,7 +116,7 @@ class Validation:
     mjcf: str
     checks: tuple[Check, ...]
     figures: tuple[Figure, ...]
-    settings: Mapping[str, object] = field(default_factory=dict)
+    settings: RunSettings | None = None
     limits: str = ""
     fitness: tuple[Fitness, ...] = ()
     findings: tuple[Finding, ...] = ()
@@ -326,43 +328,54 @@ def validate(
     """
     _check_arguments(integrators=integrators, timestep=timestep, horizon=horizon, q0=q0, qd0=qd0, limits=limits,
                      require=require, accept_known_defects=accept_known_defects, edit=edit)
+    options = RunOptions(mjcf=mjcf, integrators=tuple(integrators) if integrators is not None else None,
+                         timestep=timestep, horizon=horizon, q0=q0, qd0=qd0,
+                         edit=_in_place(edit) if edit is not None else None, backend=backend)
+    judging = _Judging(config=config, limits=limits or {}, require=require or {},
+                       accept_known_defects=accept_known_defects)
     with sources.using(_directories(systems)):
-        return _validate(case, mjcf=mjcf, keyframe=keyframe, ctrl=ctrl, integrators=integrators, timestep=timestep,
-                         horizon=horizon, q0=q0, qd0=qd0, config=config, limits=limits, require=require,
-                         accept_known_defects=accept_known_defects, edit=edit, backend=backend)
+        return _validate(case, options, judging, keyframe=keyframe, ctrl=ctrl)
 
 
-def _validate(case: str | Case | None, *, mjcf: str | Path | None, keyframe: str | None,
-              ctrl: Mapping[str, float] | None, integrators: Sequence[str] | None, timestep: float | None,
-              horizon: float | None, q0: Mapping[str, float] | None, qd0: Mapping[str, float] | None,
-              config: str | Path | None, limits: Mapping[str, float] | None, require: Mapping[str, float] | None,
-              accept_known_defects: bool, edit: Callable[[mujoco.MjSpec], None] | None, backend: str) -> Validation:
+@dataclass(frozen=True)
+class _Judging:
+    """How :func:`validate` judges what it ran: its ``config``, ``limits``, ``require`` and
+    ``accept_known_defects``, checked."""
+
+    config: str | Path | None
+    limits: Mapping[str, float]
+    require: Mapping[str, float]
+    accept_known_defects: bool
+
+
+def _validate(case: str | Case | None, options: RunOptions, judging: _Judging, *, keyframe: str | None,
+              ctrl: Mapping[str, float] | None) -> Validation:
     """:func:`validate` with its arguments checked and the user's systems in use."""
-    if case is None and mjcf is None:
+    if case is None and options.mjcf is None:
         raise ValueError("validate needs a case name (or Case) or an mjcf path; known cases: "
                          + ", ".join(cases.names()))
-    if case is None:
-        chosen, mjcf = from_mjcf(mjcf, keyframe=keyframe, ctrl=ctrl, horizon=horizon), None
+    if case is None:  # any model, judged against its own tree: the model is the case's, not a variant of it
+        chosen = from_mjcf(options.mjcf, keyframe=keyframe, ctrl=ctrl, horizon=options.horizon)
+        options = dataclasses.replace(options, mjcf=None)
     else:
         chosen = cases.get(case) if isinstance(case, str) else case
     if not isinstance(chosen, Case):
         raise ValueError(f"case must be a case name or a harness.cases.Case, got {type(case).__name__}")
     if chosen.tree is None and (keyframe is not None or ctrl):
         raise ValueError("keyframe and ctrl apply to a model judged against its own tree (mjcf= without a case)")
-    if integrators is not None and not list(integrators):
+    if options.integrators is not None and not options.integrators:
         raise ValueError("integrators must name at least one integrator (None: every one)")
-    shipped = load_limits(config)
-    check_config(shipped.overrides, cases.all_cases(), source=repr(str(config)))  # every case it names
-    given = {str(FigureName(k)): Limit("user", float(v), "given to validate()") for k, v in (limits or {}).items()}
+    shipped = load_limits(judging.config)
+    check_config(shipped.overrides, cases.all_cases(), source=repr(str(judging.config)))  # every case it names
+    given = {str(FigureName(k)): Limit("user", float(v), "given to validate()") for k, v in judging.limits.items()}
     requirements = (*shipped.requirements,
-                    *(requirement_of(str(k), v, source="validate(require=...)") for k, v in (require or {}).items()))
-    result = run_case(chosen, mjcf=mjcf, integrators=tuple(integrators) if integrators is not None else None,
-                      timestep=timestep, horizon=horizon, q0=q0, qd0=qd0,
-                      edit=_in_place(edit) if edit is not None else None, backend=backend)
+                    *(requirement_of(str(k), v, source="validate(require=...)") for k, v in judging.require.items()))
+    result = run_case(chosen, options)
     checks = judge(result, case_limits(shipped, chosen, result.judged_names) | given)
     check_known(requirements, [result])
-    source = shipped.source + (" + limits given to validate()" if limits else "")
-    return Validation(case=chosen.name, mjcf=str(result.settings.get("mjcf", chosen.mjcf)), checks=tuple(checks),
-                      figures=result.figures, settings=dict(result.settings), limits=source,
+    source = shipped.source + (" + limits given to validate()" if judging.limits else "")
+    return Validation(case=chosen.name, mjcf=result.settings.mjcf, checks=tuple(checks),
+                      figures=result.figures, settings=result.settings, limits=source,
                       fitness=tuple(judge_fitness(result, requirements)), findings=tuple(result.findings),
-                      accept_known_defects=accept_known_defects or shipped.accept_known_defects, result=result)
+                      accept_known_defects=judging.accept_known_defects or shipped.accept_known_defects,
+                      result=result)

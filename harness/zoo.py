@@ -382,11 +382,11 @@ def judge(model: ZooModel, *, integrators: Sequence[str] | None = None, timeout:
     except Exception as exc:
         return ZooResult(**base, **have, verdict=CRASHED, seconds=time.perf_counter() - clock,
                          reason=f"{one_line(exc)} (a bug of the harness)")
-    tree = v.settings.get("tree", {})
+    tree = v.settings.tree or {}
     deciding = deciding_check(v.checks)
     return ZooResult(**base, **have | {"not_examined": dict(tree.get("not examined", gaps))},
                      verdict=PASS if v.passed else FAIL, seconds=time.perf_counter() - clock,
-                     integrators=tuple(v.settings.get("integrators", ())), checks=len(v.checks),
+                     integrators=tuple(v.settings.integrators), checks=len(v.checks),
                      deciding=Deciding.of(deciding) if deciding is not None else None,
                      failed=tuple(str(c.name) for c in v.failures), horizon=str(tree.get("horizon", "")))
 

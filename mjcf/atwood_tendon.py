@@ -9,7 +9,7 @@ constraint's (J = ∂L/∂q = (−1, 0, a) for string1 against (1, 0, −a)) and
 
 MuJoCo ≥ 4.0 applies a spatial tendon's pull at its path points, outside the
 joints (``cfrc_ext``), so the strings are declared as loads for the reaction
-sensors (:mod:`harness.layers.reactions`): string k pulls its mass up with λ_k ẑ
+sensors (:mod:`harness.families.reactions`): string k pulls its mass up with λ_k ẑ
 at its hook and the pulley down with λ_k at its rim (on the vertical line
 through ``rim_left``/``rim_right``). The strings' lengths are recorded as the
 series ``stretch`` (max over both of |L − L₀|, the length at qpos0 the

@@ -11,7 +11,7 @@ The same three multipliers are the contact's load on the hoop for its reaction
 sensors (:class:`harness.engine.sensors.Load`): MuJoCo counts the contact in
 ``cfrc_ext``, outside the joints, so the sensors at the centre read Newton–Euler
 of the hoop less the contact force, each multiplier along its slide's world axis
-at the contact point (:mod:`harness.layers.reactions`).
+at the contact point (:mod:`harness.families.reactions`).
 """
 
 from __future__ import annotations

@@ -9,7 +9,7 @@ The same multipliers are the contact's load on the hoop for its reaction sensors
 (:class:`harness.engine.sensors.Load`): MuJoCo counts the contact in ``cfrc_ext``,
 outside the joints, so the sensors at the hub read Newton–Euler of the hoop less
 the contact force, each multiplier along its slide's world axis at the contact
-point (:mod:`harness.layers.reactions`) — nothing, in this plane, where
+point (:mod:`harness.families.reactions`) — nothing, in this plane, where
 ``hoop_ramp``'s joint equalities put the whole reaction on the joints.
 """
 

@@ -6,7 +6,7 @@ three rows are the world components of rod_end − piston_pin, so with
 M q̈ = F + Jᵀλ the multipliers λ are the world force on the rod at its end and
 −λ the force on the piston at its pin (:class:`harness.engine.sensors.Load`);
 the sensors of the bearing, the crank pin and the guide are compared with
-Newton–Euler of their subtrees less these loads (:mod:`harness.layers.reactions`).
+Newton–Euler of their subtrees less these loads (:mod:`harness.families.reactions`).
 """
 
 from __future__ import annotations

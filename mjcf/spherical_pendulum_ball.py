@@ -21,7 +21,7 @@ No constant matrix relates qvel to (θ̇, φ̇), so :meth:`dof_matrix` is None;
 through which the instantaneous layer compares MuJoCo's mass matrix, forcing and
 accelerations with the analytic ones (nv = 3 > n = 2: the twist about the rod is
 a degree of freedom the point mass does not have; see
-:func:`harness.layers.instant.pull_back`).
+:func:`harness.families.sampled.pull_back`).
 """
 
 from __future__ import annotations

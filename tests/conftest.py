@@ -96,14 +96,14 @@ def cached_runs(monkeypatch):
 
 def use_cached_runs(monkeypatch) -> None:
     """:func:`cached_runs` with ``monkeypatch`` (a fixture of a wider scope uses ``pytest.MonkeyPatch.context()``)."""
-    from harness.pipeline import run as pipeline
+    from harness.pipeline import matrix
 
-    real = pipeline.RunOptions.run
+    real = matrix.run_case
 
-    def run(options, case, *, edit=None):
-        return shipped_run(case.name) if options.shipped and edit is None else real(options, case, edit=edit)
+    def run(case, options=None):
+        return shipped_run(case.name) if options is None or options.shipped else real(case, options)
 
-    monkeypatch.setattr(pipeline.RunOptions, "run", run)
+    monkeypatch.setattr(matrix, "run_case", run)
 
 
 

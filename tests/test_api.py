@@ -40,12 +40,12 @@ def plain_runs(monkeypatch):
 
     real = api.run_case
 
-    def run(case, **kw):
-        if kw.get("edit") is not None or kw.get("mjcf") is not None:
-            return real(case, **kw)
-        key = (case.name, repr(sorted(kw.items())))
+    def run(case, options):
+        if options.edit is not None or options.mjcf is not None:
+            return real(case, options)
+        key = (case.name, repr(options))
         if key not in _PLAIN_RUNS:
-            _PLAIN_RUNS[key] = real(case, **kw)
+            _PLAIN_RUNS[key] = real(case, options)
         return _PLAIN_RUNS[key]
 
     monkeypatch.setattr(api, "run_case", run)
@@ -148,8 +148,8 @@ def test_a_legitimate_setting_passes_and_says_what_differs():
     its own mass, so nothing is unexplained, and the run says what differs from the shipped model."""
     case = get("pendulum")
     heavier = harness.validate(case, integrators=RK4, edit=by_name("masses×2").edit(case))
-    assert heavier.passed and heavier.settings["params"]["m"] == 2.0
-    assert heavier.settings["changed"]["param.m"] == {"shipped": 1.0, "tested": 2.0}
+    assert heavier.passed and heavier.settings.params["m"] == 2.0
+    assert heavier.settings.changed["param.m"] == {"shipped": 1.0, "tested": 2.0}
 
 
 def test_what_differs_lists_every_change_of_the_model(tmp_path):
@@ -160,14 +160,14 @@ def test_what_differs_lists_every_change_of_the_model(tmp_path):
     path.write_text(text.replace('axis="0 -1 0" damping="0"', 'axis="0 -1 0" damping="0.001"')
                     .replace('<inertial pos="0 0 0" mass="1"', '<inertial pos="0 0 0" mass="1.02"'))
     result = harness.validate("pendulum", mjcf=path, integrators=RK4, timestep=0.002)
-    changed = result.settings["changed"]
+    changed = result.settings.changed
     assert changed["mjcf: joint 'theta' damping"] == {"shipped": "default", "tested": "0.001"}
     assert changed["param.m"] == {"shipped": 1.0, "tested": 1.02}
     assert changed["timestep"] == {"shipped": 0.001, "tested": 0.002}
     assert changed["mjcf: body 'bob'/inertial mass"] == {"shipped": "1", "tested": "1.02"}
     assert not any("timestep" in k for k in changed if k.startswith("mjcf:"))  # listed once, as the setting
     edited = harness.validate("pendulum", integrators=RK4, edit=lambda spec: setattr(spec.geom("bob"), "margin", 0.1))
-    assert edited.settings["changed"] == {"mjcf: geom 'bob' margin": {"shipped": "default", "tested": "0.1"}}
+    assert edited.settings.changed == {"mjcf: geom 'bob' margin": {"shipped": "default", "tested": "0.1"}}
 
 
 def test_a_model_mujoco_cannot_write_is_said_not_compared(monkeypatch):
@@ -179,7 +179,7 @@ def test_a_model_mujoco_cannot_write_is_said_not_compared(monkeypatch):
     monkeypatch.setattr(pipeline, "authored", unwritable)
     edited = harness.validate("pendulum", integrators=RK4, edit=lambda spec: setattr(spec.geom("bob"), "margin", 0.1))
     assert "not compared attribute by attribute: to_xml: plugin cannot be written" in \
-        edited.settings["changed"]["mjcf"]["tested"]
+        edited.settings.changed["mjcf"]["tested"]
 
 
 def test_a_requirement_is_a_second_verdict_on_the_models_own_integrator(shipped, plain_runs):
@@ -207,8 +207,8 @@ def test_the_motion_can_be_given():
     """Another initial angle and horizon: the reference starts where the run does (r on its constraint)."""
     other = harness.validate("pendulum", integrators=RK4, q0={"theta": 0.3}, qd0={"theta": 0.0}, horizon=1.0)
     assert other.passed
-    assert other.settings["q0"] == {"theta": 0.3, "r": 1.0} and other.settings["qd0"] == {"theta": 0.0, "r": 0.0}
-    assert other.settings["horizon"] == 1.0
+    assert other.settings.q0 == {"theta": 0.3, "r": 1.0} and other.settings.qd0 == {"theta": 0.0, "r": 0.0}
+    assert other.settings.horizon == 1.0
 
 
 def test_limits_and_cases_can_be_given(shipped, plain_runs):

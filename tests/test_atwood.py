@@ -22,6 +22,7 @@ import sympy as sp
 from analytic import systems
 from analytic.systems import atwood
 from harness import cases
+from harness.core.options import RunOptions
 from harness.engine import compat, models
 from harness.engine.bindings import JointBinding
 from harness.engine.constraints import equality_force
@@ -344,7 +345,7 @@ def test_a_fault_trips_its_gates(fault: str) -> None:
     kwargs, expected = FAULTS[fault]
     # gates of an integrator this MuJoCo lacks are n/a, not failures (harness.compat)
     expected = breakable(CASE.name, expected)
-    failed = failing(pipeline.run_case(CASE, **kwargs))
+    failed = failing(pipeline.run_case(CASE, RunOptions(**kwargs)))
     assert expected <= failed, f"{fault}: did not fail {sorted(expected - failed)}"
 
 
@@ -352,7 +353,7 @@ def test_a_fault_trips_its_gates(fault: str) -> None:
 def test_a_legitimate_change_passes_every_gate(setting: str, monkeypatch) -> None:
     if SETTINGS[setting].get("edit") is _approximate_diagonal:
         _default_diagonal_on_any_version(monkeypatch)
-    assert failing(pipeline.run_case(CASE, **SETTINGS[setting])) == set()
+    assert failing(pipeline.run_case(CASE, RunOptions(**SETTINGS[setting]))) == set()
 
 
 def test_every_gate_has_a_fault() -> None:
@@ -366,6 +367,6 @@ def test_an_initial_state_off_the_strings_is_moved_onto_them() -> None:
     """mass1 started 5e-10 m off string1 (inside solve()'s 1e-9 consistency check): the reference projects
     the state onto the constraints of the model under test, says so, and its own gates pass."""
     off = dataclasses.replace(CASE, motion=dataclasses.replace(CASE.motion, q0={**CASE.q0, "z1": 5e-10}))
-    result = pipeline.run_case(off, integrators=["RK4"])
-    assert any(p.startswith("q0 ") for p in result.settings.get("projected", ())), result.settings
+    result = pipeline.run_case(off, RunOptions(integrators=["RK4"]))
+    assert any(p.startswith("q0 ") for p in result.settings.projected), result.settings
     assert {"reference.residual", "reference.ode_vs_dae"} <= set(judged(result)) - failing(result)

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from harness import cases
+from harness.core.options import RunOptions
 from harness.engine import compat
 from harness.engine.bindings import JointBinding
 from harness.engine.constraints import equality_force
@@ -207,14 +208,14 @@ SETTINGS = {
 def test_a_fault_trips_its_gates(fault: str) -> None:
     kwargs, expected = FAULTS[fault]
     expected = breakable(CASE.name, expected)
-    failed = failing(pipeline.run_case(CASE, **kwargs))
+    failed = failing(pipeline.run_case(CASE, RunOptions(**kwargs)))
     assert expected <= failed, f"{fault}: did not fail {sorted(expected - failed)}"
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting: str) -> None:
-    assert failing(pipeline.run_case(CASE, **SETTINGS[setting])) == set()
+    assert failing(pipeline.run_case(CASE, RunOptions(**SETTINGS[setting]))) == set()
 
 
 def test_every_gate_has_a_fault() -> None:

@@ -71,9 +71,9 @@ def test_runs_differing_in_per_world_fields_share_one_call_and_change_no_number(
 
 
 def _roundoff_bound(steps: int, size: float) -> float:
-    """The budget's round-off part (harness.budget.trajectory: ROUNDOFF_EPS machine epsilons a step,
+    """The budget's round-off part (harness/families/runs.py: ROUNDOFF_EPS machine epsilons a step,
     a random walk over the steps) in float32, for one run (noise gain 1) of a quantity of ``size``."""
-    from harness.budget.trajectory import ROUNDOFF_EPS
+    from harness.core.budget import ROUNDOFF_EPS
 
     return ROUNDOFF_EPS * float(np.finfo(np.float32).eps) * math.sqrt(steps) * size
 
@@ -152,7 +152,7 @@ def test_warp_float32_passes_and_a_fault_still_fails():
     from harness.engine.compat import set_damping
 
     ok = validate("pendulum", integrators=["RK4"], backend="warp", horizon=0.2)
-    assert ok.settings["backend"]["name"] == "warp" and ok.settings["backend"]["precision"] == "float32"
+    assert ok.settings.backend["name"] == "warp" and ok.settings.backend["precision"] == "float32"
     assert ok.passed, [c.name for c in ok.failures]
     bad = validate("pendulum", integrators=["RK4"], backend="warp", horizon=0.2,
                    edit=lambda s: set_damping(s.joint("theta"), 0.1))
@@ -165,16 +165,14 @@ def test_a_convergence_floor_is_explained_by_float32_roundoff_only_on_a_float32_
     """An RK4 ladder whose error sits flat at 1e-6 m: in float32 (Warp) that is below the round-off of the
     run (64 ε₃₂ √N × L ≈ 7.6e-4 m for 10⁴ steps of a 1 m case), a floor and not an order; in float64 (C),
     whose round-off there is 3e-12 m, the same floor stays unexplained: a fault the verdict shows."""
-    from harness.layers.orders import explained_floor, fit_order, roundoff_floor
+    from harness.families.convergence import explained_floor, fit_order, roundoff_floor
 
     fit = fit_order((1e-3, 5e-4, 2.5e-4, 1.25e-4), (1e-6, 1e-6, 1e-6, 1e-6), saturation=0.1)
     assert fit.floor == pytest.approx(1e-6) and fit.n_used < 2
-    with backends.use("c"):
-        c = roundoff_floor(1e4, 1.0)
-        assert explained_floor(fit, {"round-off": c}) == ""
-    with backends.use("warp"):
-        w = roundoff_floor(1e4, 1.0)
-        assert "not measurable" in explained_floor(fit, {"round-off": w})
+    c = roundoff_floor(1e4, 1.0, backends.get("c").epsilon)
+    assert explained_floor(fit, {"round-off": c}) == ""
+    w = roundoff_floor(1e4, 1.0, backends.get("warp").epsilon)
+    assert "not measurable" in explained_floor(fit, {"round-off": w})
     assert c == pytest.approx(64 * float(np.finfo(np.float64).eps) * 100)
     assert w / c == pytest.approx(float(np.finfo(np.float32).eps) / float(np.finfo(np.float64).eps))
 
@@ -248,7 +246,7 @@ def test_an_accelerated_backends_cases_each_run_in_a_process_of_their_own():
     code = ("import sys, json\n"
             "from harness import cases\n"
             "from harness.pipeline.matrix import run_all\n"
-            "from harness.pipeline.run import RunOptions\n"
+            "from harness.core.options import RunOptions\n"
             "results, checks, _ = run_all([cases.get('pendulum'), cases.get('spring')], None,\n"
             "                             RunOptions(backend='warp', horizon=0.01), jobs=1)\n"
             "print(json.dumps([[r.case.name for r in results], 'mujoco_warp' in sys.modules,\n"

@@ -22,13 +22,16 @@ import numpy as np
 import pytest
 
 from harness import cases
-from harness.budget import trajectory as budget_trajectory
 from harness.cli.commands import main
+from harness.core.budget import ROUNDOFF_EPS
 from harness.core.errors import BackendUnavailable
+from harness.core.options import RunOptions
 from harness.engine import backends
 from harness.engine.compat import full_mass_matrix
 from harness.engine.models import compile_model
 from harness.engine.simulate import simulate
+from harness.families import COMPARISONS, sampled
+from harness.families import runs as trajectory_budget
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -44,8 +47,7 @@ def test_c_backend_is_the_c_recorder_bit_for_bit():
     _, model, ref, probe = _setup("pendulum")
     direct = simulate(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=200)
     via = backends.get("c").simulate_many([backends.Request(model, ref.q0(), ref.qd0(), 200)], probe)[0]
-    with backends.use("c"):
-        dispatched = backends.simulate(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=200)
+    dispatched = backends.simulate(backends.get("c"), model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=200)
     for run in (via, dispatched):
         assert np.array_equal(run.positions["bob"], direct.positions["bob"])
         assert np.array_equal(run.multipliers["rod"], direct.multipliers["rod"])
@@ -53,8 +55,8 @@ def test_c_backend_is_the_c_recorder_bit_for_bit():
 
 
 def test_default_backend_is_c():
-    assert backends.active().name == "c"
-    assert backends.active().precision == "float64"
+    assert RunOptions().backend == "c"
+    assert backends.get(RunOptions().backend).precision == "float64"
 
 
 @pytest.mark.parametrize("spec", ["cuda", "c,foo", ""])
@@ -89,8 +91,8 @@ def test_a_backend_not_installed_is_one_line_naming_the_fix(monkeypatch, capsys)
 def test_roundoff_part_follows_the_backends_epsilon():
     """float64 keeps the constant the C engine's budgets always had (bit for bit); float32 is the same
     count of epsilons of float32."""
-    assert budget_trajectory.ROUNDOFF_EPS * float(np.finfo(np.float64).eps) == budget_trajectory.ROUNDOFF
-    assert budget_trajectory.ROUNDOFF_EPS * float(np.finfo(np.float32).eps) / budget_trajectory.ROUNDOFF == 2.0**29
+    assert ROUNDOFF_EPS * float(np.finfo(np.float64).eps) == trajectory_budget.ROUNDOFF
+    assert ROUNDOFF_EPS * float(np.finfo(np.float32).eps) / trajectory_budget.ROUNDOFF == 2.0**29
 
 
 # ---------------------------------------------------------------- MJX (where installed)
@@ -206,9 +208,8 @@ def test_mjx_float32_passes_and_a_fault_still_fails():
 # ------------------------------------------------- the instantaneous layer on the active backend
 def _states(name: str, count: int = 6):
     """A case's compiled model, probe, reference and its first ``count`` sampled states in MuJoCo's coordinates."""
-    from harness.layers.instant import sample_states
     case, model, ref, probe = _setup(name)
-    q, qd = sample_states(ref, count)
+    q, qd = sampled.sample_states(ref, count)
     data = mujoco.MjData(model)
     qpos, qvel = [], []
     for a, b in zip(q, qd, strict=True):
@@ -221,30 +222,27 @@ def _states(name: str, count: int = 6):
 
 def _instant_budgets(name: str, backend: str):
     """The instantaneous figures of case ``name`` and their budgets, evaluated on ``backend``."""
-    from harness.budget.measure import ModelUnderTest, instant_budget
-    from harness.layers.instant import instant_evaluation
+    from harness.engine.variants import ModelUnderTest
     case, model, ref, probe = _setup(name)
-    with backends.use(backend):
-        ev = instant_evaluation(model, probe, ref, perturbed=True)
-        return ev, instant_budget(ModelUnderTest(path=case.mjcf), model, probe, ref, ev.deviations,
-                                  perturbed=ev.perturbed, represented=ev.represented)
+    ev = sampled.evaluate(ModelUnderTest(path=case.mjcf), model, probe, ref, backends.get(backend),
+                          COMPARISONS.at_states)
+    return ev, ev.budgets
 
 
 def test_c_forward_many_carried_into_the_layer_changes_no_number():
     """The instantaneous layer's backend path (the backend's arrays written into C's MjData at the same state)
     is exact: with the C backend's own forward_many carried, every figure is bit for bit the C path's."""
-    from harness.layers.instant import _deviations, _measure, mujoco_states, sample_states
+    compare = sampled.combined(COMPARISONS.at_states)
     for name in ("welded_pendulum", "slider_crank", "double_pendulum"):
         if name in cases.unavailable():  # an older MuJoCo (the connect/weld loops need 3.7.0)
             continue
         _, model, ref, probe = _setup(name)
-        q, qd = sample_states(ref)
-        qpos, qvel = mujoco_states(model, probe, q, qd)
+        q, qd = sampled.sample_states(ref)
+        qpos, qvel = sampled.mujoco_states(model, probe, q, qd)
         fwd = backends.get("c").forward_many(model, probe, qpos, qvel)
-        plain = _deviations(model, probe, ref, q, qd, _measure(model, probe, ref.dynamics, q, qd, states=None,
-                                                               fwd=None, offset=0), "c")[0]
-        carried = _deviations(model, probe, ref, q, qd, _measure(model, probe, ref.dynamics, q, qd, states=None,
-                                                                 fwd=fwd, offset=0), "c")[0]
+        plain = compare(sampled._measure(model, probe, ref, q, qd, states=None, fwd=None, offset=0, backend="c"))[0]
+        carried = compare(sampled._measure(model, probe, ref, q, qd, states=None, fwd=fwd, offset=0,
+                                           backend="c"))[0]
         assert [d.name for d in plain] == [d.name for d in carried]
         for a, b in zip(plain, carried, strict=True):
             assert np.array_equal(a.values, b.values), (name, a.name)
@@ -296,11 +294,9 @@ def test_reactions_the_backend_lacks_are_na_with_the_reason_where_rows_do_not_ma
     original = mjx64.forward_many
     monkeypatch.setattr(mjx64, "forward_many", lambda *a: dataclasses.replace(
         original(*a), sensordata=None, cfrc_int=None, cfrc_ext=None))
-    from harness.layers.instant import instant_evaluation
-    from harness.layers.reactions import sensor_names
+    from harness.families.reactions import sensor_names
     _, model, ref, probe = _setup("hoop_ramp_contact")
-    with backends.use("mjx-f64"):
-        ev = instant_evaluation(model, probe, ref)
+    ev = sampled.at_states(model, probe, ref, backends.get("mjx-f64"), COMPARISONS.at_states)
     sensors, bodies = sensor_names(model)
     expected = {f"instant.sensor.{s}" for s in sensors} | {f"instant.interaction.{b}" for b in bodies}
     assert expected and set(ev.unavailable) == expected
@@ -312,18 +308,19 @@ def test_reactions_the_backend_lacks_are_na_with_the_reason_where_rows_do_not_ma
 _INSTANT_F32 = """
 import dataclasses, json, numpy as np, mujoco
 from harness import cases
-from harness.budget.measure import ModelUnderTest, instant_budget
 from harness.engine import backends
 from harness.engine.models import compile_model
-from harness.layers.instant import instant_evaluation, sample_states
+from harness.engine.variants import ModelUnderTest
+from harness.families import COMPARISONS
+from harness.families.sampled import evaluate, sample_states
 out = {}
+engine = backends.get(BACKEND)
 def budgets(name):
     case = cases.get(name); model = compile_model(case.mjcf); ref = case.reference(model)
     probe = case.probe(ref.dynamics)
-    ev = instant_evaluation(model, probe, ref, perturbed=True)
-    return ev, instant_budget(ModelUnderTest(path=case.mjcf), model, probe, ref, ev.deviations,
-                              perturbed=ev.perturbed, represented=ev.represented), (model, ref, probe)
-with backends.use(BACKEND) as engine:
+    ev = evaluate(ModelUnderTest(path=case.mjcf), model, probe, ref, engine, COMPARISONS.at_states)
+    return ev, ev.budgets, (model, ref, probe)
+if True:
     for name in ("pendulum", "double_pendulum", "atwood"):
         ev, b, _ = budgets(name)
         out[name] = {"copies": len(ev.perturbed), "na": sorted(ev.unavailable),
@@ -374,10 +371,11 @@ def test_instant_roundoff_is_the_copies_spread_on_float32_and_unchanged_on_float
     """With copies, the round-off tolerance is PERTURBED_FACTOR × the largest copy difference (+ the measured
     shift of the constants in float32, + READ_ULPS ε32 × size), × the noise gain; without, today's ROUNDOFF ×
     size."""
-    from harness.budget.instant import ROUNDOFF, instant_budgets
     from harness.core.budget import PERTURBED_FACTOR, READ_ULPS
     from harness.core.deviation import Deviation
     from harness.core.figures import FigureName
+    from harness.families.sampled import ROUNDOFF
+    from harness.families.sampled import budgets as instant_budgets
     name = FigureName.instant("qacc")
     base = Deviation(name, np.array([1e-7, -2e-7]), "scalar", "1", "", size=1.0)
     copies = [[dataclasses.replace(base, values=base.values + d)] for d in (np.array([0.0, 3e-7]),
@@ -415,8 +413,8 @@ for name in ("pendulum", "double_pendulum"):
         moved = [c_simulate(model, probe, q0=ulp_states(q0, epsilon=eps, seed=k),
                             qd0=ulp_states(qd0, epsilon=eps, seed=PERTURBED_RUNS + k), steps=STEPS)
                  for k in range(1, PERTURBED_RUNS + 1)]
-        with backends.use(BACKEND):
-            runs = backends.simulate_many(
+        if True:
+            runs = backends.get(BACKEND).simulate_many(
                 [Request(model, q0, qd0, STEPS)] + [Request(V.roundoff_copy(model, epsilon=eps, index=k), q0, qd0,
                                                             STEPS) for k in range(1, PERTURBED_RUNS + 1)], probe)
         for group in ("positions", "multipliers"):
@@ -434,7 +432,7 @@ print(json.dumps(rows))
 
 @pytest.mark.slow
 def test_the_float32_roundoff_rule_covers_mjx_float32_against_the_c_engine():
-    """The derived float32 round-off part (harness.budget.trajectory, for one run: PERTURBED_FACTOR √2 × the
+    """The derived float32 round-off part (harness/families/runs.py, for one run: PERTURBED_FACTOR √2 × the
     round-off copies' spread + the model and state held in float32 + READ_ULPS ε × size + QUANTIZATION × the
     response to a half-ulp state) against float32's real error: MJX in float64 equals the C engine to 1.7e-14
     here (the same algorithms), so MJX float32 − C is MJX's float32 round-off itself. Over 1000 steps of

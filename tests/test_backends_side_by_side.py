@@ -14,9 +14,9 @@ import json
 import pytest
 
 from harness import cases
+from harness.core.options import RunOptions
 from harness.outputs.backends import BackendRun, findings, side_by_side_html, side_by_side_json
 from harness.pipeline.matrix import run_backends
-from harness.pipeline.run import RunOptions
 
 SHORT = RunOptions(horizon=0.02, integrators=("RK4",))
 

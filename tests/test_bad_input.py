@@ -167,7 +167,7 @@ def test_a_timestep_of_one_second_fails_as_unresolved_not_as_numbers(tmp_path, c
 
 def test_a_ladder_that_diverges_anywhere_is_its_series_verdict(tmp_path):
     from harness import cases
-    from harness.layers.orders import convergence_study
+    from harness.families.convergence import convergence_study
 
     study = convergence_study(cases.get(CASE), fast=True, integrators=["RK4", "implicit"],
                               mjcf=_stiff_damping(tmp_path))
@@ -279,12 +279,12 @@ def test_a_failed_run_marks_the_earlier_report_stale(tmp_path, first_report, cac
         code = main(["run", "nosuchcase", "--out", str(out), "--junit", str(out / "junit.xml")])
         assert code == 2
     else:
-        from harness.pipeline import run as pipeline
+        from harness.pipeline import matrix
 
         def interrupt(*_a, **_k):
             raise KeyboardInterrupt if failure == "interrupted" else KeyError("a bug")
 
-        monkeypatch.setattr(pipeline.RunOptions, "run", interrupt)
+        monkeypatch.setattr(matrix, "run_case", interrupt)
         capsys.readouterr()
         assert _report(tmp_path)[0] == (130 if failure == "interrupted" else 2)
         if failure == "internal error":
@@ -499,9 +499,9 @@ def test_a_run_document_off_its_schema_is_one_line_exit_2(tmp_path, capsys, cach
 
 # ------------------------------------------------------------------ config
 def test_a_typo_for_a_case_that_is_not_run_is_refused(tmp_path, capsys, monkeypatch):
-    from harness.pipeline import run as pipeline
+    from harness.pipeline import matrix
 
-    monkeypatch.setattr(pipeline.RunOptions, "run", lambda *a, **k: pytest.fail("ran before checking the config"))
+    monkeypatch.setattr(matrix, "run_case", lambda *a, **k: pytest.fail("ran before checking the config"))
     config = tmp_path / "limits.toml"
     config.write_text('[thresholds.spring]\n"RK4.positon" = 1e-6\n')
     assert main(["check", CASE, "--config", str(config)]) == 2
@@ -517,7 +517,7 @@ def test_a_real_figure_of_a_case_that_is_not_run_is_accepted(tmp_path, capsys, c
 
 def test_every_figure_a_shipped_case_measures_is_among_its_names():
     from harness import cases
-    from harness.pipeline.vocabulary import figure_names
+    from harness.families import figure_names
     from tests.conftest import shipped_run
 
     for case in cases.all_cases():
@@ -557,12 +557,12 @@ def test_a_reference_the_solver_cannot_integrate_is_one_line_and_exit_2(monkeypa
     step budget after minutes; stood in for here by the solver's own error) is a model that does not fit
     its case: one line naming why, exit 2, no report, never a traceback."""
     from analytic.dop853 import IntegrationError
-    from harness.pipeline import run as pipeline
+    from harness.pipeline import matrix
 
-    def fail(self, case, *, edit=None):
+    def fail(case, options=None):
         raise IntegrationError("more than 1000000 steps before t = 5 (reached t = 0.0123)")
 
-    monkeypatch.setattr(pipeline.RunOptions, "run", fail)
+    monkeypatch.setattr(matrix, "run_case", fail)
     out = tmp_path / "report"
     assert main(["run", "--case", CASE, "--out", str(out), "--jobs", "1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -577,12 +577,12 @@ def test_a_worker_killed_under_the_run_is_one_line_and_exit_2(monkeypatch, capsy
     the fix, exit 2 (CI counts it a failure), no report, never a traceback."""
     from concurrent.futures.process import BrokenProcessPool
 
-    from harness.pipeline import run as pipeline
+    from harness.pipeline import matrix
 
-    def killed(self, case, *, edit=None):
+    def killed(case, options=None):
         raise BrokenProcessPool("A process in the process pool was terminated abruptly")
 
-    monkeypatch.setattr(pipeline.RunOptions, "run", killed)
+    monkeypatch.setattr(matrix, "run_case", killed)
     out = tmp_path / "report"
     assert main(["run", "--case", CASE, "--out", str(out), "--jobs", "1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()

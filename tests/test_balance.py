@@ -1,4 +1,4 @@
-"""The work–energy balance (harness/layers/balance.py): its quadrature's order, a model with forces the tree does not
+"""The work–energy balance (harness/families/balance.py): its quadrature's order, a model with forces the tree does not
 model passing as it is, and energy that no force accounts for failing."""
 
 from __future__ import annotations
@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 from harness.cases.own import from_mjcf
+from harness.engine import backends
+from harness.engine.integrators import EXPECTED_ORDER
 from harness.engine.models import compile_model
 from harness.engine.readings import Reading
-from harness.layers.balance import POWER, POWER_FIELDS, attribute, balance_figures, cumulative_work
-from harness.layers.orders import EXPECTED_ORDER
+from harness.families.balance import POWER, POWER_FIELDS, attribute, balance_figures, cumulative_work
 from harness.reference.tree import TreeEdit
 
 # A damped, actuated double pendulum whose lower link reaches a joint limit and a wall: limits, contacts and
@@ -58,7 +59,8 @@ def _balance(path: Path, power: Reading = POWER, integrators=("RK4", "Euler")):
     as_is = TreeEdit(isolating=False, ctrl=case.tree.ctrl)
     return balance_figures(path, as_is, case.probe(ref.dynamics).binding, integrators=integrators, q0=ref.q0(),
                            qd0=ref.qd0(), horizon=case.horizon, energy_scale=ref.scales.energy,
-                           orders=EXPECTED_ORDER, not_examined=[k for k, _ in case.tree.uncovered], power=power)
+                           orders=EXPECTED_ORDER, not_examined=[k for k, _ in case.tree.uncovered], power=power,
+                           engine=backends.get("c"))
 
 
 def test_forces_the_tree_does_not_model_are_examined_by_the_balance(walled):
@@ -106,7 +108,7 @@ def test_run_case_reports_the_balance_for_a_model_with_uncovered_forces(walled):
 
     v = harness.validate(mjcf=walled, integrators=["RK4"])
     assert "RK4.balance" in {c.name for c in v.checks}
-    assert v.settings["tree"]["the model as it is"].startswith("judged by the work–energy balance")
+    assert v.settings.tree["the model as it is"].startswith("judged by the work–energy balance")
 
 
 def test_the_smallest_energy_injection_the_balance_catches_is_measured(walled):
@@ -126,7 +128,7 @@ def test_the_smallest_energy_injection_the_balance_catches_is_measured(walled):
     strong = 2 * found.rate
     edit = lambda spec: (TreeEdit(isolating=False, ctrl=case.tree.ctrl)(spec), injector("shoulder", strong)(spec))  # noqa: E731
     common = dict(integrators=("RK4", "Euler"), q0=ref.q0(), qd0=ref.qd0(), horizon=case.horizon,
-                  energy_scale=ref.scales.energy, orders=EXPECTED_ORDER, not_examined=[])
+                  energy_scale=ref.scales.energy, orders=EXPECTED_ORDER, not_examined=[], engine=backends.get("c"))
     binding = case.probe(ref.dynamics).binding
     _, hidden, _, _ = balance_figures(walled, edit, binding, power=unaccounted(), **common)
     _, accounted, _, _ = balance_figures(walled, edit, binding, power=POWER, **common)
@@ -147,7 +149,7 @@ def test_energy_from_nothing_fails_where_impacts_leave_the_balance_no_expansion_
     figures, budgets, diverged, unjudged = balance_figures(
         walled, edit, case.probe(ref.dynamics).binding, integrators=("RK4", "Euler"), q0=ref.q0(), qd0=ref.qd0(),
         horizon=case.horizon, energy_scale=ref.scales.energy, orders=EXPECTED_ORDER, not_examined=[],
-        power=unaccounted())
+        power=unaccounted(), engine=backends.get("c"))
     assert not unjudged and not diverged and set(budgets) == {"RK4.balance", "Euler.balance"}
     for name, budget in budgets.items():
         assert not budget.passed and budget.unexplained > 1.0, (name, budget)

@@ -33,13 +33,15 @@ from analytic.solvers import solve
 from analytic.systems import Scales
 from harness.core.errors import ModelMismatch
 from harness.engine import native
+from harness.engine.backends import get
 from harness.engine.bindings import JointBinding
 from harness.engine.compat import full_mass_matrix
 from harness.engine.compat import version as mujoco_version
 from harness.engine.constraints import equality_block, equality_force, equality_jacobian, equality_rows
 from harness.engine.probe import Probe
 from harness.engine.simulate import simulate
-from harness.layers.instant import instantaneous_figures, sample_states
+from harness.families import COMPARISONS
+from harness.families.sampled import at_states, sample_states
 from harness.reference.solutions import Reference
 
 M, M_LINK, L, G = 1.0, 0.5, 0.8, 9.81
@@ -158,7 +160,7 @@ def test_the_connect_block_is_read_row_by_row(model):
 
 def test_the_instant_layer_compares_a_block_per_row_and_as_a_generalized_force(model):
     ref = _reference()
-    figures = {f.name: f.value for f in instantaneous_figures(model, PROBE, ref)}
+    figures = {d.name: d.magnitude() for d in at_states(model, PROBE, ref, get("c"), COMPARISONS.at_states).deviations}
     # the figure is what MuJoCo's rows make of λ at the sampled states and nothing more: the largest
     # |λ − f| (per unit force scale m g), within 1 % (the states on the manifold are consistent to 1e-10).
     # From MuJoCo 3.7 that is the softness alone (about 1e-4); before, the missing centripetal term too
@@ -171,7 +173,8 @@ def test_the_instant_layer_compares_a_block_per_row_and_as_a_generalized_force(m
         assert figures["instant.force.tip"] < 1e-3
     assert figures["instant.generalized_force.tip"] == figures["instant.generalized_force"]  # the only block
     # the same rows read in the wrong order: the per-row figure fails by the size of the forces
-    swapped = {f.name: f.value for f in instantaneous_figures(model, PROBE, _reference(order=(2, 1, 0)))}
+    swapped = {d.name: d.magnitude() for d in at_states(model, PROBE, _reference(order=(2, 1, 0)), get("c"),
+                                                          COMPARISONS.at_states).deviations}
     assert swapped["instant.force.tip"] > 0.1
 
 

@@ -10,15 +10,16 @@ import numpy as np
 import pytest
 
 from harness import cases
-from harness.budget.extrapolate import gain, richardson, to_zero
-from harness.budget.trajectory import Runs, budgets, noise_gain, unresolved
 from harness.cli.commands import main
+from harness.core.budget import gain, richardson, to_zero
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
+from harness.core.options import RunOptions
 from harness.engine import variants as V
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
-from harness.layers import orders
+from harness.families import convergence as orders
+from harness.families.runs import Runs, budgets, noise_gain, unresolved
 from harness.pipeline.limits import load_limits
 from harness.pipeline.run import run_case
 from harness.pipeline.verdict import judge
@@ -284,13 +285,15 @@ def test_float64_round_off_is_measured_where_constraints_are_and_only_there(name
     limits hold at least their spread × PERTURBED_FACTOR; a model without keeps the assumed ROUNDOFF alone, bit for
     bit (slider_crank's redundant rows: its wrist pin's force spreads 1.8e-11 over the copies, 8× ROUNDOFF, and 1.4e-10
     with diagexact toggled, which failed its crank pin torque at 1.18× before the copies measured it)."""
-    from harness.layers.instant import has_contacts, instant_evaluation
+    from harness.engine.backends import get
+    from harness.families import COMPARISONS
+    from harness.families.sampled import at_states, has_contacts
 
     case = cases.get(name)
     model = compile_model(case.mjcf)
     ref = case.reference(model)
     assert has_contacts(model) is contacts
-    got = instant_evaluation(model, case.probe(ref.dynamics), ref, perturbed=True)
+    got = at_states(model, case.probe(ref.dynamics), ref, get("c"), COMPARISONS.at_states, perturbed=True)
     assert len(got.perturbed) == copies
 
 
@@ -369,7 +372,7 @@ def test_a_timestep_outside_the_asymptotic_range_cannot_be_budgeted():
 def test_a_pendulum_stepped_by_a_fifth_of_its_horizon_fails_as_unresolved():
     """At h = 1 s (the period is 2 s) no integrator's error is an expansion in h: its figures fail with the
     reason, instead of passing inside a limit as large as the figure."""
-    checks = {c.name: c for c in judge(run_case(cases.get("pendulum"), timestep=1.0),
+    checks = {c.name: c for c in judge(run_case(cases.get("pendulum"), RunOptions(timestep=1.0)),
                                        load_limits().for_case("pendulum"))}
     assert not checks["RK4.position"].passed and checks["RK4.position"].reason.startswith("unresolved")
 

@@ -36,6 +36,8 @@ from harness import cases
 from harness.cli.commands import COMMANDS, main
 from harness.core.budget import PARTS
 from harness.core.errors import ConfigError
+from harness.core.options import RunOptions
+from harness.pipeline import matrix
 from harness.pipeline import run as pipeline
 from harness.pipeline.limits import case_limits, load_limits
 from harness.pipeline.verdict import judge
@@ -249,7 +251,7 @@ def test_a_failure_shows_its_budget_by_default(tmp_path, capsys):
     assert main(["check", "--case", CASE, "--mjcf", str(damped), "--integrators", "RK4"]) == 1
     out = capsys.readouterr().out
     lines = out.splitlines()
-    checks = judge(pipeline.RunOptions(mjcf=damped, integrators=("RK4",)).run(cases.get(CASE)),
+    checks = judge(pipeline.run_case(cases.get(CASE), RunOptions(mjcf=damped, integrators=("RK4",))),
                    load_limits().for_case(CASE))
     failed = [c for c in checks if not c.passed and c.budget is not None]
     assert failed and lines[-1].startswith(f"FAIL — {sum(not c.passed for c in checks)} of ")
@@ -349,15 +351,15 @@ def test_check_json_is_the_only_stdout(capsys, cached_runs, strict, tight, code)
 def test_check_json_keeps_what_a_library_prints_off_stdout(capsys, cached_runs, monkeypatch):
     """mujoco-mjx prints to stdout when imported without Warp; versions reads check --json's stdout as the
     document, so what is printed during the run goes to stderr."""
-    from harness.pipeline import run as pipeline
+    from harness.pipeline import matrix
 
-    inner = pipeline.RunOptions.run
+    inner = matrix.run_case
 
-    def noisy(options, case, *, edit=None):
+    def noisy(case, options=None):
         print("Failed to import warp: No module named 'warp'")  # as mujoco/mjx/warp/__init__.py does
-        return inner(options, case, edit=edit)
+        return inner(case, options)
 
-    monkeypatch.setattr(pipeline.RunOptions, "run", noisy)
+    monkeypatch.setattr(matrix, "run_case", noisy)
     assert main(["check", CASE, "--json", "--jobs", "1"]) == 0
     out, err = capsys.readouterr()
     assert json.loads(out)["passed"] and "Failed to import warp" in err
@@ -498,7 +500,7 @@ def test_unwritable_output_exits_2_and_writes_nothing(tmp_path):
 
 @pytest.mark.parametrize("where", ["under_file", "directory"])
 def test_unwritable_junit_exits_2_before_running(tmp_path, where, capsys, monkeypatch):
-    monkeypatch.setattr(pipeline.RunOptions, "run", lambda *a, **k: pytest.fail("ran before checking --junit"))
+    monkeypatch.setattr(matrix, "run_case", lambda *a, **k: pytest.fail("ran before checking --junit"))
     blocker = tmp_path / "file"
     blocker.write_text("x")
     target = blocker / "junit.xml" if where == "under_file" else tmp_path

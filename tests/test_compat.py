@@ -16,6 +16,7 @@ from harness.engine import compat
 from harness.engine.models import compile_model, mjcf_path
 from harness.pipeline.limits import Limit
 from harness.pipeline.run import CaseResult
+from harness.pipeline.settings import ModelSettings, RunSettings
 from harness.pipeline.verdict import judge
 
 
@@ -78,7 +79,10 @@ def _result(name: str, figures: list[Figure], *, joints: frozenset[int] = frozen
             orders: dict[str, float] | None = None, defect_budgets: dict[str, Budget] | None = None) -> CaseResult:
     """A CaseResult carrying only what judge() reads: the figures, the joints, the fitted orders and the
     budgets at a defect's order."""
-    return CaseResult(case=cases.get(name), figures=tuple(figures), reference=None, simulations={}, settings={},
+    ran = tuple(dict.fromkeys(f.name.integrator for f in figures if f.name.integrator))
+    settings = RunSettings(model=ModelSettings.of(compile_model(mjcf_path(name))), mjcf=str(mjcf_path(name)),
+                           horizon=1.0, settle=0.0, params={}, q0={}, qd0={}, integrators=ran, recorder="")
+    return CaseResult(case=cases.get(name), figures=tuple(figures), reference=None, simulations={}, settings=settings,
                       joints=joints, orders=orders or {}, defect_budgets=defect_budgets or {})
 
 
@@ -155,7 +159,7 @@ def test_diagexact_fallback_reproduces_the_exact_diagonal(monkeypatch, tmp_path)
         mujoco.mj_forward(reference, rdata)
         np.testing.assert_allclose(data.efc_force[: data.nefc], rdata.efc_force[: rdata.nefc], rtol=1e-9)
     # independently: with R_ii = (1 − d)/d · A_ii exact, the t = 0 force error is (A + R)⁻¹ R λ*
-    from harness.layers.orders import initial_force_floor
+    from harness.families.convergence import initial_force_floor
 
     ref = cases.get("atwood").reference(reference, t_end=0.1)
     lam = ref.solution.multipliers([0.0])[0]

@@ -16,15 +16,15 @@ import numpy as np
 import pytest
 
 from harness import cases
-from harness.budget.instant import instant_budgets
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
-from harness.engine.backends import Forward, forward_many, use
+from harness.engine.backends import Forward, get
 from harness.engine.backends.completion import completed_forward, resolution
 from harness.engine.compat import set_damping
 from harness.engine.constraints import equality_rows
 from harness.engine.models import compile_model
-from harness.layers.instant import mujoco_states, sample_states
+from harness.families.sampled import budgets as instant_budgets
+from harness.families.sampled import mujoco_states, sample_states
 
 EPS32 = float(np.finfo(np.float32).eps)
 
@@ -39,8 +39,7 @@ def _states(name: str, count: int = 6):
     probe = case.probe(ref.dynamics)
     q, qd = sample_states(ref, count)
     qpos, qvel = mujoco_states(model, probe, q, qd)
-    with use("c"):
-        exact = forward_many(model, probe, qpos, qvel)
+    exact = get("c").forward_many(model, probe, qpos, qvel)
     return model, probe, qpos, qvel, exact
 
 
@@ -125,8 +124,7 @@ def test_balanced_but_wrong_forces_are_left_alone():
     _, probe, qpos, qvel, _ = _states("pendulum")
     faulty = compile_model(cases.get("pendulum").mjcf,
                            edit=lambda spec: set_damping(spec.joint("theta"), 1e-3))
-    with use("c"):
-        wrong = forward_many(faulty, probe, qpos, qvel)
+    wrong = get("c").forward_many(faulty, probe, qpos, qvel)
     done = _complete(faulty, qpos, qvel, wrong)
     assert np.max(np.abs(done.forward.qacc - wrong.qacc)) < 1e-12 * np.max(np.abs(wrong.qacc))
     for c in probe.constraints:

@@ -11,7 +11,7 @@ import pytest
 from harness import cases
 from harness.cli.commands import main
 from harness.engine.models import compile_model, mjcf_path
-from harness.layers import orders
+from harness.families import convergence as orders
 from harness.studies import convergence as cv
 from harness.studies import html_section, run_studies, text
 from harness.studies.faults import by_name

@@ -15,6 +15,7 @@ import sympy as sp
 from analytic import systems
 from analytic.solvers import solve
 from harness import cases
+from harness.core.options import RunOptions
 from harness.engine.compat import full_mass_matrix
 from harness.engine.models import compile_model
 from harness.pipeline.run import run_case
@@ -104,6 +105,6 @@ def test_the_horizon_keeps_the_chaos_small_and_the_motion_is_chaotic():
 def test_mujoco_rk4_follows_the_reference_over_the_horizon():
     """The shipped integrator (RK4, 0.5 ms) stays within 1e-8 m of the reference over the 3 s (measured
     6.6e-10 m) and conserves energy to 1e-10 of m g L: the chaos does not swamp the comparison."""
-    result = run_case(CASE, integrators=["RK4"])
+    result = run_case(CASE, RunOptions(integrators=["RK4"]))
     assert result.figure("RK4.position").value < 1e-8
     assert result.figure("RK4.drift.energy").value < 1e-10

@@ -20,8 +20,9 @@ from analytic.solvers import solve
 from harness import cases
 from harness.core.checks import Check
 from harness.core.figures import FigureName
+from harness.core.options import RunOptions
 from harness.engine.models import compile_model
-from harness.layers.reference import reference_figures
+from harness.families.reference import reference_figures
 from harness.pipeline.run import run_case
 from harness.studies import faults
 from tests.conftest import breakable, case_ids, failing
@@ -59,7 +60,7 @@ def _caught(name: str) -> frozenset[str]:
     caught: set[str] = set()
     for fault in faults.FAULTS:
         if not fault.reason_not(case):
-            caught |= failing(run_case(case, edit=fault.edit(case, fault.sizes[0])))
+            caught |= failing(run_case(case, RunOptions(edit=fault.edit(case, fault.sizes[0]))))
     return frozenset(caught)
 
 

@@ -29,6 +29,7 @@ import sympy as sp
 from analytic import systems
 from analytic.systems import hoop_plane
 from harness import cases
+from harness.core.options import RunOptions
 from harness.engine.bindings import JointBinding
 from harness.engine.models import compile_model, mjcf_path
 from harness.engine.readings.contact import contact_force, fit_circle, slide_force
@@ -161,7 +162,7 @@ def test_contact_readings_are_world_force_components(model) -> None:
 def test_mujoco_forces_are_the_lateral_closed_form_after_settling() -> None:
     """RK4: after ``settle`` the contact force is m v θ̇ towards the circle's centre and m g up."""
     result = shipped_run("hoop_plane")
-    p = result.settings["params"]
+    p = result.settings.params
     sim, ref = result.simulations["RK4"], result.reference
     late = sim.t >= CASE.settle
     theta = CASE.q0["theta"] + CASE.qd0["theta"] * sim.t[late]
@@ -177,7 +178,7 @@ def test_mujoco_forces_are_the_lateral_closed_form_after_settling() -> None:
 def test_mujoco_path_is_the_circle_within_the_slip_drift() -> None:
     """The fitted circle of MuJoCo's path: the slip v_s drifts it outward by about v_s T."""
     result = shipped_run("hoop_plane")
-    centre, radius = circle(CASE, result.settings["params"]["a"])
+    centre, radius = circle(CASE, result.settings.params["a"])
     drift = 1e-3 * CASE.horizon  # v_s T, see test_slip_is_the_missing_jdot_term
     for name, sim in result.simulations.items():
         fit_centre, fit_radius = fit_circle(sim.positions["hoop"][:, :2])
@@ -201,13 +202,13 @@ def test_slip_is_the_missing_jdot_term(model) -> None:
     def slower(spec: mujoco.MjSpec) -> None:
         spec.pairs[0].solref = [2 * timeconst, 1.0]
 
-    twice = pipeline.run_case(CASE, integrators=["RK4"], edit=slower)
+    twice = pipeline.run_case(CASE, RunOptions(integrators=["RK4"], edit=slower))
     assert twice.figure("RK4.series.slip").value == pytest.approx(v * theta_d * timeconst, rel=2e-3)
 
 
 def test_p_theta_is_conserved_by_both() -> None:
     result = shipped_run("hoop_plane")
-    p = result.settings["params"]
+    p = result.settings.params
     expected = p["m"] * p["a"] ** 2 / 2 * CASE.qd0["theta"]
     np.testing.assert_allclose(result.reference.invariants["p_theta"], expected, rtol=1e-12)
     for sim in result.simulations.values():
@@ -239,7 +240,7 @@ def test_study_finds_slip_independent_of_cone_impratio_noslip() -> None:
      {"RK4.series.slip", "RK4.series.penetration", "RK4.position", "RK4.drift.energy"}),
 ])
 def test_a_contact_fault_trips_its_gates(label, kwargs, expected) -> None:
-    result = pipeline.run_case(CASE, integrators=["RK4"], **kwargs)
+    result = pipeline.run_case(CASE, RunOptions(integrators=["RK4"], **kwargs))
     assert expected <= failing(result), label
 
 
@@ -250,7 +251,7 @@ def test_a_contact_fault_trips_its_gates(label, kwargs, expected) -> None:
     ("timestep 10 ms", {"timestep": 0.01}),
 ])
 def test_a_legitimate_contact_setting_passes_every_gate(label, kwargs) -> None:
-    assert failing(pipeline.run_case(CASE, **kwargs)) == set(), label
+    assert failing(pipeline.run_case(CASE, RunOptions(**kwargs))) == set(), label
 
 
 def test_p_theta_gates_fail_when_the_heading_is_damped() -> None:
@@ -259,7 +260,7 @@ def test_p_theta_gates_fail_when_the_heading_is_damped() -> None:
     forces and slip still pass."""
     from harness.engine.compat import set_damping
 
-    result = pipeline.run_case(CASE, edit=lambda spec: set_damping(spec.joint("theta"), 1e-8))
+    result = pipeline.run_case(CASE, RunOptions(edit=lambda spec: set_damping(spec.joint("theta"), 1e-8)))
     ran = list(result.simulations)
     bad = failing(result)
     assert {f"{i}.{g}" for i in ran for g in ("p_theta", "drift.p_theta")} <= bad
@@ -284,7 +285,7 @@ def test_p_theta_reading_equals_mj_subtree_vel(model) -> None:
         assert abs(expected[2]) > 1e-3
 
 
-# --- reaction sensors (harness/layers/reactions.py): what holds the hoop upright ----------------------------
+# --- reaction sensors (harness/families/reactions.py): what holds the hoop upright ----------------------------
 
 def _torque_against_newton_euler(model, data, dyn):
     """(MuJoCo's torque sensor at the centre, Newton–Euler's) in the world: the analytic side at MuJoCo's

@@ -29,6 +29,7 @@ from analytic import systems
 from analytic.systems import hoop_ramp
 from harness import cases
 from harness.core.errors import UnmodelledElement
+from harness.core.options import RunOptions
 from harness.engine.bindings import JointBinding
 from harness.engine.constraints import equality_force
 from harness.engine.models import compile_model, mjcf_path
@@ -229,7 +230,7 @@ def test_reference_matches_closed_forms() -> None:
 def test_mujoco_matches_closed_forms(name) -> None:
     """RK4 at the shipped settings: the path x(t) and both forces over the horizon."""
     result = shipped_run(name)
-    p = result.settings["params"]
+    p = result.settings.params
     xdd, roll, normal = closed_forms(p["m"], p["g"], p["alpha"])
     sim, t = result.simulations["RK4"], result.simulations["RK4"].t
     downhill = np.array([math.cos(p["alpha"]), 0.0, -math.sin(p["alpha"])])
@@ -283,8 +284,8 @@ def test_study_supports_the_shipped_contact_settings() -> None:
 
 def test_too_little_friction_slides_with_the_coulomb_closed_form() -> None:
     mu = 0.2  # below tan α / 2 = 0.289
-    result = pipeline.run_case(cases.get("hoop_ramp_contact"), integrators=["RK4"], edit=friction(mu))
-    p = result.settings["params"]
+    result = pipeline.run_case(cases.get("hoop_ramp_contact"), RunOptions(integrators=["RK4"], edit=friction(mu)))
+    p = result.settings.params
     slip = result.simulations["RK4"].series["slip"]
     growth = p["g"] * (math.sin(p["alpha"]) - 2 * mu * math.cos(p["alpha"]))
     assert slip[-1] == pytest.approx(growth * result.case.horizon, rel=0.03)
@@ -295,7 +296,7 @@ def test_a_rim_of_another_radius_trips_its_gates() -> None:
     """The rim 10 % smaller than the hoop the analytic system rolls: the hoop sinks by 0.1 a until the rim
     touches, then rolls faster for its smaller radius. Every integrator's penetration and slip fail, and
     the motion; the normal force does not (m g cos α once settled, whatever the radius)."""
-    result = pipeline.run_case(cases.get("hoop_ramp_contact"), edit=rim_radius(0.9))
+    result = pipeline.run_case(cases.get("hoop_ramp_contact"), RunOptions(edit=rim_radius(0.9)))
     expected = {f"{i}.{g}" for i in result.simulations for g in ("series.penetration", "series.slip", "position")}
     assert expected <= failing(result)
 
@@ -307,13 +308,13 @@ def test_a_rim_of_another_radius_trips_its_gates() -> None:
 def test_a_legitimate_contact_setting_passes_every_gate(label, kwargs) -> None:
     """Softer contact and a coarser step simulate the same rolling hoop less accurately: the budget's
     softness and integration parts explain it."""
-    assert failing(pipeline.run_case(cases.get("hoop_ramp_contact"), **kwargs)) == set(), label
+    assert failing(pipeline.run_case(cases.get("hoop_ramp_contact"), RunOptions(**kwargs))) == set(), label
 
 
 def test_wrong_radius_in_the_rolling_equality_trips_its_gates() -> None:
     def polycoef(spec: mujoco.MjSpec) -> None:
         spec.equality("roll").data[1] *= 0.9
 
-    result = pipeline.run_case(cases.get("hoop_ramp"), integrators=["RK4"], edit=polycoef)
+    result = pipeline.run_case(cases.get("hoop_ramp"), RunOptions(integrators=["RK4"], edit=polycoef))
     assert {"instant.force.roll", "instant.qacc", "RK4.force.roll", "RK4.position",
             "RK4.violation.roll"} <= failing(result)

@@ -7,7 +7,7 @@ annotations only: they never run) must point down the layers too, but do not cou
 first, as the data flows (design: docs/design.md):
 
     analytic  <  harness.core  <  harness.reference  <  harness.engine  <  harness.cases  <  mjcf
-      <  harness.layers  <  harness.budget  <  harness.pipeline  <  harness.studies  <  harness.outputs
+      <  harness.opinions  <  harness.families  <  harness.pipeline  <  harness.studies  <  harness.outputs
       <  harness.versions  <  harness.api, harness.pytest_plugin  <  harness.cli  <  harness (the package's face)
 
 A module may import from its own layer or lower ones. The model modules (mjcf/NAME.py) are found by the
@@ -22,7 +22,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("analytic", "harness", "mjcf")
 LAYERS = ("analytic", "harness.core", "harness.reference", "harness.engine", "harness.cases", "mjcf",
-          "harness.layers", "harness.opinions", "harness.budget", "harness.pipeline", "harness.studies",
+          "harness.opinions", "harness.families", "harness.pipeline", "harness.studies",
           "harness.outputs", "harness.versions", "harness.api", "harness.cli", "harness")
 SAME_LAYER = {"harness.pytest_plugin": "harness.api", "harness.__main__": "harness.cli",
               "harness.zoo": "harness.api"}  # the zoo runs models as the API does, for the CLI's `zoo`
@@ -152,7 +152,7 @@ def test_the_checks_can_fail():
     """The graph reader sees real edges, and a made-up cycle (through a lazy import too) and a made-up
     upward import are found."""
     graph = _graph()
-    assert "harness.reference.derivations" in graph["harness.pipeline.run"]  # a top-level import
+    assert "harness.reference.derivations" in graph["harness.families.bench"]  # a top-level import
     assert "harness.outputs.report" in graph["harness.cli.commands"]  # a lazy one, inside cmd_run
     assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == ["a", "b", "c", "a"]
     assert _cycle({"a": {"b"}, "b": set()}) == []

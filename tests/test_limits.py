@@ -15,7 +15,7 @@ from harness import cases
 from harness.cli.commands import main
 from harness.core.errors import ConfigError
 from harness.pipeline import limits as lim
-from harness.pipeline import run as pipeline
+from harness.pipeline import matrix
 from tests.conftest import shipped_run
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -142,7 +142,7 @@ def test_limits_write_writes_only_a_missing_file_and_measures_nothing_into_it(tm
     real = lim.limits_path
     moved = tmp_path / "pendulum.limits.toml"
     monkeypatch.setattr(lim, "limits_path", lambda model: moved if Path(model).stem == "pendulum" else real(model))
-    monkeypatch.setattr(pipeline.RunOptions, "run", lambda options, case, **kw: shipped_run(case.name))
+    monkeypatch.setattr(matrix, "run_case", lambda case, options=None: shipped_run(case.name))
     assert main(["limits", "--write", "pendulum", "spring"]) == 0
     assert capsys.readouterr().out.strip() == f"wrote {moved}"
     written = lim.read_case_limits("pendulum", moved)

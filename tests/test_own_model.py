@@ -343,7 +343,7 @@ def test_a_stiff_model_reaches_a_verdict(whip, tmp_path):
     v = harness.validate(mjcf=whip)
     failed = [c for c in v.checks if not c.passed]
     assert failed and all(c.name.startswith(("RK4.", "converge.RK4.")) and c.diverged for c in failed), failed
-    assert v.settings["tree"]["reference solver"].startswith("Radau IIA: stiff")
+    assert v.settings.tree["reference solver"].startswith("Radau IIA: stiff")
 
 
 SPRING = """
@@ -416,7 +416,7 @@ def test_a_balance_run_that_diverges_fails_rather_than_vanishing(tmp_path):
     path = tmp_path / "syrup.xml"
     path.write_text(SYRUP)
     v = harness.validate(mjcf=path, integrators=["RK4"], horizon=0.2)
-    assert "fluid forces" in v.settings["tree"]["not examined"]
+    assert "fluid forces" in v.settings.tree["not examined"]
     check = v.check("RK4.balance")
     assert not check.passed and check.diverged.startswith("diverged: mjWARN_BADQACC"), check
     assert not v.passed

@@ -21,6 +21,7 @@ from scipy.special import ellipk
 from analytic import systems
 from analytic.systems import physical_pendulum as pp
 from harness import cases
+from harness.core.options import RunOptions
 from harness.engine import compat
 from harness.engine.compat import set_damping, set_stiffness
 from harness.engine.models import compile_model, load_spec
@@ -317,13 +318,13 @@ SETTINGS = {
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_a_fault_trips_its_gates(fault):
     kwargs, must_fail = FAULTS[fault]
-    failed = failing(run_case(CASE, **kwargs))
+    failed = failing(run_case(CASE, RunOptions(**kwargs)))
     assert must_fail <= failed, f"expected to fail but passed: {sorted(must_fail - failed)}"
 
 
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting):
-    assert failing(run_case(CASE, **SETTINGS[setting])) == set()
+    assert failing(run_case(CASE, RunOptions(**SETTINGS[setting]))) == set()
 
 
 def test_other_products_change_the_period_and_are_read_back():

@@ -24,7 +24,7 @@ from harness.engine.models import load_spec, mjcf_path
 from harness.engine.points import point_source
 from harness.engine.probe import Probe
 from harness.engine.simulate import point_state, simulate
-from harness.layers.instant import point_acceleration
+from harness.families.sampled import point_acceleration
 from mjcf.spherical_pendulum_ball import BallBinding
 
 # the recorders in C this MuJoCo has (the native one where it could be built, the batch one where mujoco.batch is)

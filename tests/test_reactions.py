@@ -26,6 +26,7 @@ from analytic.dynamics import Dynamics
 from analytic.lagrangian import LagrangianSystem, coordinates
 from analytic.reactions import Load, proper_acceleration, subtree_wrench
 from analytic.rigid import RigidBody, axis_rotation
+from harness.core.options import RunOptions
 from harness.engine import compat
 from harness.engine.models import compile_model, mjcf_path
 from harness.reference.derivations import dynamics_of
@@ -167,7 +168,7 @@ def test_a_static_accelerometer_fails_without_gravity(name, sensor):
     def no_gravity(spec):
         spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
 
-    assert f"instant.sensor.{sensor}" in failing(run_case(cases.get(name), edit=no_gravity))
+    assert f"instant.sensor.{sensor}" in failing(run_case(cases.get(name), RunOptions(edit=no_gravity)))
 
 
 # ------------------------------------------------------------------ bad input: one line, exit 2
@@ -241,13 +242,15 @@ def test_an_undeclared_external_load_fails_the_sensors_it_loads(capsys):
     import dataclasses
 
     from harness import cases
-    from harness.layers.instant import instant_evaluation
+    from harness.engine.backends import get
+    from harness.families import COMPARISONS
+    from harness.families.sampled import at_states
 
     case = cases.get("atwood_tendon")
     bare = dataclasses.replace(case, wiring=dataclasses.replace(case.wiring, loads=()))
     model = compile_model(case.mjcf)
     ref = bare.reference(model)
-    failing = instant_evaluation(model, bare.probe(ref.dynamics), ref).failing
+    failing = at_states(model, bare.probe(ref.dynamics), ref, get("c"), COMPARISONS.at_states).failing
     assert failing and all(name.startswith(("instant.sensor.", "instant.interaction.")) for name in failing)
     assert all(why.startswith("not measurable: body '") and "declares no load for it" in why
                for why in failing.values())
@@ -263,7 +266,7 @@ def test_a_connect_load_is_checked_against_its_rows(load, needle):
     anything else in one line (a direction on a 3-row block is accepted: it reads its first row)."""
     from harness.core.errors import ModelMismatch
     from harness.engine.sensors import Load as SensorLoad
-    from harness.layers.reactions import Recorder
+    from harness.engine.sensors import Recorder
 
     model = compile_model(mjcf_path("slider_crank"))
     dyn = dynamics_of("slider_crank", model)
@@ -279,7 +282,7 @@ def test_a_load_without_direction_needs_a_connects_or_a_welds_rows():
     refused in one line."""
     from harness.core.errors import ModelMismatch
     from harness.engine.sensors import Load as SensorLoad
-    from harness.layers.reactions import Recorder
+    from harness.engine.sensors import Recorder
 
     model = compile_model(mjcf_path("pendulum"))
     accepted = (r"accepted: a direction for a one-row constraint \(or a slide: its world axis\), none for a "
@@ -297,7 +300,7 @@ def test_a_six_row_load_needs_a_weld_of_its_name():
 
     from harness.core.errors import ModelMismatch
     from harness.engine.sensors import Load as SensorLoad
-    from harness.layers.reactions import Recorder
+    from harness.engine.sensors import Recorder
 
     spec = mujoco.MjSpec.from_file(str(mjcf_path("welded_pendulum")))
     dyn = dynamics_of("welded_pendulum", spec.compile())
@@ -421,7 +424,7 @@ def test_a_contact_load_is_mujocos_external_force_on_the_hoop(name):
     world (MuJoCo alone, independent of the code under test)."""
     import mujoco
 
-    from harness.layers.reactions import Recorder
+    from harness.engine.sensors import Recorder
 
     case, model, dyn, data = _settled(name)
     hoop = model.body("hoop").id
@@ -484,19 +487,21 @@ def test_a_wrong_contact_load_fails_the_force_sensor(name, label, loads):
     from tests.conftest import failing
 
     force = {"hoop_plane": "hoop_force", "hoop_ramp_contact": "hub_force"}[name]
-    result = run_case(_with_loads(cases.get(name), loads), integrators=["RK4"])
+    result = run_case(_with_loads(cases.get(name), loads), RunOptions(integrators=["RK4"]))
     assert f"instant.sensor.{force}" in failing(result), label
 
 
 @pytest.mark.parametrize("name", CONTACT_CASES)
 def test_a_contact_left_undeclared_fails_the_sensors_in_one_line(name):
     from harness import cases
-    from harness.layers.instant import instant_evaluation
+    from harness.engine.backends import get
+    from harness.families import COMPARISONS
+    from harness.families.sampled import at_states
 
     bare = _with_loads(cases.get(name), ())
     model = compile_model(bare.mjcf)
     ref = bare.reference(model)
-    failing = instant_evaluation(model, bare.probe(ref.dynamics), ref).failing
+    failing = at_states(model, bare.probe(ref.dynamics), ref, get("c"), COMPARISONS.at_states).failing
     assert failing and all("declares no load for it" in why and "\n" not in why and "'hoop'" in why
                            for why in failing.values())
 
@@ -511,7 +516,7 @@ def test_a_contact_left_undeclared_fails_the_sensors_in_one_line(name):
 def test_a_contact_load_is_checked_in_one_line(load, needle):
     from harness.core.errors import ModelMismatch
     from harness.engine.sensors import Load as SensorLoad
-    from harness.layers.reactions import Recorder
+    from harness.engine.sensors import Recorder
 
     model = compile_model(mjcf_path("hoop_ramp_contact"))
     with pytest.raises(ModelMismatch, match=needle) as err:

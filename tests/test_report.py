@@ -243,7 +243,7 @@ def test_a_changed_model_its_findings_and_its_fitness_have_their_sections(run):
     disagree, and the requirements judged on the model's own integrator: each shown where there is one."""
     results, checks = run
     finding = Finding("mj_jacDot", 2.5e-3, "1", "max |J̇ q̇ error|", "wrong for a slide under a hinge")
-    settings = {**results[0].settings, "changed": {"param.m": {"shipped": 1.0, "tested": 1.02}}}
+    settings = dataclasses.replace(results[0].settings, changed={"param.m": {"shipped": 1.0, "tested": 1.02}})
     result = dataclasses.replace(results[0], findings=(finding,), settings=settings)
     outcome = outcome_of([result], checks, requirements=[Requirement("position", 1e-15)])
     (fitness,) = outcome.fitness[CASE]  # the pendulum's own integrator is RK4: one position figure
@@ -448,8 +448,9 @@ def test_every_key_report_json_writes_is_documented(run):
     # every optional part present: a requirement (fitness), an engine finding, and checks that are n/a,
     # a known defect and a diverged run
     finding = Finding("mj_jacDot", 1e-3, "1", "max |J̇ q̇ error|", "fixed upstream")
-    changed = {"changed": {"param.m": {"shipped": 1.0, "tested": 1.02}}, "projected": ["r = l"]}
-    result = dataclasses.replace(results[0], findings=(finding,), settings={**results[0].settings, **changed})
+    changed = {"changed": {"param.m": {"shipped": 1.0, "tested": 1.02}}, "projected": ("r = l",)}
+    result = dataclasses.replace(results[0], findings=(finding,), settings=dataclasses.replace(results[0].settings,
+                                                                                               **changed))
     extra = [Check(CASE, "X.position", math.nan, math.nan, "", note="not in this MuJoCo"),
              Check(CASE, "Y.position", 1.0, 0.5, "m", known="a documented defect"),
              Check(CASE, "Z.position", math.nan, math.nan, "", diverged="diverged: mjWARN_BADQACC at t = 1 s")]

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from harness import cases
+from harness.core.options import RunOptions
 from harness.engine.constraints import equality_block, equality_jacobian
 from harness.engine.models import compile_model, mjcf_path
 from harness.pipeline import run as pipeline
@@ -150,7 +151,7 @@ def _pin_raised(spec: mujoco.MjSpec) -> None:
     ("piston pin 1 mm off the guide", _pin_raised, {"RK4.force.wrist_pin", "RK4.position", "RK4.violation.wrist_pin"}),
 ])
 def test_a_fault_of_the_loop_trips_its_gates(label, edit, expected) -> None:
-    assert expected <= failing(pipeline.run_case(CASE, integrators=["RK4"], edit=edit)), label
+    assert expected <= failing(pipeline.run_case(CASE, RunOptions(integrators=["RK4"], edit=edit))), label
 
 
 def _default_softness(spec: mujoco.MjSpec) -> None:
@@ -163,4 +164,4 @@ def _default_softness(spec: mujoco.MjSpec) -> None:
     ("timestep 4 ms", {"timestep": 0.004}),
 ])
 def test_a_legitimate_setting_passes_every_gate(label, kwargs) -> None:
-    assert failing(pipeline.run_case(CASE, integrators=["RK4", "implicitfast"], **kwargs)) == set(), label
+    assert failing(pipeline.run_case(CASE, RunOptions(integrators=["RK4", "implicitfast"], **kwargs))) == set(), label

@@ -35,7 +35,6 @@ from harness.core.errors import ModelMismatch
 from harness.engine.models import compile_model, mjcf_path
 from harness.outputs import parts
 from harness.pipeline import matrix as runner
-from harness.pipeline import run as pipeline
 from harness.reference import derivations
 from harness.reference import solutions as refmod
 from tests.conftest import PROGRESS_LINE, without_progress
@@ -350,14 +349,14 @@ def test_parallel_check_is_the_serial_check(tmp_path):
 
 
 def test_a_failing_case_in_a_pool_is_the_one_line_exit_2(monkeypatch, capsys):
-    real = pipeline.RunOptions.run
+    real = runner.run_case
 
-    def run(options, case, **kw):  # the forked workers inherit this
+    def run(case, options=None):  # the forked workers inherit this
         if case.name == "atwood":
             raise ModelMismatch("model has no equality 'string1'")
-        return real(options, case, **kw)
+        return real(case, options)
 
-    monkeypatch.setattr(pipeline.RunOptions, "run", run)
+    monkeypatch.setattr(runner, "run_case", run)
     assert cli.main(["check", "spring", "atwood", "--jobs", "2"]) == 2
     err = without_progress(capsys.readouterr().err)  # spring's line, if it finished first
     assert err.strip() == "mjharness: error: model has no equality 'string1'"

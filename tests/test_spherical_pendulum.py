@@ -12,12 +12,13 @@ from analytic import systems
 from analytic.systems import spherical_pendulum as sph
 from harness import cases
 from harness.core.errors import ModelMismatch
+from harness.core.options import RunOptions
 from harness.engine import compat
 from harness.engine.bindings import JointBinding, velocity_map
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model, mjcf_path
 from harness.engine.simulate import point_state
-from harness.layers.instant import point_acceleration, pull_back, sample_states
+from harness.families.sampled import point_acceleration, pull_back, sample_states
 from harness.pipeline.run import run_case
 from harness.reference import derivations
 from mjcf.spherical_pendulum_ball import BallBinding
@@ -240,7 +241,7 @@ def test_orbit_precesses_away_from_the_poles():
     """θ ∈ [0.47, 1] rad (away from the two-hinge singularity at θ = 0), φ̇ > 0, not conical."""
     result = shipped_run(HINGE)
     pos = result.reference.positions["bob"]
-    theta = np.arccos(-pos[:, 2] / result.settings["params"]["l"])
+    theta = np.arccos(-pos[:, 2] / result.settings.params["l"])
     assert 0.45 < theta.min() < 0.5 and abs(theta.max() - 1.0) < 1e-9
     phi = np.unwrap(np.arctan2(pos[:, 1], pos[:, 0]))
     assert np.all(np.diff(phi) > 0) and phi[-1] > 5 * np.pi
@@ -249,7 +250,7 @@ def test_orbit_precesses_away_from_the_poles():
 def test_p_phi_is_conserved_on_both_sides():
     for name in (HINGE, BALL):
         result = shipped_run(name)
-        params = result.settings["params"]
+        params = result.settings.params
         scale = sph.scales(params).momentum
         ref = result.reference.invariants["p_phi"]
         assert np.ptp(ref) / scale < 1e-10
@@ -264,7 +265,7 @@ def test_p_phi_is_conserved_on_both_sides():
 @pytest.mark.parametrize("name", [_rk4_accuracy(HINGE), _rk4_accuracy(BALL)])
 def test_mujoco_rk4_conserves_p_phi_and_follows_the_reference(name):
     result = shipped_run(name)
-    scale = sph.scales(result.settings["params"]).momentum
+    scale = sph.scales(result.settings.params).momentum
     assert np.ptp(result.simulations["RK4"].invariants["p_phi"]) / scale < 1e-10
     assert result.figure("RK4.position").value < 3e-10
 
@@ -378,7 +379,7 @@ SETTINGS = {
 @pytest.mark.parametrize("fault", list(FAULTS))
 @pytest.mark.parametrize("name", [HINGE, BALL])
 def test_a_fault_trips_its_gates(name, fault):
-    failed = failing(run_case(cases.get(name), **FAULTS[fault][0][name]))
+    failed = failing(run_case(cases.get(name), RunOptions(**FAULTS[fault][0][name])))
     # without gates this MuJoCo cannot fail: n/a (an integrator it lacks) or a known defect of it
     must_fail = breakable(name, FAULTS[fault][1])
     assert must_fail <= failed, f"expected to fail but passed: {sorted(must_fail - failed)}"
@@ -387,7 +388,7 @@ def test_a_fault_trips_its_gates(name, fault):
 @pytest.mark.parametrize("setting", list(SETTINGS))
 @pytest.mark.parametrize("name", [HINGE, BALL])
 def test_a_legitimate_change_passes_every_gate(name, setting):
-    failed = failing(run_case(cases.get(name), **SETTINGS[setting]))
+    failed = failing(run_case(cases.get(name), RunOptions(**SETTINGS[setting])))
     assert failed - known_defects(name, failed) == set()
 
 
@@ -402,14 +403,14 @@ def test_gravity_off_the_vertical_is_refused_naming_it(name):
     """The analytic pendulum hangs under gravity along −z (its θ is from the downward vertical): a model
     with a horizontal component is another system, refused with what is accepted, not judged."""
     with pytest.raises(ValueError, match="gravity must point along −z"):
-        run_case(cases.get(name), edit=_gravity([0.05, 0.0, -9.81]), integrators=RK4)
+        run_case(cases.get(name), RunOptions(edit=_gravity([0.05, 0.0, -9.81]), integrators=RK4))
 
 
 def test_ball_damping_is_too_stiff_for_explicit_rk4():
     """Damping on the ball acts on the spin about the rod too, whose inertia is the point-mass
     floor ε: rate c/ε = 3e9 /s, far past RK4's stability at 1 ms (why the damping variant of the
     ball case runs only the integrators that treat damping implicitly)."""
-    result = run_case(cases.get(BALL), edit=_damping("ball", 3e-3), integrators=RK4)
+    result = run_case(cases.get(BALL), RunOptions(edit=_damping("ball", 3e-3), integrators=RK4))
     assert result.diverged["RK4"].startswith("diverged: mjWARN_") and not result.simulations
 
 

@@ -18,6 +18,7 @@ import sympy as sp
 from analytic import systems
 from analytic.systems import spring
 from harness import cases
+from harness.core.options import RunOptions
 from harness.engine import compat
 from harness.engine.models import compile_model, mjcf_path
 from harness.pipeline import run as pipeline
@@ -190,13 +191,13 @@ SETTINGS = {
 def test_a_fault_trips_its_gates(fault: str) -> None:
     kwargs, expected = FAULTS[fault]
     expected = breakable("spring", expected)  # an integrator this MuJoCo lacks: n/a, cannot fail
-    failed = failing(pipeline.run_case(CASE, **kwargs))
+    failed = failing(pipeline.run_case(CASE, RunOptions(**kwargs)))
     assert expected <= failed, f"{fault}: did not fail {sorted(expected - failed)}"
 
 
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting: str) -> None:
-    assert failing(pipeline.run_case(CASE, **SETTINGS[setting])) == set()
+    assert failing(pipeline.run_case(CASE, RunOptions(**SETTINGS[setting]))) == set()
 
 
 def test_every_gate_has_a_fault() -> None:

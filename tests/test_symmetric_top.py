@@ -16,6 +16,7 @@ from analytic.rigid import body_angular_velocity, euler_zxz
 from analytic.systems import symmetric_top as top
 from harness import cases
 from harness.core.errors import ModelMismatch
+from harness.core.options import RunOptions
 from harness.engine import compat
 from harness.engine.bindings import velocity_map
 from harness.engine.integrators import available_integrators
@@ -225,7 +226,7 @@ def test_a_model_that_is_not_this_top_is_refused_naming_what(edit, needle):
     """A centre of mass off the axle, I₁ ≠ I₂, a turned body frame, a site moved or tilted gravity is
     another system: refused with what is accepted (one line), not judged."""
     with pytest.raises(ValueError, match=needle):
-        run_case(cases.get(NAME), edit=edit, integrators=RK4)
+        run_case(cases.get(NAME), RunOptions(edit=edit, integrators=RK4))
 
 
 # --- closed forms against the reference and MuJoCo -------------------------------------------------
@@ -258,7 +259,7 @@ def test_reference_nutates_between_the_cubics_roots():
     t = np.linspace(0.0, case.horizon, 4001)
     q, qd = ref.solution.state(t)
     d = ref.dynamics
-    # the reference's global error: harness.budget.trajectory.REFERENCE = 50 rtol (1e-12) of the size
+    # the reference's global error: harness.core.budget.REFERENCE = 50 rtol (1e-12) of the size
     assert np.max(np.abs(d.energy(q, qd) - energy)) < 50e-12 * energy
     momenta = d.momenta(q, qd)
     assert np.max(np.abs(momenta[:, 0] - p_phi)) < 50e-12 * p_phi
@@ -296,7 +297,7 @@ def test_mujoco_symmetry_axis_nutates_between_the_cubics_roots():
     the same 1 ms misses the roots by 1e-2: the check tells an integrator's error apart."""
     result = shipped_run(NAME)
     sim = result.simulations["RK4"]
-    p = result.settings["params"]
+    p = result.settings.params
     tip = sim.positions[top.TIP]
     u = tip[:, 2] / np.linalg.norm(tip, axis=1)
     energy, p_phi, p_psi = (sim.invariants[k][0] for k in ("energy", "p_phi", "p_psi"))
@@ -322,8 +323,8 @@ def test_steady_precession_in_the_reference_and_in_mujoco(which):
     run, read from the site ``tip`` alone (its height and the unwrapped azimuth of its horizontal
     projection, fitted by a line). MuJoCo's RK4 at 1 ms is accurate to ~1e-10 here (RK4.position)."""
     q0, qd0, rate = _steady(which)
-    result = run_case(cases.get(NAME), q0=q0, qd0=qd0, horizon=1.0, integrators=RK4)
-    l = result.settings["params"]["l"]
+    result = run_case(cases.get(NAME), RunOptions(q0=q0, qd0=qd0, horizon=1.0, integrators=RK4))
+    l = result.settings.params["l"]
     for label, traj, tol in (("reference", result.reference, 1e-10), ("RK4", result.simulations["RK4"], 1e-8)):
         tip = traj.positions[top.TIP]
         height = tip[:, 2] / (2.5 * l)
@@ -341,7 +342,7 @@ def test_conserved_quantities_on_both_sides():
     about e₃, (I₁' − I₁')ω₁ω₂, vanishes for I₁ = I₂, so ω₃ — qvel's third component — is never changed
     by a step of any of them."""
     result = shipped_run(NAME)
-    sc = top.scales(result.settings["params"])
+    sc = top.scales(result.settings.params)
     ref = result.reference.invariants
     assert np.ptp(ref["p_phi"]) / sc.momentum < 1e-11 and np.ptp(ref["p_psi"]) / sc.momentum < 1e-11
     assert np.ptp(ref["energy"]) / sc.energy < 1e-10
@@ -447,12 +448,12 @@ SETTINGS = {
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_a_fault_trips_its_gates(fault):
     kwargs, gates = FAULTS[fault]
-    failed = failing(run_case(cases.get(NAME), **kwargs))
+    failed = failing(run_case(cases.get(NAME), RunOptions(**kwargs)))
     must_fail = breakable(NAME, gates)  # without an integrator this MuJoCo lacks or a known defect of it
     assert must_fail <= failed, f"expected to fail but passed: {sorted(must_fail - failed)}"
 
 
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting):
-    failed = failing(run_case(cases.get(NAME), **SETTINGS[setting]))
+    failed = failing(run_case(cases.get(NAME), RunOptions(**SETTINGS[setting])))
     assert failed - (failed - breakable(NAME, failed)) == set()

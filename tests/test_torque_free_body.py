@@ -15,6 +15,7 @@ from analytic.rigid import body_angular_velocity, euler_zxz
 from analytic.systems import torque_free_body as tfb
 from harness import cases
 from harness.core.errors import ModelMismatch
+from harness.core.options import RunOptions
 from harness.engine import compat
 from harness.engine.models import compile_model, mjcf_path
 from harness.pipeline.run import run_case
@@ -185,7 +186,7 @@ def test_params_are_read_from_the_model():
 ], ids=["gravity", "com offset", "turned principal axes", "moments out of order", "tip off its axis"])
 def test_a_model_the_coordinates_do_not_fit_is_refused_naming_it(edit, message):
     with pytest.raises(ValueError, match=message):
-        run_case(cases.get(NAME), edit=edit, integrators=["RK4"])
+        run_case(cases.get(NAME), RunOptions(edit=edit, integrators=["RK4"]))
 
 
 # --- MuJoCo's free joint ----------------------------------------------------------------------------------
@@ -301,7 +302,7 @@ def test_mujoco_rk4_conserves_the_momenta_and_follows_the_reference(name):
     """At 1 ms RK4 (4.0: fourth order for free-joint orientations) the world L, P and the energy are held to
     1e-10 of their scales and the tips follow the reference to 1e-10 m over the flip."""
     result = shipped_run(name)
-    scales = tfb.scales(result.settings["params"])
+    scales = tfb.scales(result.settings.params)
     sim = result.simulations["RK4"]
     for key in ("L_x", "L_y", "p_phi"):
         assert np.ptp(sim.invariants[key]) / scales.momentum < 1e-10
@@ -422,21 +423,21 @@ SETTINGS = {
 
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_a_fault_trips_its_gates(fault):
-    failed = failing(run_case(cases.get(NAME), **FAULTS[fault][0]))
+    failed = failing(run_case(cases.get(NAME), RunOptions(**FAULTS[fault][0])))
     must_fail = breakable(NAME, FAULTS[fault][1])  # less the gates a known defect of this MuJoCo fails already
     assert must_fail <= failed, f"expected to fail but passed: {sorted(must_fail - failed)}"
 
 
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting):
-    failed = failing(run_case(cases.get(NAME), **SETTINGS[setting]))
+    failed = failing(run_case(cases.get(NAME), RunOptions(**SETTINGS[setting])))
     assert failed - (failed - breakable(NAME, failed)) == set()
 
 
 def test_hidden_mass_leaves_the_body_torque_free():
     """The physics of the hidden-mass fault: MuJoCo's composite body still conserves its L and P (its
     drift gates pass), only its motion is another body's."""
-    failed = failing(run_case(cases.get(NAME), **FAULTS["hidden_mass"][0]))
+    failed = failing(run_case(cases.get(NAME), RunOptions(**FAULTS["hidden_mass"][0])))
     assert not failed & breakable(NAME, {"RK4.drift.L_x", "RK4.drift.L_y", "RK4.drift.p_phi", "RK4.drift.energy"})
 
 
@@ -457,4 +458,4 @@ def test_a_binding_in_the_wrong_euler_order_fails_kinematics():
     OWN_FAULTS counts on this for the gate no catalog fault reaches), and the motion with it."""
     case = cases.get(NAME)
     broken = dataclasses.replace(case, wiring=dataclasses.replace(case.wiring, binding=_SwappedBinding))
-    assert {"instant.kinematics", "RK4.position"} <= failing(run_case(broken, integrators=RK4))
+    assert {"instant.kinematics", "RK4.position"} <= failing(run_case(broken, RunOptions(integrators=RK4)))

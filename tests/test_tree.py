@@ -26,7 +26,7 @@ from harness.engine import variants
 from harness.engine.bindings import TreeBinding, velocity_map
 from harness.engine.compat import full_mass_matrix
 from harness.engine.models import compile_model
-from harness.layers.instant import sample_states
+from harness.families.sampled import sample_states
 from harness.reference.tree import charts, prepare, read_tree, refusal, start_state, uncovered
 
 MJCF = Path(__file__).resolve().parent.parent / "mjcf"

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from harness.cli.commands import main
+from harness.core.options import RunOptions
 from harness.versions import changes, envs, releases
 from harness.versions.bisect import Target, bisect, differs, parse_target
 from harness.versions.changes import NOISE_FACTOR, ULP_FLOOR, Snapshot, compare, moved, noise
@@ -362,13 +363,14 @@ def test_a_backends_packages_follow_the_release(backend, release, packages):
 # ------------------------------------------------------------------ check --perturb, for real
 def test_perturb_moves_figures_at_roundoff_and_no_further():
     from harness import cases
-    from harness.pipeline.run import perturbed, run_case
+    from harness.families.bench import perturbed
+    from harness.pipeline.run import run_case
 
     case = cases.get("spring")
     moved_case = perturbed(case, 1e-15)
     assert all(moved_case.q0[k] == v + 1e-15 * max(abs(v), 1) for k, v in case.q0.items())
-    base = {f.name: f.value for f in run_case(case, integrators=["RK4"]).figures}
-    other = {f.name: f.value for f in run_case(case, integrators=["RK4"], perturb=1e-15).figures}
+    base = {f.name: f.value for f in run_case(case, RunOptions(integrators=["RK4"])).figures}
+    other = {f.name: f.value for f in run_case(case, RunOptions(integrators=["RK4"], perturb=1e-15)).figures}
     assert base.keys() == other.keys()
     assert any(base[k] != other[k] for k in base)  # the rounding falls differently...
     for k in base:  # ...and moves no figure beyond the reference's own tolerance (rtol 1e-12) on a motion of

@@ -28,6 +28,7 @@ import numpy as np
 import pytest
 
 from harness import cases
+from harness.core.options import RunOptions
 from harness.engine import sensors
 from harness.engine.constraints import equality_block, equality_jacobian
 from harness.engine.models import compile_model, mjcf_path
@@ -211,7 +212,7 @@ def test_a_wrong_weld_load_fails_the_sensor_figures(monkeypatch, label, loads, m
     if moment_map is not None:
         shipped = sensors.weld_moment_map
         monkeypatch.setattr(sensors, "weld_moment_map", lambda *a: moment_map(shipped(*a)))
-    got = failing(pipeline.run_case(_wired(*loads), integrators=["RK4"]))
+    got = failing(pipeline.run_case(_wired(*loads), RunOptions(integrators=["RK4"])))
     assert expected <= got, (label, sorted(got))
     assert not {f for f in got if not f.startswith("instant.")}, (label, sorted(got))
 
@@ -229,7 +230,7 @@ def _socket_turned(spec: mujoco.MjSpec) -> None:
     ("socket turned 1 mrad", _socket_turned, {"RK4.force.glue", "RK4.position", "RK4.violation.glue"}),
 ])
 def test_a_fault_of_the_weld_trips_its_gates(label, edit, expected) -> None:
-    assert expected <= failing(pipeline.run_case(CASE, integrators=["RK4"], edit=edit)), label
+    assert expected <= failing(pipeline.run_case(CASE, RunOptions(integrators=["RK4"], edit=edit))), label
 
 
 def _default_softness(spec: mujoco.MjSpec) -> None:
@@ -242,4 +243,4 @@ def _default_softness(spec: mujoco.MjSpec) -> None:
     ("timestep 4 ms", {"timestep": 0.004}),
 ])
 def test_a_legitimate_setting_passes_every_gate(label, kwargs) -> None:
-    assert failing(pipeline.run_case(CASE, integrators=["RK4", "implicitfast"], **kwargs)) == set(), label
+    assert failing(pipeline.run_case(CASE, RunOptions(integrators=["RK4", "implicitfast"], **kwargs))) == set(), label

@@ -240,8 +240,8 @@ def test_the_stiff_arms_reach_a_verdict(name):
     add up (docs/findings/zoo.md)."""
     model = _model(name)
     v = harness.validate(mjcf=model.path)
-    assert v.settings["tree"]["reference solver"].startswith("Radau IIA: stiff")
-    assert "joint damping on light links" in v.settings["tree"]["reference solver"]
+    assert v.settings.tree["reference solver"].startswith("Radau IIA: stiff")
+    assert "joint damping on light links" in v.settings.tree["reference solver"]
     failed = {c.name: c for c in v.checks if not c.passed}
     rk4 = {n for n in failed if n.startswith(("RK4.", "converge.RK4."))}
     assert rk4 and all(failed[n].diverged for n in rk4)

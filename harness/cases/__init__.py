@@ -93,7 +93,7 @@ class Wiring:
             their joints (``cfrc_ext``: a spatial tendon's pull, a connect),
             each a :class:`~harness.engine.sensors.Load`, for the reactions
             its force and torque sensors are compared with
-            (:mod:`harness.layers.reactions`).
+            (:mod:`harness.families.reactions`).
         equality_signs: −1 for an equality whose rows are −1 × its analytic
             constraint's (a tendon's length shrinks as the constraint grows):
             its efc_force is then −λ, and is read × −1.

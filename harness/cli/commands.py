@@ -49,6 +49,7 @@ from harness.core import VERSION
 from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
 from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
+from harness.core.options import RunOptions
 from harness.core.tables import terminal_width, wrap
 from harness.engine import backends, messages
 from harness.engine.integrators import available_integrators
@@ -84,7 +85,6 @@ from harness.pipeline.executor import EXECUTORS, Executor, TaskLost
 from harness.pipeline.matrix import LogProgress, run_all, run_backends
 from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
 from harness.pipeline.pool import cpus, run_tasks
-from harness.pipeline.run import RunOptions
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 EXIT_CODES = {EXIT_OK: "every check passes (and every --require is met)",
@@ -141,13 +141,13 @@ def _case_lines(args: argparse.Namespace) -> dict:
 
 def _trees(results: Sequence) -> dict[str, dict[str, str] | None]:
     """Each case's forces its own tree's reference leaves out (None: a hand-derived case)."""
-    return {r.case.name: (dict(r.settings["tree"]["not examined"]) if "tree" in r.settings else None)
+    return {r.case.name: (dict(r.settings.tree["not examined"]) if r.settings.tree is not None else None)
             for r in results}
 
 
 def _peers(results: Sequence) -> dict[str, dict | None]:
     """Each case's three-way comparison (None where it did not run: a backend other than C)."""
-    return {r.case.name: r.settings.get("peers") for r in results}
+    return {r.case.name: r.settings.peers for r in results}
 
 
 def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, written: str = "",
@@ -849,9 +849,8 @@ def cmd_converge(args: argparse.Namespace) -> int:
         raise ValueError(f"--backend {args.backend}: one backend per run for now ({', '.join(chosen)} asked); "
                          "run once per backend")
     backends.check_installed(chosen[0])  # not installed: one line naming the fix, before any work
-    with backends.use(chosen[0]):
-        studies = run_studies(cases.select(args.cases), fast=args.fast, with_softness=args.softness,
-                              with_solvers=args.solvers, progress=True)
+    studies = run_studies(cases.select(args.cases), fast=args.fast, with_softness=args.softness,
+                          with_solvers=args.solvers, progress=True, engine=backends.get(chosen[0]))
     print(text(studies))
     if args.html is not None:
         prepare_output(args.html.parent)

@@ -21,6 +21,15 @@ own accuracy, float round-off, the reference's tolerance, the constraint
 solver's convergence). A fault (damping, armature, a wrong coefficient) leaves a
 residual no part explains; a legitimate setting (another timestep, softer
 constraints) moves the parts, not the residual.
+
+The parts are extrapolations to an ideal limit from runs (or evaluations) at a
+few settings, pure arithmetic shared by every budget (the end of this module):
+in the timestep, Richardson — the truncation error of a run at h is
+κ × (its difference from the run at h/2), κ = 2ᵖ/(2ᵖ − 1) for an integrator of
+order p —; in a softness setting ε, from runs at ε, sε (and s²ε), linear from
+two levels, quadratic from three, the distance between the quadratic estimate
+and the line through the two levels nearest the limit then being the estimate's
+measured uncertainty.
 """
 
 from __future__ import annotations
@@ -33,7 +42,7 @@ import numpy as np
 
 ROUNDOFF_EPS = 64
 """Round-off a step, in machine epsilons of the arithmetic a run is stepped in, relative to the quantity's
-size; it accumulates as a random walk over the run's steps (harness/budget/trajectory.py)."""
+size; it accumulates as a random walk over the run's steps (harness/families/runs.py)."""
 
 PERTURBED_RUNS = 4
 """Float32 backends: how many round-off copies of the model (each mass and inertia one ulp away, independent
@@ -64,6 +73,20 @@ crosses from one float to the next its violation jumps by that ulp and the const
 a force spike no copy of the arithmetic reproduces at the same instant. Measured on MJX float32 (pendulum,
 RK4, 1000 steps): spikes of the rod's force up to 2.5 × that response (1.9e-3 of the tension at step 4);
 4 is that × 1.6, the margin."""
+
+SOFTNESS_UNCERTAINTY = 0.25
+"""A softness part from two levels is linear in ε up to relative terms O(ε) and O(h/τ): a quarter of it bounds
+them for ε up to 1/4 (harness/families/runs.py)."""
+FLOOR_UNCERTAINTY = 0.1
+"""A point mass's floor inertia (at most 1e-6 m L²) acts linearly: a tenth of the floors' part bounds the rest."""
+SOLVER = 10.0
+"""The constraint solver stops when its relative improvement falls below its tolerance: × the tolerance × the
+quantity's size bounds what the stop leaves, per run."""
+SOLVER_PART_UNCERTAINTY = 0.1
+"""The solver part (what a converged solve changes) feeds back into the motion: known to a tenth of itself."""
+REFERENCE = 50.0
+"""The reference's global error, in units of its rtol × the quantity's size (its measured basis: docs/design.md,
+"Verdicts: the error budget")."""
 
 PARTS = ("integration", "softness", "floors", "margin", "solver", "stop")
 TOLERANCES = ("integration", "softness", "floors", "margin", "solver", "stop", "roundoff", "reference",
@@ -110,3 +133,48 @@ class Budget:
         return {"measured": self.measured, "explained": dict(self.explained), "unexplained": self.unexplained,
                 "tolerance": dict(self.tolerance), "limit": self.limit, **({"notes": list(self.notes)}
                                                                             if self.notes else {})}
+
+
+# ----------------------------------------------------------------- extrapolation to an ideal limit
+def richardson(order: float) -> float:
+    """κ: the truncation error of a run at h is κ × (its difference from the run at h/2)."""
+    return 2.0**order / (2.0**order - 1.0)
+
+
+def _linear(far: np.ndarray, near: np.ndarray, s: float) -> np.ndarray:
+    """The value at 0 of the line through (1, far) and (s, near)."""
+    return (near - s * far) / (1.0 - s)
+
+
+def _weights(count: int, s: float) -> list[float]:
+    """The weights of the levels in the value at 0 (Lagrange on the nodes 1, s, s², …)."""
+    nodes = [s**k for k in range(count)]
+    weights = []
+    for i, ei in enumerate(nodes):
+        w = 1.0
+        for j, ej in enumerate(nodes):
+            if j != i:
+                w *= -ej / (ei - ej)
+        weights.append(w)
+    return weights
+
+
+def gain(count: int, s: float) -> float:
+    """Σ |w|: how much extrapolating from ``count`` levels can amplify noise independent between them."""
+    return float(sum(abs(w) for w in _weights(count, s)))
+
+
+def to_zero(levels: Sequence[np.ndarray], s: float) -> tuple[np.ndarray, np.ndarray | None]:
+    """The value at ε → 0 from ``levels`` = values at ε, sε, s²ε, … (two or three), and its uncertainty
+    per entry (None from two levels, whose uncertainty only theory can bound).
+
+    Two levels: the line through them. Three: the parabola through them (Lagrange at 0 on the nodes
+    1, s, s²), and as uncertainty the difference between it and the line through the two levels
+    nearest 0.
+    """
+    if len(levels) == 2:
+        return _linear(levels[0], levels[1], s), None
+    if len(levels) != 3:
+        raise ValueError(f"extrapolation takes two or three levels, got {len(levels)}")
+    quadratic = sum(w * x for w, x in zip(_weights(3, s), levels, strict=True))
+    return quadratic, quadratic - _linear(levels[1], levels[2], s)

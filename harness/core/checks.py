@@ -7,6 +7,9 @@ A gated figure is judged one of two ways (its limit's basis, :mod:`harness.pipel
   lie within the limit the estimates' accuracy sets. ``threshold`` is that
   limit, and ``value`` the figure as measured;
 - by a fixed limit from **theory** (or a user's config): ``value`` ≤ ``threshold``.
+
+A :class:`Limit` says which, with its basis; the families declare their figures' theory limits
+(:mod:`harness.families`), the shipped limits files which figures are gated (:mod:`harness.pipeline.limits`).
 """
 
 from __future__ import annotations
@@ -14,9 +17,42 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 from harness.core.budget import Budget
 from harness.core.figures import FigureName
+
+Basis = Literal["budget", "theory", "user"]
+BASES = ("budget", "theory")
+
+
+@dataclass(frozen=True)
+class Limit:
+    """One figure's limit and its basis (see the module docstring): ``value`` for a theory or user
+    limit (on the figure), none for a budget (computed per run)."""
+
+    basis: Basis
+    value: float | None = None
+    reason: str = ""
+
+    def __post_init__(self) -> None:
+        if self.basis not in (*BASES, "user"):
+            raise ValueError(f"a limit's basis must be {', '.join(BASES)} or user, got {self.basis!r}")
+        if self.basis == "budget":
+            if self.value is not None:
+                raise ValueError("a budget limit has no value: the budget computes it for each run")
+            return
+        if isinstance(self.value, bool) or not isinstance(self.value, int | float) or not math.isfinite(self.value) \
+                or self.value <= 0:
+            raise ValueError(f"a {self.basis} limit must be a positive number, got {self.value!r}")
+        if self.basis == "theory" and not self.reason:
+            raise ValueError("a theory limit must say what bound it is (reason)")
+
+    def describe(self) -> str:
+        """One line: the basis and its reason."""
+        if self.basis == "budget":
+            return "budget: the unexplained residual within the estimates' accuracy (harness/core/budget.py)"
+        return f"{self.basis}: {self.reason}" if self.reason else self.basis
 
 
 @dataclass(frozen=True)

@@ -1,12 +1,11 @@
 """A Deviation: one figure before it is reduced to a number.
 
-The layers (:mod:`harness.layers`) measure how far MuJoCo is from the
-reference as arrays — per sample of a trajectory, per state of the
-instantaneous layer — and reduce each to its figure the same way (the worst
-sample's norm, divided by a scale). The error budget (:mod:`harness.budget`)
-takes the same arrays from other runs of the model, combines them sample by
-sample, and reduces the result as the figure is, so a figure and its budget
-are always measured alike.
+The families (:mod:`harness.families`) measure how far MuJoCo is from the
+reference as arrays — per sample of a run, per sampled state — and reduce each
+to its figure the same way (the worst sample's norm, divided by a scale). The
+error budget takes the same arrays from other runs of the model, combines them
+sample by sample, and reduces the result as the figure is, so a figure and its
+budget are always measured alike.
 """
 
 from __future__ import annotations

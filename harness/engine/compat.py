@@ -155,7 +155,7 @@ def jac_dot_missing(model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarra
     rotational Jacobian column and ṗ = J qvel (pinned against finite differences
     in tests/test_compat.py). The harness adds it to take its own measurement
     and reports the engine's disagreement as a finding
-    (:func:`harness.layers.instant.engine_findings`).
+    (:func:`harness.families.instant.engine_findings`).
     """
     if _version() >= (3, 3, 1):
         return None

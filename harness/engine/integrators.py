@@ -1,7 +1,21 @@
-"""MuJoCo's integrators by name: which this MuJoCo has, and the integration stage of each.
+"""MuJoCo's integrators by name: which this MuJoCo has, the integration stage of each, and its documented order.
 
 MuJoCo's documentation describes five (computation/index.rst, "Integrators");
 an older MuJoCo lacks some (``discrete`` is new in 4.0).
+
+The orders (:data:`EXPECTED_ORDER`) come from MuJoCo's documentation, never from a measurement
+(doc/computation/index.rst, "Numerical integration" and "Integrators"):
+
+- ``Euler``: semi-implicit Euler, v⁺ = v + h a, q⁺ = q + h v⁺ (eq_semimplicit);
+  with no joint damping the implicit-damping variant reduces to it. 1st order.
+- ``implicit``, ``implicitfast``: one Newton step of implicit-in-velocity
+  Euler, v⁺ = v + h M̂⁻¹ M a, q⁺ = q + h v⁺ (eq_implicit_update). 1st order.
+- ``discrete``: "the same implicit update inside the constraint solve"
+  (eq_discrete_update), qacc "as h → 0 converges to the continuous
+  acceleration", and "the specified damping ratio is recovered as h → 0":
+  an Euler-type one-step method, 1st order. Absent before MuJoCo 4; where it
+  is absent the study says so in its rows, table and plot.
+- ``RK4``: "the fixed-step 4th-order Runge-Kutta method". 4th order.
 """
 
 from __future__ import annotations
@@ -41,6 +55,9 @@ STEP_FUNCTIONS: dict[str, Callable[[mujoco.MjModel, mujoco.MjData], None]] = {
 
 # Integrators MuJoCo's documentation describes, of which an older MuJoCo lacks some.
 DOCUMENTED_INTEGRATORS: tuple[str, ...] = tuple(STEP_FUNCTIONS)
+
+EXPECTED_ORDER: dict[str, int] = {"Euler": 1, "implicit": 1, "implicitfast": 1, "RK4": 4, "discrete": 1}
+"""Each integrator's documented order of accuracy (the module docstring gives the passages)."""
 
 
 @functools.cache

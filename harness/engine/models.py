@@ -72,7 +72,7 @@ def authored(path: Path | str, *, timestep: float | None = None,
              edit: Callable[[mujoco.MjSpec], None] | None = None) -> str:
     """The model of ``path`` (with ``edit`` and ``timestep`` applied, as :func:`compile_model` applies them) as
     MuJoCo writes it (``MjSpec.to_xml``: every element, each attribute that differs from MuJoCo's default):
-    what two models differ in is what their texts differ in (:func:`harness.pipeline.run.authored_differences`)."""
+    what two models differ in is what their texts differ in (:func:`harness.pipeline.settings.authored_differences`)."""
     spec = load_spec(path)
     # the compiles (the edit's, if it compiles, and the one below) generate the named textures small; the text
     # has each as written, or as the edit set it

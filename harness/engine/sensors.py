@@ -24,11 +24,13 @@ a name (it names its figure).
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
+from analytic.dynamics import Dynamics
 from harness.core.errors import ModelMismatch
 from harness.engine.readings.momentum import subtree as body_subtree
 
@@ -69,7 +71,7 @@ class Load:
 
     A contact's point (``contact``: a geom of ``body``) is where MuJoCo applies the contact force at the
     state, ``data.contact.pos`` of the active contact on that geom (the mean where several are), as a
-    site's position is MuJoCo's at the state (:mod:`harness.layers.reactions`). MuJoCo puts it midway
+    site's position is MuJoCo's at the state (:mod:`harness.families.reactions`). MuJoCo puts it midway
     between the surfaces, half the penetration p inside the ideal touching point along the normal: a
     shift along the normal moves only the moment of the tangential force, by p/2 × |f_t|. At the
     instantaneous layer's states (on the constraint manifold) p is round-off (|contact.dist| ≤ 2.2e-16 m
@@ -189,3 +191,93 @@ def external_force(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> flo
     """|cfrc_ext| of ``body`` (force and moment together): what MuJoCo counts as acting on it from outside
     its joints."""
     return float(np.linalg.norm(data.cfrc_ext[model.body(body).id]))
+
+
+class Recorder:
+    """MuJoCo's side of the reactions, state by state: every reaction sensor's reading, the sites, the sensed
+    bodies' ``cfrc_int`` and their subtrees' external forces, and where each declared load acts; call :meth:`record`
+    after each ``mj_forward``. Checked against the analytic system ``dyn`` it is compared with: every body with mass
+    in a sensor's subtree must be one of its bodies, and every load one it can apply."""
+
+    def __init__(self, model: mujoco.MjModel, dyn: Dynamics, loads: Sequence[Load]) -> None:
+        self.sensors = sensors(model)
+        self.loads = tuple(loads)
+        self.wrenched = tuple(dict.fromkeys(s.body for s in self.sensors if s.kind != "accelerometer"))
+        self.subtrees = {b: subtree(model, b) for b in self.wrenched}
+        for body, tree in self.subtrees.items():
+            if not dyn.body_names:
+                raise ModelMismatch(f"body {body!r} carries a force or torque sensor, but the analytic system "
+                                    "declares no bodies (LagrangianSystem(bodies=...))")
+            missing = [b for b in tree if model.body(b).mass[0] > 0 and b not in dyn.body_names]
+            if missing:
+                raise ModelMismatch(f"sensor subtree of body {body!r} has bodies {missing} with mass that the analytic "
+                                    f"system does not declare; its bodies: {list(dyn.body_names)}")
+        for load in self.loads:
+            _check_load(model, dyn, load)
+        self.sites = tuple(dict.fromkeys([*(s.site for s in self.sensors), *(ld.site for ld in self.loads
+                                                                            if ld.site)]))
+        # the welds among the loads' constraints: their moment map is MuJoCo's frame at each state
+        self.welds = tuple(dict.fromkeys(ld.constraint for ld in self.loads if ld.direction is None and not ld.slide
+                                         and dyn.blocks[ld.constraint].stop - dyn.blocks[ld.constraint].start == 6))
+        for name in self.welds:
+            eq = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, name)
+            if eq < 0 or int(model.eq_type[eq]) != int(mujoco.mjtEq.mjEQ_WELD):
+                found = "none" if eq < 0 else mujoco.mjtEq(int(model.eq_type[eq])).name
+                raise ModelMismatch(f"load on constraint {name!r}: its 6 rows are read as a weld's force and moment, "
+                                    f"but the model's equality {name!r} is {found}; accepted: a weld")
+        self.rows: dict[str, list] = {k: [] for k in ("reading", "site", "interaction", "external", "com",
+                                                       "contact", "axis", "moment")}
+
+    def __bool__(self) -> bool:
+        return bool(self.sensors)
+
+    def record(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        self.rows["reading"].append([world_reading(model, data, s) for s in self.sensors])
+        self.rows["site"].append([data.site_xpos[model.site(s).id].copy() for s in self.sites])
+        self.rows["interaction"].append([np.concatenate(interaction(model, data, b)) for b in self.wrenched])
+        self.rows["external"].append({b: external_force(model, data, b) for tree in self.subtrees.values()
+                                      for b in tree})
+        self.rows["com"].append({s.name: data.xipos[model.body(s.body).id].copy() for s in self.sensors})
+        # where the geom has no active contact MuJoCo applies no force there, while the system's multiplier
+        # still pulls: the force figure fails whatever the point, and the moment is taken at the geom's centre
+        points = {ld.contact: contact_point(model, data, ld.contact) for ld in self.loads if ld.contact}
+        self.rows["contact"].append({g: data.geom_xpos[model.geom(g).id].copy() if pt is None else pt
+                                     for g, pt in points.items()})
+        self.rows["axis"].append({ld.slide: data.xaxis[model.joint(ld.slide).id].copy() for ld in self.loads
+                                  if ld.slide})
+        self.rows["moment"].append({w: weld_moment_map(model, data, w) for w in self.welds})
+
+    def load_point(self, load: Load, site_pos: Mapping[str, np.ndarray]) -> np.ndarray:
+        """Where ``load`` acts at each state (n, 3): its site's position, or its contact's point."""
+        return site_pos[load.site] if load.site else np.array([row[load.contact] for row in self.rows["contact"]])
+
+
+def _check_load(model: mujoco.MjModel, dyn: Dynamics, load: Load) -> None:
+    """ModelMismatch, in one line, for a load the comparison cannot apply (:class:`harness.engine.sensors.Load`)."""
+    where = f"load {load.constraint!r} on {load.body!r}"
+    if load.constraint not in dyn.constraint_names:
+        raise ModelMismatch(f"load on {load.body!r} names constraint {load.constraint!r}; the system's: "
+                            f"{list(dyn.constraint_names)}")
+    rows = dyn.blocks[load.constraint]
+    one_row = load.direction is not None or bool(load.slide)
+    if load.direction is not None and load.slide:
+        raise ModelMismatch(f"{where} gives both a direction and slide {load.slide!r}; accepted: one of them")
+    if not one_row and rows.stop - rows.start not in (3, 6):
+        raise ModelMismatch(f"{where}: constraint {load.constraint!r} has {rows.stop - rows.start} rows; accepted: "
+                            "a direction for a one-row constraint (or a slide: its world axis), none for a "
+                            "connect's 3 rows (a world force) or a weld's 6 (a world force and a moment)")
+    if load.sign not in (1.0, -1.0):
+        raise ModelMismatch(f"{where} has sign {load.sign!r}; accepted: +1 or -1")
+    if bool(load.site) == bool(load.contact):
+        raise ModelMismatch(f"{where} needs exactly one of site and contact (a geom), got site={load.site!r}, "
+                            f"contact={load.contact!r}")
+    if load.slide:
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, load.slide)
+        if jid < 0 or int(model.jnt_type[jid]) != int(mujoco.mjtJoint.mjJNT_SLIDE):
+            raise ModelMismatch(f"{where}: {load.slide!r} is not a slide joint of the model; accepted: a slide, "
+                                "whose world axis is the force's direction")
+    if load.contact:
+        gid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, load.contact)
+        if gid < 0 or model.body(int(model.geom_bodyid[gid])).name != load.body:
+            raise ModelMismatch(f"{where}: {load.contact!r} is not a geom of body {load.body!r}; accepted: a geom "
+                                "of the loaded body, at whose contact the force acts")

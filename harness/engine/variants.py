@@ -19,7 +19,7 @@ one with any of them changed, each *as MuJoCo applies it*:
   measured: ε/F to 4 digits at h/τ = 1/8 … 1/2, tests/test_budget.py). A variant
   sets the authored ε that gives the effective ε it wants.
 
-The variants (:mod:`harness.budget.trajectory` and :mod:`.instant` combine them):
+The variants (the budgets of :mod:`harness.families.runs` and :mod:`harness.families.sampled` combine them):
 
 - ``split``: h/2 (or h/4), with τ and ε held at their effective values at h;
 - ``eps_factor``: every effective ε multiplied by :func:`softness_factor`
@@ -47,12 +47,15 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 import mujoco
 import numpy as np
 
 from harness.engine.integrators import integrator_name
+from harness.engine.models import compile_model
 
 POINT_MASS = 1e-6
 """The largest rotational inertia, relative to m L², a body may carry and still count as a point mass."""
@@ -285,14 +288,14 @@ SETTLE_TIMECONSTS = 40.0
 of its start; after 40 τ of the model (26.7 τ of the budget's run with τ × :data:`TIMECONST_FACTOR`)
 what remains is below 1e-10 of it, and from there on slip and force are the steady ones that are linear
 in τ. Force, velocity and MuJoCo-only figures count samples after that long (or the case's ``settle``,
-if longer; :func:`harness.pipeline.run.settle_time`)."""
+if longer; :func:`harness.families.bench.settle_time`)."""
 
 
 def steps_per_timeconst(model: mujoco.MjModel) -> float:
     """The largest h/τ among the model's soft constraints (τ in effect, standard format), 0 with none.
     Above 1/2 — possible only under ``discrete``, or with refsafe off — a constraint's own dynamics are
     resolved by fewer than two steps per time constant, past the range where a run at h/2 tells the
-    integration error (:func:`harness.budget.trajectory.past_asymptotic`)."""
+    integration error (:func:`harness.families.runs.past_asymptotic`)."""
     h = float(model.opt.timestep)
     return max((h / effective_timeconst(model, solref, row=row) for solref, _, row in _soft_rows(model)
                 if _standard(solref)), default=0.0)
@@ -442,3 +445,48 @@ def represented_model(model: mujoco.MjModel, dtype: type = np.float32) -> mujoco
         else:
             setattr(out.opt, name, float(dtype(value)))
     return out
+
+
+@dataclass(frozen=True)
+class ModelUnderTest:
+    """How the model under test is compiled (its file, the timestep asked for, the edit applied), so
+    that each variant is the same model with one more change."""
+
+    path: Path
+    timestep: float | None = None
+    edit: Callable[[mujoco.MjSpec], None] | None = None
+    floors: bool = True
+    """Whether the reference idealizes point masses (a hand-derived system does: their floor inertia is then a
+    budget part); a model's own tree reads that inertia, so it has no floor to budget."""
+
+    def compile(self, *, integrator: str | None = None, timestep: float | None = None,
+                variant: SpecEdit | None = None) -> mujoco.MjModel:
+        return compile_model(self.path, integrator=integrator, timestep=timestep or self.timestep,
+                             edit=compose(self.edit, variant))
+
+
+@dataclass(frozen=True)
+class Variants:
+    """Which variants a budget runs of a model, read once per case: softer (soft constraints), with slower
+    contacts (contacts), with heavier floors (the point masses), and the solver tolerance every run keeps."""
+
+    soft: bool
+    contacts: bool
+    point_masses: tuple[str, ...]
+    solver_tolerance: float
+    notes: tuple[str, ...]
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, length: float, *, floors: bool = True) -> Variants:
+        """``model``'s variants; ``length``: the case's length scale (a point mass's floor is relative to it);
+        ``floors``: whether its point masses' inertia is a floor to budget (:attr:`ModelUnderTest.floors`)."""
+        constrained = model.neq > 0 or has_contacts(model)
+        bodies = point_masses(model, length) if floors else ()
+        notes = [*softness_notes(model)]
+        if bodies:
+            notes.append(f"floors: the rotational inertia of the point mass(es) {', '.join(bodies)} "
+                         f"(≤ {POINT_MASS:g} m L²), doubled and extrapolated to 0"
+                         + (" with the fluid forces off (the inertia box they act on is the floor: they are "
+                            "not the floor's to explain)" if has_fluid(model) else ""))
+        return cls(soft=has_soft_constraints(model), contacts=has_contacts(model), point_masses=bodies,
+                   solver_tolerance=float(model.opt.tolerance) if constrained else 0.0, notes=tuple(notes))

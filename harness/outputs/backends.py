@@ -109,7 +109,7 @@ def _plot(case: str, runs: Sequence[BackendRun]) -> str:
         result = next((r for r in run.results if r.case.name == case), None)
         if result is None:
             continue
-        integrator = str(result.settings.get("integrator", ""))
+        integrator = result.settings.integrator
         series = _position_error(result, integrator)
         if series is None:
             continue

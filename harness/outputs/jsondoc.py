@@ -61,7 +61,7 @@ def json_doc(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequ
             "passed": all(c.passed for c in cs),
             "figures": {f.name: f.as_dict() for f in r.figures},
             "checks": {c.name: _check_entry(c) for c in cs},
-            "settings": r.settings,
+            "settings": r.settings.as_dict(),
         }
         if r.findings:
             entry["findings"] = [f.as_dict() for f in r.findings]

@@ -13,11 +13,17 @@ import html
 import numpy as np
 
 from harness.core.plotting import HALF_WIDTH, coinciding, png_bytes, png_data_uri, pyplot, style
-from harness.layers.trajectory import error_series
+from harness.core.trajectory import Trajectory
 from harness.pipeline.run import CaseResult
 
 FLOOR = 1e-16  # errors below this are drawn at it (a log axis has no zero)
 MARKERS = 12  # markers per curve: enough to tell dashes apart, few enough not to hide the line
+
+
+def position_error(ref: Trajectory, sim: Trajectory) -> np.ndarray:
+    """The worst named point's distance from the reference's, sample by sample (the two on one grid)."""
+    return np.max(np.linalg.norm(np.stack([sim.positions[p] - ref.positions[p] for p in sim.positions], axis=1),
+                                 axis=-1), axis=1)
 
 
 def _png(fig) -> str:
@@ -42,7 +48,7 @@ def _legend(fig, *axes, columns: int = 2) -> None:
 
 def shipped_integrator(result: CaseResult) -> str:
     """The integrator the model ships with, or the first one run if that one was not."""
-    name = str(result.settings["integrator"])
+    name = result.settings.integrator
     return name if name in result.simulations else next(iter(result.simulations))
 
 
@@ -78,7 +84,7 @@ def plot_errors(result: CaseResult) -> str:
     fig, axes = _figure()
     ax = axes[0, 0]
     t = result.reference.t[1:]
-    _log_curves(ax, t, {name: error_series(result.reference, sim)["position"][1:]
+    _log_curves(ax, t, {name: position_error(result.reference, sim)[1:]
                         for name, sim in result.simulations.items()})
     ax.set(xlabel="t [s]", ylabel="|x_mj − x_ref| [m]", title="Position error vs time, per integrator")
     ax.grid(True, which="major", lw=0.3)

@@ -183,7 +183,7 @@ def _group_title(group: str, result: CaseResult) -> str:
     if group not in result.simulations:
         return group
     shipped = " (the model's own integrator)" if group == shipped_integrator(result) else ""
-    return f"MuJoCo {group}{shipped} — {_setting(result.settings.get('horizon', ''))} s against the reference"
+    return f"MuJoCo {group}{shipped} — {_setting(result.settings.horizon)} s against the reference"
 
 
 def _status(c: Check) -> str:
@@ -287,7 +287,7 @@ def section_model(result: CaseResult, still: Still | None) -> str:
     if still is not None and still.png is not None:
         uri = "data:image/png;base64," + base64.b64encode(still.png).decode("ascii")
         image = (f"<figure><img class='still' src='{uri}' alt='{_esc(result.case.name)} model at its initial state'>"
-                 f"<figcaption>{_esc(Path(str(result.settings.get('mjcf', ''))).name)} at the initial "
+                 f"<figcaption>{_esc(Path(result.settings.mjcf).name)} at the initial "
                  f"state (rendered headless, MUJOCO_GL={_esc(still.backend)}; joints drawn: a hinge as an "
                  f"arrow on its axis, a ball as a sphere)</figcaption></figure>")
     else:
@@ -330,7 +330,7 @@ def section_differences(results: Sequence[CaseResult]) -> str:
     """Per case, every way the model run differs from the shipped one (each attribute written otherwise, its
     damping as any other; its parameters; its settings), or that none does."""
     parts = [f"<h3><a href='{_esc(case_page(r.case.name))}#differences'>{_esc(r.case.name)}</a> <span class='dim'>"
-             f"({_esc(Path(str(r.settings.get('mjcf', ''))).name)})</span></h3>{table}"
+             f"({_esc(Path(r.settings.mjcf).name)})</span></h3>{table}"
              for r in results if (table := _difference_table(r))]
     body = ("<p class='dim'>The reference of each is built from the model run: these parameters are its "
             f"own.</p>{''.join(parts)}" if parts else "<p>Nothing: every case ran its shipped model at its "
@@ -341,8 +341,8 @@ def section_differences(results: Sequence[CaseResult]) -> str:
 def _difference_table(result: CaseResult) -> str:
     """What the model run differs in from the shipped one (its parameters the reference was built with,
     its settings) and how the initial state was brought onto its constraints: '' where nothing."""
-    changed = result.settings.get("changed") or {}
-    projected = result.settings.get("projected") or []
+    changed = result.settings.changed
+    projected = result.settings.projected
     if not changed and not projected:
         return ""
     rows = "".join(f"<tr><td>{_esc(k)}</td><td class='num'>{_esc(_setting(v.get('shipped')))}</td>"
@@ -357,7 +357,7 @@ def _difference_table(result: CaseResult) -> str:
 def _examined(result: CaseResult) -> str:
     """For a model judged against its own tree: what the reference covers, what it does not (switched off for the
     comparison), how the model as it is was judged instead, and how the horizon was chosen; '' for a shipped case."""
-    tree = result.settings.get("tree")
+    tree = result.settings.tree
     if not tree:
         return ""
     gaps = tree.get("not examined") or {}
@@ -432,7 +432,7 @@ def section_case(result: CaseResult, checks: Sequence[Check], still: Still | Non
                    f"<td>{_esc(f.unit)}</td><td class='dim'>{_esc(f.description)}</td></tr>"
                    for f in result.figures if f.name not in gated)
     settings = "".join(f"<tr><td>{_esc(k)}</td><td>{_esc(_setting(v))} {_UNITS.get(k, '')}</td></tr>"
-                       for k, v in result.settings.items() if k not in ("changed", "projected", "tree"))
+                       for k, v in result.settings.as_dict().items() if k not in ("changed", "projected", "tree"))
     return (f"<section id='case'><h2>{_esc(c.name)} <span class='badge {verdict.lower()}'>"
             f"{verdict} {len(checks) - failed}/{len(checks)}</span></h2><p>{_esc(c.description)}</p>"
             f"{section_model(result, still)}{_examined(result)}{_differences(result)}{_findings(result)}{fitness}"
@@ -504,8 +504,8 @@ footer{margin-top:2em;font-size:.8em;color:#666}
 
 def model_stills(results: Sequence[CaseResult]) -> dict[str, Still]:
     """A still of each case's model (the file actually run), rendered in a child process."""
-    return stills([Request(case=r.case.name, mjcf=str(r.settings["mjcf"]),
-                           coordinates=tuple(r.settings["q0"]) if r.case.tree is not None
+    return stills([Request(case=r.case.name, mjcf=r.settings.mjcf,
+                           coordinates=tuple(r.settings.q0) if r.case.tree is not None
                            else tuple(q.name for q in derivation(r.case.system).system.q),
                            qpos=_start_qpos(r) if r.case.tree is not None else ())
                    for r in results])
@@ -515,7 +515,7 @@ def _start_qpos(result: CaseResult) -> tuple[float, ...]:
     """MuJoCo's qpos at a tree case's start, through its binding (the render child knows no such case)."""
     model = compile_model(result.case.mjcf, edit=result.case.prepare)
     data = mujoco.MjData(model)
-    q0 = result.settings["q0"]
+    q0 = result.settings.q0
     result.case.binding(tuple(q0)).set_state(model, data, list(q0.values()), [0.0] * len(q0))
     return tuple(float(x) for x in data.qpos)
 

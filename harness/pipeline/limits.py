@@ -11,7 +11,7 @@ A case's limits are data shipped with its model, ``mjcf/NAME.limits.toml``
 
 Every limit carries its basis:
 
-- ``budget``: the figure is judged by its error budget (:mod:`harness.budget`):
+- ``budget``: the figure is judged by its error budget (:mod:`harness.core.budget`, each family's):
   what the model's own settings explain — integration error, softness, the
   point masses' inertia floors — is removed, and the unexplained residual must
   lie within the limit the estimates' own accuracy sets, computed for each run
@@ -23,7 +23,7 @@ Every limit carries its basis:
 - ``user``: a value from a user's ``--config`` (below), on the figure as measured.
 
 ``mjharness limits --write [CASE ...]`` writes the file of a case that has none,
-by the default rule (:data:`DEFAULT_GATED`). Nothing is measured into a limit:
+by the default rule (each family's: :func:`harness.families.gated`). Nothing is measured into a limit:
 what the shipped settings give is the regression baseline's business
 (``reports/baseline``), a separate question.
 
@@ -47,66 +47,16 @@ import tomllib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
 
-from analytic.solvers import DEFAULT_RTOL
-from harness.budget.trajectory import REFERENCE
+from harness import families
 from harness.cases import Case, all_cases, did_you_mean
+from harness.core.checks import BASES, Limit
 from harness.core.errors import ConfigError
 from harness.core.figures import FigureName
-from harness.layers.orders import ORDER_TOLERANCE
-from harness.opinions import threeway
+from harness.families import peers as peers_family
 from harness.pipeline.require import Requirement, from_config
 
-Basis = Literal["budget", "theory", "user"]
-BASES = ("budget", "theory")
 CONFIG_KEYS = {"thresholds", "require", "accept_known_defects"}
-
-
-def _default_gated(name: FigureName, constrained: bool) -> bool:
-    """Which figures a new case gates: every instantaneous figure; the reference's quality (its
-    residual only where it has constraints); per integrator the position, the drifts, forces,
-    violations and MuJoCo-only series, and each conserved momentum against the reference; every
-    convergence order. Not gated: position at the horizon, velocity, energy against the reference
-    (the drift is gated) and the generalized force (its rows are gated as forces)."""
-    if name.layer in ("instant", "converge"):
-        return True
-    if name.layer == "reference":
-        return name.quantity != "residual" or constrained
-    return name.quantity in ("position", "drift", "force", "violation", "series", "balance") \
-        or name.quantity.startswith("p_")
-
-
-DEFAULT_GATED = _default_gated
-
-
-@dataclass(frozen=True)
-class Limit:
-    """One figure's limit and its basis (see the module docstring): ``value`` for a theory or user
-    limit (on the figure), none for a budget (computed per run)."""
-
-    basis: Basis
-    value: float | None = None
-    reason: str = ""
-
-    def __post_init__(self) -> None:
-        if self.basis not in (*BASES, "user"):
-            raise ValueError(f"a limit's basis must be {', '.join(BASES)} or user, got {self.basis!r}")
-        if self.basis == "budget":
-            if self.value is not None:
-                raise ValueError("a budget limit has no value: the budget computes it for each run")
-            return
-        if isinstance(self.value, bool) or not isinstance(self.value, int | float) or not math.isfinite(self.value) \
-                or self.value <= 0:
-            raise ValueError(f"a {self.basis} limit must be a positive number, got {self.value!r}")
-        if self.basis == "theory" and not self.reason:
-            raise ValueError("a theory limit must say what bound it is (reason)")
-
-    def describe(self) -> str:
-        """One line: the basis and its reason."""
-        if self.basis == "budget":
-            return "budget: the unexplained residual within the estimates' accuracy (harness/budget)"
-        return f"{self.basis}: {self.reason}" if self.reason else self.basis
 
 
 @dataclass(frozen=True)
@@ -186,38 +136,14 @@ def format_case_limits(limits: CaseLimits) -> str:
     return "\n".join(lines) + "\n"
 
 
-ORDER_REASON = ("max(0, documented − observed order) ≤ 0.3: a floor at 1/10 of the smallest fitted error biases the "
-                "fitted slope by ≤ 0.14 (harness/layers/orders.py)")
-RESIDUAL_LIMIT = 1000 * DEFAULT_RTOL
-RESIDUAL_REASON = (f"each step of the DAE solve injects ≤ rtol·|y| (rtol {DEFAULT_RTOL:g}) into f(q) and Jq̇ + b; "
-                   "Baumgarte stabilization (ω = 10/s) removes it over 1/ω ≈ 0.1 s, about 100 steps: ≲ 100 rtol at "
-                   "the cases' O(1) scales; × 10")
-ODE_VS_DAE_LIMIT = 2 * REFERENCE * DEFAULT_RTOL * 10.0
-ODE_VS_DAE_REASON = (f"each solution within {REFERENCE:g} rtol × L of the truth (harness/budget/trajectory.py, "
-                     f"REFERENCE), rtol {DEFAULT_RTOL:g}, L ≤ 10 m: their distance ≤ {ODE_VS_DAE_LIMIT:g} m")
-
-
-def theory_limit(name: FigureName) -> Limit | None:
-    """The limit theory sets for a figure whatever the case (None where a budget judges it): a
-    convergence order's shortfall, which the fit's floor bias bounds; the reference's residual and
-    its distance from the minimal-coordinate ODE, which its tolerance bounds."""
-    if name.layer == "converge" and name.quantity == "order_shortfall":
-        return Limit("theory", ORDER_TOLERANCE, ORDER_REASON)
-    if name == "reference.residual":
-        return Limit("theory", RESIDUAL_LIMIT, RESIDUAL_REASON)
-    if name == "reference.ode_vs_dae":
-        return Limit("theory", ODE_VS_DAE_LIMIT, ODE_VS_DAE_REASON)
-    return None
-
-
 def default_limits(case: str, figures: Iterable[str], *, constrained: bool) -> CaseLimits:
-    """The limits a case without a file gets: for every figure :data:`DEFAULT_GATED` picks, its theory
-    limit where one applies (:func:`theory_limit`), else its budget."""
+    """The limits a case without a file gets: every figure its family gates by default
+    (:func:`harness.families.gated`) with its family's limit from theory where it has one, else its budget."""
     limits = {}
     for name in figures:
         figure = FigureName(name)
-        if DEFAULT_GATED(figure, constrained):
-            limits[str(figure)] = theory_limit(figure) or Limit("budget")
+        if families.gated(figure, constrained=constrained):
+            limits[str(figure)] = families.theory_limit(figure) or Limit("budget")
     return CaseLimits(case=case, limits=limits)
 
 
@@ -246,12 +172,6 @@ class Limits:
         return self.for_case(case).get(figure)
 
 
-def peer_limit() -> Limit:
-    """The theory limit every ``instant.peer.*`` figure is judged by (:mod:`harness.opinions.threeway`)."""
-    return Limit("theory", threeway.LIMIT, f"{threeway.LIMIT:g} ε cond(M): a backward-stable evaluation's "
-                                           "round-off (harness/opinions/threeway.py; docs/findings/peers.md)")
-
-
 def case_limits(limits: Limits, case: Case, figures: Iterable[str]) -> dict[str, Limit]:
     """The limits ``case`` is judged by: the second opinions' theory limit on each ``instant.peer.*`` figure it
     measured (:mod:`harness.opinions.threeway`), and its limits file's (with a user's overrides), or for a case without
@@ -259,7 +179,8 @@ def case_limits(limits: Limits, case: Case, figures: Iterable[str]) -> dict[str,
     yet) the default rule's over the ``figures`` it measured or could not (give both: one it could not is then
     n/a with its reason, never absent), so that every figure the rule gates is judged, never none."""
     figures = list(figures)
-    peers = {f: peer_limit() for f in figures if FigureName(f).quantity == "peer" and FigureName(f).layer == "instant"}
+    peers = {f: limit for f in figures if peers_family.owns(FigureName(f))
+             and (limit := peers_family.theory_limit(FigureName(f))) is not None}
     if case.tree is None and case.name in limits.cases:
         return peers | limits.for_case(case.name)
     names = [FigureName(f) for f in figures if f not in peers]
@@ -334,3 +255,21 @@ def load_limits(config: Path | str | None = None) -> Limits:
         source = f"{source} + {config}"
     return Limits(cases=cases, source=source, overrides=overrides, requirements=requirements,
                   accept_known_defects=accept)
+
+
+def check_config(overrides: Mapping[str, Mapping[str, float]], cases: Iterable[Case], *, source: str) -> None:
+    """ConfigError naming the first figure of ``overrides`` (limits by case) that its case cannot have, before any
+    case runs. A case that runs is judged against what it measured (:mod:`harness.pipeline.verdict`: a limit naming
+    an unmeasured figure is a config error); a case a config names but the command does not run measured nothing,
+    and a typo there ("RK4.positon") would pass silently: it is checked against every name its families can give it
+    (:func:`harness.families.figure_names`, a superset; tests/test_bad_input.py pins that every figure a shipped
+    case measures is in it)."""
+    by_name = {c.name: c for c in cases}
+    for case, limits in overrides.items():
+        if case not in by_name:
+            continue
+        known = families.figure_names(by_name[case])
+        unknown = sorted(set(limits) - known)
+        if unknown:
+            raise ConfigError(f"config {source}: thresholds for case {case!r} name unmeasured figure(s) {unknown}, "
+                              f"which it does not have; its figures: {', '.join(sorted(known))}")

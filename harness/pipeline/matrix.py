@@ -21,13 +21,13 @@ from typing import TextIO
 from harness import cases
 from harness.core import costs
 from harness.core.checks import Check, closest, ratio
+from harness.core.options import RunOptions
 from harness.core.tables import terminal_width, wrap
 from harness.pipeline.executor import LOCAL, Executor
-from harness.pipeline.limits import Limits, case_limits, load_limits
+from harness.pipeline.limits import Limits, case_limits, check_config, load_limits
 from harness.pipeline.pool import cpus, fork_pool, run_tasks
-from harness.pipeline.run import CaseResult, RunOptions
+from harness.pipeline.run import CaseResult, run_case
 from harness.pipeline.verdict import judge
-from harness.pipeline.vocabulary import check_config
 from harness.reference import derivations
 from harness.reference import solutions as refmod
 
@@ -154,7 +154,7 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
         results = []
         for case in bar:
             bar.set_postfix_str(case.name)
-            results.append(options.run(case))
+            results.append(run_case(case, options))
             finished(results[-1])
     else:
         results = _run_parallel(selected, workers, bar, figures_only=figures_only, options=options,
@@ -193,7 +193,7 @@ def _run_group(names: Sequence[str], figures_only: bool, options: RunOptions):
     outcomes = []
     for name in names:
         try:
-            result = options.run(cases.get(name))
+            result = run_case(cases.get(name), options)
         except Exception as exc:  # returned, raised by the parent in registry order
             outcomes.append((None, exc))
             break

@@ -91,7 +91,7 @@ def from_config(table: object, *, source: str) -> tuple[Requirement, ...]:
 
 def judge_fitness(result: CaseResult, requirements: Sequence[Requirement]) -> list[Fitness]:
     """Every figure of the model's own integrator a requirement covers, beside it."""
-    own = str(result.settings.get("integrator", ""))
+    own = result.settings.integrator
     out = []
     for req in requirements:
         for f in result.figures:
@@ -106,7 +106,7 @@ def check_known(requirements: Sequence[Requirement], results: Sequence[CaseResul
     if not requirements:
         return
     measures = sorted({f.name.measure for r in results for f in r.figures
-                       if f.name.layer == "trajectory" and f.name.integrator == r.settings.get("integrator")})
+                       if f.name.layer == "trajectory" and f.name.integrator == r.settings.integrator})
     for req in requirements:
         if not any(judge_fitness(r, [req]) for r in results):
             raise ConfigError(f"requirement {req.measure!r} matches no figure of the models' own integrator; "

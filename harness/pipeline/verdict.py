@@ -21,7 +21,8 @@ from harness.core.checks import Check
 from harness.core.errors import ConfigError
 from harness.core.figures import FigureName
 from harness.engine.compat import applicable_defect, unavailable_reason
-from harness.layers.orders import ORDER_TOLERANCE
+from harness.engine.integrators import DOCUMENTED_INTEGRATORS
+from harness.families.convergence import ORDER_TOLERANCE
 from harness.pipeline.limits import Limit
 from harness.pipeline.run import CaseResult
 
@@ -54,7 +55,7 @@ def judge(result: CaseResult, limits: Mapping[str, Limit]) -> list[Check]:
     """
     case = result.case.name
     by_name = {f.name: f for f in result.figures}
-    ran = set(result.settings.get("integrators", ())) if "integrators" in result.settings else None
+    ran = set(result.settings.integrators)
     checks = []
     unknown = []
     for name, limit in limits.items():
@@ -67,8 +68,8 @@ def judge(result: CaseResult, limits: Mapping[str, Limit]) -> list[Check]:
             why = unavailable_reason(name) or result.unmeasured.get(name, "")
             if why:
                 checks.append(Check(case, figure_name, math.nan, math.nan, "", note=why))
-            elif ran is not None and figure_name.integrator and figure_name.integrator not in ran:
-                continue  # an integrator this run was asked to leave out
+            elif figure_name.integrator in DOCUMENTED_INTEGRATORS and figure_name.integrator not in ran:
+                continue  # an integrator this run was asked to leave out (any other name is unknown: an error)
             else:
                 unknown.append(name)
             continue

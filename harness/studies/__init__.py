@@ -20,7 +20,8 @@ import mujoco
 
 from harness.cases import Case
 from harness.core.tables import text_table
-from harness.layers import orders
+from harness.engine.backends import Backend
+from harness.families import convergence as orders
 from harness.studies import convergence, softness, solvers
 
 
@@ -46,9 +47,9 @@ class Studies:
 
 
 def run_studies(selected: Sequence[Case], *, fast: bool = False, with_softness: bool = True,
-                with_solvers: bool = True, progress: bool = False) -> Studies:
+                with_solvers: bool = True, progress: bool = False, engine: Backend | None = None) -> Studies:
     """Convergence for every case; softness for the equality-constrained ones and the solver
-    comparison for the constrained ones, when asked."""
+    comparison for the constrained ones, when asked; every run on ``engine`` (default: MuJoCo's C engine)."""
     start = time.perf_counter()
 
     def note(text: str) -> None:
@@ -58,15 +59,15 @@ def run_studies(selected: Sequence[Case], *, fast: bool = False, with_softness: 
     conv, soft, solv = [], [], []
     for case in selected:
         note(f"converge {case.name} ...")
-        conv.append(convergence.convergence_study(case, fast=fast))
+        conv.append(convergence.convergence_study(case, fast=fast, engine=engine))
     if with_softness:
         for case in softness.equality_cases(selected):
             note(f"softness {case.name} ...")
-            soft.append(softness.softness_study(case, fast=fast))
+            soft.append(softness.softness_study(case, fast=fast, engine=engine))
     if with_solvers:
         for case in solvers.constrained_cases(selected):
             note(f"solvers {case.name} ...")
-            solv.append(solvers.solver_study(case, fast=fast))
+            solv.append(solvers.solver_study(case, fast=fast, engine=engine))
     return Studies(convergence=tuple(conv), softness=tuple(soft), solvers=tuple(solv),
                    elapsed=time.perf_counter() - start)
 

@@ -32,12 +32,14 @@ import numpy as np
 from harness import cases
 from harness.core.errors import SimulationDiverged
 from harness.core.plotting import FULL_WIDTH, png_bytes, pyplot
-from harness.engine.backends import simulate
+from harness.engine import backends
+from harness.engine.backends import Backend, simulate
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
 from harness.engine.simulate import steps_in
-from harness.layers.trajectory import trajectory_figures
-from harness.pipeline.run import settle_time
+from harness.families import COMPARISONS
+from harness.families.bench import settle_time
+from harness.families.runs import Target, compared
 from harness.reference import solutions as refmod
 
 CONES = ("pyramidal", "elliptic")
@@ -143,9 +145,11 @@ def contact_study(
     impratios: Sequence[float] = IMPRATIOS,
     noslip_iterations: Sequence[int] = NOSLIP_ITERATIONS,
     softness: Sequence[str] = tuple(SOFTNESS),
+    engine: Backend | None = None,
 ) -> StudyResult:
     """Run ``case_name`` (a case with a contact <pair> and a ``slip`` series) at every
-    combination of the settings; one row per combination."""
+    combination of the settings, on ``engine`` (default: MuJoCo's C engine); one row per combination."""
+    engine = engine or backends.get("c")
     case = cases.get(case_name)
     _validate(cones, CONES, "cones")
     _validate(softness, tuple(SOFTNESS), "softness")
@@ -168,16 +172,16 @@ def contact_study(
         setting = {"softness": soft, "cone": cone, "impratio": float(imp), "noslip_iterations": int(ns),
                    "solref": [float(x) for x in model.pair_solref[0]]}
         try:
-            sim = simulate(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
+            sim = simulate(engine, model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=steps)
         except SimulationDiverged as exc:  # a finding of the sweep, never a number
             rows.append({**setting, **dict.fromkeys(DIVERGED_NAN + tuple(f"force.{c}" for c in case.mujoco_forces),
                                                     float("nan")), "diverged": exc.reason})
             continue
         ref_traj = refmod.trajectory(ref, sim.t)
-        figs = {f.name.removeprefix("sim."): f.value
-                for f in trajectory_figures(ref_traj, sim, ref.scales, prefix="sim",
-                                            settle=settle_time(case, model, case.horizon)[0],
-                                            series=case.mujoco_series)}
+        target = Target(reference=ref_traj, scales=ref.scales, settle=settle_time(case, model, case.horizon)[0],
+                        series=case.mujoco_series, q0=ref.q0(), qd0=ref.qd0(), rtol=ref.solution.rtol,
+                        compare=COMPARISONS.over_runs)
+        figs = {d.name.removeprefix("sim."): d.magnitude() for d in compared(target, sim, "sim")}
         forces = {f"force.{c}": figs[f"force.{c}"] for c in case.mujoco_forces}
         slip = sim.series["slip"]
         rows.append({

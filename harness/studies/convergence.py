@@ -1,4 +1,4 @@
-"""Layer 4, convergence study as tables and a plot (the study itself: :mod:`harness.layers.orders`)."""
+"""Layer 4, convergence study as tables and a plot (the study itself: :mod:`harness.families.convergence`)."""
 
 from __future__ import annotations
 
@@ -9,18 +9,18 @@ import numpy as np
 
 from harness.core.plotting import FULL_WIDTH, coinciding, png_bytes, png_data_uri, pyplot, style
 from harness.core.tables import fmt, html_table, text_table
-from harness.layers.orders import (
+from harness.families.convergence import (
     EXPECTED_ORDER,
     ORDER_TOLERANCE,
     VERDICT_QUANTITY,
     ConvergenceStudy,
     Series,
 )
-from harness.layers.orders import convergence_study as _computed
+from harness.families.convergence import convergence_study as _computed
 
 
 def convergence_study(case, **options) -> ConvergenceStudy:
-    """:func:`harness.layers.orders.convergence_study` with its plot (``plot_png``)."""
+    """:func:`harness.families.convergence.convergence_study` with its plot (``plot_png``)."""
     study = _computed(case, **options)
     return dataclasses.replace(study, plot_png=plot_study(study))
 

@@ -35,6 +35,7 @@ import mujoco
 import numpy as np
 
 from harness.cases.own import from_mjcf
+from harness.core.options import RunOptions
 from harness.engine.models import compile_model
 from harness.pipeline.limits import case_limits, load_limits
 from harness.pipeline.run import run_case
@@ -225,7 +226,7 @@ def sized(size: float) -> str:
 def _failed(case, integrators: Sequence[str], edit: Edit | None) -> dict[str, float]:
     """Each failed check's name and how far over its limit (inf: a run that could not be measured), as ``check``
     judges the run."""
-    result = run_case(case, integrators=tuple(integrators), edit=edit)
+    result = run_case(case, RunOptions(integrators=tuple(integrators), edit=edit))
     checks = judge(result, case_limits(load_limits(), case, result.judged_names))
     return {str(c.name): c.ratio if math.isfinite(c.ratio) and not c.diverged else math.inf
             for c in checks if not c.passed and not c.note}

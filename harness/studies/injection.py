@@ -1,7 +1,7 @@
 """The smallest energy injection a model's work–energy balance detects: energy that no force in MuJoCo's accounts
 explains.
 
-The balance (harness/layers/balance.py) judges a model as it is, contacts, limits and all: its energy may change
+The balance (harness/families/balance.py) judges a model as it is, contacts, limits and all: its energy may change
 only by the work of the forces MuJoCo reports. How small an unaccounted gain it sees depends on the model (its
 timestep, its impacts, how well h, h/2, h/4 resolve them), so it is measured per model:
 
@@ -28,14 +28,15 @@ import numpy as np
 
 from harness.cases.own import from_mjcf
 from harness.core.errors import SimulationDiverged
-from harness.engine.backends import Request, simulate_many
+from harness.engine import backends
+from harness.engine.backends import Request
+from harness.engine.integrators import EXPECTED_ORDER
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
 from harness.engine.readings import Reading
 from harness.engine.simulate import steps_in
 from harness.engine.variants import compose
-from harness.layers.balance import POWER, POWER_FIELDS, balance_figures, cumulative_work
-from harness.layers.orders import EXPECTED_ORDER
+from harness.families.balance import POWER, POWER_FIELDS, balance_figures, cumulative_work
 from harness.reference.tree import TreeEdit, prepare
 from harness.studies.engine_faults import SIZES, bisect_decades, damping_scale, sized, unsized_cell
 
@@ -156,7 +157,8 @@ def smallest_injection(path: Path | str, *, name: str | None = None, horizon: fl
         edit = compose(as_is, injector(joint, rate))
         _, budgets, diverged, _ = balance_figures(
             path, edit, binding, integrators=integrators, q0=ref.q0(), qd0=ref.qd0(), horizon=case.horizon,
-            energy_scale=ref.scales.energy, orders=EXPECTED_ORDER, not_examined=not_examined, power=unaccounted())
+            energy_scale=ref.scales.energy, orders=EXPECTED_ORDER, not_examined=not_examined, power=unaccounted(),
+            engine=backends.get("c"))
         return {k: (b.unexplained / b.limit if b.limit > 0 else math.inf) for k, b in budgets.items()
                 if not b.passed} | dict.fromkeys(diverged, math.inf)
 
@@ -196,6 +198,6 @@ def _injected(path: Path, edit: Edit, binding, *, q0: np.ndarray, qd0: np.ndarra
     model = compile_model(path, edit=edit)
     h = float(model.opt.timestep)
     probe = Probe(binding=binding, points=(), constraints=(), series={"injected": INJECTED, "kinetic": KINETIC})
-    run = simulate_many([Request(model, q0, qd0, steps_in(horizon, h))], probe)[0]
+    run = backends.get("c").simulate_many([Request(model, q0, qd0, steps_in(horizon, h))], probe)[0]
     return float(cumulative_work(run.series["injected"], h)[-1]), float(np.max(run.series["kinetic"]))
 

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from harness import cases
 from harness.cases import Case
 from harness.core.checks import Check
+from harness.core.options import RunOptions
 from harness.core.tables import text_table
 from harness.engine.models import compile_model
 from harness.engine.variants import compose
@@ -56,8 +57,8 @@ class Sensitivity:
 def _checks(case: Case, edits: Sequence, timestep_factor: float) -> list[Check]:
     h = float(compile_model(case.mjcf).opt.timestep)
     edits = [e for e in edits if e is not None]
-    result = run_case(case, edit=compose(*edits) if edits else None,
-                      timestep=h * timestep_factor if timestep_factor != 1 else None)
+    result = run_case(case, RunOptions(edit=compose(*edits) if edits else None,
+                                       timestep=h * timestep_factor if timestep_factor != 1 else None))
     return judge(result, load_limits().for_case(case.name))
 
 

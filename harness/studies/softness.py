@@ -40,11 +40,12 @@ from harness.cases import Case, all_cases
 from harness.core.errors import SimulationDiverged
 from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, style
 from harness.core.tables import fmt, html_table, text_table
-from harness.engine.backends import simulate
+from harness.engine import backends
+from harness.engine.backends import Backend, simulate
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
 from harness.engine.simulate import steps_in
-from harness.layers.orders import initial_force_floor
+from harness.families.convergence import initial_force_floor
 from harness.reference import solutions as refmod
 
 TIMECONSTS: tuple[float, ...] = (0.002, 0.005, 0.02, 0.05)   # s; 0.02 is MuJoCo's default solref
@@ -136,8 +137,11 @@ def _documented_violation(reference: refmod.Reference, t: np.ndarray, names: Seq
 
 
 def softness_study(case: Case, *, fast: bool = False, timeconsts: Sequence[float] | None = None,
-                   impedances: Sequence[float] | None = None, plot: bool = True) -> SoftnessStudy:
-    """Sweep solref timeconst × solimp d for ``case``'s equalities at its shipped integrator and timestep."""
+                   impedances: Sequence[float] | None = None, plot: bool = True,
+                   engine: Backend | None = None) -> SoftnessStudy:
+    """Sweep solref timeconst × solimp d for ``case``'s equalities at its shipped integrator and timestep, every
+    run on ``engine`` (default: MuJoCo's C engine)."""
+    engine = engine or backends.get("c")
     timeconsts = tuple(timeconsts or (FAST_TIMECONSTS if fast else TIMECONSTS))
     impedances = tuple(impedances or (FAST_IMPEDANCES if fast else IMPEDANCES))
     path = case.mjcf
@@ -159,7 +163,7 @@ def softness_study(case: Case, *, fast: bool = False, timeconsts: Sequence[float
             tc_eff = max(tc, 2 * h) if refsafe else tc
             dr = float(model.eq_solref[model.equality(probe.constraints[0]).id, 1])
             try:
-                sim = simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps)
+                sim = simulate(engine, model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps)
             except SimulationDiverged as exc:  # a finding of the sweep, never a number
                 rows.append(SoftnessRow(timeconst=tc, effective_timeconst=tc_eff, dampratio=dr, impedance=d,
                                         violation=math.nan, violation_doc=math.nan, force_t0=math.nan,

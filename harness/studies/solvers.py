@@ -25,7 +25,8 @@ from harness.cases import Case
 from harness.core.errors import SimulationDiverged
 from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, style
 from harness.core.tables import fmt, html_table, text_table
-from harness.engine.backends import simulate
+from harness.engine import backends
+from harness.engine.backends import Backend, simulate
 from harness.engine.compat import SOLVER_ITERATIONS
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
@@ -75,8 +76,10 @@ def _solver(name: str):
 
 
 def solver_study(case: Case, *, fast: bool = False, solvers: Sequence[str] = SOLVERS,
-                 plot: bool = True) -> SolverStudy:
-    """Force and position error and iterations used, per solver, at the shipped settings."""
+                 plot: bool = True, engine: Backend | None = None) -> SolverStudy:
+    """Force and position error and iterations used, per solver, at the shipped settings, every run on ``engine``
+    (default: MuJoCo's C engine)."""
+    engine = engine or backends.get("c")
     path = case.mjcf
     shipped = compile_model(path)
     horizon = min(case.horizon, FAST_HORIZON) if fast else case.horizon
@@ -92,7 +95,7 @@ def solver_study(case: Case, *, fast: bool = False, solvers: Sequence[str] = SOL
     for k, name in enumerate(solvers):
         model = compile_model(path, edit=_solver(name))
         try:
-            sim = simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps)
+            sim = simulate(engine, model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps)
         except SimulationDiverged as exc:  # a finding of the comparison, never a number
             rows.append(SolverRow(solver=name, force=np.nan, force_vs_first=np.nan, position=np.nan,
                                   iterations_mean=np.nan, iterations_max=0,

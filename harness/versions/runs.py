@@ -3,7 +3,7 @@ round-off level to measure each figure's noise.
 
 MuJoCo is deterministic on one machine: the same run gives the same bits, so "run-to-run noise" has to
 be made. Each release's check is repeated with every initial coordinate and velocity moved by
-±:data:`PERTURBATION` relative (``check --perturb``, :func:`harness.pipeline.run.perturbed`): a few
+±:data:`PERTURBATION` relative (``check --perturb``, :func:`harness.families.bench.perturbed`): a few
 units of float round-off, nothing physical, but enough that every rounding of the run — MuJoCo's, the
 reference solver's adaptive steps, the sampled states of the instant layer — falls differently. How far
 a figure moves then is how far round-off moves it, which is all that a release that only reorders

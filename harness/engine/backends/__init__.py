@@ -14,11 +14,12 @@ multipliers and violations, energy, generalized constraint force, readings.
 ``mjx-f64``  the same in float64 (``jax_enable_x64``).
 ``warp``     MuJoCo Warp on CPU (float32), in :mod:`.warp` where installed.
 
-Which backend runs is chosen for a whole case (:func:`use`, set by
-:func:`harness.pipeline.run.run_case`): every layer and every budget run of
-that case call :func:`simulate` / :func:`simulate_many` here, which go to the
-active backend. ``simulate_many`` is the batched call: a backend that can
-batch (``jax.vmap``, Warp worlds) runs the requests as one call.
+Which backend runs is chosen for a whole case (``RunOptions.backend``): the case's
+bench holds it (:attr:`harness.families.bench.Bench.engine`) and passes it to
+every family and every budget run, which call :func:`simulate` (one run) or
+:meth:`Backend.simulate_many` (the batched call: a backend that can batch,
+``jax.vmap`` or Warp worlds, runs the requests as one call) on it. Nothing reads
+a backend from ambient state.
 
 ``forward_many`` is the instantaneous layer's call: the backend's forward
 dynamics at given states (no time integration), one row per state, as one
@@ -30,11 +31,9 @@ C engine's.
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import importlib
 import importlib.util
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -121,7 +120,7 @@ class Backend(Protocol):
         name: as in :data:`BACKENDS`.
         precision: ``float64`` or ``float32``: the arithmetic its state is stepped in.
         epsilon: that arithmetic's machine epsilon: the error budget's round-off part scales with it
-            (:mod:`harness.budget.trajectory`).
+            (:mod:`harness.families.runs`).
     """
 
     name: str
@@ -194,39 +193,9 @@ def get(name: str) -> Backend:
     return _loaded[name]
 
 
-_active: contextvars.ContextVar[str] = contextvars.ContextVar("backend", default="c")
-
-
-def active() -> Backend:
-    """The backend the current case runs on (``c`` unless :func:`use` says otherwise)."""
-    return get(_active.get())
-
-
-@contextlib.contextmanager
-def use(name: str) -> Iterator[Backend]:
-    """Run everything inside on backend ``name``."""
-    backend = get(name)
-    token = _active.set(name)
-    try:
-        yield backend
-    finally:
-        _active.reset(token)
-
-
-def simulate(model: mujoco.MjModel, probe: Probe, *, q0: Sequence[float], qd0: Sequence[float],
+def simulate(engine: Backend, model: mujoco.MjModel, probe: Probe, *, q0: Sequence[float], qd0: Sequence[float],
              steps: int) -> Trajectory:
-    """One run on the active backend (:func:`harness.engine.simulate.simulate`'s contract)."""
-    backend = active()
-    if backend.name == "c":  # the C recorders as they always ran: bit for bit the default install's numbers
+    """One run on ``engine`` (:func:`harness.engine.simulate.simulate`'s contract)."""
+    if engine.name == "c":  # the C recorders as they always ran: bit for bit the default install's numbers
         return c_simulate(model, probe, q0=q0, qd0=qd0, steps=steps)
-    return backend.simulate_many([Request(model, np.asarray(q0, float), np.asarray(qd0, float), steps)], probe)[0]
-
-
-def simulate_many(requests: Sequence[Request], probe: Probe) -> list[Trajectory]:
-    """Every request's run on the active backend, as one batched call where it allows."""
-    return active().simulate_many(requests, probe)
-
-
-def forward_many(model: mujoco.MjModel, probe: Probe, qpos: np.ndarray, qvel: np.ndarray) -> Forward:
-    """The active backend's forward dynamics at every state (:meth:`Backend.forward_many`)."""
-    return active().forward_many(model, probe, np.asarray(qpos, float), np.asarray(qvel, float))
+    return engine.simulate_many([Request(model, np.asarray(q0, float), np.asarray(qd0, float), steps)], probe)[0]

@@ -1,4 +1,5 @@
-"""The work–energy balance: a model's motion judged as it is, with every force acting, whatever the forces are.
+"""The balance family: a model's motion judged as it is, with every force acting, whatever the forces are, by the
+work–energy balance.
 
 Where a model the user brings has forces its tree reference does not model (contacts, joint limits, dry
 friction, fluid forces, spatial tendons, …: :func:`harness.reference.tree.uncovered`), the comparison with the
@@ -32,14 +33,20 @@ from collections.abc import Callable, Mapping, Sequence
 import mujoco
 import numpy as np
 
+from harness.cases import Case
 from harness.core.budget import Budget
+from harness.core.checks import Limit
 from harness.core.errors import SimulationDiverged, UnmodelledElement
 from harness.core.figures import Figure, FigureName
-from harness.engine.backends import Request, simulate_many
+from harness.engine.backends import Backend, Request
+from harness.engine.integrators import EXPECTED_ORDER
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
 from harness.engine.readings import Reading
 from harness.engine.simulate import steps_in
+from harness.engine.variants import compose
+from harness.families.bench import Bench, Measured
+from harness.reference.tree import TreeEdit
 
 POWER_FIELDS = ("qfrc_passive", "qfrc_spring", "qfrc_actuator", "qfrc_constraint", "qfrc_applied")
 
@@ -77,7 +84,7 @@ ROUNDOFF_PER_STEP = 64 * np.finfo(float).eps
 """The round-off a step leaves in E and in the work, relative to the energy scale (the float64 allowance of the
 trajectory budget, harness/core/budget.py), accumulating as a random walk."""
 RESOLVED = 0.5
-"""As the trajectory budget's (harness/budget/trajectory.py): a next-order term above half the leading one, on a
+"""As the trajectory budget's (harness/families/runs.py): a next-order term above half the leading one, on a
 balance above :data:`ASYMPTOTIC` of the energy scale, means h, h/2, h/4 are no converging sequence (gymnasium's ant:
 its balances 2.4-14 × m g L with a next order 0.7-2.6 × the leading term)."""
 ASYMPTOTIC = 0.01
@@ -157,11 +164,12 @@ def observed_order(levels: Sequence[np.ndarray], documented: float) -> float:
 
 def balance_figures(path, edit: Callable[[mujoco.MjSpec], None] | None, binding, *, integrators: Sequence[str],
                     q0: np.ndarray, qd0: np.ndarray, horizon: float, energy_scale: float, orders: Mapping[str, int],
-                    not_examined: Sequence[str], power: Reading = POWER
+                    not_examined: Sequence[str], engine: Backend, power: Reading = POWER
                     ) -> tuple[list[Figure], dict[str, Budget], dict[str, str], dict[str, str]]:
     """Each integrator's ``INTEGRATOR.balance`` figure (max |B| over the horizon / ``energy_scale``), its budget, and
     the runs that diverged (by figure name, with why), for the model at ``path`` compiled with ``edit`` (as it is:
-    nothing switched off), started from (q0, q̇0) through ``binding``. ``power``: what counts as the work done
+    nothing switched off), started from (q0, q̇0) through ``binding``, every run on ``engine``. ``power``: what
+    counts as the work done
     (:data:`POWER`; the tests leave a force out of it to show the balance sees it)."""
     probe = Probe(binding=binding, points=(), constraints=(),
                   series={"power": power, **{f"force {k}": reading for k, reading in enumerate(FORCES.values())}})
@@ -178,7 +186,7 @@ def balance_figures(path, edit: Callable[[mujoco.MjSpec], None] | None, binding,
         requests = [Request(compile_model(path, integrator=name, timestep=h / k, edit=edit), q0, qd0, steps * k)
                     for k in (1, 2, 4)]
         try:
-            runs = simulate_many(requests, probe)
+            runs = engine.simulate_many(requests, probe)
         except (SimulationDiverged, UnmodelledElement) as exc:
             diverged[str(fig)] = exc.reason
             continue
@@ -231,3 +239,40 @@ def balance_figures(path, edit: Callable[[mujoco.MjSpec], None] | None, binding,
                                           f"{worst * h:.3g} s{blame}"))
     return figures, {k: v for k, v in budgets.items() if k not in unresolved}, diverged, unresolved
 
+
+# ----------------------------------------------------------------- the family
+NAME = "balance"
+
+
+def owns(name: FigureName) -> bool:
+    return name.layer == "trajectory" and name.quantity == "balance"
+
+
+def names(case: Case, model: mujoco.MjModel) -> set[FigureName]:
+    if case.tree is None or not case.tree.uncovered:
+        return set()
+    return {FigureName.trajectory(integrator, "balance") for integrator in EXPECTED_ORDER}
+
+
+def gated(name: FigureName, *, constrained: bool) -> bool:
+    return True
+
+
+def theory_limit(name: FigureName) -> Limit | None:
+    return None
+
+
+def measure(bench: Bench) -> Measured:
+    """The balance of each integrator's run, where the model has forces its tree reference does not model (they
+    were switched off for the comparison): the model as it is, every force acting."""
+    case = bench.case
+    if case.tree is None or not case.tree.uncovered:
+        return Measured()
+    as_is = compose(TreeEdit(isolating=False, ctrl=case.tree.ctrl), bench.options.edit)
+    ref = bench.reference
+    found, budgets, diverged, unjudged = bench.timed(NAME, lambda: balance_figures(
+        bench.path, as_is, bench.probe.binding, integrators=tuple(bench.sims), q0=ref.q0(), qd0=ref.qd0(),
+        horizon=case.horizon, energy_scale=ref.scales.energy, orders=EXPECTED_ORDER,
+        not_examined=tuple(dict(case.tree.uncovered)), engine=bench.engine))
+    return Measured(figures=tuple(found), budgets=budgets, diverged=diverged,
+                    unmeasured=unjudged)  # n/a with why: impacts the timestep does not resolve

@@ -1,8 +1,8 @@
-"""Layer 4: observed convergence order of every MuJoCo integrator vs. its documented order.
+"""The convergence family: the observed convergence order of every MuJoCo integrator vs. its documented order.
 
-This module computes (ladders of runs, fitted orders, the gated
-``converge.*`` figures); :mod:`harness.studies.convergence` renders a study
-as tables and plots.
+Figures ``converge.INTEGRATOR.order_shortfall`` = max(0, documented − observed order), every one gated with a
+limit from theory (:data:`ORDER_TOLERANCE`, the fit's floor bias below). This module computes (ladders of runs,
+fitted orders, the figures); the same study at more timesteps is a report page (:mod:`harness.studies`).
 
 For each integrator the case is run at a ladder of timesteps h (each a power
 of two times the shipped timestep) over one horizon T shared by the ladder;
@@ -12,19 +12,8 @@ The observed order is the least-squares slope of log(error) against log(h)
 over the asymptotic range: points whose error is a small fraction of the
 case's length (not saturated) and well above any error floor.
 
-Expected orders come from MuJoCo's documentation, never from a measurement
-(doc/computation/index.rst, "Numerical integration" and "Integrators"):
-
-- ``Euler``: semi-implicit Euler, v⁺ = v + h a, q⁺ = q + h v⁺ (eq_semimplicit);
-  with no joint damping the implicit-damping variant reduces to it. 1st order.
-- ``implicit``, ``implicitfast``: one Newton step of implicit-in-velocity
-  Euler, v⁺ = v + h M̂⁻¹ M a, q⁺ = q + h v⁺ (eq_implicit_update). 1st order.
-- ``discrete``: "the same implicit update inside the constraint solve"
-  (eq_discrete_update), qacc "as h → 0 converges to the continuous
-  acceleration", and "the specified damping ratio is recovered as h → 0":
-  an Euler-type one-step method, 1st order. Absent before MuJoCo 4; where it
-  is absent the study says so in its rows, table and plot.
-- ``RK4``: "the fixed-step 4th-order Runge-Kutta method". 4th order.
+Expected orders are the documented ones (:data:`harness.engine.integrators.EXPECTED_ORDER`, with the
+documentation's passages).
 
 Error floors. An error that stops decreasing with h is a floor, not an order:
 the two smallest-h points decide (a local slope below ``PLATEAU_SLOPE``);
@@ -69,19 +58,20 @@ import numpy as np
 
 from harness.cases import Case
 from harness.core.budget import ROUNDOFF_EPS
+from harness.core.checks import Limit
 from harness.core.errors import SimulationDiverged
 from harness.core.figures import Figure, FigureName
 from harness.core.trajectory import Trajectory
-from harness.engine.backends import Request, active, simulate, simulate_many
+from harness.engine import backends
+from harness.engine.backends import Backend, Request, simulate
 from harness.engine.compat import joint_types, known_defect
-from harness.engine.integrators import available_integrators
+from harness.engine.integrators import EXPECTED_ORDER, available_integrators
 from harness.engine.models import compile_model
 from harness.engine.simulate import steps_in
 from harness.engine.variants import exact_solver, floors_pair, point_masses
+from harness.families.bench import Bench, Measured
 from harness.reference import solutions as refmod
 
-# Documented order of accuracy (see the module docstring for the doc passages).
-EXPECTED_ORDER: Mapping[str, int] = {"Euler": 1, "implicit": 1, "implicitfast": 1, "RK4": 4, "discrete": 1}
 ORDER_TOLERANCE = 0.3   # pass when observed ≥ expected − 0.3 (floor bias ≤ 0.14, see above)
 FLOOR_FACTOR = 10.0     # fit only errors above 10 × the detected floor
 PLATEAU_SLOPE = 0.5     # a local slope below this at the smallest h marks a floor
@@ -403,13 +393,13 @@ def _tree_ladder(integrator: str, fast: bool, error_at_h: float) -> tuple[float,
 
 
 def _error_at(path: Path, integrator: str, h: float, edit, case: Case, reference: refmod.Reference,
-              span: float) -> float:
+              span: float, engine: Backend) -> float:
     """The worst point's position error of one run at the model's own timestep over ``span``, / L (inf where it
     diverges: the ladder then goes down)."""
     probe = case.probe(reference.dynamics)
     model = compile_model(path, integrator=integrator, timestep=h, edit=edit)
     try:
-        sim = simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps_in(span, h))
+        sim = simulate(engine, model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps_in(span, h))
     except SimulationDiverged:
         return math.inf
     return _point_error(sim.positions, refmod.trajectory(reference, sim.t).positions) / reference.scales.length
@@ -424,12 +414,12 @@ def _force_error(sim: Trajectory, ref: Trajectory) -> float:
     return max(float(np.max(np.abs(sim.multipliers[c] - ref.multipliers[c]))) for c in names)
 
 
-def roundoff_floor(steps: float, length: float) -> float:
+def roundoff_floor(steps: float, length: float, epsilon: float) -> float:
     """The round-off a run of ``steps`` steps carries in the active backend's arithmetic (m):
     :data:`~harness.core.budget.ROUNDOFF_EPS` machine epsilons a step, a random walk, × the case's
     length. 3e-12 m for 10⁴ float64 steps; 8e-4 m in float32 (MJX, Warp), where an RK4 error below it
     stops decreasing with h: a floor, not an order."""
-    return ROUNDOFF_EPS * active().epsilon * math.sqrt(max(steps, 1.0)) * length
+    return ROUNDOFF_EPS * epsilon * math.sqrt(max(steps, 1.0)) * length
 
 
 def explained_floor(fit: OrderFit, effects: Mapping[str, float]) -> str:
@@ -458,6 +448,7 @@ def convergence_study(
     timestep: float | None = None,
     edit: Callable[[mujoco.MjSpec], None] | None = None,
     reference: refmod.Reference | None = None,
+    engine: Backend | None = None,
 ) -> ConvergenceStudy:
     """Error vs timestep for each integrator of ``case``, with fitted and expected orders.
 
@@ -467,9 +458,9 @@ def convergence_study(
     shipped model's timestep, whatever timestep is tested; ``timestep`` only
     sets the model the reference and softness are read from), while
     the reference is built from the model so made. ``reference`` reuses a solved
-    reference whose horizon covers the study's. The study carries no plot
-    (:func:`harness.studies.convergence.convergence_study` adds one).
+    reference whose horizon covers the study's. Every run goes to ``engine`` (default: MuJoCo's C engine).
     """
+    engine = engine or backends.get("c")
     available = available_integrators()
     chosen = list(integrators) if integrators is not None else list(available)
     for name in chosen:
@@ -489,7 +480,8 @@ def convergence_study(
         if base.neq:  # above the model's own step a stiff equality is another constraint (refsafe: τ raised to 2h)
             multiples = {n: _tree_ladder(n, fast, math.inf) for n in chosen}
         else:
-            multiples = {n: _tree_ladder(n, fast, _error_at(path, n, h0, edit, case, reference, span)) for n in chosen}
+            multiples = {n: _tree_ladder(n, fast, _error_at(path, n, h0, edit, case, reference, span, engine))
+                         for n in chosen}
     elif refsafe_off(base):  # no 2h floor on the time constants: above h a stiff row is unstable, not softer
         multiples = {n: tuple(k / max(m) for k in m) for n, m in multiples.items()}
     h_max = h0 * max(max(m) for m in multiples.values())
@@ -507,7 +499,8 @@ def convergence_study(
     def run(name: str, h: float, extra: Callable[[mujoco.MjSpec], None] | None) -> Trajectory | None:
         model = compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra))
         try:
-            return simulate(model, probe, q0=reference.q0(), qd0=reference.qd0(), steps=steps_in(horizon, h))
+            return simulate(engine, model, probe, q0=reference.q0(), qd0=reference.qd0(),
+                            steps=steps_in(horizon, h))
         except SimulationDiverged as exc:
             softer = " with 1 − d doubled" if extra is not None else ""
             diverged.setdefault(name, f"{exc.reason} (h = {h:g} s{softer})")
@@ -520,7 +513,8 @@ def convergence_study(
         if not bodies:
             return math.nan
         try:
-            runs = [simulate(compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra)), probe,
+            runs = [simulate(engine, compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra)),
+                             probe,
                              q0=reference.q0(), qd0=reference.qd0(), steps=steps_in(horizon, h))
                     for extra in floors_pair(base, bodies)]
         except SimulationDiverged:
@@ -533,7 +527,7 @@ def convergence_study(
             requests = [Request(compile_model(path, integrator=name, timestep=h,
                                               edit=_compose(edit, quadruple_softness)),
                                 reference.q0(), reference.qd0(), steps_in(horizon, h)) for h in dts]
-            return dict(zip(dts, simulate_many(requests, probe), strict=True))
+            return dict(zip(dts, engine.simulate_many(requests, probe), strict=True))
         except (SimulationDiverged, ValueError):
             return dict.fromkeys(dts)
 
@@ -542,7 +536,7 @@ def convergence_study(
         dts = tuple(h0 * k for k in multiples[name])
         errs: dict[str, list[float]] = {"position": [], "position@rigid": [], "softness": [], "force": []}
         ladder = _ladder_runs(run, name, dts, double_softness if constrained else None, probe=probe, path=path,
-                              edit=edit, start=(reference.q0(), reference.qd0()), horizon=horizon)
+                              edit=edit, start=(reference.q0(), reference.qd0()), horizon=horizon, engine=engine)
         for h in dts:
             sim, soft = ladder[h]
             if sim is None or (constrained and soft is None):  # the series says why (Series.diverged)
@@ -578,9 +572,9 @@ def convergence_study(
             if quantity == gated and not note and fit.n_used < 2 and fit.floor is not None:
                 softness = [v for v in errs["softness"] if math.isfinite(v)]
                 effects = {"softness": max(softness, default=math.nan), "inertia floor": floor_effect(name, dts[-1])}
-                if active().epsilon > float(np.finfo(np.float64).eps):  # float32 backends: round-off is a floor too
-                    effects[f"{active().precision} round-off"] = roundoff_floor(steps_in(horizon, min(dts)),
-                                                                                scales.length)
+                if engine.epsilon > float(np.finfo(np.float64).eps):  # float32 backends: round-off is a floor too
+                    effects[f"{engine.precision} round-off"] = roundoff_floor(steps_in(horizon, min(dts)),
+                                                                              scales.length, engine.epsilon)
                 note = explained_floor(fit, effects)
             series.append(Series(
                 integrator=name, quantity=quantity, unit=unit, dts=dts, errors=values, fit=fit,
@@ -594,14 +588,16 @@ def convergence_study(
 
 
 def _ladder_runs(run: Callable, name: str, dts: Sequence[float], softer: Callable | None, *, probe, path: Path,
-                 edit: Callable | None, start: tuple[np.ndarray, np.ndarray], horizon: float) -> dict[float, tuple]:
+                 edit: Callable | None, start: tuple[np.ndarray, np.ndarray], horizon: float,
+                 engine: Backend) -> dict[float, tuple]:
     """Every run of one integrator's ladder (each timestep, and with 1 − d doubled where constrained), as one
-    batched call to the backend (:func:`harness.engine.backends.simulate_many`); where any run diverges the
+    batched call to ``engine`` (:meth:`harness.engine.backends.Backend.simulate_many`); where any run diverges the
     ladder is run one by one, so that each diverged run is told apart as before."""
     extras = (None, softer) if softer is not None else (None,)
     keys = [(h, extra) for h in dts for extra in extras]
     try:
-        trajs = simulate_many([Request(compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra)),
+        trajs = engine.simulate_many([Request(compile_model(path, integrator=name, timestep=h,
+                                                     edit=_compose(edit, extra)),
                                        *start, steps_in(horizon, h)) for h, extra in keys], probe)
         done = dict(zip(keys, trajs, strict=True))
     except SimulationDiverged:
@@ -624,3 +620,45 @@ def order_figures(study: ConvergenceStudy) -> list[Figure]:
             f"max(0, documented order {s.expected:g} − observed {s.fit.order:.2f}) of the {s.quantity} error "
             f"over T = {study.horizon:g} s, fitted on h = {', '.join(used) or 'none'} ms{floor}"))
     return figs
+
+
+# ----------------------------------------------------------------- the family
+NAME = "convergence"
+ORDER_REASON = ("max(0, documented − observed order) ≤ 0.3: a floor at 1/10 of the smallest fitted error biases the "
+                "fitted slope by ≤ 0.14 (harness/families/convergence.py)")
+
+
+def owns(name: FigureName) -> bool:
+    return name.layer == "converge"
+
+
+def names(case: Case, model: mujoco.MjModel) -> set[FigureName]:
+    return {FigureName.converge(integrator, "order_shortfall") for integrator in EXPECTED_ORDER}
+
+
+def gated(name: FigureName, *, constrained: bool) -> bool:
+    return True
+
+
+def theory_limit(name: FigureName) -> Limit | None:
+    if name.layer == "converge" and name.quantity == "order_shortfall":
+        return Limit("theory", ORDER_TOLERANCE, ORDER_REASON)
+    return None
+
+
+def measure(bench: Bench) -> Measured:
+    """The fast subset of the study on the integrators whose run over the horizon did not diverge (one that
+    diverged has no ladder: its order's verdict is that run's)."""
+    sims = bench.sims
+    if not sims:
+        return Measured()
+    study = bench.timed("converge", lambda: convergence_study(
+        bench.case, fast=True, integrators=list(sims), mjcf=bench.path, timestep=bench.options.timestep,
+        edit=bench.mut.edit, reference=bench.reference, engine=bench.engine))
+    gated_quantity = VERDICT_QUANTITY[study.constrained]
+    return Measured(
+        figures=tuple(order_figures(study)),
+        diverged={f"converge.{s.integrator}": s.diverged for s in study.verdicts if s.diverged},
+        orders={s.integrator: s.fit.order for s in study.verdicts},
+        unmeasured={str(FigureName.converge(s.integrator, "order_shortfall")): s.note for s in study.series
+                    if s.quantity == gated_quantity and s.expected is None and s.note and not s.diverged})

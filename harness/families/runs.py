@@ -1,4 +1,9 @@
-"""The budget of the trajectory figures: MuJoCo's run extrapolated to the ideal limits, against the reference.
+"""The runs over the horizon: each integrator's run at the model's settings, the variants its budget needs, and the
+budget of every figure compared over a run — MuJoCo's run extrapolated to the ideal limits, against the reference.
+
+What is compared over a run is the families' (:mod:`harness.families.trajectory`, :mod:`harness.families.invariants`:
+:data:`Compare`); every run, variants included, is compared by all of them at once, so that each decision about
+an integrator's runs (whether h/4 is needed, whether its runs can be budgeted at all) sees every figure.
 
 For one integrator the model runs several ways (:mod:`harness.engine.variants`),
 each a :class:`~harness.core.deviation.Deviation` per figure (MuJoCo minus the
@@ -28,7 +33,7 @@ documented order):
   at each softness level the same correction, κ(C − E) at sε, and for s²ε the
   line through those two (the bilinear model: integration error linear in ε);
 - softness: the levels at h → 0 (x₀(ε) = A − κ(A − B), …) extrapolated to
-  ε → 0 (:func:`~harness.budget.extrapolate.to_zero`): linearly from two
+  ε → 0 (:func:`~harness.core.budget.to_zero`): linearly from two
   levels (the documented sag a_u ε τ² and force error −(A + R)⁻¹Rλ, R ∝
   ε/(1 − ε), are linear near the rigid limit), quadratically from three —
   from MuJoCo's default solimp (ε = 0.1, 0.05 over a 1 mm width) the effect
@@ -105,28 +110,97 @@ the figure's unit):
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
+import mujoco
 import numpy as np
 
-from harness.budget.extrapolate import richardson, to_zero
-from harness.core.budget import PERTURBED_FACTOR, QUANTIZATION, READ_ULPS, ROUNDOFF_EPS, Budget
+from analytic.systems import Scales
+from harness.cases import Series
+from harness.core.budget import (
+    FLOOR_UNCERTAINTY,
+    PERTURBED_FACTOR,
+    PERTURBED_RUNS,
+    QUANTIZATION,
+    READ_ULPS,
+    REFERENCE,
+    ROUNDOFF_EPS,
+    SOFTNESS_UNCERTAINTY,
+    SOLVER,
+    SOLVER_PART_UNCERTAINTY,
+    Budget,
+    richardson,
+    to_zero,
+    ulp_states,
+)
 from harness.core.deviation import Deviation
+from harness.core.errors import SimulationDiverged
 from harness.core.figures import FigureName
 from harness.core.trajectory import Trajectory
+from harness.engine import variants as V
+from harness.engine.backends import Backend, Request, simulate
+from harness.engine.compat import applicable_defect, joint_types
+from harness.engine.integrators import EXPECTED_ORDER, integrator_name
+from harness.engine.probe import Probe
+from harness.engine.simulate import simulate as c_simulate
 
 INTEGRATION_UNCERTAINTY = 0.25
-SOFTNESS_UNCERTAINTY = 0.25
-FLOOR_UNCERTAINTY = 0.1
 ROUNDOFF = ROUNDOFF_EPS * float(np.finfo(float).eps)
-REFERENCE = 50.0
-SOLVER = 10.0
 ASYMPTOTIC = 0.01
-SOLVER_PART_UNCERTAINTY = 0.1
 
 
+# ----------------------------------------------------------------- what a run is compared with
+Compare = Callable[["Target", Trajectory, str], list[Deviation]]
+"""A family's comparison of one run (named by its integrator) with the reference: its figures as deviations, a row
+per sample on the grid of the run at h."""
+
+
+@dataclass(frozen=True)
+class Target:
+    """What every run is compared with: the reference on the runs' grid, the case's scales, settle time and
+    MuJoCo-only series, the state every run starts from, the reference's tolerance, and the families'
+    comparisons (:data:`Compare`, in family order)."""
+
+    reference: Trajectory
+    scales: Scales
+    settle: float
+    series: Mapping[str, Series]
+    q0: np.ndarray
+    qd0: np.ndarray
+    rtol: float
+    compare: tuple[Compare, ...] = ()
+
+
+def _check_grid(ref: Trajectory, sim: Trajectory) -> None:
+    if ref.t.shape != sim.t.shape or not np.allclose(ref.t, sim.t, rtol=0, atol=1e-9):
+        raise ValueError("trajectories must share one time grid")
+    if set(ref.positions) != set(sim.positions):
+        raise ValueError(f"point names differ: {sorted(ref.positions)} vs {sorted(sim.positions)}")
+
+
+def compared(target: Target, sim: Trajectory, prefix: str) -> list[Deviation]:
+    """``sim`` (on the grid of the run at h) compared with the reference by every family, its figures named
+    ``prefix`` (the integrator)."""
+    _check_grid(target.reference, sim)
+    return [d for compare in target.compare for d in compare(target, sim, prefix)]
+
+
+def point_differences(a: Mapping[str, np.ndarray], b: Mapping[str, np.ndarray]) -> np.ndarray:
+    """a − b per point, stacked: shape (N, points, 3)."""
+    return np.stack([a[p] - b[p] for p in a], axis=1)
+
+
+def largest(values: np.ndarray, *, vector: bool = False) -> float:
+    """The largest entry's size (the largest vector norm with ``vector``); 0 for no entries."""
+    if values.size == 0:
+        return 0.0
+    return float(np.max(np.linalg.norm(values, axis=-1) if vector else np.abs(values)))
+
+
+# ----------------------------------------------------------------- the budget's arithmetic
 @dataclass(frozen=True)
 class Runs:
     """One integrator's runs of the model (see the module docstring), each as its deviations from the
@@ -148,10 +222,10 @@ class Runs:
             its masses an ulp or two away (:func:`~harness.engine.variants.roundoff_copy`): their
             spread measures A's round-off (empty on float64, where :data:`ROUNDOFF` applies).
         represented: on a float32 backend, each figure's shift (by measure) with the model's constants and
-            the initial state held in float32 (:func:`harness.budget.measure._represented`): what every copy
+            the initial state held in float32 (:func:`_represented`): what every copy
             shares, so none measures it.
         quantized: on a float32 backend, each figure's response (by measure) to the initial state moved by
-            half an ulp, on the C engine (:func:`harness.budget.measure._quantized`): × :data:`QUANTIZATION`,
+            half an ulp, on the C engine (:func:`_quantized`): × :data:`QUANTIZATION`,
             the state's own quantization.
         completed: on a float32 backend with constraints, A with each sample's stopped solve completed in
             float64 (:attr:`harness.core.trajectory.Trajectory.completed`); every other run is then taken
@@ -381,3 +455,286 @@ def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_toleran
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
                                tolerance=tolerance, notes=tuple(notes))
     return out
+
+
+# ----------------------------------------------------------------- the runs
+def _completed(sim: Trajectory) -> Trajectory:
+    """A variant run as the budget compares it: with its stopped solves completed where the backend's were
+    (:attr:`harness.core.trajectory.Trajectory.completed`), so that two runs differ by their settings, not by
+    where each run's float32 solver stopped."""
+    return sim if sim.completed is None else sim.completed
+
+
+def _variant_request(mut: V.ModelUnderTest, engine: Backend, target: Target, model: mujoco.MjModel, *, steps: int,
+                     split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0, perturb: int = 0) -> Request:
+    """One variant of ``model`` (:func:`~harness.engine.variants.variant`) over the horizon, its constraints
+    solved exactly where the model's own solver does not converge; ``perturb`` > 0: a round-off copy of the
+    run at h (:func:`~harness.engine.variants.roundoff_copy`)."""
+    exact = V.exact_solver(model)
+    edit = V.compose(exact, V.variant(model, split=split, eps_factor=eps_factor, tc_factor=tc_factor))
+    name = integrator_name(model)
+    h = float(model.opt.timestep)
+    m = mut.compile(integrator=name, timestep=h / split if split > 1 else None, variant=edit)
+    if perturb:
+        m = V.roundoff_copy(m, epsilon=engine.epsilon, index=perturb)
+    return Request(m, np.asarray(target.q0, float), np.asarray(target.qd0, float), split * steps)
+
+
+Variant = tuple[int, float, float] | tuple[int, float, float, int]
+"""(split, eps_factor, tc_factor) of :func:`_variant_request`, and optionally its ``perturb``."""
+
+
+def _variant_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: Target, model: mujoco.MjModel, *,
+                  steps: int, variants: Sequence[Variant]) -> list[list[Deviation]]:
+    """Variants (split, eps_factor, tc_factor[, perturb]) of ``model``, run as one batched call to the backend
+    (:meth:`harness.engine.backends.Backend.simulate_many`), each as its deviations on the grid of the run at h."""
+    requests = [_variant_request(mut, engine, target, model, steps=steps, split=v[0], eps_factor=v[1], tc_factor=v[2],
+                                 perturb=v[3] if len(v) > 3 else 0) for v in variants]
+    sims = engine.simulate_many(requests, probe)
+    name = integrator_name(model)
+    return [compared(target, every_nth(_completed(sim) if len(v) < 4 or not v[3] else sim, v[0]), name)
+            for sim, v in zip(sims, variants, strict=True)]
+
+
+def _variant_run(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: Target, model: mujoco.MjModel, *,
+                 steps: int, split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0) -> list[Deviation]:
+    """One variant of ``model`` run over the horizon, as its deviations on the grid of the run at h."""
+    return _variant_runs(mut, probe, engine, target, model, steps=steps, variants=[(split, eps_factor, tc_factor)])[0]
+
+
+def _floors(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: Target, sims: Mapping[str, Trajectory],
+            bodies: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """D − A per figure measure: the point masses' floors doubled (both runs without fluid forces where the
+    model has them: :func:`~harness.engine.variants.floors_pair`), run once with the most accurate integrator
+    (a floor moves an explicit integrator's error too: a ball joint's spin carries the floor alone),
+    shared by every integrator: a floor is physics, not integration."""
+    name = "RK4" if "RK4" in sims else next(iter(sims))
+    steps = len(sims[name].t) - 1
+    model = mut.compile(integrator=name)
+    exact = V.exact_solver(model)
+    lighter, more = V.floors_pair(model, bodies)
+    heavier = simulate(engine, mut.compile(integrator=name, variant=V.compose(exact, more)),
+                       probe, q0=target.q0, qd0=target.qd0, steps=steps)
+    base = sims[name] if exact is None and lighter is None else \
+        simulate(engine, mut.compile(integrator=name, variant=V.compose(exact, lighter)), probe, q0=target.q0,
+                 qd0=target.qd0, steps=steps)
+    as_is = {d.name.measure: d.values for d in compared(target, _completed(base), name)}
+    return {d.name.measure: d.values - as_is[d.name.measure] for d in compared(target, _completed(heavier), name)}
+
+
+def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: Target, sim: Trajectory,
+                     name: str, *, order: float, variants: V.Variants, floors: Mapping[str, np.ndarray] | None) -> Runs:
+    model = mut.compile(integrator=name)
+    steps = len(sim.t) - 1
+    eps = V.softness_factor(model)
+    slow = V.TIMECONST_FACTOR
+    levels = (eps, eps * eps) if eps < 1 else (eps,)
+
+    def run(split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0) -> list[Deviation]:
+        return _variant_run(mut, probe, engine, target, model, steps=steps, split=split, eps_factor=eps_factor,
+                            tc_factor=tc_factor)
+
+    as_is = compared(target, sim, name)
+    # every variant that does not wait on another's result, as one batched call to the backend
+    plan: dict[str, Variant] = {"half_step": (2, 1.0, 1.0)}
+    if not V.solver_converges(model):
+        plan["converged"] = (1, 1.0, 1.0)
+    if variants.soft:
+        plan |= {f"softness{k}": (1, f, 1.0) for k, f in enumerate(levels)} | {"softness_half_step": (2, eps, 1.0)}
+    if variants.contacts:
+        plan |= {f"slower{k}": (1, f, slow) for k, f in enumerate((1.0, *levels))}
+    float32 = engine.epsilon > float(np.finfo(np.float64).eps)
+    if float32:  # the run's round-off, measured by copies one ulp apart (the module docstring)
+        plan |= {f"perturbed{k}": (1, 1.0, 1.0, k) for k in range(1, PERTURBED_RUNS + 1)}
+    done = dict(zip(plan, _variant_runs(mut, probe, engine, target, model, steps=steps, variants=list(plan.values())),
+                    strict=True))
+    half_step = done["half_step"]
+    converged = done.get("converged")
+    asymptotic = not past_asymptotic(converged or as_is, half_step, order) and V.steps_per_timeconst(model) <= 0.5
+    represented = _represented(probe, target, model, steps=steps) if float32 else {}
+    quantized = _quantized(probe, target, model, steps=steps) if float32 else {}
+    return Runs(
+        as_is=as_is,
+        half_step=half_step,
+        converged=converged,
+        quarter_step=None if asymptotic else run(4),
+        softness=tuple(done[f"softness{k}"] for k in range(len(levels))) if variants.soft else (),
+        softness_half_step=done["softness_half_step"] if variants.soft else None,
+        slower=tuple(done[f"slower{k}"] for k in range(1 + len(levels))) if variants.contacts else (),
+        floors=floors,
+        perturbed=tuple(done[f"perturbed{k}"] for k in range(1, PERTURBED_RUNS + 1)) if float32 else (),
+        completed=None if sim.completed is None else compared(target, sim.completed, name),
+        represented=represented,
+        quantized=quantized,
+        eps_factor=eps, tc_factor=slow,
+    )
+
+
+def _represented(probe: Probe, target: Target, model: mujoco.MjModel, *, steps: int) -> dict[str, float]:
+    """Each figure's shift (by measure) when the model's constants and the initial state are held in float32:
+    the C engine in float64 runs :func:`~harness.engine.variants.represented_model` from the initial
+    coordinates rounded to float32, beside the model as it is. What a float32 backend holds differs so from
+    the model before its first step, and no round-off copy moves it (every copy holds the same numbers)."""
+    q0, qd0 = np.asarray(target.q0, float), np.asarray(target.qd0, float)
+    base = c_simulate(model, probe, q0=q0, qd0=qd0, steps=steps)
+    rounded = c_simulate(V.represented_model(model), probe, q0=q0.astype(np.float32).astype(float),
+                         qd0=qd0.astype(np.float32).astype(float), steps=steps)
+    rounded = dataclasses.replace(rounded, t=base.t)  # at the nominal times k h, as the backends record theirs
+    name = integrator_name(model)
+    return {a.name.measure: a.magnitude(b.values - a.values)
+            for a, b in zip(compared(target, base, name), compared(target, rounded, name), strict=True)}
+
+
+def _quantized(probe: Probe, target: Target, model: mujoco.MjModel, *, steps: int) -> dict[str, float]:
+    """Each figure's response (by measure) to the initial state moved by half an ulp of float32
+    (:func:`~harness.core.budget.ulp_states`, :data:`~harness.core.budget.PERTURBED_RUNS` seeds, the largest):
+    the C engine in float64, so the physics' answer to a state's quantization (a stiff constraint's force
+    spike), not arithmetic (:data:`~harness.core.budget.QUANTIZATION`)."""
+    q0, qd0 = np.asarray(target.q0, float), np.asarray(target.qd0, float)
+    eps = float(np.finfo(np.float32).eps)
+    name = integrator_name(model)
+    base = compared(target, c_simulate(model, probe, q0=q0, qd0=qd0, steps=steps), name)
+    out = {d.name.measure: 0.0 for d in base}
+    for k in range(1, PERTURBED_RUNS + 1):
+        moved = c_simulate(model, probe, q0=ulp_states(q0, epsilon=eps, seed=k),
+                           qd0=ulp_states(qd0, epsilon=eps, seed=PERTURBED_RUNS + k), steps=steps)
+        for a, b in zip(base, compared(target, moved, name), strict=True):
+            out[a.name.measure] = max(out[a.name.measure], a.magnitude(b.values - a.values))
+    return out
+
+
+def variant_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: Target,
+                 sims: Mapping[str, Trajectory], *, orders: Mapping[str, float]
+                 ) -> tuple[dict[str, Runs], dict[str, str]]:
+    """Every integrator's :class:`Runs`: ``sims`` (the runs at the model's
+    settings, by integrator) and the variants, each run from the same state over the same horizon; an
+    integrator past the asymptotic range (at its documented order in ``orders``) also at h/4. The second
+    result says, by integrator, why its budget could not be made (a variant run that diverged: then its
+    figures cannot be judged, and fail with that reason)."""
+    runs: dict[str, Runs] = {}
+    failed: dict[str, str] = {}
+    if not sims:
+        return runs, failed
+    variants = V.Variants.of(mut.compile(integrator=next(iter(sims))), target.scales.length, floors=mut.floors)
+    floors = None
+    if variants.point_masses:
+        try:
+            floors = _floors(mut, probe, engine, target, sims, variants.point_masses)
+        except SimulationDiverged as exc:
+            return runs, {name: f"the budget's run with the point masses' floors doubled {exc.reason}"
+                          for name in sims}
+    twins: list[tuple[float, Trajectory, str]] = []  # (order, run at h, the integrator whose variants it has)
+    for name, sim in sims.items():
+        twin = next((owner for order, other, owner in twins
+                     if order == orders[name] and _twins(sim, other, target.scales)), None)
+        if twin is not None:  # the same step map: its variants are the same runs
+            if twin in runs:
+                runs[name] = _renamed(runs[twin], name, compared(target, sim, name))
+            else:
+                failed[name] = failed[twin]
+            continue
+        twins.append((orders[name], sim, name))
+        try:
+            made = _integrator_runs(mut, probe, engine, target, sim, name, order=orders[name], variants=variants,
+                                    floors=floors)
+        except SimulationDiverged as exc:
+            failed[name] = f"a run of its budget (a variant at h/2, h/4 or softer) {exc.reason}"
+            continue
+        why = unresolved(made, order=orders[name], integrator=name)
+        if why:
+            failed[name] = why
+        else:
+            runs[name] = made
+    return runs, failed
+
+
+def _renamed(runs: Runs, integrator: str, as_is: Sequence[Deviation]) -> Runs:
+    """``runs`` as another integrator's, with that integrator's own run at h: every deviation's figure name
+    carries that integrator."""
+    def devs(values: Sequence[Deviation] | None) -> list[Deviation] | None:
+        if values is None:
+            return None
+        return [dataclasses.replace(d, name=FigureName(f"{integrator}.{d.name.measure}")) for d in values]
+
+    return dataclasses.replace(runs, as_is=list(as_is), half_step=devs(runs.half_step),
+                               converged=devs(runs.converged), quarter_step=devs(runs.quarter_step),
+                               softness=tuple(devs(r) for r in runs.softness),
+                               softness_half_step=devs(runs.softness_half_step),
+                               slower=tuple(devs(r) for r in runs.slower),
+                               perturbed=tuple(devs(r) for r in runs.perturbed), completed=devs(runs.completed))
+
+
+TWIN_TOLERANCE = 1e-9
+"""Two runs at the model's settings agreeing to this fraction of each recorded quantity's largest size are
+one step map's (:func:`_twins`)."""
+
+
+def _twins(a: Trajectory, b: Trajectory, scales: Scales) -> bool:
+    """Whether two integrators' runs at the model's settings are the same up to round-off: every recorded
+    number within :data:`TWIN_TOLERANCE` of its quantity's size (its largest value, and at least the case's
+    length for positions, violations and series, its force for multipliers: a violation of 1e-8 m differing
+    by 1e-16 m is round-off). Semi-implicit Euler, implicitfast and implicit are one step map where no
+    velocity-dependent force has a derivative (no damping, no actuator; for implicit, no Coriolis term):
+    their factorizations round differently (1e-13 relative here), nothing more. Their variant runs then
+    agree as closely, so those are made once and shared: each budget keeps its own run at h, and what the
+    sharing changes lies 1e-9 below the figure, under the round-off tolerance. A fault with a
+    velocity-dependent force (damping) separates them at first order in h and is budgeted for each."""
+    if len(a.t) != len(b.t):
+        return False
+    groups = [(a.positions, b.positions, scales.length), (a.velocities, b.velocities, 0.0),
+              (a.multipliers, b.multipliers, scales.force), (a.invariants, b.invariants, 0.0),
+              (a.violations, b.violations, scales.length), (a.series, b.series, scales.length)]
+    for left, right, floor in groups:
+        if set(left) != set(right):
+            return False
+        for key in left:
+            x, y = np.asarray(left[key], dtype=float), np.asarray(right[key], dtype=float)
+            size = max(float(np.max(np.abs(x))) if x.size else 0.0, floor)
+            if x.shape != y.shape or not np.all(np.abs(x - y) <= TWIN_TOLERANCE * size):
+                return False
+    return True
+
+
+def trajectory_budget(runs: Mapping[str, Runs], *, orders: Mapping[str, float], rtol: float,
+                      solver_tolerance: float, notes: Sequence[str] = (),
+                      epsilon: float = float(np.finfo(float).eps)) -> dict[FigureName, Budget]:
+    """Every trajectory figure's budget, each integrator's with its documented order in ``orders``;
+    ``epsilon``: the machine epsilon of the backend's arithmetic (the round-off part scales with it)."""
+    out: dict[FigureName, Budget] = {}
+    for name, r in runs.items():
+        steps = len(r.as_is[0].values) - 1 if r.as_is else 0
+        out |= budgets(r, order=orders[name], steps=steps, rtol=rtol, solver_tolerance=solver_tolerance,
+                       notes=notes, epsilon=epsilon)
+    return out
+
+
+@dataclass(frozen=True)
+class Budgets:
+    """Every run figure's budget (by name), and for an integrator a documented defect of this MuJoCo affects, each
+    of its figures' budget at the degraded order (``defect``); ``failed``: by integrator, why its runs could not be
+    budgeted (a variant that diverged, a timestep outside its asymptotic range)."""
+
+    budgets: Mapping[FigureName, Budget]
+    defect: Mapping[FigureName, Budget]
+    failed: Mapping[str, str]
+
+
+def budget(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: Target, sims: Mapping[str, Trajectory],
+           *, model: mujoco.MjModel, settle_note: str = "") -> Budgets:
+    """The budgets of every figure of ``sims`` (the runs at the model's settings, by integrator), each integrator's
+    at its documented order (:data:`~harness.engine.integrators.EXPECTED_ORDER`), from its variant runs on
+    ``engine``; ``model``: the model under test as compiled, whose solver, joints and settings the budget reads."""
+    runs, failed = variant_runs(mut, probe, engine, target, sims, orders=EXPECTED_ORDER)
+    variants = V.Variants.of(model, target.scales.length, floors=mut.floors)
+    solver_tolerance = variants.solver_tolerance  # the runs' solver: the model's, or Newton converged
+    if solver_tolerance and not V.solver_converges(model):
+        solver_tolerance = V.CONVERGED_TOLERANCE
+    notes = (*variants.notes, *((settle_note,) if settle_note else ()))
+    made = trajectory_budget(runs, orders=EXPECTED_ORDER, rtol=target.rtol, solver_tolerance=solver_tolerance,
+                             notes=notes, epsilon=engine.epsilon)
+    joints = joint_types(model)
+    defects = {name: d for name in runs if (d := applicable_defect(joints, name)) is not None}
+    defect = trajectory_budget({n: runs[n] for n in defects}, orders={n: d.order for n, d in defects.items()},
+                               rtol=target.rtol, solver_tolerance=solver_tolerance, notes=notes,
+                               epsilon=engine.epsilon) if defects else {}
+    return Budgets(budgets=made, defect=defect, failed=failed)

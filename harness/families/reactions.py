@@ -1,5 +1,5 @@
-"""Layer 2, reactions: MuJoCo's force, torque and accelerometer sensors and ``cfrc_int`` against the
-analytic reactions, at the instantaneous layer's sampled states.
+"""The reactions family: MuJoCo's force, torque and accelerometer sensors and ``cfrc_int`` against the
+analytic reactions, at the sampled states (:mod:`harness.families.sampled`).
 
 Every reaction sensor a model has (:func:`harness.engine.sensors.sensors`) is compared at its site,
 so adding a sensor to an MJCF file is all a case needs. The analytic side is
@@ -27,6 +27,9 @@ analytic |a − g|; ``instant.interaction.BODY``: the force and the moment / len
 force scale. Where the site's position enters (a moment's point, a load's line) it is MuJoCo's at
 the state, which the analytic side sets: kinematics, checked by ``instant.kinematics``; so is a
 weld's frame (its torquescale is the model's, which the analytic system reads too).
+
+Budget: the sampled states' (:mod:`harness.families.sampled`), as the instantaneous family's. Every figure
+is gated; one the backend's arrays cannot give is n/a with why, one the model makes unmeasurable fails with why.
 """
 
 from __future__ import annotations
@@ -39,100 +42,37 @@ import numpy as np
 from analytic.dynamics import Dynamics
 from analytic.reactions import Load as AnalyticLoad
 from analytic.reactions import proper_acceleration, subtree_wrench
+from harness.cases import Case
+from harness.core.checks import Limit
 from harness.core.deviation import Deviation
-from harness.core.errors import ModelMismatch
 from harness.core.figures import FigureName
 from harness.engine import sensors as S
+from harness.families.bench import Bench, Measured
+from harness.families.sampled import Sample
+from harness.reference.tree import TREE
+
+NAME = "reactions"
+
+
+def owns(name: FigureName) -> bool:
+    return name.layer == "instant" and name.quantity in ("sensor", "interaction")
+
+
+def names(case: Case, model: mujoco.MjModel) -> set[FigureName]:
+    reading, wrenched = sensor_names(model)
+    return {FigureName.instant("sensor", s) for s in reading} | {FigureName.instant("interaction", b) for b in wrenched}
+
+
+def gated(name: FigureName, *, constrained: bool) -> bool:
+    return True
+
+
+def theory_limit(name: FigureName) -> Limit | None:
+    return None
+
 
 UNLOADED = 1e-9
 """A subtree body counts as loaded from outside its joints where |cfrc_ext| exceeds this × the force scale."""
-
-
-class Recorder:
-    """MuJoCo's side, state by state: call :meth:`record` after each ``mj_forward``."""
-
-    def __init__(self, model: mujoco.MjModel, dyn: Dynamics, loads: Sequence[S.Load]) -> None:
-        self.sensors = S.sensors(model)
-        self.loads = tuple(loads)
-        self.wrenched = tuple(dict.fromkeys(s.body for s in self.sensors if s.kind != "accelerometer"))
-        self.subtrees = {b: S.subtree(model, b) for b in self.wrenched}
-        for body, tree in self.subtrees.items():
-            if not dyn.body_names:
-                raise ModelMismatch(f"body {body!r} carries a force or torque sensor, but the analytic system "
-                                    "declares no bodies (LagrangianSystem(bodies=...))")
-            missing = [b for b in tree if model.body(b).mass[0] > 0 and b not in dyn.body_names]
-            if missing:
-                raise ModelMismatch(f"sensor subtree of body {body!r} has bodies {missing} with mass that the analytic "
-                                    f"system does not declare; its bodies: {list(dyn.body_names)}")
-        for load in self.loads:
-            _check_load(model, dyn, load)
-        self.sites = tuple(dict.fromkeys([*(s.site for s in self.sensors), *(ld.site for ld in self.loads
-                                                                            if ld.site)]))
-        # the welds among the loads' constraints: their moment map is MuJoCo's frame at each state
-        self.welds = tuple(dict.fromkeys(ld.constraint for ld in self.loads if ld.direction is None and not ld.slide
-                                         and dyn.blocks[ld.constraint].stop - dyn.blocks[ld.constraint].start == 6))
-        for name in self.welds:
-            eq = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, name)
-            if eq < 0 or int(model.eq_type[eq]) != int(mujoco.mjtEq.mjEQ_WELD):
-                found = "none" if eq < 0 else mujoco.mjtEq(int(model.eq_type[eq])).name
-                raise ModelMismatch(f"load on constraint {name!r}: its 6 rows are read as a weld's force and moment, "
-                                    f"but the model's equality {name!r} is {found}; accepted: a weld")
-        self.rows: dict[str, list] = {k: [] for k in ("reading", "site", "interaction", "external", "com",
-                                                       "contact", "axis", "moment")}
-
-    def __bool__(self) -> bool:
-        return bool(self.sensors)
-
-    def record(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        self.rows["reading"].append([S.world_reading(model, data, s) for s in self.sensors])
-        self.rows["site"].append([data.site_xpos[model.site(s).id].copy() for s in self.sites])
-        self.rows["interaction"].append([np.concatenate(S.interaction(model, data, b)) for b in self.wrenched])
-        self.rows["external"].append({b: S.external_force(model, data, b) for tree in self.subtrees.values()
-                                      for b in tree})
-        self.rows["com"].append({s.name: data.xipos[model.body(s.body).id].copy() for s in self.sensors})
-        # where the geom has no active contact MuJoCo applies no force there, while the system's multiplier
-        # still pulls: the force figure fails whatever the point, and the moment is taken at the geom's centre
-        points = {ld.contact: S.contact_point(model, data, ld.contact) for ld in self.loads if ld.contact}
-        self.rows["contact"].append({g: data.geom_xpos[model.geom(g).id].copy() if pt is None else pt
-                                     for g, pt in points.items()})
-        self.rows["axis"].append({ld.slide: data.xaxis[model.joint(ld.slide).id].copy() for ld in self.loads
-                                  if ld.slide})
-        self.rows["moment"].append({w: S.weld_moment_map(model, data, w) for w in self.welds})
-
-    def load_point(self, load: S.Load, site_pos: Mapping[str, np.ndarray]) -> np.ndarray:
-        """Where ``load`` acts at each state (n, 3): its site's position, or its contact's point."""
-        return site_pos[load.site] if load.site else np.array([row[load.contact] for row in self.rows["contact"]])
-
-
-def _check_load(model: mujoco.MjModel, dyn: Dynamics, load: S.Load) -> None:
-    """ModelMismatch, in one line, for a load the comparison cannot apply (:class:`harness.engine.sensors.Load`)."""
-    where = f"load {load.constraint!r} on {load.body!r}"
-    if load.constraint not in dyn.constraint_names:
-        raise ModelMismatch(f"load on {load.body!r} names constraint {load.constraint!r}; the system's: "
-                            f"{list(dyn.constraint_names)}")
-    rows = dyn.blocks[load.constraint]
-    one_row = load.direction is not None or bool(load.slide)
-    if load.direction is not None and load.slide:
-        raise ModelMismatch(f"{where} gives both a direction and slide {load.slide!r}; accepted: one of them")
-    if not one_row and rows.stop - rows.start not in (3, 6):
-        raise ModelMismatch(f"{where}: constraint {load.constraint!r} has {rows.stop - rows.start} rows; accepted: "
-                            "a direction for a one-row constraint (or a slide: its world axis), none for a "
-                            "connect's 3 rows (a world force) or a weld's 6 (a world force and a moment)")
-    if load.sign not in (1.0, -1.0):
-        raise ModelMismatch(f"{where} has sign {load.sign!r}; accepted: +1 or -1")
-    if bool(load.site) == bool(load.contact):
-        raise ModelMismatch(f"{where} needs exactly one of site and contact (a geom), got site={load.site!r}, "
-                            f"contact={load.contact!r}")
-    if load.slide:
-        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, load.slide)
-        if jid < 0 or int(model.jnt_type[jid]) != int(mujoco.mjtJoint.mjJNT_SLIDE):
-            raise ModelMismatch(f"{where}: {load.slide!r} is not a slide joint of the model; accepted: a slide, "
-                                "whose world axis is the force's direction")
-    if load.contact:
-        gid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, load.contact)
-        if gid < 0 or model.body(int(model.geom_bodyid[gid])).name != load.body:
-            raise ModelMismatch(f"{where}: {load.contact!r} is not a geom of body {load.body!r}; accepted: a geom "
-                                "of the loaded body, at whose contact the force acts")
 
 
 def _accelerometer_point(model: mujoco.MjModel, dyn: Dynamics, sensor: S.Sensor, site_pos: np.ndarray,
@@ -153,7 +93,7 @@ def _accelerometer_point(model: mujoco.MjModel, dyn: Dynamics, sensor: S.Sensor,
                     "is compared")
 
 
-def reaction_deviations(model: mujoco.MjModel, dyn: Dynamics, rec: Recorder, q: np.ndarray, qd: np.ndarray,
+def reaction_deviations(model: mujoco.MjModel, dyn: Dynamics, rec: S.Recorder, q: np.ndarray, qd: np.ndarray,
                         qdd: np.ndarray, lam: np.ndarray, *, force_scale: float, length: float,
                         strict: bool = True) -> tuple[list[Deviation], dict[str, str], dict[str, str]]:
     """The figures of the module docstring from the states (q, q̇) with the reference's q̈ and λ, and
@@ -263,3 +203,26 @@ def sensor_names(model: mujoco.MjModel) -> tuple[tuple[str, ...], tuple[str, ...
     """(sensor names, bodies with a force or torque sensor): the detail of every figure of this module."""
     found = S.sensors(model)
     return tuple(s.name for s in found), tuple(dict.fromkeys(s.body for s in found if s.kind != "accelerometer"))
+
+
+def compare(sample: Sample) -> tuple[list[Deviation], dict[str, str], dict[str, str]]:
+    """This family's figures at the sampled states; where the backend's arrays cannot give the reactions, every
+    one of them n/a with why."""
+    if sample.unavailable:
+        sensors, bodies = sensor_names(sample.model)
+        missing = [FigureName.instant("sensor", s) for s in sensors] + \
+            [FigureName.instant("interaction", b) for b in bodies]
+        return [], {str(name): f"not available on backend {sample.backend!r}: {sample.unavailable}"
+                    for name in missing}, {}
+    qdd, lam = sample.accelerations
+    ref = sample.reference
+    return reaction_deviations(sample.model, sample.dynamics, sample.reactions, sample.q, sample.qd, qdd, lam,
+                               force_scale=ref.scales.force, length=ref.scales.length, strict=ref.system != TREE)
+
+
+def measure(bench: Bench) -> Measured:
+    evaluation = bench.sampled
+    return Measured(figures=tuple(d.figure() for d in evaluation.deviations if owns(d.name)),
+                    budgets={k: v for k, v in evaluation.budgets.items() if owns(FigureName(k))},
+                    unmeasured={k: v for k, v in evaluation.unavailable.items() if owns(FigureName(k))},
+                    diverged={k: v for k, v in evaluation.failing.items() if owns(FigureName(k))})
