@@ -34,8 +34,8 @@ from harness.engine.models import compile_model, mjcf_path
 from harness.engine.readings.contact import contact_force, fit_circle, slide_force
 from harness.pipeline import run as pipeline
 from harness.studies.contact import contact_study
-from tests.conftest import failing, shipped_run
-from tests.contact_edits import friction, mujoco_default_softness, rim_radius
+from tests.conftest import assert_fault_trips, assert_setting_passes, failing, shipped_run
+from tests.helpers import default_pair_softness, friction, rim_radius
 
 P = systems.symbols("hoop_plane")  # the parameters as sympy symbols
 
@@ -239,18 +239,17 @@ def test_study_finds_slip_independent_of_cone_impratio_noslip() -> None:
      {"RK4.series.slip", "RK4.series.penetration", "RK4.position", "RK4.drift.energy"}),
 ])
 def test_a_contact_fault_trips_its_gates(label, kwargs, expected) -> None:
-    result = pipeline.run_case(CASE, integrators=["RK4"], **kwargs)
-    assert expected <= failing(result), label
+    assert_fault_trips(CASE, {"integrators": ["RK4"], **kwargs}, expected, label)
 
 
 # legitimate settings of the contact: MuJoCo's default softness and a 10 ms step simulate the same rolling
 # hoop less accurately; the budget's softness and integration parts explain it, and every gate passes
 @pytest.mark.parametrize(("label", "kwargs"), [
-    ("MuJoCo's default contact softness", {"edit": mujoco_default_softness}),
+    ("MuJoCo's default contact softness", {"edit": default_pair_softness}),
     ("timestep 10 ms", {"timestep": 0.01}),
 ])
 def test_a_legitimate_contact_setting_passes_every_gate(label, kwargs) -> None:
-    assert failing(pipeline.run_case(CASE, **kwargs)) == set(), label
+    assert_setting_passes(CASE, kwargs, label)
 
 
 def test_p_theta_gates_fail_when_the_heading_is_damped() -> None:

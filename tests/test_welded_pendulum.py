@@ -32,7 +32,8 @@ from harness.engine import sensors
 from harness.engine.constraints import equality_block, equality_jacobian
 from harness.engine.models import compile_model, mjcf_path
 from harness.pipeline import run as pipeline
-from tests.conftest import failing, shipped_run
+from tests.conftest import assert_fault_trips, assert_setting_passes, failing, shipped_run
+from tests.helpers import default_equality_softness, forward_at
 
 if "welded_pendulum" in cases.unavailable():  # an older MuJoCo: the case is listed as n/a with the measured reason
     pytest.skip(cases.unavailable()["welded_pendulum"], allow_module_level=True)
@@ -57,10 +58,7 @@ def params(model) -> dict[str, float]:
 
 
 def _forward(model, q, qd=None) -> mujoco.MjData:
-    data = mujoco.MjData(model)
-    CASE.probe(CASE.dynamics()).binding.set_state(model, data, q, np.zeros(7) if qd is None else qd)
-    mujoco.mj_forward(model, data)
-    return data
+    return forward_at(model, CASE.probe(CASE.dynamics()).binding, q, np.zeros(7) if qd is None else qd)
 
 
 def _rot(axis: str, angle: float) -> np.ndarray:
@@ -229,17 +227,12 @@ def _socket_turned(spec: mujoco.MjSpec) -> None:
     ("socket turned 1 mrad", _socket_turned, {"RK4.force.glue", "RK4.position", "RK4.violation.glue"}),
 ])
 def test_a_fault_of_the_weld_trips_its_gates(label, edit, expected) -> None:
-    assert expected <= failing(pipeline.run_case(CASE, integrators=["RK4"], edit=edit)), label
-
-
-def _default_softness(spec: mujoco.MjSpec) -> None:
-    for eq in spec.equalities:
-        eq.solref, eq.solimp = [0.02, 1.0], [0.9, 0.95, 0.001, 0.5, 2.0]
+    assert_fault_trips(CASE, {"integrators": ["RK4"], "edit": edit}, expected, label)
 
 
 @pytest.mark.parametrize(("label", "kwargs"), [
-    ("MuJoCo's default softness", {"edit": _default_softness}),
+    ("MuJoCo's default softness", {"edit": default_equality_softness}),
     ("timestep 4 ms", {"timestep": 0.004}),
 ])
 def test_a_legitimate_setting_passes_every_gate(label, kwargs) -> None:
-    assert failing(pipeline.run_case(CASE, integrators=["RK4", "implicitfast"], **kwargs)) == set(), label
+    assert_setting_passes(CASE, {"integrators": ["RK4", "implicitfast"], **kwargs}, label)
