@@ -57,15 +57,7 @@ def breakable(case: str, names) -> set[str]:
 
 # --- the budget's two directions, for the per-system tables of faults and legitimate settings -------------
 
-INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4", "discrete")
-
-
-def each_integrator(*figures: str) -> set[str]:
-    """``figures`` of every integrator (``position`` -> ``Euler.position``, ..., ``discrete.position``)."""
-    return {f"{i}.{f}" for i in INTEGRATORS for f in figures}
-
-
-def assert_fault_trips(case: cases.Case, run: dict, gates: set[str], label: str) -> None:
+def assert_trips(case: cases.Case, run: dict, gates: set[str], label: str) -> None:
     """A fault (``run``: run_case's keywords) fails every gate of ``gates`` this MuJoCo can fail
     (:func:`breakable`: not those of an integrator it lacks or of a documented defect of it)."""
     must_fail = breakable(case.name, gates)
@@ -73,14 +65,14 @@ def assert_fault_trips(case: cases.Case, run: dict, gates: set[str], label: str)
     assert must_fail <= failed, f"{label}: did not fail {sorted(must_fail - failed)}"
 
 
-def assert_setting_passes(case: cases.Case, run: dict, label: str) -> None:
+def assert_passes(case: cases.Case, run: dict, label: str) -> None:
     """A legitimate setting (``run``: run_case's keywords) fails no gate, but those a documented defect of
     this MuJoCo fails on the case's model whatever the setting."""
     failed = failing(run_case(case, **run))
     assert breakable(case.name, failed) == set(), f"{label}: failed {sorted(failed)}"
 
 
-def assert_every_gate_has_a_fault(case: str, faults: dict, generic: tuple[str, ...] = ("converge", "reference")
+def assert_faults_cover(case: str, faults: dict, generic: tuple[str, ...] = ("converge", "reference")
                                   ) -> None:
     """The gates of ``case``'s limits are covered by the faults (label -> (run, gates)), but for the
     families ``generic`` (converge.*: the generic faults of tests/test_gates.py and tests/test_convergence.py;

@@ -1,6 +1,7 @@
 """What the per-system tests share below a run: an analytic state put into a model, random states drawn
-block by block, and the MjSpec edits their fault and setting tables are made of (each edit names what
-it changes, so a table reads as the physics it adds). Running a case and judging it: tests/conftest.py."""
+block by block, and what their tables of faults and legitimate settings are made of: gate names and MjSpec
+edits (each edit names what it changes, so a table reads as the physics it adds). Running a case and judging
+it, the tables' two directions included: tests/conftest.py."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import mujoco
 import numpy as np
 
 from harness.engine import compat
+from harness.engine.constraints import equality_block, equality_jacobian
 
 # MuJoCo's default constraint softness (solref, solimp), far softer than the shipped models'
 DEFAULT_SOFTNESS = ([0.02, 1.0], [0.9, 0.95, 0.001, 0.5, 2.0])
@@ -32,6 +34,43 @@ def random_states(count: int, seed: int, blocks: Sequence[tuple[float, float, in
     rng = np.random.default_rng(seed)
     q = np.column_stack([rng.uniform(low, high, (count, columns)) for low, high, columns in blocks])
     return q, rng.uniform(*rates, (count, q.shape[1])) + offset
+
+
+def integrate_pos_gap(model: mujoco.MjModel, binding, q, qd, h: float) -> tuple[float, mujoco.MjData, mujoco.MjData]:
+    """How far mj_integratePos(qpos, qvel, h) from the state (q, q̇) lands from the state ``binding`` writes at
+    q + h q̇ (max |Δqpos|: O(h²) where qvel is q̇ as MuJoCo reads it), with the data at (q, q̇) and at q + h q̇."""
+    data = forward_at(model, binding, q, qd)
+    ahead = data.qpos.copy()
+    mujoco.mj_integratePos(model, ahead, data.qvel, h)
+    later = forward_at(model, binding, q + h * qd, qd)
+    return float(np.max(np.abs(ahead - later.qpos))), data, later
+
+
+def equality_rows(model: mujoco.MjModel, forward, dynamics, equality: str, states, *,
+                  jacobian_atol: float) -> list[np.ndarray]:
+    """At each q of ``states`` (``forward(model, q)``: MjData after mj_forward there) MuJoCo's efc_pos of
+    ``equality`` is the analytic constraint ``dynamics.position_residual(q)`` row by row (to 1e-14) and its
+    efc_J rows are ``dynamics.jacobian(q)`` (to ``jacobian_atol``): so its efc_force is the multiplier, same
+    sign and scale. Each state's efc_pos, for the caller's check that every row is seen."""
+    seen = []
+    for q in states:
+        data = forward(model, q)
+        pos = equality_block(model, data, equality)[1]
+        np.testing.assert_allclose(pos, dynamics.position_residual(q), rtol=0, atol=1e-14)
+        np.testing.assert_allclose(equality_jacobian(model, data, equality), dynamics.jacobian(q), rtol=0,
+                                   atol=jacobian_atol)
+        seen.append(pos)
+    return seen
+
+
+# --- gates ---------------------------------------------------------------------------------------------
+
+INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4", "discrete")
+
+
+def each_integrator(*figures: str) -> set[str]:
+    """``figures`` of every integrator (``position`` -> ``Euler.position``, ..., ``discrete.position``)."""
+    return {f"{i}.{f}" for i in INTEGRATORS for f in figures}
 
 
 # --- MjSpec edits ---------------------------------------------------------------------------------------

@@ -27,16 +27,8 @@ from harness.engine.bindings import JointBinding
 from harness.engine.constraints import equality_force
 from harness.engine.models import compile_model, mjcf_path
 from harness.pipeline import run as pipeline
-from tests.conftest import (
-    assert_every_gate_has_a_fault,
-    assert_fault_trips,
-    assert_setting_passes,
-    each_integrator,
-    failing,
-    judged,
-    shipped_run,
-)
-from tests.helpers import damping, default_equality_softness, equality_offset
+from tests.conftest import assert_faults_cover, assert_passes, assert_trips, failing, judged, shipped_run
+from tests.helpers import damping, default_equality_softness, each_integrator, equality_offset
 
 P = systems.symbols("atwood")  # the parameters as sympy symbols
 
@@ -328,18 +320,18 @@ SETTINGS = {
 
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_a_fault_trips_its_gates(fault: str) -> None:
-    assert_fault_trips(CASE, *FAULTS[fault], fault)
+    assert_trips(CASE, *FAULTS[fault], fault)
 
 
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting: str, monkeypatch) -> None:
     if SETTINGS[setting].get("edit") is _approximate_diagonal:
         _default_diagonal_on_any_version(monkeypatch)
-    assert_setting_passes(CASE, SETTINGS[setting], setting)
+    assert_passes(CASE, SETTINGS[setting], setting)
 
 
 def test_every_gate_has_a_fault() -> None:
-    assert_every_gate_has_a_fault("atwood", FAULTS)
+    assert_faults_cover("atwood", FAULTS)
 
 
 def test_an_initial_state_off_the_strings_is_moved_onto_them() -> None:

@@ -18,15 +18,8 @@ from harness.engine import compat
 from harness.engine.bindings import JointBinding
 from harness.engine.constraints import equality_force
 from harness.engine.models import compile_model, mjcf_path
-from tests.conftest import (
-    assert_every_gate_has_a_fault,
-    assert_fault_trips,
-    assert_setting_passes,
-    each_integrator,
-    failing,
-    shipped_run,
-)
-from tests.helpers import damping, default_equality_softness, equality_offset, forward_at
+from tests.conftest import assert_faults_cover, assert_passes, assert_trips, failing, shipped_run
+from tests.helpers import damping, default_equality_softness, each_integrator, equality_offset, forward_at
 from tests.test_atwood import closed_forms
 
 if "atwood_tendon" in cases.unavailable():  # an older MuJoCo: the case is listed as n/a, not run
@@ -187,14 +180,14 @@ SETTINGS = {
 @pytest.mark.slow
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_a_fault_trips_its_gates(fault: str) -> None:
-    assert_fault_trips(CASE, *FAULTS[fault], fault)
+    assert_trips(CASE, *FAULTS[fault], fault)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting: str) -> None:
-    assert_setting_passes(CASE, SETTINGS[setting], setting)
+    assert_passes(CASE, SETTINGS[setting], setting)
 
 
 def test_every_gate_has_a_fault() -> None:
-    assert_every_gate_has_a_fault("atwood_tendon", FAULTS)
+    assert_faults_cover("atwood_tendon", FAULTS)

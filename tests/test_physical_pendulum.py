@@ -23,7 +23,7 @@ from analytic.systems import physical_pendulum as pp
 from harness import cases
 from harness.engine import compat
 from harness.engine.models import compile_model, load_spec
-from tests.conftest import assert_fault_trips, assert_setting_passes
+from tests.conftest import assert_passes, assert_trips
 from tests.helpers import armature, damping, gravcomp, stiffness
 
 CASE = cases.get("physical_pendulum")
@@ -299,12 +299,12 @@ SETTINGS = {
 
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_a_fault_trips_its_gates(fault):
-    assert_fault_trips(CASE, *FAULTS[fault], fault)
+    assert_trips(CASE, *FAULTS[fault], fault)
 
 
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting):
-    assert_setting_passes(CASE, SETTINGS[setting], setting)
+    assert_passes(CASE, SETTINGS[setting], setting)
 
 
 def test_other_products_change_the_period_and_are_read_back():

@@ -22,15 +22,8 @@ from harness.engine import compat
 from harness.engine.models import compile_model, mjcf_path
 from harness.pipeline import run as pipeline
 from harness.pipeline.limits import load_limits
-from tests.conftest import (
-    assert_every_gate_has_a_fault,
-    assert_fault_trips,
-    assert_setting_passes,
-    each_integrator,
-    failing,
-    shipped_run,
-)
-from tests.helpers import armature, damping, stiffness
+from tests.conftest import assert_faults_cover, assert_passes, assert_trips, failing, shipped_run
+from tests.helpers import armature, damping, each_integrator, stiffness
 
 P = systems.symbols("spring")  # the parameters as sympy symbols
 
@@ -179,13 +172,13 @@ SETTINGS = {
 
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_a_fault_trips_its_gates(fault: str) -> None:
-    assert_fault_trips(CASE, *FAULTS[fault], fault)
+    assert_trips(CASE, *FAULTS[fault], fault)
 
 
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting: str) -> None:
-    assert_setting_passes(CASE, SETTINGS[setting], setting)
+    assert_passes(CASE, SETTINGS[setting], setting)
 
 
 def test_every_gate_has_a_fault() -> None:
-    assert_every_gate_has_a_fault("spring", FAULTS, generic=("converge",))
+    assert_faults_cover("spring", FAULTS, generic=("converge",))

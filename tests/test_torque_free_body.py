@@ -21,8 +21,8 @@ from harness.pipeline.run import run_case
 from harness.reference import derivations
 from harness.reference.solutions import build_reference
 from mjcf.torque_free_body import FreeBinding, euler_angles, orientation
-from tests.conftest import assert_fault_trips, assert_setting_passes, breakable, failing, judged, shipped_run
-from tests.helpers import armature, damping, forward_at, random_states
+from tests.conftest import assert_passes, assert_trips, breakable, failing, judged, shipped_run
+from tests.helpers import armature, damping, forward_at, integrate_pos_gap, random_states
 
 NAME = "torque_free_body"
 COORDS = tfb.COORDINATES
@@ -190,16 +190,13 @@ def test_free_joint_qvel_is_world_linear_and_local_angular_velocity():
     binding = FreeBinding(COORDS)
     h = 1e-7
     for qi, qdi in zip(*_random_states(10), strict=True):
-        data = forward_at(model, binding, qi, qdi)
-        ahead = data.qpos.copy()
-        mujoco.mj_integratePos(model, ahead, data.qvel, h)
-        later = forward_at(model, binding, qi + h * qdi, qdi)
-        assert np.max(np.abs(ahead - later.qpos)) < 1e-12
+        gap, data, later = integrate_pos_gap(model, binding, qi, qdi, h)
+        assert gap < 1e-12
         world = data.qvel.copy()
         world[3:] = _rotation(qi) @ data.qvel[3:]  # ω_world: would be qvel if it were the world frame
         wrong = data.qpos.copy()
         mujoco.mj_integratePos(model, wrong, world, h)
-        assert np.max(np.abs(wrong - later.qpos)) > 1e3 * np.max(np.abs(ahead - later.qpos)) + 1e-10
+        assert np.max(np.abs(wrong - later.qpos)) > 1e3 * gap + 1e-10
         # the tips move as the analytic points do
         dyn = derivations.dynamics_of(NAME, model)
         velocities = dyn.point_velocities(qi[None], qdi[None])[0]
@@ -403,12 +400,12 @@ SETTINGS = {
 
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_a_fault_trips_its_gates(fault):
-    assert_fault_trips(cases.get(NAME), *FAULTS[fault], fault)
+    assert_trips(cases.get(NAME), *FAULTS[fault], fault)
 
 
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting):
-    assert_setting_passes(cases.get(NAME), SETTINGS[setting], setting)
+    assert_passes(cases.get(NAME), SETTINGS[setting], setting)
 
 
 def test_hidden_mass_leaves_the_body_torque_free():
