@@ -70,8 +70,7 @@ class BallBinding(QuaternionJointBinding):
     """Analytic (theta, phi) in the order ``coordinates`` ↔ the ball joint ``joint``."""
 
     COORDINATES = COORDINATES
-    JOINT_TYPE = int(mujoco.mjtJoint.mjJNT_BALL)
-    JOINT_KIND = "a ball joint"
+    JOINT_TYPE = mujoco.mjtJoint.mjJNT_BALL
 
     joint: str = "ball"
 

@@ -64,8 +64,7 @@ class EulerBallBinding(QuaternionJointBinding):
     """Analytic (phi, theta, psi), in the order ``coordinates``, ↔ the ball joint ``joint``."""
 
     COORDINATES = COORDINATES
-    JOINT_TYPE = int(mujoco.mjtJoint.mjJNT_BALL)
-    JOINT_KIND = "a ball joint"
+    JOINT_TYPE = mujoco.mjtJoint.mjJNT_BALL
 
     joint: str = "ball"
 

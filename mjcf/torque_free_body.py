@@ -66,8 +66,7 @@ class FreeBinding(QuaternionJointBinding):
     """Analytic (x, y, z, φ, θ, ψ), in the order ``coordinates``, ↔ the free joint ``joint``."""
 
     COORDINATES = COORDINATES
-    JOINT_TYPE = int(mujoco.mjtJoint.mjJNT_FREE)
-    JOINT_KIND = "a free joint"
+    JOINT_TYPE = mujoco.mjtJoint.mjJNT_FREE
 
     joint: str = "free"
 

@@ -98,8 +98,7 @@ class QuaternionJointBinding:
     linear map of q̇ (no dof matrix): the subclass writes the state and gives ``velocity_map``."""
 
     COORDINATES: ClassVar[tuple[str, ...]]
-    JOINT_TYPE: ClassVar[int]  # mjtJoint
-    JOINT_KIND: ClassVar[str]  # "a ball joint", for the error where the model's joint is another
+    JOINT_TYPE: ClassVar[mujoco.mjtJoint]  # mjJNT_BALL or mjJNT_FREE
 
     coordinates: tuple[str, ...]
     joint: str
@@ -115,7 +114,8 @@ class QuaternionJointBinding:
         return dict(zip(self.coordinates, values, strict=True))
 
     def validate(self, model: mujoco.MjModel) -> None:
-        require_joint(model, self.joint, (self.JOINT_TYPE,), self.JOINT_KIND)
+        kind = {mujoco.mjtJoint.mjJNT_BALL: "a ball joint", mujoco.mjtJoint.mjJNT_FREE: "a free joint"}[self.JOINT_TYPE]
+        require_joint(model, self.joint, (int(self.JOINT_TYPE),), kind)
 
     def dof_matrix(self, model: mujoco.MjModel) -> None:
         """None: the local angular velocity is not a constant linear map of q̇ (see ``velocity_map``)."""
