@@ -151,8 +151,9 @@ def load_run(path: Path | str) -> dict:
     return check_run(doc, repr(str(path)))  # the documented schema: one line naming what does not fit
 
 
-def _value(entry: object) -> float:
-    raw = entry.get("value") if isinstance(entry, dict) else entry
+def figure_value(entry: object) -> float:
+    """A figure entry's number (``"nan"``/``"inf"`` strings read back; anything else nan)."""
+    raw = entry.get("value") if isinstance(entry, Mapping) else entry
     try:
         return float(raw)  # type: ignore[arg-type]
     except (TypeError, ValueError):
@@ -183,8 +184,8 @@ def diff_runs(old: Mapping, new: Mapping) -> Diff:
         names = [*o["figures"], *(f for f in n["figures"] if f not in o["figures"])]
         for name in names:
             rows.append(Row(case=case, figure=name,
-                            old=_value(o["figures"][name]) if name in o["figures"] else None,
-                            new=_value(n["figures"][name]) if name in n["figures"] else None,
+                            old=figure_value(o["figures"][name]) if name in o["figures"] else None,
+                            new=figure_value(n["figures"][name]) if name in n["figures"] else None,
                             status_old=so.get(name), status_new=sn.get(name),
                             passed_old=vo.get(name), passed_new=vn.get(name)))
     ov, nv = old.get("versions", {}), new.get("versions", {})

@@ -32,22 +32,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.outputs.diff import FigureChange, status_flipped
+from harness.outputs.diff import FigureChange, figure_value, status_flipped
 from harness.versions.releases import Release
 
 NOISE_FACTOR = 10.0
 ULP_FLOOR = 4 * float(np.finfo(float).eps)
 
 Key = tuple[str, str]  # (case, figure)
-
-
-def value(entry: object) -> float:
-    """A figure entry's number (``"nan"``/``"inf"`` strings read back; anything else nan)."""
-    raw = entry.get("value") if isinstance(entry, Mapping) else entry
-    try:
-        return float(raw)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        return math.nan
 
 
 def status(check: Mapping) -> str:
@@ -60,7 +51,8 @@ def status(check: Mapping) -> str:
 
 def figures(doc: Mapping) -> dict[Key, float]:
     """Every figure of a run document, by (case, figure)."""
-    return {(case, name): value(entry) for case, c in doc["cases"].items() for name, entry in c["figures"].items()}
+    return {(case, name): figure_value(entry)
+            for case, c in doc["cases"].items() for name, entry in c["figures"].items()}
 
 
 def statuses(doc: Mapping) -> dict[Key, str]:
