@@ -72,8 +72,7 @@ def assert_passes(case: cases.Case, run: dict, label: str) -> None:
     assert breakable(case.name, failed) == set(), f"{label}: failed {sorted(failed)}"
 
 
-def assert_faults_cover(case: str, faults: dict, generic: tuple[str, ...] = ("converge", "reference")
-                                  ) -> None:
+def assert_faults_cover(case: str, faults: dict, generic: tuple[str, ...] = ("converge", "reference")) -> None:
     """The gates of ``case``'s limits are covered by the faults (label -> (run, gates)), but for the
     families ``generic`` (converge.*: the generic faults of tests/test_gates.py and tests/test_convergence.py;
     reference.*: a broken reference, also there)."""
