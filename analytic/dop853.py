@@ -49,18 +49,30 @@ _ORDER = 7  # of the dense output: seven coefficient vectors per step
 
 
 @dataclass(frozen=True)
-class Dense:
-    """The continuous solution: per step its start time, length, start state and the seven
-    coefficient vectors of its 7th-order interpolant. Plain arrays, so it pickles small."""
+class Piecewise:
+    """A continuous solution stored step by step: each step's start time, length, start state and the
+    coefficient vectors of its polynomial in θ = (t − t_i)/h_i, which a solver's ``Dense`` evaluates.
+    Plain arrays, so it pickles small."""
 
     t_start: Array  # (S,)
     h: Array  # (S,)
     y_start: Array  # (S, n)
-    coeffs: Array  # (S, 7, n)
+    coeffs: Array  # (S, K, n)
 
     @property
     def t_end(self) -> float:
         return float(self.t_start[-1] + self.h[-1])
+
+    def _steps(self, t: Array) -> tuple[Array, Array]:
+        """The step of each time ``t`` (1-d, within [t_start[0], t_end]) and its θ, a column (len(t), 1)."""
+        t = np.asarray(t, dtype=float)
+        step = np.clip(np.searchsorted(self.t_start, t, side="right") - 1, 0, len(self.h) - 1)
+        return step, ((t - self.t_start[step]) / self.h[step])[:, None]
+
+
+@dataclass(frozen=True)
+class Dense(Piecewise):
+    """The continuous solution: per step the seven coefficient vectors of its 7th-order interpolant."""
 
     def __call__(self, t: Array) -> Array:
         """y at times ``t`` (1-d, within [t_start[0], t_end]), shape (len(t), n), all in one pass.
@@ -68,9 +80,7 @@ class Dense:
         With θ = (t − t_i)/h_i in step i: y = y_i + θ(F₀ + (1−θ)(F₁ + θ(F₂ + (1−θ)(F₃ + θ(F₄ + (1−θ)(F₅ + θF₆)))))),
         Hairer's ``contd8``.
         """
-        t = np.asarray(t, dtype=float)
-        step = np.clip(np.searchsorted(self.t_start, t, side="right") - 1, 0, len(self.h) - 1)
-        theta = ((t - self.t_start[step]) / self.h[step])[:, None]
+        step, theta = self._steps(t)
         coeffs = self.coeffs[step]
         y = coeffs[:, _ORDER - 1].copy()
         for k in range(_ORDER - 1, 0, -1):

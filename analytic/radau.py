@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analytic.dop853 import IntegrationError, StepBudgetExceeded
+from analytic.dop853 import IntegrationError, Piecewise, StepBudgetExceeded
 
 Array = np.ndarray
 
@@ -81,26 +81,14 @@ _DENSE = np.linalg.inv(C[:, None] ** np.arange(1, 4))
 
 
 @dataclass(frozen=True)
-class Dense:
-    """The continuous solution: per step its start time, length, start state and the three coefficient
-    vectors of its collocation polynomial. Plain arrays, so it pickles small; called as
-    :class:`analytic.dop853.Dense` is."""
-
-    t_start: Array  # (S,)
-    h: Array  # (S,)
-    y_start: Array  # (S, n)
-    coeffs: Array  # (S, 3, n)
-
-    @property
-    def t_end(self) -> float:
-        return float(self.t_start[-1] + self.h[-1])
+class Dense(Piecewise):
+    """The continuous solution: per step the three coefficient vectors of its collocation polynomial;
+    called as :class:`analytic.dop853.Dense` is."""
 
     def __call__(self, t: Array) -> Array:
         """y at times ``t`` (1-d, within [t_start[0], t_end]), shape (len(t), n): with θ = (t − t_i)/h_i in
         step i, y = y_i + θ(q₁ + θ(q₂ + θ q₃))."""
-        t = np.asarray(t, dtype=float)
-        step = np.clip(np.searchsorted(self.t_start, t, side="right") - 1, 0, len(self.h) - 1)
-        theta = ((t - self.t_start[step]) / self.h[step])[:, None]
+        step, theta = self._steps(t)
         q = self.coeffs[step]
         return self.y_start[step] + theta * (q[:, 0] + theta * (q[:, 1] + theta * q[:, 2]))
 

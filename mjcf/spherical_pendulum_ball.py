@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 
 from harness.cases import Wiring
-from harness.engine.bindings import require_joint
+from harness.engine.bindings import QuaternionJointBinding
 from harness.engine.readings.momentum import axial_angular_momentum
 
 AZIMUTH_AXIS = np.array([0.0, 0.0, 1.0])   # φ, about world +z
@@ -66,24 +66,17 @@ def world_angular_velocity(theta_d: float, phi: float, phi_d: float) -> np.ndarr
 
 
 @dataclass(frozen=True)
-class BallBinding:
+class BallBinding(QuaternionJointBinding):
     """Analytic (theta, phi) in the order ``coordinates`` ↔ the ball joint ``joint``."""
 
-    coordinates: tuple[str, ...]
+    COORDINATES = COORDINATES
+    JOINT_TYPE = mujoco.mjtJoint.mjJNT_BALL
+
     joint: str = "ball"
 
-    def __post_init__(self) -> None:
-        if sorted(self.coordinates) != sorted(COORDINATES):
-            raise ValueError(f"BallBinding binds the coordinates {COORDINATES}, got {self.coordinates}")
-
     def _split(self, values: Sequence[float]) -> tuple[float, float]:
-        if len(values) != 2:
-            raise ValueError(f"expected 2 values for {self.coordinates}, got {len(values)}")
-        named = dict(zip(self.coordinates, values, strict=True))
+        named = self._named(values)
         return float(named["theta"]), float(named["phi"])
-
-    def validate(self, model: mujoco.MjModel) -> None:
-        require_joint(model, self.joint, (int(mujoco.mjtJoint.mjJNT_BALL),), "a ball joint")
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
                   q: Sequence[float], qd: Sequence[float]) -> None:
@@ -117,11 +110,6 @@ class BallBinding:
         return (np.array([angles[c] for c in self.coordinates]),
                 np.array([rates[c] for c in self.coordinates]))
 
-    def dof_matrix(self, model: mujoco.MjModel) -> None:
-        """None: the local angular velocity is not a constant linear map of (θ̇, φ̇) (see
-        :meth:`velocity_map`)."""
-        return None
-
     def velocity_map(self, model: mujoco.MjModel, q: Sequence[float]) -> np.ndarray:
         """B(θ, φ) with qvel = B (θ̇, φ̇) in ``coordinates`` order, shape (nv, 2): the ball's local
         angular velocity ω_local = R_−y(θ)ᵀ (φ̇ ẑ + θ̇ (−ŷ)) (R_z(φ) leaves ẑ fixed and, turned back,
@@ -131,9 +119,7 @@ class BallBinding:
 
         in the rows of the ball's dofs. Plain numpy, so a complex q gives Ḃ q̇ by complex step
         (pinned against :meth:`set_state` and a finite difference in tests/test_spherical_pendulum.py)."""
-        if len(q) != 2:
-            raise ValueError(f"expected 2 values for {self.coordinates}, got {len(q)}")
-        theta = dict(zip(self.coordinates, q, strict=True))["theta"]
+        theta = self._named(q)["theta"]
         columns = {"theta": np.array([0.0, -1.0, 0.0]) + 0 * theta,
                    "phi": np.array([np.sin(theta), 0 * theta, np.cos(theta)])}
         out = np.zeros((model.nv, 2), dtype=np.result_type(theta, float))

@@ -30,7 +30,7 @@ import mujoco
 import numpy as np
 
 from harness.cases import Wiring
-from harness.engine.bindings import require_joint
+from harness.engine.bindings import QuaternionJointBinding
 from harness.engine.readings.momentum import axial_angular_momentum
 
 COORDINATES = ("phi", "theta", "psi")
@@ -60,28 +60,21 @@ def body_rates(phi, theta, psi) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class EulerBallBinding:
+class EulerBallBinding(QuaternionJointBinding):
     """Analytic (phi, theta, psi), in the order ``coordinates``, ↔ the ball joint ``joint``."""
 
-    coordinates: tuple[str, ...]
+    COORDINATES = COORDINATES
+    JOINT_TYPE = mujoco.mjtJoint.mjJNT_BALL
+
     joint: str = "ball"
 
-    def __post_init__(self) -> None:
-        if sorted(self.coordinates) != sorted(COORDINATES):
-            raise ValueError(f"EulerBallBinding binds the coordinates {COORDINATES}, got {self.coordinates}")
-
     def _angles(self, values: Sequence) -> tuple:
-        if len(values) != 3:
-            raise ValueError(f"expected 3 values for {self.coordinates}, got {len(values)}")
-        named = dict(zip(self.coordinates, values, strict=True))
+        named = self._named(values)
         return tuple(named[c] for c in COORDINATES)
 
     def _order(self) -> list[int]:
         """Column k of B(q) (analytic coordinate k) is column _order()[k] of B₀."""
         return [COORDINATES.index(c) for c in self.coordinates]
-
-    def validate(self, model: mujoco.MjModel) -> None:
-        require_joint(model, self.joint, (int(mujoco.mjtJoint.mjJNT_BALL),), "a ball joint")
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
                   q: Sequence[float], qd: Sequence[float]) -> None:
@@ -98,10 +91,6 @@ class EulerBallBinding:
         out = np.zeros((model.nv, 3), dtype=block.dtype)
         out[jnt.dofadr[0]:jnt.dofadr[0] + 3] = block
         return out
-
-    def dof_matrix(self, model: mujoco.MjModel) -> None:
-        """None: the local angular velocity is not a constant linear map of (φ̇, θ̇, ψ̇)."""
-        return None
 
 
 WIRING = Wiring(

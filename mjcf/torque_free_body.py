@@ -30,7 +30,7 @@ import numpy as np
 
 from analytic.systems.torque_free_body import BODY, COORDINATES, ORIGIN_SITE, euler_rate_matrix
 from harness.cases import Wiring
-from harness.engine.bindings import require_joint
+from harness.engine.bindings import QuaternionJointBinding
 from harness.engine.readings import Reading
 from harness.engine.readings.momentum import axial_angular_momentum, subtree
 
@@ -62,23 +62,13 @@ def euler_angles(quat: np.ndarray) -> tuple[float, float, float]:
 
 
 @dataclass(frozen=True)
-class FreeBinding:
+class FreeBinding(QuaternionJointBinding):
     """Analytic (x, y, z, φ, θ, ψ), in the order ``coordinates``, ↔ the free joint ``joint``."""
 
-    coordinates: tuple[str, ...]
+    COORDINATES = COORDINATES
+    JOINT_TYPE = mujoco.mjtJoint.mjJNT_FREE
+
     joint: str = "free"
-
-    def __post_init__(self) -> None:
-        if sorted(self.coordinates) != sorted(COORDINATES):
-            raise ValueError(f"FreeBinding binds the coordinates {COORDINATES}, got {self.coordinates}")
-
-    def _named(self, values: Sequence) -> dict:
-        if len(values) != len(COORDINATES):
-            raise ValueError(f"expected {len(COORDINATES)} values for {self.coordinates}, got {len(values)}")
-        return dict(zip(self.coordinates, values, strict=True))
-
-    def validate(self, model: mujoco.MjModel) -> None:
-        require_joint(model, self.joint, (int(mujoco.mjtJoint.mjJNT_FREE),), "a free joint")
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
                   q: Sequence[float], qd: Sequence[float]) -> None:
@@ -117,10 +107,6 @@ class FreeBinding:
             else:
                 out[dof + 3:dof + 6, k] = angular[:, ("phi", "theta", "psi").index(name)]
         return out
-
-    def dof_matrix(self, model: mujoco.MjModel) -> None:
-        """None: the local angular velocity is not a constant linear map of (φ̇, θ̇, ψ̇)."""
-        return None
 
 
 def linear_momentum(*, body: str, axis: int) -> Reading:

@@ -9,6 +9,7 @@ import pytest
 
 from harness import cases
 from harness.core.checks import Check
+from harness.core.options import RunOptions
 from harness.engine.compat import joint_types, known_defect, unavailable_reason
 from harness.engine.models import compile_model
 from harness.opinions import pinocchio as peer
@@ -53,6 +54,32 @@ def breakable(case: str, names) -> set[str]:
     For tests that expect a broken variant to fail a set of gates."""
     joints = joint_types(compile_model(cases.get(case).mjcf))
     return {n for n in names if not unavailable_reason(n) and not known_defect(joints, n)}
+
+
+# --- the budget's two directions, for the per-system tables of faults and legitimate settings -------------
+
+def assert_trips(case: cases.Case, run: dict, gates: set[str], label: str) -> None:
+    """A fault (``run``: :class:`~harness.core.options.RunOptions`' fields) fails every gate of ``gates`` this
+    MuJoCo can fail (:func:`breakable`: not those of an integrator it lacks or of a documented defect of it)."""
+    must_fail = breakable(case.name, gates)
+    failed = failing(run_case(case, RunOptions(**run)))
+    assert must_fail <= failed, f"{label}: did not fail {sorted(must_fail - failed)}"
+
+
+def assert_passes(case: cases.Case, run: dict, label: str) -> None:
+    """A legitimate setting (``run``: :class:`~harness.core.options.RunOptions`' fields) fails no gate, but those
+    a documented defect of this MuJoCo fails on the case's model whatever the setting."""
+    failed = failing(run_case(case, RunOptions(**run)))
+    assert breakable(case.name, failed) == set(), f"{label}: failed {sorted(failed)}"
+
+
+def assert_faults_cover(case: str, faults: dict, generic: tuple[str, ...] = ("converge", "reference")) -> None:
+    """The gates of ``case``'s limits are covered by the faults (label -> (run, gates)), but for the
+    families ``generic`` (converge.*: the generic faults of tests/test_gates.py and tests/test_convergence.py;
+    reference.*: a broken reference, also there)."""
+    covered = set().union(*(gates for _, gates in faults.values()))
+    gated = {k for k in load_limits().for_case(case) if k.split(".")[0] not in generic}
+    assert gated <= covered, sorted(gated - covered)
 
 
 # the line run and check print as each case finishes (harness/outputs/table.py case_line): on stdout, or with

@@ -28,13 +28,12 @@ from harness.engine.bindings import JointBinding
 from harness.engine.constraints import equality_force
 from harness.engine.models import compile_model, mjcf_path
 from harness.pipeline import run as pipeline
-from harness.pipeline.limits import load_limits
-from tests.conftest import breakable, failing, judged, shipped_run
+from tests.conftest import assert_faults_cover, assert_passes, assert_trips, failing, judged, shipped_run
+from tests.helpers import damping, default_equality_softness, each_integrator, equality_offset
 
 P = systems.symbols("atwood")  # the parameters as sympy symbols
 
 CASE = cases.get("atwood")
-INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4", "discrete")
 STRINGS = ("string1", "string2")
 # <flag diagexact> is newer than MuJoCo 3.3; there harness.compat removes it and emulates the exact
 # diagonal after compiling, so "diagexact off" means that emulation left out (_approximate_diagonal).
@@ -258,27 +257,10 @@ def _polycoef(name: str, value: float):
     return edit
 
 
-def _soft(spec: mujoco.MjSpec) -> None:
-    for name in STRINGS:
-        _equality(spec, name).solref = [0.02, 1.0]
-        _equality(spec, name).solimp = [0.9, 0.95, 0.001, 0.5, 2.0]
-
-
-def _damp(spec: mujoco.MjSpec) -> None:
-    compat.set_damping(spec.joint("theta"), 1e-3)
-
-
 def _armature(spec: mujoco.MjSpec) -> None:
     """10 % more inertia on the pulley's axle, as joint armature: the pulley stays a thin hoop of its mass (an
     inertia changed alone is another pulley, which the system refuses: tests/test_bad_input.py)."""
     spec.joint("theta").armature = 0.1 * spec.body("pulley").inertia[1]
-
-
-def _offset(name: str, value: float):
-    def edit(spec: mujoco.MjSpec) -> None:
-        eq = _equality(spec, name)
-        eq.data = [eq.data[0] + value, *list(eq.data[1:])]
-    return edit
 
 
 def _move_mass1(spec: mujoco.MjSpec) -> None:
@@ -300,10 +282,6 @@ def _default_diagonal_on_any_version(monkeypatch: pytest.MonkeyPatch) -> None:
         monkeypatch.setattr(models, "after_compile", lambda model, path: None)  # where compile_model calls it
 
 
-def _each(*figures: str) -> set[str]:
-    return {f"{i}.{f}" for i in INTEGRATORS for f in figures}
-
-
 _INSTANT_FORCES = {"instant.force.string1", "instant.force.string2", "instant.qacc",
                    "instant.point_acceleration", "instant.generalized_force"}
 
@@ -318,23 +296,24 @@ _INSTANT_FORCES = {"instant.force.string1", "instant.force.string2", "instant.qa
 # exact diagonal cannot be had (MuJoCo 3.3 emulates diagexact only when both strings ask the same inverse
 # weight of the pulley, which a wrong radius breaks), MuJoCo's approximate diagonal makes the strings ~70×
 # softer, and the fault's force error (5e-3 relative) then lies within a quarter of Euler's softness part.
-_WRONG_RADIUS = _INSTANT_FORCES | _each("position") | {"RK4.force.string1", "RK4.force.string2"}
+_WRONG_RADIUS = _INSTANT_FORCES | each_integrator("position") | {"RK4.force.string1", "RK4.force.string2"}
 FAULTS = {
     "string2 polycoef a +2%": (dict(edit=_polycoef("string2", -0.102)), _WRONG_RADIUS),
     "string1 polycoef a +2%": (dict(edit=_polycoef("string1", 0.102)), _WRONG_RADIUS),
-    "pulley damping 1e-3 N m s": (dict(edit=_damp), {"instant.forcing"} | _each("position", "drift.energy")),
+    "pulley damping 1e-3 N m s": (dict(edit=damping("theta", 1e-3)),
+                                  {"instant.forcing"} | each_integrator("position", "drift.energy")),
     "pulley armature +10%": (dict(edit=_armature), {"instant.mass_matrix", "instant.kinetic_energy"}
-                             | _each("force.string1", "force.string2")),
+                             | each_integrator("force.string1", "force.string2")),
     "mass1 1 mm off x = -a": (dict(edit=_move_mass1), {"instant.kinematics"}),
-    "string1 offset 1 cm": (dict(edit=_offset("string1", 0.01)), _each("violation.string1")),
-    "string2 offset 1 cm": (dict(edit=_offset("string2", 0.01)), _each("violation.string2")),
+    "string1 offset 1 cm": (dict(edit=equality_offset("string1", 0.01)), each_integrator("violation.string1")),
+    "string2 offset 1 cm": (dict(edit=equality_offset("string2", 0.01)), each_integrator("violation.string2")),
 }
 
 # Legitimate changes: softer strings, a coarser timestep and MuJoCo's default (approximate) constraint
 # diagonal change how the same machine is simulated; their errors are the budget's softness and
 # integration parts. Every gate passes.
 SETTINGS = {
-    "soft strings": dict(edit=_soft),
+    "soft strings": dict(edit=default_equality_softness),
     "timestep x4": dict(timestep=0.004),
     "diagexact off": dict(edit=_approximate_diagonal),
 }
@@ -342,25 +321,18 @@ SETTINGS = {
 
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_a_fault_trips_its_gates(fault: str) -> None:
-    kwargs, expected = FAULTS[fault]
-    # gates of an integrator this MuJoCo lacks are n/a, not failures (harness.compat)
-    expected = breakable(CASE.name, expected)
-    failed = failing(pipeline.run_case(CASE, RunOptions(**kwargs)))
-    assert expected <= failed, f"{fault}: did not fail {sorted(expected - failed)}"
+    assert_trips(CASE, *FAULTS[fault], fault)
 
 
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting: str, monkeypatch) -> None:
     if SETTINGS[setting].get("edit") is _approximate_diagonal:
         _default_diagonal_on_any_version(monkeypatch)
-    assert failing(pipeline.run_case(CASE, RunOptions(**SETTINGS[setting]))) == set()
+    assert_passes(CASE, SETTINGS[setting], setting)
 
 
 def test_every_gate_has_a_fault() -> None:
-    covered = set().union(*(expected for _, expected in FAULTS.values()))
-    # converge.* (layer-4 order) gates: the generic faults in tests/test_gates.py, tests/test_convergence.py;
-    # reference.*: a broken reference, also there
-    assert {k for k in load_limits().for_case("atwood") if k.split(".")[0] not in ("converge", "reference")} <= covered
+    assert_faults_cover("atwood", FAULTS)
 
 
 def test_an_initial_state_off_the_strings_is_moved_onto_them() -> None:

@@ -14,20 +14,17 @@ import numpy as np
 import pytest
 
 from harness import cases
-from harness.core.options import RunOptions
 from harness.engine import compat
 from harness.engine.bindings import JointBinding
 from harness.engine.constraints import equality_force
 from harness.engine.models import compile_model, mjcf_path
-from harness.pipeline import run as pipeline
-from harness.pipeline.limits import load_limits
-from tests.conftest import breakable, failing, shipped_run
+from tests.conftest import assert_faults_cover, assert_passes, assert_trips, failing, shipped_run
+from tests.helpers import damping, default_equality_softness, each_integrator, equality_offset, forward_at
 from tests.test_atwood import closed_forms
 
 if "atwood_tendon" in cases.unavailable():  # an older MuJoCo: the case is listed as n/a, not run
     pytest.skip(cases.unavailable()["atwood_tendon"], allow_module_level=True)
 CASE = cases.get("atwood_tendon")
-INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4", "discrete")
 STRINGS = ("string1", "string2")
 # the equalities' softness: solimp d = 0.9999, so a force at a consistent state is off the rigid one by
 # a relative O(1 − d) = 1e-4 (docs/design.md, "The parts and their variants"); ×10 margin
@@ -47,11 +44,8 @@ def _params(model):
 def _at(model, theta, *, qd=0.0):
     """MjData after mj_forward at the consistent state z1 = aθ, z2 = −aθ, with velocity θ̇ = qd."""
     a = _params(model)[4]
-    data = mujoco.MjData(model)
-    JointBinding(("z1", "z2", "theta")).set_state(model, data, np.array([a * theta, -a * theta, theta]),
-                                                  np.array([a * qd, -a * qd, qd]))
-    mujoco.mj_forward(model, data)
-    return data
+    return forward_at(model, JointBinding(("z1", "z2", "theta")), np.array([a * theta, -a * theta, theta]),
+                      np.array([a * qd, -a * qd, qd]))
 
 
 def test_params_read_a_from_the_wrapped_cylinder(model) -> None:
@@ -140,14 +134,6 @@ def test_shipped_case_passes_every_gate() -> None:
     assert failing(shipped_run("atwood_tendon")) == set()
 
 
-def _each(*figures: str) -> set[str]:
-    return {f"{i}.{f}" for i in INTEGRATORS for f in figures}
-
-
-def _damp(spec: mujoco.MjSpec) -> None:
-    compat.set_damping(spec.joint("theta"), 1e-3)
-
-
 def _armature(spec: mujoco.MjSpec) -> None:
     """10 % more inertia on the pulley's axle, as joint armature: the pulley stays a thin hoop of its mass (an inertia
     changed alone is another pulley, which the system refuses: tests/test_bad_input.py; as tests/test_atwood.py)."""
@@ -162,43 +148,31 @@ def _no_gravity(spec: mujoco.MjSpec) -> None:
     spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
 
 
-def _offset(name: str, value: float):
-    def edit(spec: mujoco.MjSpec) -> None:
-        eq = next(e for e in spec.equalities if e.name == name)
-        eq.data = [eq.data[0] + value, *list(eq.data[1:])]
-    return edit
-
-
-def _soft(spec: mujoco.MjSpec) -> None:
-    for eq in spec.equalities:
-        eq.solref = [0.02, 1.0]
-        eq.solimp = [0.9, 0.95, 0.001, 0.5, 2.0]
-
-
 # Faults -> the gates they must trip. Damping on the pulley: the hinge transmits its moment, which the
 # ideal axle does not (axle_torque), and drains energy. Extra pulley inertia (axle armature) changes the accelerations
 # and the tensions the axle carries. mass1 1 mm off the tangent tilts string1: the slide must hold it
 # sideways (slide1_force, cfrc_int of mass1) and kinematics. No gravity in MuJoCo while the reference has it: the static
 # accelerometer reads 0 instead of +g. A string held 1 cm longer than it starts: its violation and stretch.
 FAULTS = {
-    "pulley damping 1e-3 N m s": (dict(edit=_damp), {"instant.forcing", "instant.sensor.axle_torque"}
-                                  | _each("position", "drift.energy")),
+    "pulley damping 1e-3 N m s": (dict(edit=damping("theta", 1e-3)), {"instant.forcing", "instant.sensor.axle_torque"}
+                                  | each_integrator("position", "drift.energy")),
     "pulley armature +10%": (dict(edit=_armature), {"instant.mass_matrix", "instant.kinetic_energy", "instant.qacc",
                                                   "instant.point_acceleration", "instant.force.string1",
                                                   "instant.force.string2", "instant.generalized_force",
                                                   "instant.sensor.axle_force", "instant.interaction.pulley",
                                                   "instant.sensor.mass1_accel", "instant.sensor.mass2_accel"}
-                            | _each("force.string1", "force.string2")),
+                            | each_integrator("force.string1", "force.string2")),
     "mass1 1 mm off x = -a": (dict(edit=_move_mass1), {"instant.kinematics", "instant.sensor.slide1_force",
                                                        "instant.interaction.mass1"}),
     "gravity disabled": (dict(edit=_no_gravity), {"instant.sensor.world_accel"}),
-    "string1 held 1 cm long": (dict(edit=_offset("string1", 0.01)), _each("violation.string1", "series.stretch")),
-    "string2 held 1 cm long": (dict(edit=_offset("string2", 0.01)), _each("violation.string2")),
+    "string1 held 1 cm long": (dict(edit=equality_offset("string1", 0.01)),
+                               each_integrator("violation.string1", "series.stretch")),
+    "string2 held 1 cm long": (dict(edit=equality_offset("string2", 0.01)), each_integrator("violation.string2")),
 }
 
 # Legitimate changes: softer strings and a coarser timestep; their errors are the budget's parts.
 SETTINGS = {
-    "soft strings": dict(edit=_soft),
+    "soft strings": dict(edit=default_equality_softness),
     "timestep x4": dict(timestep=0.004),
 }
 
@@ -206,19 +180,14 @@ SETTINGS = {
 @pytest.mark.slow
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_a_fault_trips_its_gates(fault: str) -> None:
-    kwargs, expected = FAULTS[fault]
-    expected = breakable(CASE.name, expected)
-    failed = failing(pipeline.run_case(CASE, RunOptions(**kwargs)))
-    assert expected <= failed, f"{fault}: did not fail {sorted(expected - failed)}"
+    assert_trips(CASE, *FAULTS[fault], fault)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting: str) -> None:
-    assert failing(pipeline.run_case(CASE, RunOptions(**SETTINGS[setting]))) == set()
+    assert_passes(CASE, SETTINGS[setting], setting)
 
 
 def test_every_gate_has_a_fault() -> None:
-    covered = set().union(*(expected for _, expected in FAULTS.values()))
-    gated = {k for k in load_limits().for_case("atwood_tendon") if k.split(".")[0] not in ("converge", "reference")}
-    assert gated <= covered, sorted(gated - covered)
+    assert_faults_cover("atwood_tendon", FAULTS)

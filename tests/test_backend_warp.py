@@ -194,19 +194,14 @@ def test_warp_instant_numbers_are_warps_own(monkeypatch):
     """Warp's qacc at a sampled state is not the C engine's bit for bit, and is within a few hundred float32
     epsilons of it; a fault in Warp's forward alone (damping 1e-3 on its qfrc_passive and qacc) fails the
     forcing and qacc figures on Warp while C's figures of the same model pass."""
-    from tests.test_backends import _damped, _instant_budgets, _states
+    from tests.test_backends import _states, check_figures_are_the_backends_own
     _, model, _, probe, qpos, qvel = _states("double_pendulum")
     warp = backends.get("warp")
     got = warp.forward_many(model, probe, qpos, qvel).qacc
     c = backends.get("c").forward_many(model, probe, qpos, qvel).qacc
     rel = float(np.max(np.abs(got - c)) / np.max(np.abs(c)))
     assert 0 < rel <= 300 * warp.epsilon, rel / warp.epsilon
-    _, c_budgets = _instant_budgets("double_pendulum", "c")
-    _damped(warp, monkeypatch, 1e-3)
-    _, budgets = _instant_budgets("double_pendulum", "warp")
-    for figure in ("instant.forcing", "instant.qacc", "instant.point_acceleration"):
-        assert c_budgets[figure].passed, figure
-        assert not budgets[figure].passed, (figure, budgets[figure].unexplained, budgets[figure].limit)
+    check_figures_are_the_backends_own(warp, "warp", monkeypatch)
 
 
 def test_warp_forward_many_dense_mass_is_the_c_engines_layout():

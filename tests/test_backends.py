@@ -262,6 +262,17 @@ def _damped(backend: backends.Backend, monkeypatch, damping: float) -> None:
     monkeypatch.setattr(backend, "forward_many", faulty)
 
 
+def check_figures_are_the_backends_own(backend: backends.Backend, name: str, monkeypatch) -> None:
+    """A fault in ``backend``'s forward alone (:func:`_damped`, 1e-3) fails the forcing, qacc and point
+    acceleration figures of double_pendulum on it (``name``), while the C engine's of the same model pass."""
+    _, c_budgets = _instant_budgets("double_pendulum", "c")
+    _damped(backend, monkeypatch, 1e-3)
+    _, budgets = _instant_budgets("double_pendulum", name)
+    for figure in ("instant.forcing", "instant.qacc", "instant.point_acceleration"):
+        assert c_budgets[figure].passed, figure
+        assert not budgets[figure].passed, (figure, budgets[figure].unexplained, budgets[figure].limit)
+
+
 @pytest.mark.parametrize("name", ["pendulum", "double_pendulum", "atwood"])
 def test_mjx_instant_figures_pass_their_budgets(name):
     """On MJX (float64 in this process) every instantaneous figure passes its budget: pendulum (a joint
@@ -278,13 +289,7 @@ def test_mjx_instant_figures_pass_their_budgets(name):
 def test_mjx_instant_figures_are_mjxs_own(monkeypatch):
     """A fault in MJX's forward alone (damping 1e-3 added to its qfrc_passive and qacc) fails the forcing and
     qacc figures on MJX, while the C engine's figures of the same model pass: the figures are not C's."""
-    mjx64 = _mjx64()
-    _, c_budgets = _instant_budgets("double_pendulum", "c")
-    _damped(mjx64, monkeypatch, 1e-3)
-    _, budgets = _instant_budgets("double_pendulum", "mjx-f64")
-    for figure in ("instant.forcing", "instant.qacc", "instant.point_acceleration"):
-        assert c_budgets[figure].passed, figure
-        assert not budgets[figure].passed, (figure, budgets[figure].unexplained, budgets[figure].limit)
+    check_figures_are_the_backends_own(_mjx64(), "mjx-f64", monkeypatch)
 
 
 def test_reactions_the_backend_lacks_are_na_with_the_reason_where_rows_do_not_map(monkeypatch):

@@ -35,8 +35,8 @@ from harness.engine.models import compile_model, mjcf_path
 from harness.engine.readings.contact import contact_force, fit_circle, slide_force
 from harness.pipeline import run as pipeline
 from harness.studies.contact import contact_study
-from tests.conftest import failing, shipped_run
-from tests.contact_edits import friction, mujoco_default_softness, rim_radius
+from tests.conftest import assert_passes, assert_trips, failing, shipped_run
+from tests.helpers import default_pair_softness, forward_at, friction, rim_radius
 
 P = systems.symbols("hoop_plane")  # the parameters as sympy symbols
 
@@ -133,10 +133,8 @@ def test_positive_phi_rolls_along_the_heading(model) -> None:
     """At ẋ = a φ̇ cos θ, ẏ = a φ̇ sin θ (θ = 0.7, φ̇ > 0) the hoop's material point at the
     contact is at rest: the hinge's sense and axle are those of the docstring."""
     a, theta, phi_d = 0.5, 0.7, 3.0
-    data = mujoco.MjData(model)
-    JointBinding(COORDS).set_state(model, data, [0.2, -0.1, a, theta, 1.1],
-                                   [a * phi_d * math.cos(theta), a * phi_d * math.sin(theta), 0.0, 0.4, phi_d])
-    mujoco.mj_forward(model, data)
+    data = forward_at(model, JointBinding(COORDS), [0.2, -0.1, a, theta, 1.1],
+                      [a * phi_d * math.cos(theta), a * phi_d * math.sin(theta), 0.0, 0.4, phi_d])
     hoop = model.body("hoop").id
     jacp = np.zeros((3, model.nv))
     mujoco.mj_jac(model, data, jacp, None, data.xpos[hoop] - [0.0, 0.0, a], hoop)
@@ -148,9 +146,7 @@ def test_positive_phi_rolls_along_the_heading(model) -> None:
 def test_contact_readings_are_world_force_components(model) -> None:
     """roll_x, roll_y, normal = the contact force on the rim along world x, y, z = the
     generalized contact force on the three slides."""
-    data = mujoco.MjData(model)
-    JointBinding(COORDS).set_state(model, data, [0.0, 0.0, 0.5 - 1e-4, 0.3, 0.0], [0.2, -0.1, -0.05, 0.0, 0.0])
-    mujoco.mj_forward(model, data)
+    data = forward_at(model, JointBinding(COORDS), [0.0, 0.0, 0.5 - 1e-4, 0.3, 0.0], [0.2, -0.1, -0.05, 0.0, 0.0])
     world = contact_force(model, data, "rim")  # from mj_contactForce, contact by contact
     for axis, joint in enumerate(("x", "y", "z")):
         assert slide_force(geom="rim", joint=joint)(model, data) == pytest.approx(world[axis], abs=1e-12)
@@ -240,18 +236,17 @@ def test_study_finds_slip_independent_of_cone_impratio_noslip() -> None:
      {"RK4.series.slip", "RK4.series.penetration", "RK4.position", "RK4.drift.energy"}),
 ])
 def test_a_contact_fault_trips_its_gates(label, kwargs, expected) -> None:
-    result = pipeline.run_case(CASE, RunOptions(integrators=["RK4"], **kwargs))
-    assert expected <= failing(result), label
+    assert_trips(CASE, {"integrators": ["RK4"], **kwargs}, expected, label)
 
 
 # legitimate settings of the contact: MuJoCo's default softness and a 10 ms step simulate the same rolling
 # hoop less accurately; the budget's softness and integration parts explain it, and every gate passes
 @pytest.mark.parametrize(("label", "kwargs"), [
-    ("MuJoCo's default contact softness", {"edit": mujoco_default_softness}),
+    ("MuJoCo's default contact softness", {"edit": default_pair_softness}),
     ("timestep 10 ms", {"timestep": 0.01}),
 ])
 def test_a_legitimate_contact_setting_passes_every_gate(label, kwargs) -> None:
-    assert failing(pipeline.run_case(CASE, RunOptions(**kwargs))) == set(), label
+    assert_passes(CASE, kwargs, label)
 
 
 def test_p_theta_gates_fail_when_the_heading_is_damped() -> None:
@@ -275,9 +270,7 @@ def test_p_theta_reading_equals_mj_subtree_vel(model) -> None:
     rng = np.random.default_rng(3)
     bid = model.body("hoop").id
     for _ in range(10):
-        data = mujoco.MjData(model)
-        JointBinding(COORDS).set_state(model, data, rng.normal(size=5), rng.normal(size=5))
-        mujoco.mj_forward(model, data)
+        data = forward_at(model, JointBinding(COORDS), rng.normal(size=5), rng.normal(size=5))
         mujoco.mj_subtreeVel(model, data)
         lever = data.subtree_com[bid] - data.site_xpos[model.site("centre").id]
         expected = data.subtree_angmom[bid] + model.body_subtreemass[bid] * np.cross(lever, data.subtree_linvel[bid])
@@ -317,9 +310,7 @@ def test_the_upright_moment_misses_the_lateral_friction_until_the_slip_settles(m
     and slips at v θ̇ τ / 2, the sensor is Newton–Euler's with the declared contact loads (measured
     1.2e-8 m g a; bound 1e-6, the slip's own size relative to v being 1e-3)."""
     dyn = CASE.reference(model).dynamics
-    data = mujoco.MjData(model)
-    JointBinding(COORDS).set_state(model, data, [CASE.q0[c] for c in COORDS], [CASE.qd0[c] for c in COORDS])
-    mujoco.mj_forward(model, data)
+    data = forward_at(model, JointBinding(COORDS), [CASE.q0[c] for c in COORDS], [CASE.qd0[c] for c in COORDS])
     p = hoop_plane.params_from_model(model)
     mga = p["m"] * p["g"] * p["a"]
     got, expected, _ = _torque_against_newton_euler(model, data, dyn)

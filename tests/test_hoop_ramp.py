@@ -36,8 +36,8 @@ from harness.engine.models import compile_model, mjcf_path
 from harness.engine.readings.contact import analytic_residual, contact_force, slide_force
 from harness.pipeline import run as pipeline
 from harness.studies.contact import contact_study
-from tests.conftest import failing, shipped_run
-from tests.contact_edits import friction, mujoco_default_softness, rim_radius
+from tests.conftest import assert_passes, failing, shipped_run
+from tests.helpers import default_pair_softness, forward_at, friction, rim_radius
 
 P = systems.symbols("hoop_ramp")  # the parameters as sympy symbols
 
@@ -54,10 +54,7 @@ def closed_forms(m, g, alpha):
 def rolling_state(model: mujoco.MjModel, *, x: float = 0.3, xdot: float = 0.8) -> mujoco.MjData:
     """MuJoCo data at a state on both constraints (s = a, x = a φ, ẋ = a φ̇), after mj_forward."""
     a = hoop_ramp.params_from_model(model)["a"]
-    data = mujoco.MjData(model)
-    JointBinding(COORDS).set_state(model, data, [x, a, x / a], [xdot, 0.0, xdot / a])
-    mujoco.mj_forward(model, data)
-    return data
+    return forward_at(model, JointBinding(COORDS), [x, a, x / a], [xdot, 0.0, xdot / a])
 
 
 # --- layer 1: derivation ---------------------------------------------------------------
@@ -302,13 +299,13 @@ def test_a_rim_of_another_radius_trips_its_gates() -> None:
 
 
 @pytest.mark.parametrize(("label", "kwargs"), [
-    ("MuJoCo's default contact softness", {"edit": mujoco_default_softness}),
+    ("MuJoCo's default contact softness", {"edit": default_pair_softness}),
     ("timestep 10 ms", {"timestep": 0.01}),
 ])
 def test_a_legitimate_contact_setting_passes_every_gate(label, kwargs) -> None:
     """Softer contact and a coarser step simulate the same rolling hoop less accurately: the budget's
     softness and integration parts explain it."""
-    assert failing(pipeline.run_case(cases.get("hoop_ramp_contact"), RunOptions(**kwargs))) == set(), label
+    assert_passes(cases.get("hoop_ramp_contact"), kwargs, label)
 
 
 def test_wrong_radius_in_the_rolling_equality_trips_its_gates() -> None:

@@ -20,11 +20,9 @@ import numpy as np
 import pytest
 
 from harness import cases
-from harness.core.options import RunOptions
-from harness.engine.constraints import equality_block, equality_jacobian
 from harness.engine.models import compile_model, mjcf_path
-from harness.pipeline import run as pipeline
-from tests.conftest import failing, shipped_run
+from tests.conftest import assert_passes, assert_trips, shipped_run
+from tests.helpers import default_equality_softness, equality_rows, forward_at
 
 if "slider_crank" in cases.unavailable():  # an older MuJoCo: the case is listed as n/a with the measured reason
     pytest.skip(cases.unavailable()["slider_crank"], allow_module_level=True)
@@ -43,10 +41,7 @@ def ref(model):
 
 
 def _forward(model, q, qd=None) -> mujoco.MjData:
-    data = mujoco.MjData(model)
-    CASE.probe(CASE.dynamics()).binding.set_state(model, data, q, np.zeros(4) if qd is None else qd)
-    mujoco.mj_forward(model, data)
-    return data
+    return forward_at(model, CASE.probe(CASE.dynamics()).binding, q, np.zeros(4) if qd is None else qd)
 
 
 # --- conventions ----------------------------------------------------------------------------------------
@@ -76,14 +71,9 @@ def test_positive_theta_raises_the_crank_pin_and_phi_is_relative(model) -> None:
 def test_the_closure_rows_are_the_connects_rows(model, ref) -> None:
     """At arbitrary states (off the loop too) MuJoCo's efc_pos for ``wrist_pin`` is the analytic f(q), row by
     row (x, y, z of rod_end − piston_pin), and its Jacobian rows are ∂f/∂q: so efc_force is λ, same sign."""
-    dyn = ref.dynamics
     rng = np.random.default_rng(7)
-    for _ in range(10):
-        q = rng.uniform(-2, 2, size=4)
-        data = _forward(model, q)
-        pos = equality_block(model, data, "wrist_pin")[1]
-        np.testing.assert_allclose(pos, dyn.position_residual(q), rtol=0, atol=1e-14)
-        np.testing.assert_allclose(equality_jacobian(model, data, "wrist_pin"), dyn.jacobian(q), rtol=0, atol=1e-14)
+    states = [rng.uniform(-2, 2, size=4) for _ in range(10)]
+    for pos in equality_rows(model, _forward, ref.dynamics, "wrist_pin", states, jacobian_atol=1e-14):
         assert np.max(np.abs(pos)) > 1e-2  # off the loop: every row is seen
 
 
@@ -151,17 +141,12 @@ def _pin_raised(spec: mujoco.MjSpec) -> None:
     ("piston pin 1 mm off the guide", _pin_raised, {"RK4.force.wrist_pin", "RK4.position", "RK4.violation.wrist_pin"}),
 ])
 def test_a_fault_of_the_loop_trips_its_gates(label, edit, expected) -> None:
-    assert expected <= failing(pipeline.run_case(CASE, RunOptions(integrators=["RK4"], edit=edit))), label
-
-
-def _default_softness(spec: mujoco.MjSpec) -> None:
-    for eq in spec.equalities:
-        eq.solref, eq.solimp = [0.02, 1.0], [0.9, 0.95, 0.001, 0.5, 2.0]
+    assert_trips(CASE, {"integrators": ["RK4"], "edit": edit}, expected, label)
 
 
 @pytest.mark.parametrize(("label", "kwargs"), [
-    ("MuJoCo's default softness", {"edit": _default_softness}),
+    ("MuJoCo's default softness", {"edit": default_equality_softness}),
     ("timestep 4 ms", {"timestep": 0.004}),
 ])
 def test_a_legitimate_setting_passes_every_gate(label, kwargs) -> None:
-    assert failing(pipeline.run_case(CASE, RunOptions(integrators=["RK4", "implicitfast"], **kwargs))) == set(), label
+    assert_passes(CASE, {"integrators": ["RK4", "implicitfast"], **kwargs}, label)

@@ -12,7 +12,6 @@ from analytic import systems
 from analytic.systems import spherical_pendulum as sph
 from harness import cases
 from harness.core.errors import ModelMismatch
-from harness.core.options import RunOptions
 from harness.engine import compat
 from harness.engine.bindings import JointBinding, velocity_map
 from harness.engine.integrators import available_integrators
@@ -22,7 +21,8 @@ from harness.families.sampled import point_acceleration, pull_back, sample_state
 from harness.pipeline.run import run_case
 from harness.reference import derivations
 from mjcf.spherical_pendulum_ball import BallBinding
-from tests.conftest import breakable, failing, shipped_run
+from tests.conftest import assert_passes, assert_trips, failing, shipped_run
+from tests.helpers import armature, damping, forward_at, gravity, integrate_pos_gap, random_states
 
 HINGE, BALL = "spherical_pendulum", "spherical_pendulum_ball"
 SYM = systems.symbols("spherical_pendulum")  # the parameters as sympy symbols
@@ -41,17 +41,9 @@ def _models() -> dict[str, tuple[mujoco.MjModel, object]]:
             BALL: (compile_model(mjcf_path(BALL)), BallBinding(COORDS))}
 
 
-def _at(model: mujoco.MjModel, binding, q, qd) -> mujoco.MjData:
-    data = mujoco.MjData(model)
-    binding.set_state(model, data, q, qd)
-    mujoco.mj_forward(model, data)
-    return data
-
-
 def _random_states(count: int, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
-    rng = np.random.default_rng(seed)
-    q = np.stack([rng.uniform(0.2, 2.9, count), rng.uniform(-3.0, 3.0, count)], axis=1)
-    return q, rng.uniform(-3.0, 3.0, (count, 2))
+    """(θ, φ) off the poles, rates of the case's size."""
+    return random_states(count, seed, [(0.2, 2.9, 1), (-3.0, 3.0, 1)], (-3.0, 3.0))
 
 
 # --- layer 1: derivation --------------------------------------------------------------
@@ -115,7 +107,7 @@ def test_bob_position_and_frame_match_the_convention_in_both_models():
         expected = l * np.array([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), -np.cos(theta)])
         frames = []
         for model, binding in models.values():
-            data = _at(model, binding, qi, qdi)
+            data = forward_at(model, binding, qi, qdi)
             bid = model.body("bob").id
             np.testing.assert_allclose(data.xipos[bid], expected, atol=1e-15)
             np.testing.assert_allclose(data.site_xpos[model.site("pivot").id], 0.0, atol=0)
@@ -131,13 +123,10 @@ def test_ball_qvel_is_the_angular_velocity_in_the_local_frame():
     model, binding = models[BALL]
     h = 1e-7
     for qi, qdi in zip(*_random_states(10), strict=True):
-        data = _at(model, binding, qi, qdi)
-        ahead = data.qpos.copy()
-        mujoco.mj_integratePos(model, ahead, data.qvel, h)
-        later = _at(model, binding, qi + h * qdi, qdi)
-        assert np.max(np.abs(ahead - later.qpos)) < 1e-12
+        gap, data, _ = integrate_pos_gap(model, binding, qi, qdi, h)
+        assert gap < 1e-12
         hinge_model, hinge_binding = models[HINGE]
-        hinge = _at(hinge_model, hinge_binding, qi, qdi)
+        hinge = forward_at(hinge_model, hinge_binding, qi, qdi)
         vel = [np.zeros(6), np.zeros(6)]
         mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, 1, vel[0], 0)
         mujoco.mj_objectVelocity(hinge_model, hinge, mujoco.mjtObj.mjOBJ_BODY, 1, vel[1], 0)
@@ -150,7 +139,7 @@ def test_ball_binding_round_trips():
         binding = BallBinding(order)
         for qi, qdi in zip(*_random_states(30, seed=7), strict=True):
             q_in, qd_in = qi if order == COORDS else qi[::-1], qdi if order == COORDS else qdi[::-1]
-            data = _at(model, binding, q_in, qd_in)
+            data = forward_at(model, binding, q_in, qd_in)
             q_out, qd_out = binding.read_state(model, data)
             np.testing.assert_allclose(q_out, q_in, atol=1e-13)
             np.testing.assert_allclose(qd_out, qd_in, atol=1e-12)
@@ -164,7 +153,7 @@ def test_ball_velocity_map_is_what_set_state_writes_and_its_rate_is_exact():
         binding = BallBinding(order)
         for qi, qdi in zip(*_random_states(20, seed=11), strict=True):
             q_in, qd_in = (qi, qdi) if order == COORDS else (qi[::-1], qdi[::-1])
-            data = _at(model, binding, q_in, qd_in)
+            data = forward_at(model, binding, q_in, qd_in)
             mat, rate = velocity_map(binding, model, q_in, qd_in)
             np.testing.assert_allclose(mat @ qd_in, data.qvel, rtol=0, atol=1e-15)
             h = 1e-6
@@ -186,7 +175,7 @@ def test_the_balls_qacc_is_pulled_back_by_the_kinetic_energy():
     qdd, _ = ref.dynamics.accelerations(q, qd)
     weighted, plain, whole = [], [], []
     for qi, qdi, qddi in zip(q, qd, qdd, strict=True):
-        data = _at(model, binding, qi, qdi)
+        data = forward_at(model, binding, qi, qdi)
         mat, rate = velocity_map(binding, model, qi, qdi)
         weighted.append(pull_back(mat, compat.full_mass_matrix(model, data), data.qacc - rate) - qddi)
         plain.append(np.linalg.lstsq(mat, data.qacc - rate, rcond=None)[0] - qddi)
@@ -211,7 +200,7 @@ def test_point_acceleration_agrees_with_mujocos_accelerometer_convention():
     """J qacc + J̇ qvel = mj_objectAcceleration (after mj_rnePostConstraint), which reads a − g."""
     for model, binding in _models().values():
         for qi, qdi in zip(*_random_states(5), strict=True):
-            data = _at(model, binding, qi, qdi)
+            data = forward_at(model, binding, qi, qdi)
             mujoco.mj_rnePostConstraint(model, data)
             acc6 = np.zeros(6)
             mujoco.mj_objectAcceleration(model, data, mujoco.mjtObj.mjOBJ_BODY, model.body("bob").id, acc6, 0)
@@ -226,7 +215,7 @@ def test_mujoco_p_phi_is_the_bobs_vertical_angular_momentum():
     assert cases.get(BALL).mujoco_invariants["p_phi"] is not None
     for model, binding in _models().values():
         for qi, qdi in zip(*_random_states(10), strict=True):
-            data = _at(model, binding, qi, qdi)
+            data = forward_at(model, binding, qi, qdi)
             x, v = point_state(model, data, "bob")
             orbital = model.body("bob").mass[0] * np.cross(x, v)[2]
             eps = model.body("bob").inertia[2]  # the point-mass floor: its spin adds ε φ̇
@@ -289,7 +278,7 @@ def test_the_two_models_agree_at_the_same_state():
     for qi, qdi in zip(*_random_states(10), strict=True):
         got = []
         for model, binding in models.values():
-            data = _at(model, binding, qi, qdi)
+            data = forward_at(model, binding, qi, qdi)
             got.append((point_acceleration(model, data, "bob"), data.energy[1]))
         floor = eps / np.sin(qi[0]) ** 2
         assert np.linalg.norm(got[0][0] - got[1][0]) <= 2 * floor * np.linalg.norm(got[1][0])
@@ -310,24 +299,6 @@ def test_ball_case_has_the_coordinate_figures_through_its_velocity_map():
 
 
 # --- faults fail their gates, legitimate changes pass ----------------------------------------------------
-
-
-def _damping(joint: str, value: float):
-    def edit(spec: mujoco.MjSpec) -> None:
-        compat.set_damping(spec.joint(joint), value)  # linear: f = −c q̇ per dof (3.3 has no other)
-    return edit
-
-
-def _armature(joint: str, value: float):
-    def edit(spec: mujoco.MjSpec) -> None:
-        spec.joint(joint).armature = value
-    return edit
-
-
-def _gravity(vector):
-    def edit(spec: mujoco.MjSpec) -> None:
-        spec.option.gravity = vector
-    return edit
 
 
 def _mass(spec: mujoco.MjSpec) -> None:
@@ -352,15 +323,15 @@ FAULTS = {
     # (inertia ε = 1e-12): at t = 0 its qacc is c ω_spin/ε = 1.08e12 c, and mj_step resets a simulation
     # whose |qacc| passes mjMAXVAL = 1e10, so c < 9.2e-3; and only integrators that treat damping
     # implicitly carry it (test_ball_damping_is_too_stiff_for_explicit_rk4).
-    "azimuth_damping": ({HINGE: dict(edit=_damping("phi", 3e-2)),
-                         BALL: dict(edit=_damping("ball", 8e-3),
+    "azimuth_damping": ({HINGE: dict(edit=damping("phi", 3e-2)),
+                         BALL: dict(edit=damping("ball", 8e-3),
                                     integrators=[i for i in EULER_FAMILY if i in available_integrators()])},
                         {"Euler.position", "Euler.drift.energy", "Euler.drift.p_phi", "Euler.p_phi",
                          "discrete.drift.p_phi", "implicit.p_phi", "instant.forcing", "instant.qacc"}),
     # armature: rotor inertia on the joint's dofs, which a point mass on a massless rod does not have
     # (on the ball, through B(q): Bᵀ(a·1)B adds a to M_θθ and a to M_φφ)
-    "armature": ({HINGE: dict(edit=_armature("phi", 1e-3), integrators=RK4),
-                  BALL: dict(edit=_armature("ball", 1e-3), integrators=RK4)},
+    "armature": ({HINGE: dict(edit=armature("phi", 1e-3), integrators=RK4),
+                  BALL: dict(edit=armature("ball", 1e-3), integrators=RK4)},
                  {"instant.mass_matrix", "instant.kinetic_energy", "instant.qacc", "RK4.position"}),
     "centre_of_mass_off_the_rod": ({c: dict(edit=_off_the_rod, integrators=RK4) for c in (HINGE, BALL)},
                                    {"instant.kinematics", "RK4.position"}),
@@ -370,7 +341,7 @@ FAULTS = {
 # the pivot-to-centre-of-mass distance); a 4 ms step is explained by RK4's order. Every gate passes.
 SETTINGS = {
     "mass +1%": dict(edit=_mass, integrators=RK4),
-    "gravity 9.9": dict(edit=_gravity([0.0, 0.0, -9.9]), integrators=RK4),
+    "gravity 9.9": dict(edit=gravity([0.0, 0.0, -9.9]), integrators=RK4),
     "rod 1 cm longer": dict(edit=_rod, integrators=RK4),
     "timestep 4 ms": dict(timestep=0.004, integrators=RK4),
 }
@@ -379,23 +350,13 @@ SETTINGS = {
 @pytest.mark.parametrize("fault", list(FAULTS))
 @pytest.mark.parametrize("name", [HINGE, BALL])
 def test_a_fault_trips_its_gates(name, fault):
-    failed = failing(run_case(cases.get(name), RunOptions(**FAULTS[fault][0][name])))
-    # without gates this MuJoCo cannot fail: n/a (an integrator it lacks) or a known defect of it
-    must_fail = breakable(name, FAULTS[fault][1])
-    assert must_fail <= failed, f"expected to fail but passed: {sorted(must_fail - failed)}"
+    assert_trips(cases.get(name), FAULTS[fault][0][name], FAULTS[fault][1], fault)
 
 
 @pytest.mark.parametrize("setting", list(SETTINGS))
 @pytest.mark.parametrize("name", [HINGE, BALL])
 def test_a_legitimate_change_passes_every_gate(name, setting):
-    failed = failing(run_case(cases.get(name), RunOptions(**SETTINGS[setting])))
-    assert failed - known_defects(name, failed) == set()
-
-
-def known_defects(name: str, figures: set[str]) -> set[str]:
-    """The figures a documented defect of this MuJoCo already fails on ``name``'s model (RK4 on the ball
-    before 4.0): what no setting can make pass."""
-    return figures - breakable(name, figures)
+    assert_passes(cases.get(name), SETTINGS[setting], setting)
 
 
 @pytest.mark.parametrize("name", [HINGE, BALL])
@@ -403,14 +364,14 @@ def test_gravity_off_the_vertical_is_refused_naming_it(name):
     """The analytic pendulum hangs under gravity along −z (its θ is from the downward vertical): a model
     with a horizontal component is another system, refused with what is accepted, not judged."""
     with pytest.raises(ValueError, match="gravity must point along −z"):
-        run_case(cases.get(name), RunOptions(edit=_gravity([0.05, 0.0, -9.81]), integrators=RK4))
+        run_case(cases.get(name), RunOptions(edit=gravity([0.05, 0.0, -9.81]), integrators=RK4))
 
 
 def test_ball_damping_is_too_stiff_for_explicit_rk4():
     """Damping on the ball acts on the spin about the rod too, whose inertia is the point-mass
     floor ε: rate c/ε = 3e9 /s, far past RK4's stability at 1 ms (why the damping variant of the
     ball case runs only the integrators that treat damping implicitly)."""
-    result = run_case(cases.get(BALL), RunOptions(edit=_damping("ball", 3e-3), integrators=RK4))
+    result = run_case(cases.get(BALL), RunOptions(edit=damping("ball", 3e-3), integrators=RK4))
     assert result.diverged["RK4"].startswith("diverged: mjWARN_") and not result.simulations
 
 
@@ -430,6 +391,6 @@ def test_p_phi_reading_equals_mj_subtree_vel():
     read = cases.get(HINGE).mujoco_invariants["p_phi"]
     for model, binding in _models().values():
         for qi, qdi in zip(*_random_states(10), strict=True):
-            data = _at(model, binding, qi, qdi)
+            data = forward_at(model, binding, qi, qdi)
             assert read(model, data) == pytest.approx(_subtree_vel_momentum(model, data, "bob", "pivot"),
                                                       rel=1e-13, abs=1e-15)

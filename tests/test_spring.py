@@ -18,17 +18,16 @@ import sympy as sp
 from analytic import systems
 from analytic.systems import spring
 from harness import cases
-from harness.core.options import RunOptions
 from harness.engine import compat
 from harness.engine.models import compile_model, mjcf_path
 from harness.pipeline import run as pipeline
 from harness.pipeline.limits import load_limits
-from tests.conftest import breakable, failing, shipped_run
+from tests.conftest import assert_faults_cover, assert_passes, assert_trips, failing, shipped_run
+from tests.helpers import armature, damping, each_integrator, stiffness
 
 P = systems.symbols("spring")  # the parameters as sympy symbols
 
 CASE = cases.get("spring")
-INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4", "discrete")
 
 
 @pytest.fixture(scope="module")
@@ -138,15 +137,6 @@ def test_shipped_case_passes_every_gate(shipped) -> None:
     assert "reference.residual" not in limits  # identically 0 without constraints: cannot fail
 
 
-def _set_joint(attr: str, value: float):
-    """Set the linear coefficient (a float in MuJoCo 3.3, the first of three later)."""
-    setter = {"stiffness": compat.set_stiffness, "damping": compat.set_damping}[attr]
-
-    def edit(spec: mujoco.MjSpec) -> None:
-        setter(spec.joint("x"), value)
-    return edit
-
-
 def _set_mass(spec: mujoco.MjSpec) -> None:
     spec.body("mass").mass *= 1.02
 
@@ -155,33 +145,26 @@ def _tilt(spec: mujoco.MjSpec) -> None:
     spec.joint("x").axis = [1.0, 0.0, 0.02]
 
 
-def _armature(spec: mujoco.MjSpec) -> None:
-    spec.joint("x").armature = 1e-3
-
-
-def _each(*figures: str) -> set[str]:
-    return {f"{i}.{f}" for i in INTEGRATORS for f in figures}
-
-
 # Faults: physics the seed's system does not have -> the gates they must trip. Damping adds a force
 # (forcing, accelerations) that drains energy; a tilted slide lets gravity push along it (forcing) and
 # moves the mass off the x axis (kinematics); armature adds inertia the reference lacks (mass matrix,
 # kinetic energy). Each changes the motion, so every integrator's position fails too.
 FAULTS = {
-    "damping 0.05 N s/m": (dict(edit=_set_joint("damping", 0.05)),
+    "damping 0.05 N s/m": (dict(edit=damping("x", 0.05)),
                            {"instant.forcing", "instant.qacc", "instant.point_acceleration",
                             # the slide transmits the damping force too: m(a − g) is off the spring's pull
                             "instant.sensor.slide_force", "instant.interaction.mass", "instant.sensor.mass_accel"}
-                           | _each("position", "drift.energy")),
-    "slide tilted 20 mrad": (dict(edit=_tilt), {"instant.kinematics", "instant.forcing"} | _each("position")),
-    "armature 1e-3 kg": (dict(edit=_armature),
-                         {"instant.mass_matrix", "instant.kinetic_energy", "instant.qacc"} | _each("position")),
+                           | each_integrator("position", "drift.energy")),
+    "slide tilted 20 mrad": (dict(edit=_tilt), {"instant.kinematics", "instant.forcing"} | each_integrator("position")),
+    "armature 1e-3 kg": (dict(edit=armature("x", 1e-3)),
+                         {"instant.mass_matrix", "instant.kinetic_energy", "instant.qacc"}
+                         | each_integrator("position")),
 }
 
 # Legitimate changes: another stiffness or mass is another spring, which the reference reads from the
 # model under test; a coarser timestep is explained by each integrator's order. Every gate passes.
 SETTINGS = {
-    "stiffness +2%": dict(edit=_set_joint("stiffness", 20.4)),
+    "stiffness +2%": dict(edit=stiffness("x", 20.4)),
     "mass +2%": dict(edit=_set_mass),
     "timestep x4": dict(timestep=0.004),
 }
@@ -189,18 +172,13 @@ SETTINGS = {
 
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_a_fault_trips_its_gates(fault: str) -> None:
-    kwargs, expected = FAULTS[fault]
-    expected = breakable("spring", expected)  # an integrator this MuJoCo lacks: n/a, cannot fail
-    failed = failing(pipeline.run_case(CASE, RunOptions(**kwargs)))
-    assert expected <= failed, f"{fault}: did not fail {sorted(expected - failed)}"
+    assert_trips(CASE, *FAULTS[fault], fault)
 
 
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting: str) -> None:
-    assert failing(pipeline.run_case(CASE, RunOptions(**SETTINGS[setting]))) == set()
+    assert_passes(CASE, SETTINGS[setting], setting)
 
 
 def test_every_gate_has_a_fault() -> None:
-    covered = set().union(*(expected for _, expected in FAULTS.values()))
-    # converge.* (layer-4 order) gates: the generic faults in tests/test_gates.py, tests/test_convergence.py
-    assert {k for k in load_limits().for_case("spring") if not k.startswith("converge.")} <= covered
+    assert_faults_cover("spring", FAULTS, generic=("converge",))

@@ -24,7 +24,8 @@ from harness.engine.models import compile_model, mjcf_path
 from harness.pipeline.run import run_case
 from harness.reference import derivations
 from mjcf.symmetric_top import EulerBallBinding, orientation
-from tests.conftest import breakable, failing, judged, shipped_run
+from tests.conftest import assert_passes, assert_trips, failing, judged, shipped_run
+from tests.helpers import armature, damping, forward_at, gravcomp, gravity, integrate_pos_gap, random_states
 
 NAME = "symmetric_top"
 SYM = systems.symbols(NAME)
@@ -44,18 +45,10 @@ def _params() -> dict[str, float]:
     return top.params_from_model(_model())
 
 
-def _at(model: mujoco.MjModel, binding, q, qd) -> mujoco.MjData:
-    data = mujoco.MjData(model)
-    binding.set_state(model, data, q, qd)
-    mujoco.mj_forward(model, data)
-    return data
-
-
 def _random_states(count: int, seed: int = 5) -> tuple[np.ndarray, np.ndarray]:
     """Euler angles away from the singularity sin θ = 0, rates of the case's size."""
-    rng = np.random.default_rng(seed)
-    q = np.stack([rng.uniform(-3.0, 3.0, count), rng.uniform(0.2, 2.9, count), rng.uniform(-3.0, 3.0, count)], axis=1)
-    return q, rng.uniform(-5.0, 5.0, (count, 3)) + np.array([0.0, 0.0, 20.0])
+    return random_states(count, seed, [(-3.0, 3.0, 1), (0.2, 2.9, 1), (-3.0, 3.0, 1)], (-5.0, 5.0),
+                         np.array([0.0, 0.0, 20.0]))
 
 
 def _pivot_inertia(p: dict[str, float]) -> float:
@@ -126,7 +119,7 @@ def test_body_points_and_symmetry_axis_match_the_convention():
     l = dyn.params["l"]
     for qi, qdi in zip(*_random_states(20), strict=True):
         phi, theta, _ = qi
-        data = _at(model, binding, qi, qdi)
+        data = forward_at(model, binding, qi, qdi)
         axis = np.array([np.sin(theta) * np.sin(phi), -np.sin(theta) * np.cos(phi), np.cos(theta)])
         np.testing.assert_allclose(data.xmat[model.body(top.BODY).id].reshape(3, 3)[:, 2], axis, atol=1e-15)
         np.testing.assert_allclose(data.xipos[model.body(top.BODY).id], l * axis, atol=1e-16)
@@ -158,7 +151,7 @@ def test_velocity_map_is_the_body_angular_velocity_and_what_set_state_writes():
         perm = [COORDS.index(c) for c in order]
         for qi, qdi in zip(*_random_states(20, seed=11), strict=True):
             q_in, qd_in = qi[perm], qdi[perm]
-            data = _at(model, binding, q_in, qd_in)
+            data = forward_at(model, binding, q_in, qd_in)
             np.testing.assert_allclose(data.qvel, np.ravel(omega(*qi, *qdi)), atol=1e-13)
             mat, rate = velocity_map(binding, model, q_in, qd_in)
             np.testing.assert_allclose(mat @ qd_in, data.qvel, rtol=0, atol=1e-14)
@@ -175,11 +168,7 @@ def test_ball_qvel_is_the_angular_velocity_in_the_local_frame():
     binding = EulerBallBinding(COORDS)
     h = 1e-7
     for qi, qdi in zip(*_random_states(10), strict=True):
-        data = _at(model, binding, qi, qdi)
-        ahead = data.qpos.copy()
-        mujoco.mj_integratePos(model, ahead, data.qvel, h)
-        later = _at(model, binding, qi + h * qdi, qdi)
-        assert np.max(np.abs(ahead - later.qpos)) < 1e-11
+        assert integrate_pos_gap(model, binding, qi, qdi, h)[0] < 1e-11
 
 
 def test_binding_rejects_what_it_cannot_bind():
@@ -204,7 +193,7 @@ def test_mujoco_momenta_are_the_closed_forms():
     read = case.mujoco_invariants
     bid = model.body(top.BODY).id
     for qi, qdi in zip(*_random_states(10), strict=True):
-        data = _at(model, binding, qi, qdi)
+        data = forward_at(model, binding, qi, qdi)
         _, p_phi, p_psi = _closed_momenta(p, qi, qdi)
         assert read["p_phi"](model, data) == pytest.approx(p_phi, rel=1e-13, abs=1e-16)
         assert read["p_psi"](model, data) == pytest.approx(p_psi, rel=1e-13, abs=1e-16)
@@ -375,24 +364,6 @@ def test_rk4_order_is_a_pass_on_4_and_the_known_defect_before():
 # --- faults fail their gates, legitimate changes pass ----------------------------------------------------
 
 
-def _damping(value: float):
-    def edit(spec: mujoco.MjSpec) -> None:
-        compat.set_damping(spec.joint("ball"), value)
-    return edit
-
-
-def _armature(value: float):
-    def edit(spec: mujoco.MjSpec) -> None:
-        spec.joint("ball").armature = value
-    return edit
-
-
-def _gravcomp(value: float):
-    def edit(spec: mujoco.MjSpec) -> None:
-        spec.body("top").gravcomp = value
-    return edit
-
-
 def _lopsided(spec: mujoco.MjSpec) -> None:
     spec.body("top").ipos = [0.002, 0.0, 0.04]  # centre of mass 2 mm beside the axle
 
@@ -407,10 +378,6 @@ def _heavier(spec: mujoco.MjSpec) -> None:
     body.inertia = [1.3 * float(x) for x in body.inertia]
 
 
-def _gravity(spec: mujoco.MjSpec) -> None:
-    spec.option.gravity = [0.0, 0.0, -9.0]
-
-
 EULER = [i for i in ("Euler", "implicit") if i in available_integrators()]
 # Faults: physics the analytic top does not have. Damping on the ball is a torque −c ω_b: it slows the spin
 # (p_ψ = I₃ω₃ decays at c/I₃) and drains energy. Armature a on the ball's three dofs adds a·1 to the
@@ -418,12 +385,12 @@ EULER = [i for i in ("Euler", "implicit") if i in available_integrators()]
 # matrix through B(q) is off by a Bᵀ B. Gravity compensation lifts part of the weight: the forcing's
 # gravity torque is off.
 FAULTS = {
-    "damping": (dict(edit=_damping(1e-4), integrators=RK4 + EULER),
+    "damping": (dict(edit=damping("ball", 1e-4), integrators=RK4 + EULER),
                 {"instant.forcing", "instant.qacc", "RK4.position", "RK4.drift.energy", "RK4.drift.p_psi",
                  "RK4.p_psi", "Euler.drift.p_psi"}),
-    "armature": (dict(edit=_armature(1e-4), integrators=RK4),
+    "armature": (dict(edit=armature("ball", 1e-4), integrators=RK4),
                  {"instant.mass_matrix", "instant.kinetic_energy", "instant.qacc", "RK4.position", "RK4.p_phi"}),
-    "gravcomp": (dict(edit=_gravcomp(0.01), integrators=RK4),
+    "gravcomp": (dict(edit=gravcomp("top", 0.01), integrators=RK4),
                  {"instant.forcing", "instant.qacc", "RK4.position"}),
     # a lopsided top: the centre of mass beside the axle moves on another circle (kinematics) and gravity's
     # torque has a component the symmetric top lacks (forcing); p_ψ is no longer conserved
@@ -439,7 +406,7 @@ FAULTS = {
 # model without constraints does not feel. Every gate passes.
 SETTINGS = {
     "heavier top": dict(edit=_heavier, integrators=RK4),
-    "gravity 9.0": dict(edit=_gravity, integrators=RK4),
+    "gravity 9.0": dict(edit=gravity([0.0, 0.0, -9.0]), integrators=RK4),
     "RK4 at 4 ms": dict(timestep=0.004, integrators=RK4),
     "Euler-family at 0.5 ms": dict(timestep=0.0005, integrators=EULER),
 }
@@ -447,13 +414,9 @@ SETTINGS = {
 
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_a_fault_trips_its_gates(fault):
-    kwargs, gates = FAULTS[fault]
-    failed = failing(run_case(cases.get(NAME), RunOptions(**kwargs)))
-    must_fail = breakable(NAME, gates)  # without an integrator this MuJoCo lacks or a known defect of it
-    assert must_fail <= failed, f"expected to fail but passed: {sorted(must_fail - failed)}"
+    assert_trips(cases.get(NAME), *FAULTS[fault], fault)
 
 
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting):
-    failed = failing(run_case(cases.get(NAME), RunOptions(**SETTINGS[setting])))
-    assert failed - (failed - breakable(NAME, failed)) == set()
+    assert_passes(cases.get(NAME), SETTINGS[setting], setting)

@@ -22,7 +22,8 @@ from harness.pipeline.run import run_case
 from harness.reference import derivations
 from harness.reference.solutions import build_reference
 from mjcf.torque_free_body import FreeBinding, euler_angles, orientation
-from tests.conftest import breakable, failing, judged, shipped_run
+from tests.conftest import assert_passes, assert_trips, breakable, failing, judged, shipped_run
+from tests.helpers import armature, damping, forward_at, integrate_pos_gap, random_states
 
 NAME = "torque_free_body"
 COORDS = tfb.COORDINATES
@@ -40,19 +41,9 @@ def _model() -> mujoco.MjModel:
     return compile_model(mjcf_path(NAME))
 
 
-def _at(model: mujoco.MjModel, binding, q, qd) -> mujoco.MjData:
-    data = mujoco.MjData(model)
-    binding.set_state(model, data, q, qd)
-    mujoco.mj_forward(model, data)
-    return data
-
-
 def _random_states(count: int, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
     """States in COORDS order with 0.2 < θ < π − 0.2 (off the ZXZ singularity)."""
-    rng = np.random.default_rng(seed)
-    q = np.column_stack([rng.uniform(-1, 1, (count, 3)), rng.uniform(-3, 3, count), rng.uniform(0.2, 2.9, count),
-                         rng.uniform(-3, 3, count)])
-    return q, rng.uniform(-5.0, 5.0, (count, 6))
+    return random_states(count, seed, [(-1, 1, 3), (-3, 3, 1), (0.2, 2.9, 1), (-3, 3, 1)], (-5.0, 5.0))
 
 
 def _rotation(q) -> np.ndarray:
@@ -200,16 +191,13 @@ def test_free_joint_qvel_is_world_linear_and_local_angular_velocity():
     binding = FreeBinding(COORDS)
     h = 1e-7
     for qi, qdi in zip(*_random_states(10), strict=True):
-        data = _at(model, binding, qi, qdi)
-        ahead = data.qpos.copy()
-        mujoco.mj_integratePos(model, ahead, data.qvel, h)
-        later = _at(model, binding, qi + h * qdi, qdi)
-        assert np.max(np.abs(ahead - later.qpos)) < 1e-12
+        gap, data, later = integrate_pos_gap(model, binding, qi, qdi, h)
+        assert gap < 1e-12
         world = data.qvel.copy()
         world[3:] = _rotation(qi) @ data.qvel[3:]  # ω_world: would be qvel if it were the world frame
         wrong = data.qpos.copy()
         mujoco.mj_integratePos(model, wrong, world, h)
-        assert np.max(np.abs(wrong - later.qpos)) > 1e3 * np.max(np.abs(ahead - later.qpos)) + 1e-10
+        assert np.max(np.abs(wrong - later.qpos)) > 1e3 * gap + 1e-10
         # the tips move as the analytic points do
         dyn = derivations.dynamics_of(NAME, model)
         velocities = dyn.point_velocities(qi[None], qdi[None])[0]
@@ -229,7 +217,7 @@ def test_binding_round_trips_in_any_coordinate_order():
         for qi, qdi in zip(*_random_states(20, seed=7), strict=True):
             q_in = np.array([dict(zip(COORDS, qi, strict=True))[c] for c in order])
             qd_in = np.array([dict(zip(COORDS, qdi, strict=True))[c] for c in order])
-            data = _at(model, binding, q_in, qd_in)
+            data = forward_at(model, binding, q_in, qd_in)
             q_out, qd_out = binding.read_state(model, data)
             np.testing.assert_allclose(q_out, q_in, atol=1e-12)
             np.testing.assert_allclose(qd_out, qd_in, atol=1e-11)
@@ -241,7 +229,7 @@ def test_velocity_map_gives_qvel_and_its_complex_step_rate():
     model = _model()
     binding = FreeBinding(COORDS)
     for qi, qdi in zip(*_random_states(10), strict=True):
-        data = _at(model, binding, qi, qdi)
+        data = forward_at(model, binding, qi, qdi)
         np.testing.assert_allclose(binding.velocity_map(model, qi) @ qdi, data.qvel, atol=1e-15)
         complex_step = binding.velocity_map(model, qi + 1e-30j * qdi).imag / 1e-30
         delta = 1e-6
@@ -274,7 +262,7 @@ def test_momentum_readings_equal_mj_subtree_vel():
     binding = FreeBinding(COORDS)
     read = cases.get(NAME).mujoco_invariants
     for qi, qdi in zip(*_random_states(10), strict=True):
-        data = _at(model, binding, qi, qdi)
+        data = forward_at(model, binding, qi, qdi)
         angular, linear = _subtree_momenta(model, data)
         got_angular = [read[k](model, data) for k in ("L_x", "L_y", "p_phi")]
         got_linear = [read[k](model, data) for k in ("p_x", "p_y", "p_z")]
@@ -287,7 +275,7 @@ def test_mujoco_energy_is_the_kinetic_energy_and_no_potential():
     model = _model()
     binding = FreeBinding(COORDS)
     for qi, qdi in zip(*_random_states(5), strict=True):
-        data = _at(model, binding, qi, qdi)
+        data = forward_at(model, binding, qi, qdi)
         omega = tfb.euler_rate_matrix(qi[4], qi[5]) @ qdi[3:]
         expected = 0.5 * (qdi[:3] @ qdi[:3] + omega @ (INERTIA * omega))
         assert data.energy[0] == 0.0
@@ -354,16 +342,6 @@ def test_com_moves_uniformly_in_mujoco():
 # --- faults fail their gates, legitimate changes pass ----------------------------------------------------
 
 
-def _damping(value: float):
-    def edit(spec: mujoco.MjSpec) -> None:
-        compat.set_damping(spec.joint("free"), value)  # linear, every dof: f = −c qvel
-    return edit
-
-
-def _armature(spec: mujoco.MjSpec) -> None:
-    spec.joint("free").armature = 1e-3
-
-
 def _hidden_mass(spec: mujoco.MjSpec) -> None:
     """A welded 10 g point at (0.1, 0.1, 0) of the body frame: another body's inertia, which the analytic
     body (read from body ``body`` alone) lacks."""
@@ -399,10 +377,10 @@ RK4 = ["RK4"]
 # welded mass makes another rigid body: still torque-free (its drift gates pass,
 # test_hidden_mass_leaves_the_body_torque_free), but not the one the reference reads.
 FAULTS = {
-    "free_joint_damping": (dict(edit=_damping(1e-3), integrators=RK4),
+    "free_joint_damping": (dict(edit=damping("free", 1e-3), integrators=RK4),
                            {"instant.forcing", "instant.qacc", "RK4.position", "RK4.drift.energy", "RK4.drift.p_phi",
                             "RK4.p_phi", "RK4.drift.L_x", "RK4.drift.p_x", "RK4.p_x"}),
-    "armature": (dict(edit=_armature, integrators=RK4),
+    "armature": (dict(edit=armature("free", 1e-3), integrators=RK4),
                  {"instant.mass_matrix", "instant.kinetic_energy", "RK4.position", "RK4.p_phi", "RK4.drift.L_x"}),
     "hidden_mass": (dict(edit=_hidden_mass, integrators=RK4),
                     {"instant.mass_matrix", "instant.forcing", "instant.kinetic_energy", "instant.point_acceleration",
@@ -423,15 +401,12 @@ SETTINGS = {
 
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_a_fault_trips_its_gates(fault):
-    failed = failing(run_case(cases.get(NAME), RunOptions(**FAULTS[fault][0])))
-    must_fail = breakable(NAME, FAULTS[fault][1])  # less the gates a known defect of this MuJoCo fails already
-    assert must_fail <= failed, f"expected to fail but passed: {sorted(must_fail - failed)}"
+    assert_trips(cases.get(NAME), *FAULTS[fault], fault)
 
 
 @pytest.mark.parametrize("setting", list(SETTINGS))
 def test_a_legitimate_change_passes_every_gate(setting):
-    failed = failing(run_case(cases.get(NAME), RunOptions(**SETTINGS[setting])))
-    assert failed - (failed - breakable(NAME, failed)) == set()
+    assert_passes(cases.get(NAME), SETTINGS[setting], setting)
 
 
 def test_hidden_mass_leaves_the_body_torque_free():

@@ -30,10 +30,11 @@ import pytest
 from harness import cases
 from harness.core.options import RunOptions
 from harness.engine import sensors
-from harness.engine.constraints import equality_block, equality_jacobian
+from harness.engine.constraints import equality_block
 from harness.engine.models import compile_model, mjcf_path
 from harness.pipeline import run as pipeline
-from tests.conftest import failing, shipped_run
+from tests.conftest import assert_passes, assert_trips, failing, shipped_run
+from tests.helpers import default_equality_softness, equality_rows, forward_at
 
 if "welded_pendulum" in cases.unavailable():  # an older MuJoCo: the case is listed as n/a with the measured reason
     pytest.skip(cases.unavailable()["welded_pendulum"], allow_module_level=True)
@@ -58,10 +59,7 @@ def params(model) -> dict[str, float]:
 
 
 def _forward(model, q, qd=None) -> mujoco.MjData:
-    data = mujoco.MjData(model)
-    CASE.probe(CASE.dynamics()).binding.set_state(model, data, q, np.zeros(7) if qd is None else qd)
-    mujoco.mj_forward(model, data)
-    return data
+    return forward_at(model, CASE.probe(CASE.dynamics()).binding, q, np.zeros(7) if qd is None else qd)
 
 
 def _rot(axis: str, angle: float) -> np.ndarray:
@@ -95,14 +93,9 @@ def test_the_weld_rows_are_mujocos_rows(model, ref) -> None:
     """At arbitrary states (off the weld too) MuJoCo's efc_pos of ``glue`` is the analytic f(q) row by row —
     top − socket, then torquescale × vec(q̄_hub ⊗ q_link) — and its efc_J rows are ∂f/∂q: the weld's rows are
     holonomic constraints whose multipliers are its efc_force, same sign and scale."""
-    dyn = ref.dynamics
     rng = np.random.default_rng(11)
-    for _ in range(10):
-        q = rng.uniform(-1.0, 1.0, size=7)
-        data = _forward(model, q)
-        pos = equality_block(model, data, "glue")[1]
-        np.testing.assert_allclose(pos, dyn.position_residual(q), rtol=0, atol=1e-14)
-        np.testing.assert_allclose(equality_jacobian(model, data, "glue"), dyn.jacobian(q), rtol=0, atol=1e-13)
+    states = [rng.uniform(-1.0, 1.0, size=7) for _ in range(10)]
+    for pos in equality_rows(model, _forward, ref.dynamics, "glue", states, jacobian_atol=1e-13):
         assert np.min(np.abs(pos)) > 1e-4  # off the weld: every row is seen
 
 
@@ -230,17 +223,12 @@ def _socket_turned(spec: mujoco.MjSpec) -> None:
     ("socket turned 1 mrad", _socket_turned, {"RK4.force.glue", "RK4.position", "RK4.violation.glue"}),
 ])
 def test_a_fault_of_the_weld_trips_its_gates(label, edit, expected) -> None:
-    assert expected <= failing(pipeline.run_case(CASE, RunOptions(integrators=["RK4"], edit=edit))), label
-
-
-def _default_softness(spec: mujoco.MjSpec) -> None:
-    for eq in spec.equalities:
-        eq.solref, eq.solimp = [0.02, 1.0], [0.9, 0.95, 0.001, 0.5, 2.0]
+    assert_trips(CASE, {"integrators": ["RK4"], "edit": edit}, expected, label)
 
 
 @pytest.mark.parametrize(("label", "kwargs"), [
-    ("MuJoCo's default softness", {"edit": _default_softness}),
+    ("MuJoCo's default softness", {"edit": default_equality_softness}),
     ("timestep 4 ms", {"timestep": 0.004}),
 ])
 def test_a_legitimate_setting_passes_every_gate(label, kwargs) -> None:
-    assert failing(pipeline.run_case(CASE, RunOptions(integrators=["RK4", "implicitfast"], **kwargs))) == set(), label
+    assert_passes(CASE, {"integrators": ["RK4", "implicitfast"], **kwargs}, label)

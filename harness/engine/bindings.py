@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import ClassVar, Protocol
 
 import mujoco
 import numpy as np
@@ -89,6 +89,37 @@ class JointBinding:
         for k, name in enumerate(self.joints):
             mat[model.joint(name).dofadr[0], k] = 1.0
         return mat
+
+
+@dataclass(frozen=True)
+class QuaternionJointBinding:
+    """Analytic coordinates that one ball or free joint ``joint`` stands in for: the subclass's ``COORDINATES``,
+    in any order ``coordinates``. Its qvel holds the angular velocity in the body's local frame, not a constant
+    linear map of q̇ (no dof matrix): the subclass writes the state and gives ``velocity_map``."""
+
+    COORDINATES: ClassVar[tuple[str, ...]]
+    JOINT_TYPE: ClassVar[mujoco.mjtJoint]  # mjJNT_BALL or mjJNT_FREE
+
+    coordinates: tuple[str, ...]
+    joint: str
+
+    def __post_init__(self) -> None:
+        if sorted(self.coordinates) != sorted(self.COORDINATES):
+            raise ValueError(f"{type(self).__name__} binds the coordinates {self.COORDINATES}, got {self.coordinates}")
+
+    def _named(self, values: Sequence) -> dict:
+        """``values`` by coordinate name; ValueError where there is not one per coordinate."""
+        if len(values) != len(self.COORDINATES):
+            raise ValueError(f"expected {len(self.COORDINATES)} values for {self.coordinates}, got {len(values)}")
+        return dict(zip(self.coordinates, values, strict=True))
+
+    def validate(self, model: mujoco.MjModel) -> None:
+        kind = {mujoco.mjtJoint.mjJNT_BALL: "a ball joint", mujoco.mjtJoint.mjJNT_FREE: "a free joint"}[self.JOINT_TYPE]
+        require_joint(model, self.joint, (int(self.JOINT_TYPE),), kind)
+
+    def dof_matrix(self, model: mujoco.MjModel) -> None:
+        """None: the local angular velocity is not a constant linear map of q̇ (see ``velocity_map``)."""
+        return None
 
 
 COMPLEX_STEP = 1e-20

@@ -29,6 +29,7 @@ from harness.outputs.schema import check_run
 PRINTED_PRECISION = 5e-4
 """A ratio within this of 1 prints as 1 at three significant digits: the row shows no change."""
 JUDGED = ("pass", "FAIL", "FAIL (known defect)")
+"""The statuses a verdict flips between (not n/a: a check n/a on one side has appeared or vanished)."""
 
 
 def ratio(old: float | None, new: float | None) -> float | None:
@@ -41,42 +42,61 @@ def ratio(old: float | None, new: float | None) -> float | None:
     return new / old if old != 0 else math.inf
 
 
+def status_flipped(old: str | None, new: str | None) -> bool:
+    """A check's status changed from one of :data:`JUDGED` to another."""
+    return old in JUDGED and new in JUDGED and old != new
+
+
 @dataclass(frozen=True)
-class Row:
-    """One figure in either run. ``old``/``new`` are None where the run lacks it; ``passed_*``
-    are None where the figure is not gated in that run."""
+class FigureChange:
+    """One figure of one case in two runs, old and new: its values (None where a run lacks it) and its check's
+    statuses (None where it has no check there). What a row of ``diff`` and a change between two releases
+    (:class:`harness.versions.changes.Change`) share."""
 
     case: str
     figure: str
     old: float | None
     new: float | None
-    passed_old: bool | None
-    passed_new: bool | None
-    status_old: str | None = None
-    status_new: str | None = None
+    status_old: str | None
+    status_new: str | None
 
     @property
     def ratio(self) -> float | None:
         return ratio(self.old, self.new)
 
     @property
-    def flipped(self) -> bool:
-        """The verdict changed: passed against failed, or between FAIL and FAIL (known defect)."""
-        if self.passed_old is None or self.passed_new is None:
-            return False
-        return self.passed_old != self.passed_new or (
-            self.status_old in JUDGED and self.status_new in JUDGED and self.status_old != self.status_new)
-
-    @property
-    def size(self) -> float:
-        """The change as decades, ``|log10(new/old)|``: infinite from or to zero or a non-finite value, 0
-        where the value is the same or one run lacks it."""
+    def decades(self) -> float | None:
+        """The change as decades, ``|log10(new/old)|``: 0 where the value is the same, infinite from or to
+        zero or a non-finite value; None where a run lacks the figure."""
         old, new = self.old, self.new
-        if old is None or new is None or old == new:
+        if old is None or new is None:
+            return None
+        if old == new:
             return 0.0
         if not (math.isfinite(old) and math.isfinite(new)) or old == 0 or new == 0:
             return math.inf
         return abs(math.log10(abs(new) / abs(old)))
+
+
+@dataclass(frozen=True)
+class Row(FigureChange):
+    """One figure in either run; ``passed_*`` are None where the figure is not gated in that run."""
+
+    passed_old: bool | None
+    passed_new: bool | None
+
+    @property
+    def flipped(self) -> bool:
+        """The verdict changed: passed against failed, or between FAIL and FAIL (known defect)."""
+        if self.passed_old is None or self.passed_new is None:
+            return False
+        return self.passed_old != self.passed_new or status_flipped(self.status_old, self.status_new)
+
+    @property
+    def size(self) -> float:
+        """:attr:`decades`, 0 where one run lacks the figure."""
+        decades = self.decades
+        return 0.0 if decades is None else decades
 
     @property
     def negligible(self) -> bool:
@@ -131,8 +151,9 @@ def load_run(path: Path | str) -> dict:
     return check_run(doc, repr(str(path)))  # the documented schema: one line naming what does not fit
 
 
-def _value(entry: object) -> float:
-    raw = entry.get("value") if isinstance(entry, dict) else entry
+def figure_value(entry: object) -> float:
+    """A figure entry's number (``"nan"``/``"inf"`` strings read back; anything else nan)."""
+    raw = entry.get("value") if isinstance(entry, Mapping) else entry
     try:
         return float(raw)  # type: ignore[arg-type]
     except (TypeError, ValueError):
@@ -162,10 +183,11 @@ def diff_runs(old: Mapping, new: Mapping) -> Diff:
         so, sn = _statuses(o), _statuses(n)
         names = [*o["figures"], *(f for f in n["figures"] if f not in o["figures"])]
         for name in names:
-            rows.append(Row(case, name,
-                            _value(o["figures"][name]) if name in o["figures"] else None,
-                            _value(n["figures"][name]) if name in n["figures"] else None,
-                            vo.get(name), vn.get(name), so.get(name), sn.get(name)))
+            rows.append(Row(case=case, figure=name,
+                            old=figure_value(o["figures"][name]) if name in o["figures"] else None,
+                            new=figure_value(n["figures"][name]) if name in n["figures"] else None,
+                            status_old=so.get(name), status_new=sn.get(name),
+                            passed_old=vo.get(name), passed_new=vn.get(name)))
     ov, nv = old.get("versions", {}), new.get("versions", {})
     versions = tuple((k, str(ov.get(k, "?")), str(nv.get(k, "?")))
                      for k in sorted(set(ov) | set(nv)) if ov.get(k) != nv.get(k))

@@ -17,7 +17,8 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from harness.versions.changes import JUDGED, NOISE_FACTOR, Key, Snapshot, moved
+from harness.outputs.diff import JUDGED
+from harness.versions.changes import NOISE_FACTOR, Key, Snapshot, moved
 from harness.versions.releases import Release
 
 VERDICTS = "verdicts"

@@ -32,23 +32,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.outputs.diff import ratio
+from harness.outputs.diff import FigureChange, figure_value, status_flipped
 from harness.versions.releases import Release
 
 NOISE_FACTOR = 10.0
 ULP_FLOOR = 4 * float(np.finfo(float).eps)
-JUDGED = ("pass", "FAIL", "FAIL (known defect)")  # the statuses a flip is between (not n/a)
 
 Key = tuple[str, str]  # (case, figure)
-
-
-def value(entry: object) -> float:
-    """A figure entry's number (``"nan"``/``"inf"`` strings read back; anything else nan)."""
-    raw = entry.get("value") if isinstance(entry, Mapping) else entry
-    try:
-        return float(raw)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        return math.nan
 
 
 def status(check: Mapping) -> str:
@@ -61,7 +51,8 @@ def status(check: Mapping) -> str:
 
 def figures(doc: Mapping) -> dict[Key, float]:
     """Every figure of a run document, by (case, figure)."""
-    return {(case, name): value(entry) for case, c in doc["cases"].items() for name, entry in c["figures"].items()}
+    return {(case, name): figure_value(entry)
+            for case, c in doc["cases"].items() for name, entry in c["figures"].items()}
 
 
 def statuses(doc: Mapping) -> dict[Key, str]:
@@ -105,38 +96,24 @@ class History:
 
 
 @dataclass(frozen=True)
-class Change:
+class Change(FigureChange):
     """One change of one figure between two releases run one after the other: ``release`` is the first
     that shows it, ``since`` the one before it (on the index's list or not: the releases in between were
     not run)."""
 
     kind: str  # "flip", "moved", "appeared", "vanished"
-    case: str
-    figure: str
     since: Release
     release: Release
-    old: float | None
-    new: float | None
     noise: float | None
-    status_old: str | None = None
-    status_new: str | None = None
-
-    @property
-    def ratio(self) -> float | None:
-        return ratio(self.old, self.new)
 
     @property
     def size(self) -> float:
-        """The factor of the change as decades, ``|log10(new/old)|``; infinite from or to zero or a
-        non-finite value, 0 where the value did not change (a flip alone)."""
-        old, new = self.old, self.new
-        if old is None or new is None or not (math.isfinite(old) and math.isfinite(new)):
-            return math.inf if old != new else 0.0
-        if old == new:
-            return 0.0
-        if old == 0 or new == 0:
-            return math.inf
-        return abs(math.log10(abs(new) / abs(old)))
+        """:attr:`decades`, infinite where one release lacks the figure and the other has it, 0 where
+        neither has it (0 too where the value did not change: a flip alone)."""
+        decades = self.decades
+        if decades is None:
+            return math.inf if self.old != self.new else 0.0
+        return decades
 
     @property
     def in_noise(self) -> float | None:
@@ -199,11 +176,11 @@ def compare(a: Snapshot, b: Snapshot, *, factor: float = NOISE_FACTOR) -> list[C
         common = {"case": case, "figure": name, "since": a.release, "release": b.release, "old": old, "new": new,
                   "noise": noise, "status_old": s_old, "status_new": s_new}
         if here_a != here_b:
-            out.append(Change("appeared" if here_b else "vanished", **common))
-        elif s_old in JUDGED and s_new in JUDGED and s_old != s_new:
-            out.append(Change("flip", **common))
+            out.append(Change(kind="appeared" if here_b else "vanished", **common))
+        elif status_flipped(s_old, s_new):
+            out.append(Change(kind="flip", **common))
         elif old is not None and new is not None and moved(old, new, n_old, n_new, factor=factor):
-            out.append(Change("moved", **common))
+            out.append(Change(kind="moved", **common))
     return out
 
 
