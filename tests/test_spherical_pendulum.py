@@ -12,6 +12,7 @@ from analytic import systems
 from analytic.systems import spherical_pendulum as sph
 from harness import cases
 from harness.core.errors import ModelMismatch
+from harness.core.options import RunOptions
 from harness.engine import compat
 from harness.engine.bindings import JointBinding, velocity_map
 from harness.engine.integrators import available_integrators
