@@ -219,21 +219,23 @@ def _backend(text: str) -> str:
     return text
 
 
-def _seconds(text: str) -> float:
+def _number(text: str) -> float:
+    """``text`` as a float; nan where it is none (the caller's range check then refuses it)."""
     try:
-        value = float(text)
+        return float(text)
     except ValueError:
-        value = math.nan
+        return math.nan
+
+
+def _seconds(text: str) -> float:
+    value = _number(text)
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text!r}")
     return value
 
 
 def _tiny(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
+    value = _number(text)
     if not (math.isfinite(value) and 0 < abs(value) <= 1e-6):  # float32's round-off (MJX) is 1.2e-7
         raise argparse.ArgumentTypeError(f"must be a nonzero number within ±1e-6 (round-off sized), got {text!r}")
     return value
@@ -252,10 +254,7 @@ def _state(text: str) -> dict[str, float]:
     out = {}
     for item in text.split(","):
         name, sep, value = item.partition("=")
-        try:
-            number = float(value)
-        except ValueError:
-            number = math.nan
+        number = _number(value)
         if not sep or not name.strip() or not math.isfinite(number):
             raise argparse.ArgumentTypeError(f"expected NAME=VALUE,... with finite numbers, got {item!r}")
         out[name.strip()] = number
