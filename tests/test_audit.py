@@ -18,19 +18,10 @@ from analytic.claims.frames import atwood_frame, pendulum_frame, plane_frame, ra
 from analytic.claims.registry import all_claims
 from analytic.claims.view import DocView
 from harness.outputs import report
+from harness.outputs.audit import counts_line, format_table, html_section, json_rows
+from harness.outputs.formulas import is_display
 from harness.reference.derivations import derivation
-from harness.studies.audit import (
-    KINDS,
-    audit,
-    audit_claim,
-    consistent,
-    counts_line,
-    format_table,
-    html_section,
-    json_rows,
-    numeric_check,
-)
-from harness.studies.formulas import is_display
+from harness.studies.audit import KINDS, audit, audit_claim, consistent, numeric_check
 
 # Hand analysis of both documents, read line by line (the closing note of issue 17 has the reasons):
 # claim id -> (verdict, cause). Everything not listed here is "confirmed".
