@@ -12,8 +12,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from analytic.claims.notation import latex_text
 from harness import cases
+from harness.audit.notation import latex_text
 from harness.core.plotting import coinciding, formula_png
 from harness.outputs import page, stills
 from harness.outputs.equations import MAX_WIDTH_PX, equations, width_px

@@ -89,9 +89,10 @@ def _contact_study() -> contact.StudyResult:
 
 @pytest.fixture(scope="module")
 def audit_rows():
-    from harness.studies import audit  # lazy: sympy and the claims, for the tests that need them
+    from harness.audit.registry import all_claims  # lazy: sympy and the claims, for the tests that need them
+    from harness.audit.verdicts import audit  # lazy: as above
 
-    return audit.audit([c for c in audit.all_claims() if c.id == "000.atwood.lambda2"])
+    return audit([c for c in all_claims() if c.id == "000.atwood.lambda2"])
 
 
 @pytest.fixture(scope="module")
@@ -442,8 +443,9 @@ def test_summary_md_carries_the_seed_audit_from_the_report_appendix(tmp_path, ru
 def test_every_key_report_json_writes_is_documented(run):
     """docs/report-json.md names every key of the document: top level, a case, a check, the audit and a
     claim (the audit of one claim stands for all: every claim has the same keys)."""
-    from harness.outputs.audit import json_rows  # lazy: sympy and the claims, for this test only
-    from harness.studies import audit  # lazy: as above
+    from harness.audit.registry import all_claims  # lazy: sympy and the claims, for this test only
+    from harness.audit.verdicts import audit  # lazy: as above
+    from harness.outputs.audit import json_rows  # lazy: as above
 
     doc_text = (ROOT / "docs" / "report-json.md").read_text(encoding="utf-8")
     documented = {
@@ -461,7 +463,7 @@ def test_every_key_report_json_writes_is_documented(run):
     doc = jsondoc.json_doc([result], outcome)
     case = doc["cases"][CASE]
     assert {"requirements", "gate"} <= set(doc) and {"fitness", "findings"} <= set(case)
-    rows = json_rows(audit.audit([c for c in audit.all_claims() if c.id == "000.atwood.lambda2"]))
+    rows = json_rows(audit([c for c in all_claims() if c.id == "000.atwood.lambda2"]))
     claim = rows["claims"]["000.atwood.lambda2"]
     check_keys = {k for c in case["checks"].values() for k in c}
     assert {"budget", "note", "known_defect", "diverged"} <= check_keys

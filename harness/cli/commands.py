@@ -865,10 +865,10 @@ def _args_audit(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_audit(args: argparse.Namespace) -> int:
-    from harness.outputs.audit import format_table, json_rows  # lazy: sympy (0.15 s)
-    from harness.studies import audit  # lazy: as above
+    from harness.audit.verdicts import audit  # lazy: sympy (0.15 s)
+    from harness.outputs.audit import format_table, json_rows  # lazy: as above
 
-    rows = audit.audit()
+    rows = audit()
     if args.json:
         sys.stdout.write(dumps(json_rows(rows)))
     else:

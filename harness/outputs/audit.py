@@ -6,9 +6,10 @@ from __future__ import annotations
 import html
 from collections.abc import Sequence
 
-from analytic.claims import coverage
+from harness.audit import coverage
+from harness.audit.numbers import AGREEMENT, KINDS
+from harness.audit.verdicts import AuditRow, counts
 from harness.outputs.formulas import quote_html, text_html
-from harness.studies.audit import AGREEMENT, KINDS, AuditRow, counts
 
 
 def _num(value: float | None) -> str:

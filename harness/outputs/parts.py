@@ -10,6 +10,8 @@ import time
 from collections.abc import Sequence
 
 from harness import cases
+from harness.audit.registry import all_claims
+from harness.audit.verdicts import audit
 from harness.layers import orders
 from harness.outputs.audit import html_section as audit_section
 from harness.outputs.audit import json_rows as audit_json
@@ -22,14 +24,14 @@ from harness.pipeline.executor import LOCAL, Executor
 from harness.pipeline.matrix import progress
 from harness.pipeline.pool import cpus, run_tasks
 from harness.pipeline.run import CaseResult
-from harness.studies import Studies, audit, contact, softness, solvers
+from harness.studies import Studies, contact, softness, solvers
 
 
 def study_calls(selected: Sequence[cases.Case]) -> list[tuple[str, str]]:
     """Layer 4 and the seed audit as (kind, name) calls, the costliest kinds first (measured: a seed
     audit of a system 0.3-1.5 s, a convergence study 0.3-1.5 s, the rest 0.2-1 s)."""
     systems = list(dict.fromkeys(c.system for c in selected))
-    claimed = {c.frame.system for c in audit.all_claims()}
+    claimed = {c.frame.system for c in all_claims()}
     return ([("audit", s) for s in systems if s in claimed]
             + [("convergence", c.name) for c in selected]
             + [("softness", c.name) for c in softness.equality_cases(selected)]
@@ -43,7 +45,7 @@ def study(kind: str, name: str):
     the parent puts them back."""
     if kind == "audit":
         return [dataclasses.replace(row, claim=None)
-                for row in audit.audit([c for c in audit.all_claims() if c.frame.system == name])]
+                for row in audit([c for c in all_claims() if c.frame.system == name])]
     case = cases.get(name)
     run = {"convergence": lambda: orders.convergence_study(case, fast=False),
            "softness": lambda: softness.softness_study(case, fast=False),
@@ -94,7 +96,7 @@ def _studies_pages(selected: Sequence[cases.Case], done: dict, *, elapsed: float
                    ) -> tuple[list[Page], dict[str, object]]:
     """The studies' page and the audit's (where it has claims) and their JSON entries, from their calls'
     results."""
-    claims = audit.all_claims()
+    claims = all_claims()
     rows = []
     for system in dict.fromkeys(c.system for c in selected):  # each in all_claims() order
         system_claims = [c for c in claims if c.frame.system == system]

@@ -41,7 +41,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from analytic.claims.notation import latex_text
+from harness.audit.notation import latex_text
 from harness.core import VERSION as __version__
 from harness.core.budget import PARTS
 from harness.core.checks import Check

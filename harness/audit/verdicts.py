@@ -1,6 +1,6 @@
-"""Audit of the seed documents' claims: symbolic against our derivation, numeric against MuJoCo.
+"""The audit: each of the seed documents' claims judged, symbolic against our derivation, numeric against MuJoCo.
 
-Each claim (``analytic/claims``) gets one of three verdicts:
+Each claim (:func:`harness.audit.registry.all_claims`) gets one of three verdicts:
 
 - ``confirmed``: it holds symbolically, and MuJoCo's measurements agree with
   it as closely as with our own derivation;
@@ -13,8 +13,8 @@ Each claim (``analytic/claims``) gets one of three verdicts:
   leaves open and fails under another; the row gives each reading's formula.
 
 What the numbers are, per kind of numeric check, is in
-:mod:`harness.studies.audit_numbers` (``KINDS``). Lines of the documents that
-hold no claim are listed with the reason in :mod:`analytic.claims.coverage`.
+:mod:`harness.audit.numbers` (``KINDS``). Lines of the documents that
+hold no claim are listed with the reason in :mod:`harness.audit.coverage`.
 """
 
 from __future__ import annotations
@@ -24,24 +24,12 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from analytic.claims import Claim, coverage
-from analytic.claims.notation import doc_text
-from analytic.claims.registry import all_claims
-from analytic.claims.view import DocView, resolve, symbolic_check
+from harness.audit import Claim, coverage
+from harness.audit.notation import doc_text
+from harness.audit.numbers import Numbers, numeric_check
+from harness.audit.registry import all_claims
+from harness.audit.view import DocView, resolve, symbolic_check
 from harness.reference.derivations import derivation
-from harness.studies.audit_numbers import (  # re-exported: the audit's public names
-    AGREEMENT,
-    KINDS,
-    SAMPLES,
-    Numbers,
-    Samples,
-    case_for,
-    numeric_check,
-    sample,
-)
-
-__all__ = ["AGREEMENT", "KINDS", "SAMPLES", "AuditRow", "Numbers", "ReadingRow", "Samples", "audit", "audit_claim",
-           "case_for", "consistent", "counts", "numeric_check", "sample"]
 
 
 @dataclass(frozen=True)
