@@ -2,7 +2,7 @@
 what the verdict catches (the fault catalog, its sensitivity, engine-side faults, energy injections).
 
 Each study is a pure function of a registered case (or a model) returning frozen dataclasses: rows, fits and
-verdicts, never text, HTML or plots (those are :mod:`harness.outputs.studies`'). ``run_studies`` runs the
+verdicts, never text, HTML or plots (:mod:`harness.outputs.studies` renders them). ``run_studies`` runs the
 convergence, softness and solver studies over a selection of cases (generic over the registry: softness and
 solvers run on the cases they apply to).
 """
