@@ -43,6 +43,8 @@ from harness.cases.own import from_mjcf
 from harness.core import VERSION
 from harness.core.checks import Check
 from harness.engine.models import compile_model
+from harness.outputs.studies.engine_faults import cell as fault_cell
+from harness.outputs.studies.injection import cell as injection_cell
 from harness.pipeline.executor import LOCAL, Executor
 from harness.pipeline.pool import run_tasks
 from harness.reference.tree import prepare, uncovered
@@ -576,7 +578,7 @@ def zoo_markdown(z: ZooRun) -> str:
         for model in models:
             row = {c.fault: c for c in z.faults if c.model == model}
             where = ", ".join(dict.fromkeys(c.target for c in row.values() if c.target))
-            cells = [row[f].cell() if f in row else "" for f in FAULTS]
+            cells = [fault_cell(row[f]) if f in row else "" for f in FAULTS]
             if all(row[f].size is None and not row[f].crashed and not row[f].unfinished for f in row):
                 cells = ["refused"] * len(FAULTS)
             lines.append("| " + " | ".join(_cell(x) for x in (model, where or "-", *cells,
@@ -600,8 +602,8 @@ def zoo_markdown(z: ZooRun) -> str:
                   "check that caught it.", "", "| model | joint | smallest injection caught | seconds |",
                   "|---|---|---|---:|"]
         for c in z.injections:
-            lines.append("| " + " | ".join(_cell(x) for x in (c.model, c.joint or "-", c.cell(), f"{c.seconds:.0f}"))
-                         + " |")
+            lines.append("| " + " | ".join(_cell(x) for x in (c.model, c.joint or "-", injection_cell(c),
+                                                              f"{c.seconds:.0f}")) + " |")
     if z.crashed:
         lines += ["", f"**Crashed (bugs of the harness)**: {', '.join(z.crashed)}"]
     if z.unfinished:

@@ -12,25 +12,17 @@ import pytest
 import sympy as sp
 
 from analytic import systems
-from analytic.claims import Claim, coverage, doc_frame
-from analytic.claims.checks import conserved, position_check, rows_check, solves, stationary
-from analytic.claims.frames import atwood_frame, pendulum_frame, plane_frame, ramp_frame, spherical_frame, spring_frame
-from analytic.claims.registry import all_claims
-from analytic.claims.view import DocView
+from harness.audit import Claim, coverage, doc_frame
+from harness.audit.checks import conserved, position_check, rows_check, solves, stationary
+from harness.audit.frames import atwood_frame, pendulum_frame, plane_frame, ramp_frame, spherical_frame, spring_frame
+from harness.audit.numbers import KINDS, numeric_check
+from harness.audit.registry import all_claims
+from harness.audit.verdicts import audit, audit_claim, consistent
+from harness.audit.view import DocView
 from harness.outputs import report
+from harness.outputs.audit import counts_line, format_table, html_section, json_rows
+from harness.outputs.formulas import is_display
 from harness.reference.derivations import derivation
-from harness.studies.audit import (
-    KINDS,
-    audit,
-    audit_claim,
-    consistent,
-    counts_line,
-    format_table,
-    html_section,
-    json_rows,
-    numeric_check,
-)
-from harness.studies.formulas import is_display
 
 # Hand analysis of both documents, read line by line (the closing note of issue 17 has the reasons):
 # claim id -> (verdict, cause). Everything not listed here is "confirmed".

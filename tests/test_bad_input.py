@@ -182,15 +182,17 @@ def test_a_study_states_a_diverged_setting_instead_of_failing_the_run(tmp_path, 
     import dataclasses
 
     from harness import cases
+    from harness.outputs.studies import softness as softness_out
+    from harness.outputs.studies import solvers as solvers_out
     from harness.studies import softness, solvers
 
     case = dataclasses.replace(cases.get(CASE), mjcf=_stiff_damping(tmp_path))
     if study == "softness":
-        result = softness.softness_study(case, fast=True, plot=False)
-        text = softness.text(result)
+        result = softness.softness_study(case, fast=True)
+        text = softness_out.text(result)
     else:
-        result = solvers.solver_study(case, fast=True, solvers=("Newton", "CG"), plot=False)
-        text = solvers.text(result)
+        result = solvers.solver_study(case, fast=True, solvers=("Newton", "CG"))
+        text = solvers_out.text(result)
     assert result.rows and all(r.diverged.startswith("diverged: mjWARN_") for r in result.rows)
     assert result.rows[0].diverged in text
 
@@ -199,6 +201,7 @@ def test_the_contact_study_states_a_diverged_setting(tmp_path, monkeypatch):
     import dataclasses
 
     from harness import cases
+    from harness.outputs.studies import contact as contact_out
     from harness.studies import contact
 
     name = "hoop_ramp_contact"
@@ -208,7 +211,7 @@ def test_the_contact_study_states_a_diverged_setting(tmp_path, monkeypatch):
                                    softness=("shipped",))
     (row,) = result.rows
     assert row["diverged"].startswith("diverged: mjWARN_") and math.isnan(row["position"])
-    assert row["diverged"] in contact.html_section([result])
+    assert row["diverged"] in contact_out.html_section([result], {("contact", name): contact_out.plot(result)})
 
 
 def test_the_python_api_names_a_diverged_run(tmp_path):

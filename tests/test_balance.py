@@ -116,12 +116,13 @@ def test_the_smallest_energy_injection_the_balance_catches_is_measured(walled):
     is energy from nothing to the balance: caught, with contacts, a limit and dry friction acting, at a size whose
     energy over the horizon is a small share of the motion's (the prototype of issue 29 saw 1–2 % of the peak kinetic
     energy at h on a walking model); the same force in the accounts is no finding."""
+    from harness.outputs.studies.injection import cell
     from harness.studies.injection import INJECTED, injector, smallest_injection, unaccounted
 
     found = smallest_injection(walled, horizon=1.0)
     assert found.joint == "shoulder" and found.deciding.endswith(".balance") and not found.note, found
     assert found.size <= 1e-2 and 0 < found.of_kinetic <= 0.05, found
-    assert "of the peak kinetic energy" in found.cell()
+    assert "of the peak kinetic energy" in cell(found)
 
     case = from_mjcf(walled, horizon=1.0)
     ref = case.reference(compile_model(walled, edit=case.prepare))

@@ -12,8 +12,9 @@ from harness import cases
 from harness.cli.commands import main
 from harness.engine.models import compile_model, mjcf_path
 from harness.families import convergence as orders
-from harness.studies import convergence as cv
-from harness.studies import html_section, run_studies, text
+from harness.outputs.studies import convergence as cv
+from harness.outputs.studies import draw, html_section, text
+from harness.studies import run_studies
 from harness.studies.faults import by_name
 from tests.conftest import case_ids
 
@@ -82,7 +83,7 @@ def test_bad_fit_input_is_a_one_line_value_error(dts, errors, needle):
 # -------------------------------------------------------- on the models
 @pytest.fixture(scope="module")
 def pendulum_fast() -> orders.ConvergenceStudy:
-    return cv.convergence_study(cases.get("pendulum"), fast=True)
+    return orders.convergence_study(cases.get("pendulum"), fast=True)
 
 
 def test_expected_orders_are_the_documented_ones():
@@ -212,8 +213,9 @@ def test_uniform_acceleration_makes_rk4_exact_not_failed():
 
 
 def test_outputs_plot_table_html_and_figures(pendulum_fast):
-    assert pendulum_fast.plot_png.startswith(b"\x89PNG")
-    page = html_section(run_studies([cases.get("spring")], fast=True, with_softness=False, with_solvers=False))
+    assert cv.plot(pendulum_fast).startswith(b"\x89PNG")
+    studies = run_studies([cases.get("spring")], fast=True, with_softness=False, with_solvers=False)
+    page = html_section(studies, draw(studies))
     assert "data:image/png;base64," in page and "<table>" in page
     figs = orders.order_figures(pendulum_fast)
     assert {f.name for f in figs} == {f"converge.{s.integrator}.order_shortfall" for s in pendulum_fast.verdicts}
@@ -242,7 +244,7 @@ def test_cli_converge_unknown_case_exits_2(capsys):
 @pytest.mark.parametrize("name", case_ids())
 def test_full_study_confirms_every_gated_order(name, config):
     """Every order the fast subset gates holds over the full ladder (down to h/4)."""
-    study = cv.convergence_study(cases.get(name))
+    study = orders.convergence_study(cases.get(name))
     gated = {k.split(".")[1] for k in config.for_case(name) if k.startswith("converge.")}
     for s in study.verdicts:
         if s.integrator in gated:

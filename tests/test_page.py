@@ -12,13 +12,13 @@ import mujoco
 import numpy as np
 import pytest
 
-from analytic.claims.notation import latex_text
 from harness import cases
+from harness.audit.notation import latex_text
 from harness.core.plotting import coinciding, formula_png
 from harness.outputs import page, stills
 from harness.outputs.equations import MAX_WIDTH_PX, equations, width_px
+from harness.outputs.formulas import formula_html, is_display, quote_html, text_html
 from harness.reference.derivations import derivation
-from harness.studies.formulas import formula_html, is_display, quote_html, text_html
 
 # ------------------------------------------------------------- contents
 BODY = ("<section id='summary'><h2>Summary</h2></section>"

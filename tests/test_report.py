@@ -30,6 +30,7 @@ from harness.outputs.junit import junit_xml
 from harness.outputs.page import Page
 from harness.outputs.plots import section_plots
 from harness.outputs.stills import Request, stills
+from harness.outputs.studies import contact as contact_out
 from harness.outputs.table import verdict_line
 from harness.pipeline.outcome import Outcome, outcome_of
 from harness.pipeline.require import Requirement
@@ -88,22 +89,25 @@ def _contact_study() -> contact.StudyResult:
 
 @pytest.fixture(scope="module")
 def audit_rows():
-    from harness.studies import audit  # lazy: sympy and the claims, for the tests that need them
+    from harness.audit.registry import all_claims  # lazy: sympy and the claims, for the tests that need them
+    from harness.audit.verdicts import audit  # lazy: as above
 
-    return audit.audit([c for c in audit.all_claims() if c.id == "000.atwood.lambda2"])
+    return audit([c for c in all_claims() if c.id == "000.atwood.lambda2"])
 
 
 @pytest.fixture(scope="module")
 def written(tmp_path_factory, run, model_stills, plots, audit_rows):
     """The report as `mjharness run` writes it: its pages (the studies' with a contact study, the audit's with
     one claim), report.json and summary.md with the audit."""
-    from harness.studies import audit  # lazy: as above
+    from harness.outputs.audit import html_section, json_rows  # lazy: as above
 
     out = tmp_path_factory.mktemp("written") / "report"
-    extra = [Page(files.STUDIES_PAGE, "Studies", "the studies", (contact.html_section([_contact_study()]),)),
-             Page(files.AUDIT_PAGE, "Seed audit", "the audit", (audit.html_section(audit_rows),))]
+    study = _contact_study()
+    drawn = {("contact", study.case): contact_out.plot(study)}
+    extra = [Page(files.STUDIES_PAGE, "Studies", "the studies", (contact_out.html_section([study], drawn),)),
+             Page(files.AUDIT_PAGE, "Seed audit", "the audit", (html_section(audit_rows),))]
     report.write_report(out, *run, stills=model_stills, plots=plots, pages=extra,
-                        appendix={"audit": audit.json_rows(audit_rows)})
+                        appendix={"audit": json_rows(audit_rows)})
     return out
 
 
@@ -439,7 +443,9 @@ def test_summary_md_carries_the_seed_audit_from_the_report_appendix(tmp_path, ru
 def test_every_key_report_json_writes_is_documented(run):
     """docs/report-json.md names every key of the document: top level, a case, a check, the audit and a
     claim (the audit of one claim stands for all: every claim has the same keys)."""
-    from harness.studies import audit  # lazy: sympy and the claims, for this test only
+    from harness.audit.registry import all_claims  # lazy: sympy and the claims, for this test only
+    from harness.audit.verdicts import audit  # lazy: as above
+    from harness.outputs.audit import json_rows  # lazy: as above
 
     doc_text = (ROOT / "docs" / "report-json.md").read_text(encoding="utf-8")
     documented = {
@@ -458,7 +464,7 @@ def test_every_key_report_json_writes_is_documented(run):
     doc = jsondoc.json_doc([result], outcome)
     case = doc["cases"][CASE]
     assert {"requirements", "gate"} <= set(doc) and {"fitness", "findings"} <= set(case)
-    rows = audit.json_rows(audit.audit([c for c in audit.all_claims() if c.id == "000.atwood.lambda2"]))
+    rows = json_rows(audit([c for c in all_claims() if c.id == "000.atwood.lambda2"]))
     claim = rows["claims"]["000.atwood.lambda2"]
     check_keys = {k for c in case["checks"].values() for k in c}
     assert {"budget", "note", "known_defect", "diverged"} <= check_keys

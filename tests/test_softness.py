@@ -10,6 +10,8 @@ import pytest
 from harness import cases
 from harness.engine.compat import solver_iterations
 from harness.engine.models import compile_model, mjcf_path
+from harness.outputs.studies import softness as softness_out
+from harness.outputs.studies import solvers as solvers_out
 from harness.studies import softness as sf
 from harness.studies import solvers as sv
 
@@ -38,8 +40,7 @@ def test_violation_and_initial_force_follow_the_documented_relations(pendulum):
 def test_refsafe_clamps_the_timeconst_to_two_timesteps():
     """A timeconst of h/2 acts as 2h (documented refsafe clamp): the sag is 16× the unclamped one."""
     h = compile_model(mjcf_path("pendulum")).opt.timestep
-    study = sf.softness_study(cases.get("pendulum"), fast=True, timeconsts=[h / 2], impedances=[0.99],
-                              plot=False)
+    study = sf.softness_study(cases.get("pendulum"), fast=True, timeconsts=[h / 2], impedances=[0.99])
     row = study.rows[0]
     assert row.effective_timeconst == pytest.approx(2 * h)
     assert row.violation == pytest.approx(row.violation_doc, rel=0.05)
@@ -61,9 +62,10 @@ def test_softness_study_refuses_a_case_without_equalities():
 
 
 def test_softness_outputs(pendulum):
-    assert pendulum.plot_png.startswith(b"\x89PNG")
-    assert "documented: 1 and 2" in sf.text(pendulum)
-    assert "<table>" in sf.html_section(pendulum)
+    png = softness_out.plot(pendulum)
+    assert png.startswith(b"\x89PNG")
+    assert "documented: 1 and 2" in softness_out.text(pendulum)
+    assert "<table>" in softness_out.html_section(pendulum, png)
 
 
 def test_solver_iterations_reads_the_last_solve():
@@ -81,7 +83,7 @@ def test_solvers_agree_on_the_pendulum():
         assert r.iterations_max < r.iteration_limit  # every solve met the tolerance
         assert r.force_vs_first < 1e-4  # the solvers' own disagreement, / m g
         assert math.isfinite(r.force)
-    assert study.plot_png.startswith(b"\x89PNG") and "PGS" in sv.text(study)
+    assert solvers_out.plot(study).startswith(b"\x89PNG") and "PGS" in solvers_out.text(study)
 
 
 def test_unknown_solver_is_a_value_error():
@@ -155,6 +157,6 @@ def test_recorded_solver_iterations_are_solver_iterations():
 def test_a_block_constraint_sweeps_row_by_row():
     """A connect's 3 rows: the initial force and the documented floors are computed over every row of
     the block (indexing them by constraint would read the wrong rows or fail)."""
-    study = sf.softness_study(cases.get("slider_crank"), fast=True, plot=False)
+    study = sf.softness_study(cases.get("slider_crank"), fast=True)
     for row in study.rows:
         assert row.force_t0 == pytest.approx(row.force_t0_doc, rel=0.01)

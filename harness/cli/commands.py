@@ -839,7 +839,8 @@ def _args_converge(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_converge(args: argparse.Namespace) -> int:
-    from harness.studies import html_page, run_studies, text  # lazy: the studies' plots load matplotlib
+    from harness.outputs.studies import draw, html_page, text  # lazy: the studies' plots load matplotlib
+    from harness.studies import run_studies  # lazy: only this command runs them
 
     if args.html is not None:
         check_output(args.html.parent)
@@ -853,7 +854,7 @@ def cmd_converge(args: argparse.Namespace) -> int:
     print(text(studies))
     if args.html is not None:
         prepare_output(args.html.parent)
-        write_atomic({args.html: html_page(studies)})
+        write_atomic({args.html: html_page(studies, draw(studies))})
     return EXIT_OK if studies.passed else EXIT_FAIL
 
 
@@ -862,13 +863,14 @@ def _args_audit(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_audit(args: argparse.Namespace) -> int:
-    from harness.studies import audit  # lazy: sympy (0.15 s)
+    from harness.audit.verdicts import audit  # lazy: sympy (0.15 s)
+    from harness.outputs.audit import format_table, json_rows  # lazy: as above
 
-    rows = audit.audit()
+    rows = audit()
     if args.json:
-        sys.stdout.write(dumps(audit.json_rows(rows)))
+        sys.stdout.write(dumps(json_rows(rows)))
     else:
-        print(audit.format_table(rows))
+        print(format_table(rows))
     return EXIT_OK
 
 
@@ -882,7 +884,8 @@ def _args_faults(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_faults(args: argparse.Namespace) -> int:
-    from harness.studies import faults  # lazy: the studies package loads its plots (matplotlib)
+    from harness.outputs.studies.sensitivity import trials_table  # lazy: only the fault commands load the catalog
+    from harness.studies import faults  # lazy: as above
     from harness.studies import sensitivity as study  # lazy: as above
 
     selected = cases.select(args.cases)
@@ -892,7 +895,7 @@ def cmd_faults(args: argparse.Namespace) -> int:
     rows = run_tasks(calls, args.jobs or cpus(), on_done=_progress(len(calls)), executor=_executor(args),
                      labels=[f"faults {case} {change} (MuJoCo {mujoco.__version__}, backend c)"
                              for _, (case, change, _) in calls])
-    print(study.trials_table(rows))
+    print(trials_table(rows))
     judged = [r for r in rows if r.verdict != "n/a"]
     unexpected = [r for r in judged if not r.as_expected]
     print(f"{len(judged) - len(unexpected)} of {len(judged)} as expected (settings pass, faults fail)"
@@ -911,7 +914,8 @@ def _args_sensitivity(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_sensitivity(args: argparse.Namespace) -> int:
-    from harness.studies import faults  # lazy: the studies package loads its plots (matplotlib)
+    from harness.outputs.studies.sensitivity import table  # lazy: only the fault commands load the catalog
+    from harness.studies import faults  # lazy: as above
     from harness.studies import sensitivity as study  # lazy: as above
 
     selected = cases.select(args.cases)
@@ -925,7 +929,7 @@ def cmd_sensitivity(args: argparse.Namespace) -> int:
     rows = run_tasks(calls, args.jobs or cpus(), on_done=_progress(len(calls)), executor=_executor(args),
                      labels=[f"sensitivity {case} {fault} (MuJoCo {mujoco.__version__}, backend c)"
                              for _, (case, fault, _) in calls])
-    print(study.table(rows))
+    print(table(rows))
     return EXIT_OK
 
 
@@ -950,6 +954,8 @@ def _args_zoo(p: argparse.ArgumentParser) -> None:
 
 def cmd_zoo(args: argparse.Namespace) -> int:
     from harness import zoo  # lazy: only this command reads the zoo
+    from harness.outputs.studies.engine_faults import cell as fault_cell  # lazy: as above
+    from harness.outputs.studies.injection import cell as injection_cell  # lazy: as above
 
     check_output(args.out)
     models, skipped = zoo.discover()
@@ -963,11 +969,11 @@ def cmd_zoo(args: argparse.Namespace) -> int:
         if isinstance(result, zoo.ZooResult):
             lines = [result.line()]
         elif isinstance(result, zoo.Injection):
-            lines = [f"{result.model}: injection on {result.joint or '-'}: {result.cell()}"]
+            lines = [f"{result.model}: injection on {result.joint or '-'}: {injection_cell(result)}"]
         elif all(c.size is None and not c.crashed and not c.unfinished for c in result):  # refused: no fault to size
             lines = [f"{result[0].model}: faults n/a ({result[0].note})"]
         else:
-            lines = [f"{c.model}: fault {c.fault} on {c.target}: {c.cell()}" for c in result]
+            lines = [f"{c.model}: fault {c.fault} on {c.target}: {fault_cell(c)}" for c in result]
         print("\n".join(lines), flush=True)
 
     run = zoo.run(chosen, jobs=args.jobs or cpus(), integrators=args.integrators, faults=args.faults,

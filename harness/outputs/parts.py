@@ -10,21 +10,28 @@ import time
 from collections.abc import Sequence
 
 from harness import cases
+from harness.audit.registry import all_claims
+from harness.audit.verdicts import audit
+from harness.families import convergence as orders
+from harness.outputs.audit import html_section as audit_section
+from harness.outputs.audit import json_rows as audit_json
 from harness.outputs.files import AUDIT_PAGE, STUDIES_PAGE
 from harness.outputs.page import Page
 from harness.outputs.plots import section_plots
+from harness.outputs.studies import PLOTS, html_section
+from harness.outputs.studies import contact as contact_section
 from harness.pipeline.executor import LOCAL, Executor
 from harness.pipeline.matrix import progress
 from harness.pipeline.pool import cpus, run_tasks
 from harness.pipeline.run import CaseResult
-from harness.studies import Studies, audit, contact, convergence, html_section, softness, solvers
+from harness.studies import Studies, contact, softness, solvers
 
 
 def study_calls(selected: Sequence[cases.Case]) -> list[tuple[str, str]]:
     """Layer 4 and the seed audit as (kind, name) calls, the costliest kinds first (measured: a seed
     audit of a system 0.3-1.5 s, a convergence study 0.3-1.5 s, the rest 0.2-1 s)."""
     systems = list(dict.fromkeys(c.system for c in selected))
-    claimed = {c.frame.system for c in audit.all_claims()}
+    claimed = {c.frame.system for c in all_claims()}
     return ([("audit", s) for s in systems if s in claimed]
             + [("convergence", c.name) for c in selected]
             + [("softness", c.name) for c in softness.equality_cases(selected)]
@@ -33,17 +40,19 @@ def study_calls(selected: Sequence[cases.Case]) -> list[tuple[str, str]]:
 
 
 def study(kind: str, name: str):
-    """One call of :func:`study_calls` (module-level: a worker runs it). An audit's rows come back
-    without their claims, which hold closures; the parent puts them back."""
+    """One call of :func:`study_calls` (module-level: a worker runs it): an audit's rows, or a study and its
+    plot (drawn here, in the worker). An audit's rows come back without their claims, which hold closures;
+    the parent puts them back."""
     if kind == "audit":
         return [dataclasses.replace(row, claim=None)
-                for row in audit.audit([c for c in audit.all_claims() if c.frame.system == name])]
+                for row in audit([c for c in all_claims() if c.frame.system == name])]
     case = cases.get(name)
-    run = {"convergence": lambda: convergence.convergence_study(case, fast=False),
+    run = {"convergence": lambda: orders.convergence_study(case, fast=False),
            "softness": lambda: softness.softness_study(case, fast=False),
            "solvers": lambda: solvers.solver_study(case, fast=False),
            "contact": lambda: contact.contact_study(name)}[kind]
-    return run()
+    found = run()
+    return found, PLOTS[kind](found)
 
 
 def case_plots(case: str | cases.Case, result: CaseResult) -> str:
@@ -87,7 +96,7 @@ def _studies_pages(selected: Sequence[cases.Case], done: dict, *, elapsed: float
                    ) -> tuple[list[Page], dict[str, object]]:
     """The studies' page and the audit's (where it has claims) and their JSON entries, from their calls'
     results."""
-    claims = audit.all_claims()
+    claims = all_claims()
     rows = []
     for system in dict.fromkeys(c.system for c in selected):  # each in all_claims() order
         system_claims = [c for c in claims if c.frame.system == system]
@@ -95,17 +104,20 @@ def _studies_pages(selected: Sequence[cases.Case], done: dict, *, elapsed: float
                  for row, claim in zip(done.get(("audit", system), []), system_claims, strict=True)]
     order = {c.id: k for k, c in enumerate(claims)}
     rows.sort(key=lambda row: order[row.claim.id])  # the order of one audit of every claim
-    by_kind = {kind: tuple(r for (k, _), r in done.items() if k == kind)
+    drawn = {call: found for call, found in done.items() if call[0] != "audit"}  # (study, plot) each
+    plots = {call: png for call, (_, png) in drawn.items()}
+    by_kind = {kind: tuple(study for (k, _), (study, _) in drawn.items() if k == kind)
                for kind in ("convergence", "softness", "solvers", "contact")}
     found = Studies(convergence=by_kind["convergence"], softness=by_kind["softness"],
                     solvers=by_kind["solvers"], elapsed=elapsed)
     contact_results = list(by_kind["contact"])
-    studied = tuple(h for h in (html_section(found), contact.html_section(contact_results)) if h)
+    studied = tuple(h for h in (html_section(found, plots), contact_section.html_section(contact_results, plots))
+                    if h)
     pages = [Page(STUDIES_PAGE, "Studies", "layer 4: convergence orders per integrator, constraint softness, the "
                   "constraint solvers and the contact settings", studied)]
     if rows:
         pages.append(Page(AUDIT_PAGE, "Seed audit", "every display and statement of the seed documents, checked "
-                          "symbolically and against MuJoCo", (audit.html_section(rows),)))
-    appendix = {"audit": audit.json_rows(rows),
+                          "symbolically and against MuJoCo", (audit_section(rows),)))
+    appendix = {"audit": audit_json(rows),
                 "contact_study": {r.case: [dict(row) for row in r.rows] for r in contact_results}}
     return pages, appendix

@@ -41,7 +41,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from analytic.claims.notation import latex_text
+from harness.audit.notation import latex_text
 from harness.core import VERSION as __version__
 from harness.core.budget import PARTS
 from harness.core.checks import Check
@@ -49,6 +49,7 @@ from harness.core.checks import closest as closest_check
 from harness.engine.models import compile_model
 from harness.outputs.equations import equations, png_data_uri
 from harness.outputs.files import CASE_PAGES, PAGES, REPORT_FILES, prepare_output, superseded, write_atomic
+from harness.outputs.formulas import text_html
 from harness.outputs.jsondoc import render_json, versions
 from harness.outputs.page import Page, table_of_contents, unbroken_numbers
 from harness.outputs.plots import section_plots, shipped_integrator
@@ -59,7 +60,6 @@ from harness.pipeline.require import Fitness
 from harness.pipeline.run import CaseResult
 from harness.reference.derivations import derivation
 from harness.reference.tree import TREE
-from harness.studies.formulas import text_html
 
 
 def _esc(value: object) -> str:
@@ -627,7 +627,7 @@ def render_markdown(results: Sequence[CaseResult], outcome: Outcome | Mapping[st
 
 
 def audit_markdown(audit: Mapping[str, object]) -> str:
-    """summary.md's part of the seed audit, from its JSON (harness.studies.audit.json_rows): the counts and
+    """summary.md's part of the seed audit, from its JSON (harness.outputs.audit.json_rows): the counts and
     the refuted, slip and ambiguous claims with their corrected forms or readings."""
     c: Mapping = audit["counts"]  # type: ignore[assignment]
     claims: Mapping[str, Mapping] = audit["claims"]  # type: ignore[assignment]

@@ -1,16 +1,14 @@
-"""Layer 4, studies: convergence orders, constraint softness and solver comparison.
+"""Layer 4, studies: convergence orders, constraint softness, the constraint solvers, the contact settings, and
+what the verdict catches (the fault catalog, its sensitivity, engine-side faults, energy injections).
 
-Each study is a pure function of a registered case returning a frozen
-dataclass (rows, verdicts and plot PNG bytes); ``text``/``html_section``
-render it for the CLI and the report. ``run_studies`` runs the chosen studies
-over a selection of cases (generic over the registry: softness and solvers
-run on the cases they apply to), ``html_section`` renders them all as one
-report section.
+Each study is a pure function of a registered case (or a model) returning frozen dataclasses: rows, fits and
+verdicts, never text, HTML or plots (:mod:`harness.outputs.studies` renders them). ``run_studies`` runs the
+convergence, softness and solver studies over a selection of cases (generic over the registry: softness and
+solvers run on the cases they apply to).
 """
 
 from __future__ import annotations
 
-import html
 import sys
 import time
 from collections.abc import Sequence
@@ -19,10 +17,9 @@ from dataclasses import dataclass
 import mujoco
 
 from harness.cases import Case
-from harness.core.tables import text_table
 from harness.engine.backends import Backend
 from harness.families import convergence as orders
-from harness.studies import convergence, softness, solvers
+from harness.studies import softness, solvers
 
 
 @dataclass(frozen=True)
@@ -59,7 +56,7 @@ def run_studies(selected: Sequence[Case], *, fast: bool = False, with_softness: 
     conv, soft, solv = [], [], []
     for case in selected:
         note(f"converge {case.name} ...")
-        conv.append(convergence.convergence_study(case, fast=fast, engine=engine))
+        conv.append(orders.convergence_study(case, fast=fast, engine=engine))
     if with_softness:
         for case in softness.equality_cases(selected):
             note(f"softness {case.name} ...")
@@ -70,48 +67,3 @@ def run_studies(selected: Sequence[Case], *, fast: bool = False, with_softness: 
             solv.append(solvers.solver_study(case, fast=fast, engine=engine))
     return Studies(convergence=tuple(conv), softness=tuple(soft), solvers=tuple(solv),
                    elapsed=time.perf_counter() - start)
-
-
-def text(studies: Studies) -> str:
-    """Everything as aligned text: one convergence table, then the softness and solver tables."""
-    gated = [r for st in studies.convergence for r in convergence.rows(st)]
-    info = [r for st in studies.convergence for r in convergence.rows(st, gated=False)]
-    parts = ["Convergence: error over [0, T] vs timestep h; order = log-log slope over the fitted points, "
-             "expected = the documented order (pass: order ≥ expected − "
-             f"{orders.ORDER_TOLERANCE:g}); constrained cases are judged on the rigid limit.",
-             text_table(convergence.HEADER, gated) if gated else "(no cases)"]
-    if info:
-        parts += ["", "Not gated: constrained cases' position as authored, the softness part the rigid limit "
-                      "removes, and the force error / force scale (doc: the documented softness floor).",
-                  text_table(convergence.HEADER, info)]
-    parts.append(convergence.LEGEND + ".")
-    for st in studies.softness:
-        parts += ["", "Softness " + softness.text(st)]
-    for st in studies.solvers:
-        parts += ["", "Solvers " + solvers.text(st)]
-    failed = studies.failures
-    parts += ["", f"{sum(len(s.verdicts) for s in studies.convergence) - len(failed)} order verdicts passed, "
-                  f"{len(failed)} failed" + (": " + ", ".join(
-                      f"{st.case}/{s.integrator}" for st in studies.convergence for s in st.verdicts
-                      if not s.passed) if failed else "")
-              + f" (MuJoCo {studies.mujoco_version}, {studies.elapsed:.1f} s)"]
-    return "\n".join(parts)
-
-
-def html_section(studies: Studies) -> str:
-    """One report section with every study's table and plot (PNG data URIs: self-contained)."""
-    body = "".join(convergence.html_section(s) for s in studies.convergence)
-    body += "".join(softness.html_section(s) for s in studies.softness)
-    body += "".join(solvers.html_section(s) for s in studies.solvers)
-    return (f"<section id='studies'><h2>Studies</h2><p>Layer 4: convergence order per integrator against "
-            f"the documented one, constraint softness against MuJoCo's documented relations, and the "
-            f"constraint solvers (MuJoCo {html.escape(studies.mujoco_version)}).</p>{body}</section>")
-
-
-def html_page(studies: Studies) -> str:
-    """A standalone HTML page of the studies (for ``mjharness converge --html``)."""
-    style = ("body{font-family:sans-serif;max-width:70em;margin:1em auto;color:#222}"
-             "table{border-collapse:collapse;font-size:.8em}td,th{border:1px solid #ccc;padding:2px 5px}"
-             "tr.fail td{background:#fdd}img{max-width:100%;display:block;margin:.5em 0}")
-    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>mjharness studies</title>"
-            f"<style>{style}</style></head><body>{html_section(studies)}</body></html>\n")

@@ -200,28 +200,6 @@ class Caught:
         """Caught at the size issue 29 names, or smaller."""
         return self.size is not None and math.isfinite(self.size) and self.size <= CLAIMED[self.fault] * (1 + 1e-9)
 
-    def cell(self) -> str:
-        return unsized_cell(self, largest=SIZES[0]) or f"{sized(self.size)} ({self.deciding})"
-
-
-def unsized_cell(found, *, largest: float) -> str:
-    """A study's table cell where nothing was sized (crashed, unfinished, n/a, or not caught at ``largest``), from
-    ``found``'s ``crashed``, ``unfinished``, ``size`` and ``note``; '' where a size was found."""
-    if found.crashed:
-        return f"crashed ({found.crashed})"
-    if found.unfinished:
-        return f"unfinished ({found.unfinished})"
-    if found.size is None:
-        return f"n/a ({found.note})"
-    if math.isnan(found.size):
-        return f"> {largest:g}" + (f" ({found.note})" if found.note else "")
-    return ""
-
-
-def sized(size: float) -> str:
-    """A size found, its decade, marked ≤ where it is the search's smallest (caught there, perhaps below)."""
-    return f"{'≤ ' if size <= SIZES[-1] else ''}{size:.0e}"
-
 
 def _failed(case, integrators: Sequence[str], edit: Edit | None) -> dict[str, float]:
     """Each failed check's name and how far over its limit (inf: a run that could not be measured), as ``check``

@@ -38,7 +38,7 @@ from harness.engine.simulate import steps_in
 from harness.engine.variants import compose
 from harness.families.balance import POWER, POWER_FIELDS, balance_figures, cumulative_work
 from harness.reference.tree import TreeEdit, prepare
-from harness.studies.engine_faults import SIZES, bisect_decades, damping_scale, sized, unsized_cell
+from harness.studies.engine_faults import SIZES, bisect_decades, damping_scale
 
 INJECTOR = "mjharness_injection"
 """The name of the actuator that injects the energy (added last: the model's own actuators keep their indices)."""
@@ -126,14 +126,6 @@ class Injection:
     seconds: float = 0.0
     crashed: str = ""
     unfinished: str = ""
-
-    def cell(self) -> str:
-        if unsized := unsized_cell(self, largest=SIZES_SEARCHED[0]):
-            return unsized
-        if math.isnan(self.energy):
-            return f"{sized(self.size)} ({self.deciding}; {self.note})"
-        return (f"{sized(self.size)}: {self.of_kinetic:.1e} of the peak kinetic energy, {self.of_scale:.1e} of m g L "
-                f"({self.deciding})")
 
 
 def smallest_injection(path: Path | str, *, name: str | None = None, horizon: float | None = None,

@@ -28,7 +28,6 @@ from harness import cases
 from harness.cases import Case
 from harness.core.checks import Check
 from harness.core.options import RunOptions
-from harness.core.tables import text_table
 from harness.engine.models import compile_model
 from harness.engine.variants import compose
 from harness.pipeline.limits import load_limits
@@ -109,27 +108,6 @@ def trial(case: Case, change: Change, *, coarse: bool = False) -> Trial:
     return Trial(case.name, change.name, change.kind, setting, size, "pass", closest)
 
 
-def trials_table(rows: Sequence[Trial]) -> str:
-    """The catalog as a text table: per case and change, the verdict, the deciding check and its budget."""
-    def budget(c: Check | None) -> str:
-        if c is None:
-            return ""
-        if c.diverged:
-            return c.diverged
-        if c.budget is None:
-            return f"{c.value:.3g} vs {c.threshold:.3g} ({c.name.layer} limit)"
-        b = c.budget
-        parts = ", ".join(f"{k} {v:.2g}" for k, v in b.explained.items() if v)
-        return f"measured {b.measured:.3g} = {parts or 'nothing explained'} + {b.unexplained:.2g}; limit {b.limit:.2g}"
-
-    body = [[r.case, r.change, r.kind, r.setting, "" if math.isnan(r.size) else f"{r.size:g}",
-             r.verdict + ("" if r.as_expected else " (unexpected)"),
-             r.note or (str(r.deciding.name) if r.deciding else ""),
-             "" if r.deciding is None else f"{r.deciding.ratio:.2g}", budget(r.deciding)] for r in rows]
-    return text_table(["case", "change", "kind", "at", "size", "verdict", "deciding check", "used", "its budget"],
-                      body)
-
-
 def smallest_detected(detects: Callable[[float], str], *, smallest: float = SMALLEST, largest: float = LARGEST
                       ) -> tuple[float, str]:
     """The smallest size at which ``detects(size)`` names a failing figure ('' where it passes): a
@@ -174,26 +152,6 @@ def sensitivity(case: Case, fault: Change, *, coarse: bool) -> Sensitivity:
 
     size, deciding = smallest_detected(detects)
     return Sensitivity(case.name, fault.name, setting, size, fault.unit, deciding)
-
-
-def table(rows: Sequence[Sensitivity]) -> str:
-    """The study as a text table: per case and fault, the smallest size detected at each setting."""
-    by_key: dict[tuple[str, str], dict[str, Sensitivity]] = {}
-    for r in rows:
-        by_key.setdefault((r.case, r.fault), {})[r.setting] = r
-
-    def cell(r: Sensitivity | None) -> str:
-        if r is None:
-            return ""
-        if r.size is None:
-            return f"n/a ({r.note})"
-        if math.isnan(r.size):
-            return f"> {LARGEST:g}"
-        at_floor = "≤ " if r.size <= SMALLEST else ""  # the search's smallest size: detected there, maybe below
-        return f"{at_floor}{r.size:.0e} ({r.deciding})"
-
-    body = [[case, fault, cell(s.get("shipped")), cell(s.get(COARSE.name))] for (case, fault), s in by_key.items()]
-    return text_table(["case", "fault", "shipped", "2 × timestep, default softness"], body)
 
 
 def trial_named(case: str, change: str, coarse: bool) -> Trial:

@@ -23,8 +23,6 @@ import numpy as np
 
 from harness.cases import Case
 from harness.core.errors import SimulationDiverged
-from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, style
-from harness.core.tables import fmt, html_table, text_table
 from harness.engine import backends
 from harness.engine.backends import Backend, simulate
 from harness.engine.compat import SOLVER_ITERATIONS
@@ -50,6 +48,17 @@ class SolverRow:
 
 
 @dataclass(frozen=True)
+class SolverSeries:
+    """One solver's run over time (a plot's curves): the force error (/ force scale, worst constraint) and the
+    iterations of the solve at each recorded state."""
+
+    solver: str
+    t: np.ndarray
+    force: np.ndarray
+    iterations: np.ndarray
+
+
+@dataclass(frozen=True)
 class SolverStudy:
     case: str
     integrator: str
@@ -57,7 +66,7 @@ class SolverStudy:
     tolerance: float
     horizon: float
     rows: tuple[SolverRow, ...]
-    plot_png: bytes | None = None
+    series: tuple[SolverSeries, ...] = ()  # the solvers whose runs did not diverge
     mujoco_version: str = mujoco.__version__
 
 
@@ -76,7 +85,7 @@ def _solver(name: str):
 
 
 def solver_study(case: Case, *, fast: bool = False, solvers: Sequence[str] = SOLVERS,
-                 plot: bool = True, engine: Backend | None = None) -> SolverStudy:
+                 engine: Backend | None = None) -> SolverStudy:
     """Force and position error and iterations used, per solver, at the shipped settings, every run on ``engine``
     (default: MuJoCo's C engine)."""
     engine = engine or backends.get("c")
@@ -91,7 +100,7 @@ def solver_study(case: Case, *, fast: bool = False, solvers: Sequence[str] = SOL
     probe = dataclasses.replace(base, series={**base.series, "solver_niter": SOLVER_ITERATIONS})
     steps = steps_in(horizon, shipped.opt.timestep)
     names = [*base.constraints, *base.forces]
-    rows, series, ref_traj, newton = [], {}, None, None
+    rows, series, ref_traj, newton = [], [], None, None
     for k, name in enumerate(solvers):
         model = compile_model(path, edit=_solver(name))
         try:
@@ -108,7 +117,7 @@ def solver_study(case: Case, *, fast: bool = False, solvers: Sequence[str] = SOL
         force = np.max(np.abs(lam - np.stack([ref_traj.multipliers[c] for c in names])), axis=0)
         force = force / reference.scales.force
         iters = sim.series["solver_niter"]
-        series[name] = (sim.t, force, iters)
+        series.append(SolverSeries(name, sim.t, force, iters))
         settled = sim.t >= case.settle
         rows.append(SolverRow(
             solver=name, force=float(np.max(force[settled])),
@@ -118,54 +127,5 @@ def solver_study(case: Case, *, fast: bool = False, solvers: Sequence[str] = SOL
                          for p in ref_traj.positions),
             iterations_mean=float(np.mean(iters)), iterations_max=int(np.max(iters)),
             iteration_limit=int(model.opt.iterations)))
-    study = SolverStudy(case=case.name, integrator=integrator_name(shipped), timestep=float(shipped.opt.timestep),
-                        tolerance=float(shipped.opt.tolerance), horizon=horizon, rows=tuple(rows))
-    return dataclasses.replace(study, plot_png=_plot(study, series)) if plot else study
-
-
-HEADER = ("case", "solver", "force error", "vs first", "position [m]", "iterations mean", "max", "limit", "note")
-
-
-def table_rows(study: SolverStudy) -> list[tuple[str, ...]]:
-    """One row per solver; a solver whose run diverged says so in its note."""
-    return [(study.case, r.solver, *(["-"] * 6 if r.diverged else [
-                fmt(r.force, ".2e"), fmt(r.force_vs_first, ".1e"), fmt(r.position, ".2e"),
-                f"{r.iterations_mean:.2f}", str(r.iterations_max), str(r.iteration_limit)]),
-             r.diverged or ("hit the iteration limit" if r.iterations_max >= r.iteration_limit else ""))
-            for r in study.rows]
-
-
-def summary(study: SolverStudy) -> str:
-    return (f"{study.case}: {study.integrator} at h = {study.timestep:g} s over {study.horizon:g} s, "
-            f"tolerance {study.tolerance:g}; force error = max |λ_mj − λ_ref| / force scale (worst constraint, "
-            f"t ≥ the case's settle time); 'vs first' = max |λ − λ_{study.rows[0].solver}| / force scale, the "
-            f"solvers' own disagreement; iterations of the solve at each recorded state.")
-
-
-def text(study: SolverStudy) -> str:
-    return summary(study) + "\n" + text_table(HEADER, table_rows(study))
-
-
-def _plot(study: SolverStudy, series: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]) -> bytes:
-    plt = pyplot()
-
-    fig, axes = plt.subplots(2, 1, figsize=(FULL_WIDTH, 4.8), sharex=True, layout="constrained")
-    every = max(1, min(len(t) for t, _, _ in series.values()) // 12) if series else 1
-    for k, (name, (t, force, iters)) in enumerate(series.items()):
-        look = style("", k)
-        axes[0].semilogy(t, np.maximum(force, 1e-16), lw=1, ms=4, markevery=(k * every // 4, every), label=name,
-                         **look)
-        axes[1].plot(t, iters, lw=1, ms=4, markevery=(k * every // 4, every), **look)
-    axes[0].set(ylabel="|λ_mj − λ_ref| / force scale", title=f"{study.case}: solvers ({study.integrator}, "
-                f"h = {study.timestep:g} s)")
-    axes[1].set(xlabel="t [s]", ylabel="solver iterations")
-    for ax in axes:
-        ax.grid(True, which="major", lw=0.3)
-    fig.legend(loc="outside right upper", frameon=False)
-    return png_bytes(fig)
-
-
-def html_section(study: SolverStudy) -> str:
-    img = f"<img src='{png_data_uri(study.plot_png)}' alt='solver plot'>" if study.plot_png else ""
-    return (f"<section id='solvers-{study.case}'><h3>Solvers: {study.case}</h3><p>{summary(study)}</p>"
-            f"{html_table(HEADER, table_rows(study))}{img}</section>")
+    return SolverStudy(case=case.name, integrator=integrator_name(shipped), timestep=float(shipped.opt.timestep),
+                       tolerance=float(shipped.opt.tolerance), horizon=horizon, rows=tuple(rows), series=tuple(series))

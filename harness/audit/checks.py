@@ -1,5 +1,5 @@
 """Statement checks shared by the claims: constraint rows and functions against ours, integrability,
-reachable sets, solvability, energy. Each returns (holds, reason) for a :class:`~analytic.claims.view.DocView`,
+reachable sets, solvability, energy. Each returns (holds, reason) for a :class:`~harness.audit.view.DocView`,
 computed from our derivation, never from a hand-typed answer.
 """
 
@@ -9,8 +9,8 @@ from collections.abc import Sequence
 
 import sympy as sp
 
-from analytic.claims import StatementCheck
-from analytic.claims.view import T_SYMBOL, DocView
+from harness.audit import StatementCheck
+from harness.audit.view import T_SYMBOL, DocView
 
 
 def _solvable(residuals: Sequence[sp.Expr], unknowns: Sequence[sp.Symbol]) -> bool:

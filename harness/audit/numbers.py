@@ -24,9 +24,9 @@ import numpy as np
 import sympy as sp
 
 from analytic import systems
-from analytic.claims import Claim
-from analytic.claims.view import T_SYMBOL, DocView, resolve
 from harness import cases
+from harness.audit import Claim
+from harness.audit.view import T_SYMBOL, DocView, resolve
 from harness.engine.bindings import JointBinding
 from harness.engine.constraints import equality_block
 from harness.engine.models import compile_model

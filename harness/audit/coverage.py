@@ -1,7 +1,7 @@
 """Which lines of the two seed documents hold which claims, and why the other lines hold none.
 
 The documents are read line by line (copies, byte for byte, in
-``analytic/claims/documents``; each file's name carries the start of its
+``harness/audit/documents``; each file's name carries the start of its
 sha256). Every non-blank line is split into units — its displayed formulas and
 its sentences (:func:`units`) — and every unit must be covered by a
 :class:`Passage`: one that lists the claims made there, or says why it holds
@@ -193,7 +193,7 @@ def text(document: str) -> str:
     """The document as shipped with the package."""
     if document not in DOCUMENTS:
         raise ValueError(f"unknown document {document!r}; known: {', '.join(DOCUMENTS)}")
-    return (resources.files("analytic.claims") / "documents" / document).read_text(encoding="utf-8")
+    return (resources.files("harness.audit") / "documents" / document).read_text(encoding="utf-8")
 
 
 def units(line: str) -> list[str]:
@@ -251,7 +251,7 @@ def lines_text(claim_id: str, default: str | None = None) -> str:
     if not spans and default is not None:
         return default
     if not spans:
-        raise ValueError(f"claim {claim_id!r} is not placed in the coverage list (analytic/claims/coverage.py)")
+        raise ValueError(f"claim {claim_id!r} is not placed in the coverage list (harness/audit/coverage.py)")
     return ", ".join(spans)
 
 

@@ -1,5 +1,5 @@
 """Formulas on a page: LaTeX typeset as an image by matplotlib's mathtext (as the equations panel is), or
-on one line of Unicode (:func:`analytic.claims.notation.latex_text`) where it is prose with mathematics in
+on one line of Unicode (:func:`harness.audit.notation.latex_text`) where it is prose with mathematics in
 it or mathtext cannot typeset it — never raw LaTeX. Self-contained (PNG data URIs) and byte-identical for
 identical inputs."""
 
@@ -9,7 +9,7 @@ import base64
 import html
 import re
 
-from analytic.claims.notation import latex_text
+from harness.audit.notation import latex_text
 from harness.core.plotting import formula_png
 
 FONTSIZE = 12.0

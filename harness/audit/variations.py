@@ -6,7 +6,7 @@ q(t) with a variation η(t) = δq(t): q, q̇, q̈, η, η̇ are independent symb
 d/dt applies the chain rule. Where a display says something about motions
 (the action is stationary, or least, on the true path) it is checked on the
 document's own example, the mass on a spring, and numerically on MuJoCo's
-path of that spring (harness/studies/audit_numbers.py, kind "action").
+path of that spring (harness/audit/numbers.py, kind "action").
 """
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ import functools
 
 import sympy as sp
 
-from analytic.claims import Claim, Frame, Reading, doc_frame
-from analytic.claims.checks import stationary
-from analytic.claims.frames import SIMULATIONS as DOC
-from analytic.claims.frames import spring_frame
-from analytic.claims.view import T_SYMBOL, DocView
+from harness.audit import Claim, ClaimReading, Frame, doc_frame
+from harness.audit.checks import stationary
+from harness.audit.frames import SIMULATIONS as DOC
+from harness.audit.frames import spring_frame
+from harness.audit.view import T_SYMBOL, DocView
 
 SEC_ACTION = "Principle of Least Action"
 SEC_COV = "Calculus of Variations"
@@ -157,9 +157,9 @@ def claims() -> list[Claim]:
               check=_ends_in_q, no_numbers="a statement about which end conditions are fixed",
               ambiguity="which ends are fixed: the variation below fixes q only (δq(t₁) = δq(t₂) = 0); a path "
                         "'from (q₁, q̇₁) to (q₂, q̇₂)' suggests the velocities too",
-              readings=(Reading("only q₁ and q₂ are prescribed; (q, q̇) at the ends are the path's own",
+              readings=(ClaimReading("only q₁ and q₂ are prescribed; (q, q̇) at the ends are the path's own",
                                 text="q(t₁) = q₁, q(t₂) = q₂, δq(t₁) = δq(t₂) = 0", check=_ends_in_q),
-                        Reading("both q and q̇ prescribed at each end",
+                        ClaimReading("both q and q̇ prescribed at each end",
                                 text="q(t₁) = q₁, q̇(t₁) = q̇₁, q(t₂) = q₂, q̇(t₂) = q̇₂", check=_ends_in_state)),
               note="'phase space' usually means (q, p); here (q, q̇), which for the spring is the same up to p = m q̇"),
         Claim("001.cov.expansion", DOC, f"{SEC_COV}: first-order expansion",

@@ -7,8 +7,8 @@ import functools
 
 import sympy as sp
 
-from analytic.claims import Frame, doc_frame
 from analytic.systems import symbols
+from harness.audit import Frame, doc_frame
 
 LECTURE15 = "000_53d3a09bcd5afa0f.txt"  # Lecture 15: multiplier method, spherical pendulum, hoops, Atwood
 GOLDSTEIN_1_3 = ("Goldstein, Poole & Safko, Classical Mechanics, 3rd ed. (2002), §1.3 'Constraints', p. 12–13: "

@@ -1,12 +1,19 @@
-"""The seed documents' displays and statements of fact, as named claims the audit checks.
+"""The seed audit: the seed documents' displays and statements of fact, as named claims, and their checks.
 
 Each :class:`Claim` is a formula or statement as the document prints it,
 transcribed faithfully in the document's own variables (its :class:`Frame`).
-The audit (``harness/studies/audit.py``) checks it symbolically against our
-sympy derivation (expressed in the same variables) and numerically against
-MuJoCo at sampled states. Which lines of which document each claim comes from,
-and why the remaining lines hold no claim, is the coverage list
-(:mod:`analytic.claims.coverage`).
+The audit (:mod:`harness.audit.verdicts`) checks it symbolically against our
+sympy derivation (expressed in the same variables; :mod:`harness.audit.view`,
+:mod:`harness.audit.checks`) and numerically against MuJoCo at sampled states
+(:mod:`harness.audit.numbers`; MuJoCo runs, hence here in ``harness`` and not
+in ``analytic``). Which lines of which document (``documents/``) each claim
+comes from, and why the remaining lines hold no claim, is the coverage list
+(:mod:`harness.audit.coverage`). The claims themselves: document 001 in
+:mod:`harness.audit.simulations` and :mod:`harness.audit.variations`, document
+000 in :mod:`harness.audit.lecture15` and :mod:`harness.audit.lecture15_method`,
+every one in :func:`harness.audit.registry.all_claims`, in their variables
+(:mod:`harness.audit.frames`) and notation (:mod:`harness.audit.notation`).
+The audit's table, page and JSON: :mod:`harness.outputs.audit`.
 
 Kinds of claim and what "true" means:
 
@@ -26,7 +33,7 @@ Kinds of claim and what "true" means:
 
 A general display (the multiplier method, the calculus of variations) is
 checked on an instance: ``claimed`` may be a function of the
-:class:`~analytic.claims.view.DocView`, applying the display's operations to
+:class:`~harness.audit.view.DocView`, applying the display's operations to
 our derived L, T, V and constraint rows in the document's variables.
 
 ``manifold``: substitutions the document makes that hold on the constraint
@@ -52,7 +59,7 @@ from typing import TYPE_CHECKING, Literal, Union
 import sympy as sp
 
 if TYPE_CHECKING:
-    from analytic.claims.view import DocView
+    from harness.audit.view import DocView
 
 ClaimKind = Literal["value", "value_up_to_constant", "equation", "statement"]
 Formula = Union[sp.Expr, sp.Matrix, "Callable[[DocView], sp.Expr | sp.Matrix]"]
@@ -82,7 +89,7 @@ class Frame:
 
 
 @dataclass(frozen=True)
-class Reading:
+class ClaimReading:
     """One reading of an ambiguous claim, and the formula that holds under it.
 
     Either a ``frame`` (the reading as a convention: which vertical θ is measured
@@ -110,7 +117,7 @@ class Claim:
     claimed: Formula | None = None
     truth: Callable[[DocView], sp.Expr] | None = None
     check: StatementCheck | None = None
-    measure: str | None = None  # what MuJoCo reading the numeric check uses (harness/studies/audit_numbers.py)
+    measure: str | None = None  # what MuJoCo reading the numeric check uses (harness/audit/numbers.py)
     manifold: Mapping[sp.Symbol, sp.Expr] = field(default_factory=dict)
     projection: Mapping[sp.Symbol, sp.Expr] = field(default_factory=dict)
     approximation: Mapping[sp.Expr, sp.Expr] = field(default_factory=dict)
@@ -123,7 +130,7 @@ class Claim:
     project_text: str = ""
     intended_check: StatementCheck | None = None
     ambiguity: str = ""
-    readings: tuple[Reading, ...] = ()
+    readings: tuple[ClaimReading, ...] = ()
     note: str = ""
     numeric_blind: str = ""  # why motions cannot show the difference (e.g. it lies off the manifold)
     small_motion: float = 1.0  # numeric check from the case's initial state scaled by this

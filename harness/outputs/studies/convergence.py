@@ -1,8 +1,7 @@
-"""Layer 4, convergence study as tables and a plot (the study itself: :mod:`harness.families.convergence`)."""
+"""A convergence study as tables and a plot (the study itself: :mod:`harness.families.convergence`)."""
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -16,14 +15,6 @@ from harness.families.convergence import (
     ConvergenceStudy,
     Series,
 )
-from harness.families.convergence import convergence_study as _computed
-
-
-def convergence_study(case, **options) -> ConvergenceStudy:
-    """:func:`harness.families.convergence.convergence_study` with its plot (``plot_png``)."""
-    study = _computed(case, **options)
-    return dataclasses.replace(study, plot_png=plot_study(study))
-
 
 HEADER = ("case", "integrator", "quantity", "h [ms]", "error", "order", "expected", "floor", "verdict")
 
@@ -72,7 +63,7 @@ def text(study: ConvergenceStudy) -> str:
     return out + ("\n\n" + text_table(HEADER, info) if info else "")
 
 
-def plot_study(study: ConvergenceStudy) -> bytes:
+def plot(study: ConvergenceStudy) -> bytes:
     """Log-log error vs h across the page: the gated series per integrator (filled: fitted), the
     as-authored series for constrained cases (thin dashes), fitted lines and detected floors; integrators
     whose errors coincide drawn once and named together; the legend below the data."""
@@ -117,11 +108,12 @@ def plot_study(study: ConvergenceStudy) -> bytes:
     return png_bytes(fig)
 
 
-def html_section(study: ConvergenceStudy) -> str:
-    """An HTML section (table + plot) for the report; self-contained (PNG as data URI)."""
+def html_section(study: ConvergenceStudy, png: bytes | None) -> str:
+    """An HTML section (table + ``png``, the study's :func:`plot`) for the report; self-contained (PNG as data
+    URI)."""
     body = rows(study) + rows(study, gated=False)
     classes = ["fail" if r[-1].startswith(("FAIL", "diverged")) else "pass" if r[-1] == "pass" else "" for r in body]
-    img = f"<img src='{png_data_uri(study.plot_png)}' alt='convergence plot'>" if study.plot_png else ""
+    img = f"<img src='{png_data_uri(png)}' alt='convergence plot'>" if png else ""
     gated = VERDICT_QUANTITY[study.constrained]
     return (f"<section id='converge-{study.case}'><h3>Convergence: {study.case}</h3>"
             f"<p>Error over T = {study.horizon:g} s vs timestep; the order is the log-log slope over the "

@@ -15,11 +15,11 @@ from __future__ import annotations
 
 import sympy as sp
 
-from analytic.claims import Claim
-from analytic.claims.checks import rows_check, saddle_rank
-from analytic.claims.frames import LECTURE15 as DOC
-from analytic.claims.frames import atwood_frame, spherical_frame
-from analytic.claims.view import DocView
+from harness.audit import Claim
+from harness.audit.checks import rows_check, saddle_rank
+from harness.audit.frames import LECTURE15 as DOC
+from harness.audit.frames import atwood_frame, spherical_frame
+from harness.audit.view import DocView
 
 SEC = "Constraints – Method of Lagrange Multipliers: general derivation"
 PRINTED_XI = sp.Matrix([[1, 0, -1], [0, 1, 1]])  # Atwood's Ξ as line 93 prints it

@@ -8,18 +8,18 @@ d/dt ∂L/∂q̇ − ∂L/∂q = Σ λ ∂f/∂q: our convention (M q̈ = F + J�
 ``rod`` multiplier, minus the rod tension. Its example uses the same sign;
 its general equation (2) the opposite one (001.general.lambda_sign). The least
 action and calculus-of-variations part (lines 9–14) is in
-:mod:`analytic.claims.variations`.
+:mod:`harness.audit.variations`.
 """
 
 from __future__ import annotations
 
 import sympy as sp
 
-from analytic.claims import Claim, Reading, variations
-from analytic.claims.checks import inequality_bounds_a_region, position_check, solves
-from analytic.claims.frames import GOLDSTEIN_1_3, SIMULATIONS, pendulum_frame, pendulum_frame_flipped, spring_frame
-from analytic.claims.view import T_SYMBOL, DocView
 from analytic.systems import symbols
+from harness.audit import Claim, ClaimReading, variations
+from harness.audit.checks import inequality_bounds_a_region, position_check, solves
+from harness.audit.frames import GOLDSTEIN_1_3, SIMULATIONS, pendulum_frame, pendulum_frame_flipped, spring_frame
+from harness.audit.view import T_SYMBOL, DocView
 
 DOC = SIMULATIONS
 
@@ -198,10 +198,10 @@ def _general_claims() -> list[Claim]:
               ambiguity="the sign of λ: with the λ of the action the document writes, S = ∫(L + Σλf) dt, and "
                         "of its own example (λ ∂f/∂q on the right), (2) is wrong; the document declares the sign "
                         "arbitrary, and with the opposite λ (S = ∫(L − Σλf) dt) it holds",
-              readings=(Reading("λ of S = ∫(L + Σλf) dt and of the example (our λ_rod = −tension)", f,
+              readings=(ClaimReading("λ of S = ∫(L + Σλf) dt and of the example (our λ_rod = −tension)", f,
                                 lambda v: v.lagrange() - v.xi.T * v.multipliers,
                                 text="d/dt ∂L/∂q̇_i − ∂L/∂q_i − Σ_j λ_j ∂f_j/∂q_i = 0"),
-                        Reading("λ of the opposite sign, S = ∫(L − Σλf) dt (λ = +tension)", flipped,
+                        ClaimReading("λ of the opposite sign, S = ∫(L − Σλf) dt (λ = +tension)", flipped,
                                 lambda v: v.lagrange() + v.xi.T * v.multipliers,
                                 text="d/dt ∂L/∂q̇_i − ∂L/∂q_i + Σ_j λ_j ∂f_j/∂q_i = 0")),
               note="instance: the r-pendulum, our L"),

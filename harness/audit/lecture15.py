@@ -15,7 +15,7 @@ would make line 9 say T = −½mv²):
   from the x axis, as ours.
 
 The general derivation of the multiplier method (lines 59–85) is in
-:mod:`analytic.claims.lecture15_method`.
+:mod:`harness.audit.lecture15_method`.
 """
 
 from __future__ import annotations
@@ -23,8 +23,9 @@ from __future__ import annotations
 import sympy as sp
 
 from analytic import systems
-from analytic.claims import Claim, Frame, Reading, doc_frame, lecture15_method
-from analytic.claims.checks import (
+from analytic.systems import symbols
+from harness.audit import Claim, ClaimReading, Frame, doc_frame, lecture15_method
+from harness.audit.checks import (
     accessible,
     energy_conserved,
     exact,
@@ -34,10 +35,9 @@ from analytic.claims.checks import (
     reachable,
     rows_check,
 )
-from analytic.claims.frames import GOLDSTEIN_1_3, LECTURE15, atwood_frame, plane_frame, ramp_frame, spherical_frame
-from analytic.claims.notation import doc_text
-from analytic.claims.view import DocView
-from analytic.systems import symbols
+from harness.audit.frames import GOLDSTEIN_1_3, LECTURE15, atwood_frame, plane_frame, ramp_frame, spherical_frame
+from harness.audit.notation import doc_text
+from harness.audit.view import DocView
 
 DOC = LECTURE15
 
@@ -89,9 +89,9 @@ def _spherical() -> list[Claim]:
               ambiguity="holds only if θ is measured from the UPWARD vertical; the document says 'from the "
                         "vertical', and with θ from the downward vertical (bob below the pivot at θ = 0) "
                         "the potential is −m g l cos θ",
-              readings=(Reading("θ from the upward vertical (the document's own derivatives follow it)", f,
+              readings=(ClaimReading("θ from the upward vertical (the document's own derivatives follow it)", f,
                                 m * g * l * c),
-                        Reading("θ from the downward vertical (the bob hangs at θ = 0)", down, -m * g * l * c))),
+                        ClaimReading("θ from the downward vertical (the bob hangs at θ = 0)", down, -m * g * l * c))),
         Claim("000.spherical.conservative", DOC, f"{sec}: no non-conservative forces",
               r"\text{No } Q_{k,\triangle} \text{: no non-conservative forces}", f, "statement",
               check=energy_conserved, claimed=doc_t + m * g * l * c, measure="conserved:energy",
@@ -226,9 +226,9 @@ def _hoops() -> list[Claim]:
               ambiguity="'independent coordinates' in two senses: independent velocities (degrees of freedom) "
                         "or coordinates enough to fix the configuration; the document's line 58 itself says x "
                         "and y cannot be written in terms of θ and φ",
-              readings=(Reading("independent velocities (degrees of freedom)", text="n − rank Ξ = 4 − 2 = 2",
+              readings=(ClaimReading("independent velocities (degrees of freedom)", text="n − rank Ξ = 4 − 2 = 2",
                                 check=velocities),
-                        Reading("coordinates that fix the configuration",
+                        ClaimReading("coordinates that fix the configuration",
                                 text="dim of the reachable (x, y, θ, φ) = 4: all four are needed",
                                 check=configurations))),
         Claim("000.hoop_plane.nonholonomic", DOC, f"{sec}: hoop on a plane",

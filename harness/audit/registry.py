@@ -3,7 +3,7 @@ modules: simulations for 001, lecture15 and lecture15_method for 000)."""
 
 from __future__ import annotations
 
-from analytic.claims import Claim, lecture15, simulations
+from harness.audit import Claim, lecture15, simulations
 
 
 def all_claims() -> tuple[Claim, ...]:

@@ -7,8 +7,8 @@ from functools import cached_property
 
 import sympy as sp
 
-from analytic.claims import Claim, Frame
 from analytic.lagrangian import Derivation
+from harness.audit import Claim, Frame
 
 T_SYMBOL = sp.Symbol("t", real=True)
 
