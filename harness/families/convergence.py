@@ -208,7 +208,7 @@ class Series:
 
 @dataclass(frozen=True)
 class ConvergenceStudy:
-    """Every series of one case, the integrators this MuJoCo lacks, and the plot."""
+    """Every series of one case, and the integrators this MuJoCo lacks (its plot: harness/outputs/studies)."""
 
     case: str
     horizon: float
@@ -216,7 +216,6 @@ class ConvergenceStudy:
     constrained: bool
     series: tuple[Series, ...]
     unavailable: Mapping[str, str] = field(default_factory=dict)
-    plot_png: bytes | None = None
     mujoco_version: str = mujoco.__version__
     joints: frozenset[int] = frozenset()  # the model's joint types, which known defects match
 
