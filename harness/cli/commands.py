@@ -562,7 +562,8 @@ def _args_versions(p: argparse.ArgumentParser) -> None:
 
 def cmd_versions(args: argparse.Namespace) -> int:
     from harness.versions import bisect as bisection  # lazy: only this command builds environments
-    from harness.versions import envs, releases, report, session  # lazy: as above
+    from harness.versions import changes_report as report  # lazy: as above
+    from harness.versions import envs, releases, session  # lazy: as above
     from harness.versions.runs import CheckCommand, check_environ, noise_runs  # lazy: as above
 
     check_args = list(getattr(args, "check_args", []))

@@ -7,5 +7,5 @@ release (:mod:`~harness.versions.changes`): verdict flips (known defects include
 beyond their noise, figures that appeared or vanished, each with the release where it happened.
 :mod:`~harness.versions.bisect` finds the first release of a change installing only the releases it
 needs; :mod:`~harness.versions.releases` asks the package index which releases exist;
-:mod:`~harness.versions.report` writes the text, HTML and JSON.
+:mod:`~harness.versions.changes_report` writes the text, HTML and JSON.
 """

@@ -8,9 +8,9 @@ from collections.abc import Callable, Mapping, Sequence
 from harness.pipeline.executor import LOCAL, Executor
 from harness.versions import changes as changes_mod
 from harness.versions.bisect import Target, bisect
+from harness.versions.changes_report import Comparison
 from harness.versions.envs import Builder, EnvSpec
 from harness.versions.releases import Release
-from harness.versions.report import Comparison
 from harness.versions.runs import NOISE_RUNS, CheckCommand, ReleaseRun, run_release, run_releases
 
 
