@@ -294,6 +294,24 @@ class Bench:
         return self.timed("compare", lambda: {name: runs.compared(self.target, sim, name)
                                               for name, sim in self.sims.items()})
 
+    def measured_at_states(self, owns: Callable[[FigureName], bool]) -> Measured:
+        """The figures ``owns`` claims of the evaluation at the sampled states, with their budgets, those n/a and
+        those the model makes unmeasurable (what a family that compares at the states measures)."""
+        found = self.sampled
+        return Measured(figures=tuple(d.figure() for d in found.deviations if owns(d.name)),
+                        budgets={k: v for k, v in found.budgets.items() if owns(FigureName(k))},
+                        unmeasured={k: v for k, v in found.unavailable.items() if owns(FigureName(k))},
+                        diverged={k: v for k, v in found.failing.items() if owns(FigureName(k))})
+
+    def measured_over_runs(self, owns: Callable[[FigureName], bool]) -> Measured:
+        """The figures ``owns`` claims of the runs at h, with their budgets and those at a documented defect's
+        order (what a family that compares over the runs measures)."""
+        made = self.run_budgets
+        return Measured(figures=tuple(d.figure() for devs in self.run_deviations.values() for d in devs
+                                      if owns(d.name)),
+                        budgets={k: v for k, v in made.budgets.items() if owns(FigureName(k))},
+                        defect_budgets={k: v for k, v in made.defect.items() if owns(FigureName(k))})
+
     @cached_property
     def run_budgets(self) -> runs.Budgets:
         """Every run figure's budget from the variant runs (:func:`harness.families.runs.budget`)."""

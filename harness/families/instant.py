@@ -34,6 +34,8 @@ is a finding (:func:`engine_findings`).
 
 from __future__ import annotations
 
+import dataclasses
+
 import mujoco
 import numpy as np
 
@@ -199,10 +201,5 @@ def engine_findings(model: mujoco.MjModel, probe: Probe, ref: Reference, *, coun
 
 
 def measure(bench: Bench) -> Measured:
-    evaluation = bench.sampled
     found = tuple(bench.timed(NAME, lambda: engine_findings(bench.instant_model, bench.probe, bench.reference)))
-    return Measured(figures=tuple(d.figure() for d in evaluation.deviations if owns(d.name)),
-                    budgets={k: v for k, v in evaluation.budgets.items() if owns(FigureName(k))},
-                    unmeasured={k: v for k, v in evaluation.unavailable.items() if owns(FigureName(k))},
-                    diverged={k: v for k, v in evaluation.failing.items() if owns(FigureName(k))},
-                    findings=found)
+    return dataclasses.replace(bench.measured_at_states(owns), findings=found)

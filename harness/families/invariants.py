@@ -75,4 +75,4 @@ def compare(target: Target, sim: Trajectory, prefix: str) -> list[Deviation]:
 
 
 def measure(bench: Bench) -> Measured:
-    return trajectory.measured_runs(bench, owns)
+    return bench.measured_over_runs(owns)

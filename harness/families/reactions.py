@@ -221,8 +221,4 @@ def compare(sample: Sample) -> tuple[list[Deviation], dict[str, str], dict[str, 
 
 
 def measure(bench: Bench) -> Measured:
-    evaluation = bench.sampled
-    return Measured(figures=tuple(d.figure() for d in evaluation.deviations if owns(d.name)),
-                    budgets={k: v for k, v in evaluation.budgets.items() if owns(FigureName(k))},
-                    unmeasured={k: v for k, v in evaluation.unavailable.items() if owns(FigureName(k))},
-                    diverged={k: v for k, v in evaluation.failing.items() if owns(FigureName(k))})
+    return bench.measured_at_states(owns)

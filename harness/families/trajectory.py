@@ -100,15 +100,5 @@ def compare(target: Target, sim: Trajectory, prefix: str) -> list[Deviation]:
     return out
 
 
-def measured_runs(bench: Bench, owns_name) -> Measured:
-    """A family's figures of the runs at h and their budgets (the runs' families: this one and
-    :mod:`harness.families.invariants`)."""
-    deviations = bench.run_deviations
-    made = bench.run_budgets
-    return Measured(figures=tuple(d.figure() for devs in deviations.values() for d in devs if owns_name(d.name)),
-                    budgets={k: v for k, v in made.budgets.items() if owns_name(FigureName(k))},
-                    defect_budgets={k: v for k, v in made.defect.items() if owns_name(FigureName(k))})
-
-
 def measure(bench: Bench) -> Measured:
-    return measured_runs(bench, owns)
+    return bench.measured_over_runs(owns)
