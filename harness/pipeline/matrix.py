@@ -78,7 +78,7 @@ def progress(items: Sequence, desc: str, unit: str = "case", *, quiet: bool = Fa
     item itself."""
     if not sys.stderr.isatty():
         return LogProgress(items, desc, unit, quiet=quiet)
-    from tqdm import tqdm  # lazy: 0.03 s, only where a bar is drawn
+    from tqdm import tqdm  # lazy: tqdm, only where a bar is drawn
 
     return tqdm(items, desc=desc, unit=unit, file=sys.stderr, leave=False)
 
@@ -210,7 +210,7 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_
     would raise it."""
     stored = {system: derivations.derivation_stored(system) for system in dict.fromkeys(c.system for c in selected)}
     if not all(stored.values()):  # the workers derive: sympy and its lazily loaded parts, once, before the fork
-        from analytic.lagrangian import preload  # lazy: sympy (0.15 s), only when the workers will derive
+        from analytic.lagrangian import preload  # lazy: sympy, only when the workers will derive
 
         preload()
     outcomes: dict[int, tuple] = {}
