@@ -274,9 +274,8 @@ def _run_isolated(selected: Sequence[cases.Case], bar, *, figures_only: bool, op
                   finished: Callable[[CaseResult], None]) -> list[CaseResult]:
     """An accelerated backend's cases, each in a fresh worker process of its own, one at a time, from this
     process (which imports neither JAX nor Warp: neither survives a fork). XLA's CPU compiles of every case
-    in one process ran it out of memory (MJX over the fifteen cases, one process or two workers: "LLVM
-    compilation error: Cannot allocate memory" after about 11 minutes, then a segfault; each case in its own
-    process peaks at 1-2.3 GB), so a process compiles one case's functions and ends."""
+    in one process ran it out of memory (LLVM's "Cannot allocate memory", then a segfault:
+    docs/findings/backends.md), so a process compiles one case's functions and ends."""
     results = []
     for case in selected:
         bar.set_postfix_str(case.name)
