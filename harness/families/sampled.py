@@ -91,8 +91,9 @@ def sample_states(ref: Reference, count: int = DEFAULT_SAMPLES, seed: int = 0
                   ) -> tuple[np.ndarray, np.ndarray]:
     """``count`` states (q, q̇) on the manifold, deterministic for a seed: along the reference, each
     also with its velocity rescaled, every one projected onto the constraints to round-off
-    (:func:`analytic.solvers.project`). The reference's own residual (up to 1e-10) would otherwise
-    meet MuJoCo's constraint feedback −b v − k r, which no softness setting removes."""
+    (:func:`analytic.solvers.project`). The reference's own residual (within
+    :data:`harness.families.reference.RESIDUAL_LIMIT`, far above round-off) would otherwise meet MuJoCo's
+    constraint feedback −b v − k r, which no softness setting removes."""
     if count < 2:
         raise ValueError(f"count must be >= 2, got {count}")
     # the same states for every evaluation of a run (the model as it is, each variant, the engine findings): made
