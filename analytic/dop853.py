@@ -15,11 +15,11 @@ ODEs I*, §II.5–II.6; coefficients in :mod:`analytic.dop853_table`):
   samples) to the accuracy of the step itself.
 
 Why our own rather than ``scipy.integrate.solve_ivp``: the reference is part of
-what this tool certifies, and loading scipy.integrate costs 0.25 s in every
-process that solves one — more than a warm run solves in some cases, and a cost
-each worker of a parallel ``check`` pays on its own. The step control follows
-scipy's DOP853 (the same published algorithm), and tests/test_dop853.py checks
-this integrator against it.
+what this tool certifies, and loading scipy.integrate is a cost every process
+that solves one pays — more than a warm run's whole solve in some cases
+(docs/findings/speed.md), and each worker of a parallel ``check`` pays it on
+its own. The step control follows scipy's DOP853 (the same published
+algorithm), and tests/test_dop853.py checks this integrator against it.
 """
 
 from __future__ import annotations

@@ -8,8 +8,8 @@ Building goes through :class:`Compiled`: every function as the Python source
 sympy's ``lambdify`` writes for it, at the bound parameter values. That is
 plain text, so it is cached on disk beside the derivations (harness/reference.py)
 and turned back into functions with numpy alone: a run whose derivations are
-cached neither imports sympy (0.15 s to load, 0.08 s to tear down, in every
-process) nor lambdifies anything.
+cached neither imports sympy (whose loading and teardown every process would pay:
+docs/findings/speed.md) nor lambdifies anything.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ Array = np.ndarray
 def _source(exprs: sp.Matrix, args: list[sp.Symbol]) -> str:
     """The source of ``lambdify(args, entries of exprs)`` (empty for an empty matrix), every numpy
     function written ``numpy.<name>`` so that the code runs with numpy alone in its namespace."""
-    import sympy as sp  # lazy: sympy (0.15 s), only when code is made from a derivation
+    import sympy as sp  # lazy: sympy, only when code is made from a derivation
     from sympy.printing.numpy import NumPyPrinter  # lazy: as above
 
     flat = list(exprs)
@@ -89,7 +89,7 @@ class Compiled:
     @classmethod
     def of(cls, derivation: Derivation, params: Mapping[str, float]) -> Compiled:
         """Substitute the parameter values into every quantity and lambdify it (needs sympy)."""
-        import sympy as sp  # lazy: sympy (0.15 s); a run with cached code never gets here
+        import sympy as sp  # lazy: sympy; a run with cached code never gets here
 
         s = derivation.system
         missing = {p.name for p in s.params} - set(params)

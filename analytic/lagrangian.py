@@ -35,7 +35,7 @@ ConstraintKind = Literal["holonomic", "pfaffian"]
 
 
 # sympy modules a first derivation imports lazily: the tensor module on the first sum (Add.flatten),
-# physics.units on the first simplify, the code printers on the first lambdify; 0.1 s a process
+# physics.units on the first simplify, the code printers on the first lambdify: a cost each process pays once
 _LAZY = ("sympy.tensor.tensor", "sympy.physics.units", "sympy.codegen.ast", "sympy.printing.numpy",
          "sympy.assumptions.wrapper", "sympy.sets.setexpr")
 
@@ -51,11 +51,11 @@ def preload() -> None:
 
 # Above this many operations (sympy's count_ops of the entry as derived) an entry is not given to
 # simplify: simplify tries every strategy it has and its cost grows much faster than the expression
-# (welded_pendulum's 7 coordinates and quaternion rows took 3.5 CPU-minutes cold, nearly all of it in
-# simplify, and trigsimp alone costs 2-13 s an entry there). Such an entry is kept as derived or
-# expanded, whichever is shorter: the same expression, written longer, which only the numbers use
-# (lambdified with common subexpressions). The small systems' entries stay below it and keep
-# simplify's exact forms, which their tests compare and the report shows.
+# (a cold derivation of welded_pendulum's 7 coordinates and quaternion rows spent nearly all of its time in
+# simplify: docs/findings/speed.md). Such an entry is kept as derived or expanded, whichever is shorter: the
+# same expression, written longer, which only the numbers use (lambdified with common subexpressions). The
+# small systems' entries stay below it and keep simplify's exact forms, which their tests compare and the
+# report shows.
 SIMPLIFY_MAX_OPS = 150
 
 

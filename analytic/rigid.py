@@ -62,7 +62,7 @@ def _simplified(expr: sp.Expr) -> sp.Expr:
 
 def body_angular_velocity(rotation: sp.Matrix, q: Sequence[sp.Symbol], qd: Sequence[sp.Symbol]) -> sp.Matrix:
     """ω_b with [ω_b]× = Rᵀ Ṙ: the angular velocity in the body frame, trigonometrically simplified
-    (expanded first: trigsimp then finds the sin² + cos² pairs about 3× sooner, same result)."""
+    (expanded first: trigsimp then finds the sin² + cos² pairs sooner, with the same result)."""
     return _vee(rotation.T * _rate(rotation, q, qd)).applyfunc(_simplified)
 
 

@@ -163,9 +163,9 @@ def _solve_stiff(dynamics: Dynamics, rhs: dop853.RightHandSide, y0: Array, *, t_
 
 
 TRIAL_STEPS = 500
-"""The steps a solve takes before it judges its length: twice the longest shipped reference (227 steps,
-spherical_pendulum), so a shipped case is solved in one go; where they cover only part of the span, the
-whole is estimated as proportional to the time they covered."""
+"""The steps a solve takes before it judges its length: twice those of the longest shipped reference
+(docs/findings/bases.md, TRIAL_STEPS), so a shipped case is solved in one go; where they cover only part of the
+span, the whole is estimated as proportional to the time they covered."""
 
 
 class TooManySteps(dop853.IntegrationError):

@@ -2,7 +2,7 @@
 
 Run from the repository root::
 
-    python benchmarks/bench.py                  # everything (about 3-5 minutes)
+    python benchmarks/bench.py                  # everything (minutes)
     python benchmarks/bench.py --no-run         # skip the full report with studies
     python benchmarks/bench.py --cases pendulum atwood --repeat 3
 

@@ -14,7 +14,7 @@ bytecode cache as on a user's machine (``PYTHONDONTWRITEBYTECODE`` is unset for 
 median over rounds, so that it holds while the machine's speed drifts; the speed-up from 1 to 2 workers is
 the median of the per-round ratios. Targets (issue 31): cold <= 20 s, warm <= 5 s, speed-up >= 1.7.
 
-BASE defaults to the commit the issue measured (82fbb63: cold 38.3 s, warm 7.3 s with 2 jobs, 10.2 s with 1).
+BASE defaults to the commit the issue measured (82fbb63; its figures: docs/findings/speed.md).
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ def _check(tree: Path, cache: Path, jobs: int) -> float:
     env.pop("MJHARNESS_NO_PREBUILT", None)
     # Python's own bytecode cache, as on a user's machine (pip compiles it at install; a source tree writes it on
     # first import): a shell that sets PYTHONDONTWRITEBYTECODE would make every process compile every module
-    # again (0.2 s each, three processes with 2 jobs)
+    # again (in each of the three processes a run with 2 jobs starts)
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     start = time.perf_counter()
     done = subprocess.run([sys.executable, "-m", "harness.cli", "check", "--quiet", "--jobs", str(jobs)],

@@ -10,8 +10,8 @@ every CPU) and stops at the end, so both pay the same machine's load. The releas
 before the first round (one untimed local sweep), so the rounds time the cells, not the builds. Reports each
 executor's median wall time, the Ray / local ratio, and whether every round's sweep.json is the same as the
 first local one's (everything but what the run cost and where it ran: ``harness.versions.sweep_report``).
-On one machine Ray adds its workers' start and the tasks' scheduling and wins nothing: what it buys is the
-path to more machines, with the same figures.
+On one machine Ray can only add its workers' start and the tasks' scheduling: what it buys is the path to
+more machines, with the same figures.
 """
 
 from __future__ import annotations

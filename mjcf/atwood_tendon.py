@@ -44,10 +44,10 @@ WIRING = Wiring(
                                description="Atwood's machine, massive pulley; the string as two spatial tendons "
                                            "wrapped over the pulley, tendon equalities (forces = −tensions)"),
     equality_signs={s: -1.0 for s in STRINGS},
-    # measured on 3.3.0: the wraps take other sides (string2's ∂L/∂θ = +a at qpos0, string1 unwraps past
-    # θ = −1.5); mj_rnePostConstraint counts spatial tendons in cfrc_ext from 3.14.0 (changelog 3.14.0, bug
-    # fix 9). Run with this requirement lifted, 3.13.0, 3.14.0 and 3.17.0 all fail 52 of 58 checks (the masses'
-    # accelerometers 6.4e3 × their scale off, axle_force 5.2e2): 4.0.0 is the first release that runs it.
+    # on 3.3.0 the wraps take other sides (string2's ∂L/∂θ = +a at qpos0, string1 unwraps past θ = −1.5);
+    # mj_rnePostConstraint counts spatial tendons in cfrc_ext from 3.14.0 (changelog 3.14.0, bug fix 9). With
+    # this requirement lifted, the releases before 4.0.0 fail most of the case's checks
+    # (docs/findings/bases.md): 4.0.0 is the first release that runs it.
     requires=((4, 0, 0), "its tendons' wrap over the pulley (3.3.0 to 3.17.0 wrap it differently: 52 of 58 "
                          "checks fail on 3.17.0, measured)"),
     loads=(Load("string1", body="mass1", site="hook1", direction=(0.0, 0.0, 1.0)),

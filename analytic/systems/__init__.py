@@ -22,7 +22,7 @@ starting with ``_``) is one. Each defines
 
 sympy is imported inside ``build``/``minimal`` only: the numeric half of a
 system (``params_from_model``, ``scales``, ``MOTION``) is all a run with cached
-derivations needs, and it then never loads sympy (0.15 s a process).
+derivations needs, and it then never loads sympy.
 """
 
 from __future__ import annotations
@@ -126,7 +126,7 @@ def symbols(system: str) -> Parameters:
     """The parameters of ``system`` as sympy symbols, by name (``symbols("pendulum").m``): positive,
     except the signed ones (:func:`signed_parameter_names`), which are real. Symbols are equal by
     name and assumptions, so every call gives the same ones."""
-    import sympy as sp  # lazy: sympy (0.15 s), only where a derivation is made
+    import sympy as sp  # lazy: sympy, only where a derivation is made
 
     signed = set(signed_parameter_names(system))
     return SimpleNamespace(**{name: sp.Symbol(name, real=True) if name in signed else sp.Symbol(name, positive=True)

@@ -25,14 +25,13 @@ are rigid through the hinge structure. Energy is conserved; no coordinate is
 cyclic.
 
 The motion MOTION runs (θ1 = 2.5 rad from rest) is chaotic: nearby motions
-separate like e^{Λt}, Λ ≈ 1.6 /s (fitted on the reference over 10 s; a
-perturbation of θ1(0) by 1e-9 rad has grown 14× at 3 s, 130× at 4 s and
-4e4× at 6 s). Past a few seconds any integration error is amplified until it
-saturates at the length scale, and the figures would measure the chaos, not
-the integrator. The 3 s horizon keeps the amplification near 10: at the
-model's 0.5 ms a first-order integrator's error (4e-2 m) stays a small
-fraction of the 1.5 m length scale, RK4's (7e-10 m) stays far above the
-reference's own (its rtol of 1e-12, amplified alike) and the point-mass
+separate exponentially. Past a few seconds any integration error is amplified
+until it saturates at the length scale, and the figures would measure the
+chaos, not the integrator. The 3 s horizon keeps the amplification small
+(tests/test_double_pendulum.py measures it; the rate and the errors:
+docs/findings/bases.md): at the model's 0.5 ms a first-order integrator's
+error stays a small fraction of the 1.5 m length scale, RK4's stays far above
+the reference's own (its rtol of 1e-12, amplified alike) and the point-mass
 inertia floor, and halving h still halves (first order) or divides by 16
 (RK4) the error over the whole convergence ladder, which is what layer 4
 checks. The same amplification is why the model's point masses carry a
@@ -63,7 +62,7 @@ BODIES = ("bob1", "bob2")
 
 
 def build(p: Parameters) -> LagrangianSystem:
-    import sympy as sp  # lazy: sympy (0.15 s), only to derive
+    import sympy as sp  # lazy: sympy, only to derive
 
     from analytic.lagrangian import LagrangianSystem, coordinates  # lazy: loads sympy
     from analytic.rigid import point_mass  # lazy: loads sympy

@@ -75,7 +75,7 @@ RollForm = Literal["holonomic", "pfaffian"]
 
 def build(p: Parameters, *, form: RollForm = "holonomic") -> LagrangianSystem:
     """The hoop in (x, s, φ); ``form`` writes ``roll`` as x − aφ = 0 or as ẋ − aφ̇ = 0."""
-    import sympy as sp  # lazy: sympy (0.15 s), only to derive
+    import sympy as sp  # lazy: sympy, only to derive
 
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
     from analytic.rigid import RigidBody, axis_rotation  # lazy: loads sympy

@@ -77,7 +77,7 @@ LINK = "link"
 SITES = {"tip": ("tx", "ty", "tz"), "side": ("sx", "sy", "sz")}
 
 def build(p: Parameters) -> LagrangianSystem:
-    import sympy as sp  # lazy: sympy (0.15 s), only to derive
+    import sympy as sp  # lazy: sympy, only to derive
 
     from analytic.lagrangian import LagrangianSystem, coordinates  # lazy: loads sympy
     from analytic.rigid import RigidBody, axis_rotation  # lazy: loads sympy

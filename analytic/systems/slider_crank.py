@@ -66,8 +66,8 @@ MOTION = Motion(
     # θ = −0.5 rad at rest; φ and x close the loop for r = 0.3 m, l = 0.6 m (the reference projects them
     # onto the model's own loop, to round-off, for any other lengths). The crank swings to about −π + 0.5
     # and back, 0.5 rad short of the inner dead centre: through a dead centre (released at θ = 1 rad)
-    # MuJoCo's default softness (solref 0.02) moves the loop by 6 cm, where its effect is no longer the
-    # smooth function of ε the budget extrapolates (measured: the setting fails, 2.5× over its limit)
+    # MuJoCo's default softness (solref 0.02) moves the loop visibly, where its effect is no longer the
+    # smooth function of ε the budget extrapolates, and that setting fails (docs/findings/bases.md)
     q0={"theta": -0.5, "phi": 0.7420699834873062, "x": 0.8457810807767445, "y": 0.0},
     qd0={"theta": 0.0, "phi": 0.0, "x": 0.0, "y": 0.0},
     horizon=2.0,
@@ -76,7 +76,7 @@ MOTION = Motion(
 
 
 def build(p: Parameters) -> LagrangianSystem:
-    import sympy as sp  # lazy: sympy (0.15 s), only to derive
+    import sympy as sp  # lazy: sympy, only to derive
 
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
     from analytic.rigid import RigidBody, axis_rotation, point_mass  # lazy: loads sympy

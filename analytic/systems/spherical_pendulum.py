@@ -64,7 +64,7 @@ BOB = "bob"
 
 
 def build(p: Parameters) -> LagrangianSystem:
-    import sympy as sp  # lazy: sympy (0.15 s), only to derive
+    import sympy as sp  # lazy: sympy, only to derive
 
     from analytic.lagrangian import LagrangianSystem, coordinates  # lazy: loads sympy
     from analytic.rigid import point_mass  # lazy: loads sympy

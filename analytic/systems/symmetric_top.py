@@ -109,7 +109,7 @@ SITE_OFFSETS = {TIP: (0.0, 0.0, SIZE), RIM: (SIZE, 0.0, 1.0)}
 
 
 def build(p: Parameters) -> LagrangianSystem:
-    import sympy as sp  # lazy: sympy (0.15 s), only to derive
+    import sympy as sp  # lazy: sympy, only to derive
 
     from analytic.lagrangian import LagrangianSystem, coordinates  # lazy: loads sympy
     from analytic.rigid import RigidBody, euler_zxz  # lazy: loads sympy

@@ -166,7 +166,7 @@ MOTION = Motion(
 
 
 def build(p: Parameters) -> LagrangianSystem:
-    import sympy as sp  # lazy: sympy (0.15 s), only to derive
+    import sympy as sp  # lazy: sympy, only to derive
 
     from analytic.lagrangian import LagrangianSystem, coordinates  # lazy: loads sympy
     from analytic.rigid import RigidBody, euler_zxz  # lazy: loads sympy

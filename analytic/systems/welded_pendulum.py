@@ -98,7 +98,7 @@ def _qmul(p: sp.Matrix, q: sp.Matrix) -> sp.Matrix:
 
 
 def build(p: Parameters) -> LagrangianSystem:
-    import sympy as sp  # lazy: sympy (0.15 s), only to derive
+    import sympy as sp  # lazy: sympy, only to derive
 
     from analytic.lagrangian import Constraint, LagrangianSystem, coordinates  # lazy: loads sympy
     from analytic.rigid import RigidBody, axis_rotation  # lazy: loads sympy

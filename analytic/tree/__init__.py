@@ -1,7 +1,8 @@
 """The tree reference: the Lagrangian of any kinematic tree, built from plain data and differentiated exactly.
 
 A hand-written Lagrangian per system (:mod:`analytic.systems`) does not reach
-robots: symbolic derivation grows ×4–10 per degree of freedom. Here the
+robots: symbolic derivation grows several-fold with every degree of freedom
+(docs/design.md, "Any model"). Here the
 Lagrangian of a whole tree — bodies, joints, inertias, springs, damping,
 gravity, equality constraints, actuators at a fixed control — is evaluated
 numerically from its description (:mod:`analytic.tree.model`) with our own

@@ -195,7 +195,7 @@ def _verdict(claim: Claim, holds: bool, readings: tuple[ReadingRow, ...]) -> tup
 
 def audit_claim(claim: Claim, view: DocView | None = None, *, views: dict[int, DocView] | None = None) -> AuditRow:
     """One claim's row; ``view``, the claim's frame read against our derivation, is built here unless
-    given (``audit`` builds one per frame: its symbolic solve costs 0.1-0.2 s)."""
+    given (``audit`` builds one per frame and shares it: its symbolic solve is the costly part)."""
     view = view if view is not None else _view(claim, claim.frame, views)
     sym = symbolic_check(claim, view)
     readings = _readings(claim, view, views)

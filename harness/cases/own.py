@@ -75,8 +75,8 @@ KICK_SEED = 0
 """The seed of the start's velocity pattern where the model starts at rest (deterministic: the same case every run)."""
 STIFF_DAMPING = 100.0
 """A model whose fastest damped mode decays this many times faster than one timestep is stiff: its kick spares the
-modes damped within a step. A factor, not 1, so that a model merely well damped keeps the kick it always had (in
-dm_control's suite only manipulator and stacker, at 240, pass it; finger, at 15, does not)."""
+modes damped within a step. A factor, not 1, so that a model merely well damped keeps the kick it always had (where
+dm_control's suite falls on either side of it: docs/findings/bases.md, STIFF_DAMPING)."""
 
 
 def kick(model: mujoco.MjModel, case_tree: TreeSystem, qpos: np.ndarray) -> np.ndarray:
@@ -148,7 +148,7 @@ def _refuse_floor_spins(model: mujoco.MjModel, qpos: np.ndarray) -> None:
     """ModelError where a ball or free joint moves a mode of the mass matrix with next to no inertia (below
     :data:`POINT_MASS` of the largest: a point mass on a ball joint). The tree's rotation-vector coordinates turn
     that mode with θ, so round-off in the forces, divided by its inertia, becomes noise the reference's tolerance
-    cannot meet: measured, a point mass on a ball joint (1e-12 kg m²) ran its solve for hours."""
+    cannot meet, and the solve does not finish (a point mass on a ball joint: docs/findings/bases.md)."""
     kinds = {int(mujoco.mjtJoint.mjJNT_BALL), int(mujoco.mjtJoint.mjJNT_FREE)}
     if not any(int(t) in kinds for t in model.jnt_type):
         return

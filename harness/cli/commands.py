@@ -864,7 +864,7 @@ def _args_audit(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_audit(args: argparse.Namespace) -> int:
-    from harness.audit.verdicts import audit  # lazy: sympy (0.15 s)
+    from harness.audit.verdicts import audit  # lazy: sympy, only for this command
     from harness.outputs.audit import format_table, json_rows  # lazy: as above
 
     rows = audit()

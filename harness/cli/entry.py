@@ -1,11 +1,11 @@
 """The ``mjharness`` command: :func:`harness.cli.commands.main` in a process that skips what a command never uses.
 
-- MuJoCo's import loads an OpenGL binding for rendering in this process (GLFW: 30 ms of every
-  command's start). The CLI renders only in subprocesses (harness/render.py runs
+- MuJoCo's import loads an OpenGL binding for rendering in this process (GLFW: a cost at every
+  command's start, docs/findings/speed.md). The CLI renders only in subprocesses (harness/render.py runs
   ``python -m harness.outputs.stills`` with the backend it picks), so the command imports MuJoCo with
   ``MUJOCO_GL=disable`` and puts the variable back at once: those subprocesses, and anything
   else started from here, see the user's environment.
-- Interpreter teardown, which frees every module's objects one by one (0.1 s with sympy loaded,
+- Interpreter teardown, which frees every module's objects one by one (slow with sympy loaded,
   and after a parallel ``check`` it comes when the workers are done): every file a command
   writes is closed and every worker pool shut down before ``main`` returns, so the command
   flushes its output (Python's and C's: MuJoCo prints its warnings with printf) and exits with

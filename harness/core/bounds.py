@@ -1,15 +1,16 @@
 """Bounds on how long a run may be, checked before it starts: a run past one is refused in one line with
 its estimate, instead of running for hours or out of memory (the way to raise each is in the line).
 
-- :func:`max_steps`: the steps of one MuJoCo run at the model's timestep (horizon / timestep).
-  Measured here: the pendulum at h = 2e-5 s over 5 s (250 000 steps) takes about 1 min and a peak of
-  1.3 GB, its budget's runs at h/2 and h/4 included; so 1 000 000 steps, the default, is about 4 min and
-  5 GB on the smallest model, a run any 8 GB machine holds. ``--timestep 1e-9`` (5e9 steps) ran out of
-  memory after minutes; ``--horizon 1e6`` ran for hours.
-- :func:`max_reference_steps`: the steps of the reference's solver (DOP853) over the horizon. The shipped
-  cases take 7 to 227; 100 000, the default, is 440 times the longest, about 4 to 16 min at the 2 to 10
-  ms a step measured. ``--qd0 theta=1e6`` (the pendulum spun at 10⁶ rad/s) ran 15 min before the
-  solver's own cap; it is now estimated from its first :data:`analytic.solvers.TRIAL_STEPS` steps.
+- :func:`max_steps`: the steps of one MuJoCo run at the model's timestep (horizon / timestep). The
+  default is a run the smallest model finishes in minutes, its budget's runs at h/2 and h/4 included, in
+  the memory of an ordinary machine; a mistyped ``--timestep`` or ``--horizon`` would otherwise run out of
+  memory or for hours.
+- :func:`max_reference_steps`: the steps of the reference's solver (DOP853) over the horizon. The default
+  is far above what any shipped case takes, and minutes of solving; a start spun far faster than the
+  model's own motion would otherwise solve for many minutes before the solver's own cap stops it, so the
+  steps a solve needs are estimated from its first :data:`analytic.solvers.TRIAL_STEPS` steps.
+
+The measurements these defaults and the estimates' rates rest on: docs/findings/bases.md, "Run bounds".
 
 Each is overridden by its environment variable (a positive integer), which the worker processes see too.
 """
@@ -26,10 +27,10 @@ MAX_REFERENCE_STEPS = 100_000
 MAX_REFERENCE_STEPS_VARIABLE = "MJHARNESS_MAX_REFERENCE_STEPS"
 BYTES_PER_STEP = 1.3e9 / 250_000
 """Peak memory per step of the run at the model's timestep, measured on the pendulum (the smallest model:
-larger ones record more per step)."""
+larger ones record more per step; docs/findings/bases.md)."""
 SECONDS_PER_STEP = 63.0 / 250_000
 """Wall time per step of the run at the model's timestep, every integrator and budget run included,
-measured on the pendulum (2 shared cores)."""
+measured on the pendulum (2 shared cores; docs/findings/bases.md)."""
 
 
 def _bound(variable: str, default: int) -> int:

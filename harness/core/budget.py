@@ -60,9 +60,10 @@ READ_ULPS = 8.0
 """Float32 backends: the round-off every number read back carries, in machine epsilons of itself, beside
 what the copies measure: its storage (½ ulp) and the roundings of the computation that makes it from the
 state (forward kinematics down a chain, a solve), which copies holding the same state share bit for bit
-(early in a run the copies' positions are equal floats). Measured: 2.3 ε on the bobs' positions (MJX and
-Warp against the C engine, pendulum and double_pendulum, 40 steps, where every copy's spread was 0); 8 is
-that × 3.5, the margin."""
+(early in a run the copies' positions are equal floats). Its basis is measured: the largest such error of
+MJX and Warp against the C engine where every copy's spread was 0, × a margin (docs/findings/bases.md,
+READ_ULPS); the float32 rule as a whole is checked against MJX by tests/test_backends.py
+(``test_the_float32_roundoff_rule_covers_mjx_float32_against_the_c_engine``)."""
 
 QUANTIZATION = 4.0
 """Float32 backends, trajectories: the round-off of a float32 state's own quantization, in units of the
@@ -70,9 +71,9 @@ figure's response to moving the initial state by half an ulp (each coordinate an
 :func:`ulp_states`, run on the C engine in float64: physics, not arithmetic). A coordinate held by a stiff
 soft constraint (the pendulum's slide at r = 1 under a rod of time constant 2 h) is stored to an ulp; when it
 crosses from one float to the next its violation jumps by that ulp and the constraint answers with k × ulp,
-a force spike no copy of the arithmetic reproduces at the same instant. Measured on MJX float32 (pendulum,
-RK4, 1000 steps): spikes of the rod's force up to 2.5 × that response (1.9e-3 of the tension at step 4);
-4 is that × 1.6, the margin."""
+a force spike no copy of the arithmetic reproduces at the same instant. Its basis is measured: the largest
+such spike on MJX float32, in units of that response, × a margin (docs/findings/bases.md, QUANTIZATION); the rule it
+enters is checked as :data:`READ_ULPS`'s is."""
 
 SOFTNESS_UNCERTAINTY = 0.25
 """A softness part from two levels is linear in ε up to relative terms O(ε) and O(h/τ): a quarter of it bounds
@@ -85,8 +86,8 @@ quantity's size bounds what the stop leaves, per run."""
 SOLVER_PART_UNCERTAINTY = 0.1
 """The solver part (what a converged solve changes) feeds back into the motion: known to a tenth of itself."""
 REFERENCE = 50.0
-"""The reference's global error, in units of its rtol × the quantity's size (its measured basis: docs/design.md,
-"Verdicts: the error budget")."""
+"""The reference's global error, in units of its rtol × the quantity's size (its measured basis:
+docs/findings/bases.md, REFERENCE)."""
 
 PARTS = ("integration", "softness", "floors", "margin", "solver", "stop")
 TOLERANCES = ("integration", "softness", "floors", "margin", "solver", "stop", "roundoff", "reference",

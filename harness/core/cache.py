@@ -1,7 +1,7 @@
 """On-disk cache of symbolic derivations and of the numeric code made from them, shared by every
 run and process.
 
-A sympy derivation costs about 0.3 s per system and depends only on source
+A sympy derivation is costly (docs/findings/speed.md) and depends only on source
 code, so it is pickled once under the user's cache directory
 (``$XDG_CACHE_HOME/mjharness`` or ``~/.cache/mjharness``) and loaded by later
 runs and by parallel workers. So is the numeric code lambdified from it at a
@@ -64,13 +64,13 @@ def cache_dir() -> Path | None:
 
 def _sympy_release() -> bytes:
     """sympy's release file (``__version__ = "..."``), read rather than imported: a run whose entries
-    are all cached never loads sympy (0.15 s). Where a sympy has no such file, its installed
+    are all cached never loads sympy. Where a sympy has no such file, its installed
     version from the package metadata (slower to read, still no import)."""
     spec = importlib.util.find_spec("sympy")
     if spec is not None and spec.origin is not None:
         with contextlib.suppress(OSError):
             return (Path(spec.origin).parent / "release.py").read_bytes()
-    from importlib.metadata import version  # lazy: a rare fallback; importlib.metadata costs 10 ms
+    from importlib.metadata import version  # lazy: a rare fallback, and importlib.metadata is slow to import
 
     return version("sympy").encode()
 

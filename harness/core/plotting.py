@@ -2,8 +2,8 @@
 
 ``pyplot()`` selects the Agg backend (PNG bytes, no display) and the report's
 style the first time it is called. Commands that draw nothing (``check``,
-``baseline``, ``diff``) never import matplotlib, which costs about 0.16 s of
-every such run's start. PNGs carry no Software or time metadata, so the same
+``baseline``, ``diff``) never import matplotlib, whose import would be a
+sizeable part of every such run's start. PNGs carry no Software or time metadata, so the same
 plot gives byte-identical images.
 """
 
@@ -65,7 +65,7 @@ def coinciding(curves: Mapping[str, np.ndarray], *, rtol: float = 0.01) -> list[
 @functools.cache
 def pyplot() -> ModuleType:
     """``matplotlib.pyplot`` on the Agg backend, with :data:`STYLE`."""
-    import matplotlib  # lazy: 0.16 s, only for commands that draw
+    import matplotlib  # lazy: matplotlib, only for commands that draw
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # lazy: as above

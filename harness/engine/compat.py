@@ -173,8 +173,8 @@ def after_compile(model: mujoco.MjModel, path: str) -> None:
     diagonal approximation Â, which for a two-joint equality q1 = poly(q2) adds
     the joints' inverse weights without the polycoef gain c: Â = w1 + w2, where
     the exact diagonal at qpos0 is A_ii = J M⁻¹ Jᵀ with J = e1 − c e2. Setting
-    w2 = A_ii − w1 makes the two agree (measured on the Atwood machine under
-    3.3.0: tensions and q̈ equal to 4.0's with diagexact to 1e-15). It is exact
+    w2 = A_ii − w1 makes the two agree (tests/test_atwood.py: the shipped
+    diagonal is the exact one on every MuJoCo; docs/findings/versions.md). It is exact
     when the equality is linear (poly = c0 + c q2), M is constant and every
     equality on dof2 asks for the same w2; otherwise nothing is changed and the
     note says so. Contacts (body inverse weights) are not emulated.

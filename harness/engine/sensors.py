@@ -74,10 +74,10 @@ class Load:
     site's position is MuJoCo's at the state (:mod:`harness.families.reactions`). MuJoCo puts it midway
     between the surfaces, half the penetration p inside the ideal touching point along the normal: a
     shift along the normal moves only the moment of the tangential force, by p/2 × |f_t|. At the
-    instantaneous layer's states (on the constraint manifold) p is round-off (|contact.dist| ≤ 2.2e-16 m
-    on both shipped contact cases: ~1e-16 of m g a in the moment, against limits of ~4e-11); along a
-    trajectory p ≈ 3.3e-9 m on hoop_ramp_contact would move it by 1.65e-9 m × m g sin α / 2 ≈ 1.6e-9 of
-    m g a, the analytic point's position being then no better known (the contact is soft). A
+    instantaneous layer's states (on the constraint manifold) p is round-off, and so is that shift, far below
+    the figures' limits; along a trajectory p is the soft contact's penetration, and the analytic point's
+    position is then no better known (the sizes on the shipped contact cases: docs/design.md, "Reactions as
+    users read them"). A
     body-fixed site could not mark it (the contact point moves over a rolling rim). At a state where
     the geom has no active contact (a model whose geometry misses the system's surface) MuJoCo applies
     no force while the multiplier still pulls, so the force figure fails whatever the point; the moment

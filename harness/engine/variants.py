@@ -15,8 +15,8 @@ one with any of them changed, each *as MuJoCo applies it*:
   (within [mjMINIMP, mjMAXIMP]); ``discrete`` evaluates the spring-damper at
   the end of the step and folds it into the impedance, which divides ε by
   F = 1 + h b + h² k (b = 2/τ, k = 1/(τ ζ)², ζ the damping ratio), and caps d
-  at mjMAXIMP, so ε never goes below 1 − mjMAXIMP (:func:`effective_softness`;
-  measured: ε/F to 4 digits at h/τ = 1/8 … 1/2, tests/test_budget.py). A variant
+  at mjMAXIMP, so ε never goes below 1 − mjMAXIMP (:func:`effective_softness`,
+  pinned against MuJoCo's forces in tests/test_budget.py). A variant
   sets the authored ε that gives the effective ε it wants.
 
 The variants (the budgets of :mod:`harness.families.runs` and :mod:`harness.families.sampled` combine them):
@@ -397,8 +397,8 @@ def roundoff_copy(model: mujoco.MjModel, *, epsilon: float, index: int) -> mujoc
     inertias × (1 ± ε), an independent sign each, seeded by ``index`` (one ulp in the backend's arithmetic).
     The constants MuJoCo derives from the masses at compile time (``dof_invweight0``, which sizes the
     constraints' regularisers) stay the model's: off by ε too, an ε-sized change of softness. Not
-    ``mj_setConst``: on MuJoCo 3.3.0 it moved atwood's qacc by 3e5 ε (it recomputes more than the masses
-    feed); without it the motion moves by at most 1 ε on 3.3.0 and 4.0.0 (tests/test_budget.py).
+    ``mj_setConst``: it recomputes more than the masses feed, and moved a copy's motion far beyond ε on MuJoCo
+    3.3.0 (docs/findings/backends.md); without it the motion moves by O(ε) (pinned in tests/test_budget.py).
 
     Why: to measure a float32 run's round-off, copies must round differently from the first operation on
     (they then round independently: stochastic arithmetic, :data:`harness.core.budget.PERTURBED_FACTOR`),
@@ -406,12 +406,12 @@ def roundoff_copy(model: mujoco.MjModel, *, epsilon: float, index: int) -> mujoc
     constraint's solve, a point mass's 1e-10 inertia) turns ε-sized changes of its inputs into changes of
     its result as large as its own round-off (the condition number at work), so the copies' spread sees it.
     One common factor for every mass would not: the motion is invariant under it, and the copies then round
-    in step with the run (on the float32 pendulum, Warp's first-step rod force error, 2.5e-5 of the tension,
-    left a spread a hundred times smaller). The price is a change of the physics by ε relative, far below
+    in step with the run (on the float32 pendulum their spread then fell far below Warp's own error:
+    docs/findings/backends.md). The price is a change of the physics by ε relative, far below
     the round-off measured. Not the timestep: a constraint whose time constant sits at MuJoCo's 2 h floor
     (the pendulum's rod) would stiffen by 2ε. Not the initial state: one ulp off it leaves the constraint
-    manifold (the pendulum's slide, a quaternion), whose soft response is a transient of its own (8e-4 of the
-    rod's tension at t = 0 on Warp); the state's rounding is :func:`represented_model`'s part."""
+    manifold (the pendulum's slide, a quaternion), whose soft response is a transient of its own, far above
+    round-off (docs/findings/backends.md); the state's rounding is :func:`represented_model`'s part."""
     rng = np.random.default_rng(index)
     out = copy.deepcopy(model)
     out.body_mass[:] = model.body_mass * (1.0 + epsilon * rng.choice((-1.0, 1.0), size=model.body_mass.shape))

@@ -85,8 +85,8 @@ ROUNDOFF_PER_STEP = 64 * np.finfo(float).eps
 trajectory budget, harness/core/budget.py), accumulating as a random walk."""
 RESOLVED = 0.5
 """As the trajectory budget's (harness/families/runs.py): a next-order term above half the leading one, on a
-balance above :data:`ASYMPTOTIC` of the energy scale, means h, h/2, h/4 are no converging sequence (gymnasium's ant:
-its balances 2.4-14 × m g L with a next order 0.7-2.6 × the leading term)."""
+balance above :data:`ASYMPTOTIC` of the energy scale, means h, h/2, h/4 are no converging sequence (as on gymnasium's
+ant: docs/findings/bases.md, the balance's RESOLVED)."""
 ASYMPTOTIC = 0.01
 UNRESOLVED_SPREAD = 4.0
 """Where h, h/2, h/4 are no expansion in h, the balance can still be judged from below: an integrator of order ≥ 1

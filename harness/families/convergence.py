@@ -364,18 +364,19 @@ def _ladder(integrator: str, fast: bool) -> tuple[float, ...]:
 
 DOWN_ABOVE = 1e-7
 """A model the user brings runs its ladder down from its own timestep (h, h/2, h/4) where its error there is at
-least this × L: two halvings shrink an order-4 error 256×, which keeps the smallest 2.6e-10 L, three decades above
+least this × L: two halvings shrink an order-4 error 256×, which keeps the smallest near 4e-10 L, decades above
 the round-off floor; below it the error at h is already near the floor, and the ladder goes up as a shipped case's
 does (multiples of h: 32, 16, 8 for RK4; 4, 2, 1 for the first-order integrators). A model with equality
 constraints always goes down: above its own step refsafe raises a stiff row's time constant to 2h, so the ladder
-would compare different constraints (welded_pendulum's limits record RK4 at order 2.18 on 32–8 ms for that reason);
+would compare different constraints (welded_pendulum's RK4 order on such a ladder: docs/findings/bases.md);
 where its errors then sit on the round-off floor the order is not measurable, and says so."""
 
 
 UP_LIMIT = 1e-6
 """Where a user's model's ladder goes up, its coarsest step's predicted error e_h kᵖ stays at most this × L: an error
-that small is the leading term of an expansion in h (the double pendulum's 32 h, 3.8e-7 L; a 7-DoF arm with stiff
-servos, ω = 20 rad/s at h = 2 ms, gets 4 h: at 32 h, ω h = 1.3 and RK4 showed order 2.5)."""
+that small is the leading term of an expansion in h; a larger one comes from a step near the motion's own time
+scale (ω h near 1), where the order observed is not the integrator's (the models it was set on:
+docs/findings/bases.md, UP_LIMIT)."""
 
 
 def _tree_ladder(integrator: str, fast: bool, error_at_h: float) -> tuple[float, ...]:

@@ -96,7 +96,7 @@ the figure's unit):
   float64: a stiff constraint's force spike when a stored coordinate crosses
   from one float to the next, :attr:`Runs.quantized`), × the noise gain;
 - the reference: :data:`REFERENCE` × its rtol × the quantity's size (its global
-  error; measured 11 rtol on the spherical pendulum over 5 s);
+  error, measured: docs/findings/bases.md);
 - the constraint solver's convergence: :data:`SOLVER` × its tolerance × the
   quantity's size × the noise gain, where the model has constraints (the solver
   stops when the relative improvement falls below its tolerance, independently
@@ -675,9 +675,9 @@ def _twins(a: Trajectory, b: Trajectory, scales: Scales) -> bool:
     length for positions, violations and series, its force for multipliers: a violation of 1e-8 m differing
     by 1e-16 m is round-off). Semi-implicit Euler, implicitfast and implicit are one step map where no
     velocity-dependent force has a derivative (no damping, no actuator; for implicit, no Coriolis term):
-    their factorizations round differently (1e-13 relative here), nothing more. Their variant runs then
-    agree as closely, so those are made once and shared: each budget keeps its own run at h, and what the
-    sharing changes lies 1e-9 below the figure, under the round-off tolerance. A fault with a
+    their factorizations round differently, nothing more (docs/findings/bases.md, TWIN_TOLERANCE). Their
+    variant runs then agree as closely, so those are made once and shared: each budget keeps its own run at h,
+    and what the sharing changes lies 1e-9 below the figure, under the round-off tolerance. A fault with a
     velocity-dependent force (damping) separates them at first order in h and is budgeted for each."""
     if len(a.t) != len(b.t):
         return False

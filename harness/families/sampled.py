@@ -91,8 +91,9 @@ def sample_states(ref: Reference, count: int = DEFAULT_SAMPLES, seed: int = 0
                   ) -> tuple[np.ndarray, np.ndarray]:
     """``count`` states (q, q̇) on the manifold, deterministic for a seed: along the reference, each
     also with its velocity rescaled, every one projected onto the constraints to round-off
-    (:func:`analytic.solvers.project`). The reference's own residual (up to 1e-10) would otherwise
-    meet MuJoCo's constraint feedback −b v − k r, which no softness setting removes."""
+    (:func:`analytic.solvers.project`). The reference's own residual (within
+    :data:`harness.families.reference.RESIDUAL_LIMIT`, far above round-off) would otherwise meet MuJoCo's
+    constraint feedback −b v − k r, which no softness setting removes."""
     if count < 2:
         raise ValueError(f"count must be >= 2, got {count}")
     # the same states for every evaluation of a run (the model as it is, each variant, the engine findings): made
@@ -500,9 +501,9 @@ class _Reused:
 
 # ----------------------------------------------------------------- the budget
 ROUNDOFF = 1e4 * float(np.finfo(float).eps)
-"""Round-off of one evaluation, relative to the quantity's size: ~2e-12. Measured at the shipped
-settings: at most 4e-16 (kinetic energy, mass matrix, forcing); the margin covers an ill-conditioned
-mass matrix (condition number up to 1e4)."""
+"""Round-off of one evaluation, relative to the quantity's size: 1e4 ε (~2e-12). Its basis is measured: the
+largest at the shipped settings (kinetic energy, mass matrix, forcing), with a margin that covers an ill-conditioned
+mass matrix (condition number up to 1e4): docs/findings/bases.md, ROUNDOFF."""
 
 
 UNSOLVED = ("kinematics", "kinetic_energy", "mass_matrix", "forcing")
@@ -511,11 +512,11 @@ sides (q̈, the point accelerations, the constraint forces, the reactions)."""
 CONDITIONED = 32.0
 """A solve of M x = b errs by about n ε cond(M) relative (n the size), and both sides solve (the reference its KKT
 system, MuJoCo its factorization): where CONDITIONED × n × cond(M) × ε (n · cond(M) is ``conditioning``) exceeds
-:data:`ROUNDOFF`, it is the round-off tolerance of the solved figures. Basis, measured: dm_control's swimmer (a light
-link, cond(M) = 1.2e3, n = 3) has qacc off by 9.3e-12 = 12 n cond(M) ε; 32 keeps a margin of 2.7 over it. Applied
+:data:`ROUNDOFF`, it is the round-off tolerance of the solved figures. Its basis is measured: qacc's error on a
+light link (dm_control's swimmer) in units of n cond(M) ε, × a margin (docs/findings/bases.md, CONDITIONED). Applied
 to models judged against their own tree (their cond(M) is not known in advance); the shipped cases keep ROUNDOFF, with
-which their limits and fault tests were measured (on four of them n · cond(M) is 583–1490, where this bound would be
-1.9–4.8 × ROUNDOFF: not adopted there until their fault matrix is re-run with it)."""
+which their limits and fault tests were measured (on some of them this bound would exceed ROUNDOFF: not adopted there
+until their fault matrix is re-run with it)."""
 FLOAT64 = float(np.finfo(float).eps)
 
 

@@ -28,8 +28,8 @@ from harness.studies import Studies, contact, softness, solvers
 
 
 def study_calls(selected: Sequence[cases.Case]) -> list[tuple[str, str]]:
-    """Layer 4 and the seed audit as (kind, name) calls, the costliest kinds first (measured: a seed
-    audit of a system 0.3-1.5 s, a convergence study 0.3-1.5 s, the rest 0.2-1 s)."""
+    """Layer 4 and the seed audit as (kind, name) calls, the costliest kinds first (the seed audit of a
+    system and the convergence study, then the rest: their costs in docs/findings/speed.md)."""
     systems = list(dict.fromkeys(c.system for c in selected))
     claimed = {c.frame.system for c in all_claims()}
     return ([("audit", s) for s in systems if s in claimed]

@@ -299,7 +299,7 @@ def section_model(result: CaseResult, still: Still | None) -> str:
 @functools.cache
 def equations_html(system: str) -> str:
     """The system's equations of motion as typeset images, once per system (a system's cases share
-    them; sympy's simplification and mathtext cost about 0.2 s); for a model's own tree, what they are."""
+    them; sympy's simplification and mathtext are costly); for a model's own tree, what they are."""
     if system == TREE:
         return ("<dl class='eqs'><dt>equations of motion</dt><dd>Lagrange's equations of the model's own kinematic "
                 "tree: T and V from our forward kinematics of the compiled model, every derivative by complex step "

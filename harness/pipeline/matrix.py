@@ -78,7 +78,7 @@ def progress(items: Sequence, desc: str, unit: str = "case", *, quiet: bool = Fa
     item itself."""
     if not sys.stderr.isatty():
         return LogProgress(items, desc, unit, quiet=quiet)
-    from tqdm import tqdm  # lazy: 0.03 s, only where a bar is drawn
+    from tqdm import tqdm  # lazy: tqdm, only where a bar is drawn
 
     return tqdm(items, desc=desc, unit=unit, file=sys.stderr, leave=False)
 
@@ -210,7 +210,7 @@ def _run_parallel(selected: Sequence[cases.Case], workers: int, bar, *, figures_
     would raise it."""
     stored = {system: derivations.derivation_stored(system) for system in dict.fromkeys(c.system for c in selected)}
     if not all(stored.values()):  # the workers derive: sympy and its lazily loaded parts, once, before the fork
-        from analytic.lagrangian import preload  # lazy: sympy (0.15 s), only when the workers will derive
+        from analytic.lagrangian import preload  # lazy: sympy, only when the workers will derive
 
         preload()
     outcomes: dict[int, tuple] = {}
@@ -274,9 +274,8 @@ def _run_isolated(selected: Sequence[cases.Case], bar, *, figures_only: bool, op
                   finished: Callable[[CaseResult], None]) -> list[CaseResult]:
     """An accelerated backend's cases, each in a fresh worker process of its own, one at a time, from this
     process (which imports neither JAX nor Warp: neither survives a fork). XLA's CPU compiles of every case
-    in one process ran it out of memory (MJX over the fifteen cases, one process or two workers: "LLVM
-    compilation error: Cannot allocate memory" after about 11 minutes, then a segfault; each case in its own
-    process peaks at 1-2.3 GB), so a process compiles one case's functions and ends."""
+    in one process ran it out of memory (LLVM's "Cannot allocate memory", then a segfault:
+    docs/findings/backends.md), so a process compiles one case's functions and ends."""
     results = []
     for case in selected:
         bar.set_postfix_str(case.name)

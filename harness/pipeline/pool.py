@@ -54,14 +54,14 @@ def _worker_init(parent: int) -> None:
 
 @contextlib.contextmanager
 def fork_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
-    """A process pool of ``workers``, forked where the platform can (spawn re-imports everything,
-    about 1 s a worker). On an error or an interrupt in the ``with`` body the workers are terminated
+    """A process pool of ``workers``, forked where the platform can (spawn re-imports everything in
+    every worker). On an error or an interrupt in the ``with`` body the workers are terminated
     at once rather than after their current call.
 
     Everything this process holds is frozen out of the garbage collector while the pool lives
     (``gc.freeze``, as Python's docs advise before a fork): a worker's collections would otherwise
     walk every inherited object (sympy's expressions, the modules) and write to it, copying its
-    memory page by page in each worker; measured 0.04 s of a 2.5 s cold check on 2 workers.
+    memory page by page in each worker (what that costs: docs/findings/speed.md).
     """
     context = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else None)
     gc.freeze()

@@ -55,7 +55,7 @@ def _derived(system_of: LagrangianSystem) -> Derivation:
 
 
 def _derivation_type() -> type:
-    from analytic.lagrangian import Derivation  # lazy: sympy (0.15 s), only when a derivation is loaded
+    from analytic.lagrangian import Derivation  # lazy: sympy, only when a derivation is loaded
 
     return Derivation
 

@@ -1,6 +1,6 @@
 """Numeric dynamics shipped with the package, so that a fresh install's first ``check`` runs no sympy.
 
-Deriving the twelve systems and lambdifying their equations took about 31 s of a 38 s cold ``check``.
+Deriving the systems and lambdifying their equations was most of a cold ``check`` (docs/findings/speed.md).
 The numeric code a run needs at each default case's parameter values (:class:`analytic.dynamics.Compiled`,
 lambdify's Python source) is written into ``prebuilt/`` beside this module by
 ``python -m harness.cases.prebuilt`` and installed as package data; :mod:`.derivations` reads an entry

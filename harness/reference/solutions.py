@@ -75,8 +75,9 @@ def ordered(values: Mapping[str, float], order: tuple[str, ...], label: str) -> 
 
 
 TREE_MAX_STEPS = 20_000
-"""The most steps a tree reference's solve may take (dm_control's humanoid, every joint set moving, takes about 400 a
-second): past it the model is refused in one line, after the solver's first 500 steps, never left to run for hours."""
+"""The most steps a tree reference's solve may take, well above what dm_control's humanoid with every joint set
+moving takes (docs/findings/bases.md, TREE_MAX_STEPS): past it the model is refused in one line, after the solver's
+first 500 steps, never left to run for hours."""
 
 # solutions by (system, params, q0, qd0, rtol, horizon); seeds (exported by another process) wait
 # there without their dynamics until asked for

@@ -4,18 +4,18 @@ MJX and MuJoCo Warp solve the constraints as MuJoCo does (computation/index.rst,
 "Constraint solver"): a primal Newton (or CG) iteration on the acceleration a,
 minimising the cost ½(a − a₀)ᵀM(a − a₀) + s(J a − a_ref), with the forces read
 off the iterate, f = F(J a − a_ref). It stops when the cost improves by less
-than ``tolerance`` × tr M. In float32 the cost (tens of J) cannot resolve an
-improvement below a few ulps of itself, so the iteration stops wherever float32
-stops seeing progress, and the iterate's residual
+than ``tolerance`` × tr M. In float32 the cost cannot resolve an improvement
+below a few ulps of itself, so the iteration stops wherever float32 stops seeing
+progress, and the iterate's residual
 
     r = M a + c − τ_passive − Jᵀf        (the cost's gradient)
 
-is left unbalanced: measured on MJX float32 at the sampled states up to 7e-3 of
-the force scale on hoop_ramp_contact's stiff contact (ε = 1e-4) and 5e-4 on
-welded_pendulum's weld, while the improvement one more Newton step would make,
-½ rᵀH⁻¹r, is below 0.34 u × the cost (u = 2⁻²³): the stop is float32's. A force
-or torque sensor on a body whose joint carries nothing reads exactly r (the
-hub of hoop_ramp_contact); every figure built from a and f carries its share.
+is left unbalanced, far above float32's round-off of the forces on a stiff contact
+or a weld, while the improvement one more Newton step would make, ½ rᵀH⁻¹r, is
+below one ulp u = 2⁻²³ of the cost: the stop is float32's (measured on MJX float32
+at the sampled states: docs/findings/backends.md). A force or torque sensor on a
+body whose joint carries nothing reads exactly r (the hub of hoop_ramp_contact);
+every figure built from a and f carries its share.
 Where it lands depends on the iteration's path, not on the masses' last bits,
 so the round-off copies (:func:`harness.engine.variants.roundoff_copy`) do not
 sample it, and at a softened budget level it lands elsewhere: extrapolating the

@@ -33,9 +33,10 @@ and welds included): they are read as they are. Its mass matrix is kept in the C
 layout (``M``, rows ``M_rowadr``/``M_rownnz``, columns ``M_colind``, the lower triangle), which the
 harness expands to the dense matrix (:func:`dense_mass`).
 
-The kernels are compiled on first use (about a minute on this machine, per model structure)
+The kernels are compiled on first use (once per model structure, a cost a first run pays)
 and cached on disk under the user cache folder (``$XDG_CACHE_HOME/mjharness/warp``), so a
-second process, or a CI run that keeps the cache, loads them in about a second.
+second process, or a CI run that keeps the cache, loads them instead (the times:
+docs/findings/backends.md).
 """
 
 from __future__ import annotations
@@ -426,7 +427,7 @@ class WarpBackend:
         if not requests:
             return []
         clock = time.perf_counter()
-        put: dict[int, object] = {}  # one Warp model per distinct MjModel (put_model: 0.4 s for a pendulum)
+        put: dict[int, object] = {}  # one Warp model per distinct MjModel (put_model is costly even for a pendulum)
         for r in requests:
             if r.steps < 1:
                 raise ValueError(f"steps must be >= 1, got {r.steps}")
