@@ -59,7 +59,7 @@ import numpy as np  # noqa: E402
 from mujoco import rollout  # noqa: E402
 
 from harness import cases  # noqa: E402
-from harness.engine import simulate as simmod  # noqa: E402
+from harness.engine import recording  # noqa: E402
 from harness.engine.integrators import available_integrators  # noqa: E402
 from harness.engine.models import compile_model  # noqa: E402
 from harness.engine.probe import Probe  # noqa: E402
@@ -88,7 +88,7 @@ def _load() -> str:
 
 
 def _recorder() -> str:
-    return simmod.recorder()
+    return recording.recorder()
 
 
 # ------------------------------------------------------------------ part 1
@@ -124,7 +124,7 @@ def recorder_vs_rollout(selected, repeat: int) -> None:
                 timings: dict[str, float] = {}
                 kwargs = {"timings": timings} if split else {}
                 start = time.perf_counter()
-                simmod.simulate(model, probe, q0=q0, qd0=qd0, steps=steps, **kwargs)
+                recording.record(model, probe, q0=q0, qd0=qd0, steps=steps, **kwargs)
                 elapsed = time.perf_counter() - start
                 if elapsed < best:
                     best, best_split = elapsed, timings

@@ -35,7 +35,7 @@ from harness.engine.backends import Request, active, simulate, simulate_many
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
-from harness.engine.simulate import simulate as c_simulate
+from harness.engine.recording import record
 from harness.layers.instant import instant_evaluation
 from harness.layers.trajectory import deviations
 from harness.reference.solutions import Reference
@@ -260,9 +260,9 @@ def _represented(probe: Probe, target: TrajectoryRuns, model: mujoco.MjModel, *,
     coordinates rounded to float32, beside the model as it is. What a float32 backend holds differs so from
     the model before its first step, and no round-off copy moves it (every copy holds the same numbers)."""
     q0, qd0 = np.asarray(target.q0, float), np.asarray(target.qd0, float)
-    base = c_simulate(model, probe, q0=q0, qd0=qd0, steps=steps)
-    rounded = c_simulate(V.represented_model(model), probe, q0=q0.astype(np.float32).astype(float),
-                         qd0=qd0.astype(np.float32).astype(float), steps=steps)
+    base = record(model, probe, q0=q0, qd0=qd0, steps=steps)
+    rounded = record(V.represented_model(model), probe, q0=q0.astype(np.float32).astype(float),
+                     qd0=qd0.astype(np.float32).astype(float), steps=steps)
     rounded = dataclasses.replace(rounded, t=base.t)  # at the nominal times k h, as the backends record theirs
     name = integrator_name(model)
     return {a.name.measure: a.magnitude(b.values - a.values)
@@ -277,11 +277,11 @@ def _quantized(probe: Probe, target: TrajectoryRuns, model: mujoco.MjModel, *, s
     q0, qd0 = np.asarray(target.q0, float), np.asarray(target.qd0, float)
     eps = float(np.finfo(np.float32).eps)
     name = integrator_name(model)
-    base = _deviations(target, c_simulate(model, probe, q0=q0, qd0=qd0, steps=steps), name)
+    base = _deviations(target, record(model, probe, q0=q0, qd0=qd0, steps=steps), name)
     out = {d.name.measure: 0.0 for d in base}
     for k in range(1, PERTURBED_RUNS + 1):
-        moved = c_simulate(model, probe, q0=ulp_states(q0, epsilon=eps, seed=k),
-                           qd0=ulp_states(qd0, epsilon=eps, seed=PERTURBED_RUNS + k), steps=steps)
+        moved = record(model, probe, q0=ulp_states(q0, epsilon=eps, seed=k),
+                       qd0=ulp_states(qd0, epsilon=eps, seed=PERTURBED_RUNS + k), steps=steps)
         for a, b in zip(base, _deviations(target, moved, name), strict=True):
             out[a.name.measure] = max(out[a.name.measure], a.magnitude(b.values - a.values))
     return out

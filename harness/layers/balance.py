@@ -39,7 +39,7 @@ from harness.engine.backends import Request, simulate_many
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
 from harness.engine.readings import Reading
-from harness.engine.simulate import steps_in
+from harness.engine.recording import steps_in
 
 POWER_FIELDS = ("qfrc_passive", "qfrc_spring", "qfrc_actuator", "qfrc_constraint", "qfrc_applied")
 

@@ -76,7 +76,7 @@ from harness.engine.backends import Request, active, simulate, simulate_many
 from harness.engine.compat import joint_types, known_defect
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
-from harness.engine.simulate import steps_in
+from harness.engine.recording import steps_in
 from harness.engine.variants import exact_solver, floors_pair, point_masses
 from harness.reference import solutions as refmod
 

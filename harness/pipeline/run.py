@@ -37,13 +37,12 @@ from harness.core.errors import BackendUnavailable, SimulationDiverged, Unmodell
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
 from harness.core.trajectory import Trajectory
-from harness.engine import backends, variants
+from harness.engine import backends, recording, variants
 from harness.engine.backends import simulate
 from harness.engine.compat import applicable_defect, fallbacks, joint_types, unavailable_reason
 from harness.engine.integrators import available_integrators, integrator_name
 from harness.engine.models import authored, compile_model
-from harness.engine.simulate import recorder, steps_in
-from harness.engine.simulate import recorder_notes as simulate_notes
+from harness.engine.recording import recorder, steps_in
 from harness.layers.balance import balance_figures
 from harness.layers.instant import engine_findings, instant_evaluation
 from harness.layers.orders import EXPECTED_ORDER, VERDICT_QUANTITY, convergence_study, order_figures
@@ -329,7 +328,7 @@ def _run_case(
         if name not in available_integrators():
             raise ValueError(f"unknown integrator {name!r}; this MuJoCo offers {', '.join(available_integrators())}")
     timings: dict[str, float] = {}
-    recorder_notes = len(simulate_notes())
+    recorder_notes = len(recording.notes())
     clock = time.perf_counter()
     path = Path(mjcf) if mjcf is not None else case.mjcf
     mut = ModelUnderTest(path=path, timestep=timestep, edit=edit, floors=case.tree is None)
@@ -475,7 +474,7 @@ def _run_case(
                             "seconds": {"horizon": case.tree.horizon_seconds, "reference": timings["reference"]}}
     if peers is not None:
         settings["peers"] = peers.as_dict()
-    fallbacks_here = tuple(dict.fromkeys(simulate_notes()[recorder_notes:]))
+    fallbacks_here = tuple(dict.fromkeys(recording.notes()[recorder_notes:]))
     if fallbacks_here:  # the batch recorder handed some runs to the loop: shown, never silent
         settings["recorder_fallbacks"] = list(fallbacks_here)
     missing = [n for n in ("discrete",) if unavailable_reason(f"{n}.position")]  # shown, never silently skipped

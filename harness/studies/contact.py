@@ -35,7 +35,7 @@ from harness.core.plotting import FULL_WIDTH, png_bytes, pyplot
 from harness.engine.backends import simulate
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
-from harness.engine.simulate import steps_in
+from harness.engine.recording import steps_in
 from harness.layers.trajectory import trajectory_figures
 from harness.pipeline.run import settle_time
 from harness.reference import solutions as refmod

@@ -32,7 +32,7 @@ from harness.engine.backends import Request, simulate_many
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
 from harness.engine.readings import Reading
-from harness.engine.simulate import steps_in
+from harness.engine.recording import steps_in
 from harness.engine.variants import compose
 from harness.layers.balance import POWER, POWER_FIELDS, balance_figures, cumulative_work
 from harness.layers.orders import EXPECTED_ORDER

@@ -43,7 +43,7 @@ from harness.core.tables import fmt, html_table, text_table
 from harness.engine.backends import simulate
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
-from harness.engine.simulate import steps_in
+from harness.engine.recording import steps_in
 from harness.layers.orders import initial_force_floor
 from harness.reference import solutions as refmod
 

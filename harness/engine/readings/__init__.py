@@ -4,7 +4,7 @@ A reading (an angular momentum, a contact force, a slip velocity) is a
 function of fixed-size ``MjData`` fields — the ones it names in ``fields`` —
 and of the state (``qpos``, ``qvel``, ``time``, always available), evaluated
 over a whole run at once: arrays with a leading axis of one row per sample.
-The recorders (``harness.simulate``) record those fields in C at every step
+The recorders (:mod:`harness.engine.recording`) record those fields in C at every step
 with the rest of the run, so a reading costs a few numpy operations per run
 rather than an ``mj_forward`` and a Python call per sample; both recorders
 hand a reading the same arrays, so they give the same numbers bit for bit.

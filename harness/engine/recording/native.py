@@ -4,10 +4,13 @@ Why: the constrained cases need ``efc_force``/``efc_pos`` at every state. They
 lie in MuJoCo's arena, whose size changes from step to step, so
 ``mujoco.batch`` can neither record nor bind them, and reading them from
 Python costs a forward per state (about a step). ``native_record.c`` steps with
-``mj_step`` as ``mujoco.batch`` does (RK4: checked forward, copy, then
-``mj_RungeKutta``, as :func:`harness.engine.simulate._record_loop` does) and
-copies the equalities' rows with the fixed-size fields as it goes, so nothing
-is computed twice.
+``mj_step`` as ``mujoco.batch`` does (fields shifted by one; RK4: checked
+forward, copy, then ``mj_RungeKutta``, as the loop recorder does) and records at
+every sample the integration state, the fixed-size fields
+(:func:`harness.engine.recording.assemble.recorded_fields`), the equalities'
+``efc_*`` rows and the points' velocities as it goes, so nothing is computed
+twice. Then the same assembly, readings and check as the batch recorder's
+(:func:`harness.engine.recording.verify.checked_run`).
 
 How: the C file ships with the package; the first run compiles it with the
 system's C compiler (``$CC``, else ``cc``, ``gcc`` or ``clang``) against the
@@ -37,6 +40,13 @@ import mujoco
 import numpy as np
 
 from harness.core.cache import cache_dir, key
+from harness.engine.integrators import integrator_name
+from harness.engine.points import point_source
+from harness.engine.probe import Probe
+from harness.engine.recording.assemble import Run, recorded_fields, velocity_chain
+from harness.engine.recording.equalities import equality_layout, fixed_rows, joint_equalities, signed
+from harness.engine.recording.scratch import STATE, Record
+from harness.engine.recording.verify import check_warnings, checked_run
 
 ABI = 6  # native_record.c's mjh_abi()
 SOURCE = Path(__file__).with_name("native_record.c")
@@ -153,14 +163,14 @@ def _address(array: np.ndarray) -> int:
     return array.__array_interface__["data"][0]
 
 
-def record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, steps: int, integrator: str,
-           states: np.ndarray, fields: Mapping[str, np.ndarray], force: np.ndarray, pos: np.ndarray,
-           points: Sequence[Point] = (), velocity: np.ndarray | None = None) -> tuple[int, bool]:
+def mjh_record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, steps: int, integrator: str,
+               states: np.ndarray, fields: Mapping[str, np.ndarray], force: np.ndarray, pos: np.ndarray,
+               points: Sequence[Point] = (), velocity: np.ndarray | None = None) -> tuple[int, bool]:
     """``steps`` steps of ``data`` from its state (``states[0]``, which the caller wrote), recording states
     1..steps into ``states`` and, at every sample 0..steps, the fields ``fields`` names (arrays of
     steps + 1 rows, MjData's dtypes), the first ``force.shape[1]`` rows of efc_force/efc_pos and the
     world velocity of each of ``points`` into ``velocity`` ((len(points), steps + 1, 3)), with the arithmetic of
-    :func:`harness.engine.simulate._point_velocity`.
+    :func:`harness.engine.recording.assemble.point_velocity`.
 
     Returns (the sample at whose checks MuJoCo raised a warning, or −1 when every sample is recorded;
     whether every sample had exactly that many equality rows)."""
@@ -204,3 +214,37 @@ def record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, step
     if k == -2:
         raise ValueError(f"states has {states.shape[1]} columns; this model's integration state has another size")
     return k, bool(ok.value)
+
+
+def record(lib: ctypes.CDLL, model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps: int,
+           timings: dict[str, float]) -> Run | None:
+    """The native recorder, from ``data``'s state: MuJoCo's steps made in C, recording the state, the
+    fixed-size fields and the equalities' efc rows at every sample as it steps; None where the check
+    against a fresh mj_forward sends the run back to the loop."""
+    rec = Record.take(model, data, steps, recorded_fields(model, probe))
+    try:
+        mujoco.mj_getState(model, data, rec.states[0], STATE)
+        recoverable = joint_equalities(model, probe.constraints)
+        read = [c for c in probe.constraints if c not in recoverable]
+        layout = equality_layout(model) if read else None
+        nrows = layout[1] if layout is not None else 0
+        force, pos = np.empty((steps + 1, nrows)), np.empty((steps + 1, nrows))
+        sources = [point_source(model, p) for p in probe.points]
+        velocity = np.empty((len(sources), steps + 1, 3))  # a fresh array: the trajectory keeps its rows
+        k, rows_ok = mjh_record(lib, model, data, steps=steps, integrator=integrator_name(model),
+                                states=rec.states, fields=rec.fields, force=force, pos=pos,
+                                points=[Point(body=s.body, site=s.index if s.kind == "site" else -1,
+                                              root=int(model.body_rootid[s.body]),
+                                              chain=tuple(sorted(velocity_chain(model, s.body))))
+                                        for s in sources],
+                                velocity=velocity)
+        if k >= 0:
+            check_warnings(data.warning.number, float(rec.states[k, 0]))
+        fixed = fixed_rows(model, rec.states) if nrows and rows_ok else None
+        lam, viol = {}, {}
+        for c in read if fixed is not None else ():
+            lam[c], viol[c] = signed(probe.sign(c), force[:, fixed[c]], pos[:, fixed[c]])
+        velocities = dict(zip(probe.points, velocity, strict=True))
+        return checked_run(model, probe, data, rec, lam, viol, timings, velocities)
+    finally:
+        rec.give_back(model)

@@ -1,4 +1,4 @@
-/* The native recorder's one function (harness/engine/native.py builds and loads it).
+/* The native recorder's one function (harness/engine/recording/native.py builds and loads it).
 
    It steps with mj_step itself, as mujoco.batch does, and copies at every sample
    k = 0 .. steps what is recorded: the integration state after every step, the
@@ -82,7 +82,7 @@ int mjh_record(const mjModel* m, mjData* d, int steps, int integrator, double* s
         memcpy(pos + (size_t)k * nrows, d->efc_pos, sizeof(mjtNum) * nrows);
       }
     }
-    /* each point's velocity J qvel at sample k, with the arithmetic of simulate._point_velocity (bit for bit
+    /* each point's velocity J qvel at sample k, with the arithmetic of assemble.point_velocity (bit for bit
        the loop's point_state): J's columns as mj_jac makes them, cdof_lin + cdof_ang x (point - subtree_com of
        the body's root), over the dofs of the body's chain in increasing order, each a product then a sum (no
        fused multiply-add: -ffp-contract=off). The derived fields are sample k's; qvel is row k of the states

@@ -1,0 +1,157 @@
+"""From recorded fields to a Trajectory: the points, their velocities, energy, the equalities and the readings.
+
+The recorders in C record, at every sample, the integration state and the fixed-size derived fields
+:func:`recorded_fields` names; the rest is numpy over the whole run, reproducing the loop's arithmetic
+so that every recorder gives the same numbers bit for bit. A point's position is ``site_xpos`` for a
+site and ``xipos`` for a body (:mod:`harness.engine.points`); its velocity is J·qvel with J assembled
+from ``cdof`` and ``subtree_com`` at that position as ``mj_jac`` does (:func:`point_velocity`, the
+native recorder does the same in C); a recoverable joint equality comes from ``qfrc_constraint`` and
+``qpos`` (:mod:`harness.engine.recording.equalities`). The case's readings
+(``Probe.invariants/forces/series``, :class:`harness.engine.readings.Reading`) name the fixed-size
+fields they need; those are recorded with the rest and the readings evaluated once over the whole run
+(:func:`evaluate_readings`), by every recorder alike.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from harness.core.trajectory import Trajectory
+from harness.engine.integrators import integrator_name
+from harness.engine.points import point_jacobian, point_source
+from harness.engine.probe import Probe
+from harness.engine.readings import fields_of
+from harness.engine.recording.equalities import joint_equalities, recovered
+
+# Derived fields the recorders in C record at every state (all fixed-size), besides the readings' own:
+# always (energy, generalized constraint force), for points (position: site_xpos or xipos as the points
+# are sites or bodies; and velocity as mj_jac assembles it) and for joint equalities recovered from
+# qfrc_constraint (the row count, to know every row is theirs).
+# Each costs about 1 % of a small model's step; a non-finite qacc is MuJoCo's own warning (mj_checkAcc).
+ALWAYS_FIELDS: tuple[str, ...] = ("qfrc_constraint", "energy")
+POINT_FIELDS: tuple[str, ...] = ("subtree_com", "cdof")  # with each point's own position field
+EQUALITY_FIELDS: tuple[str, ...] = ("nefc",)
+
+
+def recorded_fields(model: mujoco.MjModel, probe: Probe) -> tuple[str, ...]:
+    """The derived fields the recorders in C record at every state for ``probe`` on ``model``."""
+    positions = dict.fromkeys(point_source(model, p).field for p in probe.points)
+    wanted = [*ALWAYS_FIELDS, *positions, *(POINT_FIELDS if probe.points else ())]
+    if joint_equalities(model, probe.constraints):
+        wanted += EQUALITY_FIELDS
+    return tuple(dict.fromkeys((*wanted, *fields_of(probe.readings()))))
+
+
+def point_state(model: mujoco.MjModel, data: mujoco.MjData, point: str) -> tuple[np.ndarray, np.ndarray]:
+    """World position and linear velocity of a named point: a site, or a body's centre of mass
+    (:func:`harness.engine.points.point_source`).
+
+    The velocity is J·qvel with J from ``mj_jac`` at the point on its body, summed column by column
+    in dof order (Σᵢ Jᵢ q̇ᵢ, a multiply then an add per term, no fused multiply-add), so that the
+    recorders' vectorized sum over a whole run gives the same numbers bit for bit."""
+    source = point_source(model, point)
+    jacp = point_jacobian(model, data, source)
+    velocity = np.zeros(3)
+    for i in range(model.nv):
+        velocity = velocity + jacp[:, i] * data.qvel[i]
+    return source.position(data).copy(), velocity
+
+
+def velocity_chain(model: mujoco.MjModel, body: int) -> list[int]:
+    """The dofs mj_jac visits for ``body``: its first moving ancestor's dof chain."""
+    while body and model.body_dofnum[body] == 0:
+        body = int(model.body_parentid[body])
+    if not body:
+        return []
+    chain, i = [], int(model.body_dofadr[body] + model.body_dofnum[body] - 1)
+    while i >= 0:
+        chain.append(i)
+        i = int(model.dof_parentid[i])
+    return chain
+
+
+def point_velocity(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], qvel: np.ndarray,
+                   point: np.ndarray, body: int) -> np.ndarray:
+    """J·qvel at ``point`` (N, 3: the point's world position at every sample) moving with ``body``,
+    J's columns assembled as mj_jac does (cdof_lin + cdof_ang × (point − subtree_com[root])) and
+    summed in dof order as point_state does (the dofs outside the chain add exact zeros there), so the
+    result is point_state's, bit for bit."""
+    rows = np.ascontiguousarray  # samples contiguous per component: fast elementwise operations
+    o0, o1, o2 = rows((point - fields["subtree_com"][:, model.body_rootid[body]]).T)
+    velocity = np.zeros((3, len(qvel)))
+    for i in sorted(velocity_chain(model, body)):
+        a0, a1, a2, l0, l1, l2 = rows(fields["cdof"][:, i].T)
+        q = rows(qvel[:, i])
+        velocity[0] = velocity[0] + (l0 + (a1 * o2 - a2 * o1)) * q
+        velocity[1] = velocity[1] + (l1 + (a2 * o0 - a0 * o2)) * q
+        velocity[2] = velocity[2] + (l2 + (a0 * o1 - a1 * o0)) * q
+    return rows(velocity.T)
+
+
+@dataclass
+class Run:
+    """A run in arrays: integration states and derived fields at every sample, plus readings."""
+
+    states: np.ndarray                      # (N, nstate), mjSTATE_INTEGRATION rows (recorders in C only)
+    t: np.ndarray                           # (N,)
+    positions: dict[str, np.ndarray]        # (N, 3) per point
+    velocities: dict[str, np.ndarray]       # (N, 3) per point
+    lam: dict[str, np.ndarray]              # efc_force per equality, (N,) or (N, k) for a k-row block
+    viol: dict[str, np.ndarray]             # efc_pos per equality, likewise
+    energy: np.ndarray                      # (N,)
+    qfrc: np.ndarray                        # (N, nv) qfrc_constraint
+    readings: dict[str, np.ndarray]         # Probe.readings() keys, (N,)
+    fields: dict[str, np.ndarray] = field(default_factory=dict)  # recorded derived fields (recorders in C)
+
+    @classmethod
+    def from_record(cls, model: mujoco.MjModel, probe: Probe, states: np.ndarray, fields: dict[str, np.ndarray],
+                    velocities: dict[str, np.ndarray] | None = None) -> Run:
+        """The run of recorded ``states`` and ``fields`` (:func:`recorded_fields`), its points' velocities
+        ``velocities`` where given (else assembled from the fields) and the equalities recoverable from
+        the fields; readings are left to :func:`evaluate_readings`."""
+        nv = model.nv
+        qvel = states[:, 1 + model.nq:1 + model.nq + nv]
+        positions = {}
+        given, velocities = velocities is not None, dict(velocities or {})
+        for p in probe.points:
+            source = point_source(model, p)
+            positions[p] = fields[source.field][:, source.index].copy()
+            if not given:
+                velocities[p] = point_velocity(model, fields, qvel, positions[p], source.body)
+        energy = fields["energy"][:, 0] + fields["energy"][:, 1]
+        qfrc = np.array(fields["qfrc_constraint"])  # fields are the recorder's scratch space
+        lam, viol = recovered(model, probe, states, qfrc, fields)
+        return cls(states=states, t=states[:, 0].copy(), positions=positions, velocities=velocities, lam=lam,
+                   viol=viol, energy=energy, qfrc=qfrc, readings={}, fields=fields)
+
+
+def evaluate_readings(model: mujoco.MjModel, probe: Probe, states_t: np.ndarray, qpos: np.ndarray,
+                      qvel: np.ndarray, fields: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Every reading of ``probe`` over the run, from the recorded state and fields."""
+    recorded = {"time": states_t, "qpos": qpos, "qvel": qvel, **fields}
+    out = {}
+    for key, reading in probe.readings().items():
+        values = np.array(reading.evaluate(model, recorded), dtype=float)  # a copy: recorded is scratch
+        if values.shape != states_t.shape:
+            raise ValueError(f"reading {key!r} returned shape {values.shape}; expected {states_t.shape}")
+        out[key] = values
+    return out
+
+
+def trajectory(model: mujoco.MjModel, probe: Probe, run: Run) -> Trajectory:
+    """The Trajectory of ``run``: samples at t = k·h (the time the state after k steps stands for)."""
+    dof = probe.binding.dof_matrix(model)
+    extra = {name: run.readings[f"invariants.{name}"] for name in probe.invariants}
+    forces = {name: run.readings[f"forces.{name}"] for name in probe.forces}
+    series = {name: run.readings[f"series.{name}"] for name in probe.series}
+    return Trajectory(
+        t=np.arange(len(run.t)) * float(model.opt.timestep), positions=run.positions, velocities=run.velocities,
+        multipliers=run.lam | forces,
+        generalized_force=None if dof is None else run.qfrc @ dof,
+        invariants={"energy": run.energy} | extra, violations=run.viol,
+        source=f"mujoco:{integrator_name(model)}", series=series,
+    )

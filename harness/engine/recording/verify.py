@@ -1,0 +1,118 @@
+"""Whether a recorded run can be trusted: MuJoCo's warnings, and the check against a fresh ``mj_forward``.
+
+MuJoCo's warnings: ``mj_step`` checks the state around its forward (``mj_checkPos/Vel/Acc``: a huge or
+non-finite value is a warning, and the data is reset); every recorder makes the same checks and turns a
+warning into SimulationDiverged at the time of the state that raised it (:func:`check_warnings`).
+
+The check: the recorders in C shift or recompute what MuJoCo computed and assemble the rest in numpy,
+which holds only while their arithmetic is MuJoCo's. So every native or batch run is compared with a
+fresh ``mj_forward`` at one sample mid-run, bit for bit (:func:`differences`); where only the
+equalities recovered from recorded fields differ, they are read per state instead, and any other
+mismatch (another MuJoCo's arithmetic) hands the whole run to the loop. Each fallback is noted in
+:data:`FALLBACKS` (``harness.engine.recording.notes()``).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+
+from harness.core.errors import SimulationDiverged
+from harness.engine.integrators import integrator_name
+from harness.engine.probe import Probe
+from harness.engine.recording.assemble import Run, evaluate_readings, point_state
+from harness.engine.recording.equalities import block, read_equalities, rows, signed
+from harness.engine.recording.scratch import STATE, Record
+
+# every time this process's native or batch recorder fell back to reading per sample or to the loop, and why
+FALLBACKS: list[str] = []
+
+
+def check_warnings(counts: np.ndarray, at: float) -> None:
+    """SimulationDiverged at time ``at`` naming every MuJoCo warning whose count in ``counts`` is above zero."""
+    raised = [mujoco.mjtWarning(i).name for i in range(len(counts)) if counts[i] > 0]
+    if raised:
+        raise SimulationDiverged(", ".join(raised), at)
+
+
+def checked_forward(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """mj_forward between the checks mj_step makes around it: a huge or non-finite qpos, qvel or
+    qacc raises a MuJoCo warning (and resets the data), which the caller turns into SimulationDiverged."""
+    mujoco.mj_checkPos(model, data)
+    mujoco.mj_checkVel(model, data)
+    mujoco.mj_forward(model, data)
+    mujoco.mj_checkAcc(model, data)
+
+
+def differences(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: Run) -> list[str]:
+    """What differs from a fresh mj_forward at one sample mid-run (a shifted or, for RK4, a recomputed
+    record), bit for bit: every recorded field (positions, energy and qfrc_constraint are copies or
+    sums of them), the point velocities and the recovered equalities; empty when nothing does."""
+    k = len(run.states) // 2
+    mujoco.mj_setState(model, data, run.states[k], STATE)
+    mujoco.mj_forward(model, data)
+    bad = [f"field {f!r}" for f, values in run.fields.items() if not np.array_equal(getattr(data, f), values[k])]
+    bad += [f"velocity of {p!r}" for p in probe.points
+            if not np.array_equal(point_state(model, data, p)[1], run.velocities[p][k])]
+    bad += [f"equality {c!r}" for c in probe.constraints
+            if not all(np.array_equal(a, b) for a, b in zip(block(model, data, c, probe.sign(c)),
+                                                             (run.lam[c][k], run.viol[c][k]),
+                                                             strict=True))]
+    return bad
+
+
+def checked_run(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, rec: Record, lam: dict[str, np.ndarray],
+                viol: dict[str, np.ndarray], timings: dict[str, float],
+                velocities: dict[str, np.ndarray] | None = None) -> Run | None:
+    """A run recorded in C, assembled, its readings evaluated and checked against a fresh mj_forward (both
+    recorders in C); ``lam``/``viol``: the equalities already read per state, signed; ``velocities``: the
+    points' (else assembled from the recorded fields). None where the check sends the run back to the loop."""
+    states, fields = rec.states, rec.fields
+    # a sum is finite only if every term is (MuJoCo's own checks would have warned long before an
+    # overflow); the row-by-row look, only to say where
+    if not np.isfinite(states.sum()):
+        finite = np.isfinite(states).all(axis=1)
+        if not finite.all():
+            raise SimulationDiverged("non-finite state", float(states[np.argmin(finite), 0]))
+    run = Run.from_record(model, probe, states, fields, velocities)
+    run.lam |= lam
+    run.viol |= viol
+    clock = time.perf_counter()
+    run.readings = evaluate_readings(model, probe, run.t, states[:, 1:1 + model.nq],
+                                     states[:, 1 + model.nq:1 + model.nq + model.nv], fields)
+    timings["readings"] = time.perf_counter() - clock
+    recovered = list(run.lam)
+    _read_at_states(model, data, probe, run, [c for c in probe.constraints if c not in run.lam])
+    bad = differences(model, data, probe, run)
+    wrong = [c for c in recovered if f"equality {c!r}" in bad]
+    if wrong and len(wrong) == len(bad):  # only the recovered equalities: read them per sample instead
+        FALLBACKS.append(f"{_label(model)}: efc_force/efc_pos recovered from qfrc_constraint and qpos differed "
+                         f"from a fresh mj_forward for {wrong}; read per sample instead")
+        _read_at_states(model, data, probe, run, wrong)
+        bad = differences(model, data, probe, run)
+    if bad:
+        FALLBACKS.append(f"{_label(model)}: the batch recorder's {', '.join(bad)} differed from a fresh "
+                         "mj_forward; recorded with the loop instead")
+        return None
+    return run
+
+
+def _read_at_states(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, run: Run,
+                    equalities: Sequence[str]) -> None:
+    """The equalities ``equalities`` after mj_forward at every recorded state, as the loop recorder
+    reads them."""
+    if not equalities:
+        return
+    n = len(run.states)
+    lam = {c: rows(model, c, n) for c in equalities}
+    viol = {c: rows(model, c, n) for c in equalities}
+    read_equalities(model, data, run.states, lam, viol)
+    for c in equalities:
+        run.lam[c], run.viol[c] = signed(probe.sign(c), lam[c], viol[c])
+
+
+def _label(model: mujoco.MjModel) -> str:
+    return f"{integrator_name(model)} at h = {model.opt.timestep:g} s"
