@@ -20,6 +20,7 @@ from harness.engine.constraints import equality_block, equality_force
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model, mjcf_path
 from harness.engine.probe import Probe
+from harness.engine.readings import momentum
 from harness.engine.recording import assemble, batch, equalities, native, point_state, record
 
 PROBE = Probe(binding=JointBinding(("theta", "r")), points=("bob",), constraints=("rod",))
@@ -222,6 +223,39 @@ def test_a_result_that_differs_from_mj_forward_is_not_used(monkeypatch, method):
     again = _arrays(record(model, PROBE, q0=Q0, qd0=QD0, steps=60, method=method))
     assert all(np.array_equal(again[k], loop[k]) for k in loop)
     assert "read per sample instead" in recording.notes()[notes]
+
+
+@pytest.mark.skipif(not HAS_NATIVE, reason="no native recorder here")
+@pytest.mark.parametrize("spoil", ["position", "momentum"])
+def test_the_native_recorders_positions_and_momenta_are_checked(monkeypatch, spoil):
+    """The native recorder writes the points' positions and the subtree momenta the readings project (p_phi's)
+    as it steps, the momenta with the numpy reading's arithmetic, so that the reading is not recomputed over
+    the run; both are checked at one sample against a fresh mj_forward, and a wrong one sends the run to the
+    loop, saying so."""
+    case, probe, q0, qd0 = _case_probe("spherical_pendulum")
+    model = compile_model(case.mjcf, integrator="Euler")
+    assert [r.about for r in probe.invariants.values()] == [("bob", "pivot")]
+    loop = _arrays(record(model, probe, q0=q0, qd0=qd0, steps=200, method="loop"))
+    widths = []
+    real_momentum = momentum._spatial_momentum
+    monkeypatch.setattr(momentum, "_spatial_momentum", lambda i, v: widths.append(np.size(i[0])) or real_momentum(i, v))
+    notes = len(recording.notes())
+    got = _arrays(record(model, probe, q0=q0, qd0=qd0, steps=200, method="native"))
+    assert recording.notes()[notes:] == () and all(np.array_equal(got[k], loop[k]) for k in loop)
+    assert widths == [1], "the reading was computed in numpy over the run, not taken from the native recorder"
+    real_record = native.mjh_record
+
+    def spoiled(*args, **kwargs):
+        out = real_record(*args, **kwargs)
+        kwargs[spoil] *= 1 + 1e-15
+        return out
+
+    monkeypatch.setattr(native, "mjh_record", spoiled)
+    again = _arrays(record(model, probe, q0=q0, qd0=qd0, steps=200, method="native"))
+    assert all(np.array_equal(again[k], loop[k]) for k in loop)
+    said = recording.notes()[notes]
+    assert ("position of 'bob'" if spoil == "position" else "angular momentum of 'bob' about 'pivot'") in said
+    assert "loop instead" in said
 
 
 def _on_one_and_two_threads_and_the_loop(model, probe, q0, qd0) -> tuple[dict, dict, dict]:

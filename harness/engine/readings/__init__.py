@@ -38,11 +38,15 @@ class Reading:
             leading axis of N samples, each the field after ``mj_forward``
             at that sample's state.
         description: one line, with the unit.
+        about: for a projection of a subtree's angular momentum, (the subtree's root body, the site it is
+            taken about): the native recorder computes that momentum in C as it steps and hands it in the
+            record (:func:`harness.engine.readings.momentum.about_key`), so that it is not recomputed in numpy.
     """
 
     fields: tuple[str, ...]
     evaluate: Evaluate
     description: str
+    about: tuple[str, str] | None = None
 
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> float:
         """The reading at ``data``'s state (``mj_forward`` must have run)."""

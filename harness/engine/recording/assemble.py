@@ -22,10 +22,12 @@ import numpy as np
 
 from harness.core.trajectory import Trajectory
 from harness.engine.integrators import integrator_name
-from harness.engine.points import point_jacobian, point_source
+from harness.engine.points import PointSource, point_jacobian, point_source
 from harness.engine.probe import Probe
 from harness.engine.readings import fields_of
+from harness.engine.readings.momentum import about_key
 from harness.engine.recording.equalities import joint_equalities, recovered
+from harness.engine.recording.scratch import SPARE, keep
 
 # Derived fields the recorders in C record at every state (all fixed-size), besides the readings' own:
 # always (energy, generalized constraint force), for points (position: site_xpos or xipos as the points
@@ -37,28 +39,65 @@ POINT_FIELDS: tuple[str, ...] = ("subtree_com", "cdof")  # with each point's own
 EQUALITY_FIELDS: tuple[str, ...] = ("nefc",)
 
 
-def recorded_fields(model: mujoco.MjModel, probe: Probe) -> tuple[str, ...]:
-    """The derived fields the recorders in C record at every state for ``probe`` on ``model``."""
-    positions = dict.fromkeys(point_source(model, p).field for p in probe.points)
+@dataclass(frozen=True)
+class Plan:
+    """What a run of a probe on a model records, worked out once per model and probe (the names it looks
+    up and the model's tree do not change): each point's source and the dofs that move it (increasing),
+    the derived fields recorded at every state (:func:`recorded_fields`) and the subtree angular momenta
+    the readings project (:attr:`harness.engine.readings.Reading.about`), which the native recorder computes."""
+
+    sources: tuple[PointSource, ...]
+    chains: tuple[tuple[int, ...], ...]
+    fields: tuple[str, ...]
+    momenta: tuple[tuple[str, str], ...]  # the subtree momenta the readings project: (body, site), each once
+
+
+_plans: dict[tuple[int, int], tuple[mujoco.MjModel, Probe, Plan]] = {}
+
+
+def plan(model: mujoco.MjModel, probe: Probe) -> Plan:
+    """The :class:`Plan` of ``probe`` on ``model``, kept for the next runs of the same two (a study or a
+    convergence ladder records one model many times; a run asks for it at every stage)."""
+    kept = _plans.get((id(model), id(probe)))
+    if kept is not None and kept[0] is model and kept[1] is probe:
+        return kept[2]
+    sources = tuple(point_source(model, p) for p in probe.points)
+    positions = dict.fromkeys(s.field for s in sources)
     wanted = [*ALWAYS_FIELDS, *positions, *(POINT_FIELDS if probe.points else ())]
     if joint_equalities(model, probe.constraints):
         wanted += EQUALITY_FIELDS
-    return tuple(dict.fromkeys((*wanted, *fields_of(probe.readings()))))
+    made = Plan(sources=sources, chains=tuple(tuple(sorted(velocity_chain(model, s.body))) for s in sources),
+                fields=tuple(dict.fromkeys((*wanted, *fields_of(probe.readings())))),
+                momenta=tuple(dict.fromkeys(r.about for r in probe.readings().values() if r.about is not None)))
+    # model and probe held: their ids are not reused while the entry is kept
+    keep(_plans, (id(model), id(probe)), (model, probe, made), 2 * SPARE)
+    return made
+
+
+def recorded_fields(model: mujoco.MjModel, probe: Probe) -> tuple[str, ...]:
+    """The derived fields the recorders in C record at every state for ``probe`` on ``model``."""
+    return plan(model, probe).fields
 
 
 def point_state(model: mujoco.MjModel, data: mujoco.MjData, point: str) -> tuple[np.ndarray, np.ndarray]:
     """World position and linear velocity of a named point: a site, or a body's centre of mass
-    (:func:`harness.engine.points.point_source`).
-
-    The velocity is J·qvel with J from ``mj_jac`` at the point on its body, summed column by column
-    in dof order (Σᵢ Jᵢ q̇ᵢ, a multiply then an add per term, no fused multiply-add), so that the
-    recorders' vectorized sum over a whole run gives the same numbers bit for bit."""
+    (:func:`harness.engine.points.point_source`); the velocity is :func:`source_velocity`'s."""
     source = point_source(model, point)
-    jacp = point_jacobian(model, data, source)
-    velocity = np.zeros(3)
-    for i in range(model.nv):
-        velocity = velocity + jacp[:, i] * data.qvel[i]
-    return source.position(data).copy(), velocity
+    return source.position(data).copy(), source_velocity(model, data, source)
+
+
+def source_velocity(model: mujoco.MjModel, data: mujoco.MjData, source: PointSource) -> np.ndarray:
+    """The linear velocity of the point ``source`` after ``mj_forward``.
+
+    J·qvel with J from ``mj_jac`` at the point on its body, summed column by column
+    in dof order (Σᵢ Jᵢ q̇ᵢ from 0, a multiply then an add per term, no fused multiply-add), so that the
+    recorders' vectorized sum over a whole run gives the same numbers bit for bit. In Python floats (IEEE
+    doubles, each operation rounded as numpy's): a few dozen of them cost less than numpy's calls on 3-vectors."""
+    jx, jy, jz = point_jacobian(model, data, source).tolist()
+    x = y = z = 0.0
+    for i, q in enumerate(data.qvel.tolist()):
+        x, y, z = x + jx[i] * q, y + jy[i] * q, z + jz[i] * q
+    return np.array([x, y, z])
 
 
 def velocity_chain(model: mujoco.MjModel, body: int) -> list[int]:
@@ -109,18 +148,18 @@ class Run:
 
     @classmethod
     def from_record(cls, model: mujoco.MjModel, probe: Probe, states: np.ndarray, fields: dict[str, np.ndarray],
-                    velocities: dict[str, np.ndarray] | None = None) -> Run:
+                    velocities: dict[str, np.ndarray] | None = None,
+                    positions: dict[str, np.ndarray] | None = None) -> Run:
         """The run of recorded ``states`` and ``fields`` (:func:`recorded_fields`), its points' velocities
-        ``velocities`` where given (else assembled from the fields) and the equalities recoverable from
-        the fields; readings are left to :func:`evaluate_readings`."""
+        ``velocities`` and positions ``positions`` where given (else assembled from the fields) and the
+        equalities recoverable from the fields; readings are left to :func:`evaluate_readings`."""
         nv = model.nv
         qvel = states[:, 1 + model.nq:1 + model.nq + nv]
-        positions = {}
-        given, velocities = velocities is not None, dict(velocities or {})
-        for p in probe.points:
-            source = point_source(model, p)
-            positions[p] = fields[source.field][:, source.index].copy()
-            if not given:
+        positions, velocities = dict(positions or {}), dict(velocities or {})
+        for p, source in zip(probe.points, plan(model, probe).sources, strict=True):
+            if p not in positions:
+                positions[p] = fields[source.field][:, source.index].copy()
+            if p not in velocities:
                 velocities[p] = point_velocity(model, fields, qvel, positions[p], source.body)
         energy = fields["energy"][:, 0] + fields["energy"][:, 1]
         qfrc = np.array(fields["qfrc_constraint"])  # fields are the recorder's scratch space
@@ -130,9 +169,12 @@ class Run:
 
 
 def evaluate_readings(model: mujoco.MjModel, probe: Probe, states_t: np.ndarray, qpos: np.ndarray,
-                      qvel: np.ndarray, fields: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """Every reading of ``probe`` over the run, from the recorded state and fields."""
-    recorded = {"time": states_t, "qpos": qpos, "qvel": qvel, **fields}
+                      qvel: np.ndarray, fields: Mapping[str, np.ndarray],
+                      momenta: Mapping[tuple[str, str], np.ndarray] | None = None) -> dict[str, np.ndarray]:
+    """Every reading of ``probe`` over the run, from the recorded state and fields; ``momenta``: subtree angular
+    momenta (3, N) by (body, site) the recorder computed (:func:`harness.engine.readings.momentum.about_key`)."""
+    recorded = {"time": states_t, "qpos": qpos, "qvel": qvel, **fields,
+                **{about_key(*pair): total for pair, total in (momenta or {}).items()}}
     out = {}
     for key, reading in probe.readings().items():
         values = np.array(reading.evaluate(model, recorded), dtype=float)  # a copy: recorded is scratch

@@ -8,8 +8,11 @@ Python costs a forward per state (about a step). ``native_record.c`` steps with
 forward, copy, then ``mj_RungeKutta``, as the loop recorder does) and records at
 every sample the integration state, the fixed-size fields
 (:func:`harness.engine.recording.assemble.recorded_fields`), the equalities'
-``efc_*`` rows and the points' velocities as it goes, so nothing is computed
-twice. Then the same assembly, readings and check as the batch recorder's
+``efc_*`` rows, the points' positions and velocities and the subtree angular
+momenta the readings project (:attr:`harness.engine.readings.Reading.about`:
+numpy's arithmetic, operation for operation) as it goes, so nothing is computed
+twice and a short run's fixed cost stays small. Then the same assembly,
+readings and check as the batch recorder's
 (:func:`harness.engine.recording.verify.checked_run`).
 
 How: the C file ships with the package; the first run compiles it with the
@@ -41,14 +44,14 @@ import numpy as np
 
 from harness.core.cache import cache_dir, key
 from harness.engine.integrators import integrator_name
-from harness.engine.points import point_source
 from harness.engine.probe import Probe
-from harness.engine.recording.assemble import Run, recorded_fields, velocity_chain
+from harness.engine.readings.momentum import subtree
+from harness.engine.recording.assemble import Plan, Run, plan, recorded_fields
 from harness.engine.recording.equalities import equality_layout, fixed_rows, joint_equalities, signed
 from harness.engine.recording.scratch import STATE, Record
 from harness.engine.recording.verify import check_warnings, checked_run
 
-ABI = 6  # native_record.c's mjh_abi()
+ABI = 7  # native_record.c's mjh_abi()
 SOURCE = Path(__file__).with_name("native_record.c")
 # the int fields of mjData's info header the recorder copies, in mjh_scalar's order
 SCALARS: tuple[str, ...] = ("ne", "nf", "nl", "nefc", "ncon", "nisland")
@@ -128,7 +131,9 @@ def _load() -> ctypes.CDLL:
         ctypes.c_int, ctypes.POINTER(ctypes.c_void_p), ctypes.POINTER(ctypes.c_long), ctypes.POINTER(ctypes.c_void_p),
         ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.POINTER(ctypes.c_int),
         ctypes.c_int, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int),
-        ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int), ctypes.c_void_p]
+        ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int), ctypes.c_void_p, ctypes.c_void_p,
+        ctypes.c_int, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int),
+        ctypes.c_void_p]
     lib.mjh_record.restype = ctypes.c_int
     return lib
 
@@ -142,7 +147,8 @@ def _build(compiler: str, include: Path, shared: Path, folder: Path, target: Pat
         os.close(fd)
     except OSError as exc:
         raise _Unavailable(f"cannot write its library under {folder}: {exc.strerror}") from None
-    # -ffp-contract=off: a point's velocity is summed as the loop sums it, a product then a sum, never fused
+    # -ffp-contract=off: a point's velocity and a subtree's momentum are summed as numpy sums them, a product then
+    # a sum, never fused
     command = [compiler, "-O2", "-std=c99", "-ffp-contract=off", "-shared", "-fPIC", f"-I{include}", str(SOURCE),
                "-o", partial, f"-L{shared.parent}", f"-l:{shared.name}", f"-Wl,-rpath,{shared.parent}"]
     try:
@@ -163,18 +169,29 @@ def _address(array: np.ndarray) -> int:
     return array.__array_interface__["data"][0]
 
 
-def mjh_record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, steps: int, integrator: str,
-               states: np.ndarray, fields: Mapping[str, np.ndarray], force: np.ndarray, pos: np.ndarray,
-               points: Sequence[Point] = (), velocity: np.ndarray | None = None) -> tuple[int, bool]:
-    """``steps`` steps of ``data`` from its state (``states[0]``, which the caller wrote), recording states
-    1..steps into ``states`` and, at every sample 0..steps, the fields ``fields`` names (arrays of
-    steps + 1 rows, MjData's dtypes), the first ``force.shape[1]`` rows of efc_force/efc_pos and the
-    world velocity of each of ``points`` into ``velocity`` ((len(points), steps + 1, 3)), with the arithmetic of
-    :func:`harness.engine.recording.assemble.point_velocity`.
+@dataclass(frozen=True)
+class Momentum:
+    """A subtree's angular momentum the recorder computes: about ``site``, of ``bodies`` (the subtree, in the
+    model's body order)."""
 
-    Returns (the sample at whose checks MuJoCo raised a warning, or −1 when every sample is recorded;
-    whether every sample had exactly that many equality rows)."""
-    n = steps + 1
+    site: int
+    bodies: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Copies:
+    """mjh_record's field arguments (count, source addresses, row sizes, target addresses) for one MjData and
+    one set of recording arrays of ``rows`` rows, checked once: neither moves while this holds them."""
+
+    data: mujoco.MjData
+    fields: Mapping[str, np.ndarray]
+    rows: int
+    arguments: tuple[int, ctypes.Array, ctypes.Array, ctypes.Array]
+
+
+def copies(lib: ctypes.CDLL, data: mujoco.MjData, fields: Mapping[str, np.ndarray], n: int) -> Copies:
+    """The arguments that copy each of ``fields`` (arrays of ``n`` rows, MjData's dtypes) from ``data`` into its
+    row of every sample."""
     sources, sizes, targets = [], [], []
     for name, out in fields.items():
         if not (out.flags.c_contiguous and out.shape[0] == n):
@@ -192,25 +209,82 @@ def mjh_record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, 
         sources.append(address)
         sizes.append(size)
         targets.append(_address(out))
+    return Copies(data=data, fields=fields, rows=n, arguments=(
+        len(sources), (ctypes.c_void_p * len(sources))(*sources), (ctypes.c_long * len(sizes))(*sizes),
+        (ctypes.c_void_p * len(targets))(*targets)))
+
+
+def _ints(values: Sequence[int]) -> ctypes.Array:
+    return (ctypes.c_int * max(len(values), 1))(*values)
+
+
+@functools.lru_cache(maxsize=64)
+def _point_arguments(points: tuple[Point, ...]) -> tuple:
+    """mjh_record's point arguments: count, body, site, root, chain starts and the chains' dofs."""
+    starts = np.cumsum([0, *(len(p.chain) for p in points)]).tolist()
+    return (len(points), _ints([p.body for p in points]), _ints([p.site for p in points]),
+            _ints([p.root for p in points]), _ints(starts), _ints([i for p in points for i in p.chain]))
+
+
+@functools.lru_cache(maxsize=64)
+def _momentum_arguments(momenta: tuple[Momentum, ...]) -> tuple:
+    """mjh_record's momentum arguments: count, site, body starts and the subtrees' bodies."""
+    starts = np.cumsum([0, *(len(m.bodies) for m in momenta)]).tolist()
+    return (len(momenta), _ints([m.site for m in momenta]), _ints(starts),
+            _ints([b for m in momenta for b in m.bodies]))
+
+
+@functools.lru_cache(maxsize=16)
+def _points(model: mujoco.MjModel, of: Plan) -> tuple[Point, ...]:
+    """The points of a run's plan, as mjh_record takes them."""
+    return tuple(Point(body=s.body, site=s.index if s.kind == "site" else -1, root=int(model.body_rootid[s.body]),
+                       chain=chain) for s, chain in zip(of.sources, of.chains, strict=True))
+
+
+@functools.lru_cache(maxsize=16)
+def _momenta(model: mujoco.MjModel, of: Plan) -> tuple[Momentum, ...]:
+    """The subtree momenta of a run's plan, as mjh_record takes them."""
+    return tuple(Momentum(site=model.site(site).id, bodies=tuple(subtree(model, model.body(body).id)))
+                 for body, site in of.momenta)
+
+
+def mjh_record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, steps: int, integrator: str,
+               states: np.ndarray, fields: Copies, force: np.ndarray, pos: np.ndarray,
+               points: Sequence[Point] = (), velocity: np.ndarray | None = None, position: np.ndarray | None = None,
+               momenta: Sequence[Momentum] = (), momentum: np.ndarray | None = None) -> tuple[int, bool]:
+    """``steps`` steps of ``data`` from its state (``states[0]``, which the caller wrote), recording states
+    1..steps into ``states`` and, at every sample 0..steps, the fields ``fields`` copies (:func:`copies`
+    of this ``data``, arrays of steps + 1 rows), the first ``force.shape[1]`` rows of efc_force/efc_pos and the
+    world velocity of each of ``points`` into ``velocity`` ((len(points), steps + 1, 3)), with the arithmetic of
+    :func:`harness.engine.recording.assemble.point_velocity`, its world position into ``position`` (the same
+    shape), and the angular momentum of each of ``momenta``
+    into ``momentum`` ((len(momenta), 3, steps + 1)), with the arithmetic of the numpy reading
+    (:func:`harness.engine.readings.momentum.about`).
+
+    Returns (the sample at whose checks MuJoCo raised a warning, or −1 when every sample is recorded;
+    whether every sample had exactly that many equality rows)."""
+    n = steps + 1
+    if fields.data is not data or fields.rows != n:
+        raise ValueError(f"fields: the copies must be of this MjData, into arrays of {n} rows")
     nrows = force.shape[1]
-    velocity = np.empty((0, n, 3)) if velocity is None else velocity
+    velocity = np.empty((len(points), n, 3)) if velocity is None else velocity
+    position = np.empty((len(points), n, 3)) if position is None else position
     for a in (states, force, pos):
         if not (a.flags.c_contiguous and a.dtype == np.float64 and a.shape[0] == n):
             raise ValueError("states, force and pos must be C-contiguous float64 arrays of steps + 1 rows")
-    if not (velocity.flags.c_contiguous and velocity.dtype == np.float64 and velocity.shape == (len(points), n, 3)):
-        raise ValueError(f"velocity must be a C-contiguous float64 array of shape ({len(points)}, {n}, 3)")
+    for a in (velocity, position):
+        if not (a.flags.c_contiguous and a.dtype == np.float64 and a.shape == (len(points), n, 3)):
+            raise ValueError(f"velocity and position must be C-contiguous float64 arrays of shape ({len(points)}, "
+                             f"{n}, 3)")
+    momentum = np.empty((0, 3, n)) if momentum is None else momentum
+    if not (momentum.flags.c_contiguous and momentum.dtype == np.float64 and momentum.shape == (len(momenta), 3, n)):
+        raise ValueError(f"momentum must be a C-contiguous float64 array of shape ({len(momenta)}, 3, {n})")
     ok = ctypes.c_int(1)
-
-    def ints(values: Sequence[int]) -> ctypes.Array:
-        return (ctypes.c_int * max(len(values), 1))(*values)
-
-    starts = np.cumsum([0, *(len(p.chain) for p in points)]).tolist()
     k = lib.mjh_record(
         model._address, data._address, steps, INTEGRATOR_CODES.get(integrator, 0), _address(states), states.shape[1],
-        len(sources), (ctypes.c_void_p * len(sources))(*sources), (ctypes.c_long * len(sizes))(*sizes),
-        (ctypes.c_void_p * len(targets))(*targets), nrows, _address(force), _address(pos), ctypes.byref(ok),
-        len(points), ints([p.body for p in points]), ints([p.site for p in points]), ints([p.root for p in points]),
-        ints(starts), ints([i for p in points for i in p.chain]), _address(velocity))
+        *fields.arguments, nrows, _address(force), _address(pos), ctypes.byref(ok),
+        *_point_arguments(tuple(points)), _address(velocity), _address(position), *_momentum_arguments(tuple(momenta)),
+        _address(momentum))
     if k == -2:
         raise ValueError(f"states has {states.shape[1]} columns; this model's integration state has another size")
     return k, bool(ok.value)
@@ -229,22 +303,26 @@ def record(lib: ctypes.CDLL, model: mujoco.MjModel, probe: Probe, data: mujoco.M
         layout = equality_layout(model) if read else None
         nrows = layout[1] if layout is not None else 0
         force, pos = np.empty((steps + 1, nrows)), np.empty((steps + 1, nrows))
-        sources = [point_source(model, p) for p in probe.points]
-        velocity = np.empty((len(sources), steps + 1, 3))  # a fresh array: the trajectory keeps its rows
+        made = plan(model, probe)
+        points, momenta = _points(model, made), _momenta(model, made)
+        velocity = np.empty((len(points), steps + 1, 3))  # fresh arrays: the trajectory keeps their rows
+        position = np.empty((len(points), steps + 1, 3))
+        momentum = np.empty((len(momenta), 3, steps + 1))  # likewise: a reading may keep its rows
+        fields = rec.kept.get("native")
+        if fields is None or fields.data is not data:  # the arrays' addresses, kept with them
+            fields = rec.kept["native"] = copies(lib, data, rec.fields, steps + 1)
         k, rows_ok = mjh_record(lib, model, data, steps=steps, integrator=integrator_name(model),
-                                states=rec.states, fields=rec.fields, force=force, pos=pos,
-                                points=[Point(body=s.body, site=s.index if s.kind == "site" else -1,
-                                              root=int(model.body_rootid[s.body]),
-                                              chain=tuple(sorted(velocity_chain(model, s.body))))
-                                        for s in sources],
-                                velocity=velocity)
+                                states=rec.states, fields=fields, force=force, pos=pos, points=points,
+                                velocity=velocity, position=position, momenta=momenta, momentum=momentum)
         if k >= 0:
             check_warnings(data.warning.number, float(rec.states[k, 0]))
         fixed = fixed_rows(model, rec.states) if nrows and rows_ok else None
         lam, viol = {}, {}
         for c in read if fixed is not None else ():
             lam[c], viol[c] = signed(probe.sign(c), force[:, fixed[c]], pos[:, fixed[c]])
-        velocities = dict(zip(probe.points, velocity, strict=True))
-        return checked_run(model, probe, data, rec, lam, viol, timings, velocities)
+        return checked_run(model, probe, data, rec, lam, viol, timings,
+                           velocities=dict(zip(probe.points, velocity, strict=True)),
+                           momenta=dict(zip(made.momenta, momentum, strict=True)),
+                           positions=dict(zip(probe.points, position, strict=True)))
     finally:
         rec.give_back(model)

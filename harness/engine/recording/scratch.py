@@ -10,7 +10,7 @@ starts from, and a Trajectory keeps copies, never these arrays.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
@@ -62,6 +62,7 @@ class Record:
 
     states: np.ndarray                # (steps + 1, nstate)
     fields: dict[str, np.ndarray]     # (steps + 1, ...) per field, MjData's dtype
+    kept: dict = field(default_factory=dict)  # what a recorder worked out for these arrays, by recorder
 
     @classmethod
     def take(cls, model: mujoco.MjModel, data: mujoco.MjData, steps: int, fields: Sequence[str]) -> Record:
