@@ -40,7 +40,9 @@ class Reading:
         description: one line, with the unit.
         about: for a projection of a subtree's angular momentum, (the subtree's root body, the site it is
             taken about): the native recorder computes that momentum in C as it steps and hands it in the
-            record (:func:`harness.engine.readings.momentum.about_key`), so that it is not recomputed in numpy.
+            record (:func:`harness.engine.readings.momentum.about_key`), so that it is not recomputed in numpy;
+            the reading then reads the fields the momentum is made of
+            (:data:`~harness.engine.readings.momentum.MOMENTUM_FIELDS`) only through it.
     """
 
     fields: tuple[str, ...]

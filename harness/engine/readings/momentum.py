@@ -90,10 +90,14 @@ def axial_angular_momentum(*, body: str, site: str, axis: Sequence[float] = (0.0
         return np.einsum("kn,nk->n", total, turned)
 
     where = "" if frame is None else f" fixed in body {frame!r}"
-    fields = ("site_xpos", "cinert", "cvel", "subtree_com", *(() if frame is None else ("xmat",)))
+    fields = (*MOMENTUM_FIELDS, *(() if frame is None else ("xmat",)))
     return Reading(fields=fields, evaluate=evaluate,
                    description=f"axis {unit.tolist()}{where} · angular momentum of subtree {body!r} about site "
                                f"{site!r} (kg m²/s)", about=(body, site))
+
+
+# the fields L_o is made of: a reading whose momentum the recorder hands it reads them through it alone
+MOMENTUM_FIELDS: tuple[str, ...] = ("site_xpos", "cinert", "cvel", "subtree_com")
 
 
 def about_key(body: str, site: str) -> str:

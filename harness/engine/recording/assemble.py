@@ -24,8 +24,8 @@ from harness.core.trajectory import Trajectory
 from harness.engine.integrators import integrator_name
 from harness.engine.points import PointSource, point_jacobian, point_source
 from harness.engine.probe import Probe
-from harness.engine.readings import fields_of
-from harness.engine.readings.momentum import about_key
+from harness.engine.readings import Reading, fields_of
+from harness.engine.readings.momentum import MOMENTUM_FIELDS, about_key
 from harness.engine.recording.equalities import joint_equalities, recovered
 from harness.engine.recording.scratch import SPARE, keep
 
@@ -44,12 +44,15 @@ class Plan:
     """What a run of a probe on a model records, worked out once per model and probe (the names it looks
     up and the model's tree do not change): each point's source and the dofs that move it (increasing),
     the derived fields recorded at every state (:func:`recorded_fields`) and the subtree angular momenta
-    the readings project (:attr:`harness.engine.readings.Reading.about`), which the native recorder computes."""
+    the readings project (:attr:`harness.engine.readings.Reading.about`). The native recorder makes the points'
+    positions and velocities and those momenta itself as it steps, so it records only ``native_fields``: the
+    others, less the fields only those are made from."""
 
     sources: tuple[PointSource, ...]
     chains: tuple[tuple[int, ...], ...]
     fields: tuple[str, ...]
     momenta: tuple[tuple[str, str], ...]  # the subtree momenta the readings project: (body, site), each once
+    native_fields: tuple[str, ...]
 
 
 _plans: dict[tuple[int, int], tuple[mujoco.MjModel, Probe, Plan]] = {}
@@ -64,11 +67,15 @@ def plan(model: mujoco.MjModel, probe: Probe) -> Plan:
     sources = tuple(point_source(model, p) for p in probe.points)
     positions = dict.fromkeys(s.field for s in sources)
     wanted = [*ALWAYS_FIELDS, *positions, *(POINT_FIELDS if probe.points else ())]
-    if joint_equalities(model, probe.constraints):
-        wanted += EQUALITY_FIELDS
+    equalities = EQUALITY_FIELDS if joint_equalities(model, probe.constraints) else ()
+    readings = probe.readings()
+    # a reading of a momentum the recorder hands it reads the momentum's own fields only through it
+    besides = {k: Reading(fields=tuple(f for f in r.fields if f not in MOMENTUM_FIELDS), evaluate=r.evaluate,
+                          description=r.description) if r.about is not None else r for k, r in readings.items()}
     made = Plan(sources=sources, chains=tuple(tuple(sorted(velocity_chain(model, s.body))) for s in sources),
-                fields=tuple(dict.fromkeys((*wanted, *fields_of(probe.readings())))),
-                momenta=tuple(dict.fromkeys(r.about for r in probe.readings().values() if r.about is not None)))
+                fields=tuple(dict.fromkeys((*wanted, *equalities, *fields_of(readings)))),
+                momenta=tuple(dict.fromkeys(r.about for r in readings.values() if r.about is not None)),
+                native_fields=tuple(dict.fromkeys((*ALWAYS_FIELDS, *equalities, *fields_of(besides)))))
     # model and probe held: their ids are not reused while the entry is kept
     keep(_plans, (id(model), id(probe)), (model, probe, made), 2 * SPARE)
     return made

@@ -46,7 +46,7 @@ from harness.core.cache import cache_dir, key
 from harness.engine.integrators import integrator_name
 from harness.engine.probe import Probe
 from harness.engine.readings.momentum import subtree
-from harness.engine.recording.assemble import Plan, Run, plan, recorded_fields
+from harness.engine.recording.assemble import Plan, Run, plan
 from harness.engine.recording.equalities import equality_layout, fixed_rows, joint_equalities, signed
 from harness.engine.recording.scratch import STATE, Record
 from harness.engine.recording.verify import check_warnings, checked_run
@@ -295,7 +295,8 @@ def record(lib: ctypes.CDLL, model: mujoco.MjModel, probe: Probe, data: mujoco.M
     """The native recorder, from ``data``'s state: MuJoCo's steps made in C, recording the state, the
     fixed-size fields and the equalities' efc rows at every sample as it steps; None where the check
     against a fresh mj_forward sends the run back to the loop."""
-    rec = Record.take(model, data, steps, recorded_fields(model, probe))
+    made = plan(model, probe)
+    rec = Record.take(model, data, steps, made.native_fields)
     try:
         mujoco.mj_getState(model, data, rec.states[0], STATE)
         recoverable = joint_equalities(model, probe.constraints)
@@ -303,7 +304,6 @@ def record(lib: ctypes.CDLL, model: mujoco.MjModel, probe: Probe, data: mujoco.M
         layout = equality_layout(model) if read else None
         nrows = layout[1] if layout is not None else 0
         force, pos = np.empty((steps + 1, nrows)), np.empty((steps + 1, nrows))
-        made = plan(model, probe)
         points, momenta = _points(model, made), _momenta(model, made)
         velocity = np.empty((len(points), steps + 1, 3))  # fresh arrays: the trajectory keeps their rows
         position = np.empty((len(points), steps + 1, 3))
