@@ -1,12 +1,14 @@
 """From recorded fields to a Trajectory: the points, their velocities, energy, the equalities and the readings.
 
-The recorders in C record, at every sample, the integration state and the fixed-size derived fields
+The batch recorder records, at every sample, the integration state and the fixed-size derived fields
 :func:`recorded_fields` names; the rest is numpy over the whole run, reproducing the loop's arithmetic
 so that every recorder gives the same numbers bit for bit. A point's position is ``site_xpos`` for a
 site and ``xipos`` for a body (:mod:`harness.engine.points`); its velocity is J·qvel with J assembled
-from ``cdof`` and ``subtree_com`` at that position as ``mj_jac`` does (:func:`point_velocity`, the
-native recorder does the same in C); a recoverable joint equality comes from ``qfrc_constraint`` and
-``qpos`` (:mod:`harness.engine.recording.equalities`). The case's readings
+from ``cdof`` and ``subtree_com`` at that position as ``mj_jac`` does (:func:`point_velocity`); a
+recoverable joint equality comes from ``qfrc_constraint`` and ``qpos``
+(:mod:`harness.engine.recording.equalities`). The native recorder makes the positions, the velocities
+and the readings' momenta itself as it steps, with the same operations, and records only the fields
+the rest needs (:attr:`Plan.native_fields`). The case's readings
 (``Probe.invariants/forces/series``, :class:`harness.engine.readings.Reading`) name the fixed-size
 fields they need; those are recorded with the rest and the readings evaluated once over the whole run
 (:func:`evaluate_readings`), by every recorder alike.

@@ -4,8 +4,9 @@ MuJoCo's warnings: ``mj_step`` checks the state around its forward (``mj_checkPo
 non-finite value is a warning, and the data is reset); every recorder makes the same checks and turns a
 warning into SimulationDiverged at the time of the state that raised it (:func:`check_warnings`).
 
-The check: the recorders in C shift or recompute what MuJoCo computed and assemble the rest in numpy,
-which holds only while their arithmetic is MuJoCo's. So every native or batch run is compared with a
+The check: the recorders in C shift or recompute what MuJoCo computed and make the rest themselves (in
+numpy, or as the native recorder steps), which holds only while their arithmetic is MuJoCo's and the
+readings'. So every native or batch run is compared with a
 fresh ``mj_forward`` at one sample mid-run, bit for bit (:func:`differences`); where only the
 equalities recovered from recorded fields differ, they are read per state instead, and any other
 mismatch (another MuJoCo's arithmetic) hands the whole run to the loop. Each fallback is noted in
