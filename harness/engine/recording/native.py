@@ -6,8 +6,8 @@ lie in MuJoCo's arena, whose size changes from step to step, so
 Python costs a forward per state (about a step). ``native_record.c`` steps with
 ``mj_step`` as ``mujoco.batch`` does (fields shifted by one; RK4: checked
 forward, copy, then ``mj_RungeKutta``, as the loop recorder does) and records at
-every sample the integration state, the fixed-size fields
-(:func:`harness.engine.recording.assemble.recorded_fields`), the equalities'
+every sample the integration state, the fixed-size fields the rest needs
+(:attr:`harness.engine.recording.assemble.Plan.native_fields`), the equalities'
 ``efc_*`` rows, the points' positions and velocities and the subtree angular
 momenta the readings project (:attr:`harness.engine.readings.Reading.about`:
 numpy's arithmetic, operation for operation) as it goes, so nothing is computed
@@ -257,9 +257,8 @@ def mjh_record(lib: ctypes.CDLL, model: mujoco.MjModel, data: mujoco.MjData, *, 
     of this ``data``, arrays of steps + 1 rows), the first ``force.shape[1]`` rows of efc_force/efc_pos and the
     world velocity of each of ``points`` into ``velocity`` ((len(points), steps + 1, 3)), with the arithmetic of
     :func:`harness.engine.recording.assemble.point_velocity`, its world position into ``position`` (the same
-    shape), and the angular momentum of each of ``momenta``
-    into ``momentum`` ((len(momenta), 3, steps + 1)), with the arithmetic of the numpy reading
-    (:func:`harness.engine.readings.momentum.about`).
+    shape), and the angular momentum of each of ``momenta`` into ``momentum`` ((len(momenta), 3, steps + 1)), with
+    the arithmetic of the reading (:func:`harness.engine.readings.momentum.about_at`).
 
     Returns (the sample at whose checks MuJoCo raised a warning, or −1 when every sample is recorded;
     whether every sample had exactly that many equality rows)."""
