@@ -171,7 +171,7 @@ class Run:
             if p not in velocities:
                 velocities[p] = point_velocity(model, fields, qvel, positions[p], source.body)
         energy = fields["energy"][:, 0] + fields["energy"][:, 1]
-        qfrc = np.array(fields["qfrc_constraint"])  # fields are the recorder's scratch space
+        qfrc = fields["qfrc_constraint"]  # the recorder's scratch: what a Trajectory keeps is made from it, never it
         lam, viol = recovered(model, probe, states, qfrc, fields)
         return cls(states=states, t=states[:, 0].copy(), positions=positions, velocities=velocities, lam=lam,
                    viol=viol, energy=energy, qfrc=qfrc, readings={}, fields=fields)
