@@ -118,11 +118,13 @@ def linear_momentum(*, body: str, axis: int) -> Reading:
         total = 0.0
         for b in subtree(model, model.body(body).id):
             i, v = rec["cinert"][:, b].T, rec["cvel"][:, b].T
-            total = total + (
-                (i[8] * v[1] - i[7] * v[2] + i[9] * v[3]),
-                (i[6] * v[2] - i[8] * v[0] + i[9] * v[4]),
-                (i[7] * v[0] - i[6] * v[1] + i[9] * v[5]),
-            )[axis]
+            # only this reading's component (each is computed apart from the others)
+            if axis == 0:
+                total = total + (i[8] * v[1] - i[7] * v[2] + i[9] * v[3])
+            elif axis == 1:
+                total = total + (i[6] * v[2] - i[8] * v[0] + i[9] * v[4])
+            else:
+                total = total + (i[7] * v[0] - i[6] * v[1] + i[9] * v[5])
         return np.asarray(total, dtype=float)
 
     return Reading(fields=("cinert", "cvel"), evaluate=evaluate,

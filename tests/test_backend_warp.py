@@ -28,7 +28,7 @@ from harness.engine import backends
 from harness.engine.backends import Request
 from harness.engine.backends import warp as W
 from harness.engine.models import compile_model
-from harness.engine.simulate import simulate as c_simulate
+from harness.engine.recording import record
 
 STEPS = 40
 ROOT = Path(__file__).resolve().parents[1]
@@ -82,7 +82,7 @@ def test_warp_agrees_with_the_c_engine_within_float32_roundoff(pendulum):
     case, ref, probe = pendulum
     req = _request(case, ref, integrator="RK4")
     warp = backends.get("warp").simulate_many([req], probe)[0]
-    c = c_simulate(req.model, probe, q0=req.q0, qd0=req.qd0, steps=req.steps)
+    c = record(req.model, probe, q0=req.q0, qd0=req.qd0, steps=req.steps)
     assert warp.source == "warp:RK4"
     length = float(np.linalg.norm(c.positions["bob"][0]))
     gap = float(np.abs(warp.positions["bob"] - c.positions["bob"]).max())
@@ -102,7 +102,7 @@ def test_a_broken_model_on_warp_does_not_agree_with_the_c_engine(pendulum):
     broken = Request(compile_model(case.mjcf, integrator="RK4", edit=damped), ref.q0(), ref.qd0(), STEPS)
     warp = backends.get("warp").simulate_many([broken], probe)[0]
     req = _request(case, ref, integrator="RK4")
-    c = c_simulate(req.model, probe, q0=req.q0, qd0=req.qd0, steps=req.steps)
+    c = record(req.model, probe, q0=req.q0, qd0=req.qd0, steps=req.steps)
     length = float(np.linalg.norm(c.positions["bob"][0]))
     assert np.abs(warp.positions["bob"] - c.positions["bob"]).max() > _roundoff_bound(STEPS, length)
 
@@ -225,7 +225,7 @@ def test_a_tendon_equalitys_multiplier_on_warp_carries_the_probes_sign():
     probe = case.probe(ref.dynamics)
     req = Request(model, ref.q0(), ref.qd0(), 20)
     warp = backends.get("warp").simulate_many([req], probe)[0]
-    c = c_simulate(model, probe, q0=req.q0, qd0=req.qd0, steps=req.steps)
+    c = record(model, probe, q0=req.q0, qd0=req.qd0, steps=req.steps)
     assert any(probe.sign(s) < 0 for s in probe.constraints)
     for string in probe.constraints:
         lam_c, lam_w = np.asarray(c.multipliers[string]), np.asarray(warp.multipliers[string])

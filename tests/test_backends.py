@@ -29,7 +29,7 @@ from harness.core.options import RunOptions
 from harness.engine import backends
 from harness.engine.compat import full_mass_matrix
 from harness.engine.models import compile_model
-from harness.engine.simulate import simulate
+from harness.engine.recording import record
 from harness.families import COMPARISONS, sampled
 from harness.families import runs as trajectory_budget
 
@@ -45,7 +45,7 @@ def _setup(name: str, **compile_options):
 
 def test_c_backend_is_the_c_recorder_bit_for_bit():
     _, model, ref, probe = _setup("pendulum")
-    direct = simulate(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=200)
+    direct = record(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=200)
     via = backends.get("c").simulate_many([backends.Request(model, ref.q0(), ref.qd0(), 200)], probe)[0]
     dispatched = backends.simulate(backends.get("c"), model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=200)
     for run in (via, dispatched):
@@ -116,7 +116,7 @@ def test_mjx_reads_what_the_c_engine_reads_at_the_same_state(name):
     _, model, ref, probe = _setup(name, integrator="Euler")
     # the C engine on what MJX runs: diagexact (which MJX lacks; listed as adapted) cleared, energy kept
     model.opt.enableflags &= ~int(getattr(mujoco.mjtEnableBit, "mjENBL_DIAGEXACT", 0))  # none before 3.3.x
-    c_run = simulate(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=1)
+    c_run = record(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=1)
     m_run = mjx64.simulate_many([backends.Request(model, ref.q0(), ref.qd0(), 1)], probe)[0]
     scale = max(1.0, float(np.abs(c_run.invariants["energy"]).max()))
     assert abs(m_run.invariants["energy"][0] - c_run.invariants["energy"][0]) <= 1e-12 * scale
@@ -132,7 +132,7 @@ def test_mjx_reads_what_the_c_engine_reads_at_the_same_state(name):
     # MJX as on the C engine
     flipped = dataclasses.replace(probe, signs={c: -1.0 for c in probe.constraints})
     m_flip = mjx64.simulate_many([backends.Request(model, ref.q0(), ref.qd0(), 1)], flipped)[0]
-    c_flip = simulate(model, flipped, q0=ref.q0(), qd0=ref.qd0(), steps=1)
+    c_flip = record(model, flipped, q0=ref.q0(), qd0=ref.qd0(), steps=1)
     for c in probe.constraints:
         assert np.array_equal(m_flip.multipliers[c], -m_run.multipliers[c])
         assert np.array_equal(m_flip.violations[c], -m_run.violations[c])
@@ -404,7 +404,7 @@ from harness.core.budget import PERTURBED_FACTOR, PERTURBED_RUNS, QUANTIZATION, 
 from harness.engine import backends, variants as V
 from harness.engine.backends import Request
 from harness.engine.models import compile_model
-from harness.engine.simulate import simulate as c_simulate
+from harness.engine.recording import record
 eps = float(np.finfo(np.float32).eps)
 rows = []
 for name in ("pendulum", "double_pendulum"):
@@ -412,11 +412,11 @@ for name in ("pendulum", "double_pendulum"):
         case = cases.get(name); model = compile_model(case.mjcf, integrator=integrator)
         ref = case.reference(model); probe = case.probe(ref.dynamics)
         q0, qd0 = np.asarray(ref.q0(), float), np.asarray(ref.qd0(), float)
-        c = c_simulate(model, probe, q0=q0, qd0=qd0, steps=STEPS)
-        held = c_simulate(V.represented_model(model), probe, q0=q0.astype(np.float32).astype(float),
-                          qd0=qd0.astype(np.float32).astype(float), steps=STEPS)
-        moved = [c_simulate(model, probe, q0=ulp_states(q0, epsilon=eps, seed=k),
-                            qd0=ulp_states(qd0, epsilon=eps, seed=PERTURBED_RUNS + k), steps=STEPS)
+        c = record(model, probe, q0=q0, qd0=qd0, steps=STEPS)
+        held = record(V.represented_model(model), probe, q0=q0.astype(np.float32).astype(float),
+                      qd0=qd0.astype(np.float32).astype(float), steps=STEPS)
+        moved = [record(model, probe, q0=ulp_states(q0, epsilon=eps, seed=k),
+                        qd0=ulp_states(qd0, epsilon=eps, seed=PERTURBED_RUNS + k), steps=STEPS)
                  for k in range(1, PERTURBED_RUNS + 1)]
         if True:
             runs = backends.get(BACKEND).simulate_many(

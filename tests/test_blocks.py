@@ -32,14 +32,13 @@ from analytic.lagrangian import Constraint, LagrangianSystem, coordinates
 from analytic.solvers import solve
 from analytic.systems import Scales
 from harness.core.errors import ModelMismatch
-from harness.engine import native
 from harness.engine.backends import get
 from harness.engine.bindings import JointBinding
 from harness.engine.compat import full_mass_matrix
 from harness.engine.compat import version as mujoco_version
 from harness.engine.constraints import equality_block, equality_force, equality_jacobian, equality_rows
 from harness.engine.probe import Probe
-from harness.engine.simulate import simulate
+from harness.engine.recording import native, record
 from harness.families import COMPARISONS
 from harness.families.sampled import at_states, sample_states
 from harness.reference.solutions import Reference
@@ -179,11 +178,11 @@ def test_the_instant_layer_compares_a_block_per_row_and_as_a_generalized_force(m
 
 
 def test_both_recorders_record_the_block(model):
-    loop = simulate(model, PROBE, q0=Q0, qd0=QD0, steps=200, method="loop")
+    loop = record(model, PROBE, q0=Q0, qd0=QD0, steps=200, method="loop")
     assert loop.multipliers["tip"].shape == (201, 3) and loop.violations["tip"].shape == (201, 3)
     in_c = [m for m, here in (("native", native.library() is not None), ("batch", hasattr(mujoco, "batch"))) if here]
     for method in in_c:
-        got = simulate(model, PROBE, q0=Q0, qd0=QD0, steps=200, method=method)
+        got = record(model, PROBE, q0=Q0, qd0=QD0, steps=200, method=method)
         np.testing.assert_array_equal(got.multipliers["tip"], loop.multipliers["tip"])
         np.testing.assert_array_equal(got.violations["tip"], loop.violations["tip"])
     # the first sample is the consistent initial state: its block is what the soft rows make of λ there

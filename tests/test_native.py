@@ -11,11 +11,11 @@ from pathlib import Path
 import mujoco
 import pytest
 
-from harness.engine import native
-from harness.engine import simulate as simmod
+from harness.engine import recording
 from harness.engine.models import compile_model, mjcf_path
+from harness.engine.recording import native
 
-from .test_simulate import PROBE, Q0, QD0, _arrays
+from .test_recording import PROBE, Q0, QD0, _arrays
 
 
 def _fresh(monkeypatch, tmp_path, **env: str) -> None:
@@ -37,14 +37,14 @@ def _forget():
                                        ({"CC": "/nonexistent/cc"}, "cc could not build it")])
 def test_without_the_native_recorder_another_records_the_same_numbers_and_says_why(monkeypatch, tmp_path, env, says):
     model = compile_model(mjcf_path("pendulum"), integrator="Euler")
-    loop = _arrays(simmod.simulate(model, PROBE, q0=Q0, qd0=QD0, steps=60, method="loop"))
+    loop = _arrays(recording.record(model, PROBE, q0=Q0, qd0=QD0, steps=60, method="loop"))
     _fresh(monkeypatch, tmp_path, **env)
     assert native.library() is None and says in native.why_not() and "\n" not in native.why_not()
-    assert f"no native recorder: {native.why_not()}" in simmod.recorder()
-    got = _arrays(simmod.simulate(model, PROBE, q0=Q0, qd0=QD0, steps=60))
+    assert f"no native recorder: {native.why_not()}" in recording.recorder()
+    got = _arrays(recording.record(model, PROBE, q0=Q0, qd0=QD0, steps=60))
     assert [k for k in loop if not (loop[k] == got[k]).all()] == []
     with pytest.raises(ValueError, match=r"^method 'native' is not available here: .*; accepted here: 'auto'"):
-        simmod.simulate(model, PROBE, q0=Q0, qd0=QD0, steps=60, method="native")
+        recording.record(model, PROBE, q0=Q0, qd0=QD0, steps=60, method="native")
 
 
 def test_a_build_is_kept_in_the_cache_and_found_again(monkeypatch, tmp_path):
@@ -63,7 +63,7 @@ def test_the_native_recorder_uses_the_mujoco_python_loaded():
     bindings registered (a second copy would have its own)."""
     if native.library() is None or not Path("/proc/self/maps").exists():
         pytest.skip("no native recorder here, or no /proc to list the process's libraries")
-    code = ("import mujoco\nfrom harness.engine import native\nassert native.library() is not None\n"
+    code = ("import mujoco\nfrom harness.engine.recording import native\nassert native.library() is not None\n"
             "maps = open('/proc/self/maps').read().splitlines()\n"
             "print(sorted({l.split()[-1] for l in maps if 'libmujoco' in l}))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout

@@ -16,19 +16,18 @@ import numpy as np
 import pytest
 
 from harness.core.errors import ModelMismatch
-from harness.engine import native
-from harness.engine import simulate as simmod
+from harness.engine import recording
 from harness.engine.bindings import JointBinding, velocity_map
 from harness.engine.integrators import available_integrators
 from harness.engine.models import load_spec, mjcf_path
 from harness.engine.points import point_source
 from harness.engine.probe import Probe
-from harness.engine.simulate import point_state, simulate
+from harness.engine.recording import batch, native, point_state, record
 from harness.families.sampled import point_acceleration
 from mjcf.spherical_pendulum_ball import BallBinding
 
 # the recorders in C this MuJoCo has (the native one where it could be built, the batch one where mujoco.batch is)
-IN_C = [m for m, here in (("native", native.library() is not None), ("batch", simmod._batch is not None)) if here]
+IN_C = [m for m, here in (("native", native.library() is not None), ("batch", batch.mujoco_batch is not None)) if here]
 OFFSETS = {"tip1": ("bob1", [0.12, 0.05, -0.2]), "tip2": ("bob2", [-0.07, 0.3, 0.1])}
 
 
@@ -114,11 +113,11 @@ def test_the_recorders_in_c_read_sites_as_the_loop_does(make, method):
     back."""
     for integrator in available_integrators():
         model, probe, q0, qd0 = make(integrator)
-        assert "site_xpos" in simmod.recorded_fields(model, probe)
-        notes = len(simmod.recorder_notes())
-        got = simulate(model, probe, q0=q0, qd0=qd0, steps=120, method=method)
-        loop = simulate(model, probe, q0=q0, qd0=qd0, steps=120, method="loop")
-        assert simmod.recorder_notes()[notes:] == (), f"the {method} recorder fell back to the loop"
+        assert "site_xpos" in recording.recorded_fields(model, probe)
+        notes = len(recording.notes())
+        got = record(model, probe, q0=q0, qd0=qd0, steps=120, method=method)
+        loop = record(model, probe, q0=q0, qd0=qd0, steps=120, method="loop")
+        assert recording.notes()[notes:] == (), f"the {method} recorder fell back to the loop"
         for p in probe.points:
             assert np.array_equal(got.positions[p], loop.positions[p]), (integrator, p)
             assert np.array_equal(got.velocities[p], loop.velocities[p]), (integrator, p)
@@ -127,8 +126,8 @@ def test_the_recorders_in_c_read_sites_as_the_loop_does(make, method):
 def test_bodies_alone_record_no_site_field():
     model = _chain()[0]
     probe = Probe(binding=JointBinding(("theta1", "theta2")), points=("bob1", "bob2"), constraints=())
-    assert "site_xpos" not in simmod.recorded_fields(model, probe)
-    assert "xipos" in simmod.recorded_fields(model, probe)
+    assert "site_xpos" not in recording.recorded_fields(model, probe)
+    assert "xipos" in recording.recorded_fields(model, probe)
 
 
 def test_velocity_map_takes_a_bindings_map_else_its_constant_dof_matrix():

@@ -125,8 +125,8 @@ def test_recorded_solver_iterations_are_solver_iterations():
 
     import numpy as np
 
+    from harness.engine import recording
     from harness.engine.compat import SOLVER_ITERATIONS
-    from harness.engine.simulate import simulate
 
     model = compile_model(mjcf_path("atwood"))
     data = mujoco.MjData(model)
@@ -141,7 +141,7 @@ def test_recorded_solver_iterations_are_solver_iterations():
     ref = case.reference(model)
     probe = case.probe(ref.dynamics)
     probe = dataclasses.replace(probe, series={"niter": SOLVER_ITERATIONS})
-    sim = simulate(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=50)
+    sim = recording.record(model, probe, q0=ref.q0(), qd0=ref.qd0(), steps=50)
     data = mujoco.MjData(model)
     probe.binding.set_state(model, data, ref.q0(), ref.qd0())
     expected = []

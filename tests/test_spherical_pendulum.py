@@ -17,7 +17,7 @@ from harness.engine import compat
 from harness.engine.bindings import JointBinding, velocity_map
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model, mjcf_path
-from harness.engine.simulate import point_state
+from harness.engine.recording import point_state
 from harness.families.sampled import point_acceleration, pull_back, sample_states
 from harness.pipeline.run import run_case
 from harness.reference import derivations

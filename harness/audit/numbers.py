@@ -30,7 +30,7 @@ from harness.audit.view import T_SYMBOL, DocView, resolve
 from harness.engine.bindings import JointBinding
 from harness.engine.constraints import equality_block
 from harness.engine.models import compile_model
-from harness.engine.simulate import steps_in
+from harness.engine.recording import steps_in
 
 SAMPLES = 40
 AGREEMENT = 10.0

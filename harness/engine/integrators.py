@@ -33,7 +33,7 @@ def _rk4(model: mujoco.MjModel, data: mujoco.MjData) -> None:
 def _discrete(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     """mj_Euler without its implicit damping (``eulerdamp`` off for the call): the damping is already in
     the step map qacc holds. mj_Euler as it is solves it a second time on a damped model (arm7 at its
-    first step, tests/test_simulate.py)."""
+    first step, tests/test_recording.py)."""
     flags = model.opt.disableflags
     model.opt.disableflags = flags | int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
     try:

@@ -43,7 +43,7 @@ from harness.engine.integrators import EXPECTED_ORDER
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
 from harness.engine.readings import Reading
-from harness.engine.simulate import steps_in
+from harness.engine.recording import steps_in
 from harness.engine.variants import compose
 from harness.families.bench import Bench, Measured
 from harness.reference.tree import TreeEdit

@@ -38,7 +38,7 @@ from harness.engine import backends
 from harness.engine.backends import simulate
 from harness.engine.integrators import available_integrators, integrator_name
 from harness.engine.models import compile_model
-from harness.engine.simulate import steps_in
+from harness.engine.recording import steps_in
 from harness.engine.variants import SETTLE_TIMECONSTS, ModelUnderTest, compose, contact_timeconst
 from harness.families import runs, sampled
 from harness.reference import derivations

@@ -67,7 +67,7 @@ from harness.engine.backends import Backend, Request, simulate
 from harness.engine.compat import joint_types, known_defect
 from harness.engine.integrators import EXPECTED_ORDER, available_integrators
 from harness.engine.models import compile_model
-from harness.engine.simulate import steps_in
+from harness.engine.recording import steps_in
 from harness.engine.variants import exact_solver, floors_pair, point_masses
 from harness.families.bench import Bench, Measured
 from harness.reference import solutions as refmod

@@ -145,7 +145,7 @@ from harness.engine.backends import Backend, Request, simulate
 from harness.engine.compat import applicable_defect, joint_types
 from harness.engine.integrators import EXPECTED_ORDER, integrator_name
 from harness.engine.probe import Probe
-from harness.engine.simulate import simulate as c_simulate
+from harness.engine.recording import record
 
 INTEGRATION_UNCERTAINTY = 0.25
 ROUNDOFF = ROUNDOFF_EPS * float(np.finfo(float).eps)
@@ -576,8 +576,8 @@ def _represented(probe: Probe, target: Target, model: mujoco.MjModel, *, steps: 
     coordinates rounded to float32, beside the model as it is. What a float32 backend holds differs so from
     the model before its first step, and no round-off copy moves it (every copy holds the same numbers)."""
     q0, qd0 = np.asarray(target.q0, float), np.asarray(target.qd0, float)
-    base = c_simulate(model, probe, q0=q0, qd0=qd0, steps=steps)
-    rounded = c_simulate(V.represented_model(model), probe, q0=q0.astype(np.float32).astype(float),
+    base = record(model, probe, q0=q0, qd0=qd0, steps=steps)
+    rounded = record(V.represented_model(model), probe, q0=q0.astype(np.float32).astype(float),
                          qd0=qd0.astype(np.float32).astype(float), steps=steps)
     rounded = dataclasses.replace(rounded, t=base.t)  # at the nominal times k h, as the backends record theirs
     name = integrator_name(model)
@@ -593,10 +593,10 @@ def _quantized(probe: Probe, target: Target, model: mujoco.MjModel, *, steps: in
     q0, qd0 = np.asarray(target.q0, float), np.asarray(target.qd0, float)
     eps = float(np.finfo(np.float32).eps)
     name = integrator_name(model)
-    base = compared(target, c_simulate(model, probe, q0=q0, qd0=qd0, steps=steps), name)
+    base = compared(target, record(model, probe, q0=q0, qd0=qd0, steps=steps), name)
     out = {d.name.measure: 0.0 for d in base}
     for k in range(1, PERTURBED_RUNS + 1):
-        moved = c_simulate(model, probe, q0=ulp_states(q0, epsilon=eps, seed=k),
+        moved = record(model, probe, q0=ulp_states(q0, epsilon=eps, seed=k),
                            qd0=ulp_states(qd0, epsilon=eps, seed=PERTURBED_RUNS + k), steps=steps)
         for a, b in zip(base, compared(target, moved, name), strict=True):
             out[a.name.measure] = max(out[a.name.measure], a.magnitude(b.values - a.values))

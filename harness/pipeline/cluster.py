@@ -94,9 +94,9 @@ def shutdown() -> None:
 
 
 def _call(fn: Callable[..., Any], args: tuple) -> Any:
-    from harness.engine import simulate  # lazy: imported in the worker, where the task runs
+    from harness.engine import recording  # lazy: imported in the worker, where the task runs
 
-    simulate.set_threads(1)  # one task per CPU: the tasks, not MuJoCo's threads, share the cores
+    recording.set_threads(1)  # one task per CPU: the tasks, not MuJoCo's threads, share the cores
     return fn(*args)
 
 

@@ -27,7 +27,7 @@ from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from typing import Any
 
 from harness.core.lifetime import die_with_parent
-from harness.engine import simulate
+from harness.engine import recording
 from harness.pipeline.executor import LOCAL, Executor
 
 
@@ -49,7 +49,7 @@ def _worker_init(parent: int) -> None:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler, inherited by the fork
     signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD)  # held by the parent while it forked (fork_pool)
     die_with_parent(parent)
-    simulate.set_threads(1)  # one worker per CPU: the workers, not MuJoCo's threads, share the cores
+    recording.set_threads(1)  # one worker per CPU: the workers, not MuJoCo's threads, share the cores
 
 
 @contextlib.contextmanager

@@ -21,10 +21,9 @@ from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
 from harness.core.options import RunOptions
 from harness.core.trajectory import Trajectory
+from harness.engine import recording
 from harness.engine.compat import fallbacks, joint_types, unavailable_reason
 from harness.engine.models import authored
-from harness.engine.simulate import recorder
-from harness.engine.simulate import recorder_notes as simulate_notes
 from harness.families import COMPARISONS, FAMILIES, invariants, trajectory
 from harness.families.bench import Bench, Measured
 from harness.pipeline.settings import ModelSettings, RunSettings, authored_differences, changed_settings
@@ -137,7 +136,7 @@ def run_case(case: Case, options: RunOptions | None = None) -> CaseResult:
     cannot.
     """
     options = options or RunOptions()
-    recorder_notes = len(simulate_notes())
+    recorder_notes = len(recording.notes())
     bench = Bench(case, options, COMPARISONS)
     measured = [(family.NAME, family.measure(bench)) for family in FAMILIES]
     case, model, ref = bench.case, bench.model, bench.reference
@@ -188,9 +187,9 @@ def run_case(case: Case, options: RunOptions | None = None) -> CaseResult:
         model=ModelSettings.of(model), mjcf=str(bench.path), horizon=case.horizon, settle=bench.settle[0],
         params=dict(ref.params), q0=dict(zip(ref.dynamics.coordinates, ref.initial[0], strict=True)),
         qd0=dict(zip(ref.dynamics.coordinates, ref.initial[1], strict=True)), integrators=tuple(sims),
-        recorder=recorder(), changed=changed, projected=tuple(ref.projected), tree=tree, families=families,
+        recorder=recording.recorder(), changed=changed, projected=tuple(ref.projected), tree=tree, families=families,
         # the batch recorder handed some runs to the loop: shown, never silent
-        recorder_fallbacks=tuple(dict.fromkeys(simulate_notes()[recorder_notes:])),
+        recorder_fallbacks=tuple(dict.fromkeys(recording.notes()[recorder_notes:])),
         compat=(*fallbacks(str(bench.path)), *(unavailable_reason(f"{n}.position") for n in missing)),
         # the C backend's settings stay as they always were (baselines, reports)
         backend=None if engine.name == "c" else {

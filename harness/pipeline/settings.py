@@ -84,7 +84,7 @@ class RunSettings:
         params: the system's parameters as read from the model.
         q0, qd0: the initial state, by analytic coordinate.
         integrators: the integrators run.
-        recorder: how MuJoCo's runs were recorded (:func:`harness.engine.simulate.recorder`).
+        recorder: how MuJoCo's runs were recorded (:func:`harness.engine.recording.recorder`).
         changed: every setting or parameter that differs from the shipped model,
             ``{name: {"shipped": a, "tested": b}}``.
         projected: what the initial state's projection onto the constraints moved.

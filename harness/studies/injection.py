@@ -34,7 +34,7 @@ from harness.engine.integrators import EXPECTED_ORDER
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
 from harness.engine.readings import Reading
-from harness.engine.simulate import steps_in
+from harness.engine.recording import steps_in
 from harness.engine.variants import compose
 from harness.families.balance import POWER, POWER_FIELDS, balance_figures, cumulative_work
 from harness.reference.tree import TreeEdit, prepare

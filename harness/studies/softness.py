@@ -41,7 +41,7 @@ from harness.engine import backends
 from harness.engine.backends import Backend, simulate
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
-from harness.engine.simulate import steps_in
+from harness.engine.recording import steps_in
 from harness.families.convergence import initial_force_floor
 from harness.reference import solutions as refmod
 

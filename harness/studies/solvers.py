@@ -28,7 +28,7 @@ from harness.engine.backends import Backend, simulate
 from harness.engine.compat import SOLVER_ITERATIONS
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
-from harness.engine.simulate import steps_in
+from harness.engine.recording import steps_in
 from harness.reference import solutions as refmod
 
 SOLVERS: tuple[str, ...] = ("Newton", "CG", "PGS")

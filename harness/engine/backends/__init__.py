@@ -7,7 +7,7 @@ The rest of the harness never knows which one ran. A backend takes compiled
 reads: positions and velocities of the named points, the equalities'
 multipliers and violations, energy, generalized constraint force, readings.
 
-``c``        MuJoCo's C engine, the recorders of :mod:`harness.engine.simulate`
+``c``        MuJoCo's C engine, the recorders of :mod:`harness.engine.recording`
              (float64; the default, unchanged bit for bit).
 ``mjx``      MJX's JAX implementation (``mujoco-mjx``), float32, what a policy
              trained on MJX runs with by default.
@@ -42,8 +42,8 @@ import numpy as np
 
 from harness.core.errors import BackendUnavailable
 from harness.core.trajectory import Trajectory
+from harness.engine import recording
 from harness.engine.probe import Probe
-from harness.engine.simulate import simulate as c_simulate
 
 BACKENDS: tuple[str, ...] = ("c", "mjx", "mjx-f64", "warp")
 """Every backend's name, as ``--backend`` and ``validate(backend=...)`` accept them (and ``all``)."""
@@ -195,7 +195,7 @@ def get(name: str) -> Backend:
 
 def simulate(engine: Backend, model: mujoco.MjModel, probe: Probe, *, q0: Sequence[float], qd0: Sequence[float],
              steps: int) -> Trajectory:
-    """One run on ``engine`` (:func:`harness.engine.simulate.simulate`'s contract)."""
+    """One run on ``engine`` (:func:`harness.engine.recording.record`'s contract)."""
     if engine.name == "c":  # the C recorders as they always ran: bit for bit the default install's numbers
-        return c_simulate(model, probe, q0=q0, qd0=qd0, steps=steps)
+        return recording.record(model, probe, q0=q0, qd0=qd0, steps=steps)
     return engine.simulate_many([Request(model, np.asarray(q0, float), np.asarray(qd0, float), steps)], probe)[0]

@@ -1,6 +1,6 @@
-"""The C backend: MuJoCo's own engine through the recorders of :mod:`harness.engine.simulate`.
+"""The C backend: MuJoCo's own engine through the recorders of :mod:`harness.engine.recording`.
 
-Nothing is changed for it: each request goes to the same ``simulate`` the
+Nothing is changed for it: each request goes to the same ``recording.record`` the
 harness always called (the batch recorder in C where ``mujoco.batch``
 exists), so its numbers are bit for bit those of the default install.
 """
@@ -13,11 +13,11 @@ import mujoco
 import numpy as np
 
 from harness.core.trajectory import Trajectory
+from harness.engine import recording
 from harness.engine.backends import Forward, Request, computes_reactions
 from harness.engine.compat import full_mass_matrix
 from harness.engine.constraints import equality_block
 from harness.engine.probe import Probe
-from harness.engine.simulate import simulate
 
 
 class CBackend:
@@ -41,7 +41,7 @@ class CBackend:
 
     def simulate_many(self, requests: Sequence[Request], probe: Probe) -> list[Trajectory]:
         """One C rollout per request (each already runs in C; there is nothing to batch across Python)."""
-        return [simulate(r.model, probe, q0=r.q0, qd0=r.qd0, steps=r.steps) for r in requests]
+        return [recording.record(r.model, probe, q0=r.q0, qd0=r.qd0, steps=r.steps) for r in requests]
 
     def forward_many(self, model: mujoco.MjModel, probe: Probe, qpos: np.ndarray, qvel: np.ndarray) -> Forward:
         """``mj_forward`` at each state (from a reset MjData: a zero warm start), the arrays copied."""

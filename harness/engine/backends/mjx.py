@@ -74,7 +74,7 @@ from harness.engine.integrators import integrator_name
 from harness.engine.points import point_source
 from harness.engine.probe import Probe
 from harness.engine.readings import fields_of
-from harness.engine.simulate import _evaluate_readings, _point_velocity
+from harness.engine.recording.assemble import evaluate_readings, point_velocity
 
 CHUNK = 250
 """Steps per compiled scan: a run of N steps is ⌈N / CHUNK⌉ calls of one compiled function."""
@@ -379,7 +379,7 @@ def _trajectory(request: Request, probe: Probe, rec: dict[str, np.ndarray]) -> T
     for p in probe.points:
         source = point_source(model, p)
         positions[p] = rec[source.field][:, source.index].copy()
-        velocities[p] = _point_velocity(model, rec, rec["qvel"], positions[p], source.body)
+        velocities[p] = point_velocity(model, rec, rec["qvel"], positions[p], source.body)
     rows = equality_rows(model)
     lam, viol = {}, {}
     for c in probe.constraints:
@@ -389,7 +389,7 @@ def _trajectory(request: Request, probe: Probe, rec: dict[str, np.ndarray]) -> T
         lam[c], viol[c] = (force[:, 0], pos[:, 0]) if force.shape[1] == 1 else (force, pos)
     potential, kinetic = energy(model, rec)
     fields = {f: v for f, v in rec.items() if f not in ("qpos", "qvel")}
-    readings = _evaluate_readings(model, probe, t, rec["qpos"], rec["qvel"], fields)
+    readings = evaluate_readings(model, probe, t, rec["qpos"], rec["qvel"], fields)
     dof = probe.binding.dof_matrix(model)
     return Trajectory(
         t=t, positions=positions, velocities=velocities,

@@ -21,7 +21,7 @@ derived fields a Trajectory needs (point positions, ``cdof``, ``subtree_com``, e
 by *one* batched ``forward`` with one world per recorded state (``set_state`` of that row,
 warm start included, so each is the forward the step itself made at that state — and for
 RK4 the fields of the state, not of the last stage). From there the arrays go through the
-same assembly as the C batch recorder's (:mod:`harness.engine.simulate`): the same points,
+same assembly as the C batch recorder's (:mod:`harness.engine.recording`): the same points,
 velocities J·qvel from ``cdof``, readings, equalities; what Warp does not compute is computed
 by the harness from Warp's own arrays, never from the C engine's.
 
@@ -60,7 +60,7 @@ from harness.engine.backends.completion import completed_run
 from harness.engine.constraints import equality_size
 from harness.engine.integrators import integrator_name
 from harness.engine.probe import Probe
-from harness.engine.simulate import _assemble, _evaluate_readings, _trajectory, recorded_fields
+from harness.engine.recording.assemble import Run, evaluate_readings, recorded_fields, trajectory
 
 # Before mujoco_warp loads Warp: no banner, no line per compiled module (warnings still show), and the
 # kernels cached beside the harness's own disk cache.
@@ -349,14 +349,14 @@ def _run_group(requests: Sequence[Request], wmodels: Sequence[object], probe: Pr
         run_fields = {f: np.ascontiguousarray(v[take]) for f, v in fields.items()}
         if "energy" in run_fields and run_fields["energy"].ndim == 1:
             run_fields["energy"] = run_fields["energy"].reshape(-1, 2)
-        run = _assemble(r.model, probe, run_states, run_fields)
+        run = Run.from_record(r.model, probe, run_states, run_fields)
         for c, (force, pos) in eqs.items():
             if c not in run.lam:  # a joint equality recovered from Warp's qfrc_constraint is kept
                 sign = probe.sign(c)  # a tendon whose rows are −1 × the analytic constraint's (Probe.signs)
                 run.lam[c], run.viol[c] = sign * force[take], sign * pos[take]
-        run.readings = _evaluate_readings(r.model, probe, run.t, run_states[:, 1:1 + r.model.nq],
-                                          run_states[:, 1 + r.model.nq:1 + r.model.nq + r.model.nv], run_fields)
-        traj = dataclasses.replace(_trajectory(r.model, probe, run), source=f"warp:{integrator_name(r.model)}")
+        run.readings = evaluate_readings(r.model, probe, run.t, run_states[:, 1:1 + r.model.nq],
+                                         run_states[:, 1 + r.model.nq:1 + r.model.nq + r.model.nv], run_fields)
+        traj = dataclasses.replace(trajectory(r.model, probe, run), source=f"warp:{integrator_name(r.model)}")
         if probe.constraints:
             nq, nv = r.model.nq, r.model.nv
             traj = completed_run(r.model, probe, traj, qpos=run_states[:, 1:1 + nq],

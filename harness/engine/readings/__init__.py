@@ -4,7 +4,7 @@ A reading (an angular momentum, a contact force, a slip velocity) is a
 function of fixed-size ``MjData`` fields — the ones it names in ``fields`` —
 and of the state (``qpos``, ``qvel``, ``time``, always available), evaluated
 over a whole run at once: arrays with a leading axis of one row per sample.
-The recorders (``harness.simulate``) record those fields in C at every step
+The recorders (:mod:`harness.engine.recording`) record those fields in C at every step
 with the rest of the run, so a reading costs a few numpy operations per run
 rather than an ``mj_forward`` and a Python call per sample; both recorders
 hand a reading the same arrays, so they give the same numbers bit for bit.
@@ -38,11 +38,17 @@ class Reading:
             leading axis of N samples, each the field after ``mj_forward``
             at that sample's state.
         description: one line, with the unit.
+        about: for a projection of a subtree's angular momentum, (the subtree's root body, the site it is
+            taken about): the native recorder computes that momentum in C as it steps and hands it in the
+            record (:func:`harness.engine.readings.momentum.about_key`), so that it is not recomputed in numpy;
+            the reading then reads the fields the momentum is made of
+            (:data:`~harness.engine.readings.momentum.MOMENTUM_FIELDS`) only through it.
     """
 
     fields: tuple[str, ...]
     evaluate: Evaluate
     description: str
+    about: tuple[str, str] | None = None
 
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> float:
         """The reading at ``data``'s state (``mj_forward`` must have run)."""

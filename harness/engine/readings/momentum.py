@@ -13,7 +13,9 @@ c = ``subtree_com`` of b's root, and linear momentum; the product is
 body's inertia about c (its own spin included), so this is the quantity
 MuJoCo's dynamics conserves when gravity is along the axis; it is what
 ``mj_subtreeVel`` assembles (pinned against it in
-tests/test_spherical_pendulum.py and tests/test_hoop_plane.py).
+tests/test_spherical_pendulum.py and tests/test_hoop_plane.py). The native recorder computes L_o in C
+with the same operations as it steps (:attr:`harness.engine.readings.Reading.about`), checked at one sample
+of every run against :func:`about_at`, this module's arithmetic on floats.
 """
 
 from __future__ import annotations
@@ -37,22 +39,34 @@ def subtree(model: mujoco.MjModel, body: int) -> list[int]:
     return inside
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b for vectors stored as rows of (3, N) arrays."""
-    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+# The arithmetic below is written componentwise, so that one formula serves a whole run (each component a row of
+# samples, numpy) and one sample (each a float: the same IEEE operations, so the same numbers bit for bit).
+Components = tuple  # three rows (N,) of samples, or three floats
 
 
-def _spatial_momentum(inert: np.ndarray, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """mju_mulInertVec over samples: (angular momentum about the com-frame origin, linear momentum),
-    each (3, N), from cinert rows (10, N) and cvel rows (6, N)."""
+def _cross(a: Sequence, b: Sequence) -> Components:
+    """a × b, componentwise."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _spatial_momentum(inert: Sequence, vel: Sequence) -> tuple[Components, Components]:
+    """mju_mulInertVec, componentwise: (angular momentum about the com-frame origin, linear momentum), from
+    cinert's 10 components and cvel's 6."""
     i, v = inert, vel
-    angular = np.stack([i[0] * v[0] + i[3] * v[1] + i[4] * v[2] - i[8] * v[4] + i[7] * v[5],
-                        i[3] * v[0] + i[1] * v[1] + i[5] * v[2] + i[8] * v[3] - i[6] * v[5],
-                        i[4] * v[0] + i[5] * v[1] + i[2] * v[2] - i[7] * v[3] + i[6] * v[4]])
-    linear = np.stack([i[8] * v[1] - i[7] * v[2] + i[9] * v[3],
-                       i[6] * v[2] - i[8] * v[0] + i[9] * v[4],
-                       i[7] * v[0] - i[6] * v[1] + i[9] * v[5]])
+    angular = (i[0] * v[0] + i[3] * v[1] + i[4] * v[2] - i[8] * v[4] + i[7] * v[5],
+               i[3] * v[0] + i[1] * v[1] + i[5] * v[2] + i[8] * v[3] - i[6] * v[5],
+               i[4] * v[0] + i[5] * v[1] + i[2] * v[2] - i[7] * v[3] + i[6] * v[4])
+    linear = (i[8] * v[1] - i[7] * v[2] + i[9] * v[3],
+              i[6] * v[2] - i[8] * v[0] + i[9] * v[4],
+              i[7] * v[0] - i[6] * v[1] + i[9] * v[5])
     return angular, linear
+
+
+def _body_about(inert: Sequence, vel: Sequence, lever: Sequence) -> Components:
+    """A body's angular momentum about a point, componentwise: its own about the com-frame origin plus
+    lever × its linear momentum, ``lever`` from the point to the com-frame origin."""
+    angular, linear = _spatial_momentum(inert, vel)
+    return tuple(a + c for a, c in zip(angular, _cross(lever, linear), strict=True))
 
 
 def axial_angular_momentum(*, body: str, site: str, axis: Sequence[float] = (0.0, 0.0, 1.0),
@@ -76,10 +90,21 @@ def axial_angular_momentum(*, body: str, site: str, axis: Sequence[float] = (0.0
         return np.einsum("kn,nk->n", total, turned)
 
     where = "" if frame is None else f" fixed in body {frame!r}"
-    fields = ("site_xpos", "cinert", "cvel", "subtree_com", *(() if frame is None else ("xmat",)))
+    fields = (*MOMENTUM_FIELDS, *(() if frame is None else ("xmat",)))
     return Reading(fields=fields, evaluate=evaluate,
                    description=f"axis {unit.tolist()}{where} · angular momentum of subtree {body!r} about site "
-                               f"{site!r} (kg m²/s)")
+                               f"{site!r} (kg m²/s)", about=(body, site))
+
+
+# the fields L_o is made of: a reading whose momentum the recorder hands it reads them through it alone
+MOMENTUM_FIELDS: tuple[str, ...] = ("site_xpos", "cinert", "cvel", "subtree_com")
+
+
+def about_key(body: str, site: str) -> str:
+    """Where a record may hold L_o (3, N) of the subtree rooted at ``body`` about ``site``, computed by the
+    recorder (the native one computes it in C with :func:`_about`'s arithmetic, checked at one sample of every
+    run against this module's)."""
+    return f"angular momentum of {body} about {site}"
 
 
 # the last run's angular momenta by (model, body, site): a run's readings of one subtree about one site (p_phi, L_x,
@@ -87,20 +112,34 @@ def axial_angular_momentum(*, body: str, site: str, axis: Sequence[float] = (0.0
 _memo = threading.local()
 
 
+def about_at(model: mujoco.MjModel, data: mujoco.MjData, body: str, site: str) -> np.ndarray:
+    """L_o (3,) of the subtree rooted at ``body`` about ``site`` at ``data``'s state (after mj_forward): the
+    reading's arithmetic on one sample, in floats, bit for bit what it computes over a run."""
+    origin = data.site_xpos[model.site(site).id].tolist()
+    total = [0.0, 0.0, 0.0]
+    for b in subtree(model, model.body(body).id):
+        lever = [c - o for c, o in zip(data.subtree_com[model.body_rootid[b]].tolist(), origin, strict=True)]
+        total = [t + x for t, x in zip(total, _body_about(data.cinert[b].tolist(), data.cvel[b].tolist(), lever),
+                                       strict=True)]
+    return np.array(total)
+
+
 def _about(model: mujoco.MjModel, rec: Mapping[str, np.ndarray], body: str, site: str) -> np.ndarray:
-    """L_o (3, N) of the subtree rooted at ``body`` about ``site`` over the run ``rec``, computed once per run."""
+    """L_o (3, N) of the subtree rooted at ``body`` about ``site`` over the run ``rec``, computed once per run
+    (the recorder's, where it gave it: :func:`about_key`)."""
     kept = getattr(_memo, "run", None)
     if kept is None or kept[0] is not rec:
         kept = _memo.run = (rec, {})
     key = (id(model), body, site)
     if key not in kept[1]:
-        rows = np.ascontiguousarray  # (3, N) rows of contiguous samples: fast elementwise operations
-        origin = rows(rec["site_xpos"][:, model.site(site).id].T)
-        total = np.zeros((3, origin.shape[1]))
-        for b in subtree(model, model.body(body).id):
-            angular, linear = _spatial_momentum(rows(rec["cinert"][:, b].T), rows(rec["cvel"][:, b].T))
-            lever = rows(rec["subtree_com"][:, model.body_rootid[b]].T) - origin
-            total += angular + _cross(lever, linear)
+        total = rec.get(about_key(body, site))
+        if total is None:
+            rows = np.ascontiguousarray  # (3, N) rows of contiguous samples: fast elementwise operations
+            origin = rows(rec["site_xpos"][:, model.site(site).id].T)
+            total = np.zeros((3, origin.shape[1]))
+            for b in subtree(model, model.body(body).id):
+                lever = rows(rec["subtree_com"][:, model.body_rootid[b]].T) - origin
+                total += np.stack(_body_about(rows(rec["cinert"][:, b].T), rows(rec["cvel"][:, b].T), lever))
         kept[1][key] = (model, total)  # the model held too: its id is not reused meanwhile
     return kept[1][key][1]
 
@@ -112,8 +151,8 @@ def _total(model: mujoco.MjModel, recorded: Mapping[str, np.ndarray]) -> tuple[n
     for b in range(1, model.nbody):
         spin, push = _spatial_momentum(recorded["cinert"][:, b].T, recorded["cvel"][:, b].T)
         c = recorded["subtree_com"][:, int(model.body_rootid[b])].T
-        linear += push
-        angular += spin + _cross(c, push)
+        linear += np.stack(push)
+        angular += np.stack(spin) + np.stack(_cross(c, push))
     return linear, angular
 
 
