@@ -83,9 +83,9 @@ def record(
     """Step ``model`` with its own integrator and timestep, recording every state.
 
     Returns ``steps + 1`` samples at t = k·h, k = 0 .. steps: the time the state after k steps stands for.
-    MuJoCo's own clock adds h at every step and drifts from it by its round-off (5.000000000015821 s
-    after 250 000 steps of 2e-5 s), a time that is no property of the state: a reference sampled there
-    would be off by the velocity times the drift, and past its horizon. Raises SimulationDiverged
+    MuJoCo's own clock adds h at every step and drifts from it by its accumulated round-off, a time that
+    is no property of the state: a reference sampled there would be off by the velocity times the drift,
+    and past its horizon. Raises SimulationDiverged
     on NaN or MuJoCo warnings, ModelMismatch if the model lacks what the probe
     reads. ``method``: ``auto`` (the native recorder where it could be built, else the
     batch recorder where ``mujoco.batch`` exists, else the loop), ``native``, ``batch``

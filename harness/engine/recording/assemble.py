@@ -35,7 +35,7 @@ from harness.engine.recording.scratch import SPARE, keep
 # always (energy, generalized constraint force), for points (position: site_xpos or xipos as the points
 # are sites or bodies; and velocity as mj_jac assembles it) and for joint equalities recovered from
 # qfrc_constraint (the row count, to know every row is theirs).
-# Each costs about 1 % of a small model's step; a non-finite qacc is MuJoCo's own warning (mj_checkAcc).
+# Each is cheap beside a step (docs/findings/speed.md); a non-finite qacc is MuJoCo's own warning (mj_checkAcc).
 ALWAYS_FIELDS: tuple[str, ...] = ("qfrc_constraint", "energy")
 POINT_FIELDS: tuple[str, ...] = ("subtree_com", "cdof")  # with each point's own position field
 EQUALITY_FIELDS: tuple[str, ...] = ("nefc",)

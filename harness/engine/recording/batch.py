@@ -74,7 +74,7 @@ def _new_batch(model: mujoco.MjModel, nsim: int, data: mujoco.MjData, *, threads
 
 def _take_batch(model: mujoco.MjModel, data: mujoco.MjData) -> mujoco_batch.Batch:
     """A one-simulation batch of ``model`` (this very object: a batch keeps its model), reused from an
-    earlier run where one was given back (making one costs about 0.1 ms, 3 % of a short rollout).
+    earlier run where one was given back (making one costs a share of a short rollout: docs/findings/speed.md).
     Every run sets the whole integration state, and a step starts from it alone (mj_forward), so
     nothing leaks from one run to the next (pinned bit for bit against the loop)."""
     spare = _spare_batches.pop(id(model), None)
@@ -134,8 +134,8 @@ def _warning_time(states: np.ndarray) -> float:
 
 
 def _chunk_sizes(steps: int) -> list[int]:
-    """Halving chunks (half the run, a quarter, ...) down to at most 2·_MIN_CHUNK steps. A forward costs
-    about a quarter of an RK4 step, so a chunk's recomputation ends while the next, half as long,
+    """Halving chunks (half the run, a quarter, ...) down to at most 2·_MIN_CHUNK steps. A forward is one of
+    an RK4 step's four evaluations, so a chunk's recomputation ends while the next, half as long,
     steps; what is left after the last step is the last chunk's, a few dozen states."""
     sizes, left = [], steps
     while left > 2 * _MIN_CHUNK:
@@ -145,8 +145,8 @@ def _chunk_sizes(steps: int) -> list[int]:
 
 
 def _even_chunk_sizes(steps: int) -> list[int]:
-    """About _EVEN_CHUNKS equal chunks of at least _MIN_CHUNK steps. Reading a state's equalities costs
-    about what stepping it does (a forward), so the other thread keeps pace with chunks of one size and
+    """About _EVEN_CHUNKS equal chunks of at least _MIN_CHUNK steps. Reading a state's equalities is a forward,
+    as a step of the integrators but RK4 is, so the other thread keeps pace with chunks of one size and
     what is left after the last step is the last chunk's reading."""
     size = max(_MIN_CHUNK, -(-steps // _EVEN_CHUNKS))
     return [size] * (steps // size) + ([steps % size] if steps % size else [])

@@ -3,7 +3,8 @@
 Each step is ``mj_forward`` (the derived fields of the current state) between the checks ``mj_step``
 makes around it (``mj_checkPos/Vel/Acc``: a huge or non-finite value is a MuJoCo warning), the record,
 then the integrator's own function: the same work ``mj_step`` does, in the same order, bit-identical to
-it. It costs a Python round trip per sample, several times MuJoCo's own step, so it records where
+it. It costs a Python round trip per sample, more than MuJoCo's own step on a small model
+(docs/findings/speed.md), so it records where
 neither recorder in C can (MuJoCo 3.3 without a C compiler) and wherever their check against a fresh
 ``mj_forward`` fails.
 """

@@ -3,7 +3,7 @@
 Why: the constrained cases need ``efc_force``/``efc_pos`` at every state. They
 lie in MuJoCo's arena, whose size changes from step to step, so
 ``mujoco.batch`` can neither record nor bind them, and reading them from
-Python costs a forward per state (about a step). ``native_record.c`` steps with
+Python costs a forward per state (what a step of Euler costs). ``native_record.c`` steps with
 ``mj_step`` as ``mujoco.batch`` does (fields shifted by one; RK4: checked
 forward, copy, then ``mj_RungeKutta``, as the loop recorder does) and records at
 every sample the integration state, the fixed-size fields the rest needs

@@ -1,8 +1,8 @@
 """What the recorders reuse from run to run: MjData and the arrays a run is recorded into.
 
 Why: a study or a budget records many short runs of models of one layout (compiled from one MJCF with other
-options), and making their working space costs as much as a short rollout: an MjData about 0.35 ms, and fresh
-recording arrays of a few MB a page fault per 4 KiB when first written (about a sixth of a short rollout). So
+options), and making their working space costs a share of a short rollout worth keeping (docs/findings/speed.md):
+an MjData, and fresh recording arrays of a few MB, a page fault per 4 KiB when first written. So
 each is kept, a few per layout, for the next run. Nothing leaks: every run sets the whole integration state it
 starts from, and a Trajectory keeps copies, never these arrays.
 """
