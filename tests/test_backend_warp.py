@@ -271,7 +271,10 @@ def test_run_shows_the_c_engine_and_warp_side_by_side(tmp_path):
     side = doc["backends"]
     assert [(b["name"], sorted(b["checks"])) for b in side["backends"]] == [
         ("c", ["pendulum", "symmetric_top"]), ("warp", ["pendulum", "symmetric_top"])]
-    assert side["backends"][0]["checks"]["pendulum"].keys() == side["backends"][1]["checks"]["pendulum"].keys()
+    # the same gated figures on both, but the second opinions', which judge MuJoCo's C engine alone
+    # (harness/families/peers.py; measured wherever Pinocchio is installed, as the test extra installs it)
+    c_checks, warp_checks = (set(b["checks"]["pendulum"]) for b in side["backends"])
+    assert c_checks - {k for k in c_checks if k.startswith("instant.peer.")} == warp_checks
 
 
 @pytest.mark.slow

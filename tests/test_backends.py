@@ -199,7 +199,7 @@ def test_mjx_float32_passes_and_a_fault_still_fails():
         " edit=lambda s: set_damping(s.joint('theta'), 1e-3))\n"
         "print(json.dumps({'ok': ok.passed, 'ok_failures': [c.name for c in ok.failures],"
         " 'bad': bad.passed, 'bad_failures': [c.name for c in bad.failures],"
-        " 'precision': ok.settings['backend']['precision']}))\n")
+        " 'precision': ok.settings.backend['precision']}))\n")
     assert found["precision"] == "float32"
     assert found["ok"], found["ok_failures"]
     assert not found["bad"] and "RK4.position" in found["bad_failures"]
