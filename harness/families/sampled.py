@@ -173,7 +173,8 @@ class Sample:
     the analytic side, evaluated once and shared by every family that compares here.
 
     Attributes:
-        model, probe, reference: what was evaluated, and against what.
+        model, probe, reference: what the figures are compared on (the model evaluated, or for its copy with
+            its constants rounded to float32, the model's own), and against what.
         q, qd: the sampled analytic states (a row each).
         backend: the engine's name.
         got: MuJoCo's side per state: ``mass``, ``forcing``, ``qacc``, ``gen`` (through the binding's dof map,
@@ -296,10 +297,11 @@ def _carry(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, fwd: Forwar
 
 def _measure(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarray, qd: np.ndarray, *,
              states: tuple[np.ndarray, np.ndarray] | None, fwd: Forward | None, offset: int, backend: str,
-             dynamics: object = None) -> Sample:
+             dynamics: object = None, compared_on: mujoco.MjModel | None = None) -> Sample:
     """The engine's side at each state: the C engine's ``mj_forward`` at (q, q̇) (through the binding), or at
     MuJoCo's coordinates ``states`` (qpos, qvel), carrying the backend's dynamics ``fwd`` (rows ``offset``..)
-    where the backend is not C; beside the analytic side, ``dynamics`` (default: the reference's)."""
+    where the backend is not C; beside the analytic side, ``dynamics`` (default: the reference's), compared on
+    ``compared_on`` (default: ``model``; the model's own where ``model`` is its copy with constants rounded)."""
     dyn = ref.dynamics
     constant = probe.binding.dof_matrix(model) is not None
     mapped = getattr(probe.binding, "velocity_map", None) is not None
@@ -341,7 +343,8 @@ def _measure(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarray,
             got_lam[c].append(probe.sign(c) * force)
             if coordinates and force.size > 1:
                 got_block_gen[c].append(dof.T @ (equality_jacobian(model, data, c).T @ force))
-    return Sample(model=model, probe=probe, reference=ref, q=q, qd=qd, backend=backend, got=got, force=got_lam,
+    return Sample(model=compared_on if compared_on is not None else model, probe=probe, reference=ref, q=q, qd=qd,
+                  backend=backend, got=got, force=got_lam,
                   block_gen=got_block_gen, reactions=reactions, unavailable=unavailable,
                   dynamics=dyn if dynamics is None else dynamics)
 
@@ -409,8 +412,8 @@ def at_states(model: mujoco.MjModel, probe: Probe, ref: Reference, engine: Backe
         # the engine's side on the rounded model at the rounded states; the analytic side (and the gravity it
         # reads) the model's own at the exact states
         states = (qpos.astype(np.float32).astype(float), qvel.astype(np.float32).astype(float))
-        in_float32 = compare(_measure(rounded, probe, ref, q, qd, states=states, fwd=None, offset=0,
-                                      backend="c"))[0]
+        in_float32 = compare(_measure(rounded, probe, ref, q, qd, states=states, fwd=None, offset=0, backend="c",
+                                      compared_on=model))[0]
         represented = {a.name: a.magnitude(b.values - a.values) for a, b in zip(as_c, in_float32, strict=True)
                        if a.name != FigureName.instant("kinematics")}
         for again_fwd in copies:
