@@ -64,7 +64,7 @@ from harness.engine import recording  # noqa: E402
 from harness.engine.integrators import available_integrators  # noqa: E402
 from harness.engine.models import compile_model  # noqa: E402
 from harness.engine.probe import Probe  # noqa: E402
-from harness.outputs import parts  # noqa: E402
+from harness.outputs import drawings  # noqa: E402
 from harness.outputs.report import write_report  # noqa: E402
 from harness.pipeline import matrix as runner  # noqa: E402
 from harness.pipeline.limits import load_limits  # noqa: E402
@@ -252,9 +252,9 @@ def command_lines(run_report: bool, repeat: int) -> None:
 
 
 def _timed_study(kind: str, name: str):
-    """parts.study, with its duration (module-level: the pool's forked workers run it)."""
+    """drawings.study, with its duration (module-level: the pool's forked workers run it)."""
     start = time.perf_counter()
-    result = parts.study(kind, name)
+    result = drawings.study(kind, name)
     return result, time.perf_counter() - start
 
 
@@ -267,7 +267,7 @@ def report_split(selected) -> None:
     results, checks, config = runner.run_all(selected, None)
     steps["cases (run_case, default --jobs)"] = time.perf_counter() - clock
     clock = time.perf_counter()
-    pages, appendix, plots = parts.report_parts(selected, results, jobs=None, studies=True)
+    pages, appendix, plots = drawings.draw_report(selected, results, jobs=None, studies=True)
     steps["studies, seed audit, plots (default --jobs)"] = time.perf_counter() - clock
     clock = time.perf_counter()
     with tempfile.TemporaryDirectory() as out:
@@ -279,7 +279,7 @@ def report_split(selected) -> None:
     for name, seconds in steps.items():
         print(f"   {name:46s} {seconds:7.2f}  {seconds / total:4.0%}")
     print(f"   {'total':46s} {total:7.2f}")
-    calls = parts.study_calls(selected)
+    calls = drawings.study_calls(selected)
     timed = run_tasks([(_timed_study, call) for call in calls], cpus())
     kinds: dict[str, float] = {}
     for (kind, _), (_, seconds) in zip(calls, timed, strict=True):

@@ -33,7 +33,7 @@ from harness.cli import commands as cli
 from harness.core import cache, costs
 from harness.core.errors import ModelMismatch
 from harness.engine.models import compile_model, mjcf_path
-from harness.outputs import parts
+from harness.outputs import drawings
 from harness.pipeline import matrix as runner
 from harness.reference import derivations
 from harness.reference import solutions as refmod
@@ -574,8 +574,8 @@ def test_studies_and_plots_on_the_pool_are_the_serial_ones():
     images as one process."""
     selected = cases.select(["spring", "atwood", "hoop_ramp_contact"])
     results, _, _ = runner.run_all(selected, None, jobs=1)
-    serial = parts.report_parts(selected, results, jobs=1, studies=True)
-    parallel = parts.report_parts(selected, results, jobs=2, studies=True)
+    serial = drawings.draw_report(selected, results, jobs=1, studies=True)
+    parallel = drawings.draw_report(selected, results, jobs=2, studies=True)
     assert parallel[1] == serial[1] and parallel[2] == serial[2]
     assert list(parallel[2]) == [c.name for c in selected] and all(parallel[2].values())
     assert [_without_timings(p) for p in parallel[0]] == [_without_timings(p) for p in serial[0]]

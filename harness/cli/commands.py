@@ -414,7 +414,7 @@ def _args_run(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from harness.outputs.parts import report_parts  # lazy: studies and plots load sympy and matplotlib
+    from harness.outputs.drawings import draw_report  # lazy: studies and plots load sympy and matplotlib
     from harness.outputs.report import report_files  # lazy: as above
 
     start = time.perf_counter()
@@ -427,8 +427,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs, executor=executor,
                                       **_case_lines(args))
     outcome = _outcome(args, results, checks, limits)
-    pages, appendix, plots = report_parts(selected, results, jobs=args.jobs, executor=executor,
-                                          studies=args.studies and options.shipped)
+    pages, appendix, plots = draw_report(selected, results, jobs=args.jobs, executor=executor,
+                                         studies=args.studies and options.shipped)
     appendix = (appendix or {}) | ({"opinions": opinions.as_dict()} if opinions.as_dict() else {})
     others = backends.expand(args.backend)[1:]
     if others:  # the first backend's report, and every backend side by side (its verdict is the first's)

@@ -1,7 +1,7 @@
 """Layer 4 for people: each study's text, HTML section and plot (one module per study), and the studies page.
 
 A plot is drawn apart from its section (:data:`PLOTS`), so that the report's workers draw them in parallel
-(harness/outputs/parts.py); the sections take the PNG bytes drawn, keyed like the report's calls:
+(harness/outputs/drawings.py); the sections take the PNG bytes drawn, keyed like the report's calls:
 ``(kind, case)``, e.g. ``("convergence", "pendulum")``.
 """
 

@@ -62,9 +62,9 @@ def case_plots(case: str | cases.Case, result: CaseResult) -> str:
     return section_plots(dataclasses.replace(result, case=cases.get(case) if isinstance(case, str) else case))
 
 
-def report_parts(selected: Sequence[cases.Case], results: Sequence[CaseResult], *, jobs: int | None,
-                 studies: bool, executor: Executor = LOCAL) -> tuple[list[Page], dict[str, object] | None,
-                                                                    dict[str, str]]:
+def draw_report(selected: Sequence[cases.Case], results: Sequence[CaseResult], *, jobs: int | None,
+                studies: bool, executor: Executor = LOCAL
+                ) -> tuple[list[Page], dict[str, object] | None, dict[str, str]]:
     """What the report draws besides its tables: layer 4 and the seed audit (their pages and JSON
     entries, when ``studies``) and each case's plots. With more than one worker the calls share a
     process pool forked now, so the workers hold the references the cases solved; the results are
