@@ -151,6 +151,11 @@ SLOW_TESTS: dict[str, str] = {
         "13 s of sympy, as above",
     "tests/test_double_pendulum.py::test_equations_are_the_textbook_ones_in_absolute_angles": "11 s of sympy, as above",
     "tests/test_rigid.py::test_world_angular_velocity_is_the_rotated_body_one": "10 s of sympy, as above",
+    "tests/test_bad_input.py::test_every_figure_a_shipped_case_measures_is_among_its_names":
+        "10 s from a fresh clone: runs every shipped case; test_families checks the same on four cases",
+    "tests/test_versions.py::test_versions_builds_the_harness_from_a_regular_install":
+        "7 s: pip installs the harness into a venv and uv builds a wheel of it; versions' own logic is tested fast "
+        "with a fake uv",
 }
 # The budget's two directions (a legitimate change passes every gate, a fault trips its gates): the fast suite keeps
 # the first of each per system's module, the others are slow (tests/test_budget_matrix.py chooses its own share).
