@@ -107,8 +107,7 @@ def compare(sample: Sample) -> tuple[list[Deviation], dict[str, str], dict[str, 
     pts = dyn.points(q)
     acc = dyn.point_accelerations(q, qd, qdd)
     kinetic = 0.5 * np.einsum("ni,nij,nj->n", qd, mass, qd)
-    mapped = getattr(probe.binding, "velocity_map", None) is not None
-    coordinates = probe.binding.dof_matrix(model) is not None or mapped
+    mapped, coordinates = sample.mapped, sample.coordinates
     n = len(q)
     length = ref.scales.length
 

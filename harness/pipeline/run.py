@@ -160,7 +160,8 @@ def run_case(case: Case, options: RunOptions | None = None) -> CaseResult:
     if sims:
         diverged |= {f"budget.{name}": why for name, why in bench.run_budgets.failed.items()}
 
-    tested = ModelSettings.of(model).as_dict() | {f"param.{k}": v for k, v in ref.params.items()}
+    own = ModelSettings.of(model)
+    tested = own.as_dict() | {f"param.{k}": v for k, v in ref.params.items()}
     original = ModelSettings.of(bench.shipped).as_dict() | {
         f"param.{k}": v for k, v in case.params_from_model(bench.shipped).items()}
     changed = changed_settings(original, tested)
@@ -184,7 +185,7 @@ def run_case(case: Case, options: RunOptions | None = None) -> CaseResult:
     missing = [n for n in ("discrete",) if unavailable_reason(f"{n}.position")]  # shown, never silently skipped
     engine = bench.engine
     settings = RunSettings(
-        model=ModelSettings.of(model), mjcf=str(bench.path), horizon=case.horizon, settle=bench.settle[0],
+        model=own, mjcf=str(bench.path), horizon=case.horizon, settle=bench.settle[0],
         params=dict(ref.params), q0=dict(zip(ref.dynamics.coordinates, ref.initial[0], strict=True)),
         qd0=dict(zip(ref.dynamics.coordinates, ref.initial[1], strict=True)), integrators=tuple(sims),
         recorder=recording.recorder(), changed=changed, projected=tuple(ref.projected), tree=tree, families=families,

@@ -68,11 +68,6 @@ class ModelSettings:
         return out
 
 
-def model_settings(model: mujoco.MjModel) -> dict[str, object]:
-    """The settings that matter for a comparison, as recorded in the report (:meth:`ModelSettings.as_dict`)."""
-    return ModelSettings.of(model).as_dict()
-
-
 @dataclass(frozen=True)
 class RunSettings:
     """The settings a case ran with.
