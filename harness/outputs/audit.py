@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from harness.audit import coverage
 from harness.audit.numbers import AGREEMENT, KINDS
 from harness.audit.verdicts import AuditRow, counts
+from harness.core.tables import text_table
 from harness.outputs.formulas import quote_html, text_html
 
 
@@ -60,8 +61,7 @@ def format_table(rows: Sequence[AuditRow]) -> str:
     head = ("claim", "lines", "verdict", "cause", "check", "error", "floor", "agrees")
     body = [(r.claim_id, r.lines, r.verdict, r.cause or "-", r.numbers.kind, _num(r.numeric_error),
              _num(r.numeric_floor), _agrees(r)) for r in rows]
-    widths = [max(len(x[i]) for x in [head, *body]) for i in range(len(head))]
-    lines = ["  ".join(v.ljust(w) for v, w in zip(x, widths, strict=True)).rstrip() for x in [head, *body]]
+    lines = text_table(head, body).split("\n")
     lines.append("")
     for r in rows:
         if r.verdict != "confirmed":
