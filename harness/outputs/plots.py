@@ -14,6 +14,7 @@ import numpy as np
 
 from harness.core.plotting import HALF_WIDTH, coinciding, png_bytes, png_data_uri, pyplot, style
 from harness.core.trajectory import Trajectory
+from harness.families.runs import point_differences
 from harness.pipeline.run import CaseResult
 
 FLOOR = 1e-16  # errors below this are drawn at it (a log axis has no zero)
@@ -22,8 +23,7 @@ MARKERS = 12  # markers per curve: enough to tell dashes apart, few enough not t
 
 def position_error(ref: Trajectory, sim: Trajectory) -> np.ndarray:
     """The worst named point's distance from the reference's, sample by sample (the two on one grid)."""
-    return np.max(np.linalg.norm(np.stack([sim.positions[p] - ref.positions[p] for p in sim.positions], axis=1),
-                                 axis=-1), axis=1)
+    return np.max(np.linalg.norm(point_differences(sim.positions, ref.positions), axis=-1), axis=1)
 
 
 def _png(fig) -> str:
