@@ -29,7 +29,6 @@ import numpy as np
 from harness.cases.own import from_mjcf
 from harness.core.errors import SimulationDiverged
 from harness.engine import backends
-from harness.engine.backends import Request
 from harness.engine.integrators import EXPECTED_ORDER
 from harness.engine.models import compile_model
 from harness.engine.probe import Probe
@@ -190,6 +189,6 @@ def _injected(path: Path, edit: Edit, binding, *, q0: np.ndarray, qd0: np.ndarra
     model = compile_model(path, edit=edit)
     h = float(model.opt.timestep)
     probe = Probe(binding=binding, points=(), constraints=(), series={"injected": INJECTED, "kinetic": KINETIC})
-    run = backends.get("c").simulate_many([Request(model, q0, qd0, steps_in(horizon, h))], probe)[0]
+    run = backends.simulate(backends.get("c"), model, probe, q0=q0, qd0=qd0, steps=steps_in(horizon, h))
     return float(cumulative_work(run.series["injected"], h)[-1]), float(np.max(run.series["kinetic"]))
 

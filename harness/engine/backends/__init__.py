@@ -42,7 +42,6 @@ import numpy as np
 
 from harness.core.errors import BackendUnavailable
 from harness.core.trajectory import Trajectory
-from harness.engine import recording
 from harness.engine.probe import Probe
 
 BACKENDS: tuple[str, ...] = ("c", "mjx", "mjx-f64", "warp")
@@ -196,6 +195,4 @@ def get(name: str) -> Backend:
 def simulate(engine: Backend, model: mujoco.MjModel, probe: Probe, *, q0: Sequence[float], qd0: Sequence[float],
              steps: int) -> Trajectory:
     """One run on ``engine`` (:func:`harness.engine.recording.record`'s contract)."""
-    if engine.name == "c":  # the C recorders as they always ran: bit for bit the default install's numbers
-        return recording.record(model, probe, q0=q0, qd0=qd0, steps=steps)
     return engine.simulate_many([Request(model, np.asarray(q0, float), np.asarray(qd0, float), steps)], probe)[0]
