@@ -8,6 +8,9 @@ Every body with mass falls in one category:
   densest element's); a finding fails the check (exit 1) unless the config accepts it (:func:`accepted`);
 - ``warning``: within the bounds but far from what the geometry implies at its mass (tr Σ over
   :data:`IMPLAUSIBLE` times from the uniformly filled hull's); printed, never failing;
+- ``inert``: a bound fails, but the nearest realizable inertial changes neither the gravity torques nor M(q)
+  (both within :data:`INERT` of their scales over the sampled states): no joint lets the dynamics feel it (a
+  body on slides only, a body welded to the world). Printed as a warning, never failing;
 - ``point mass``: every principal moment at most :data:`POINT_MASS` × m L² (L the geometry's largest extent
   from the centre of mass): an idealised point mass, the convention the harness's budget uses for the textbook
   systems' bobs (harness.core.budget's ``floors``); the lower bound is not applied to it (an ideal point is
@@ -38,6 +41,8 @@ from harness.opinions.structure import sample_states
 POINT_MASS = 1e-6  # principal moments ≤ this × m L²: the harness's point-mass floor (harness.core.budget)
 IMPLAUSIBLE = 10.0  # tr Σ this many times above or below the filled hull's: a warning
 DENSITY_MARGIN = 1.25  # the tessellated hull's volume falls short of the exact hull's by < 5 % (tests pin it)
+INERT = 1e-9  # relative change of gravity torques and M(q) below which a violation is inert: float64 round-off
+# in M(q) is ~1e-16 × nv, and a simulation cannot show a change a million times larger than that
 STATES = 6  # sampled configurations besides qpos0 for the effects, seeded as the URDF comparison's
 UNITS = ((1e-3, "mass", "grams written as kilograms"), (1e3, "mass", "tonnes or kilograms ×1000"),
          (1e-6, "inertia", "kg·mm² written as kg·m²"), (1e6, "inertia", "kg·m² written as kg·mm²"),
@@ -63,6 +68,11 @@ class Effect:
         return (f"replaced by the nearest realizable inertial: gravity torque changes by up to {self.torque:.3g}"
                 f"{' on ' + self.joint if self.joint else ''} ({100 * rel_t:.3g} % of the largest), "
                 f"M(q) by up to {self.inertia:.3g} ({100 * rel_m:.3g} % of its largest diagonal entry)")
+
+    @property
+    def negligible(self) -> bool:
+        """Whether the dynamics cannot feel the change (both under :data:`INERT` of their scales)."""
+        return self.torque <= INERT * self.torque_scale and self.inertia <= INERT * self.inertia_scale
 
     def as_dict(self) -> dict:
         return {"gravity_torque": self.torque, "joint": self.joint, "gravity_torque_scale": self.torque_scale,
@@ -101,7 +111,8 @@ class BodyAudit:
         what = "; ".join(self.problems)
         cause = f"; likely cause: {' or '.join(self.causes)}" if self.causes else ""
         effect = f"; {self.effect.text()}" if self.effect else ""
-        tag = {"finding": "FINDING", "warning": "warning"}.get(self.kind, self.kind)
+        tag = {"finding": "FINDING", "warning": "warning", "inert": "warning (inert: no joint feels it)"}.get(
+            self.kind, self.kind)
         accepted = f" (accepted by the config: {self.accepted})" if self.accepted else ""
         return f"{tag}{accepted} — body {self.body!r} ({self.mass:.4g} kg): {what}{cause}{effect}"
 
@@ -134,13 +145,13 @@ class ModelAudit:
 
     def summary(self) -> str:
         """One line: how many bodies, findings (accepted ones counted apart), warnings, and the worst ratio."""
-        counts = {k: sum(b.kind == k for b in self.bodies) for k in ("finding", "warning", "point mass",
+        counts = {k: sum(b.kind == k for b in self.bodies) for k in ("finding", "warning", "inert", "point mass",
                                                                        "no geometry")}
         accepted = sum(bool(b.accepted) for b in self.findings)
         head = (f"Inertials of {self.model} against their geometry: {len(self.bodies)} bodies with mass, "
                 f"{counts['finding']} finding(s){f' ({accepted} accepted by the config)' if accepted else ''}, "
                 f"{counts['warning']} warning(s)")
-        extra = [f"{counts[k]} {k}" for k in ("point mass", "no geometry") if counts[k]]
+        extra = [f"{counts[k]} {k}" for k in ("inert", "point mass", "no geometry") if counts[k]]
         verdict = "FAIL" if self.failed else "PASS"
         return f"{head}{', ' + ', '.join(extra) if extra else ''} ({self.seconds * 1e3:.0f} ms): {verdict}"
 
@@ -148,7 +159,7 @@ class ModelAudit:
         """The section the CLI prints; ``quiet``: only where a finding fails, the summary and the findings."""
         if quiet and not self.failed:
             return []
-        shown = [b for b in self.bodies if b.kind == "finding" or (b.kind == "warning" and not quiet)]
+        shown = [b for b in self.bodies if b.kind == "finding" or (b.kind in ("warning", "inert") and not quiet)]
         return [self.summary(), *("  " + b.line() for b in shown)]
 
     def as_dict(self) -> dict:
@@ -250,17 +261,20 @@ def effect(model: mujoco.MjModel, body: int, c: np.ndarray, sigma: np.ndarray,
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, vectors.flatten())
     own = model.body_ipos[body].copy(), model.body_iquat[body].copy(), model.body_inertia[body].copy()
+    same = int(model.body_sameframe[body])  # MuJoCo skips body_ipos/iquat where the frames coincide
     d = mujoco.MjData(model)
     before, after = [], []
     try:
         for fields, out in ((own, before), ((c, quat, values), after)):  # the model's own, then the replacement
             model.body_ipos[body], model.body_iquat[body], model.body_inertia[body] = fields
+            model.body_sameframe[body] = same if fields is own else 0
             for qpos in states:
                 d.qpos[:], d.qvel[:] = qpos, 0
                 mujoco.mj_forward(model, d)
                 out.append((d.qfrc_bias.copy(), full_mass_matrix(model, d)))
     finally:
         model.body_ipos[body], model.body_iquat[body], model.body_inertia[body] = own
+        model.body_sameframe[body] = same
     dt, dm, gscale, mscale, where = 0.0, 0.0, 0.0, 0.0, -1
     for (ga, ma), (gb, mb) in zip(before, after, strict=True):
         g = np.abs(ga - gb)
@@ -345,7 +359,9 @@ def audit_model(model: mujoco.MjModel, *, name: str = "the model",
             states = states if states is not None else sample_states(model, list(range(model.njnt)), STATES, 0)
             shape = Shape.of(body_geoms(model, b, meshes=meshes))
             c, sigma = nearest_realizable(audit.mass, audit.com, audit.sigma, shape, audit.hull)
-            audit = _with(audit, effect=effect(model, b, c, sigma, states), accepted=accept.get(audit.body, ""))
+            change = effect(model, b, c, sigma, states)
+            audit = _with(audit, effect=change, accepted=accept.get(audit.body, ""),
+                          kind="inert" if change.negligible else "finding")
         out.append(audit)
     return ModelAudit(name, tuple(out), time.perf_counter() - start)
 
