@@ -26,8 +26,9 @@ A finding names the likely cause where one fits exactly (:func:`causes`) and wha
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
@@ -53,21 +54,24 @@ UNITS = ((1e-3, "mass", "grams written as kilograms"), (1e3, "mass", "tonnes or 
 @dataclass(frozen=True)
 class Effect:
     """What replacing a body's inertial by the nearest realizable one does over the sampled states: the largest
-    change of a gravity torque (N·m or N, on ``joint``) against the largest gravity torque, and the largest change
-    of an entry of M(q) against its largest diagonal entry."""
+    change of a gravity torque (N·m or N, on ``joint``) against the largest gravity torque, the largest change
+    of an entry of M(q) against its largest diagonal entry, and the largest change of an entry relative to its
+    own scale, |ΔMᵢⱼ| / √(MᵢᵢMⱼⱼ) (what tells a hub's few grams from a shoulder)."""
 
     torque: float
     joint: str
     torque_scale: float
     inertia: float
     inertia_scale: float
+    relative: float = 0.0
 
     def text(self) -> str:
         rel_t = self.torque / self.torque_scale if self.torque_scale > 0 else 0.0
         rel_m = self.inertia / self.inertia_scale if self.inertia_scale > 0 else 0.0
         return (f"replaced by the nearest realizable inertial: gravity torque changes by up to {self.torque:.3g}"
                 f"{' on ' + self.joint if self.joint else ''} ({100 * rel_t:.3g} % of the largest), "
-                f"M(q) by up to {self.inertia:.3g} ({100 * rel_m:.3g} % of its largest diagonal entry)")
+                f"M(q) by up to {self.inertia:.3g} ({100 * rel_m:.3g} % of its largest diagonal entry; "
+                f"{100 * self.relative:.3g} % of an entry's own scale √(MᵢᵢMⱼⱼ))")
 
     @property
     def negligible(self) -> bool:
@@ -76,7 +80,8 @@ class Effect:
 
     def as_dict(self) -> dict:
         return {"gravity_torque": self.torque, "joint": self.joint, "gravity_torque_scale": self.torque_scale,
-                "mass_matrix": self.inertia, "mass_matrix_scale": self.inertia_scale}
+                "mass_matrix": self.inertia, "mass_matrix_scale": self.inertia_scale,
+                "mass_matrix_relative": self.relative}
 
 
 @dataclass(frozen=True)
@@ -275,7 +280,7 @@ def effect(model: mujoco.MjModel, body: int, c: np.ndarray, sigma: np.ndarray,
     finally:
         model.body_ipos[body], model.body_iquat[body], model.body_inertia[body] = own
         model.body_sameframe[body] = same
-    dt, dm, gscale, mscale, where = 0.0, 0.0, 0.0, 0.0, -1
+    dt, dm, gscale, mscale, where, rel = 0.0, 0.0, 0.0, 0.0, -1, 0.0
     for (ga, ma), (gb, mb) in zip(before, after, strict=True):
         g = np.abs(ga - gb)
         if g.size and g.max() > dt:
@@ -283,11 +288,14 @@ def effect(model: mujoco.MjModel, body: int, c: np.ndarray, sigma: np.ndarray,
         gscale = max(gscale, float(np.abs(ga).max(initial=0)))
         dm = max(dm, float(np.abs(ma - mb).max(initial=0)))
         mscale = max(mscale, float(np.diag(ma).max(initial=0)))
+        own = np.sqrt(np.outer(np.diag(ma), np.diag(ma)))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = max(rel, float(np.nan_to_num(np.abs(ma - mb) / own, posinf=0.0).max(initial=0)))
     joint = ""
     if where >= 0:
         joint = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, int(model.dof_jntid[where])) or \
             f"dof {where}"
-    return Effect(dt, joint, gscale, dm, mscale)
+    return Effect(dt, joint, gscale, dm, mscale, rel)
 
 
 def audit_body(model: mujoco.MjModel, b: int, *, meshes: dict[int, np.ndarray] | None = None) -> BodyAudit:
@@ -340,12 +348,12 @@ def audit_body(model: mujoco.MjModel, b: int, *, meshes: dict[int, np.ndarray] |
     return BodyAudit(name, mass, "ok", c, sigma, upper, direction, lower, outside, density, implied, hull=hull)
 
 
-def audit_model(model: mujoco.MjModel, *, name: str = "the model",
-                accept: Mapping[str, str] | None = None) -> ModelAudit:
+def audit_model(model: mujoco.MjModel, *, name: str = "the model", accept: Mapping[str, str] | None = None,
+                partial: Mapping[str, str] | None = None) -> ModelAudit:
     """The audit of every body with mass of ``model``; ``accept`` (body → reason, from the config) accepts a
-    body's finding; each finding carries its effect on the dynamics."""
-    import time
-
+    body's finding; ``partial`` (body → why) names the bodies whose geometry is known to be incomplete (a URDF's
+    mesh MuJoCo cannot read), whose findings that need the geometry are warnings; each finding carries its
+    effect on the dynamics."""
     start = time.perf_counter()
     accept = dict(accept or {})
     meshes: dict[int, np.ndarray] = {}
@@ -355,6 +363,9 @@ def audit_model(model: mujoco.MjModel, *, name: str = "the model",
         if model.body_mass[b] <= 0:
             continue
         audit = audit_body(model, b, meshes=meshes)
+        if audit.kind == "finding" and audit.body in (partial or {}) and audit.lower <= 1:
+            audit = _with(audit, kind="warning", problems=(*audit.problems, f"geometry partial: "
+                                                           f"{partial[audit.body]}"))
         if audit.kind == "finding":
             states = states if states is not None else sample_states(model, list(range(model.njnt)), STATES, 0)
             shape = Shape.of(body_geoms(model, b, meshes=meshes))
@@ -367,6 +378,4 @@ def audit_model(model: mujoco.MjModel, *, name: str = "the model",
 
 
 def _with(audit: BodyAudit, **changes) -> BodyAudit:
-    from dataclasses import replace
-
     return replace(audit, **changes)

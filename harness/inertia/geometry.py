@@ -97,10 +97,12 @@ class Geom:
         if self.kind == _G.mjGEOM_SPHERE:
             local = r * unit
         elif self.kind == _G.mjGEOM_CAPSULE:
-            local = np.vstack([r * unit + [0, 0, s[1]], r * unit - [0, 0, s[1]]])
+            axis = np.array([0.0, 0.0, s[1]])
+            local = np.vstack([r * unit + axis, r * unit - axis])
         elif self.kind == _G.mjGEOM_CYLINDER:
             ring = np.column_stack([np.cos(_RING), np.sin(_RING), np.zeros_like(_RING)]) * r
-            local = np.vstack([ring + [0, 0, s[1]], ring - [0, 0, s[1]]])
+            axis = np.array([0.0, 0.0, s[1]])
+            local = np.vstack([ring + axis, ring - axis])
         elif self.kind == _G.mjGEOM_BOX:
             local = np.array([[a, b, c] for a in (-1, 1) for b in (-1, 1) for c in (-1, 1)], float) * s
         else:
