@@ -508,7 +508,7 @@ def _inertials(args: argparse.Namespace, selected: Sequence[cases.Case], limits)
     from harness.inertia.models import audit_files  # lazy: scipy's start-up, paid by the audit alone
 
     models = [(args.mjcf.name, args.mjcf)] if args.mjcf is not None else [(c.name, c.mjcf) for c in selected]
-    return audit_files(models, urdf=args.urdf, accept=limits.accept_inertia)
+    return audit_files(models, urdf=args.urdf, accept=limits.accept_inertia, own=args.mjcf is not None)
 
 
 def _opinions(args: argparse.Namespace):

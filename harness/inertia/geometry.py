@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 _G = mujoco.mjtGeom
 SKIPPED = (int(_G.mjGEOM_PLANE), int(_G.mjGEOM_HFIELD))
@@ -115,8 +116,6 @@ _RING = np.linspace(0, 2 * np.pi, 48, endpoint=False)
 
 
 def _in_hull(vertices: np.ndarray, x: np.ndarray) -> bool:
-    from scipy.spatial import ConvexHull, QhullError  # lazy: scipy's start-up is paid by the audit alone
-
     try:
         hull = ConvexHull(vertices)
     except QhullError:  # a flat mesh: nothing lies strictly inside it
@@ -127,8 +126,6 @@ def _in_hull(vertices: np.ndarray, x: np.ndarray) -> bool:
 
 def hull_vertices(points: np.ndarray) -> np.ndarray:
     """The vertices of the convex hull of ``points`` (all of them where they span no volume)."""
-    from scipy.spatial import ConvexHull, QhullError  # lazy: as above
-
     if len(points) < 5:
         return points
     try:
@@ -198,8 +195,6 @@ class Solid:
 def solid(geoms: list[Geom]) -> Solid | None:
     """The uniformly filled hull of ``geoms``' tessellations (None where it spans no volume): the shape a body's
     geometry implies, for the plausibility warnings and the drawings (the bounds use the exact supports)."""
-    from scipy.spatial import ConvexHull, QhullError  # lazy: as above
-
     points = np.vstack([g.cloud() for g in geoms])
     try:
         hull = ConvexHull(points)

@@ -27,9 +27,14 @@ class Inertials:
     def failed(self) -> bool:
         return any(a.failed for a in self.audits)
 
+    own: bool = False
+
     def lines(self, *, quiet: bool = False) -> list[str]:
-        """Each model's section (:meth:`ModelAudit.lines`), the models not audited and the unused acceptances."""
-        out = [line for a in self.audits for line in a.lines(quiet=quiet)]
+        """Each model's section (:meth:`ModelAudit.lines`), the models not audited and the unused acceptances: a
+        shipped case's model only where it has something to say (a finding, warning or inert violation); a model
+        of your own (``own``: --mjcf) and a URDF always, with its one-line summary."""
+        out = [line for a in self.audits if quiet or self.own or a.model.startswith("URDF ") or any(
+            b.kind in ("finding", "warning", "inert") for b in a.bodies) for line in a.lines(quiet=quiet)]
         if not quiet:
             out += [f"Inertials of {name} not audited: {why}" for name, why in self.skipped]
             out += [f"config accepts the inertia of body {b!r}, which has no finding in the models checked"
@@ -50,9 +55,10 @@ class Inertials:
 
 
 def audit_files(mjcf: Sequence[tuple[str, Path | str]], *, urdf: Path | str | None = None,
-                accept: Mapping[str, str] | None = None) -> Inertials:
-    """The audits of the MJCF files ``mjcf`` ((name, path), each path once) and of the URDF ``urdf``; a file
-    that does not compile is left to the check that names it (its name and why listed as not audited)."""
+                accept: Mapping[str, str] | None = None, own: bool = False) -> Inertials:
+    """The audits of the MJCF files ``mjcf`` ((name, path), each path once; ``own``: models the user brought)
+    and of the URDF ``urdf``; a file that does not compile is left to the check that names it (its name and why
+    listed as not audited)."""
     audits, skipped, seen = [], [], set()
     for name, path in mjcf:
         key = str(Path(path).resolve())
@@ -74,4 +80,4 @@ def audit_files(mjcf: Sequence[tuple[str, Path | str]], *, urdf: Path | str | No
             audits.append(audit_model(model, name=f"URDF {urdf}", accept=accept, partial=partial))
     found = {b.body for a in audits for b in a.bodies if b.kind == "finding"}
     unused = tuple(b for b in (accept or {}) if b not in found)
-    return Inertials(tuple(audits), tuple(skipped), unused)
+    return Inertials(tuple(audits), tuple(skipped), unused, own)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import html
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot
 from harness.inertia.audit import BodyAudit
@@ -38,8 +39,6 @@ def _ellipse(plt_axes, centre: np.ndarray, sigma_per_kg: np.ndarray, i: int, j: 
 
 def body_figure(body: BodyAudit) -> bytes:
     """Three projections of ``body``'s hull with its declared and geometry-implied inertia ellipsoids (PNG)."""
-    from scipy.spatial import ConvexHull, QhullError  # lazy: as the audit's
-
     plt = pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(FULL_WIDTH, FULL_WIDTH / 3.2))
     hull = body.hull
