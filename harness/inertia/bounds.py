@@ -22,7 +22,7 @@ import numpy as np
 from harness.inertia.geometry import Geom, fibonacci_directions, supports
 
 DENSEST = 22_600.0  # kg/m³: osmium 22,590, iridium 22,560, the densest elements at room conditions
-DIRECTIONS = 1000  # Fibonacci directions over the sphere (a hemisphere would do: w(n) = w(−n)), and the body axes
+DIRECTIONS = 500  # Fibonacci directions over the sphere (a hemisphere would do: w(n) = w(−n)), and the body axes
 _DIRS = np.vstack([np.eye(3), fibonacci_directions(DIRECTIONS)])
 
 
@@ -94,13 +94,15 @@ def _ratios(mass: float, c: np.ndarray, sigma: np.ndarray, ext: Extent) -> np.nd
         return np.where(w > 0, moments / (mass * w ** 2), np.where(moments > 0, np.inf, 0.0))
 
 
-def upper_ratio(mass: float, c: np.ndarray, sigma: np.ndarray, shape: Shape) -> tuple[float, np.ndarray]:
-    """The largest nᵀΣn / (m w(n)²) over the directions and Σ's principal axes, refined by a pattern search about
-    the best of them (8 neighbours at a step halved down to 1e-4 rad), and the direction that gives it."""
+def upper_ratio(mass: float, c: np.ndarray, sigma: np.ndarray, shape: Shape, *,
+                refine: bool = True) -> tuple[float, np.ndarray]:
+    """The largest nᵀΣn / (m w(n)²) over the directions and Σ's principal axes, refined (``refine``) by a pattern
+    search about the best of them (8 neighbours at a step halved down to 1e-4 rad), and the direction that gives
+    it."""
     ratio = _ratios(mass, c, sigma, ext := shape.with_axes(np.linalg.eigh(sigma)[1].T))
     k = int(np.argmax(ratio))
     best, n = float(ratio[k]), ext.directions[k]
-    if not math.isfinite(best) or best <= 0:
+    if not refine or not math.isfinite(best) or best <= 0:
         return best, n
     step, turns = 0.05, np.linspace(0, 2 * np.pi, 8, endpoint=False)
     while step > 1e-4:
@@ -130,7 +132,8 @@ def com_outside(c: np.ndarray, shape: Shape) -> float:
 
 
 def realizable(mass: float, c: np.ndarray, sigma: np.ndarray, shape: Shape) -> bool:
-    """Whether (m, c, Σ) passes every bound on ``shape``: a valid inertia, both bounds and c in the hull."""
+    """Whether (m, c, Σ) passes every bound on ``shape``: a valid inertia, both bounds and c in the hull (the
+    upper bound over the standard directions, unrefined: what a diagnosis needs)."""
     eig = np.linalg.eigvalsh(sigma)
     if mass <= 0 or eig.min() < -1e-12 * max(eig.max(), 1e-300):
         return False
@@ -138,4 +141,4 @@ def realizable(mass: float, c: np.ndarray, sigma: np.ndarray, shape: Shape) -> b
         return False
     if shape.ext is None:
         return True
-    return upper_ratio(mass, c, sigma, shape)[0] <= 1 and com_outside(c, shape) <= 0
+    return upper_ratio(mass, c, sigma, shape, refine=False)[0] <= 1 and com_outside(c, shape) <= 0
