@@ -7,6 +7,7 @@ exact; Menagerie's Panda has its seven bodies found and no others, the other rob
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -272,3 +273,64 @@ def test_an_acceptance_without_a_reason_is_refused(tmp_path, table):
     config.write_text(table if table.startswith("accept_inertia") else f"[accept_inertia]\n{table}\n")
     with pytest.raises(ConfigError, match="accept_inertia must be a table of body"):
         load_limits(config)
+
+
+# --------------------------------------------------------------- the command line
+def test_check_fails_on_a_finding_and_the_config_accepts_it_with_its_reason(tmp_path, capsys):
+    """examples/inertia/arm_origin.xml: its forearm's inertia about the elbow. Exit 1 with the body, the ratio and
+    the cause; accepted in the config, exit 0 and the reason printed; --json carries every body."""
+    from harness.cli.commands import main
+
+    model = str(ROOT / "examples" / "inertia" / "arm_origin.xml")
+    assert main(["check", "--mjcf", model, "--integrators", "RK4"]) == 1
+    out = capsys.readouterr().out
+    assert "FINDING — body 'fore' (2 kg): second moment 1.33× what the geometry allows" in " ".join(out.split())
+    assert "parallel axis" in out and "FAIL — 1 body inertial(s)" in out
+    config = tmp_path / "c.toml"
+    config.write_text('[accept_inertia]\nfore = "exported about the elbow; measured on the real link"\n')
+    assert main(["check", "--mjcf", model, "--integrators", "RK4", "--config", str(config), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    bodies = {b["body"]: b for b in doc["inertials"]["models"][0]["bodies"]}
+    assert bodies["fore"]["accepted"] == "exported about the elbow; measured on the real link"
+    sigma_zz = (0.1072 + 0.1072 + 0.0012) / 2 - 0.0012  # Σ = ½ tr(I)·1 − I along the link; w = 0.2 m
+    assert bodies["fore"]["upper_ratio"] == pytest.approx(sigma_zz / (2 * 0.2 ** 2), rel=1e-9)
+    assert bodies["upper"]["kind"] == "ok"
+
+
+URDF = """<robot name="r">
+  <link name="base"><inertial><origin xyz="0 0 0"/><mass value="1"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>
+    <visual><geometry><box size="0.2 0.2 0.2"/></geometry></visual></link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/><origin xyz="0 0 0.1"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <link name="arm"><inertial><origin xyz="0 0 0.25"/><mass value="{mass}"/>
+    <inertia ixx="0.0425" ixy="0" ixz="0" iyy="0.0425" iyz="0" izz="0.0015"/></inertial>
+    <visual><origin xyz="0 0 0.25"/><geometry><box size="0.1 0.1 0.5"/></geometry></visual>
+    <collision><origin xyz="0 0 0.25"/><geometry><mesh filename="package://nowhere/arm.dae"/></geometry></collision>
+  </link>
+</robot>
+"""
+
+
+def test_a_urdf_is_audited_against_its_own_geometry(tmp_path):
+    """A URDF's arm (2 kg box 0.1 × 0.1 × 0.5 m, its own inertia) passes with its visual box alone; its mass in
+    grams is a finding still (the lower bound needs no geometry), where its collision mesh (.dae, and not found)
+    is left out and named as partial geometry."""
+    good, grams = tmp_path / "good.urdf", tmp_path / "grams.urdf"
+    good.write_text(URDF.format(mass=2))
+    grams.write_text(URDF.format(mass=2000))
+    (ok,) = audit_files([], urdf=good).audits
+    assert not ok.failed and {b.body: b.kind for b in ok.bodies} == {"base": "ok", "arm": "ok"}, ok.lines()
+    (bad,) = audit_files([], urdf=grams).audits
+    arm = next(b for b in bad.bodies if b.body == "arm")
+    assert bad.failed and arm.kind == "finding" and any("mass ×0.001" in c for c in arm.causes), arm.line()
+
+
+def test_a_urdf_link_with_a_mesh_left_out_turns_a_geometric_finding_into_a_warning(tmp_path):
+    """The arm's COM moved 0.4 m sideways: outside its visual box, but its collision mesh (.dae) was left out."""
+    moved = tmp_path / "moved.urdf"
+    moved.write_text(URDF.format(mass=2).replace('<origin xyz="0 0 0.25"/><mass', '<origin xyz="0.4 0 0.25"/><mass'))
+    (audit,) = audit_files([], urdf=moved).audits
+    arm = next(b for b in audit.bodies if b.body == "arm")
+    assert arm.kind == "warning" and not audit.failed, arm.line()
+    assert "geometry partial: mesh arm.dae left out: not found" in arm.line()
