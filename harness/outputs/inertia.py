@@ -105,5 +105,13 @@ def inertia_page(inertials: Inertials) -> list[Page]:
 
 
 def inertia_banners(inertials: Inertials) -> list[tuple[str, bool]]:
-    """The overview's first-screen lines: each model's one-line summary, and whether it passes."""
-    return [(a.summary(), not a.failed) for a in inertials.audits]
+    """The overview's first-screen line(s), each with whether it passes: each model's one-line summary where
+    two models or fewer were audited, else one line for all (the failing models named)."""
+    audits = inertials.audits
+    if len(audits) <= 2:
+        return [(a.summary(), not a.failed) for a in audits]
+    failing = [a for a in audits if a.failed]
+    count = sum(b.failing for a in audits for b in a.bodies)
+    said = (f"{count} finding(s) in {', '.join(a.model for a in failing)}: FAIL" if failing else
+            "no finding: PASS")
+    return [(f"Inertials of {len(audits)} models against their geometry (the inertia page): {said}", not failing)]
