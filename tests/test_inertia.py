@@ -334,3 +334,20 @@ def test_a_urdf_link_with_a_mesh_left_out_turns_a_geometric_finding_into_a_warni
     arm = next(b for b in audit.bodies if b.body == "arm")
     assert arm.kind == "warning" and not audit.failed, arm.line()
     assert "geometry partial: mesh arm.dae left out: not found" in arm.line()
+
+
+def test_the_report_draws_the_bodies_said_and_puts_the_summary_on_the_first_screen():
+    """arm_origin: the inertia page has its section, a drawing of fore (the body with a finding) and none of upper;
+    the overview's line is the model's summary; with more than two models one line names the failing ones."""
+    from harness.outputs.inertia import inertia_banners, inertia_page
+
+    arm = ROOT / "examples" / "inertia" / "arm_origin.xml"
+    inertials = audit_files([("arm_origin", arm)])
+    (page,) = inertia_page(inertials)
+    html_text = "".join(page.sections)
+    assert page.name == "inertia.html" and html_text.count("<img") == 1
+    assert "alt='fore: inertia ellipsoids' src='data:image/png;base64," in html_text
+    assert inertia_banners(inertials) == [(inertials.audits[0].summary(), False)]
+    many = audit_files([(p.stem, p) for p in (ROOT / "mjcf").glob("*pendulum*.xml")] + [("arm_origin", arm)])
+    ((line, passed),) = inertia_banners(many)
+    assert not passed and line.endswith("1 finding(s) in arm_origin: FAIL"), line
