@@ -151,6 +151,25 @@ def test_a_point_mass_is_its_own_category_and_a_body_without_geometry_too():
     assert grams.kind == "finding"  # the lower bound needs no geometry
 
 
+def test_a_mass_denser_than_osmium_over_its_hull_is_found():
+    """dm_control's point mass on a hinge: 0.3 kg in a ball of 1 cm radius, 71,600 kg/m³ (MuJoCo's inertia from
+    the geom: the densest ball's bound fails too)."""
+    model = mujoco.MjModel.from_xml_string("<mujoco><worldbody><body name='b' pos='0 0 1'><joint type='hinge'/>"
+                                           "<geom type='sphere' size='0.01' mass='0.3'/></body></worldbody></mujoco>")
+    body = _only(model)
+    assert body.kind == "finding" and body.density == pytest.approx(0.3 / (4 / 3 * math.pi * 1e-6), rel=0.07)
+    assert any("mean density" in p for p in body.problems) and body.lower > 1, body.line()
+
+
+def test_an_inertia_within_the_bounds_but_far_from_the_geometry_is_a_warning_never_a_finding():
+    """1 kg in a 1 m cube with tr Σ 0.01 m² (a dense core): possible, 25× below the filled cube's 0.25."""
+    model = _model("mass='1' pos='0 0 0' diaginertia='0.00667 0.00667 0.00667'",
+                   geoms="<geom type='box' size='0.5 0.5 0.5' mass='0'/>")
+    body = _only(model)
+    assert body.kind == "warning" and not body.failing and body.upper < 1 and body.lower < 1, body.line()
+    assert body.implied == pytest.approx(0.01 / 0.25, rel=0.01)
+
+
 # --------------------------------------------------------------- geometry
 def test_the_primitives_supports_are_exact():
     """Each primitive's support against the largest n·x over dense points of its surface (an independent

@@ -46,10 +46,10 @@ DENSITY_MARGIN = 1.25  # the tessellated hull's volume falls short of the exact 
 INERT = 1e-9  # relative change of gravity torques and M(q) below which a violation is inert: float64 round-off
 # in M(q) is ~1e-16 × nv, and a simulation cannot show a change a million times larger than that
 STATES = 6  # sampled configurations besides qpos0 for the effects, seeded as the URDF comparison's
-UNITS = ((1e-3, "mass", "grams written as kilograms"), (1e3, "mass", "tonnes or kilograms ×1000"),
-         (1e-6, "inertia", "kg·mm² written as kg·m²"), (1e6, "inertia", "kg·m² written as kg·mm²"),
-         (1e-9, "inertia", "g·mm² written as kg·m²"), (1e-3, "inertia", "g·m² or ×1000"),
-         (1e3, "inertia", "÷1000"))
+UNITS = ((1e-3, "mass", "grams written as kilograms"), (1e3, "mass", "1000× too small: tonnes for kilograms"),
+         (1e-6, "inertia", "kg·mm² written as kg·m²"), (1e6, "inertia", "10⁶× too small"),
+         (1e-9, "inertia", "g·mm² written as kg·m²"), (1e-3, "inertia", "g·m² written as kg·m²"),
+         (1e3, "inertia", "1000× too small"))  # factor that makes it fit, which number, the slip it undoes
 
 
 @dataclass(frozen=True)
