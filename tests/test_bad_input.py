@@ -226,7 +226,8 @@ def test_the_python_api_names_a_diverged_run(tmp_path):
 # ----------------------------------------------------------------- outputs
 
 
-REPORT = ("report.html", f"cases/{CASE}.html", "report.json", "summary.md", "junit.xml")  # a run's files
+REPORT = ("report.html", f"cases/{CASE}.html", "inertia.html", "report.json", "summary.md",
+          "junit.xml")  # a run's files
 
 
 def _report(tmp_path: Path, *extra: str) -> tuple[int, Path]:

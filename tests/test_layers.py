@@ -7,8 +7,8 @@ annotations only: they never run) must point down the layers too, but do not cou
 first, as the data flows (design: docs/design.md):
 
     analytic  <  harness.core  <  harness.reference  <  harness.engine  <  harness.cases  <  mjcf
-      <  harness.opinions  <  harness.families  <  harness.pipeline  <  harness.studies  <  harness.audit
-      <  harness.outputs  <  harness.versions  <  harness.api, harness.pytest_plugin  <  harness.cli
+      <  harness.opinions  <  harness.inertia  <  harness.families  <  harness.pipeline  <  harness.studies
+      <  harness.audit  <  harness.outputs  <  harness.versions  <  harness.api, harness.pytest_plugin  <  harness.cli
       <  harness (the package's face)
 
 A module may import from its own layer or lower ones. The model modules (mjcf/NAME.py) are found by the
@@ -23,8 +23,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("analytic", "harness", "mjcf")
 LAYERS = ("analytic", "harness.core", "harness.reference", "harness.engine", "harness.cases", "mjcf",
-          "harness.opinions", "harness.families", "harness.pipeline", "harness.studies", "harness.audit",
-          "harness.outputs", "harness.versions", "harness.api", "harness.cli", "harness")
+          "harness.opinions", "harness.inertia", "harness.families", "harness.pipeline", "harness.studies",
+          "harness.audit", "harness.outputs", "harness.versions", "harness.api", "harness.cli", "harness")
 SAME_LAYER = {"harness.pytest_plugin": "harness.api", "harness.__main__": "harness.cli",
               "harness.zoo": "harness.api"}  # the zoo runs models as the API does, for the CLI's `zoo`
 LAZY = "# lazy:"

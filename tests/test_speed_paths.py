@@ -223,10 +223,11 @@ def test_stored_numeric_code_that_does_not_run_is_made_anew(cache_home):
 
 def test_a_check_with_its_derivations_cached_never_imports_sympy(tmp_path):
     """sympy costs 0.15 s to import and 0.08 s to tear down in every process; with the numeric
-    dynamics cached, check needs numpy and MuJoCo only (the first run derives and stores them)."""
-    first = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", "scipy", cache_dir=tmp_path,
+    dynamics cached, check needs numpy and MuJoCo only (the first run derives and stores them), and scipy's
+    convex hulls for the inertia audit (harness.inertia)."""
+    first = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", cache_dir=tmp_path,
                            MJHARNESS_NO_PREBUILT="1")  # not the package's: derived here
-    again = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", "scipy", cache_dir=tmp_path,
+    again = _check_imports("'pendulum', 'hoop_ramp_contact'", "sympy", cache_dir=tmp_path,
                            MJHARNESS_NO_PREBUILT="1")
     assert first == "['sympy'] 0"  # derived: the probe can fail
     assert again == "[] 0"

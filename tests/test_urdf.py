@@ -110,7 +110,9 @@ def test_a_difference_fails_the_check_and_is_listed(capsys, tmp_path):
     assert main(["check", "--mjcf", str(planted), "--urdf", str(URDF), "--integrators", "RK4", "-q"]) == 1
     out = capsys.readouterr().out
     assert "  body fore: mass: URDF 0.8, MJCF 0.08 (off by 0.72 kg" in out
-    assert out.rstrip().splitlines()[-1].startswith("FAIL — the URDF disagrees with the MJCF: 5 difference(s)")
+    last = out.rstrip().splitlines()[-2:]  # and the inertia audit's: fore's 0.006 kg·m² cannot fit 0.08 kg
+    assert last[0].startswith("FAIL — the URDF disagrees with the MJCF: 5 difference(s)"), last
+    assert last[1].startswith("FAIL — 1 body inertial(s) no mass distribution inside"), last
 
 
 def test_without_pinocchio_the_parser_opinion_is_one_line_and_urdf_is_refused(monkeypatch):

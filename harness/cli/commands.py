@@ -415,6 +415,7 @@ def _args_run(p: argparse.ArgumentParser) -> None:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from harness.outputs.drawings import draw_report  # lazy: studies and plots load sympy and matplotlib
+    from harness.outputs.inertia import inertia_banners, inertia_page  # lazy: matplotlib, as above
     from harness.outputs.report import report_files  # lazy: as above
 
     start = time.perf_counter()
@@ -427,9 +428,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs, executor=executor,
                                       **_case_lines(args))
     outcome = _outcome(args, results, checks, limits)
+    inertials = _inertials(args, selected, limits)
     pages, appendix, plots = draw_report(selected, results, jobs=args.jobs, executor=executor,
                                          studies=args.studies and options.shipped)
     appendix = (appendix or {}) | ({"opinions": opinions.as_dict()} if opinions.as_dict() else {})
+    appendix |= {"inertials": inertials.as_dict()}
+    pages = [*pages, *inertia_page(inertials)]
     others = backends.expand(args.backend)[1:]
     if others:  # the first backend's report, and every backend side by side (its verdict is the first's)
         from harness.outputs.backends import BackendRun, side_by_side_html, side_by_side_json  # lazy: matplotlib
@@ -442,14 +446,15 @@ def cmd_run(args: argparse.Namespace) -> int:
                               "backend, and the findings", (side_by_side_html(runs),))]
         appendix = (appendix or {}) | {"backends": side_by_side_json(runs)}
     files = report_files(args.out, results, outcome, config_source=limits.source, pages=pages,
-                         appendix=appendix, plots=plots)
+                         appendix=appendix, plots=plots, banners=inertia_banners(inertials))
     prepare_output(args.out)
     # the report and its JUnit, all or none, and an earlier report's pages this one has not removed with them
     paths = write_atomic(files | _junit(args.junit, outcome), remove=superseded(args.out, files))
     _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
-                  peers=_peers(results), opinions=opinions.lines(quiet=args.quiet),
+                  peers=_peers(results), opinions=[*opinions.lines(quiet=args.quiet),
+                                                   *inertials.lines(quiet=args.quiet)],
                   written=f"wrote in {time.perf_counter() - start:.1f} s: {_written(args.out, paths)}")
-    return _exit_code(outcome, opinions)
+    return _exit_code(outcome, opinions, inertials)
 
 
 def _written(out: Path, paths: Sequence[Path]) -> str:
@@ -484,14 +489,26 @@ def cmd_check(args: argparse.Namespace) -> int:
         results, checks, limits = run_all(selected, args.config, _options(args, selected), jobs=args.jobs,
                                           figures_only=True, executor=_executor(args), **_case_lines(args))
     outcome = _outcome(args, results, checks, limits)
+    inertials = _inertials(args, selected, limits)
     write_atomic(_junit(args.junit, outcome))
     if args.json:
-        appendix = {"opinions": opinions.as_dict()} if opinions.as_dict() else None
+        appendix = ({"opinions": opinions.as_dict()} if opinions.as_dict() else {}) | {
+            "inertials": inertials.as_dict()}
         sys.stdout.write(dumps(json_doc(results, outcome, appendix=appendix)))
     else:
         _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
-                      peers=_peers(results), opinions=opinions.lines(quiet=args.quiet))
-    return _exit_code(outcome, opinions, json=args.json)
+                      peers=_peers(results), opinions=[*opinions.lines(quiet=args.quiet),
+                                                       *inertials.lines(quiet=args.quiet)])
+    return _exit_code(outcome, opinions, inertials, json=args.json)
+
+
+def _inertials(args: argparse.Namespace, selected: Sequence[cases.Case], limits):
+    """The inertia audit (harness.inertia) of the models judged: --mjcf's, else each case's, and --urdf's own
+    inertials against its own meshes, the bodies the config's [accept_inertia] names accepted."""
+    from harness.inertia.models import audit_files  # lazy: scipy's start-up, paid by the audit alone
+
+    models = [(args.mjcf.name, args.mjcf)] if args.mjcf is not None else [(c.name, c.mjcf) for c in selected]
+    return audit_files(models, urdf=args.urdf, accept=limits.accept_inertia, own=args.mjcf is not None)
 
 
 def _opinions(args: argparse.Namespace):
@@ -508,11 +525,13 @@ def _opinions(args: argparse.Namespace):
     return model_opinions(mjcf, urdf=args.urdf, mapping=args.urdf_map, parser=own and not args.quiet)
 
 
-def _exit_code(outcome: Outcome, opinions, *, json: bool = False) -> int:
-    """The checks' exit code, made a fail where the URDF disagrees with the MJCF (printed under the verdict; on
-    stderr where stdout holds the JSON document alone)."""
-    if opinions.failed:
-        print(opinions.verdict(), file=sys.stderr if json else sys.stdout)
+def _exit_code(outcome: Outcome, opinions, inertials, *, json: bool = False) -> int:
+    """The checks' exit code, made a fail where the URDF disagrees with the MJCF or a body's inertial cannot lie
+    in its geometry (each printed under the verdict; on stderr where stdout holds the JSON document alone)."""
+    failed = [part for part in (opinions, inertials) if part.failed]
+    for part in failed:
+        print(part.verdict(), file=sys.stderr if json else sys.stdout)
+    if failed:
         return EXIT_FAIL if outcome.exit_code in (EXIT_OK, EXIT_UNFIT) else outcome.exit_code
     return outcome.exit_code
 

@@ -284,24 +284,28 @@ def _pin_q(pm, m: mujoco.MjModel, pairs: list[_Pair], qpos: np.ndarray, origin: 
 
 
 def _samples(m: mujoco.MjModel, pairs: list[_Pair], count: int, seed: int) -> list[np.ndarray]:
-    """``qpos0`` and ``count`` configurations drawn within the matched joints' ranges (hinges without a range
-    within ±π of qpos0, slides within ±0.5 m, ball and free joints at random orientations)."""
+    """``qpos0`` and ``count`` configurations drawn within the matched joints' ranges (:func:`sample_states`)."""
+    return sample_states(m, [j for p in pairs for j in p.mj_joints], count, seed)
+
+
+def sample_states(m: mujoco.MjModel, joints: list[int], count: int, seed: int) -> list[np.ndarray]:
+    """``qpos0`` and ``count`` configurations with ``joints`` drawn within their ranges (hinges without a range
+    within ±π of qpos0, slides within ±0.5 m, ball and free joints at random orientations), seeded."""
     rng = np.random.default_rng(seed)
     out = [m.qpos0.copy()]
     for _ in range(count):
         qpos = m.qpos0.copy()
-        for p in pairs:
-            for j in p.mj_joints:
-                a, kind = m.jnt_qposadr[j], int(m.jnt_type[j])
-                if kind in (0, 1):
-                    quat = rng.normal(size=4)
-                    qpos[a + 3 * (kind == 0):a + 3 * (kind == 0) + 4] = quat / np.linalg.norm(quat)
-                    if kind == 0:
-                        qpos[a:a + 3] += rng.uniform(-1, 1, 3)
-                elif m.jnt_limited[j]:
-                    qpos[a] = rng.uniform(*m.jnt_range[j])
-                else:
-                    qpos[a] += rng.uniform(-1, 1) * (np.pi if kind == 3 else 0.5)
+        for j in joints:
+            a, kind = m.jnt_qposadr[j], int(m.jnt_type[j])
+            if kind in (0, 1):
+                quat = rng.normal(size=4)
+                qpos[a + 3 * (kind == 0):a + 3 * (kind == 0) + 4] = quat / np.linalg.norm(quat)
+                if kind == 0:
+                    qpos[a:a + 3] += rng.uniform(-1, 1, 3)
+            elif m.jnt_limited[j]:
+                qpos[a] = rng.uniform(*m.jnt_range[j])
+            else:
+                qpos[a] += rng.uniform(-1, 1) * (np.pi if kind == 3 else 0.5)
         out.append(qpos)
     return out
 

@@ -26,7 +26,8 @@ STALE = ".stale"
 REPORT_FILES = ("report.html", "report.json", "summary.md")  # what `mjharness run` writes into --out, always
 CASE_PAGES = "cases"  # and a page per case in this folder, NAME.html
 STUDIES_PAGE, AUDIT_PAGE, BACKENDS_PAGE = "studies.html", "audit.html", "backends.html"
-PAGES = (STUDIES_PAGE, AUDIT_PAGE, BACKENDS_PAGE)  # and these where the run has them
+INERTIA_PAGE = "inertia.html"
+PAGES = (STUDIES_PAGE, AUDIT_PAGE, BACKENDS_PAGE, INERTIA_PAGE)  # and these where the run has them
 
 
 def check_output(out: Path | str) -> Path:

@@ -522,9 +522,11 @@ def _start_qpos(result: CaseResult) -> tuple[float, ...]:
 
 def render_pages(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]], *,
                  stills: Mapping[str, Still] | None = None, config_source: str | None = None,
-                 pages: Sequence[Page] = (), plots: Mapping[str, str] | None = None) -> dict[str, str]:
+                 pages: Sequence[Page] = (), plots: Mapping[str, str] | None = None,
+                 banners: Sequence[tuple[str, bool]] = ()) -> dict[str, str]:
     """Every page of the report by its path relative to the output directory: the overview
     (:data:`OVERVIEW`), a page per case (:func:`case_page`) and ``pages`` (the studies, the seed audit).
+    ``banners``: further (line, passed) under the verdict on the first screen (the inertia audit's).
     ``stills`` defaults to rendering each model now (see harness.render); ``plots``, each case's
     :func:`section_plots` by case name, are drawn now where not given."""
     if bad := [p.name for p in pages if p.name not in PAGES]:
@@ -541,7 +543,9 @@ def render_pages(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, 
                 + section_differences(results) + section_findings(results) + section_requirements(results, outcome)
                 + section_pages(pages))
     out = {OVERVIEW: _document("mjharness report", overview, pages=pages, source=source,
-                               top=section_banner(results, outcome), howto=True)}
+                               top=section_banner(results, outcome) + "".join(
+                                   f"<p class='banner {'pass' if ok else 'fail'}'>{_esc(text)}</p>"
+                                   for text, ok in banners), howto=True)}
     names = [case_page(r.case.name) for r in results]
     for k, r in enumerate(results):
         body = section_case(r, outcome.checks[r.case.name], shown.get(r.case.name), plots=plots[r.case.name],
@@ -648,10 +652,12 @@ def audit_markdown(audit: Mapping[str, object]) -> str:
 def report_files(out: Path | str, results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]], *,
                  stills: Mapping[str, Still] | None = None, config_source: str | None = None,
                  pages: Sequence[Page] = (), appendix: Mapping[str, object] | None = None,
-                 plots: Mapping[str, str] | None = None) -> dict[Path, str]:
+                 plots: Mapping[str, str] | None = None, banners: Sequence[tuple[str, bool]] = ()) -> dict[Path, str]:
     """The report's pages (:func:`render_pages`), report.json and summary.md in ``out``, rendered, by path.
-    ``pages``/``appendix``: the further pages and JSON entries; ``plots``: each case's plots, already drawn."""
-    html_pages = render_pages(results, outcome, stills=stills, config_source=config_source, pages=pages, plots=plots)
+    ``pages``/``appendix``: the further pages and JSON entries; ``plots``: each case's plots, already drawn;
+    ``banners``: further first-screen lines (:func:`render_pages`)."""
+    html_pages = render_pages(results, outcome, stills=stills, config_source=config_source, pages=pages, plots=plots,
+                              banners=banners)
     texts = (render_json(results, outcome, appendix=appendix),
              render_markdown(results, outcome, audit=(appendix or {}).get("audit")))  # type: ignore[arg-type]
     return ({Path(out) / name: text for name, text in html_pages.items()}

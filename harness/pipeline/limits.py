@@ -37,6 +37,9 @@ the measured figures; its schema is::
     position = 1e-3            # (see harness.pipeline.require)
 
     accept_known_defects = true   # a failure with a documented defect's signature does not fail the gate
+
+    [accept_inertia]           # a body whose inertial the inertia audit finds unphysical (harness.inertia),
+    link2 = "REASON"           # accepted: the reason is printed with the finding, which no longer fails
 """
 
 from __future__ import annotations
@@ -56,7 +59,7 @@ from harness.core.figures import FigureName
 from harness.families import peers as peers_family
 from harness.pipeline.require import Requirement, from_config
 
-CONFIG_KEYS = {"thresholds", "require", "accept_known_defects"}
+CONFIG_KEYS = {"thresholds", "require", "accept_known_defects", "accept_inertia"}
 
 
 @dataclass(frozen=True)
@@ -157,6 +160,7 @@ class Limits:
     overrides: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     requirements: tuple[Requirement, ...] = ()
     accept_known_defects: bool = False
+    accept_inertia: Mapping[str, str] = field(default_factory=dict)
 
     def for_case(self, case: str) -> dict[str, Limit]:
         """The limits of ``case`` by figure name (what a verdict uses): the shipped ones, a user's
@@ -253,8 +257,18 @@ def load_limits(config: Path | str | None = None) -> Limits:
         if not isinstance(accept, bool):
             raise ConfigError(f"config {str(config)!r}: accept_known_defects must be true or false, got {accept!r}")
         source = f"{source} + {config}"
+        inertia = _accept_inertia(section.get("accept_inertia", {}), config)
     return Limits(cases=cases, source=source, overrides=overrides, requirements=requirements,
-                  accept_known_defects=accept)
+                  accept_known_defects=accept, accept_inertia=inertia if config is not None else {})
+
+
+def _accept_inertia(raw: object, path: Path) -> dict[str, str]:
+    """The ``[accept_inertia]`` table: body name → the reason its inertia finding is accepted (a non-empty
+    string: an acceptance without a reason is refused)."""
+    if not isinstance(raw, dict) or not all(isinstance(v, str) and v.strip() for v in raw.values()):
+        raise ConfigError(f"config {str(path)!r}: accept_inertia must be a table of body = \"reason\" (a "
+                          "non-empty string saying why the body's inertial is accepted)")
+    return {str(k): v.strip() for k, v in raw.items()}
 
 
 def check_config(overrides: Mapping[str, Mapping[str, float]], cases: Iterable[Case], *, source: str) -> None:
