@@ -25,7 +25,7 @@ import mujoco
 import numpy as np
 
 from analytic.systems import Motion, Scales
-from analytic.tree import Actuator, Body, Equality, Joint, Point, Tree, TreeDynamics
+from analytic.tree import Actuator, Body, Equality, ForceLimit, Joint, Point, Tree, TreeDynamics
 from analytic.tree.model import BALL, FREE, HINGE, SLIDE
 from harness.core.errors import ModelError
 
@@ -146,8 +146,9 @@ def _may_collide(model: mujoco.MjModel) -> bool:
 
 
 def _actuator_gap(model: mujoco.MjModel, a: int) -> str:
-    """Why actuator ``a``'s force is not in the tree reference ('' where it is)."""
-    if _disabled(model, _DSBL.mjDSBL_ACTUATION):
+    """Why actuator ``a``'s force is not in the tree reference ('' where it is: an affine force on a hinge, slide or
+    fixed tendon, its gear in the moment, clamped to its forcerange and, summed, to its joints' actuatorfrcrange)."""
+    if not _acting(model, a):
         return ""
     if int(model.actuator_dyntype[a]) != int(mujoco.mjtDyn.mjDYN_NONE):
         return "activation dynamics (the force follows an internal state, not the control)"
@@ -157,13 +158,28 @@ def _actuator_gap(model: mujoco.MjModel, a: int) -> str:
         return f"bias type {mujoco.mjtBias(int(model.actuator_biastype[a])).name}"
     if _moment(model, a) is None:
         return "a transmission other than a hinge, slide or fixed tendon"
-    if model.actuator_forcelimited[a]:
-        return "a force range (the force is clamped)"
+    if int(model.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_TENDON) \
+            and model.tendon_actfrclimited[int(model.actuator_trnid[a, 0])]:
+        return "a tendon's actuatorfrcrange (its actuators' forces scaled together)"
+    if hasattr(model, "actuator_ctrlnum") and int(model.actuator_ctrlnum[a]) != 1:
+        return f"{int(model.actuator_ctrlnum[a])} control inputs (a multi-input actuator)"
+    if hasattr(model, "actuator_delay") and model.actuator_delay[a]:
+        return "a delayed control (read from the control history)"
+    if hasattr(model, "actuator_damping") and np.any(model.actuator_damping[a]):
+        return "damping of the actuator"
     if hasattr(model, "actuator_dampingpoly") and np.any(model.actuator_dampingpoly[a]):
         return "polynomial damping of the actuator"
     if hasattr(model, "actuator_armature") and np.any(model.actuator_armature[a]):
         return "actuator armature"
     return ""
+
+
+def _acting(model: mujoco.MjModel, a: int) -> bool:
+    """Whether actuator ``a`` applies a force: actuation on and its group not disabled (``disableactuator``)."""
+    if _disabled(model, _DSBL.mjDSBL_ACTUATION):
+        return False
+    group = int(model.actuator_group[a])
+    return not (0 <= group < 31 and int(model.opt.disableactuator) & (1 << group))
 
 
 def _moment(model: mujoco.MjModel, a: int) -> np.ndarray | None:
@@ -211,6 +227,9 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
     every = hasattr(_DSBL, "mjDSBL_PASSIVE") and _disabled(model, _DSBL.mjDSBL_PASSIVE)
     passive = not every and not (hasattr(_DSBL, "mjDSBL_SPRING") and _disabled(model, _DSBL.mjDSBL_SPRING))
     damper = not every and not (hasattr(_DSBL, "mjDSBL_DAMPER") and _disabled(model, _DSBL.mjDSBL_DAMPER))
+    # gravity compensation is computed unless both are off (mj_passive); on a joint with actuatorgravcomp it is added
+    # to the actuators' force instead, which nothing applies where actuation is off or there are no actuators
+    actuating = model.nu > 0 and not _disabled(model, _DSBL.mjDSBL_ACTUATION)
     gravity = np.zeros(3) if _disabled(model, _DSBL.mjDSBL_GRAVITY) else np.array(model.opt.gravity, dtype=float)
     bodies = []
     for b in range(1, model.nbody):
@@ -222,7 +241,7 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
             mass=float(model.body_mass[b]), inertia=np.array(model.body_inertia[b], dtype=float),
             joints=() if mocap else tuple(range(int(model.body_jntadr[b]),
                                                 int(model.body_jntadr[b]) + int(model.body_jntnum[b]))),
-            gravcomp=float(model.body_gravcomp[b]) if passive else 0.0))
+            gravcomp=float(model.body_gravcomp[b]) if passive or damper else 0.0))
     joints = []
     for j in range(model.njnt):
         kind = _KINDS[int(model.jnt_type[j])]
@@ -238,15 +257,21 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
             springref=float(model.qpos_spring[model.jnt_qposadr[j]]) if kind in (HINGE, SLIDE) else 0.0,
             damping=(float(damping[0]), float(poly[0]), float(poly[1])) if damper else (0.0, 0.0, 0.0),
             armature=float(model.dof_armature[dof]),
-            chart=np.asarray(chart.get(j, (1.0, 0.0, 0.0, 0.0)), dtype=float)))
+            chart=np.asarray(chart.get(j, (1.0, 0.0, 0.0, 0.0)), dtype=float),
+            gravcomp=("actuator" if actuating else "off") if model.jnt_actgravcomp[j] else "passive"))
     points = _points(model)
     equalities = () if _disabled(model, _DSBL.mjDSBL_EQUALITY) or _disabled(model, _DSBL.mjDSBL_CONSTRAINT) \
         else tuple(e for i in range(model.neq) if (e := _equality(model, i)) is not None)
-    actuators = () if _disabled(model, _DSBL.mjDSBL_ACTUATION) else tuple(
-        _actuator(model, a, 0.0 if ctrl is None else float(ctrl[a])) for a in range(model.nu)
-        if not _actuator_gap(model, a))
+    actuators = tuple(_actuator(model, a, 0.0 if ctrl is None else float(ctrl[a])) for a in range(model.nu)
+                      if _acting(model, a) and not _actuator_gap(model, a))
+    # MuJoCo clamps a joint's total actuator force whether or not an actuator acts (gravcomp may be all of it)
+    limits = () if not actuating else tuple(
+        ForceLimit(name=model.joint(j).name, dof=int(model.jnt_dofadr[j]), lo=float(model.jnt_actfrcrange[j, 0]),
+                   hi=float(model.jnt_actfrcrange[j, 1]))
+        for j in range(model.njnt) if model.jnt_actfrclimited[j]
+        and int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)))
     return Tree(bodies=tuple(bodies), joints=tuple(joints), gravity=gravity, points=points,
-                equalities=equalities, actuators=actuators, size=float(model.stat.meansize))
+                equalities=equalities, actuators=actuators, limits=limits, size=float(model.stat.meansize))
 
 
 def _points(model: mujoco.MjModel) -> tuple[Point, ...]:
@@ -332,8 +357,11 @@ def _actuator(model: mujoco.MjModel, a: int, ctrl: float) -> Actuator:
         else np.array([model.actuator_gainprm[a, 0], 0.0, 0.0])
     bias = model.actuator_biasprm[a, :3] if int(model.actuator_biastype[a]) == int(mujoco.mjtBias.mjBIAS_AFFINE) \
         else np.zeros(3)
+    forcerange = (float(model.actuator_forcerange[a, 0]), float(model.actuator_forcerange[a, 1])) \
+        if model.actuator_forcelimited[a] else None
     return Actuator(name=model.actuator(a).name or f"actuator{a}", moment=_moment(model, a),
-                    gain=tuple(float(v) for v in gain), bias=tuple(float(v) for v in bias), ctrl=ctrl)
+                    gain=tuple(float(v) for v in gain), bias=tuple(float(v) for v in bias), ctrl=ctrl,
+                    forcerange=forcerange)
 
 
 def isolate(spec: mujoco.MjSpec) -> None:
