@@ -71,6 +71,7 @@ from harness.engine.recording import steps_in
 from harness.engine.variants import exact_solver, floors_pair, point_masses
 from harness.families.bench import Bench, Measured
 from harness.reference import solutions as refmod
+from harness.reference.tree import switched_orders, switches
 
 ORDER_TOLERANCE = 0.3   # pass when observed ≥ expected − 0.3 (floor bias ≤ 0.14, see above)
 FLOOR_FACTOR = 10.0     # fit only errors above 10 × the detected floor
@@ -489,6 +490,8 @@ def convergence_study(
     if reference is None or reference.solution.t_end < horizon - 1e-12:
         reference = case.reference(base, t_end=horizon)
     probe = case.probe(reference.dynamics)
+    # a clamp's switch within the study's horizon lowers the order an integrator keeps (SWITCHED_ORDER)
+    orders = switched_orders(EXPECTED_ORDER, switches(reference.dynamics, reference.solution.state, horizon))
     constrained = bool(probe.constraints)
     scales = reference.scales
     grids: dict[int, Trajectory] = {}
@@ -555,10 +558,10 @@ def convergence_study(
                 errs["force"].append(_force_error(sim, ref) / scales.force)
         sat = SATURATION * scales.length
         gated = VERDICT_QUANTITY[constrained]
-        degree = polynomial_degree(reference, horizon, max_degree=EXPECTED_ORDER[name])
+        degree = polynomial_degree(reference, horizon, max_degree=orders[name])
         exact = "" if degree is None else (
             f"exact: the reference is a degree-{degree} polynomial in t, which an order-"
-            f"{EXPECTED_ORDER[name]} method integrates without truncation error")
+            f"{orders[name]} method integrates without truncation error")
         quantities = [("position", "m", sat)]
         if constrained:
             quantities = [("position@rigid", "m", sat), *quantities, ("softness", "m", sat), ("force", "1", SATURATION)]
@@ -567,7 +570,7 @@ def convergence_study(
             fit = fit_order(dts, values, saturation=saturation)
             note = exact
             if (quantity == gated and constrained and not exact and math.isfinite(fit.order)
-                    and EXPECTED_ORDER[name] - fit.order > ORDER_TOLERANCE):
+                    and orders[name] - fit.order > ORDER_TOLERANCE):
                 fit, note = _rigid_limit_resolved(fit, values, dts, ladder, quadruple(name, dts), saturation)
             if quantity == gated and not note and fit.n_used < 2 and fit.floor is not None:
                 softness = [v for v in errs["softness"] if math.isfinite(v)]
@@ -578,7 +581,7 @@ def convergence_study(
                 note = explained_floor(fit, effects)
             series.append(Series(
                 integrator=name, quantity=quantity, unit=unit, dts=dts, errors=values, fit=fit,
-                expected=float(EXPECTED_ORDER[name]) if quantity == gated and not note else None,
+                expected=float(orders[name]) if quantity == gated and not note else None,
                 note=note if quantity == gated else "",
                 predicted_floor=force_floor if quantity == "force" else None,
                 diverged=diverged.get(name, "")))

@@ -508,3 +508,65 @@ def motion(model: mujoco.MjModel, qpos: np.ndarray, qvel: np.ndarray, *, horizon
     q0, qd0 = start_state(model, qpos, qvel)
     return Motion(description=description, q0=q0, qd0=qd0, horizon=horizon, tags=frozenset({"tree"}))
 
+
+
+# ---- the clamps' switching instants ------------------------------------------------------------------------
+SWITCH_SAMPLES = 2001
+"""The samples over the horizon at which each clamp's argument is read to find where it crosses an end of its range
+(a clamp that enters and leaves its range between two samples, within horizon/2000, is missed)."""
+SWITCHED_ORDER = 3
+"""The order an integrator keeps over a motion that crosses a clamp's switch. A clamp is continuous but its slope in
+the state jumps, so q̈ is continuous across the switch and q⃛ jumps: the one step that straddles each switch makes a
+local error O(h³) × the jump (its Taylor expansion breaks at the third derivative), whose coefficient depends on where
+in the step the switch falls (not an expansion in h: Richardson does not remove it). A method of order p > 3 (RK4)
+then errs at order 3; one of order ≤ 3 (Euler, implicit) keeps its own."""
+
+
+def switches(dynamics: object, state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], t_end: float
+             ) -> tuple[tuple[str, float], ...]:
+    """Where the reference motion crosses a clamp's switch: (clamp, instant) in time order, each instant located by
+    bisection on the reference's dense output ``state`` to round-off, for ``dynamics`` with clamps (a tree's
+    :attr:`~analytic.tree.TreeDynamics.clamp_ranges`; none for any other system)."""
+    ranges = getattr(dynamics, "clamp_ranges", ())
+    if not ranges:
+        return ()
+    lo = np.array([r[1] for r in ranges], dtype=float)
+    hi = np.array([r[2] for r in ranges], dtype=float)
+
+    def margins(t: np.ndarray) -> np.ndarray:  # (len(t), 2, clamps): past the low end, short of the high end
+        args = dynamics.clamp_arguments(*state(t))
+        return np.stack([args - lo, hi - args], axis=1)
+
+    t = np.linspace(0.0, t_end, SWITCH_SAMPLES)
+    g = margins(t)
+    found = []
+    for i, side, k in zip(*np.nonzero(np.signbit(g[:-1]) != np.signbit(g[1:])), strict=True):
+        a, b = float(t[i]), float(t[i + 1])
+        sign = bool(np.signbit(g[i, side, k]))
+        for _ in range(60):  # to round-off in t
+            mid = 0.5 * (a + b)
+            if mid in (a, b):
+                break
+            if bool(np.signbit(margins(np.array([mid]))[0, side, k])) == sign:
+                a = mid
+            else:
+                b = mid
+        found.append((ranges[k][0], 0.5 * (a + b)))
+    return tuple(sorted(found, key=lambda item: item[1]))
+
+
+def switched_orders(orders: Mapping[str, int], crossed: tuple[tuple[str, float], ...]) -> dict[str, int]:
+    """Each integrator's order over a motion that crosses the clamps' switches ``crossed``: its documented order,
+    at most :data:`SWITCHED_ORDER` where any switch is crossed."""
+    return {name: min(p, SWITCHED_ORDER) if crossed else p for name, p in orders.items()}
+
+
+def switch_note(crossed: tuple[tuple[str, float], ...]) -> str:
+    """What the budget says of a motion that crosses clamps' switches ('' where none)."""
+    if not crossed:
+        return ""
+    first = ", ".join(f"{name} at t = {t:.6g} s" for name, t in crossed[:3])
+    more = f" and {len(crossed) - 3} more" if len(crossed) > 3 else ""
+    return (f"the motion crosses {len(crossed)} clamp switch(es) ({first}{more}; located on the reference): each "
+            f"integrator is judged at its documented order, at most {SWITCHED_ORDER} (a step straddling a switch "
+            f"errs O(h³)), and its integration estimate's own error measured from h/4")
