@@ -1,0 +1,237 @@
+"""Actuation as robots have it, in the tree reference: position and velocity servos with a force range, gear, a
+joint's ``actuatorfrcrange`` on the summed force, ``actuatorgravcomp`` routed into that sum, controls clamped to
+``ctrlrange`` — each checked against MuJoCo (the thing judged), never switched off; the clamps' switching instants
+located and the budget's order lowered across them; both directions of the verdict on a model written for these
+tests (faults on the engine's side alone fail; legitimate settings pass).
+
+The Unitree G1 false alarm (instant.forcing 2.66e-2 against a limit of 2.2e-12: the joints' actuatorfrcrange
+ignored by the reference) is reproduced by :data:`CLAMPED` (G1 itself is not in ../shared/models).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import mujoco
+import numpy as np
+import pytest
+
+import harness
+from analytic.tree import TreeDynamics
+from harness.cases.own import from_mjcf
+from harness.reference.tree import SWITCHED_ORDER, prepare, read_tree, switched_orders, switches, uncovered
+
+# A three-link arm under gravity: position servos with a force range that binds, a velocity servo, a motor with a
+# gear, a servo whose ctrlrange excludes 0 (MuJoCo clamps the zero control), a joint's actuatorfrcrange on the sum of
+# two actuators, and gravity compensation routed through the actuators on one joint.
+SERVOS = """
+<mujoco model="servo arm">
+  <compiler autolimits="true"/>
+  <option timestep="0.001"/>
+  <default><geom type="capsule" size="0.03" density="800" contype="0" conaffinity="0"/></default>
+  <worldbody>
+    <body name="upper" pos="0 0 1">
+      <joint name="shoulder" axis="0 1 0" actuatorfrcrange="-1.5 1.5"/>
+      <geom fromto="0 0 0 0.3 0 0"/>
+      <body name="fore" pos="0.3 0 0" gravcomp="0.5">
+        <joint name="elbow" axis="0 1 0.1" actuatorgravcomp="true"/>
+        <geom fromto="0 0 0 0.25 0 0"/>
+        <body name="hand" pos="0.25 0 0">
+          <joint name="wrist" axis="1 0 0"/>
+          <geom fromto="0 0 0 0.1 0 0"/>
+          <site name="tip" pos="0.1 0 0"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <position name="shoulder_servo" joint="shoulder" kp="40" kv="2" forcerange="-3 3"/>
+    <velocity name="shoulder_damper" joint="shoulder" kv="0.5"/>
+    <position name="elbow_servo" joint="elbow" kp="20" kv="1" forcerange="-0.8 0.8" ctrlrange="0.2 1"/>
+    <motor name="wrist_motor" joint="wrist" gear="2" ctrlrange="-1 1"/>
+  </actuator>
+  <keyframe><key name="swing" qpos="0.6 -0.9 0.4" qvel="2 -3 4" ctrl="0 0 0.5 0.3"/></keyframe>
+</mujoco>
+"""
+
+# G1's case reduced: position servos far stronger than their joints' actuatorfrcrange, which clamps the summed torque
+CLAMPED = """
+<mujoco model="clamped legs">
+  <compiler autolimits="true"/>
+  <option timestep="0.002"/>
+  <default>
+    <joint axis="0 1 0" actuatorfrcrange="-2 2" armature="0.01"/>
+    <geom type="capsule" size="0.03" density="800" contype="0" conaffinity="0"/>
+    <position kp="500" kv="10"/>
+  </default>
+  <worldbody>
+    <body name="thigh" pos="0 0 1">
+      <joint name="hip"/>
+      <geom fromto="0 0 0 0 0 -0.3"/>
+      <body name="shin" pos="0 0 -0.3">
+        <joint name="knee"/>
+        <geom fromto="0 0 0 0 0 -0.3"/>
+        <site name="foot" pos="0 0 -0.3"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <position name="hip_servo" joint="hip"/>
+    <position name="knee_servo" joint="knee"/>
+  </actuator>
+  <keyframe><key name="crouch" qpos="0.5 -0.8" qvel="1 -1" ctrl="0.1 -0.2"/></keyframe>
+</mujoco>
+"""
+
+
+def _model(text: str) -> mujoco.MjModel:
+    spec = mujoco.MjSpec.from_string(text)
+    prepare(spec)
+    return spec.compile()
+
+
+def _actuation(dyn: TreeDynamics, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    """The reference's generalized actuator force: its forcing less that of the same tree without actuators (the
+    gravity compensation routed to the actuators goes with them, as in MuJoCo's qfrc_actuator)."""
+    bare = TreeDynamics.of(dataclasses.replace(dyn.tree, actuators=(), limits=()))
+    return dyn.forcing(q, qd) - bare.forcing(q, qd)
+
+
+@pytest.mark.parametrize("text", [SERVOS, CLAMPED], ids=["servos", "clamped"])
+def test_the_reference_applies_every_clamp_as_mujoco_does_at_states_where_they_bind(text):
+    """At 40 random states (a clamp binding at a quarter of them at least), the reference's actuator force
+    agrees with MuJoCo's qfrc_actuator to round-off; and nothing of the actuation is listed as uncovered."""
+    model = _model(text)
+    assert not [k for k in uncovered(model) if k.startswith("actuator")]
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(7)
+    key = model.key(0).id
+    worst, bound = 0.0, 0
+    for _ in range(40):
+        mujoco.mj_resetDataKeyframe(model, data, key)
+        data.qpos[:] = rng.uniform(-1.5, 1.5, model.nq)
+        data.qvel[:] = rng.uniform(-5, 5, model.nv)
+        data.ctrl[:] = rng.uniform(-2, 2, model.nu)  # beyond the ctrlranges too
+        mujoco.mj_forward(model, data)
+        dyn = TreeDynamics.of(read_tree(model, ctrl=data.ctrl))
+        worst = max(worst, float(np.max(np.abs(_actuation(dyn, data.qpos, data.qvel) - data.qfrc_actuator))))
+        args = dyn.clamp_arguments(data.qpos, data.qvel)
+        bound += bool(np.any([not lo <= a <= hi for a, (_, lo, hi) in zip(args, dyn.clamp_ranges, strict=True)]))
+    assert worst < 1e-12, worst
+    assert bound >= 10, bound  # the clamps bind at a quarter of the states at least
+
+
+@pytest.mark.parametrize(("what", "edit"), [
+    ("no forcerange", lambda s: setattr(s.actuator("shoulder_servo"), "forcelimited", 0)),
+    ("no joint actuatorfrcrange", lambda s: setattr(s.joint("shoulder"), "actfrclimited", 0)),
+    ("gear 2.02", lambda s: setattr(s.actuator("wrist_motor"), "gear", [2.02, 0, 0, 0, 0, 0])),
+    ("no ctrl clamp", lambda s: setattr(s.actuator("elbow_servo"), "ctrllimited", 0)),
+    ("gravcomp not routed to the actuators", lambda s: setattr(s.joint("elbow"), "actgravcomp", 0)),
+])
+def test_a_missing_clamp_or_a_wrong_gear_on_the_engines_side_is_seen_by_the_reference(what, edit):
+    """Each fault moves MuJoCo's qfrc_actuator away from the reference's (read from the unfaulted model) at the
+    same states by far more than round-off: the reference would fail it (the end-to-end runs: below)."""
+    good = _model(SERVOS)
+    spec = mujoco.MjSpec.from_string(SERVOS)
+    prepare(spec)
+    edit(spec)
+    bad = spec.compile()
+    data = mujoco.MjData(bad)
+    rng = np.random.default_rng(3)
+    worst = 0.0
+    for _ in range(20):
+        mujoco.mj_resetDataKeyframe(bad, data, 0)
+        data.qpos[:] = rng.uniform(-1.5, 1.5, bad.nq)
+        data.qvel[:] = rng.uniform(-5, 5, bad.nv)
+        data.ctrl[:] = rng.uniform(-2, 2, bad.nu)  # beyond the ctrlranges too
+        mujoco.mj_forward(bad, data)
+        dyn = TreeDynamics.of(read_tree(good, ctrl=data.ctrl))
+        worst = max(worst, float(np.max(np.abs(_actuation(dyn, data.qpos, data.qvel) - data.qfrc_actuator))))
+    assert worst > 1e-3, (what, worst)
+
+
+def test_switching_instants_are_located_and_lower_the_order_only_where_crossed():
+    """The hip's summed servo torque −kp q − kv q̇, clipped at ±2 by its joint's actuatorfrcrange, along q(t) = A sin t
+    (the knee at rest) switches where A √(kp² + kv²) |sin(t + φ)| = 2, φ = atan2(kv, kp): both instants located to
+    round-off on the dense state; only then is RK4's order lowered to 3 (Euler's stays 1)."""
+    model = _model(CLAMPED)
+    dyn = TreeDynamics.of(read_tree(model))  # ctrl 0
+    amplitude, kp, kv = 0.01, 500.0, 10.0
+
+    def state(t):
+        t = np.atleast_1d(t)
+        return (np.stack([amplitude * np.sin(t), np.zeros_like(t)], axis=-1),
+                np.stack([amplitude * np.cos(t), np.zeros_like(t)], axis=-1))
+
+    found = switches(dyn, state, 3.0)
+    phase, reach = np.arctan2(kv, kp), np.arcsin(2.0 / (amplitude * np.hypot(kp, kv)))
+    assert [name for name, _ in found] == ["joint hip actuatorfrcrange"] * 2
+    assert np.allclose([t for _, t in found], [reach - phase, np.pi - reach - phase], rtol=0, atol=1e-12), found
+    assert switched_orders({"RK4": 4, "Euler": 1}, found) == {"RK4": SWITCHED_ORDER, "Euler": 1}
+    assert switches(dyn, state, 0.9 * (reach - phase)) == ()
+    assert switched_orders({"RK4": 4}, ()) == {"RK4": 4}
+
+
+def _failed(v) -> set[str]:
+    return {c.name for c in v.checks if not c.passed and not c.not_applicable}
+
+
+@pytest.fixture
+def clamped(tmp_path):
+    path = tmp_path / "clamped_legs.xml"
+    path.write_text(CLAMPED)
+    return path
+
+
+@pytest.fixture
+def servos(tmp_path):
+    path = tmp_path / "servo_arm.xml"
+    path.write_text(SERVOS)
+    return path
+
+
+def test_the_g1_false_alarm_is_gone_and_a_missing_joint_clamp_fails(clamped):
+    """G1's case reduced: servos far stronger than their joints' actuatorfrcrange. Judged with its actuation on, the
+    model passes (it failed instant.forcing by ~1e10× its limit while the reference ignored the clamp); the clamp
+    removed on the engine's side alone fails instant.forcing."""
+    case = from_mjcf(clamped, keyframe="crouch", reference=clamped, horizon=0.2)
+    good = harness.validate(case, integrators=["RK4"])
+    assert not _failed(good), [(c.name, c.value, c.threshold) for c in good.checks if not c.passed]
+    forcing = next(c for c in good.checks if c.name == "instant.forcing")
+    bad = harness.validate(case, integrators=["RK4"], edit=lambda s: [setattr(j, "actfrclimited", 0)
+                                                                       for j in s.joints])
+    assert {"instant.forcing", "RK4.position"} <= _failed(bad)
+    worse = next(c for c in bad.checks if c.name == "instant.forcing")
+    assert worse.value > 1e6 * forcing.threshold, (worse.value, forcing.threshold)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("fault", "edit"), [
+    ("kp 1 % higher", lambda s: setattr(s.actuator("shoulder_servo"), "gainprm",
+                                        [40.4] + list(s.actuator("shoulder_servo").gainprm[1:]))),
+    ("forcerange missing", lambda s: setattr(s.actuator("shoulder_servo"), "forcelimited", 0)),
+    ("gear 1 % off", lambda s: setattr(s.actuator("wrist_motor"), "gear", [2.02, 0, 0, 0, 0, 0])),
+])
+def test_an_actuation_fault_on_the_engines_side_alone_fails(servos, fault, edit):
+    case = from_mjcf(servos, keyframe="swing", reference=servos, horizon=0.3)
+    v = harness.validate(case, integrators=["RK4"], edit=edit)
+    assert "instant.forcing" in _failed(v) and "RK4.position" in _failed(v), (fault, _failed(v))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("setting", [
+    pytest.param({"timestep": 0.0005}, id="half the timestep"),
+    pytest.param({"edit": lambda s: [setattr(s.actuator("wrist_motor"), "gear", [4.0, 0, 0, 0, 0, 0]),
+                                     setattr(s.actuator("wrist_motor"), "gainprm",
+                                             [0.5] + list(s.actuator("wrist_motor").gainprm[1:]))]},
+                 id="gear 4 with half the gain"),
+    pytest.param({"edit": lambda s: setattr(s.actuator("shoulder_servo"), "forcerange", [-1e6, 1e6])},
+                 id="a forcerange that never binds"),
+])
+def test_legitimate_actuation_settings_pass(servos, setting):
+    """Settings that change nothing of the physics, or change it on both sides alike (the edit reaches the model the
+    reference reads too: no ``reference=``), pass; the first crosses the clamps' switches at other phases of its
+    steps (the budget's order lowered there)."""
+    case = from_mjcf(servos, keyframe="swing", horizon=0.3)
+    v = harness.validate(case, integrators=["RK4", "implicitfast"], **setting)
+    assert not _failed(v), [(c.name, c.value, c.threshold) for c in v.checks if not c.passed]
