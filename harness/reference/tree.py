@@ -2,8 +2,9 @@
 
 What is read is the model's description only — body frames, inertias, joint
 kinds, anchors, axes, ``ref``, springs, damping, armature, gravity
-compensation, equality constraints, actuator gains at a given control, and
-the disable flags that switch any of them off — never MuJoCo's dynamics
+compensation, equality constraints, actuator gains at a given control with
+their gear, ``forcerange`` and ``ctrlrange`` and the joints' ``actuatorfrcrange``,
+and the disable flags that switch any of them off — never MuJoCo's dynamics
 (``mj_fullM``, ``qfrc_bias``, ``qacc``): the equations are derived from this
 description by :mod:`analytic.tree`.
 
@@ -11,6 +12,9 @@ What the tree reference does not model is listed, per kind, by
 :func:`uncovered` (contacts, joint limits, dry friction, fluid forces,
 spatial tendons, activation dynamics, …) and what it cannot read at all is
 refused by :func:`refusal` (flex, plugins, a model with nothing that moves).
+Where the reference motion crosses a clamp's switch is located by
+:func:`switches`, and what that does to an integrator's order is
+:data:`SWITCHED_ORDER`.
 """
 
 from __future__ import annotations
