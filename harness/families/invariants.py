@@ -30,7 +30,7 @@ NAME = "invariants"
 NOT_CONSERVED = 1e4
 """A reference invariant that changes by more than this × the reference's tolerance (× its scale) over the horizon
 is not conserved by the motion (damping, actuators, gravity compensation): the change is physics, not the
-reference's error (a conserved one drifts ≤ 1e-10 = 100 rtol on the shipped cases at rtol 1e-12: a ×100 margin).
+reference's error (a conserved one drifts ≤ 7e-12 = 7 rtol on the shipped cases at rtol 1e-12, measured: ×1000 less).
 Every force that is not conservative is then accounted for by the reference's own change: a fixed 1e-6 let MuJoCo's
 car lose its wheels' damping (5e-7 of the energy scale) as unexplained drift. An invariant the motion conserves and
 the reference misclassifies costs at most the reference's own drift, ~rtol: nothing a limit sees."""
