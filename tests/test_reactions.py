@@ -199,8 +199,8 @@ JUDGED_OR_NOT = [
     ('<force name="pivot_force" site="rod_end"/>', '<force name="pivot_force" site="rod_end" cutoff="5"/>',
      "instant.sensor.pivot_force", "n/a", "clipped to ±cutoff 5"),
     # noise is stored for the user, not applied by the engine: judged, and it passes
-    ('<force name="pivot_force" site="rod_end"/>', '<force name="pivot_force" site="rod_end" noise="3"/>',
-     "instant.sensor.pivot_force", "pass", ""),
+    pytest.param('<force name="pivot_force" site="rod_end"/>', '<force name="pivot_force" site="rod_end" noise="3"/>',
+                 "instant.sensor.pivot_force", "pass", "", marks=pytest.mark.slow),
 ]
 
 
