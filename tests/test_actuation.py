@@ -84,6 +84,34 @@ CLAMPED = """
 """
 
 
+# Two wheels driven through fixed tendons (MuJoCo's car's transmission) by two motors each, every tendon's summed
+# actuator force clamped by its actuatorfrcrange (each actuator's force scaled by the end over the sum), one motor with
+# a forcerange of its own besides
+TENDONS = """
+<mujoco model="tendon drive">
+  <compiler autolimits="true"/>
+  <default><geom type="cylinder" size=".03 .01" mass="0.05" contype="0" conaffinity="0"/></default>
+  <worldbody>
+    <body name="left wheel" pos="0 .06 0" zaxis="0 1 0"><joint name="left" damping="0.01"/><geom/></body>
+    <body name="right wheel" pos="0 -.06 0" zaxis="0 1 0"><joint name="right" damping="0.01"/><geom/></body>
+  </worldbody>
+  <tendon>
+    <fixed name="forward" actuatorfrcrange="-0.4 0.3"><joint joint="left" coef=".5"/><joint joint="right" coef=".5"/>
+    </fixed>
+    <fixed name="turn" actuatorfrcrange="-0.2 0.2"><joint joint="left" coef="-.5"/><joint joint="right" coef=".5"/>
+    </fixed>
+  </tendon>
+  <actuator>
+    <motor name="forward" tendon="forward" gear="2"/>
+    <velocity name="forward_damper" tendon="forward" kv="0.05" forcerange="-0.05 0.05"/>
+    <motor name="turn" tendon="turn"/>
+    <position name="turn_servo" tendon="turn" kp="0.3"/>
+  </actuator>
+  <keyframe><key name="roll" qvel="3 -2" ctrl="0.2 1 -0.1 0.5"/></keyframe>
+</mujoco>
+"""
+
+
 def _model(text: str) -> mujoco.MjModel:
     spec = mujoco.MjSpec.from_string(text)
     prepare(spec)
@@ -97,7 +125,7 @@ def _actuation(dyn: TreeDynamics, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
     return dyn.forcing(q, qd) - bare.forcing(q, qd)
 
 
-@pytest.mark.parametrize("text", [SERVOS, CLAMPED], ids=["servos", "clamped"])
+@pytest.mark.parametrize("text", [SERVOS, CLAMPED, TENDONS], ids=["servos", "clamped", "tendons"])
 def test_the_reference_applies_every_clamp_as_mujoco_does_at_states_where_they_bind(text):
     """At 40 random states (a clamp binding at a quarter of them at least), the reference's actuator force
     agrees with MuJoCo's qfrc_actuator to round-off; and nothing of the actuation is listed as uncovered."""
@@ -280,3 +308,23 @@ def test_the_reference_stepping_through_a_switch_agrees_with_one_restarted_at_ea
         t = instant
     (end_q,), (end_qd,) = through.state(np.array([t_end]))
     assert np.max(np.abs(end_q - q)) < 1e-10 and np.max(np.abs(end_qd - qd)) < 1e-9
+
+
+def test_a_tendons_actuatorfrcrange_is_applied_and_missing_it_is_seen():
+    """The tendons' clamps bind at the states of the agreement test above; a reference without them (as before: the
+    actuators on such a tendon were switched off) misses MuJoCo's force by far more than round-off."""
+    model = _model(TENDONS)
+    assert not [k for k in uncovered(model) if k.startswith("actuator")]
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(7)
+    worst = 0.0
+    for _ in range(20):
+        data.qpos[:] = rng.uniform(-1.5, 1.5, model.nq)
+        data.qvel[:] = rng.uniform(-5, 5, model.nv)
+        data.ctrl[:] = rng.uniform(-2, 2, model.nu)
+        mujoco.mj_forward(model, data)
+        tree = read_tree(model, ctrl=data.ctrl)
+        assert len(tree.tendon_limits) == 2
+        dyn = TreeDynamics.of(dataclasses.replace(tree, tendon_limits=()))
+        worst = max(worst, float(np.max(np.abs(_actuation(dyn, data.qpos, data.qvel) - data.qfrc_actuator))))
+    assert worst > 1e-2, worst

@@ -188,11 +188,12 @@ class TreeDynamics(Dynamics):
 
     def _actuation(self, q: Array, qvel: Array, comp: Array | None) -> tuple[Array, Array]:
         """The actuators' generalized force and every clamp's argument, as MuJoCo applies them (engine_forward.c,
-        mj_fwdActuation): each actuator's affine force, clipped to its ``forcerange``; their sum through the
-        moments, plus gravity compensation routed to the actuators; each joint's total clipped to its
-        ``actuatorfrcrange``. The second array holds, per clamp (the actuators' force ranges, then the joints'
-        limits), its argument (the force before it is clipped). A clip compares real parts only, so that a complex
-        step through it differentiates the branch it is on."""
+        mj_fwdActuation): each actuator's affine force; the forces on a tendon with an ``actuatorfrcrange`` scaled by
+        the end over their sum where the sum leaves it; each force clipped to its ``forcerange``; their sum through
+        the moments, plus gravity compensation routed to the actuators; each joint's total clipped to its
+        ``actuatorfrcrange``. The second array holds, per clamp (the tendons' limits, the actuators' force ranges,
+        then the joints' limits), its argument (the force or sum before it is clipped or scaled). A clip compares
+        real parts only, so that a complex step through it differentiates the branch it is on."""
         acts = self._actuators
         moment = acts["moment"]
         length = q @ moment.T
@@ -200,6 +201,15 @@ class TreeDynamics(Dynamics):
         gain, bias = acts["gain"], acts["bias"]
         force = ((gain[:, 0] + gain[:, 1] * length + gain[:, 2] * speed) * acts["ctrl"]
                  + bias[:, 0] + bias[:, 1] * length + bias[:, 2] * speed)
+        tendons = []
+        for lim in self.tree.tendon_limits:  # before the actuators' own ranges (engine_forward.c)
+            members = list(lim.actuators)
+            total = np.sum(force[..., members], axis=-1)
+            tendons.append(total)
+            scale = np.where(total.real > lim.hi, lim.hi / np.where(total.real > lim.hi, total, 1.0),
+                             np.where(total.real < lim.lo, lim.lo / np.where(total.real < lim.lo, total, 1.0), 1.0))
+            force = np.array(force, copy=True)
+            force[..., members] = force[..., members] * scale[..., None]
         limited = acts["limited"]
         before = force[..., limited]
         force = _clip(force, acts["lo"], acts["hi"])
@@ -211,7 +221,7 @@ class TreeDynamics(Dynamics):
         if len(dofs):
             total = np.array(total, copy=True)
             total[..., dofs] = _clip(summed, lo, hi)
-        return total, np.concatenate([before, summed], axis=-1)
+        return total, np.concatenate([*(t[..., None] for t in tendons), before, summed], axis=-1)
 
     @cached_property
     def _limits(self) -> tuple[Array, Array, Array]:
@@ -221,11 +231,13 @@ class TreeDynamics(Dynamics):
 
     @cached_property
     def clamp_ranges(self) -> tuple[tuple[str, float, float], ...]:
-        """Every clamp on the actuation, by name, with its range: the actuators' ``forcerange`` (in actuator order),
-        then the joints' ``actuatorfrcrange`` (:meth:`clamp_arguments` gives their arguments in the same order)."""
+        """Every clamp on the actuation, by name, with its range: the tendons' ``actuatorfrcrange``, the actuators'
+        ``forcerange`` (in actuator order), then the joints' ``actuatorfrcrange`` (:meth:`clamp_arguments` gives their
+        arguments in the same order)."""
+        tendons = [(f"tendon {lim.name} actuatorfrcrange", lim.lo, lim.hi) for lim in self.tree.tendon_limits]
         acts = [(f"actuator {a.name} forcerange", *a.forcerange) for a in self.tree.actuators
                 if a.forcerange is not None]
-        return (*acts, *((f"joint {lim.name} actuatorfrcrange", lim.lo, lim.hi) for lim in self.tree.limits))
+        return (*tendons, *acts, *((f"joint {lim.name} actuatorfrcrange", lim.lo, lim.hi) for lim in self.tree.limits))
 
     def clamp_arguments(self, q: Array, qd: Array) -> Array:
         """What each clamp of :attr:`clamp_ranges` clips at (q, q̇) (..., clamps): a clamp switches (its force's

@@ -159,6 +159,18 @@ class ForceLimit:
 
 
 @dataclass(frozen=True)
+class TendonLimit:
+    """A tendon's clamp on the total force of the actuators pulling it (MuJoCo's tendon ``actuatorfrcrange``), applied
+    before each actuator's own force range: where their summed force T leaves [``lo``, ``hi``], each actuator's force
+    (``actuators``: indices into :attr:`Tree.actuators`) is scaled by the end over T."""
+
+    name: str
+    actuators: tuple[int, ...]
+    lo: float
+    hi: float
+
+
+@dataclass(frozen=True)
 class Tree:
     """The whole description: bodies in an order where every parent precedes its children, the joints,
     gravity, named points, equality constraints and actuators."""
@@ -171,6 +183,8 @@ class Tree:
     actuators: tuple[Actuator, ...] = ()
     limits: tuple[ForceLimit, ...] = ()
     """The joints' clamps on their actuators' summed force, applied after :attr:`actuators` are summed."""
+    tendon_limits: tuple[TendonLimit, ...] = ()
+    """The tendons' clamps on their actuators' summed force, applied before each actuator's own force range."""
     size: float = 0.0
     """The mean size of the bodies (the length scale where the bodies' layout gives none: a lone point mass)."""
 
@@ -223,6 +237,6 @@ class Tree:
             out[f"actuator.{a.name}.ctrl"] = float(a.ctrl)
             if a.forcerange is not None:
                 out |= {f"actuator.{a.name}.forcerange.{k}": float(v) for k, v in enumerate(a.forcerange)}
-        for lim in self.limits:
+        for lim in (*self.limits, *self.tendon_limits):
             out |= {f"{lim.name}.actuatorfrcrange.0": float(lim.lo), f"{lim.name}.actuatorfrcrange.1": float(lim.hi)}
         return out

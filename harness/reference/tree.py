@@ -29,7 +29,7 @@ import mujoco
 import numpy as np
 
 from analytic.systems import Motion, Scales
-from analytic.tree import Actuator, Body, Equality, ForceLimit, Joint, Point, Tree, TreeDynamics
+from analytic.tree import Actuator, Body, Equality, ForceLimit, Joint, Point, TendonLimit, Tree, TreeDynamics
 from analytic.tree.model import BALL, FREE, HINGE, SLIDE
 from harness.core.errors import ModelError
 
@@ -151,7 +151,25 @@ def _may_collide(model: mujoco.MjModel) -> bool:
 
 def _actuator_gap(model: mujoco.MjModel, a: int) -> str:
     """Why actuator ``a``'s force is not in the tree reference ('' where it is: an affine force on a hinge, slide or
-    fixed tendon, its gear in the moment, clamped to its forcerange and, summed, to its joints' actuatorfrcrange)."""
+    fixed tendon, its gear in the moment, clamped to its forcerange and, summed, to its joints' actuatorfrcrange, and
+    scaled with the others on its tendon by the tendon's actuatorfrcrange — unless one of those is not modelled: its
+    force, which isolating cannot remove from the tendon's sum, sets the scale)."""
+    why = _own_gap(model, a)
+    if why or not _acting(model, a) or int(model.actuator_trntype[a]) != int(mujoco.mjtTrn.mjTRN_TENDON):
+        return why
+    tendon = int(model.actuator_trnid[a, 0])
+    if model.tendon_actfrclimited[tendon]:
+        for other in range(model.nu):
+            if other != a and int(model.actuator_trntype[other]) == int(mujoco.mjtTrn.mjTRN_TENDON) \
+                    and int(model.actuator_trnid[other, 0]) == tendon and _acting(model, other) \
+                    and _own_gap(model, other):
+                return (f"its tendon's actuatorfrcrange scales it with actuator {model.actuator(other).name!r}, "
+                        "which the reference does not model")
+    return ""
+
+
+def _own_gap(model: mujoco.MjModel, a: int) -> str:
+    """Why actuator ``a``'s own force law is not in the tree reference ('' where it is)."""
     if not _acting(model, a):
         return ""
     if int(model.actuator_dyntype[a]) != int(mujoco.mjtDyn.mjDYN_NONE):
@@ -162,9 +180,6 @@ def _actuator_gap(model: mujoco.MjModel, a: int) -> str:
         return f"bias type {mujoco.mjtBias(int(model.actuator_biastype[a])).name}"
     if _moment(model, a) is None:
         return "a transmission other than a hinge, slide or fixed tendon"
-    if int(model.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_TENDON) \
-            and model.tendon_actfrclimited[int(model.actuator_trnid[a, 0])]:
-        return "a tendon's actuatorfrcrange (its actuators' forces scaled together)"
     if hasattr(model, "actuator_ctrlnum") and int(model.actuator_ctrlnum[a]) != 1:
         return f"{int(model.actuator_ctrlnum[a])} control inputs (a multi-input actuator)"
     if hasattr(model, "actuator_delay") and model.actuator_delay[a]:
@@ -274,8 +289,17 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
                    hi=float(model.jnt_actfrcrange[j, 1]))
         for j in range(model.njnt) if model.jnt_actfrclimited[j]
         and int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)))
+    # a tendon's actuatorfrcrange scales the forces of the actuators on it (indices into ``actuators``)
+    kept = [a for a in range(model.nu) if _acting(model, a) and not _actuator_gap(model, a)]
+    tendon_limits = tuple(
+        TendonLimit(name=model.tendon(t).name or f"tendon{t}", actuators=members,
+                    lo=float(model.tendon_actfrcrange[t, 0]), hi=float(model.tendon_actfrcrange[t, 1]))
+        for t in range(model.ntendon) if model.tendon_actfrclimited[t]
+        and (members := tuple(i for i, a in enumerate(kept) if int(model.actuator_trntype[a])
+                              == int(mujoco.mjtTrn.mjTRN_TENDON) and int(model.actuator_trnid[a, 0]) == t)))
     return Tree(bodies=tuple(bodies), joints=tuple(joints), gravity=gravity, points=points,
-                equalities=equalities, actuators=actuators, limits=limits, size=float(model.stat.meansize))
+                equalities=equalities, actuators=actuators, limits=limits, tendon_limits=tendon_limits,
+                size=float(model.stat.meansize))
 
 
 def _points(model: mujoco.MjModel) -> tuple[Point, ...]:
