@@ -174,9 +174,6 @@ def test_a_static_accelerometer_fails_without_gravity(name, sensor):
 # ------------------------------------------------------------------ bad input: one line, exit 2
 PENDULUM = Path(__file__).resolve().parent.parent / "mjcf" / "pendulum.xml"
 BAD_SENSORS = [
-    ('<force name="pivot_force" site="rod_end"/>', '<force site="rod_end"/>', "needs a name"),
-    ('<force name="pivot_force" site="rod_end"/>', '<force name="pivot_force" site="rod_end" cutoff="5"/>',
-     "accepted: 0 (unclipped)"),
     # a massive body below the sensed one that the analytic system does not have
     ('<site name="bob_imu" pos="0 0 0" size="0.005"/>',
      '<site name="bob_imu" pos="0 0 0" size="0.005"/><body name="extra"><inertial pos="0 0 0" mass="0.1" '
@@ -184,7 +181,7 @@ BAD_SENSORS = [
 ]
 
 
-@pytest.mark.parametrize("old, new, needle", BAD_SENSORS, ids=["unnamed", "cutoff", "extra-body"])
+@pytest.mark.parametrize("old, new, needle", BAD_SENSORS, ids=["extra-body"])
 def test_a_sensor_the_harness_cannot_compare_is_refused_in_one_line(tmp_path, capsys, old, new, needle):
     from harness.cli.commands import main
 
@@ -195,6 +192,66 @@ def test_a_sensor_the_harness_cannot_compare_is_refused_in_one_line(tmp_path, ca
     assert main(["check", "pendulum", "--mjcf", str(path), "--integrators", "RK4"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and needle in err and "Traceback" not in err, err
+
+
+JUDGED_OR_NOT = [
+    # clipped to ±cutoff: its own figure n/a with why, the model judged (it was refused, exit 2: G1's IMU)
+    ('<force name="pivot_force" site="rod_end"/>', '<force name="pivot_force" site="rod_end" cutoff="5"/>',
+     "instant.sensor.pivot_force", "n/a", "clipped to ±cutoff 5"),
+    # noise is stored for the user, not applied by the engine: judged, and it passes
+    pytest.param('<force name="pivot_force" site="rod_end"/>', '<force name="pivot_force" site="rod_end" noise="3"/>',
+                 "instant.sensor.pivot_force", "pass", "", marks=pytest.mark.slow),
+]
+
+
+@pytest.mark.parametrize("old, new, figure, verdict, why", JUDGED_OR_NOT, ids=["cutoff", "noise"])
+def test_a_sensor_the_reference_cannot_judge_makes_its_own_figure_na_never_a_refusal(tmp_path, capsys, old, new,
+                                                                                    figure, verdict, why):
+    from harness.cli.commands import main
+
+    text = PENDULUM.read_text()
+    assert old in text
+    path = tmp_path / "variant.xml"
+    path.write_text(text.replace(old, new))
+    assert main(["check", "pendulum", "--mjcf", str(path), "--integrators", "RK4", "--verbose"]) == 0
+    row = next(line for line in capsys.readouterr().out.splitlines() if figure in line)
+    assert verdict in row and why in row, row
+
+
+IMU_ARM = """<mujoco model="imu arm">
+  <worldbody>
+    <body name="link" pos="0 0 1">
+      <joint name="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="1" contype="0" conaffinity="0"/>
+      <site name="imu" pos="0.3 0 0"/>
+    </body>
+  </worldbody>
+  <sensor>
+    <accelerometer name="imu-torso-linear-acceleration" site="imu" cutoff="157"/>
+    <accelerometer name="imu-raw" site="imu"/>
+    <user name="custom" dim="1" needstage="acc" datatype="real"/>
+    <accelerometer site="imu"/>
+  </sensor>
+</mujoco>"""
+
+
+def test_a_model_of_ones_own_with_a_clipped_imu_and_a_user_sensor_is_judged_with_those_figures_na(tmp_path, capsys):
+    """Unitree G1's refusal ("sensor 'imu-torso-linear-acceleration' has cutoff 157", exit 2) on a model of one's own:
+    now the clipped IMU and a user sensor are n/a, each with why, and the unclipped IMU beside them is judged, as is
+    an unnamed one (named by its index; it was refused, exit 2)."""
+    from harness.cli.commands import main
+
+    path = tmp_path / "imu_arm.xml"
+    path.write_text(IMU_ARM)
+    assert main(["check", "--mjcf", str(path), "--integrators", "RK4", "--verbose"]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    clipped = next(line for line in rows if "instant.sensor.imu-torso-linear-acceleration" in line)
+    user = next(line for line in rows if "instant.sensor.custom" in line)
+    raw = next(line for line in rows if "instant.sensor.imu-raw" in line)
+    assert "n/a" in clipped and "clipped to ±cutoff 157" in clipped, clipped
+    assert "n/a" in user and "a user sensor" in user, user
+    unnamed = next(line for line in rows if "instant.sensor.sensor3" in line)
+    assert raw.rstrip().endswith("pass") and unnamed.rstrip().endswith("pass"), (raw, unnamed)
 
 
 def test_an_accelerometer_the_system_has_no_acceleration_for_is_not_compared(tmp_path, capsys):

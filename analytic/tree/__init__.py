@@ -13,6 +13,6 @@ the solvers and every layer of the harness take it as they take a derived one.
 """
 
 from analytic.tree.dynamics import TreeDynamics
-from analytic.tree.model import Actuator, Body, Equality, Joint, Point, Tree
+from analytic.tree.model import Actuator, Body, Equality, ForceLimit, Joint, Point, TendonLimit, Tree
 
-__all__ = ["Actuator", "Body", "Equality", "Joint", "Point", "Tree", "TreeDynamics"]
+__all__ = ["Actuator", "Body", "Equality", "ForceLimit", "Joint", "Point", "TendonLimit", "Tree", "TreeDynamics"]

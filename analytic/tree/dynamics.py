@@ -14,7 +14,9 @@ n + 2 configurations T and M q̇ are summed through each coordinate's world twis
 (:meth:`TreeDynamics._momentum_and_kinetic`), no Jacobian formed. The non-conservative Q
 are applied forces through their Jacobians: joint damping −Bᵀ d(qvel)
 (MuJoCo's polynomial), gravity compensation Jᵀ(−m g · gravcomp) at each
-centre of mass, and actuators at a fixed control, moment × force. Nothing here
+centre of mass, and actuators at a fixed control, moment × force, each clipped to its force range and their
+sum on a joint to the joint's range (a clamp is a function of the state: its slope jumps where it switches,
+:meth:`TreeDynamics.clamp_arguments`). Nothing here
 calls an engine; ``tests/test_tree.py`` holds the independent checks (Kane's
 form of the same equations, the hand-derived systems, MuJoCo as the thing judged).
 
@@ -39,6 +41,12 @@ Array = np.ndarray
 
 STEP = 1e-30
 """The complex step h: Im f(q + i h v)/h = f′(q) v + O(h² |v|³), so any h far below round-off will do."""
+
+
+def _clip(x: Array, lo: Array, hi: Array) -> Array:
+    """x clipped to [lo, hi] by its real part (a complex step through the clip keeps the branch it is on: slope 0 where
+    clipped)."""
+    return np.where(x.real > hi, hi, np.where(x.real < lo, lo, x))
 
 
 def _cross(a: Array, b: Array) -> Array:
@@ -146,33 +154,114 @@ class TreeDynamics(Dynamics):
         return rates[order], np.linalg.solve(chol.T, vectors[:, order])
 
     def _applied(self, q: Array, qd: Array, lin: Array) -> Array:
-        """The non-conservative generalized forces Q at real (q, q̇): damping, gravity compensation,
-        actuators."""
+        """The non-conservative generalized forces Q at (q, q̇): damping, gravity compensation, actuators
+        (:meth:`actuation`)."""
         qvel = self._qvel(q, qd)
         d = self._damping
         damper = -(d[:, 0] * qvel + d[:, 1] * qvel * np.abs(qvel) + d[:, 2] * qvel ** 3)
         out = self._qvel(q, damper, transpose=True)
-        comp = self._bodies["gravcomp"]
-        if np.any(comp):
-            force = -(self._bodies["mass"] * comp)[:, None] * self.tree.gravity  # (nb, 3)
-            out = out + np.einsum("...bik,bi->...k", lin, force)
-        if self.tree.actuators:  # every actuator at once: moments (na, n), gains and biases (na, 3)
-            acts = self._actuators
-            length = q @ acts["moment"].T
-            speed = qvel @ acts["moment"].T
-            gain, bias = acts["gain"], acts["bias"]
-            force = ((gain[:, 0] + gain[:, 1] * length + gain[:, 2] * speed) * acts["ctrl"]
-                     + bias[:, 0] + bias[:, 1] * length + bias[:, 2] * speed)
-            out = out + force @ acts["moment"]
+        comp = self._gravcomp(lin)
+        if comp is not None:
+            out = out + comp * self._gravcomp_route[0]
+        if self.tree.actuators or self.tree.limits:
+            out = out + self._actuation(q, qvel, comp)[0]
         return out
+
+    def _gravcomp(self, lin: Array) -> Array | None:
+        """Gravity compensation's generalized force Jᵀ(−m g · gravcomp) summed over the bodies, None where none."""
+        comp = self._bodies["gravcomp"]
+        if not np.any(comp):
+            return None
+        force = -(self._bodies["mass"] * comp)[:, None] * self.tree.gravity  # (nb, 3)
+        return np.einsum("...bik,bi->...k", lin, force)
+
+    @cached_property
+    def _gravcomp_route(self) -> tuple[Array, Array]:
+        """Per coordinate, 1 where the joint's gravity compensation is a passive force, and 1 where it is added to
+        the actuators' force (MuJoCo's ``actuatorgravcomp``)."""
+        passive, actuator = np.zeros(self.tree.n), np.zeros(self.tree.n)
+        for j, joint in enumerate(self.tree.joints):
+            block = slice(self.layout.first[j], self.layout.first[j] + joint.ndof)
+            passive[block] = joint.gravcomp == "passive"
+            actuator[block] = joint.gravcomp == "actuator"
+        return passive, actuator
+
+    def _actuation(self, q: Array, qvel: Array, comp: Array | None) -> tuple[Array, Array]:
+        """The actuators' generalized force and every clamp's argument, as MuJoCo applies them (engine_forward.c,
+        mj_fwdActuation): each actuator's affine force; the forces on a tendon with an ``actuatorfrcrange`` scaled by
+        the end over their sum where the sum leaves it; each force clipped to its ``forcerange``; their sum through
+        the moments, plus gravity compensation routed to the actuators; each joint's total clipped to its
+        ``actuatorfrcrange``. The second array holds, per clamp (the tendons' limits, the actuators' force ranges,
+        then the joints' limits), its argument (the force or sum before it is clipped or scaled). A clip compares
+        real parts only, so that a complex step through it differentiates the branch it is on."""
+        acts = self._actuators
+        moment = acts["moment"]
+        length = q @ moment.T
+        speed = qvel @ moment.T
+        gain, bias = acts["gain"], acts["bias"]
+        force = ((gain[:, 0] + gain[:, 1] * length + gain[:, 2] * speed) * acts["ctrl"]
+                 + bias[:, 0] + bias[:, 1] * length + bias[:, 2] * speed)
+        tendons = []
+        for lim in self.tree.tendon_limits:  # before the actuators' own ranges (engine_forward.c)
+            members = list(lim.actuators)
+            total = np.sum(force[..., members], axis=-1)
+            tendons.append(total)
+            scale = np.where(total.real > lim.hi, lim.hi / np.where(total.real > lim.hi, total, 1.0),
+                             np.where(total.real < lim.lo, lim.lo / np.where(total.real < lim.lo, total, 1.0), 1.0))
+            force = np.array(force, copy=True)
+            force[..., members] = force[..., members] * scale[..., None]
+        limited = acts["limited"]
+        before = force[..., limited]
+        force = _clip(force, acts["lo"], acts["hi"])
+        total = force @ moment
+        if comp is not None:
+            total = total + comp * self._gravcomp_route[1]
+        dofs, lo, hi = self._limits
+        summed = total[..., dofs]
+        if len(dofs):
+            total = np.array(total, copy=True)
+            total[..., dofs] = _clip(summed, lo, hi)
+        return total, np.concatenate([*(t[..., None] for t in tendons), before, summed], axis=-1)
+
+    @cached_property
+    def _limits(self) -> tuple[Array, Array, Array]:
+        limits = self.tree.limits
+        return (np.array([lim.dof for lim in limits], dtype=int), np.array([lim.lo for lim in limits], dtype=float),
+                np.array([lim.hi for lim in limits], dtype=float))
+
+    @cached_property
+    def clamp_ranges(self) -> tuple[tuple[str, float, float], ...]:
+        """Every clamp on the actuation, by name, with its range: the tendons' ``actuatorfrcrange``, the actuators'
+        ``forcerange`` (in actuator order), then the joints' ``actuatorfrcrange`` (:meth:`clamp_arguments` gives their
+        arguments in the same order)."""
+        tendons = [(f"tendon {lim.name} actuatorfrcrange", lim.lo, lim.hi) for lim in self.tree.tendon_limits]
+        acts = [(f"actuator {a.name} forcerange", *a.forcerange) for a in self.tree.actuators
+                if a.forcerange is not None]
+        return (*tendons, *acts, *((f"joint {lim.name} actuatorfrcrange", lim.lo, lim.hi) for lim in self.tree.limits))
+
+    def clamp_arguments(self, q: Array, qd: Array) -> Array:
+        """What each clamp of :attr:`clamp_ranges` clips at (q, q̇) (..., clamps): a clamp switches (its force's
+        slope in the state jumps) where its argument crosses either end of its range."""
+        q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
+        if not self.clamp_ranges:
+            return np.zeros((*q.shape[:-1], 0))
+        comp = None
+        if np.any(self._gravcomp_route[1]) and np.any(self._bodies["gravcomp"]):
+            _, lin, _, _ = self._com_jacobians(forward(self.tree, self.layout, q))
+            comp = self._gravcomp(lin)
+        return self._actuation(q, self._qvel(q, qd), comp)[1]
 
     @cached_property
     def _actuators(self) -> dict[str, Array]:
         acts = self.tree.actuators
+        limited = np.array([a.forcerange is not None for a in acts], dtype=bool)
+        ranges = np.array([a.forcerange if a.forcerange is not None else (-np.inf, np.inf) for a in acts],
+                          dtype=float).reshape(-1, 2)
         return {"moment": np.array([a.moment for a in acts], dtype=float).reshape(len(acts), self.n),
                 "gain": np.array([a.gain for a in acts], dtype=float).reshape(-1, 3),
                 "bias": np.array([a.bias for a in acts], dtype=float).reshape(-1, 3),
-                "ctrl": np.array([a.ctrl for a in acts], dtype=float)}
+                "ctrl": np.array([a.ctrl for a in acts], dtype=float), "limited": limited,
+                "lo": ranges[:, 0], "hi": ranges[:, 1]}
 
     def _perturbed(self, q: Array, directions: Array) -> Array:
         """Configurations q + i h d for each direction d (..., k, n) -> (..., k, n) complex."""

@@ -37,6 +37,9 @@ class Joint:
 
     ``damping`` is MuJoCo's polynomial (a, b, c): f(v) = −(a v + b v|v| + c v³) per dof.
     ``chart`` is the reference orientation R₀ (w, x, y, z) of a ball or free joint's rotation vector.
+    ``gravcomp`` says where the bodies' gravity compensation on this joint's dofs goes: ``passive`` (a passive
+    force), ``actuator`` (added to the actuators' force before the joint's :class:`ForceLimit` clamps it: MuJoCo's
+    ``actuatorgravcomp``) or ``off`` (nowhere: routed to actuators in a model whose actuation is off).
     """
 
     name: str
@@ -51,6 +54,7 @@ class Joint:
     damping: tuple[float, float, float] = (0.0, 0.0, 0.0)
     armature: float = 0.0
     chart: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+    gravcomp: str = "passive"
 
     @property
     def ndof(self) -> int:
@@ -129,8 +133,9 @@ class Equality:
 @dataclass(frozen=True)
 class Actuator:
     """An actuator with an affine force at a fixed control: force = (g₀ + g₁ l + g₂ l̇) ctrl + b₀ + b₁ l + b₂ l̇,
-    with length l = moment · q (a joint's or a fixed tendon's transmission, linear in the coordinates)
-    and the generalized force moment × force."""
+    with length l = moment · q (a joint's or a fixed tendon's transmission, linear in the coordinates; the moment
+    carries the gear), clamped to ``forcerange`` (lo, hi) where it has one, and the generalized force
+    moment × force."""
 
     name: str
     moment: np.ndarray
@@ -138,6 +143,31 @@ class Actuator:
     bias: tuple[float, float, float]
     ctrl: float = 0.0
     length0: float = 0.0
+    forcerange: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class ForceLimit:
+    """A joint's clamp on the total generalized force of every actuator on its dof (MuJoCo's joint
+    ``actuatorfrcrange``), applied after the actuators' forces are clamped and summed: the actuators' force on
+    coordinate ``dof`` is clipped to [``lo``, ``hi``]."""
+
+    name: str
+    dof: int
+    lo: float
+    hi: float
+
+
+@dataclass(frozen=True)
+class TendonLimit:
+    """A tendon's clamp on the total force of the actuators pulling it (MuJoCo's tendon ``actuatorfrcrange``), applied
+    before each actuator's own force range: where their summed force T leaves [``lo``, ``hi``], each actuator's force
+    (``actuators``: indices into :attr:`Tree.actuators`) is scaled by the end over T."""
+
+    name: str
+    actuators: tuple[int, ...]
+    lo: float
+    hi: float
 
 
 @dataclass(frozen=True)
@@ -151,6 +181,10 @@ class Tree:
     points: tuple[Point, ...] = ()
     equalities: tuple[Equality, ...] = ()
     actuators: tuple[Actuator, ...] = ()
+    limits: tuple[ForceLimit, ...] = ()
+    """The joints' clamps on their actuators' summed force, applied after :attr:`actuators` are summed."""
+    tendon_limits: tuple[TendonLimit, ...] = ()
+    """The tendons' clamps on their actuators' summed force, applied before each actuator's own force range."""
     size: float = 0.0
     """The mean size of the bodies (the length scale where the bodies' layout gives none: a lone point mass)."""
 
@@ -195,8 +229,14 @@ class Tree:
             for key in ("ref", "stiffness", "springref", "armature"):
                 out[f"{j.name}.{key}"] = float(getattr(j, key))
             out |= {f"{j.name}.damping.{k}": float(v) for k, v in enumerate(j.damping)}
+            if j.gravcomp != "passive":
+                out[f"{j.name}.gravcomp_to_actuator"] = float(j.gravcomp == "actuator")
         for a in self.actuators:
             out |= {f"actuator.{a.name}.gain.{k}": float(v) for k, v in enumerate(a.gain)}
             out |= {f"actuator.{a.name}.bias.{k}": float(v) for k, v in enumerate(a.bias)}
             out[f"actuator.{a.name}.ctrl"] = float(a.ctrl)
+            if a.forcerange is not None:
+                out |= {f"actuator.{a.name}.forcerange.{k}": float(v) for k, v in enumerate(a.forcerange)}
+        for lim in (*self.limits, *self.tendon_limits):
+            out |= {f"{lim.name}.actuatorfrcrange.0": float(lim.lo), f"{lim.name}.actuatorfrcrange.1": float(lim.hi)}
         return out

@@ -193,6 +193,8 @@ def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[st
             raise ModelError(f"--ctrl {name}={value}: a control must be a finite number")
         controls[aid] = value
     limited = model.actuator_ctrllimited.astype(bool)  # as MuJoCo clamps them (the reference bakes them in)
+    if int(model.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL):  # unless its clamping is off
+        limited[:] = False
     controls[limited] = np.clip(controls[limited], model.actuator_ctrlrange[limited, 0],
                                 model.actuator_ctrlrange[limited, 1])
     _refuse_floor_spins(model, qpos)

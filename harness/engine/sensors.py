@@ -18,8 +18,14 @@ in joint space and are attributed to the joints.
 :func:`world_reading` rotates a reading into the world frame (``site_xmat``),
 where the harness compares it: a frame is a convention, the vector is the
 physics. A site on the world body is static. Only sensors that MuJoCo reports
-unaltered are accepted (no ``cutoff``, no delay or history), and each must have
-a name (it names its figure).
+unaltered are judged: one with a ``cutoff`` (its reading clipped), a delay or
+history (a reading from the past), not on a site, and every ``user`` or plugin
+sensor (computed by code the reference cannot see) keeps its figure, n/a with
+why (:attr:`Sensor.unjudged`); none of them refuses the model. A sensor's
+``noise`` is not applied by the engine (MuJoCo stores it for the user:
+``sensor_noise`` is read by nothing in its engine), so a noisy sensor is judged.
+An unnamed sensor is named ``sensorN`` (N its index) and a dot in a name (which
+would split its figure's name) becomes ``_``.
 """
 
 from __future__ import annotations
@@ -51,6 +57,8 @@ class Sensor:
     site: str
     body: str
     adr: int
+    unjudged: str = ""
+    """Why the reference cannot judge its reading ('' where it can): its figure is then n/a with this reason."""
 
 
 @dataclass(frozen=True)
@@ -142,29 +150,39 @@ def weld_moment_map(model: mujoco.MjModel, data: mujoco.MjData, name: str) -> np
 
 
 def sensors(model: mujoco.MjModel) -> tuple[Sensor, ...]:
-    """Every force, torque and accelerometer sensor of ``model`` (ModelMismatch for one without a name,
-    with a cutoff, a delay or history, or not on a site)."""
+    """Every force, torque, accelerometer, user and plugin sensor of ``model``, those the reference cannot judge with
+    why (:attr:`Sensor.unjudged`)."""
     out = []
     for i in range(model.nsensor):
-        kind = KINDS.get(int(model.sensor_type[i]))
+        kind = KINDS.get(int(model.sensor_type[i])) or OPAQUE.get(int(model.sensor_type[i]))
         if kind is None:
             continue
-        name = model.sensor(i).name
-        if not name or "." in name:
-            raise ModelMismatch(f"{kind} sensor {i} needs a name without a dot (it names its figure), got {name!r}")
-        if model.sensor_cutoff[i] > 0:
-            raise ModelMismatch(f"sensor {name!r} has cutoff {model.sensor_cutoff[i]:g}; accepted: 0 (unclipped)")
-        for attr in ("sensor_delay", "sensor_history"):  # MuJoCo >= 3.4: readings from the past
-            if hasattr(model, attr) and np.any(np.asarray(getattr(model, attr)[i]) > 0):
-                raise ModelMismatch(f"sensor {name!r} has a {attr.removeprefix('sensor_')}; accepted: none "
-                                    "(read at the state itself)")
-        if int(model.sensor_objtype[i]) != int(mujoco.mjtObj.mjOBJ_SITE):
-            raise ModelMismatch(f"sensor {name!r} is not mounted on a site; accepted: site=\"...\"")
-        site = int(model.sensor_objid[i])
-        body = int(model.site_bodyid[site])
-        out.append(Sensor(name=name, kind=kind, site=model.site(site).name, body=model.body(body).name,
-                          adr=int(model.sensor_adr[i])))
+        name = (model.sensor(i).name or f"sensor{i}").replace(".", "_")
+        why = unjudged(model, i)
+        site = int(model.sensor_objid[i]) if int(model.sensor_objtype[i]) == int(mujoco.mjtObj.mjOBJ_SITE) else -1
+        out.append(Sensor(name=name, kind=kind, site=model.site(site).name if site >= 0 else "",
+                          body=model.body(int(model.site_bodyid[site])).name if site >= 0 else "",
+                          adr=int(model.sensor_adr[i]), unjudged=why))
     return tuple(out)
+
+
+OPAQUE: dict[int, str] = {int(mujoco.mjtSensor.mjSENS_USER): "user", int(mujoco.mjtSensor.mjSENS_PLUGIN): "plugin"}
+"""Sensors whose reading is computed by code outside the model (a callback, a plugin): never judged."""
+
+
+def unjudged(model: mujoco.MjModel, i: int) -> str:
+    """Why the reference cannot judge sensor ``i``'s reading ('' where it can)."""
+    kind = int(model.sensor_type[i])
+    if kind in OPAQUE:
+        return f"a {OPAQUE[kind]} sensor: its reading is computed by code the reference cannot see"
+    if model.sensor_cutoff[i] > 0:
+        return f"its reading is clipped to ±cutoff {model.sensor_cutoff[i]:g}, which the reference does not model"
+    for attr in ("sensor_delay", "sensor_history"):  # MuJoCo >= 3.4: readings from the past
+        if hasattr(model, attr) and np.any(np.asarray(getattr(model, attr)[i]) > 0):
+            return f"it has a {attr.removeprefix('sensor_')}: its reading is from the past, not the state"
+    if int(model.sensor_objtype[i]) != int(mujoco.mjtObj.mjOBJ_SITE):
+        return "it is not mounted on a site"
+    return ""
 
 
 def world_reading(model: mujoco.MjModel, data: mujoco.MjData, sensor: Sensor) -> np.ndarray:
@@ -200,7 +218,7 @@ class Recorder:
     in a sensor's subtree must be one of its bodies, and every load one it can apply."""
 
     def __init__(self, model: mujoco.MjModel, dyn: Dynamics, loads: Sequence[Load]) -> None:
-        self.sensors = sensors(model)
+        self.sensors = tuple(s for s in sensors(model) if not s.unjudged)
         self.loads = tuple(loads)
         self.wrenched = tuple(dict.fromkeys(s.body for s in self.sensors if s.kind != "accelerometer"))
         self.subtrees = {b: subtree(model, b) for b in self.wrenched}

@@ -164,12 +164,13 @@ def observed_order(levels: Sequence[np.ndarray], documented: float) -> float:
 
 def balance_figures(path, edit: Callable[[mujoco.MjSpec], None] | None, binding, *, integrators: Sequence[str],
                     q0: np.ndarray, qd0: np.ndarray, horizon: float, energy_scale: float, orders: Mapping[str, int],
-                    not_examined: Sequence[str], engine: Backend, power: Reading = POWER
+                    not_examined: Sequence[str], engine: Backend, power: Reading = POWER,
+                    timestep: float | None = None
                     ) -> tuple[list[Figure], dict[str, Budget], dict[str, str], dict[str, str]]:
     """Each integrator's ``INTEGRATOR.balance`` figure (max |B| over the horizon / ``energy_scale``), its budget, and
     the runs that diverged (by figure name, with why), for the model at ``path`` compiled with ``edit`` (as it is:
-    nothing switched off), started from (q0, q̇0) through ``binding``, every run on ``engine``. ``power``: what
-    counts as the work done
+    nothing switched off), started from (q0, q̇0) through ``binding``, every run on ``engine``, at ``timestep``
+    (h; default: the model's own). ``power``: what counts as the work done
     (:data:`POWER`; the tests leave a force out of it to show the balance sees it)."""
     probe = Probe(binding=binding, points=(), constraints=(),
                   series={"power": power, **{f"force {k}": reading for k, reading in enumerate(FORCES.values())}})
@@ -180,7 +181,7 @@ def balance_figures(path, edit: Callable[[mujoco.MjSpec], None] | None, binding,
     forces = ", ".join(not_examined)
     for name in integrators:
         fig = FigureName.trajectory(name, "balance")
-        base = compile_model(path, integrator=name, edit=edit)
+        base = compile_model(path, integrator=name, timestep=timestep, edit=edit)
         h = float(base.opt.timestep)
         steps = steps_in(horizon, h)
         requests = [Request(compile_model(path, integrator=name, timestep=h / k, edit=edit), q0, qd0, steps * k)
@@ -272,7 +273,7 @@ def measure(bench: Bench) -> Measured:
     ref = bench.reference
     found, budgets, diverged, unjudged = bench.timed(NAME, lambda: balance_figures(
         bench.path, as_is, bench.probe.binding, integrators=tuple(bench.sims), q0=ref.q0(), qd0=ref.qd0(),
-        horizon=case.horizon, energy_scale=ref.scales.energy, orders=EXPECTED_ORDER,
-        not_examined=tuple(dict(case.tree.uncovered)), engine=bench.engine))
+        horizon=case.horizon, energy_scale=ref.scales.energy, orders=bench.orders,
+        not_examined=tuple(dict(case.tree.uncovered)), engine=bench.engine, timestep=bench.options.timestep))
     return Measured(figures=tuple(found), budgets=budgets, diverged=diverged,
                     unmeasured=unjudged)  # n/a with why: impacts the timestep does not resolve

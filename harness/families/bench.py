@@ -36,13 +36,14 @@ from harness.core.options import RunOptions
 from harness.core.trajectory import Trajectory
 from harness.engine import backends
 from harness.engine.backends import simulate
-from harness.engine.integrators import available_integrators, integrator_name
+from harness.engine.integrators import EXPECTED_ORDER, available_integrators, integrator_name
 from harness.engine.models import compile_model
 from harness.engine.recording import steps_in
 from harness.engine.variants import SETTLE_TIMECONSTS, ModelUnderTest, compose, contact_timeconst
 from harness.families import runs, sampled
 from harness.reference import derivations
 from harness.reference import solutions as refmod
+from harness.reference.tree import switch_note, switched_orders, switches
 
 
 @dataclass(frozen=True)
@@ -314,6 +315,21 @@ class Bench:
 
     @cached_property
     def run_budgets(self) -> runs.Budgets:
-        """Every run figure's budget from the variant runs (:func:`harness.families.runs.budget`)."""
+        """Every run figure's budget from the variant runs (:func:`harness.families.runs.budget`), each integrator's
+        at its order over this motion (:attr:`orders`)."""
         return self.timed("budget", lambda: runs.budget(self.mut, self.probe, self.engine, self.target, self.sims,
-                                                         model=self.model, settle_note=self.settle[1]))
+                                                         model=self.model, settle_note=self.settle[1],
+                                                         orders=self.orders, switch_note=switch_note(self.switches)))
+
+    @cached_property
+    def switches(self) -> tuple[tuple[str, float], ...]:
+        """Where the reference motion crosses a clamp's switch (an actuator's forcerange, a joint's
+        actuatorfrcrange), located on the reference (:func:`harness.reference.tree.switches`)."""
+        ref = self.reference
+        return self.timed("reference", lambda: switches(ref.dynamics, ref.solution.state, ref.solution.t_end))
+
+    @cached_property
+    def orders(self) -> dict[str, int]:
+        """Each integrator's order over this motion: the documented one, at most
+        :data:`~harness.reference.tree.SWITCHED_ORDER` across a clamp's switch."""
+        return switched_orders(EXPECTED_ORDER, self.switches)

@@ -27,9 +27,13 @@ from harness.families.runs import Target, largest
 
 NAME = "invariants"
 
-NOT_CONSERVED = 1e-6
-"""A reference invariant that changes by more than this (× its scale) over the horizon is not conserved by the
-motion (damping, actuators): far above what the reference's tolerance lets a conserved one drift (≤ 1e-10)."""
+NOT_CONSERVED = 1e4
+"""A reference invariant that changes by more than this × the reference's tolerance (× its scale) over the horizon
+is not conserved by the motion (damping, actuators, gravity compensation): the change is physics, not the
+reference's error (a conserved one drifts ≤ 7e-12 = 7 rtol on the shipped cases at rtol 1e-12, measured: ×1000 less).
+Every force that is not conservative is then accounted for by the reference's own change: a fixed 1e-6 let MuJoCo's
+car lose its wheels' damping (5e-7 of the energy scale) as unexplained drift. An invariant the motion conserves and
+the reference misclassifies costs at most the reference's own drift, ~rtol: nothing a limit sees."""
 
 
 def owns(name: FigureName) -> bool:
@@ -62,7 +66,8 @@ def compare(target: Target, sim: Trajectory, prefix: str) -> list[Deviation]:
         scale = scales.energy if name == "energy" else scales.momentum
         size = max(largest(ref.invariants.get(name, values)) / scale, 1.0)
         drift, what = values - values[0], f"max |{name}(t) − {name}(0)| of MuJoCo's own {name}, / {scale:.4g}"
-        if name in ref.invariants and largest(ref.invariants[name] - ref.invariants[name][0]) > NOT_CONSERVED * scale:
+        if name in ref.invariants and \
+                largest(ref.invariants[name] - ref.invariants[name][0]) > NOT_CONSERVED * target.rtol * scale:
             # not an invariant of this motion (damping, actuators): MuJoCo's change against the reference's change
             drift = drift - (ref.invariants[name] - ref.invariants[name][0])
             what = f"max |Δ{name}_mj(t) − Δ{name}_ref(t)| ({name} is not conserved here), / {scale:.4g}"

@@ -202,7 +202,8 @@ def reaction_deviations(model: mujoco.MjModel, dyn: Dynamics, rec: S.Recorder, q
 def sensor_names(model: mujoco.MjModel) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """(sensor names, bodies with a force or torque sensor): the detail of every figure of this module."""
     found = S.sensors(model)
-    return tuple(s.name for s in found), tuple(dict.fromkeys(s.body for s in found if s.kind != "accelerometer"))
+    return tuple(s.name for s in found), tuple(dict.fromkeys(s.body for s in found
+                                                             if s.kind in ("force", "torque") and not s.unjudged))
 
 
 def compare(sample: Sample) -> tuple[list[Deviation], dict[str, str], dict[str, str]]:
@@ -216,8 +217,12 @@ def compare(sample: Sample) -> tuple[list[Deviation], dict[str, str], dict[str, 
                     for name in missing}, {}
     qdd, lam = sample.accelerations
     ref = sample.reference
-    return reaction_deviations(sample.model, sample.dynamics, sample.reactions, sample.q, sample.qd, qdd, lam,
-                               force_scale=ref.scales.force, length=ref.scales.length, strict=ref.system != TREE)
+    found, skipped, failing = reaction_deviations(sample.model, sample.dynamics, sample.reactions, sample.q, sample.qd,
+                                                  qdd, lam, force_scale=ref.scales.force, length=ref.scales.length,
+                                                  strict=ref.system != TREE)
+    opaque = {str(FigureName.instant("sensor", s.name)): f"not judged: {s.unjudged}" for s in S.sensors(sample.model)
+              if s.unjudged}
+    return found, {**skipped, **opaque}, failing
 
 
 def measure(bench: Bench) -> Measured:

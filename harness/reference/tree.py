@@ -2,8 +2,9 @@
 
 What is read is the model's description only — body frames, inertias, joint
 kinds, anchors, axes, ``ref``, springs, damping, armature, gravity
-compensation, equality constraints, actuator gains at a given control, and
-the disable flags that switch any of them off — never MuJoCo's dynamics
+compensation, equality constraints, actuator gains at a given control with
+their gear, ``forcerange`` and ``ctrlrange`` and the joints' ``actuatorfrcrange``,
+and the disable flags that switch any of them off — never MuJoCo's dynamics
 (``mj_fullM``, ``qfrc_bias``, ``qacc``): the equations are derived from this
 description by :mod:`analytic.tree`.
 
@@ -11,6 +12,9 @@ What the tree reference does not model is listed, per kind, by
 :func:`uncovered` (contacts, joint limits, dry friction, fluid forces,
 spatial tendons, activation dynamics, …) and what it cannot read at all is
 refused by :func:`refusal` (flex, plugins, a model with nothing that moves).
+Where the reference motion crosses a clamp's switch is located by
+:func:`switches`, and what that does to an integrator's order is
+:data:`SWITCHED_ORDER`.
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ import mujoco
 import numpy as np
 
 from analytic.systems import Motion, Scales
-from analytic.tree import Actuator, Body, Equality, Joint, Point, Tree, TreeDynamics
+from analytic.tree import Actuator, Body, Equality, ForceLimit, Joint, Point, TendonLimit, Tree, TreeDynamics
 from analytic.tree.model import BALL, FREE, HINGE, SLIDE
 from harness.core.errors import ModelError
 
@@ -146,8 +150,27 @@ def _may_collide(model: mujoco.MjModel) -> bool:
 
 
 def _actuator_gap(model: mujoco.MjModel, a: int) -> str:
-    """Why actuator ``a``'s force is not in the tree reference ('' where it is)."""
-    if _disabled(model, _DSBL.mjDSBL_ACTUATION):
+    """Why actuator ``a``'s force is not in the tree reference ('' where it is: an affine force on a hinge, slide or
+    fixed tendon, its gear in the moment, clamped to its forcerange and, summed, to its joints' actuatorfrcrange, and
+    scaled with the others on its tendon by the tendon's actuatorfrcrange — unless one of those is not modelled: its
+    force, which isolating cannot remove from the tendon's sum, sets the scale)."""
+    why = _own_gap(model, a)
+    if why or not _acting(model, a) or int(model.actuator_trntype[a]) != int(mujoco.mjtTrn.mjTRN_TENDON):
+        return why
+    tendon = int(model.actuator_trnid[a, 0])
+    if model.tendon_actfrclimited[tendon]:
+        for other in range(model.nu):
+            if other != a and int(model.actuator_trntype[other]) == int(mujoco.mjtTrn.mjTRN_TENDON) \
+                    and int(model.actuator_trnid[other, 0]) == tendon and _acting(model, other) \
+                    and _own_gap(model, other):
+                return (f"its tendon's actuatorfrcrange scales it with actuator {model.actuator(other).name!r}, "
+                        "which the reference does not model")
+    return ""
+
+
+def _own_gap(model: mujoco.MjModel, a: int) -> str:
+    """Why actuator ``a``'s own force law is not in the tree reference ('' where it is)."""
+    if not _acting(model, a):
         return ""
     if int(model.actuator_dyntype[a]) != int(mujoco.mjtDyn.mjDYN_NONE):
         return "activation dynamics (the force follows an internal state, not the control)"
@@ -157,13 +180,25 @@ def _actuator_gap(model: mujoco.MjModel, a: int) -> str:
         return f"bias type {mujoco.mjtBias(int(model.actuator_biastype[a])).name}"
     if _moment(model, a) is None:
         return "a transmission other than a hinge, slide or fixed tendon"
-    if model.actuator_forcelimited[a]:
-        return "a force range (the force is clamped)"
+    if hasattr(model, "actuator_ctrlnum") and int(model.actuator_ctrlnum[a]) != 1:
+        return f"{int(model.actuator_ctrlnum[a])} control inputs (a multi-input actuator)"
+    if hasattr(model, "actuator_delay") and model.actuator_delay[a]:
+        return "a delayed control (read from the control history)"
+    if hasattr(model, "actuator_damping") and np.any(model.actuator_damping[a]):
+        return "damping of the actuator"
     if hasattr(model, "actuator_dampingpoly") and np.any(model.actuator_dampingpoly[a]):
         return "polynomial damping of the actuator"
     if hasattr(model, "actuator_armature") and np.any(model.actuator_armature[a]):
         return "actuator armature"
     return ""
+
+
+def _acting(model: mujoco.MjModel, a: int) -> bool:
+    """Whether actuator ``a`` applies a force: actuation on and its group not disabled (``disableactuator``)."""
+    if _disabled(model, _DSBL.mjDSBL_ACTUATION):
+        return False
+    group = int(model.actuator_group[a])
+    return not (0 <= group < 31 and int(model.opt.disableactuator) & (1 << group))
 
 
 def _moment(model: mujoco.MjModel, a: int) -> np.ndarray | None:
@@ -211,6 +246,9 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
     every = hasattr(_DSBL, "mjDSBL_PASSIVE") and _disabled(model, _DSBL.mjDSBL_PASSIVE)
     passive = not every and not (hasattr(_DSBL, "mjDSBL_SPRING") and _disabled(model, _DSBL.mjDSBL_SPRING))
     damper = not every and not (hasattr(_DSBL, "mjDSBL_DAMPER") and _disabled(model, _DSBL.mjDSBL_DAMPER))
+    # gravity compensation is computed unless both are off (mj_passive); on a joint with actuatorgravcomp it is added
+    # to the actuators' force instead, which nothing applies where actuation is off or there are no actuators
+    actuating = model.nu > 0 and not _disabled(model, _DSBL.mjDSBL_ACTUATION)
     gravity = np.zeros(3) if _disabled(model, _DSBL.mjDSBL_GRAVITY) else np.array(model.opt.gravity, dtype=float)
     bodies = []
     for b in range(1, model.nbody):
@@ -222,7 +260,7 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
             mass=float(model.body_mass[b]), inertia=np.array(model.body_inertia[b], dtype=float),
             joints=() if mocap else tuple(range(int(model.body_jntadr[b]),
                                                 int(model.body_jntadr[b]) + int(model.body_jntnum[b]))),
-            gravcomp=float(model.body_gravcomp[b]) if passive else 0.0))
+            gravcomp=float(model.body_gravcomp[b]) if passive or damper else 0.0))
     joints = []
     for j in range(model.njnt):
         kind = _KINDS[int(model.jnt_type[j])]
@@ -238,15 +276,30 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
             springref=float(model.qpos_spring[model.jnt_qposadr[j]]) if kind in (HINGE, SLIDE) else 0.0,
             damping=(float(damping[0]), float(poly[0]), float(poly[1])) if damper else (0.0, 0.0, 0.0),
             armature=float(model.dof_armature[dof]),
-            chart=np.asarray(chart.get(j, (1.0, 0.0, 0.0, 0.0)), dtype=float)))
+            chart=np.asarray(chart.get(j, (1.0, 0.0, 0.0, 0.0)), dtype=float),
+            gravcomp=("actuator" if actuating else "off") if model.jnt_actgravcomp[j] else "passive"))
     points = _points(model)
     equalities = () if _disabled(model, _DSBL.mjDSBL_EQUALITY) or _disabled(model, _DSBL.mjDSBL_CONSTRAINT) \
         else tuple(e for i in range(model.neq) if (e := _equality(model, i)) is not None)
-    actuators = () if _disabled(model, _DSBL.mjDSBL_ACTUATION) else tuple(
-        _actuator(model, a, 0.0 if ctrl is None else float(ctrl[a])) for a in range(model.nu)
-        if not _actuator_gap(model, a))
+    actuators = tuple(_actuator(model, a, 0.0 if ctrl is None else float(ctrl[a])) for a in range(model.nu)
+                      if _acting(model, a) and not _actuator_gap(model, a))
+    # MuJoCo clamps a joint's total actuator force whether or not an actuator acts (gravcomp may be all of it)
+    limits = () if not actuating else tuple(
+        ForceLimit(name=model.joint(j).name, dof=int(model.jnt_dofadr[j]), lo=float(model.jnt_actfrcrange[j, 0]),
+                   hi=float(model.jnt_actfrcrange[j, 1]))
+        for j in range(model.njnt) if model.jnt_actfrclimited[j]
+        and int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)))
+    # a tendon's actuatorfrcrange scales the forces of the actuators on it (indices into ``actuators``)
+    kept = [a for a in range(model.nu) if _acting(model, a) and not _actuator_gap(model, a)]
+    tendon_limits = tuple(
+        TendonLimit(name=model.tendon(t).name or f"tendon{t}", actuators=members,
+                    lo=float(model.tendon_actfrcrange[t, 0]), hi=float(model.tendon_actfrcrange[t, 1]))
+        for t in range(model.ntendon) if model.tendon_actfrclimited[t]
+        and (members := tuple(i for i, a in enumerate(kept) if int(model.actuator_trntype[a])
+                              == int(mujoco.mjtTrn.mjTRN_TENDON) and int(model.actuator_trnid[a, 0]) == t)))
     return Tree(bodies=tuple(bodies), joints=tuple(joints), gravity=gravity, points=points,
-                equalities=equalities, actuators=actuators, size=float(model.stat.meansize))
+                equalities=equalities, actuators=actuators, limits=limits, tendon_limits=tendon_limits,
+                size=float(model.stat.meansize))
 
 
 def _points(model: mujoco.MjModel) -> tuple[Point, ...]:
@@ -332,8 +385,11 @@ def _actuator(model: mujoco.MjModel, a: int, ctrl: float) -> Actuator:
         else np.array([model.actuator_gainprm[a, 0], 0.0, 0.0])
     bias = model.actuator_biasprm[a, :3] if int(model.actuator_biastype[a]) == int(mujoco.mjtBias.mjBIAS_AFFINE) \
         else np.zeros(3)
+    forcerange = (float(model.actuator_forcerange[a, 0]), float(model.actuator_forcerange[a, 1])) \
+        if model.actuator_forcelimited[a] else None
     return Actuator(name=model.actuator(a).name or f"actuator{a}", moment=_moment(model, a),
-                    gain=tuple(float(v) for v in gain), bias=tuple(float(v) for v in bias), ctrl=ctrl)
+                    gain=tuple(float(v) for v in gain), bias=tuple(float(v) for v in bias), ctrl=ctrl,
+                    forcerange=forcerange)
 
 
 def isolate(spec: mujoco.MjSpec) -> None:
@@ -480,3 +536,65 @@ def motion(model: mujoco.MjModel, qpos: np.ndarray, qvel: np.ndarray, *, horizon
     q0, qd0 = start_state(model, qpos, qvel)
     return Motion(description=description, q0=q0, qd0=qd0, horizon=horizon, tags=frozenset({"tree"}))
 
+
+
+# ---- the clamps' switching instants ------------------------------------------------------------------------
+SWITCH_SAMPLES = 2001
+"""The samples over the horizon at which each clamp's argument is read to find where it crosses an end of its range
+(a clamp that enters and leaves its range between two samples, within horizon/2000, is missed)."""
+SWITCHED_ORDER = 3
+"""The order an integrator keeps over a motion that crosses a clamp's switch. A clamp is continuous but its slope in
+the state jumps, so q̈ is continuous across the switch and q⃛ jumps: the one step that straddles each switch makes a
+local error O(h³) × the jump (its Taylor expansion breaks at the third derivative), whose coefficient depends on where
+in the step the switch falls (not an expansion in h: Richardson does not remove it). A method of order p > 3 (RK4)
+then errs at order 3; one of order ≤ 3 (Euler, implicit) keeps its own."""
+
+
+def switches(dynamics: object, state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], t_end: float
+             ) -> tuple[tuple[str, float], ...]:
+    """Where the reference motion crosses a clamp's switch: (clamp, instant) in time order, each instant located by
+    bisection on the reference's dense output ``state`` to round-off, for ``dynamics`` with clamps (a tree's
+    :attr:`~analytic.tree.TreeDynamics.clamp_ranges`; none for any other system)."""
+    ranges = getattr(dynamics, "clamp_ranges", ())
+    if not ranges:
+        return ()
+    lo = np.array([r[1] for r in ranges], dtype=float)
+    hi = np.array([r[2] for r in ranges], dtype=float)
+
+    def margins(t: np.ndarray) -> np.ndarray:  # (len(t), 2, clamps): past the low end, short of the high end
+        args = dynamics.clamp_arguments(*state(t))
+        return np.stack([args - lo, hi - args], axis=1)
+
+    t = np.linspace(0.0, t_end, SWITCH_SAMPLES)
+    g = margins(t)
+    found = []
+    for i, side, k in zip(*np.nonzero(np.signbit(g[:-1]) != np.signbit(g[1:])), strict=True):
+        a, b = float(t[i]), float(t[i + 1])
+        sign = bool(np.signbit(g[i, side, k]))
+        for _ in range(60):  # to round-off in t
+            mid = 0.5 * (a + b)
+            if mid in (a, b):
+                break
+            if bool(np.signbit(margins(np.array([mid]))[0, side, k])) == sign:
+                a = mid
+            else:
+                b = mid
+        found.append((ranges[k][0], 0.5 * (a + b)))
+    return tuple(sorted(found, key=lambda item: item[1]))
+
+
+def switched_orders(orders: Mapping[str, int], crossed: tuple[tuple[str, float], ...]) -> dict[str, int]:
+    """Each integrator's order over a motion that crosses the clamps' switches ``crossed``: its documented order,
+    at most :data:`SWITCHED_ORDER` where any switch is crossed."""
+    return {name: min(p, SWITCHED_ORDER) if crossed else p for name, p in orders.items()}
+
+
+def switch_note(crossed: tuple[tuple[str, float], ...]) -> str:
+    """What the budget says of a motion that crosses clamps' switches ('' where none)."""
+    if not crossed:
+        return ""
+    first = ", ".join(f"{name} at t = {t:.6g} s" for name, t in crossed[:3])
+    more = f" and {len(crossed) - 3} more" if len(crossed) > 3 else ""
+    return (f"the motion crosses {len(crossed)} clamp switch(es) ({first}{more}; located on the reference): each "
+            f"integrator is judged at its documented order, at most {SWITCHED_ORDER} (a step straddling a switch "
+            f"errs O(h³)), and its integration estimate's own error measured from h/4")
