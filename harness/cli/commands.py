@@ -48,6 +48,7 @@ from harness.cases.own import from_mjcf
 from harness.core import VERSION
 from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
+from harness.core.escape import terminal
 from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
 from harness.core.options import RunOptions
 from harness.core.tables import terminal_width, wrap
@@ -1157,35 +1158,39 @@ def _main(args: argparse.Namespace) -> int:
         _discard_stdout()
         return EXIT_PIPE
     except BrokenProcessPool:  # a worker killed under it (the system's out-of-memory killer, a crash)
-        print("mjharness: error: a worker process died while running the cases (killed by the system: out of "
-              "memory?); fix: fewer workers (-j 1) or fewer cases at once", file=sys.stderr)
+        _error("mjharness: error: a worker process died while running the cases (killed by the system: out of "
+              "memory?); fix: fewer workers (-j 1) or fewer cases at once")
     except TaskLost as exc:  # a Ray task the cluster could not run (harness.pipeline.cluster)
-        print(f"mjharness: error: {exc}; fix: check the cluster's nodes, or run with --executor local",
-              file=sys.stderr)
+        _error(f"mjharness: error: {exc}; fix: check the cluster's nodes, or run with --executor local")
     except SimulationDiverged as exc:
-        print(f"mjharness: error: simulation diverged: {exc}", file=sys.stderr)
+        _error(f"mjharness: error: simulation diverged: {exc}")
     except IntegrationError as exc:  # the model under test gives a reference our solver cannot integrate
-        print(f"mjharness: error: the reference cannot be computed for this model: {exc}", file=sys.stderr)
+        _error(f"mjharness: error: the reference cannot be computed for this model: {exc}")
     except ValueError as exc:  # ConfigError, ModelError, ModelMismatch and every input check
-        print(f"mjharness: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        _error(f"mjharness: error: {' '.join(str(exc).split())}")
     except OSError as exc:
-        print(f"mjharness: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "), file=sys.stderr)
+        _error(f"mjharness: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))
     except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (harness.core.lifetime.Terminated)
-        print("mjharness: terminated (SIGTERM)" if isinstance(exc, Terminated) else "mjharness: interrupted",
-              file=sys.stderr)
+        _error("mjharness: terminated (SIGTERM)" if isinstance(exc, Terminated) else "mjharness: interrupted")
         return exit_code(exc)
     except MemoryError:
-        print("mjharness: error: out of memory; fix: a longer --timestep, a shorter --horizon, fewer cases or "
-              "workers (-j 1)", file=sys.stderr)
+        _error("mjharness: error: out of memory; fix: a longer --timestep, a shorter --horizon, fewer cases or "
+              "workers (-j 1)")
     except Exception as exc:  # a bug of ours: still one line, and no report passes for the run
-        print(f"mjharness: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} (a bug in mjharness, "
+        _error(f"mjharness: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} (a bug in mjharness, "
               f"not in your input: please report it with the command line; {TRACEBACK_VARIABLE}=1 prints the "
-              "traceback)", file=sys.stderr)
+              "traceback)")
         if os.environ.get(TRACEBACK_VARIABLE, "").strip() not in ("", "0"):
             traceback.print_exc()
     finally:
         _disconnect()
     return EXIT_USAGE
+
+
+def _error(line: str) -> None:
+    """An error line on stderr, its names from files, models and the command line made visible
+    (:func:`harness.core.escape.terminal`: an ESC or BEL in a name never reaches the terminal as such)."""
+    print(terminal(line), file=sys.stderr)
 
 
 def _disconnect() -> None:
