@@ -54,7 +54,7 @@ T = TypeVar("T")
 R = TypeVar("R")
 
 FORMAT = "3"  # bump when what is stored changes shape (2: a header with identity and checksum; 3: data, no pickle)
-SUFFIX = ".json"
+SUFFIX = ".entry"
 
 
 def cache_dir() -> Path | None:
