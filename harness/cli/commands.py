@@ -60,14 +60,17 @@ from harness.outputs.diff import diff_runs, format_diff, load_run, select
 from harness.outputs.files import (
     BACKENDS_PAGE,
     CASE_PAGES,
+    FORCE,
     PAGES,
     REPORT_FILES,
     STALE,
     check_output,
+    check_report_folder,
     mark_stale,
+    ours,
     prepare_output,
-    report_pages,
     superseded,
+    with_manifest,
     write_atomic,
 )
 from harness.outputs.jsondoc import dumps, json_doc
@@ -233,6 +236,14 @@ def _seconds(text: str) -> float:
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text!r}")
     return value
+
+
+def _folder(text: str) -> Path:
+    """A folder argument: an empty one names no folder (it would mean the current one, silently)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("names no folder (an empty path would mean the current folder); give a "
+                                         "folder, e.g. mjharness-report")
+    return Path(text)
 
 
 def _tiny(text: str) -> float:
@@ -404,8 +415,12 @@ def _junit(path: Path | None, outcome: Outcome) -> dict[Path, str]:
 
 def _args_run(p: argparse.ArgumentParser) -> None:
     _add_selection(p)
-    p.add_argument("--out", type=Path, default=Path("mjharness-report"), metavar="DIR",
-                   help="output directory (default: ./mjharness-report)")
+    p.add_argument("--out", type=_folder, default=Path("mjharness-report"), metavar="DIR",
+                   help="output directory (default: ./mjharness-report); a new or empty folder, or one an earlier "
+                   "run wrote: only the files it wrote there (its manifest) are replaced or removed")
+    p.add_argument(FORCE, dest="force_out", action="store_true",
+                   help="write into --out even if it is not yours or holds other files (those are never removed; "
+                   "a file of the report's own name is replaced)")
     p.add_argument("--no-studies", dest="studies", action="store_false",
                    help="skip layer 4 (convergence, softness, solver and contact studies) and the seed audit")
     _add_junit(p)
@@ -419,7 +434,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from harness.outputs.report import report_files  # lazy: as above
 
     start = time.perf_counter()
-    check_output(args.out)  # fail before minutes of work, not after
+    check_report_folder(args.out, force=args.force_out)  # fail before minutes of work, not after
     _check_junit(args.junit, args.out)
     opinions = _opinions(args)
     selected = _selected(args)
@@ -446,7 +461,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                          appendix=appendix, plots=plots)
     prepare_output(args.out)
     # the report and its JUnit, all or none, and an earlier report's pages this one has not removed with them
-    paths = write_atomic(files | _junit(args.junit, outcome), remove=superseded(args.out, files))
+    paths = write_atomic(with_manifest(args.out, files | _junit(args.junit, outcome)),
+                         remove=superseded(args.out, files))
     _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
                   peers=_peers(results), opinions=opinions.lines(quiet=args.quiet),
                   written=f"wrote in {time.perf_counter() - start:.1f} s: {_written(args.out, paths)}")
@@ -1121,7 +1137,8 @@ def _discard_stdout() -> None:
 
 def _outputs(args: argparse.Namespace) -> list[Path]:
     """The report files the command writes: those a failed or interrupted run marks stale."""
-    paths = [args.out / name for name in REPORT_FILES] + report_pages(args.out) if args.command == "run" else []
+    # run: only the files an earlier run wrote into --out, unchanged since (nothing of the user's is renamed)
+    paths = [p for p in ours(args.out) if not p.name.endswith(STALE)] if args.command == "run" else []
     return paths + [p for p in (getattr(args, "junit", None), getattr(args, "html", None)) if p is not None]
 
 
