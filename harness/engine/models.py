@@ -18,6 +18,7 @@ from pathlib import Path
 
 import mujoco
 
+from harness.core import inputs
 from harness.core.errors import ModelError
 from harness.engine import compat
 from harness.engine.compat import after_compile, spec_from_file
@@ -43,6 +44,10 @@ def load_spec(path: Path | str) -> mujoco.MjSpec:
     if not path.is_file():
         raise ModelError(f"cannot read MJCF {str(path)!r}: {_not_a_file(path)}; accepted: an MJCF (XML) file")
     try:
+        inputs.check(path, what="MJCF", limit=inputs.MODEL_LIMIT)
+    except inputs.InputFileError as exc:
+        raise ModelError(str(exc)) from None
+    try:
         return _parsed(str(path))
     except Exception as exc:  # MuJoCo raises ValueError with the parser's message
         raise ModelError(f"invalid MJCF {str(path)!r}: {_one_line(exc)}") from None
@@ -54,8 +59,7 @@ def _parsed(path: str) -> mujoco.MjSpec:
     parsing costs as much as compiling. Parsed anew where another file's text enters the parse (an <include>),
     where this MuJoCo needs the fallbacks (they record and warn per parse), or lacks ``MjSpec.copy``."""
     try:
-        with open(path, "rb") as fh:
-            text = fh.read()
+        text = inputs.read_bytes(path, what="MJCF", limit=inputs.MODEL_LIMIT)  # bounded, whatever it became
     except OSError:
         text = b"<include"  # unreadable here: the parser says why
     if b"<include" in text or compat.missing_flags() or not hasattr(mujoco.MjSpec, "copy"):
