@@ -22,8 +22,8 @@ import pytest
 from harness.cli.commands import main
 from harness.core.errors import ModelError
 from harness.core.figures import FigureName
-from harness.outputs.files import MANIFEST
 from harness.engine.models import compile_model
+from harness.outputs.files import MANIFEST
 from harness.reference.solutions import clear_caches
 from tests.conftest import use_cached_runs, without_progress
 
