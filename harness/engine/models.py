@@ -23,7 +23,7 @@ from harness.core.errors import ModelError
 from harness.engine import compat
 from harness.engine.compat import after_compile, spec_from_file
 from harness.engine.integrators import integrator_enum
-from harness.engine.validity import InvalidModel, check_model, check_spec
+from harness.engine.validity import InvalidModel, check_model, check_spec, check_text
 
 
 def mjcf_path(name: str) -> Path:
@@ -63,9 +63,11 @@ def _parsed(path: str) -> mujoco.MjSpec:
     except OSError:
         text = b"<include"  # unreadable here: the parser says why
     if b"<include" in text or compat.missing_flags() or not hasattr(mujoco.MjSpec, "copy"):
+        check_text(text)
         return spec_from_file(path)
     key = (path, text)
     if key not in _PARSED:
+        check_text(text)  # a number written non-finite: refused before the spec hides it
         if len(_PARSED) >= _PARSED_MAX:
             del _PARSED[next(iter(_PARSED))]
         _PARSED[key] = spec_from_file(path)
