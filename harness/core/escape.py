@@ -40,14 +40,14 @@ def html_attr(text: object) -> str:
     return html.escape(visible(text), quote=True)
 
 
-# what changes a cell's structure or makes markup/links (emphasis characters only restyle: left as they are)
-_MARKDOWN_SPECIAL = "\\`|<>[]"
+# what changes a cell's structure or makes a link (emphasis characters only restyle: left as they are)
+_MARKDOWN_SPECIAL = "\\`|[]"
 
 
 def markdown_cell(text: object) -> str:
-    """``text`` as a Markdown table cell or inline text: one line, no table break, no markup, no HTML (GitHub
-    renders HTML in Markdown), each special character backslash-escaped; ``&`` as an entity."""
-    s = visible(text).replace("&", "&amp;")
+    """``text`` as a Markdown table cell or inline text: one line, no table break, no link, no HTML (GitHub
+    renders HTML in Markdown): ``&``, ``<`` and ``>`` as entities, the other specials backslash-escaped."""
+    s = visible(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
     return "".join(f"\\{c}" if c in _MARKDOWN_SPECIAL else c for c in s)
 
 
