@@ -46,6 +46,7 @@ from harness import cases
 from harness.cases import sources
 from harness.cases.own import from_mjcf
 from harness.core import VERSION
+from harness.core.bounds import max_steps
 from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
 from harness.core.escape import terminal
@@ -238,6 +239,15 @@ def _seconds(text: str) -> float:
     return value
 
 
+def _requirement(text: str) -> str:
+    """A package requirement for ``uv pip install``: never an option (``-e``, ``--index-url``: it would be taken as
+    one, and could install from anywhere)."""
+    if not text.strip() or text.lstrip().startswith("-"):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a package requirement (it would reach the installer as an "
+                                         "option); accepted: a requirement such as 'mujoco-mjx=={version}'")
+    return text
+
+
 def _folder(text: str) -> Path:
     """A folder argument: an empty one names no folder (it would mean the current one, silently)."""
     if not text.strip():
@@ -280,6 +290,8 @@ def _options(args: argparse.Namespace, selected: Sequence[cases.Case], *, severa
                          f"(known cases: {', '.join(cases.names())})")
     for case in selected:
         case.with_motion(q0=args.q0, qd0=args.qd0, horizon=args.horizon)  # ValueError naming what is wrong
+    require.parse(getattr(args, "require", ()))  # a malformed --require: refused before the run, not after it
+    max_steps()  # and a malformed MJHARNESS_MAX_STEPS
     chosen = backends.expand(args.backend)
     if len(chosen) > 1 and not several:
         raise ValueError(f"--backend {args.backend}: {args.command} runs one backend ({', '.join(chosen)} asked); "
@@ -565,7 +577,7 @@ def _args_versions(p: argparse.ArgumentParser) -> None:
                    help="where to write versions.html, versions.json and versions.txt (default: ./mjharness-versions)")
     p.add_argument("--backend", metavar="NAME",
                    help="install the backend's packages in every environment and run the check with --backend NAME")
-    p.add_argument("--with", dest="extras", action="append", default=[], metavar="REQUIREMENT",
+    p.add_argument("--with", dest="extras", action="append", default=[], metavar="REQUIREMENT", type=_requirement,
                    help="an extra package for every environment ('{version}' is the MuJoCo release, e.g. "
                         "'mujoco-mjx=={version}'; repeatable)")
     p.add_argument("--parallel", type=_positive, metavar="N",

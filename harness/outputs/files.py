@@ -203,6 +203,7 @@ def write_atomic(files: Mapping[Path, str], *, remove: Iterable[Path] = ()) -> l
     staged: list[tuple[Path, Path]] = []
     created: list[Path] = []
     written = False
+    dest = None
     try:
         for dest, text in files.items():
             created += _make_folder(dest.parent)
@@ -213,8 +214,8 @@ def write_atomic(files: Mapping[Path, str], *, remove: Iterable[Path] = ()) -> l
                 fh.write(text)
         _move_all(staged, list(remove))
         written = True
-    except OSError as exc:
-        raise ValueError(f"cannot write {str(exc.filename or '')!r}: {exc.strerror}") from None
+    except OSError as exc:  # a full disk names no file: the one being written then is named
+        raise ValueError(f"cannot write {str(exc.filename or dest or '')!r}: {exc.strerror or exc}") from None
     finally:
         for tmp, _ in staged:
             tmp.unlink(missing_ok=True)
