@@ -113,3 +113,14 @@ def test_api_keeps_mujocos_warnings_off_stderr_and_the_working_folder(tmp_path, 
     assert result is not None
     assert "WARNING" not in capfd.readouterr().err
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+
+
+def test_terminal_escapes_in_a_model_name_never_reach_the_terminal(tmp_path, capsys):
+    """Every line ``check`` prints (its case line, the trees' summary, the verdict) shows an ESC or BEL in the
+    file's name as ``\\x1b``/``\\x07``."""
+    model = tmp_path / "e\x1b[31mred\x07.xml"
+    model.write_bytes(Path("mjcf/pendulum.xml").read_bytes())
+    assert cli.main(["check", "--mjcf", str(model), "--horizon", "0.05", "--integrators", "RK4"]) in (0, 1)
+    said = capsys.readouterr()
+    assert "\x1b" not in said.out + said.err and "\x07" not in said.out + said.err
+    assert "e\\x1b[31mred\\x07" in said.out + said.err

@@ -179,7 +179,8 @@ def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, writt
     parts += [fitness] if fitness and not quiet else []
     parts += ["\n".join(wrap(written, width))] if written and not quiet else []
     last = "\n".join(line for line in (verdict_line(outcome), fitness_line(outcome)) if line)
-    print("\n\n".join([*parts, last]) if quiet else "\n" + "\n\n".join([*parts, last]))
+    text = "\n\n".join([*parts, last]) if quiet else "\n" + "\n\n".join([*parts, last])
+    print("\n".join(terminal(line) for line in text.split("\n")))  # names from files and models: no escapes act
 
 
 def _add_run_options(p: argparse.ArgumentParser) -> None:
