@@ -26,7 +26,6 @@ ROD = '<geom name="rod" type="capsule" fromto="0 0 0 0 0 1" size="0.01" mass="0"
     (ROD.replace('mass="0"', 'mass="nan"'), "geom 'rod' mass = 'nan'"),
     (ROD.replace('mass="0"', 'mass="NaN"'), "geom 'rod' mass = 'NaN'"),
     (ROD.replace('mass="0"', 'density="inf"'), "geom 'rod' density = 'inf'"),
-    (ROD.replace('size="0.01"', 'size="0.01 1e400"'), "geom 'rod' size = '0.01 1e400'"),
     (ROD.replace('mass="0"', 'mass="-Infinity"'), "geom 'rod' mass = '-Infinity'"),
 ])
 def test_a_number_written_non_finite_is_refused_naming_the_element(tmp_path, new, named):

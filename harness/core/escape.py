@@ -46,8 +46,9 @@ _MARKDOWN_SPECIAL = "\\`|[]"
 
 def markdown_cell(text: object) -> str:
     """``text`` as a Markdown table cell or inline text: one line, no table break, no link, no HTML (GitHub
-    renders HTML in Markdown): ``&``, ``<`` and ``>`` as entities, the other specials backslash-escaped."""
-    s = visible(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    renders HTML in Markdown): ``&`` and ``<`` (which opens every tag) as entities, the other specials
+    backslash-escaped."""
+    s = visible(text).replace("&", "&amp;").replace("<", "&lt;")
     return "".join(f"\\{c}" if c in _MARKDOWN_SPECIAL else c for c in s)
 
 

@@ -36,6 +36,7 @@ def mjcf_path(name: str) -> Path:
 
 _PARSED: dict[tuple[str, bytes], mujoco.MjSpec] = {}
 _PARSED_MAX = 64
+_TEXTS: dict[str, bytes] = {}  # each file's text as last parsed: what check_text reads after compiling
 
 
 def load_spec(path: Path | str) -> mujoco.MjSpec:
@@ -62,12 +63,14 @@ def _parsed(path: str) -> mujoco.MjSpec:
         text = inputs.read_bytes(path, what="MJCF", limit=inputs.MODEL_LIMIT)  # bounded, whatever it became
     except OSError:
         text = b"<include"  # unreadable here: the parser says why
+    _TEXTS.pop(path, None)
+    _TEXTS[path] = text
+    if len(_TEXTS) > _PARSED_MAX:
+        del _TEXTS[next(iter(_TEXTS))]
     if b"<include" in text or compat.missing_flags() or not hasattr(mujoco.MjSpec, "copy"):
-        check_text(text)
         return spec_from_file(path)
     key = (path, text)
     if key not in _PARSED:
-        check_text(text)  # a number written non-finite: refused before the spec hides it
         if len(_PARSED) >= _PARSED_MAX:
             del _PARSED[next(iter(_PARSED))]
         _PARSED[key] = spec_from_file(path)
@@ -125,6 +128,9 @@ def compile_model(
         raise ModelError(f"invalid MJCF {str(path)!r}: {_one_line(exc)}") from None
     try:
         check_model(model)
+        # then what the compiled model cannot show: a number written non-finite that the spec took for unset
+        # (a geom's mass="nan" becomes its density's mass)
+        check_text(_TEXTS.get(str(path), b""))
     except InvalidModel as exc:
         raise ModelError(f"invalid MJCF {str(path)!r}: {exc}") from None
     after_compile(model, str(path))  # fallbacks for an older MuJoCo (harness.compat)

@@ -49,7 +49,15 @@ from harness.core.checks import closest as closest_check
 from harness.core.escape import markdown_cell
 from harness.engine.models import compile_model
 from harness.outputs.equations import equations, png_data_uri
-from harness.outputs.files import CASE_PAGES, PAGES, REPORT_FILES, prepare_output, superseded, write_atomic
+from harness.outputs.files import (
+    CASE_PAGES,
+    PAGES,
+    REPORT_FILES,
+    prepare_output,
+    superseded,
+    with_manifest,
+    write_atomic,
+)
 from harness.outputs.formulas import text_html
 from harness.outputs.jsondoc import render_json, versions
 from harness.outputs.page import Page, table_of_contents, unbroken_numbers
@@ -667,4 +675,4 @@ def write_report(out: Path | str, results: Sequence[CaseResult], outcome: Outcom
     (:func:`harness.outputs.files.write_atomic`)."""
     files = report_files(out, results, outcome, **options)
     prepare_output(out)
-    return write_atomic(files, remove=superseded(out, files))
+    return write_atomic(with_manifest(out, files), remove=superseded(out, files))
