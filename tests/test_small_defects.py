@@ -54,11 +54,12 @@ def no_run(monkeypatch):
     monkeypatch.setattr(cli, "run_all", refused)
 
 
+@pytest.mark.parametrize("given", ["position", "nosuch=1e-3"])
 @pytest.mark.parametrize("command", ["run", "check"])
-def test_a_malformed_requirement_is_refused_before_the_run(command, tmp_path, no_run, capsys):
-    args = [command, "pendulum", "--require", "position"] + (["--out", str(tmp_path / "R")] if command == "run" else [])
+def test_a_malformed_or_unknown_requirement_is_refused_before_the_run(command, given, tmp_path, no_run, capsys):
+    args = [command, "pendulum", "--require", given] + (["--out", str(tmp_path / "R")] if command == "run" else [])
     assert cli.main(args) == 2
-    assert "position" in capsys.readouterr().err
+    assert given.split("=")[0] in capsys.readouterr().err
 
 
 def test_a_max_steps_bound_is_judged_before_the_run(monkeypatch, no_run, capsys):

@@ -55,6 +55,7 @@ from harness.core.options import RunOptions
 from harness.core.tables import terminal_width, wrap
 from harness.engine import backends, messages
 from harness.engine.integrators import available_integrators
+from harness.families import figure_names
 from harness.opinions import threeway
 from harness.outputs import baseline
 from harness.outputs.diff import diff_runs, format_diff, load_run, select
@@ -291,7 +292,9 @@ def _options(args: argparse.Namespace, selected: Sequence[cases.Case], *, severa
                          f"(known cases: {', '.join(cases.names())})")
     for case in selected:
         case.with_motion(q0=args.q0, qd0=args.qd0, horizon=args.horizon)  # ValueError naming what is wrong
-    require.parse(getattr(args, "require", ()))  # a malformed --require: refused before the run, not after it
+    # a malformed --require, or one no figure of these cases answers: refused before the run, not after it
+    require.check_possible(require.parse(getattr(args, "require", ())),
+                           (n for case in selected for n in figure_names(case)))
     max_steps()  # and a malformed MJHARNESS_MAX_STEPS
     chosen = backends.expand(args.backend)
     if len(chosen) > 1 and not several:
