@@ -64,3 +64,15 @@ def test_a_junit_file_of_a_hostile_case_name_parses():
     check = Check(case=name, name="RK4.position", value=1.0, threshold=0.5, unit="m")
     root = ET.fromstring(junit_xml({name: [check]}).split("\n", 1)[1])
     assert root.find("testsuite").get("name") == "a\\x01b<c>&\\x1b"
+
+
+def test_the_sweeps_markdown_keeps_its_columns_with_a_hostile_model_name():
+    from harness.versions import sweep
+    from harness.versions import sweep_report as report
+
+    name = "m|x\n<img src=x onerror=alert(1)>"
+    cells = (sweep.Cell(name, "3.3.0", "c", "pass"), sweep.Cell(name, "4.0.0", "c", "error", reason="a|b\nc"))
+    page = report.markdown(sweep.Sweep((name,), ("3.3.0", "4.0.0"), ("c",), cells))
+    rows = [line for line in page.splitlines() if line.startswith("|")]
+    assert len({_columns(r) for r in rows}) == 1, rows
+    assert "<img" not in page
