@@ -66,12 +66,15 @@ def test_a_linked_cases_folder_is_refused_even_when_forced(tmp_path, no_run, cap
     assert (elsewhere / "precious.html").read_text() == "outside --out"
 
 
-def test_an_empty_out_is_refused(tmp_path, no_run, capsys, monkeypatch):
+@pytest.mark.parametrize("command", [["run", "pendulum"], ["versions", "3.3.0"], ["sweep", "m", "--releases", "3.3.0"],
+                                     ["zoo"]])
+def test_an_empty_out_is_refused(tmp_path, no_run, capsys, monkeypatch, command):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "mine.html").write_text("x")
     with pytest.raises(SystemExit) as exc:
-        _run("")
+        cli.main([*command, "--out", ""])
     assert exc.value.code == 2 and "names no folder" in capsys.readouterr().err
+    assert [p.name for p in tmp_path.iterdir()] == ["mine.html"]
 
 
 def test_a_dangling_out_link_is_refused_before_the_run(tmp_path, no_run, capsys):

@@ -577,7 +577,7 @@ def _args_versions(p: argparse.ArgumentParser) -> None:
     p.add_argument("--bisect", metavar="CASE:FIGURE|verdicts",
                    help="find the first release of the range at which this figure moved beyond its noise (or any "
                         "verdict flipped), installing only the releases the bisection needs")
-    p.add_argument("--out", type=Path, default=Path("mjharness-versions"), metavar="DIR",
+    p.add_argument("--out", type=_folder, default=Path("mjharness-versions"), metavar="DIR",
                    help="where to write versions.html, versions.json and versions.txt (default: ./mjharness-versions)")
     p.add_argument("--backend", metavar="NAME",
                    help="install the backend's packages in every environment and run the check with --backend NAME")
@@ -666,7 +666,7 @@ def _args_sweep(p: argparse.ArgumentParser) -> None:
                    help="judge on these integrators only (default: every one, as check)")
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
                    help="stop each cell's check after so long (the cell: error)")
-    p.add_argument("--out", type=Path, default=Path("mjharness-sweep"), metavar="DIR",
+    p.add_argument("--out", type=_folder, default=Path("mjharness-sweep"), metavar="DIR",
                    help="where to write sweep.md and sweep.json (default: ./mjharness-sweep)")
     p.add_argument("--jobs", "-j", type=_positive, metavar="N",
                    help="cells at once on this machine (default: one per CPU); on Ray, one task per CPU of the cluster")
@@ -970,7 +970,7 @@ def cmd_sensitivity(args: argparse.Namespace) -> int:
 def _args_zoo(p: argparse.ArgumentParser) -> None:
     p.add_argument("models", nargs="*", metavar="MODEL",
                    help="zoo models (dm_control/acrobot, or a stem: acrobot; default: every model installed)")
-    p.add_argument("--out", type=Path, default=Path("reports/zoo"), metavar="DIR",
+    p.add_argument("--out", type=_folder, default=Path("reports/zoo"), metavar="DIR",
                    help="where zoo.md and zoo.json go (default: reports/zoo)")
     p.add_argument("--faults", action="store_true",
                    help="also find the smallest size of each engine-side fault (inertia, damping, axis tilt) caught")
