@@ -14,6 +14,7 @@ docs/findings/speed.md) nor lambdifies anything.
 
 from __future__ import annotations
 
+import ast
 import inspect
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -42,6 +43,64 @@ def _source(exprs: sp.Matrix, args: list[sp.Symbol]) -> str:
     return inspect.getsource(sp.lambdify(args, flat, modules="numpy", printer=printer, cse=True))
 
 
+# What lambdify's numpy code is made of, and all that stored code may be (it can come from a cache
+# someone else wrote): one function of plain arguments, assignments to names, and a returned list of
+# arithmetic on numbers, those names and the numpy functions below. Nothing else is ever compiled.
+NUMPY_FUNCTIONS = frozenset({"sin", "cos", "tan", "arcsin", "arccos", "arctan", "arctan2", "sinh", "cosh", "tanh",
+                             "exp", "log", "sqrt", "abs", "sign", "fabs", "hypot", "minimum", "maximum", "amin",
+                             "amax", "power", "float64"})
+_NODES = (ast.Module, ast.FunctionDef, ast.arguments, ast.arg, ast.Assign, ast.Return, ast.List, ast.Tuple,
+          ast.BinOp, ast.UnaryOp, ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.USub, ast.UAdd, ast.Load,
+          ast.Store, ast.Name, ast.Constant, ast.Call, ast.Attribute)
+_MAX_EXPONENT = 64  # x**n with a literal n: lambdify writes small integers and halves; a huge one could hang
+
+
+def _checked_source(source: str) -> ast.Module:
+    """``source`` parsed, once checked to be lambdify-shaped arithmetic (see :data:`NUMPY_FUNCTIONS`);
+    ValueError naming the first node that is not."""
+    try:
+        tree = ast.parse(source)
+    except (SyntaxError, ValueError, RecursionError) as exc:
+        raise ValueError(f"stored code does not parse: {exc}") from None
+    if len(tree.body) != 1 or not isinstance(tree.body[0], ast.FunctionDef) \
+            or tree.body[0].name != "_lambdifygenerated":
+        raise ValueError("stored code is not one lambdify function")
+    fn = tree.body[0]
+    spec = fn.args
+    if fn.decorator_list or fn.returns or spec.vararg or spec.kwarg or spec.kwonlyargs or spec.defaults \
+            or spec.posonlyargs or any(a.annotation for a in spec.args):
+        raise ValueError("stored code's function is not of plain arguments")
+    for node in ast.walk(tree):
+        if not isinstance(node, _NODES):
+            raise ValueError(f"stored code holds a {type(node).__name__}, which lambdify's arithmetic never does")
+        if isinstance(node, ast.Name) and node.id.startswith("_"):
+            raise ValueError(f"stored code names {node.id!r}")
+        if isinstance(node, ast.Constant) and type(node.value) not in (int, float):
+            raise ValueError("stored code holds a constant that is not a number")
+        if isinstance(node, ast.Attribute) and not (isinstance(node.value, ast.Name) and node.value.id == "numpy"
+                                                    and node.attr in NUMPY_FUNCTIONS):
+            raise ValueError(f"stored code reads an attribute other than numpy's functions: {node.attr!r}")
+        if isinstance(node, ast.Name) and node.id == "numpy" and not isinstance(node.ctx, ast.Load):
+            raise ValueError("stored code assigns 'numpy'")
+        if isinstance(node, ast.Call) and (node.keywords or not isinstance(node.func, ast.Attribute)):
+            raise ValueError("stored code calls something other than numpy's functions")
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Pow) and not _small_exponent(node.right):
+            raise ValueError("stored code raises to a power that is not a small literal")
+        if isinstance(node, ast.Constant) and isinstance(node.value, int) and abs(node.value) > 10**18:
+            raise ValueError("stored code holds an integer too large for lambdify's output")
+    return tree
+
+
+def _small_exponent(node: ast.expr) -> bool:
+    """Whether ``node`` is a literal exponent of at most :data:`_MAX_EXPONENT` (a number, its negation or a
+    quotient of two such, as lambdify writes rationals)."""
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+        return _small_exponent(node.operand)
+    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Div):
+        return _small_exponent(node.left) and _small_exponent(node.right)
+    return isinstance(node, ast.Constant) and type(node.value) in (int, float) and abs(node.value) <= _MAX_EXPONENT
+
+
 def _vectorized(source: str, rows: int, cols: int) -> Callable[..., Array]:
     """The function ``source`` defines, made to broadcast over leading batch dimensions.
 
@@ -51,8 +110,9 @@ def _vectorized(source: str, rows: int, cols: int) -> Callable[..., Array]:
     """
     fn = None
     if source:
-        namespace: dict[str, object] = {"numpy": np}
-        exec(source, namespace)  # our own cached lambdify output, see Compiled
+        namespace: dict[str, object] = {"numpy": np, "__builtins__": {}}
+        # only code checked to be arithmetic on numpy's functions runs, wherever it was read from
+        exec(compile(_checked_source(source), "<stored dynamics>", "exec"), namespace)
         fn = namespace["_lambdifygenerated"]
 
     def evaluate(*values: Array) -> Array:

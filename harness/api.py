@@ -39,6 +39,7 @@ from harness.core.checks import Check, Limit, gate
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
 from harness.core.options import RunOptions
+from harness.engine import messages
 from harness.outputs.jsondoc import json_doc
 from harness.outputs.table import checks_table, ratio, ratio_text, verdict_line
 from harness.pipeline.limits import case_limits, check_config, load_limits
@@ -218,7 +219,8 @@ def _numbers_by_name(name: str, value: object, example: str) -> None:
 
 
 def _check_arguments(*, integrators: object, timestep: object, horizon: object, q0: object, qd0: object,
-                     limits: object, require: object, accept_known_defects: object, edit: object) -> None:
+                     limits: object, require: object, accept_known_defects: object, edit: object,
+                     keyframe: object = None, ctrl: object = None) -> None:
     """Each argument of :func:`validate` of the type it must have, before any work: TypeError (or
     ValueError for a value out of range) naming the argument and what it accepts, never an error from deep
     inside the run or a value silently read as something else (``"no"`` as true, ``"RK4"`` letter by
@@ -236,6 +238,9 @@ def _check_arguments(*, integrators: object, timestep: object, horizon: object, 
         raise TypeError(f"accept_known_defects must be True or False, got {accept_known_defects!r}")
     if edit is not None and not callable(edit):
         raise TypeError(f"edit must be a function of a mujoco.MjSpec (or None), got {edit!r}")
+    if keyframe is not None and not isinstance(keyframe, str):
+        raise TypeError(f"keyframe must be a keyframe's name (a string), e.g. 'home', got {keyframe!r}")
+    _numbers_by_name("ctrl", ctrl, "{'shoulder': 0.5}")
 
 
 def _in_place(edit: Callable[[mujoco.MjSpec], None]) -> Callable[[mujoco.MjSpec], None]:
@@ -327,13 +332,14 @@ def validate(
     An argument of the wrong type raises TypeError naming it and what it accepts, before any work.
     """
     _check_arguments(integrators=integrators, timestep=timestep, horizon=horizon, q0=q0, qd0=qd0, limits=limits,
-                     require=require, accept_known_defects=accept_known_defects, edit=edit)
+                     require=require, accept_known_defects=accept_known_defects, edit=edit, keyframe=keyframe,
+                     ctrl=ctrl)
     options = RunOptions(mjcf=mjcf, integrators=tuple(integrators) if integrators is not None else None,
                          timestep=timestep, horizon=horizon, q0=q0, qd0=qd0,
                          edit=_in_place(edit) if edit is not None else None, backend=backend)
     judging = _Judging(config=config, limits=limits or {}, require=require or {},
                        accept_known_defects=accept_known_defects)
-    with sources.using(_directories(systems)):
+    with sources.using(_directories(systems)), messages.kept_within():  # MuJoCo's warnings: in the result only
         return _validate(case, options, judging, keyframe=keyframe, ctrl=ctrl)
 
 

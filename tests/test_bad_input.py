@@ -23,6 +23,7 @@ from harness.cli.commands import main
 from harness.core.errors import ModelError
 from harness.core.figures import FigureName
 from harness.engine.models import compile_model
+from harness.outputs.files import MANIFEST
 from harness.reference.solutions import clear_caches
 from tests.conftest import use_cached_runs, without_progress
 
@@ -265,11 +266,12 @@ def test_a_report_set_is_replaced_whole_or_not_at_all(tmp_path, first_report, ca
     out, first = _first_report(tmp_path, first_report)
     (out / "summary.md").unlink()
     (out / "summary.md").mkdir()
-    code, _ = _report(tmp_path, "--config", _strict(tmp_path))  # would FAIL: every file differs
+    # would FAIL: every file differs (--force-out: a folder holding what no run wrote is otherwise refused first)
+    code, _ = _report(tmp_path, "--config", _strict(tmp_path), "--force-out")
     assert code == 2
     _one_line(capsys.readouterr().err, "summary.md")
     left = {p.relative_to(out).as_posix() for p in out.rglob("*")}
-    assert left == {"summary.md", "cases", *(f"{n}.stale" for n in REPORT if n != "summary.md")}, left
+    assert left == {"summary.md", "cases", MANIFEST, *(f"{n}.stale" for n in REPORT if n != "summary.md")}, left
     assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT if n != "summary.md")
 
 
@@ -294,7 +296,7 @@ def test_a_failed_run_marks_the_earlier_report_stale(tmp_path, first_report, cac
         if failure == "internal error":
             _one_line(capsys.readouterr().err, "mjharness: internal error: KeyError: 'a bug' (a bug in mjharness")
     left = sorted(p.relative_to(out).as_posix() for p in out.rglob("*"))
-    assert left == sorted(["cases", *(f"{n}.stale" for n in REPORT)])
+    assert left == sorted(["cases", MANIFEST, *(f"{n}.stale" for n in REPORT)])
     assert all((out / f"{n}.stale").read_bytes() == first[n] for n in REPORT)
 
 

@@ -147,7 +147,7 @@ def test_a_fresh_install_derives_nothing(tmp_path):
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
                           env=env | {"XDG_CACHE_HOME": str(tmp_path)})
     assert proc.stdout.strip().splitlines()[-1] == "False 0", proc.stdout + proc.stderr
-    stored = sorted(p.parent.name for p in (tmp_path / "mjharness").glob("*/*.pickle"))
+    stored = sorted(p.parent.name for p in (tmp_path / "mjharness").glob("*/*.entry"))
     # spring's; atwood's and its minimal form; and the two references solved (harness/reference/solutions.py)
     assert stored == ["dynamics", "dynamics", "minimal-dynamics", "solution", "solution"]
 

@@ -383,8 +383,7 @@ def test_an_earlier_reports_pages_go_with_the_new_set_and_stay_when_it_fails(tmp
     (out / files.CASE_PAGES).mkdir(parents=True)
     old = {out / files.CASE_PAGES / "gone.html": "old case", out / files.STUDIES_PAGE: "old studies",
            out / report.OVERVIEW: "old overview"}
-    for path, text in old.items():
-        path.write_text(text)
+    files.write_atomic(files.with_manifest(out, old))  # an earlier run's, listed in its manifest
     fake = {report.OVERVIEW: "<html>new</html>", report.case_page(CASE): "<html>case</html>"}
     monkeypatch.setattr(report, "render_pages", lambda *_a, **_k: fake)
     (out / "summary.md").mkdir()  # in the way of the new set: nothing of it may land
@@ -394,7 +393,7 @@ def test_an_earlier_reports_pages_go_with_the_new_set_and_stay_when_it_fails(tmp
     (out / "summary.md").rmdir()
     report.write_report(out, *run, stills={})
     assert sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()) == [
-        report.case_page(CASE), "report.html", "report.json", "summary.md"]
+        files.MANIFEST, report.case_page(CASE), "report.html", "report.json", "summary.md"]
 
 
 def test_write_atomic_removes_with_the_set_or_not_at_all(tmp_path):

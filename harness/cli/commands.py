@@ -46,27 +46,33 @@ from harness import cases
 from harness.cases import sources
 from harness.cases.own import from_mjcf
 from harness.core import VERSION
+from harness.core.bounds import max_steps
 from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
+from harness.core.escape import terminal
 from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
 from harness.core.options import RunOptions
 from harness.core.tables import terminal_width, wrap
 from harness.engine import backends, messages
 from harness.engine.integrators import available_integrators
+from harness.families import figure_names
 from harness.opinions import threeway
 from harness.outputs import baseline
 from harness.outputs.diff import diff_runs, format_diff, load_run, select
 from harness.outputs.files import (
     BACKENDS_PAGE,
     CASE_PAGES,
+    FORCE,
     PAGES,
     REPORT_FILES,
     STALE,
     check_output,
+    check_report_folder,
     mark_stale,
+    ours,
     prepare_output,
-    report_pages,
     superseded,
+    with_manifest,
     write_atomic,
 )
 from harness.outputs.jsondoc import dumps, json_doc
@@ -174,7 +180,8 @@ def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, writt
     parts += [fitness] if fitness and not quiet else []
     parts += ["\n".join(wrap(written, width))] if written and not quiet else []
     last = "\n".join(line for line in (verdict_line(outcome), fitness_line(outcome)) if line)
-    print("\n\n".join([*parts, last]) if quiet else "\n" + "\n\n".join([*parts, last]))
+    text = "\n\n".join([*parts, last]) if quiet else "\n" + "\n\n".join([*parts, last])
+    print("\n".join(terminal(line) for line in text.split("\n")))  # names from files and models: no escapes act
 
 
 def _add_run_options(p: argparse.ArgumentParser) -> None:
@@ -234,6 +241,23 @@ def _seconds(text: str) -> float:
     return value
 
 
+def _requirement(text: str) -> str:
+    """A package requirement for ``uv pip install``: never an option (``-e``, ``--index-url``: it would be taken as
+    one, and could install from anywhere)."""
+    if not text.strip() or text.lstrip().startswith("-"):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a package requirement (it would reach the installer as an "
+                                         "option); accepted: a requirement such as 'mujoco-mjx=={version}'")
+    return text
+
+
+def _folder(text: str) -> Path:
+    """A folder argument: an empty one names no folder (it would mean the current one, silently)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("names no folder (an empty path would mean the current folder); give a "
+                                         "folder, e.g. mjharness-report")
+    return Path(text)
+
+
 def _tiny(text: str) -> float:
     value = _number(text)
     if not (math.isfinite(value) and 0 < abs(value) <= 1e-6):  # float32's round-off (MJX) is 1.2e-7
@@ -268,6 +292,10 @@ def _options(args: argparse.Namespace, selected: Sequence[cases.Case], *, severa
                          f"(known cases: {', '.join(cases.names())})")
     for case in selected:
         case.with_motion(q0=args.q0, qd0=args.qd0, horizon=args.horizon)  # ValueError naming what is wrong
+    # a malformed --require, or one no figure of these cases answers: refused before the run, not after it
+    require.check_possible(require.parse(getattr(args, "require", ())),
+                           (n for case in selected for n in figure_names(case)))
+    max_steps()  # and a malformed MJHARNESS_MAX_STEPS
     chosen = backends.expand(args.backend)
     if len(chosen) > 1 and not several:
         raise ValueError(f"--backend {args.backend}: {args.command} runs one backend ({', '.join(chosen)} asked); "
@@ -403,8 +431,12 @@ def _junit(path: Path | None, outcome: Outcome) -> dict[Path, str]:
 
 def _args_run(p: argparse.ArgumentParser) -> None:
     _add_selection(p)
-    p.add_argument("--out", type=Path, default=Path("mjharness-report"), metavar="DIR",
-                   help="output directory (default: ./mjharness-report)")
+    p.add_argument("--out", type=_folder, default=Path("mjharness-report"), metavar="DIR",
+                   help="output directory (default: ./mjharness-report); a new or empty folder, or one an earlier "
+                   "run wrote: only the files it wrote there (its manifest) are replaced or removed")
+    p.add_argument(FORCE, dest="force_out", action="store_true",
+                   help="write into --out even if it is not yours or holds other files (those are never removed; "
+                   "a file of the report's own name is replaced)")
     p.add_argument("--no-studies", dest="studies", action="store_false",
                    help="skip layer 4 (convergence, softness, solver and contact studies) and the seed audit")
     _add_junit(p)
@@ -419,7 +451,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from harness.outputs.report import report_files  # lazy: as above
 
     start = time.perf_counter()
-    check_output(args.out)  # fail before minutes of work, not after
+    check_report_folder(args.out, force=args.force_out)  # fail before minutes of work, not after
     _check_junit(args.junit, args.out)
     opinions = _opinions(args)
     selected = _selected(args)
@@ -449,7 +481,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                          appendix=appendix, plots=plots, banners=inertia_banners(inertials))
     prepare_output(args.out)
     # the report and its JUnit, all or none, and an earlier report's pages this one has not removed with them
-    paths = write_atomic(files | _junit(args.junit, outcome), remove=superseded(args.out, files))
+    paths = write_atomic(with_manifest(args.out, files | _junit(args.junit, outcome)),
+                         remove=superseded(args.out, files))
     _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
                   peers=_peers(results), opinions=[*opinions.lines(quiet=args.quiet),
                                                    *inertials.lines(quiet=args.quiet)],
@@ -563,11 +596,11 @@ def _args_versions(p: argparse.ArgumentParser) -> None:
     p.add_argument("--bisect", metavar="CASE:FIGURE|verdicts",
                    help="find the first release of the range at which this figure moved beyond its noise (or any "
                         "verdict flipped), installing only the releases the bisection needs")
-    p.add_argument("--out", type=Path, default=Path("mjharness-versions"), metavar="DIR",
+    p.add_argument("--out", type=_folder, default=Path("mjharness-versions"), metavar="DIR",
                    help="where to write versions.html, versions.json and versions.txt (default: ./mjharness-versions)")
     p.add_argument("--backend", metavar="NAME",
                    help="install the backend's packages in every environment and run the check with --backend NAME")
-    p.add_argument("--with", dest="extras", action="append", default=[], metavar="REQUIREMENT",
+    p.add_argument("--with", dest="extras", action="append", default=[], metavar="REQUIREMENT", type=_requirement,
                    help="an extra package for every environment ('{version}' is the MuJoCo release, e.g. "
                         "'mujoco-mjx=={version}'; repeatable)")
     p.add_argument("--parallel", type=_positive, metavar="N",
@@ -652,7 +685,7 @@ def _args_sweep(p: argparse.ArgumentParser) -> None:
                    help="judge on these integrators only (default: every one, as check)")
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
                    help="stop each cell's check after so long (the cell: error)")
-    p.add_argument("--out", type=Path, default=Path("mjharness-sweep"), metavar="DIR",
+    p.add_argument("--out", type=_folder, default=Path("mjharness-sweep"), metavar="DIR",
                    help="where to write sweep.md and sweep.json (default: ./mjharness-sweep)")
     p.add_argument("--jobs", "-j", type=_positive, metavar="N",
                    help="cells at once on this machine (default: one per CPU); on Ray, one task per CPU of the cluster")
@@ -956,7 +989,7 @@ def cmd_sensitivity(args: argparse.Namespace) -> int:
 def _args_zoo(p: argparse.ArgumentParser) -> None:
     p.add_argument("models", nargs="*", metavar="MODEL",
                    help="zoo models (dm_control/acrobot, or a stem: acrobot; default: every model installed)")
-    p.add_argument("--out", type=Path, default=Path("reports/zoo"), metavar="DIR",
+    p.add_argument("--out", type=_folder, default=Path("reports/zoo"), metavar="DIR",
                    help="where zoo.md and zoo.json go (default: reports/zoo)")
     p.add_argument("--faults", action="store_true",
                    help="also find the smallest size of each engine-side fault (inertia, damping, axis tilt) caught")
@@ -1139,7 +1172,8 @@ def _discard_stdout() -> None:
 
 def _outputs(args: argparse.Namespace) -> list[Path]:
     """The report files the command writes: those a failed or interrupted run marks stale."""
-    paths = [args.out / name for name in REPORT_FILES] + report_pages(args.out) if args.command == "run" else []
+    # run: only the files an earlier run wrote into --out, unchanged since (nothing of the user's is renamed)
+    paths = [p for p in ours(args.out) if not p.name.endswith(STALE)] if args.command == "run" else []
     return paths + [p for p in (getattr(args, "junit", None), getattr(args, "html", None)) if p is not None]
 
 
@@ -1176,35 +1210,39 @@ def _main(args: argparse.Namespace) -> int:
         _discard_stdout()
         return EXIT_PIPE
     except BrokenProcessPool:  # a worker killed under it (the system's out-of-memory killer, a crash)
-        print("mjharness: error: a worker process died while running the cases (killed by the system: out of "
-              "memory?); fix: fewer workers (-j 1) or fewer cases at once", file=sys.stderr)
+        _error("mjharness: error: a worker process died while running the cases (killed by the system: out of "
+              "memory?); fix: fewer workers (-j 1) or fewer cases at once")
     except TaskLost as exc:  # a Ray task the cluster could not run (harness.pipeline.cluster)
-        print(f"mjharness: error: {exc}; fix: check the cluster's nodes, or run with --executor local",
-              file=sys.stderr)
+        _error(f"mjharness: error: {exc}; fix: check the cluster's nodes, or run with --executor local")
     except SimulationDiverged as exc:
-        print(f"mjharness: error: simulation diverged: {exc}", file=sys.stderr)
+        _error(f"mjharness: error: simulation diverged: {exc}")
     except IntegrationError as exc:  # the model under test gives a reference our solver cannot integrate
-        print(f"mjharness: error: the reference cannot be computed for this model: {exc}", file=sys.stderr)
+        _error(f"mjharness: error: the reference cannot be computed for this model: {exc}")
     except ValueError as exc:  # ConfigError, ModelError, ModelMismatch and every input check
-        print(f"mjharness: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        _error(f"mjharness: error: {' '.join(str(exc).split())}")
     except OSError as exc:
-        print(f"mjharness: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "), file=sys.stderr)
+        _error(f"mjharness: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))
     except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (harness.core.lifetime.Terminated)
-        print("mjharness: terminated (SIGTERM)" if isinstance(exc, Terminated) else "mjharness: interrupted",
-              file=sys.stderr)
+        _error("mjharness: terminated (SIGTERM)" if isinstance(exc, Terminated) else "mjharness: interrupted")
         return exit_code(exc)
     except MemoryError:
-        print("mjharness: error: out of memory; fix: a longer --timestep, a shorter --horizon, fewer cases or "
-              "workers (-j 1)", file=sys.stderr)
+        _error("mjharness: error: out of memory; fix: a longer --timestep, a shorter --horizon, fewer cases or "
+              "workers (-j 1)")
     except Exception as exc:  # a bug of ours: still one line, and no report passes for the run
-        print(f"mjharness: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} (a bug in mjharness, "
+        _error(f"mjharness: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} (a bug in mjharness, "
               f"not in your input: please report it with the command line; {TRACEBACK_VARIABLE}=1 prints the "
-              "traceback)", file=sys.stderr)
+              "traceback)")
         if os.environ.get(TRACEBACK_VARIABLE, "").strip() not in ("", "0"):
             traceback.print_exc()
     finally:
         _disconnect()
     return EXIT_USAGE
+
+
+def _error(line: str) -> None:
+    """An error line on stderr, its names from files, models and the command line made visible
+    (:func:`harness.core.escape.terminal`: an ESC or BEL in a name never reaches the terminal as such)."""
+    print(terminal(line), file=sys.stderr)
 
 
 def _disconnect() -> None:

@@ -17,6 +17,7 @@ Each is overridden by its environment variable (a positive integer), which the w
 
 from __future__ import annotations
 
+import math
 import os
 
 from harness.core.errors import RunTooLong
@@ -38,12 +39,14 @@ def _bound(variable: str, default: int) -> int:
     if not text:
         return default
     try:
-        value = int(float(text))
+        number = float(text)
     except ValueError:
-        value = 0
-    if value < 1:
+        number = math.nan
+    # 1e400 is inf (int() of it raised OverflowError: an internal error) and 1.5 is no whole number (it was
+    # silently 1)
+    if not (math.isfinite(number) and number >= 1 and number == int(number)):
         raise ValueError(f"{variable}={text!r}; accepted: a positive whole number of steps (default {default})")
-    return value
+    return int(number)
 
 
 def max_steps() -> int:

@@ -2,7 +2,7 @@
 run and process.
 
 A sympy derivation is costly (docs/findings/speed.md) and depends only on source
-code, so it is pickled once under the user's cache directory
+code, so it is stored once, as data, under the user's cache directory
 (``$XDG_CACHE_HOME/mjharness`` or ``~/.cache/mjharness``) and loaded by later
 runs and by parallel workers. So is the numeric code lambdified from it at a
 model's parameter values (``analytic.dynamics.Compiled``; harness/reference/derivations.py).
@@ -16,12 +16,14 @@ and the parameter values), the sympy and Python versions and :data:`FORMAT`.
 Editing a system, the Lagrangian machinery or upgrading sympy changes the key,
 so a stale entry is never read; old entries are simply left behind.
 
-An entry is a one-line JSON header, then the pickled value. The header names
-what the entry holds (its kind, its system's name and the full key) and the
-SHA-256 of the pickled bytes, so an entry whose bytes changed since they were
-written (a constant altered in lambdify's source still unpickles, and would
-give a wrong reference on every run) or that holds another entry's value (a
-file copied into another system's slot) is never used.
+An entry is a one-line JSON header, then the value as JSON data
+(:mod:`harness.core.stored`: a closed vocabulary of numbers, arrays, a few
+dataclasses and sympy expression trees, never a pickle), so an entry that
+someone else wrote can at worst hold wrong data, never run code (docs/security.md).
+The header names what the entry holds (its kind, its system's name and the full
+key) and the SHA-256 of the value's bytes, so an entry whose bytes changed since
+they were written by accident (a truncated or damaged file) or that holds another
+entry's value (a file copied into another system's slot) is never used.
 
 The cache is an optimisation only: an entry that cannot be read (missing,
 corrupt, truncated, altered, another's, of the wrong type) or used (see
@@ -39,7 +41,6 @@ import hashlib
 import importlib.util
 import json
 import os
-import pickle
 import sys
 import tempfile
 import time
@@ -47,10 +48,13 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import TypeVar
 
+from harness.core import stored
+
 T = TypeVar("T")
 R = TypeVar("R")
 
-FORMAT = "2"  # bump when what is stored changes shape (2: a header with identity and checksum)
+FORMAT = "3"  # bump when what is stored changes shape (2: a header with identity and checksum; 3: data, no pickle)
+SUFFIX = ".entry"
 
 
 def cache_dir() -> Path | None:
@@ -58,7 +62,8 @@ def cache_dir() -> Path | None:
     if os.environ.get("MJHARNESS_NO_CACHE", "").strip() not in ("", "0"):
         return None
     base = os.environ.get("XDG_CACHE_HOME", "").strip()
-    root = Path(base) if base else Path.home() / ".cache"
+    # the XDG spec: a relative path is invalid and ignored (it would put the cache wherever the run starts)
+    root = Path(base) if base and os.path.isabs(base) else Path.home() / ".cache"
     return root / "mjharness"
 
 
@@ -99,7 +104,7 @@ def source_key(files: Iterable[Path | str], *, versions: bool = True) -> str:
 
 def _path(kind: str, name: str, digest: str) -> Path | None:
     root = cache_dir()
-    return None if root is None else root / kind / f"{name}-{digest[:32]}.pickle"
+    return None if root is None else root / kind / f"{name}-{digest[:32]}{SUFFIX}"
 
 
 def cost(kind: str, name: str, digest: str) -> float | None:
@@ -120,17 +125,17 @@ def has(kind: str, name: str, digest: str) -> bool:
 
 
 def _identity(kind: str, name: str, digest: str, payload: bytes) -> dict[str, str]:
-    """What an entry's header says: what it holds, and the checksum of its pickled bytes."""
+    """What an entry's header says: what it holds, and the checksum of its value's bytes."""
     return {"format": FORMAT, "kind": kind, "name": name, "key": digest,
             "sha256": hashlib.sha256(payload).hexdigest()}
 
 
 def entry_bytes(kind: str, name: str, digest: str, value: object) -> bytes | None:
-    """An entry's bytes: its header (what it holds, the checksum of its pickled bytes), then ``value``
-    pickled; None for a value that does not pickle."""
+    """An entry's bytes: its header (what it holds, the checksum of its value's bytes), then ``value`` as
+    data (:func:`harness.core.stored.dumps`); None for a value outside that vocabulary."""
     try:
-        payload = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
-    except Exception:  # a value that does not pickle
+        payload = stored.dumps(value)
+    except (ValueError, TypeError, RecursionError):  # a value that is not plain data
         return None
     return json.dumps(_identity(kind, name, digest, payload), sort_keys=True).encode() + b"\n" + payload
 
@@ -158,7 +163,7 @@ def load_file(path: Path, kind: str, name: str, digest: str, expected: type) -> 
         head, _, payload = path.read_bytes().partition(b"\n")
         if json.loads(head) != _identity(kind, name, digest, payload):
             return None  # another entry's, or bytes changed since they were written
-        value = pickle.loads(payload)
+        value = stored.loads(payload)  # data only: nothing in an entry runs
     except Exception:  # missing, unreadable, truncated, corrupt, from an incompatible version
         return None
     return value if isinstance(value, expected) else None

@@ -13,17 +13,37 @@ attribute. Library use (``harness.validate``) leaves MuJoCo's handler alone.
 
 from __future__ import annotations
 
+import contextlib
 from collections import deque
+from collections.abc import Iterator
 
 import mujoco
 
 _kept: deque[str] = deque(maxlen=64)
+_keeping: list[bool] = []  # whether keep() holds for the process (the CLI's), so a block leaves it on
 
 
 def keep() -> None:
     """Keep MuJoCo's warnings in this process (the last 64, :func:`kept`) instead of printing and logging
     them (``mju_user_warning``; idempotent; forked workers inherit it)."""
     mujoco.set_mju_user_warning(_kept.append)
+    _keeping[:] = [True]
+
+
+@contextlib.contextmanager
+def kept_within() -> Iterator[None]:
+    """:func:`keep` for the duration of the block, then MuJoCo's own handler again (it prints and appends to
+    ``MUJOCO_LOG.TXT`` in the working folder): a library call neither writes to the caller's stderr nor
+    leaves a file behind, and leaves the caller's process as it found it."""
+    if _keeping:
+        yield
+        return
+    keep()
+    try:
+        yield
+    finally:
+        mujoco.set_mju_user_warning(None)
+        _keeping.clear()
 
 
 def kept() -> tuple[str, ...]:

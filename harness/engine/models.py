@@ -18,11 +18,12 @@ from pathlib import Path
 
 import mujoco
 
+from harness.core import inputs
 from harness.core.errors import ModelError
 from harness.engine import compat
 from harness.engine.compat import after_compile, spec_from_file
 from harness.engine.integrators import integrator_enum
-from harness.engine.validity import InvalidModel, check_model, check_spec
+from harness.engine.validity import InvalidModel, check_model, check_spec, check_text
 
 
 def mjcf_path(name: str) -> Path:
@@ -35,6 +36,7 @@ def mjcf_path(name: str) -> Path:
 
 _PARSED: dict[tuple[str, bytes], mujoco.MjSpec] = {}
 _PARSED_MAX = 64
+_TEXTS: dict[str, bytes] = {}  # each file's text as last parsed: what check_text reads after compiling
 
 
 def load_spec(path: Path | str) -> mujoco.MjSpec:
@@ -42,6 +44,10 @@ def load_spec(path: Path | str) -> mujoco.MjSpec:
     path = Path(path)
     if not path.is_file():
         raise ModelError(f"cannot read MJCF {str(path)!r}: {_not_a_file(path)}; accepted: an MJCF (XML) file")
+    try:
+        inputs.check(path, what="MJCF", limit=inputs.MODEL_LIMIT)
+    except inputs.InputFileError as exc:
+        raise ModelError(str(exc)) from None
     try:
         return _parsed(str(path))
     except Exception as exc:  # MuJoCo raises ValueError with the parser's message
@@ -54,10 +60,13 @@ def _parsed(path: str) -> mujoco.MjSpec:
     parsing costs as much as compiling. Parsed anew where another file's text enters the parse (an <include>),
     where this MuJoCo needs the fallbacks (they record and warn per parse), or lacks ``MjSpec.copy``."""
     try:
-        with open(path, "rb") as fh:
-            text = fh.read()
+        text = inputs.read_bytes(path, what="MJCF", limit=inputs.MODEL_LIMIT)  # bounded, whatever it became
     except OSError:
         text = b"<include"  # unreadable here: the parser says why
+    _TEXTS.pop(path, None)
+    _TEXTS[path] = text
+    if len(_TEXTS) > _PARSED_MAX:
+        del _TEXTS[next(iter(_TEXTS))]
     if b"<include" in text or compat.missing_flags() or not hasattr(mujoco.MjSpec, "copy"):
         return spec_from_file(path)
     key = (path, text)
@@ -119,6 +128,9 @@ def compile_model(
         raise ModelError(f"invalid MJCF {str(path)!r}: {_one_line(exc)}") from None
     try:
         check_model(model)
+        # then what the compiled model cannot show: a number written non-finite that the spec took for unset
+        # (a geom's mass="nan" becomes its density's mass)
+        check_text(_TEXTS.get(str(path), b""))
     except InvalidModel as exc:
         raise ModelError(f"invalid MJCF {str(path)!r}: {exc}") from None
     after_compile(model, str(path))  # fallbacks for an older MuJoCo (harness.compat)

@@ -15,6 +15,8 @@ configuration.
 from __future__ import annotations
 
 import functools
+import math
+import re
 
 import mujoco
 import numpy as np
@@ -38,6 +40,45 @@ INPUTS = ("pos", "quat", "ipos", "iquat", "mass", "inertia", "solref", "solimp",
 
 class InvalidModel(ValueError):
     """A compiled model holding a number MuJoCo would run with but that makes no sense."""
+
+
+# attributes that name or point at something (a body called "nan" is a name, not a number)
+REFERENCES = frozenset({"name", "class", "childclass", "joint", "joint1", "joint2", "body", "body1", "body2",
+                        "site", "site1", "site2", "geom", "geom1", "geom2", "tendon", "tendon1", "tendon2",
+                        "actuator", "mesh", "hfield", "material", "texture", "target", "objname", "refname",
+                        "prefix", "plugin", "instance", "cranksite", "slidersite", "jointinparent", "key",
+                        "model", "content_type", "builtin", "type", "mark", "sensor", "camera", "light",
+                        "flex", "skin", "reftype", "objtype", "frame", "dir", "user"})
+_NON_FINITE = re.compile(rb"(?i)nan|inf|e\s*[+]?\d{3}")
+_COMMENT = re.compile(r"<!--.*?-->", re.DOTALL)
+_TAG = re.compile(r"<([A-Za-z_][\w.:-]*)((?:\s+[^<>]*?)?)/?>")
+_ATTRIBUTE = re.compile(r"([A-Za-z_][\w.:-]*)\s*=\s*(?:\"([^\"]*)\"|'([^']*)')")
+
+
+def check_text(text: bytes) -> None:
+    """:class:`InvalidModel` naming the first element of the MJCF ``text`` with a numeric attribute written
+    non-finite (``nan``, ``inf``, ``1e400``). Checked as written because the spec cannot tell some of them from
+    an unset value: a geom's ``mass="nan"`` reads as "unset" and silently becomes its density's mass
+    (issue 45). Only the file's own text: an included file is MuJoCo's to read."""
+    if not _NON_FINITE.search(text):
+        return
+    # read as tags and attributes, not as strict XML: MuJoCo's parser accepts what XML does not ("--" in a
+    # comment), and nothing here may refuse a model MuJoCo reads
+    source = _COMMENT.sub(" ", text.decode("utf-8", errors="replace"))
+    for tag, attributes in _TAG.findall(source):
+        for attribute, double, single in _ATTRIBUTE.findall(attributes):
+            value = double or single
+            if attribute in REFERENCES or "file" in attribute:
+                continue
+            try:
+                numbers = [float(token) for token in value.split()]
+            except ValueError:
+                continue
+            if numbers and not all(math.isfinite(x) for x in numbers):
+                name = next((d or q for a, d, q in _ATTRIBUTE.findall(attributes) if a == "name"), "")
+                where = f"{tag} {name!r}" if name else f"a <{tag}> (unnamed)"
+                raise InvalidModel(f"{where} {attribute} = {' '.join(value.split())!r} is not finite; accepted: "
+                                   "finite numbers")
 
 
 def check_model(model: mujoco.MjModel) -> None:

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import mujoco
 
+from harness.core import inputs
 from harness.core.errors import BackendUnavailable, ConfigError, ModelError, ModelMismatch
 from harness.engine.models import compile_model
 from harness.opinions import structure
@@ -65,7 +66,7 @@ def load_map(path: Path | str | None) -> tuple[dict[str, str], dict[str, str]]:
         return {}, {}
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        data = tomllib.loads(inputs.read_text(path, what="--urdf-map"))
     except FileNotFoundError:
         raise ConfigError(f"cannot read --urdf-map {str(path)!r}: no such file; accepted: TOML with "
                           f"{MAP_FORMAT}") from None
@@ -90,6 +91,7 @@ def load_urdf(path: Path | str, *, free: bool = False):
     if not path.is_file():
         what = "no such file" if not path.exists() else "not a regular file"
         raise ModelError(f"cannot read URDF {str(path)!r}: {what}; accepted: a URDF (XML) file")
+    inputs.check(path, what="URDF", limit=inputs.MODEL_LIMIT)  # Pinocchio reads it whole
     import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
     try:

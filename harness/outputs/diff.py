@@ -24,6 +24,7 @@ from dataclasses import dataclass, replace
 from fnmatch import fnmatchcase
 from pathlib import Path
 
+from harness.core import inputs
 from harness.outputs.schema import check_run
 
 PRINTED_PRECISION = 5e-4
@@ -143,7 +144,7 @@ def load_run(path: Path | str) -> dict:
     if path.is_dir():
         return _merged(path)
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
+        doc = json.loads(inputs.read_text(path, what="run document", limit=inputs.DOCUMENT_LIMIT))
     except OSError as exc:
         raise ValueError(f"cannot read {str(path)!r}: {exc.strerror}") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:

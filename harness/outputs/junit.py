@@ -12,6 +12,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 
 from harness.core.checks import Check
+from harness.core.escape import xml_text
 
 
 def _fmt(value: float) -> str:
@@ -58,5 +59,9 @@ def junit_xml(checks: Mapping[str, Sequence[Check]], *, accept_known_defects: bo
                 fail = ET.SubElement(tc, "failure", type="Unexplained" if c.budget is not None
                                      else "ThresholdExceeded", message=f"{c.name}: {_describe(c)}")
                 fail.text = f"{case} {c.name}: {_describe(c)}"
+    for element in root.iter():  # names from files and models: no character XML cannot hold
+        element.attrib.update({k: xml_text(v) for k, v in element.attrib.items()})
+        if element.text:
+            element.text = xml_text(element.text)
     ET.indent(root)
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"

@@ -12,6 +12,7 @@ import html
 
 import numpy as np
 
+from harness.core.escape import html_attr
 from harness.core.plotting import HALF_WIDTH, coinciding, png_bytes, png_data_uri, pyplot, style
 from harness.core.trajectory import Trajectory
 from harness.families.runs import point_differences
@@ -149,5 +150,5 @@ def section_plots(result: CaseResult) -> str:
     if not result.simulations:
         return note
     drawn = [(name, fn(result)) for name, fn in PLOTS]
-    return note + "".join(f"<img class='plot' src='{uri}' alt='{name} plot of {result.case.name}'>"
+    return note + "".join(f"<img class='plot' src='{uri}' alt='{name} plot of {html_attr(result.case.name)}'>"
                           for name, uri in drawn if uri)

@@ -46,9 +46,18 @@ from harness.core import VERSION as __version__
 from harness.core.budget import PARTS
 from harness.core.checks import Check
 from harness.core.checks import closest as closest_check
+from harness.core.escape import markdown_cell
 from harness.engine.models import compile_model
 from harness.outputs.equations import equations, png_data_uri
-from harness.outputs.files import CASE_PAGES, PAGES, REPORT_FILES, prepare_output, superseded, write_atomic
+from harness.outputs.files import (
+    CASE_PAGES,
+    PAGES,
+    REPORT_FILES,
+    prepare_output,
+    superseded,
+    with_manifest,
+    write_atomic,
+)
 from harness.outputs.formulas import text_html
 from harness.outputs.jsondoc import render_json, versions
 from harness.outputs.page import Page, table_of_contents, unbroken_numbers
@@ -600,32 +609,33 @@ def render_markdown(results: Sequence[CaseResult], outcome: Outcome | Mapping[st
         bad = sum(not c.passed for c in cs)
         tight = closest_check([c for c in cs if c.passed and not c.known])  # the failures are listed below
         closest = f"{tight.name} ({ratio_text(ratio(tight))})" if tight else "no passing gates" if cs else "no gates"
-        lines.append(f"| {r.case.name} | {'pass' if not bad else '**FAIL**'} | {len(cs) - bad}/{len(cs)} "
-                     f"| {closest} |")
+        lines.append(f"| {markdown_cell(r.case.name)} | {'pass' if not bad else '**FAIL**'} | "
+                     f"{len(cs) - bad}/{len(cs)} | {markdown_cell(closest)} |")
     if failed:
         lines += ["", "## Failed checks", "", "| case | check | measured | why |", "|---|---|---|---|"]
-        lines += [f"| {c.case} | {c.name} | {_measured(c)} {c.unit} | {_failure_text(c).replace('|', '∣')} |"
-                  for c in failed]
+        lines += [f"| {markdown_cell(c.case)} | {markdown_cell(c.name)} | {_measured(c)} {c.unit} | "
+                  f"{markdown_cell(_failure_text(c))} |" for c in failed]
     findings = [(r.case.name, f) for r in results for f in r.findings]
     if findings:
         lines += ["", "## Engine findings", ""]
-        lines += [f"- {case}: **{f.function}** — {f.measure} = {fmt_value(f.value)} {f.unit}. {f.detail}."
-                  for case, f in findings]
+        lines += [f"- {markdown_cell(case)}: **{markdown_cell(f.function)}** — {markdown_cell(f.measure)} = "
+                  f"{fmt_value(f.value)} {f.unit}. {markdown_cell(f.detail)}." for case, f in findings]
     unmet = judged.unmet
     if unmet:
         lines += ["", "## Requirements not met", "", "| case | figure | measured | required | unit |",
                   "|---|---|---|---|---|"]
-        lines += [f"| {f.case} | {f.figure} | {fmt_value(f.value)} | {f.requirement.value:g} | {f.unit} |"
-                  for f in unmet]
+        lines += [f"| {markdown_cell(f.case)} | {markdown_cell(f.figure)} | {fmt_value(f.value)} | "
+                  f"{f.requirement.value:g} | {f.unit} |" for f in unmet]
     lines += ["", "<details><summary>Every check</summary>", "",
               "| case | check | measured | explained | unexplained | limit | used | verdict |",
               "|---|---|---|---|---|---|---|---|"]
     for r in results:
         for c in checks[r.case.name]:
             explained = "" if c.budget is None else ", ".join(f"{k} {v:.2e}" for k, v in c.budget.explained.items())
-            lines.append(f"| {r.case.name} | {c.name} | {_measured(c)} | {explained} | {_unexplained(c)} | "
-                         f"{_limit(c)} | {ratio_text(ratio(c))} | {c.status if c.passed else '**' + c.status + '**'}"
-                         f"{', ' + c.reason if c.reason and not c.passed else ''} |")
+            lines.append(f"| {markdown_cell(r.case.name)} | {markdown_cell(c.name)} | {_measured(c)} | "
+                         f"{markdown_cell(explained)} | {_unexplained(c)} | {_limit(c)} | {ratio_text(ratio(c))} | "
+                         f"{c.status if c.passed else '**' + c.status + '**'}"
+                         f"{', ' + markdown_cell(c.reason) if c.reason and not c.passed else ''} |")
     lines += ["", "</details>"]
     return "\n".join(lines) + "\n" + (audit_markdown(audit) if audit else "")
 
@@ -671,4 +681,4 @@ def write_report(out: Path | str, results: Sequence[CaseResult], outcome: Outcom
     (:func:`harness.outputs.files.write_atomic`)."""
     files = report_files(out, results, outcome, **options)
     prepare_output(out)
-    return write_atomic(files, remove=superseded(out, files))
+    return write_atomic(with_manifest(out, files), remove=superseded(out, files))

@@ -53,6 +53,7 @@ from pathlib import Path
 
 from harness import families
 from harness.cases import Case, all_cases, did_you_mean
+from harness.core import inputs
 from harness.core.checks import BASES, Limit
 from harness.core.errors import ConfigError
 from harness.core.figures import FigureName
@@ -78,7 +79,7 @@ def limits_path(model: Path) -> Path:
 
 def _read_toml(path: Path, what: str) -> dict:
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(inputs.read_text(path, what=what))
     except OSError as exc:
         raise ConfigError(f"cannot read {what} {str(path)!r}: {exc.strerror}") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:

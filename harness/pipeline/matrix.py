@@ -21,6 +21,7 @@ from typing import TextIO
 from harness import cases
 from harness.core import costs
 from harness.core.checks import Check, closest, ratio
+from harness.core.escape import terminal
 from harness.core.options import RunOptions
 from harness.core.tables import terminal_width, wrap
 from harness.pipeline.executor import LOCAL, Executor
@@ -102,6 +103,7 @@ def case_line(case: str, checks: Sequence[Check], seconds: float, width: int = 0
     the name padded to ``width`` (the longest name of the run) so that a run's lines align. Longer than
     ``columns``: shorter words, and wrapped where that is not enough."""
     failing = sum(not c.passed for c in checks)
+    case = terminal(case)  # a name from a file or model: no escape sequence reaches the terminal
     line = (f"case {case + ':':<{width + 1}} {len(checks):>3} checks, {failing:>2} fail, {worst_text(checks)} "
             f"({seconds:.1f} s)")
     if columns is None or len(line) <= columns:

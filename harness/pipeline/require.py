@@ -100,6 +100,20 @@ def judge_fitness(result: CaseResult, requirements: Sequence[Requirement]) -> li
     return out
 
 
+def check_possible(requirements: Sequence[Requirement], names: Iterable[str]) -> None:
+    """ConfigError, before any run, for a requirement no trajectory figure of ``names`` (every figure the cases
+    can give: :func:`harness.families.figure_names`) answers, naming the measures there are; what the runs
+    then measure on the models' own integrators is :func:`check_known`'s."""
+    if not requirements:
+        return
+    trajectory = [n for n in map(FigureName, names) if n.layer == "trajectory"]
+    for req in requirements:
+        if not any(req.covers(n) for n in trajectory):
+            raise ConfigError(f"requirement {req.measure!r} matches no figure these cases measure; accepted: "
+                              f"{', '.join(sorted({n.measure for n in trajectory}))} or a group "
+                              f"({', '.join(GROUPS)})")
+
+
 def check_known(requirements: Sequence[Requirement], results: Sequence[CaseResult]) -> None:
     """ConfigError for a requirement no figure of any case's own integrator answers (a typo, or a
     measure these cases do not have), naming the measures they have."""

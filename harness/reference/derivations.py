@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -54,17 +55,26 @@ def _derived(system_of: LagrangianSystem) -> Derivation:
     return result
 
 
-def _derivation_type() -> type:
-    from analytic.lagrangian import Derivation  # lazy: sympy, only when a derivation is loaded
-
-    return Derivation
+def _stored_derivation(kind: str, system: str, minimal: bool) -> Derivation:
+    """The derivation from its on-disk entry (its symbolic results as data, :mod:`harness.core.stored`, set
+    on a fresh derivation of the system), else derived and stored for next time."""
+    digest = cache.source_key(_sources(system))
+    results = cache.load(kind, system, digest, dict)
+    if results is not None and set(results) == set(SYMBOLIC):
+        found = systems.build(system, minimal=minimal).derive()
+        found.__dict__.update(results)  # the cached_property values, as derive() would compute them
+        return found
+    start = time.perf_counter()
+    derived = _derived(systems.build(system, minimal=minimal))
+    cache.store(kind, system, digest, {name: getattr(derived, name) for name in SYMBOLIC},
+                seconds=time.perf_counter() - start)
+    return derived
 
 
 @functools.cache
 def derivation(system: str) -> Derivation:
     """The derivation of ``system`` with every symbolic result evaluated (cached on disk and per process)."""
-    digest = cache.source_key(_sources(system))
-    return cache.cached("derivation", system, digest, lambda: _derived(systems.build(system)), _derivation_type())
+    return _stored_derivation("derivation", system, minimal=False)
 
 
 def derivation_stored(system: str) -> bool:
@@ -85,9 +95,7 @@ def minimal_derivation(system: str) -> Derivation | None:
     """The derivation of the system's minimal-coordinate form (``minimal()``), or None if it has none."""
     if not systems.has_minimal(system):
         return None
-    digest = cache.source_key(_sources(system))
-    return cache.cached("minimal", system, digest, lambda: _derived(systems.build(system, minimal=True)),
-                        _derivation_type())
+    return _stored_derivation("minimal", system, minimal=True)
 
 
 def numeric_sources(system: str) -> list[Path]:

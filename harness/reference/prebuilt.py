@@ -9,8 +9,9 @@ from here where the user's cache has none, and stores it there.
 An entry is used only where it is the one this source would make. Its key is a hash of the text of the
 files it came from (the system module, ``analytic/systems/__init__.py``, ``analytic/lagrangian.py``,
 ``analytic/dynamics.py``) and of the parameter values; its header repeats the key with the SHA-256 of its
-pickled bytes (the user cache's entry format, :mod:`harness.core.cache`), so an entry whose sources were
-edited since, or whose bytes changed, is passed over and the code derived as before. Unlike the user
+bytes (the user cache's entry format, :mod:`harness.core.cache`: data, never a pickle; the code in it runs
+only once checked to be arithmetic, ``analytic.dynamics``), so an entry whose sources were edited since, or
+whose bytes changed, is passed over and the code derived as before. Unlike the user
 cache's key, this one leaves out the Python and sympy versions: the entry is plain numpy source, so any
 install loads the code the package was tested with (tests/test_prebuilt.py: the entries are current, and
 are what sympy derives from these sources).
@@ -77,7 +78,7 @@ def write(kind: str, system: str, sources: Sequence[Path], params: tuple[tuple[s
     """Write the entry of (kind, system) at ``params``, made from ``sources``; its path."""
     data = cache.entry_bytes(kind, system, entry_key(sources, params), compiled)
     if data is None:
-        raise ValueError(f"the {kind} of {system!r} does not pickle")
+        raise ValueError(f"the {kind} of {system!r} is not plain data")
     target = path(kind, system, sources, params)
     if not cache.write_atomic(target, data):
         raise OSError(f"cannot write {target}")

@@ -198,8 +198,15 @@ class EnvSpec:
     """Why this environment is not built (one line, e.g. the index has no mujoco-mjx of the release), or ""."""
 
     def requirements(self) -> tuple[str, ...]:
-        return (f"mujoco=={self.release}", *self.pinned,
-                *(e.replace("{version}", str(self.release)) for e in self.extras))
+        """What ``uv pip install`` is given; ValueError for one that would reach it as an option (``-e``,
+        ``--index-url``)."""
+        found = (f"mujoco=={self.release}", *self.pinned,
+                 *(e.replace("{version}", str(self.release)) for e in self.extras))
+        bad = next((r for r in found if r.lstrip().startswith("-")), None)
+        if bad is not None:
+            raise ValueError(f"{bad!r} is not a package requirement (it would reach the installer as an option); "
+                             "accepted: a requirement such as 'mujoco-mjx=={version}'")
+        return found
 
     def folder(self, root: Path) -> Path:
         """``root/mujoco-RELEASE-pyXY-KEY``: KEY hashes the requirements, so another pin or extra package is

@@ -11,6 +11,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from harness.core.escape import markdown_cell
 from harness.versions.sweep import ERROR, NA, REFUSED, FirstChange, Sweep, first_changes
 
 SCHEMA = 1
@@ -51,12 +52,13 @@ def markdown(sweep: Sweep) -> str:
         for backend in sweep.backends:
             row = {c.release: c.verdict for c in sweep.row(model, backend)}
             verdict, figure = _change(changes[(model, backend)])
-            lines.append("| " + " | ".join([model, backend, *(row.get(r, "—") for r in sweep.releases),
-                                             verdict, figure]) + " |")
+            lines.append("| " + " | ".join(markdown_cell(c) for c in [model, backend, *(row.get(r, "—") for r in
+                                                                                 sweep.releases), verdict, figure])
+                         + " |")
     for title, kinds in (("Cells that could not be run", (ERROR,)), ("Refused and n/a cells", (REFUSED, NA))):
         listed = [c for c in sweep.cells if c.verdict in kinds]
         if listed:
-            lines += ["", f"## {title}", "", *(f"- {c.line()}" for c in listed)]
+            lines += ["", f"## {title}", "", *(f"- {markdown_cell(c.line())}" for c in listed)]
     return "\n".join(lines) + "\n"
 
 

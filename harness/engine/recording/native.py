@@ -20,7 +20,10 @@ system's C compiler (``$CC``, else ``cc``, ``gcc`` or ``clang``) against the
 headers and library that the installed ``mujoco`` wheel ships, into the user
 cache (``$XDG_CACHE_HOME/mjharness/native``, a temporary folder when
 ``MJHARNESS_NO_CACHE=1``), keyed by a hash of the source, MuJoCo's version and
-its struct headers, and renamed into place whole. It links the very library
+its struct headers, and renamed into place whole. A library is loaded only from
+a folder of the user's that nobody else can enter (0700), only if nobody else
+can write it and its SHA-256 is the one recorded when it was built; anything
+else is rebuilt, never run (docs/security.md). It links the very library
 Python's ``mujoco`` loaded (the loader shares one copy by its soname), so
 callbacks and plugins are the same. Where anything of that is missing, or
 ``MJHARNESS_NATIVE=0``, :func:`library` is None, :func:`why_not` says why and
@@ -29,10 +32,13 @@ the batch recorder runs instead (the same numbers, more slowly).
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
+import hashlib
 import os
 import shutil
+import stat
 import subprocess
 import tempfile
 from collections.abc import Mapping, Sequence
@@ -43,6 +49,7 @@ import mujoco
 import numpy as np
 
 from harness.core.cache import cache_dir, key
+from harness.core.cache import write_atomic as cache_write_atomic
 from harness.engine.integrators import integrator_name
 from harness.engine.probe import Probe
 from harness.engine.readings.momentum import subtree
@@ -53,6 +60,7 @@ from harness.engine.recording.verify import check_warnings, checked_run
 
 ABI = 7  # native_record.c's mjh_abi()
 SOURCE = Path(__file__).with_name("native_record.c")
+HASH_SUFFIX = ".sha256"  # beside the library: the hash of the file this install built
 # the int fields of mjData's info header the recorder copies, in mjh_scalar's order
 SCALARS: tuple[str, ...] = ("ne", "nf", "nl", "nefc", "ncon", "nisland")
 # how mjh_record steps: RK4 (2) as the loop recorder does, every other integrator with mj_step (0)
@@ -114,10 +122,14 @@ def _load() -> ctypes.CDLL:
     digest = key(SOURCE.read_bytes(), mujoco.__version__, str(shared), compiler,
                  *(h.read_bytes() for h in headers), versions=False)
     root = cache_dir()
-    folder = (root / "native") if root is not None else Path(tempfile.mkdtemp(prefix="mjharness-native-"))
+    folder = _private_folder(root / "native") if root is not None else None
+    if folder is None:  # no cache, or its folder is not the user's alone: built afresh where only we write
+        folder = Path(tempfile.mkdtemp(prefix="mjharness-native-"))
     target = folder / f"record-{digest[:32]}.so"
-    if not target.is_file():
+    if not _trusted(target):
         _build(compiler, include, shared, folder, target)
+        if not _trusted(target):
+            raise _Unavailable(f"its library {target} changed as it was built")
     try:
         lib = ctypes.CDLL(str(target))
     except OSError as exc:
@@ -138,6 +150,48 @@ def _load() -> ctypes.CDLL:
     return lib
 
 
+def _owned_privately(st: os.stat_result) -> bool:
+    """Whether ``st`` is of a file or folder of this user that nobody else may write."""
+    return st.st_uid == os.geteuid() and not st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
+
+
+def _private_folder(folder: Path) -> Path | None:
+    """``folder``, created 0700 if missing (closed to 0700 if it is this user's), if it is a real folder (not a
+    link) of this user that only they can enter; None if it is not (the library is then built in a fresh
+    temporary folder: never loaded from a folder someone else could write)."""
+    with contextlib.suppress(OSError):
+        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+    try:
+        st = folder.lstat()
+        if stat.S_ISDIR(st.st_mode) and st.st_uid == os.geteuid() and st.st_mode & 0o077:
+            os.chmod(folder, 0o700)  # ours, made before this check: closed now (its files are each checked)
+            st = folder.lstat()
+    except OSError:
+        return None
+    private = stat.S_ISDIR(st.st_mode) and st.st_uid == os.geteuid() and not st.st_mode & 0o077
+    return folder if private else None
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _trusted(target: Path) -> bool:
+    """Whether ``target`` is the library this install built: a regular file of this user that nobody else may
+    write, whose SHA-256 is the one recorded beside it when it was built (its folder is private:
+    :func:`_private_folder`). A library that is not (missing, replaced, truncated, corrupt) is rebuilt,
+    never loaded."""
+    record = target.with_name(target.name + HASH_SUFFIX)
+    try:
+        st, rst = target.lstat(), record.lstat()
+        if not (stat.S_ISREG(st.st_mode) and stat.S_ISREG(rst.st_mode) and _owned_privately(st)
+                and _owned_privately(rst) and rst.st_size <= 128):
+            return False
+        return record.read_text(encoding="ascii").strip() == _sha256(target)
+    except (OSError, ValueError):
+        return False
+
+
 def _build(compiler: str, include: Path, shared: Path, folder: Path, target: Path) -> None:
     """Compile into a temporary file beside ``target`` and rename it into place (concurrent builders
     never leave a half-written library)."""
@@ -156,7 +210,10 @@ def _build(compiler: str, include: Path, shared: Path, folder: Path, target: Pat
         if done.returncode != 0:
             first = next((ln for ln in done.stderr.splitlines() if ln.strip()), f"exit {done.returncode}")
             raise _Unavailable(f"{Path(compiler).name} could not build it: {first.strip()}")
+        os.chmod(partial, 0o700)  # the compiler's mode follows the umask; nobody else may write it
+        digest = _sha256(Path(partial))
         os.replace(partial, target)
+        cache_write_atomic(target.with_name(target.name + HASH_SUFFIX), digest.encode())
     except (OSError, subprocess.TimeoutExpired) as exc:
         raise _Unavailable(f"{Path(compiler).name} could not build it: {exc}") from None
     finally:
