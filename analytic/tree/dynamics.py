@@ -133,12 +133,17 @@ class TreeDynamics(Dynamics):
         return v
 
     def damping_modes(self, q: Array) -> tuple[Array, Array]:
-        """The decay rates (1/s) the joints' linear damping gives the motion at a configuration q, fastest
-        first, and their modes (columns, M-orthonormal): D v = r M v, D = Bᵀ diag(a) B in these coordinates.
-        Far above the motion's own rates (damping on a light link) they make the motion stiff."""
+        """The decay rates (1/s) the linear damping gives the motion at a configuration q, fastest first, and
+        their modes (columns, M-orthonormal): D v = r M v, D = Bᵀ diag(a) B + Σ_actuators −(g₂ c + b₂) m mᵀ in
+        these coordinates: the joints' damping and the actuators' velocity feedback (a position servo's kv),
+        which act alike. Far above the motion's own rates (damping on a light link) they make the motion stiff."""
         q = np.asarray(q, dtype=float)
         b = velocity_map(self.tree, self.layout, q)
         damping = b.T @ (self._damping[:, 0][:, None] * b)
+        if self.tree.actuators:
+            acts = self._actuators
+            feedback = -(acts["gain"][:, 2] * acts["ctrl"] + acts["bias"][:, 2])  # N s per unit of l̇ = m · q̇
+            damping = damping + acts["moment"].T @ (feedback[:, None] * acts["moment"])
         chol = np.linalg.cholesky(self.mass_matrix(q))
         half = np.linalg.solve(chol, damping)
         rates, vectors = np.linalg.eigh(np.linalg.solve(chol, half.T))
