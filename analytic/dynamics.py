@@ -277,6 +277,12 @@ class Dynamics:
         """M(q) and F(q, q̇) together (a dynamics that shares work between them computes them at once)."""
         return self.mass_matrix(q), self.forcing(q, qd)
 
+    @property
+    def velocity_polynomial(self) -> bool:
+        """Whether q̈ at a fixed q is a polynomial of degree ≤ 3 in q̇ (what lets the stiff solver differentiate it
+        in q̇ exactly: :func:`analytic.solvers.state_jacobian`); not claimed for a derived system's forces."""
+        return False
+
     def extra_invariants(self, q: Array, qd: Array) -> dict[str, Array]:
         """Conserved quantities beyond the energy and the cyclic momenta, by name (none for a derived system)."""
         return {}

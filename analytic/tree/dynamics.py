@@ -132,6 +132,12 @@ class TreeDynamics(Dynamics):
                 v = v + 0.5 * joint.stiffness * x * x
         return v
 
+    @property
+    def velocity_polynomial(self) -> bool:
+        """q̈ at a fixed q is a polynomial of degree ≤ 3 in q̇ (velocity products, damping a v + c v³, actuators'
+        affine l̇, γ quadratic) unless a joint's damping has the v|v| term."""
+        return not np.any(self._damping[:, 1])
+
     def damping_modes(self, q: Array) -> tuple[Array, Array]:
         """The decay rates (1/s) the linear damping gives the motion at a configuration q, fastest first, and
         their modes (columns, M-orthonormal): D v = r M v, D = Bᵀ diag(a) B + Σ_actuators −(g₂ c + b₂) m mᵀ in
