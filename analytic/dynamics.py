@@ -337,6 +337,16 @@ class Dynamics:
         solved = self.constrained(q, qd, stabilization=stabilization)
         return solved.qdd, solved.lam
 
+    def constraint_terms(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)
+                         ) -> tuple[Array, Array]:
+        """J(q) and the right-hand side γ − α(Jq̇ + b) − βf(q) of the constraint rows of the KKT system."""
+        jac = self.jacobian(q)
+        alpha, beta = stabilization
+        gamma = self.gamma(q, qd)
+        if alpha or beta:
+            gamma = gamma - alpha * self.velocity_residual(q, qd) - beta * self.position_residual(q)
+        return jac, gamma
+
     def constrained(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)) -> Constrained:
         """q̈, λ, Jᵀλ and which multipliers are unique, from the KKT system (see :class:`Constrained`).
 
@@ -354,11 +364,7 @@ class Dynamics:
             qdd = np.linalg.solve(mass, force[..., None])[..., 0]
             return Constrained(qdd=qdd, lam=np.zeros((*batch, 0)), generalized=np.zeros_like(qdd),
                                unique=np.ones((*batch, 0), dtype=bool), rank=np.zeros(batch, dtype=int))
-        jac = self.jacobian(q)
-        alpha, beta = stabilization
-        gamma = self.gamma(q, qd)
-        if alpha or beta:
-            gamma = gamma - alpha * self.velocity_residual(q, qd) - beta * self.position_residual(q)
+        jac, gamma = self.constraint_terms(q, qd, stabilization=stabilization)
         try:
             chol = np.linalg.cholesky(mass)
         except np.linalg.LinAlgError:  # M only semi-definite (a massless coordinate the constraints hold): no

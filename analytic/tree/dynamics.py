@@ -435,6 +435,19 @@ class TreeDynamics(Dynamics):
     def velocity_residual(self, q: Array, qd: Array) -> Array:
         return np.einsum("...ij,...j->...i", self.jacobian(q), np.asarray(qd, dtype=float))
 
+    def constraint_terms(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)
+                         ) -> tuple[Array, Array]:
+        """J, and γ − α Jq̇ − β f, from one pass of the kinematics at q + i h q̇: its real parts are f(q) and
+        J(q) (the step's h² terms vanish below round-off), its imaginary part J̇q̇ h."""
+        q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
+        f, jac = self._rows(q + 1j * STEP * qd)
+        real = jac.real
+        gamma = -np.einsum("...ij,...j->...i", jac.imag, qd) / STEP
+        alpha, beta = stabilization
+        if alpha or beta:
+            gamma = gamma - alpha * np.einsum("...ij,...j->...i", real, qd) - beta * f.real
+        return real, gamma
+
     def gamma(self, q: Array, qd: Array) -> Array:
         q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
         jac = self._rows(q + 1j * STEP * qd)[1]
