@@ -175,7 +175,8 @@ def state_jacobian(dynamics: Dynamics, rhs: dop853.RightHandSide, t: float, y: A
 
 STABILITY = 6.39
 """DOP853's stability interval on the negative real axis, [−6.39, 0] (|R(z)| ≤ 1 of its stability function, from
-its table: tests/test_radau.py): a mode decaying at rate r bounds its step to 6.39/r, whatever the tolerance."""
+its table: tests/test_stiff_reference.py): a mode decaying at rate r bounds its step to 6.39/r, whatever the
+tolerance."""
 
 
 def explicit_steps(dynamics: Dynamics, rhs: dop853.RightHandSide, y0: Array, t_end: float, *,

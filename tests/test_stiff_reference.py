@@ -73,3 +73,17 @@ def test_a_motion_that_is_not_stiff_keeps_dop853():
     dyn = _slide(damping=1e-2)
     sol = solve(dyn, q0=np.array([1.0]), qd0=np.array([0.0]), t_end=1.0, max_steps=20_000, stiff=True)
     assert sol.method == "DOP853"
+
+
+def test_the_stability_interval_is_dop853s():
+    """STABILITY is where DOP853's stability function leaves the unit disc on the negative real axis, from its table."""
+    from analytic import dop853_table as table
+
+    a = np.array([list(row) + [0.0] * (12 - len(row)) for row in table.A[:12]])[:, :12]
+    b = np.array(table.B)
+
+    def modulus(x: float) -> float:
+        return abs(1.0 - x * b @ np.linalg.solve(np.eye(12) + x * a, np.ones(12)))
+
+    assert modulus(STABILITY - 0.01) <= 1.0 < modulus(STABILITY + 0.01)
+    assert all(modulus(x) <= 1.0 for x in np.linspace(0.01, STABILITY - 0.01, 200))
