@@ -83,3 +83,17 @@ def test_a_real_robot_gets_a_verdict(robot):
                           text=True, timeout=900, cwd=ROOT)
     assert done.returncode in (0, 1), done.stderr[-2000:]
     assert "checks" in done.stdout
+
+
+def test_cassies_light_rods_are_no_longer_refused():
+    """Cassie's achilles rods spin about their axis with 3.8e-6 kg m² against 34 (1.1e-7 of it): above SPIN_FLOOR
+    (ε / STIFF_RTOL = 2.2e-8), so the model is read, no longer refused ("turns a body with next to no rotational
+    inertia"); a point mass on a ball joint (1e-12) still is (tests/test_own_model.py)."""
+    from harness.cases.own import SPIN_FLOOR
+
+    path = MENAGERIE / "agility_cassie" / "scene.xml"
+    if not path.exists():
+        pytest.skip(f"{MENAGERIE} is absent (the shared Menagerie robots)")
+    assert SPIN_FLOOR < 3.8e-6 / 34.4
+    case = from_mjcf(path, horizon=0.01)
+    assert case.tree is not None and len(case.qd0) == 32
