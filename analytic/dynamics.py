@@ -371,12 +371,15 @@ class Dynamics:
             chol = None  # weighting; the KKT matrix as it stands, which constraints that fix it make regular
         if chol is not None:
             weighted = np.swapaxes(np.linalg.solve(chol, np.swapaxes(jac, -1, -2)), -1, -2)  # J L⁻ᵀ, (..., m, n)
-            u, s, _ = np.linalg.svd(weighted, full_matrices=True)
+            s = np.linalg.svd(weighted, compute_uv=False)  # the singular values alone first: most models' J is regular
             keep = s > rank_tolerance(m, n) * s[..., :1]  # (..., min(m, n)), descending
             rank = np.sum(keep, axis=-1)
-            # a row's unit vector with a part in the left null space (U's columns past the rank): λ not unique
-            null = np.concatenate([~keep, np.ones((*batch, m - keep.shape[-1]), dtype=bool)], axis=-1)
-            unique = np.sqrt(np.sum(u * u * null[..., None, :], axis=-1)) <= rank_tolerance(m, n)
+            unique = np.ones((*batch, m), dtype=bool)
+            if not np.all(rank == m):
+                u, s, _ = np.linalg.svd(weighted, full_matrices=True)
+                # a row's unit vector with a part in the left null space (U's columns past the rank): λ not unique
+                null = np.concatenate([~keep, np.ones((*batch, m - keep.shape[-1]), dtype=bool)], axis=-1)
+                unique = np.sqrt(np.sum(u * u * null[..., None, :], axis=-1)) <= rank_tolerance(m, n)
         else:
             rank, unique = np.full(batch, m), np.ones((*batch, m), dtype=bool)
         if chol is None or np.all(rank == m):  # full row rank everywhere: the KKT system as it stands
