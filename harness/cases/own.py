@@ -53,7 +53,9 @@ HORIZON_CAP = 1.0
 faults within it."""
 SEED = 1e-8
 """The relative size of the perturbation of the start's velocities the chaos horizon is measured with (the perturbed
-run is solved to SEED / 10: its own error stays a tenth of the separation it measures from the start)."""
+run is solved to SEED / 10: its own error stays a tenth of the separation it measures from the start; a stiff
+model's, by Radau IIA, to STIFF_RTOL = SEED: its error then is that of the perturbation, still 1e-4 of the
+separation GROWTH × SEED at which the horizon ends)."""
 GROWTH = 1e4
 """How much the perturbation may grow before the horizon ends."""
 MIN_STEPS = 20
