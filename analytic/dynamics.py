@@ -337,6 +337,12 @@ class Dynamics:
         """M(q) and F(q, q̇) together (a dynamics that shares work between them computes them at once)."""
         return self.mass_matrix(q), self.forcing(q, qd)
 
+    @property
+    def velocity_polynomial(self) -> bool:
+        """Whether q̈ at a fixed q is a polynomial of degree ≤ 3 in q̇ (what lets the stiff solver differentiate it
+        in q̇ exactly: :func:`analytic.solvers.state_jacobian`); not claimed for a derived system's forces."""
+        return False
+
     def extra_invariants(self, q: Array, qd: Array) -> dict[str, Array]:
         """Conserved quantities beyond the energy and the cyclic momenta, by name (none for a derived system)."""
         return {}
@@ -382,26 +388,97 @@ class Dynamics:
 
     def accelerations(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)
                       ) -> tuple[Array, Array]:
-        """q̈ and λ from the KKT system [[M, −Jᵀ], [J, 0]] [q̈; λ] = [F; γ].
+        """q̈ and λ from the KKT system [[M, −Jᵀ], [J, 0]] [q̈; λ] = [F; γ] (:meth:`constrained`: solved
+        rank-revealingly, λ the least-norm multipliers where rows are redundant).
 
         ``stabilization`` = (α, β) adds Baumgarte terms −α(Jq̇+b) − βf(q) to γ;
         they vanish on the constraint manifold, so they change only drift.
         """
-        q = np.asarray(q, dtype=float)
-        qd = np.asarray(qd, dtype=float)
-        mass, force = self.mass_and_forcing(q, qd)
-        m = self.rows
-        if m == 0:
-            return np.linalg.solve(mass, force[..., None])[..., 0], np.zeros((*q.shape[:-1], 0))
+        solved = self.constrained(q, qd, stabilization=stabilization)
+        return solved.qdd, solved.lam
+
+    def constraint_terms(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)
+                         ) -> tuple[Array, Array]:
+        """J(q) and the right-hand side γ − α(Jq̇ + b) − βf(q) of the constraint rows of the KKT system."""
         jac = self.jacobian(q)
         alpha, beta = stabilization
         gamma = self.gamma(q, qd)
         if alpha or beta:
             gamma = gamma - alpha * self.velocity_residual(q, qd) - beta * self.position_residual(q)
-        kkt = np.zeros((*q.shape[:-1], self.n + m, self.n + m))
-        kkt[..., : self.n, : self.n] = mass
-        kkt[..., : self.n, self.n :] = -np.swapaxes(jac, -1, -2)
-        kkt[..., self.n :, : self.n] = jac
-        rhs = np.concatenate([force, gamma], axis=-1)
-        sol = np.linalg.solve(kkt, rhs[..., None])[..., 0]
-        return sol[..., : self.n], sol[..., self.n :]
+        return jac, gamma
+
+    def constrained(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)) -> Constrained:
+        """q̈, λ, Jᵀλ and which multipliers are unique, from the KKT system (see :class:`Constrained`).
+
+        Where J (weighted by M⁻¹ᐟ²: J_w = J L⁻ᵀ, M = L Lᵀ) has full row rank at every state, the KKT matrix is
+        solved as it stands (LU); otherwise, at the states where it has not, in J_w's singular vectors: only the
+        directions whose singular value exceeds :func:`rank_tolerance` × the largest are constraints, the others
+        are redundant rows (a planar loop's out-of-plane ones) or a singular configuration's lost direction, so
+        q̈ and Jᵀλ stay unique and finite and λ is the least-norm multiplier vector."""
+        q = np.asarray(q, dtype=float)
+        qd = np.asarray(qd, dtype=float)
+        mass, force = self.mass_and_forcing(q, qd)
+        m, n = self.rows, self.n
+        batch = q.shape[:-1]
+        if m == 0:
+            qdd = np.linalg.solve(mass, force[..., None])[..., 0]
+            return Constrained(qdd=qdd, lam=np.zeros((*batch, 0)), generalized=np.zeros_like(qdd),
+                               unique=np.ones((*batch, 0), dtype=bool), rank=np.zeros(batch, dtype=int))
+        jac, gamma = self.constraint_terms(q, qd, stabilization=stabilization)
+        try:
+            chol = np.linalg.cholesky(mass)
+        except np.linalg.LinAlgError:  # M only semi-definite (a massless coordinate the constraints hold): no
+            chol = None  # weighting; the KKT matrix as it stands, which constraints that fix it make regular
+        if chol is not None:
+            weighted = np.swapaxes(np.linalg.solve(chol, np.swapaxes(jac, -1, -2)), -1, -2)  # J L⁻ᵀ, (..., m, n)
+            s = np.linalg.svd(weighted, compute_uv=False)  # the singular values alone first: most models' J is regular
+            keep = s > rank_tolerance(m, n) * s[..., :1]  # (..., min(m, n)), descending
+            rank = np.sum(keep, axis=-1)
+            unique = np.ones((*batch, m), dtype=bool)
+            if not np.all(rank == m):
+                u, s, _ = np.linalg.svd(weighted, full_matrices=True)
+                # a row's unit vector with a part in the left null space (U's columns past the rank): λ not unique
+                null = np.concatenate([~keep, np.ones((*batch, m - keep.shape[-1]), dtype=bool)], axis=-1)
+                unique = np.sqrt(np.sum(u * u * null[..., None, :], axis=-1)) <= rank_tolerance(m, n)
+        else:
+            rank, unique = np.full(batch, m), np.ones((*batch, m), dtype=bool)
+        if chol is None or np.all(rank == m):  # full row rank everywhere: the KKT system as it stands
+            kkt = np.zeros((*batch, n + m, n + m))
+            kkt[..., :n, :n] = mass
+            kkt[..., :n, n:] = -np.swapaxes(jac, -1, -2)
+            kkt[..., n:, :n] = jac
+            sol = np.linalg.solve(kkt, np.concatenate([force, gamma], axis=-1)[..., None])[..., 0]
+            qdd, lam = sol[..., :n], sol[..., n:]
+        else:  # z = Lᵀq̈ = y + J_wᵀλ, y = L⁻¹F, J_w J_wᵀ λ = γ − J_w y, in U's basis on the kept directions
+            y = np.linalg.solve(chol, force[..., None])[..., 0]
+            k = s.shape[-1]
+            rhs = np.einsum("...mj,...m->...j", u[..., :, :k], gamma - np.einsum("...mn,...n->...m", weighted, y))
+            safe = np.where(keep, s, 1.0)
+            lam = np.einsum("...mj,...j->...m", u[..., :, :k], np.where(keep, rhs / (safe * safe), 0.0))
+            z = y + np.einsum("...mn,...m->...n", weighted, lam)
+            qdd = np.linalg.solve(np.swapaxes(chol, -1, -2), z[..., None])[..., 0]
+        generalized = np.einsum("...mn,...m->...n", jac, lam)
+        return Constrained(qdd=qdd, lam=lam, generalized=generalized, unique=unique, rank=rank)
+
+
+def rank_tolerance(rows: int, n: int) -> float:
+    """The relative singular value of the mass-weighted constraint Jacobian J_w below which a direction counts as
+    no constraint: √(max(rows, n) ε). The multipliers solve J_w J_wᵀ λ = r, whose eigenvalues are σ²; its entries
+    carry round-off of about max(rows, n) ε σ_max² (a sum of that many products), so an eigenvalue σ² below that
+    is indistinguishable from zero, and dividing by it would give λ round-off / round-off. The same bound says
+    whether a row's unit vector has a part in the left null space (its multiplier then is not unique)."""
+    return float(np.sqrt(max(rows, n) * np.finfo(float).eps))
+
+
+@dataclass(frozen=True)
+class Constrained:
+    """The KKT system's solution at states (..., n): ``qdd`` q̈ (unique: M is positive definite), ``lam`` the
+    least-norm multipliers (..., rows), ``generalized`` Jᵀλ (..., n: unique, whatever the rank), ``unique`` which
+    rows' multipliers are unique (..., rows: False for a redundant row, whose λ any split among its dependent rows
+    satisfies, e.g. MuJoCo's regularized one), ``rank`` the number of independent constraint directions (...)."""
+
+    qdd: Array
+    lam: Array
+    generalized: Array
+    unique: Array
+    rank: Array

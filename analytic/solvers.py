@@ -31,6 +31,11 @@ from analytic.dynamics import Array, Dynamics
 
 DEFAULT_RTOL = 1e-12
 DEFAULT_ATOL = 1e-12
+STIFF_RTOL = 1e-8
+"""The loosest tolerance a solve handed to Radau IIA is made to (rtol and atol): Radau's steps grow as rtol^(-1/4)
+(its error estimate is O(h⁴)), so 1e-12 on a robot's 1 s of motion takes it 5e4 steps. What the trajectory budget
+must resolve is MuJoCo's own integration error at the model's step, which the reference's allowance
+(harness.core.budget.REFERENCE × rtol × the size) must stay far below: docs/findings/bases.md, STIFF_RTOL."""
 
 
 @dataclass(frozen=True)
@@ -88,8 +93,10 @@ def solve(
     :data:`TRIAL_STEPS` steps) where the solve would take more than ``max_steps``
     steps, with the estimate.
 
-    ``stiff``: where DOP853's first steps estimate more than ``max_steps``, the
-    motion is handed to Radau IIA, judged by its own first steps against the same
+    ``stiff``: where stability alone would take DOP853 more than :data:`TRIAL_STEPS` steps at the start
+    (:func:`explicit_steps`: its step is then set by a fast decaying mode, not by the motion's accuracy; every
+    shipped reference takes fewer), or where its first steps estimate more than ``max_steps``, the motion is
+    handed to Radau IIA (at :data:`STIFF_RTOL` at the loosest), judged by its own first steps against the same
     bound, before it is refused (:class:`TooManySteps` then gives both estimates).
     """
     q0 = np.asarray(q0, dtype=float)
@@ -111,6 +118,11 @@ def solve(
         return np.concatenate([y[..., n:], qdd], axis=-1)
 
     y0 = np.concatenate([q0, qd0])
+    if stiff:  # the criterion: stability alone sets DOP853's step (more than its trial's steps): Radau IIA at once
+        steps, radius = explicit_steps(dynamics, rhs, y0, float(t_end), atol_over_rtol=atol / rtol)
+        if steps > min(max_steps, TRIAL_STEPS):
+            return _solve_stiff(dynamics, rhs, y0, t_end=float(t_end), rtol=rtol, atol=atol, max_steps=max_steps,
+                                explicit=None, radius=radius)
     trial = min(TRIAL_STEPS, max_steps)
     clock = time.perf_counter()
     try:
@@ -128,19 +140,75 @@ def solve(
     return Solution(dynamics=dynamics, t_end=float(t_end), rtol=rtol, nfev=result.nfev, _dense=result.dense)
 
 
+def state_jacobian(dynamics: Dynamics, rhs: dop853.RightHandSide, t: float, y: Array, f: Array, *,
+                   atol_over_rtol: float = 1.0) -> Array:
+    """∂f/∂y of the first-order form f(y) = (q̇, q̈(q, q̇)), every column in one batch.
+
+    The velocity columns ∂q̈/∂q̇ are exact where :attr:`Dynamics.velocity_polynomial` (q̈ at fixed q a polynomial
+    of degree ≤ 3 in q̇: the velocity-product forces, linear and cubic damping, an actuator's velocity feedback,
+    γ and the stabilization, through a KKT solve linear in them): the five-point derivative
+    (f(−2δ) − 8f(−δ) + 8f(δ) − f(2δ))/12δ is exact for degree ≤ 4, whatever δ, so δ is the velocity's own size
+    and only round-off is left. They carry the stiffness of damping and servos. The position columns (and the
+    velocity ones otherwise) are forward differences, step √ε × max(|y_j|, atol/rtol): q̈'s q-dependence goes
+    through complex steps inside the tree's equations, which a complex step cannot be nested into."""
+    n = y.size // 2
+    eps = np.finfo(float).eps
+    exact = dynamics.velocity_polynomial
+    columns = range(n) if exact else range(2 * n)
+    delta = np.sqrt(eps) * np.maximum(np.abs(y), atol_over_rtol)
+    delta = (y + delta) - y
+    states = [y + delta[j] * np.eye(2 * n)[j] for j in columns]
+    if exact:
+        size = max(float(np.sqrt(np.mean(y[n:] ** 2))), float(np.max(np.abs(y[n:]), initial=0.0)), 1e-3)
+        for j in range(n):
+            for k in (-2.0, -1.0, 1.0, 2.0):
+                states.append(y + k * size * np.eye(2 * n)[n + j])
+    values = rhs(t, np.array(states))
+    out = np.empty((y.size, y.size))
+    for i, j in enumerate(columns):
+        out[:, j] = (values[i] - f) / delta[j]
+    if exact:
+        stencil = values[len(columns):].reshape(n, 4, y.size)
+        out[:, n:] = ((stencil[:, 0] - 8.0 * stencil[:, 1] + 8.0 * stencil[:, 2] - stencil[:, 3]) / (12.0 * size)).T
+    return out
+
+
+STABILITY = 6.39
+"""DOP853's stability interval on the negative real axis, [−6.39, 0] (|R(z)| ≤ 1 of its stability function, from
+its table: tests/test_stiff_reference.py): a mode decaying at rate r bounds its step to 6.39/r, whatever the
+tolerance."""
+
+
+def explicit_steps(dynamics: Dynamics, rhs: dop853.RightHandSide, y0: Array, t_end: float, *,
+                   atol_over_rtol: float = 1.0) -> tuple[float, float]:
+    """The fewest steps DOP853 can take over ``t_end`` by stability alone, t_end · ρ / :data:`STABILITY` with ρ the
+    spectral radius of the linearization at the start (:func:`state_jacobian`), and ρ."""
+    jac = state_jacobian(dynamics, rhs, 0.0, y0, rhs(0.0, y0), atol_over_rtol=atol_over_rtol)
+    radius = float(np.max(np.abs(np.linalg.eigvals(jac))))
+    return t_end * radius / STABILITY, radius
+
+
 def _solve_stiff(dynamics: Dynamics, rhs: dop853.RightHandSide, y0: Array, *, t_end: float, rtol: float,
-                 atol: float, max_steps: int, explicit: TooManySteps) -> Solution:
-    """The solve by Radau IIA, after DOP853's first steps estimated ``explicit``: its own first
-    :data:`TRIAL_STEPS` steps judge its length against ``max_steps`` as DOP853's did."""
+                 atol: float, max_steps: int, explicit: TooManySteps | None, radius: float | None = None) -> Solution:
+    """The solve by Radau IIA, chosen because DOP853 would take more than ``max_steps`` steps: by its first steps
+    (``explicit``), or (``explicit`` None) by stability alone at the start's spectral radius ``radius``
+    (:func:`explicit_steps`). Its own first :data:`TRIAL_STEPS` steps judge its length against ``max_steps``
+    as DOP853's did."""
 
-    def jacobian(t: float, y: Array, f: Array) -> Array:  # forward differences, every column in one batch
-        delta = np.sqrt(np.finfo(float).eps) * np.maximum(np.abs(y), atol / rtol)
-        delta = (y + delta) - y
-        return ((rhs(t, y + np.diag(delta)) - f) / delta[:, None]).T
+    rtol, atol = max(rtol, STIFF_RTOL), max(atol, STIFF_RTOL)
 
-    fastest = float(np.max(np.abs(np.linalg.eigvals(jacobian(0.0, y0, rhs(0.0, y0))))))
-    why = (f"stiff: DOP853 would take about {explicit.estimate:.2g} steps (its stability bounds the step: the "
-           f"fastest mode decays at {fastest:.2g}/s)")
+    def jacobian(t: float, y: Array, f: Array) -> Array:
+        return state_jacobian(dynamics, rhs, t, y, f, atol_over_rtol=atol / rtol)
+
+    if explicit is None:
+        why = (f"stiff (rtol {rtol:g}): DOP853 would take at least {t_end * radius / STABILITY:.2g} steps by "
+               f"stability alone (the linearization's fastest mode decays at {radius:.2g}/s, which bounds its step "
+               f"to {STABILITY:g} over that)")
+        explicit = TooManySteps(t_end * radius / STABILITY, max_steps, 0, 0.0, t_end, 0.0)
+    else:
+        fastest = float(np.max(np.abs(np.linalg.eigvals(jacobian(0.0, y0, rhs(0.0, y0))))))
+        why = (f"stiff (rtol {rtol:g}): DOP853 would take about {explicit.estimate:.2g} steps (its stability bounds "
+               f"the step: the fastest mode decays at {fastest:.2g}/s)")
     trial = min(TRIAL_STEPS, max_steps)
     clock = time.perf_counter()
     try:
@@ -177,9 +245,10 @@ class TooManySteps(dop853.IntegrationError):
             float(estimate), int(bound), int(trial), float(reached), float(t_end), float(seconds), solver)
         hours = seconds * estimate / max(trial, 1) / 3600.0
         which = f"the reference's solver, {solver}" if solver else "the reference's solver"
-        super().__init__(f"it would take about {estimate:.2g} steps of {which} ({trial} steps covered "
-                         f"{reached:.3g} s of {t_end:g} s, in {seconds:.2g} s: about {hours:.2g} h in all), more "
-                         f"than the bound of {bound:g}")
+        basis = (f"{trial} steps covered {reached:.3g} s of {t_end:g} s, in {seconds:.2g} s: about {hours:.2g} h in "
+                 "all" if trial else "by stability alone, at the start's fastest mode")
+        super().__init__(f"it would take about {estimate:.2g} steps of {which} ({basis}), more than the bound of "
+                         f"{bound:g}")
 
     def __reduce__(self):  # pickled with its parts (a worker sends it to the parent)
         return (type(self), (self.estimate, self.bound, self.trial, self.reached, self.t_end, self.seconds,

@@ -38,6 +38,7 @@ import mujoco
 import numpy as np
 
 from analytic.dop853 import IntegrationError
+from analytic.solvers import TooManySteps
 from harness.api import validate
 from harness.cases.own import from_mjcf
 from harness.core import VERSION
@@ -376,10 +377,14 @@ def judge(model: ZooModel, *, integrators: Sequence[str] | None = None, timeout:
             v = validate(case, integrators=integrators)
     except TimeLimit as exc:
         return ZooResult(**base, **have, verdict=UNFINISHED, seconds=time.perf_counter() - clock, reason=str(exc))
-    except (ValueError, IntegrationError) as exc:  # ModelError and every input check: what check exits 2 with
+    except (np.linalg.LinAlgError, IntegrationError) as exc:  # our own solvers failed (check exits 4), no refusal;
+        if not isinstance(exc, TooManySteps):  # LinAlgError is a ValueError: before it
+            return ZooResult(**base, **have, verdict=CRASHED, seconds=time.perf_counter() - clock,
+                             reason=f"a numerical solve of the harness failed: {one_line(exc)}")
+        reason = f"the reference cannot be computed for this model: {' '.join(str(exc).split())}"
+        return ZooResult(**base, **have, verdict=REFUSED, seconds=time.perf_counter() - clock, reason=reason)
+    except ValueError as exc:  # ModelError and every input check: what check exits 2 with
         reason = " ".join(str(exc).split())
-        if isinstance(exc, IntegrationError):
-            reason = f"the reference cannot be computed for this model: {reason}"
         return ZooResult(**base, **have, verdict=REFUSED, seconds=time.perf_counter() - clock, reason=reason)
     except Exception as exc:
         return ZooResult(**base, **have, verdict=CRASHED, seconds=time.perf_counter() - clock,

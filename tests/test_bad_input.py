@@ -558,23 +558,43 @@ def test_the_python_api_checks_every_case_its_config_names(tmp_path):
         harness.validate(CASE, config=config)
 
 
-def test_a_reference_the_solver_cannot_integrate_is_one_line_and_exit_2(monkeypatch, capsys, tmp_path):
-    """A model whose reference our solver cannot integrate (gravity 1e12: ω = 1e6 /s over 5 s exhausts the
-    step budget after minutes; stood in for here by the solver's own error) is a model that does not fit
-    its case: one line naming why, exit 2, no report, never a traceback."""
+def test_a_reference_the_solver_cannot_integrate_is_an_internal_failure_exit_4(monkeypatch, capsys, tmp_path):
+    """A reference our own solver cannot integrate (stood in for here by the solver's own error) is a numerical
+    failure of the harness, not bad input: one line saying so, exit 4 (not 2), no report, no traceback unless
+    MJHARNESS_TRACEBACK=1."""
     from analytic.dop853 import IntegrationError
     from harness.pipeline import matrix
 
     def fail(case, options=None):
-        raise IntegrationError("more than 1000000 steps before t = 5 (reached t = 0.0123)")
+        raise IntegrationError("step size fell below 1e-15 at t = 0.0123")
 
     monkeypatch.setattr(matrix, "run_case", fail)
     out = tmp_path / "report"
-    assert main(["run", "--case", CASE, "--out", str(out), "--jobs", "1"]) == 2
+    assert main(["run", "--case", CASE, "--out", str(out), "--jobs", "1"]) == 4
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["mjharness: error: the reference cannot be computed for this model: more than 1000000 steps "
-                   "before t = 5 (reached t = 0.0123)"]
+    assert err == ["mjharness: internal failure: a numerical solve of the harness failed: IntegrationError: step size "
+                   "fell below 1e-15 at t = 0.0123 (not your input; MJHARNESS_TRACEBACK=1 prints the traceback)"]
     assert not out.exists()
+
+
+def test_a_singular_solve_of_ours_is_not_bad_input(monkeypatch, capsys, tmp_path):
+    """numpy's LinAlgError is a ValueError, which the CLI reads as bad input (exit 2): one raised inside our solvers
+    ("Singular matrix", the KKT solve of a closed loop before it was rank-revealing) is an internal failure,
+    exit 4, and MJHARNESS_TRACEBACK=1 prints where it came from."""
+    import numpy as np
+
+    from harness.pipeline import matrix
+
+    def fail(case, options=None):
+        raise np.linalg.LinAlgError("Singular matrix")
+
+    monkeypatch.setattr(matrix, "run_case", fail)
+    monkeypatch.setenv("MJHARNESS_TRACEBACK", "1")
+    assert main(["run", "--case", CASE, "--out", str(tmp_path / "report"), "--jobs", "1"]) == 4
+    err = capsys.readouterr().err
+    assert err.startswith("mjharness: internal failure: a numerical solve of the harness failed: LinAlgError: "
+                          "Singular matrix")
+    assert "Traceback (most recent call last)" in err and "def fail" not in err and "in fail" in err
 
 
 def test_a_worker_killed_under_the_run_is_one_line_and_exit_2(monkeypatch, capsys, tmp_path):

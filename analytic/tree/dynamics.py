@@ -140,13 +140,24 @@ class TreeDynamics(Dynamics):
                 v = v + 0.5 * joint.stiffness * x * x
         return v
 
+    @property
+    def velocity_polynomial(self) -> bool:
+        """q̈ at a fixed q is a polynomial of degree ≤ 3 in q̇ (velocity products, damping a v + c v³, actuators'
+        affine l̇, γ quadratic) unless a joint's damping has the v|v| term."""
+        return not np.any(self._damping[:, 1])
+
     def damping_modes(self, q: Array) -> tuple[Array, Array]:
-        """The decay rates (1/s) the joints' linear damping gives the motion at a configuration q, fastest
-        first, and their modes (columns, M-orthonormal): D v = r M v, D = Bᵀ diag(a) B in these coordinates.
-        Far above the motion's own rates (damping on a light link) they make the motion stiff."""
+        """The decay rates (1/s) the linear damping gives the motion at a configuration q, fastest first, and
+        their modes (columns, M-orthonormal): D v = r M v, D = Bᵀ diag(a) B + Σ_actuators −(g₂ c + b₂) m mᵀ in
+        these coordinates: the joints' damping and the actuators' velocity feedback (a position servo's kv),
+        which act alike. Far above the motion's own rates (damping on a light link) they make the motion stiff."""
         q = np.asarray(q, dtype=float)
         b = velocity_map(self.tree, self.layout, q)
         damping = b.T @ (self._damping[:, 0][:, None] * b)
+        if self.tree.actuators:
+            acts = self._actuators
+            feedback = -(acts["gain"][:, 2] * acts["ctrl"] + acts["bias"][:, 2])  # N s per unit of l̇ = m · q̇
+            damping = damping + acts["moment"].T @ (feedback[:, None] * acts["moment"])
         chol = np.linalg.cholesky(self.mass_matrix(q))
         half = np.linalg.solve(chol, damping)
         rates, vectors = np.linalg.eigh(np.linalg.solve(chol, half.T))
@@ -512,6 +523,19 @@ class TreeDynamics(Dynamics):
 
     def velocity_residual(self, q: Array, qd: Array) -> Array:
         return np.einsum("...ij,...j->...i", self.jacobian(q), np.asarray(qd, dtype=float))
+
+    def constraint_terms(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)
+                         ) -> tuple[Array, Array]:
+        """J, and γ − α Jq̇ − β f, from one pass of the kinematics at q + i h q̇: its real parts are f(q) and
+        J(q) (the step's h² terms vanish below round-off), its imaginary part J̇q̇ h."""
+        q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
+        f, jac = self._rows(q + 1j * STEP * qd)
+        real = jac.real
+        gamma = -np.einsum("...ij,...j->...i", jac.imag, qd) / STEP
+        alpha, beta = stabilization
+        if alpha or beta:
+            gamma = gamma - alpha * np.einsum("...ij,...j->...i", real, qd) - beta * f.real
+        return real, gamma
 
     def gamma(self, q: Array, qd: Array) -> Array:
         q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))

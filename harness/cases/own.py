@@ -27,7 +27,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from analytic.solvers import TooManySteps, project, solve
+from analytic.solvers import STIFF_RTOL, TooManySteps, project, solve
 from analytic.tree import TreeDynamics
 from harness.cases import Case, Wiring
 from harness.core.errors import ModelError
@@ -53,7 +53,9 @@ HORIZON_CAP = 1.0
 faults within it."""
 SEED = 1e-8
 """The relative size of the perturbation of the start's velocities the chaos horizon is measured with (the perturbed
-run is solved to SEED / 10: its own error stays a tenth of the separation it measures from the start)."""
+run is solved to SEED / 10: its own error stays a tenth of the separation it measures from the start; a stiff
+model's, by Radau IIA, to STIFF_RTOL = SEED: its error then is that of the perturbation, still 1e-4 of the
+separation GROWTH × SEED at which the horizon ends)."""
 GROWTH = 1e4
 """How much the perturbation may grow before the horizon ends."""
 MIN_STEPS = 20
@@ -144,9 +146,16 @@ def chaos_horizon(case: Case, model: mujoco.MjModel) -> tuple[float, str]:
                     "(chaos); past it an engine's error is amplified beyond what a budget can apportion")
 
 
+SPIN_FLOOR = float(np.finfo(float).eps) / STIFF_RTOL
+"""The smallest inertia of a mode a ball or free joint turns, relative to the largest, that the reference can solve
+(2.2e-8): round-off in the forces (ε of the largest) divided by that mode's inertia is noise of ε × the ratio in q̈,
+which a solve to the stiff tolerance STIFF_RTOL must stay above. Cassie's achilles rods (a spin of 3.8e-6 against
+34 kg m², 1.1e-7) are above it; a point mass on a ball joint (1e-12) is not (docs/findings/bases.md)."""
+
+
 def _refuse_floor_spins(model: mujoco.MjModel, qpos: np.ndarray) -> None:
     """ModelError where a ball or free joint moves a mode of the mass matrix with next to no inertia (below
-    :data:`POINT_MASS` of the largest: a point mass on a ball joint). The tree's rotation-vector coordinates turn
+    :data:`SPIN_FLOOR` of the largest: a point mass on a ball joint). The tree's rotation-vector coordinates turn
     that mode with θ, so round-off in the forces, divided by its inertia, becomes noise the reference's tolerance
     cannot meet, and the solve does not finish (a point mass on a ball joint: docs/findings/bases.md)."""
     kinds = {int(mujoco.mjtJoint.mjJNT_BALL), int(mujoco.mjtJoint.mjJNT_FREE)}
@@ -156,7 +165,7 @@ def _refuse_floor_spins(model: mujoco.MjModel, qpos: np.ndarray) -> None:
     dyn = system.dynamics(model)
     q0, _ = start_state(model, qpos, np.zeros(model.nv))
     inertia, modes = np.linalg.eigh(dyn.mass_matrix(np.array([q0[c] for c in dyn.coordinates])))
-    floor = inertia < POINT_MASS * inertia.max()
+    floor = inertia < SPIN_FLOOR * inertia.max()
     for j in range(model.njnt):
         if int(model.jnt_type[j]) not in kinds:
             continue
@@ -166,7 +175,7 @@ def _refuse_floor_spins(model: mujoco.MjModel, qpos: np.ndarray) -> None:
             raise ModelError(f"joint {name!r} turns a body with next to no rotational inertia (a mode of "
                              f"{inertia[floor].min():.1e} against {inertia.max():.1e}: a point mass on a ball or free "
                              "joint), which the tree reference cannot solve to its tolerance; accepted: rotational "
-                             f"inertia above {POINT_MASS:g} of the largest, or the point mass on a pair of hinges")
+                             f"inertia above {SPIN_FLOOR:.2g} of the largest, or the point mass on a pair of hinges")
 
 
 def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[str, float] | None = None,

@@ -5,7 +5,8 @@ Exit codes (:data:`EXIT_CODES`, printed by ``--help`` and a bare ``mjharness``):
 figure regressed), 2 bad usage or input (unknown case, invalid MJCF or config, a model that does not
 fit its case, unwritable output). User mistakes give one line on stderr, never a traceback, and never a
 half-written file; so does a bug of ours (an unexpected exception: "internal error", exit 2, with the hint
-to report it). ``diff`` is informational: 0 unless its input is bad (2). A command whose stdout is
+to report it); a numerical failure of our own solvers (a singular linear solve, a reference solve that cannot
+go on) is neither: one line, exit 4. ``diff`` is informational: 0 unless its input is bad (2). A command whose stdout is
 closed (``| head -1``) stops quietly with 141 (128 + SIGPIPE); one interrupted exits 130 (Ctrl-C) or
 143 (SIGTERM), and marks stale the report files it would have written.
 
@@ -40,8 +41,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
+from numpy.linalg import LinAlgError
 
 from analytic.dop853 import IntegrationError
+from analytic.solvers import TooManySteps
 from harness import cases
 from harness.cases import sources
 from harness.cases.own import from_mjcf
@@ -93,6 +96,7 @@ from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
 from harness.pipeline.pool import cpus, run_tasks
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
+EXIT_NUMERIC = 4
 EXIT_CODES = {EXIT_OK: "every check passes (and every --require is met)",
               EXIT_FAIL: "a check fails: an error its budget does not explain, a run that could not be measured, "
                          "or a known defect of this MuJoCo not accepted (baseline --compare: a figure regressed or "
@@ -101,6 +105,9 @@ EXIT_CODES = {EXIT_OK: "every check passes (and every --require is met)",
                           "that does not fit its case, an unwritable output; or an internal error (a bug: one "
                           "line asking you to report it, the report files marked stale)",
               EXIT_UNFIT: "every check passes, but these settings do not meet a --require",
+              EXIT_NUMERIC: "a numerical failure inside the harness's own solvers (a linear solve of the reference "
+                            "that is singular, a reference solve that cannot go on): not your input; "
+                            "MJHARNESS_TRACEBACK=1 prints the traceback",
               141: "stdout closed (| head): stopped quietly",
               130: "interrupted (Ctrl-C); 143: terminated (SIGTERM); the report files it would have written "
                    "are marked stale"}
@@ -1216,8 +1223,14 @@ def _main(args: argparse.Namespace) -> int:
         _error(f"mjharness: error: {exc}; fix: check the cluster's nodes, or run with --executor local")
     except SimulationDiverged as exc:
         _error(f"mjharness: error: simulation diverged: {exc}")
-    except IntegrationError as exc:  # the model under test gives a reference our solver cannot integrate
+    except TooManySteps as exc:  # a bound passed: refused up front, with the estimate
         _error(f"mjharness: error: the reference cannot be computed for this model: {exc}")
+    except (IntegrationError, LinAlgError) as exc:  # our own solvers failed (LinAlgError is a ValueError: first)
+        _error(f"mjharness: internal failure: a numerical solve of the harness failed: {type(exc).__name__}: "
+               f"{' '.join(str(exc).split())} (not your input; {TRACEBACK_VARIABLE}=1 prints the traceback)")
+        if os.environ.get(TRACEBACK_VARIABLE, "").strip() not in ("", "0"):
+            traceback.print_exc()
+        return EXIT_NUMERIC
     except ValueError as exc:  # ConfigError, ModelError, ModelMismatch and every input check
         _error(f"mjharness: error: {' '.join(str(exc).split())}")
     except OSError as exc:

@@ -338,7 +338,11 @@ def initial_force_floor(model: mujoco.MjModel, reference: refmod.Reference) -> f
     d = np.array([float(model.eq_solimp[model.equality(c).id, 0]) for c in equalities
                   for _ in range(dyn.blocks[c].stop - dyn.blocks[c].start)])
     r = np.diag((1.0 - d) / d * np.diag(a))
-    return float(np.max(np.abs(np.linalg.solve(a + r, r @ lam)))) / reference.scales.force
+    try:
+        shift = np.linalg.solve(a + r, r @ lam)
+    except np.linalg.LinAlgError:  # a zero row (a planar loop's out-of-plane one): A_ii = R_ii = 0, no force there
+        shift = np.linalg.lstsq(a + r, r @ lam, rcond=None)[0]
+    return float(np.max(np.abs(shift))) / reference.scales.force
 
 
 def _compose(*edits: Callable[[mujoco.MjSpec], None] | None) -> Callable[[mujoco.MjSpec], None]:

@@ -39,6 +39,7 @@ import dataclasses
 import mujoco
 import numpy as np
 
+from analytic.dynamics import Dynamics
 from harness.cases import Case
 from harness.core.checks import Limit
 from harness.core.deviation import Deviation
@@ -151,8 +152,14 @@ def compare(sample: Sample) -> tuple[list[Deviation], dict[str, str], dict[str, 
                             f"max |{d}ᵀ qfrc_constraint − Jᵀλ| / max |Jᵀλ|", physical=physical["generalized_force"]))
     jac = dyn.jacobian(q)
     force_scale = ref.scales.force
+    unmeasured: dict[str, str] = {}
     for c, rows in dyn.blocks.items():
         if c not in got_lam:
+            continue
+        redundant = not_unique(dyn, sample.solved.unique, c)
+        if redundant:  # any split of the force among dependent rows is right: only the total Jᵀλ is compared
+            for name in (FigureName.instant("force", c), FigureName.instant("generalized_force", c)):
+                unmeasured[str(name)] = redundant
             continue
         size = rows.stop - rows.start
         expected = lam[:, rows]
@@ -165,7 +172,23 @@ def compare(sample: Sample) -> tuple[list[Deviation], dict[str, str], dict[str, 
             block_gen = np.einsum("nmk,nm->nk", jac[:, rows], lam[:, rows])
             out.append(relative(FigureName.instant("generalized_force", c), got_block_gen[c], block_gen,
                                 f"max |{d}ᵀ J_mjᵀ efc_force − Jᵀλ| over the rows of {c!r} / max |Jᵀλ|"))
-    return out, {}, {}
+    return out, unmeasured, {}
+
+
+def not_unique(dyn: Dynamics, unique: np.ndarray, constraint: str) -> str:
+    """Why ``constraint``'s multipliers are not compared ('' where they are): some of its rows are redundant with
+    other rows at some of the states (``unique``, (states, rows), from :meth:`Dynamics.constrained`), so their
+    multipliers are not unique and any engine's split of the force among them is right; the generalized
+    constraint force Jᵀλ of all rows together is unique and is compared (``generalized_force``)."""
+    rows = dyn.blocks[constraint]
+    unique = np.asarray(unique)[..., rows]
+    if np.all(unique):
+        return ""
+    labels = [label for label, ok in zip(dyn.row_labels[rows], np.all(unique.reshape(-1, unique.shape[-1]), axis=0),
+                                         strict=True) if not ok]
+    return (f"not unique: row(s) {', '.join(labels)} of {constraint!r} are redundant with other constraint rows "
+            f"(the constraint Jacobian loses rank there: a closed loop's dependent rows, or a singular configuration), "
+            f"so any split of their force is right; the total generalized constraint force Jᵀλ is compared instead")
 
 
 def engine_findings(model: mujoco.MjModel, probe: Probe, ref: Reference, *, count: int = DEFAULT_SAMPLES

@@ -57,6 +57,7 @@ from functools import cached_property
 import mujoco
 import numpy as np
 
+from analytic.dynamics import Constrained
 from analytic.solvers import project
 from harness.core.budget import (
     FLOOR_UNCERTAINTY,
@@ -200,9 +201,14 @@ class Sample:
     dynamics: object
 
     @cached_property
+    def solved(self) -> Constrained:
+        """The analytic KKT solution at the states: q̈, λ, and which multipliers are unique."""
+        return self.dynamics.constrained(self.q, self.qd)
+
+    @property
     def accelerations(self) -> tuple[np.ndarray, np.ndarray]:
         """The analytic q̈ and λ at the states."""
-        return self.dynamics.accelerations(self.q, self.qd)
+        return self.solved.qdd, self.solved.lam
 
     @property
     def coordinates(self) -> bool:

@@ -21,6 +21,8 @@ series.
 
 from __future__ import annotations
 
+import dataclasses
+
 import mujoco
 import numpy as np
 
@@ -31,6 +33,7 @@ from harness.core.figures import FigureName
 from harness.core.trajectory import Trajectory
 from harness.engine.integrators import EXPECTED_ORDER
 from harness.families.bench import Bench, Measured
+from harness.families.instant import not_unique
 from harness.families.runs import Target, largest, point_differences
 
 NAME = "trajectory"
@@ -101,4 +104,25 @@ def compare(target: Target, sim: Trajectory, prefix: str) -> list[Deviation]:
 
 
 def measure(bench: Bench) -> Measured:
-    return bench.measured_over_runs(owns)
+    """The runs' figures; a constraint's ``force`` figures n/a where its multipliers are not unique along the
+    reference (:func:`harness.families.instant.not_unique`: only the total Jᵀλ is compared then)."""
+    found = bench.measured_over_runs(owns)
+    dyn = bench.reference.dynamics
+    if not dyn.rows:
+        return found
+    ref = bench.reference_run
+    unique = dyn.constrained(*bench.reference.solution.state(ref.t)).unique
+    why = {c: reason for c in dyn.constraint_names if (reason := not_unique(dyn, unique, c))}
+    if not why:
+        return found
+
+    def kept(name: str | FigureName) -> bool:
+        name = FigureName(str(name))
+        return not (name.quantity == "force" and name.detail in why)
+
+    return dataclasses.replace(
+        found, figures=tuple(f for f in found.figures if kept(f.name)),
+        budgets={k: v for k, v in found.budgets.items() if kept(k)},
+        defect_budgets={k: v for k, v in found.defect_budgets.items() if kept(k)},
+        unmeasured={**found.unmeasured, **{str(f.name): why[FigureName(str(f.name)).detail] for f in found.figures
+                                           if not kept(f.name)}})
