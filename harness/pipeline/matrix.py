@@ -23,6 +23,7 @@ from harness.core import costs
 from harness.core.checks import Check, closest, ratio
 from harness.core.options import RunOptions
 from harness.core.tables import terminal_width, wrap
+from harness.pipeline.carry import Carried, pack
 from harness.pipeline.executor import LOCAL, Executor
 from harness.pipeline.limits import Limits, case_limits, check_config, load_limits
 from harness.pipeline.pool import cpus, fork_pool, run_tasks
@@ -145,7 +146,10 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
         bar = LogProgress(selected, "mjharness", "case", quiet=True)
     else:  # with lines, each case's own line says the progress
         bar = progress(selected, "mjharness", quiet=lines)
-    if executor.kind != "local" and options.mjcf is None:
+    if executor.kind != "local" and options.mjcf is not None:
+        results = _run_own_on_cluster(selected, executor, figures_only=figures_only, options=options,
+                                      finished=finished)
+    elif executor.kind != "local":
         results = _run_on_cluster(selected, executor, bar, figures_only=figures_only, options=options,
                                   finished=finished)
     elif options.backend != "c" and len(selected) > 1 and options.mjcf is None:
@@ -268,6 +272,40 @@ def _run_on_cluster(selected: Sequence[cases.Case], executor: Executor, bar, *, 
         if outcomes[i][1] is not None:
             raise outcomes[i][1]
     return [dataclasses.replace(outcomes[i][0], case=case) for i, case in enumerate(selected)]
+
+
+def _run_own(case: cases.Case, carried: Carried, figures_only: bool, options: RunOptions) -> CaseResult:
+    """run_case of a user's model on a cluster's node, from the model's files carried there; the result without
+    its case (the driver's, reattached there), the model named by the user's path as a local run names it."""
+    here = carried.here()
+    if case.tree is not None:  # judged against its own tree: the case is the model's, read from its copy here
+        case = dataclasses.replace(case, mjcf=here)
+    result = run_case(case, dataclasses.replace(options, mjcf=here))
+    if figures_only:
+        result = dataclasses.replace(result, reference=None, simulations={})
+    settings = result.settings
+    changed = {k: ({kk: carried.as_user(vv, here) if isinstance(vv, str) else vv for kk, vv in v.items()}
+                   if isinstance(v, dict) else v) for k, v in settings.changed.items()}
+    settings = dataclasses.replace(settings, mjcf=carried.as_user(settings.mjcf, here), changed=changed,
+                                   compat=tuple(carried.as_user(c, here) for c in settings.compat))
+    return dataclasses.replace(result, case=None, settings=settings)
+
+
+def _run_own_on_cluster(selected: Sequence[cases.Case], executor: Executor, *, figures_only: bool,
+                        options: RunOptions, finished: Callable[[CaseResult], None]) -> list[CaseResult]:
+    """A user's model (``options.mjcf``: judged against its own tree, or a variant of one case's model) as one
+    task on a Ray cluster (named by the model, MuJoCo's release and the backend), its files carried to the
+    node (:mod:`harness.pipeline.carry`); the local run's result, the model named by the user's path."""
+    import mujoco  # lazy: already imported by harness.cases; named here for its release in the task's name
+
+    carried = pack(options.mjcf)
+    (case,) = selected
+    label = f"{case.name} ({options.mjcf}, MuJoCo {mujoco.__version__}, backend {options.backend})"
+    (result,) = run_tasks([(_run_own, (case, carried, figures_only, options))], 1, executor=executor,
+                          labels=[label])
+    result = dataclasses.replace(result, case=case)
+    finished(result)
+    return [result]
 
 
 def _run_isolated(selected: Sequence[cases.Case], bar, *, figures_only: bool, options: RunOptions,
