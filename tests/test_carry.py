@@ -86,7 +86,8 @@ def test_a_model_too_large_to_carry_is_one_line(tmp_path, monkeypatch):
         carry.pack(tmp_path / "none.xml")
 
 
-@pytest.mark.parametrize("entry", ["franka_emika_panda/panda.xml", "kuka_iiwa_14/iiwa14.xml", "robotiq_2f85/2f85.xml",
+@pytest.mark.parametrize("entry", [pytest.param("franka_emika_panda/panda.xml", marks=pytest.mark.slow),  # 4 s
+                                   "kuka_iiwa_14/iiwa14.xml", "robotiq_2f85/2f85.xml",
                                    "agility_cassie/cassie.xml", "wonik_allegro/scene_right.xml"])
 def test_a_menagerie_robot_compiles_the_same_from_its_carried_copy(entry, unpack_in):
     if not MENAGERIE.is_dir():
