@@ -33,6 +33,7 @@
 from __future__ import annotations
 
 import atexit
+import logging
 import os
 import socket
 from collections.abc import Callable, Sequence
@@ -84,7 +85,13 @@ def _token_auth() -> None:
     itself, never for an address it is given (it would then be refused: "InvalidAuthToken")."""
     from ray._private.authentication import authentication_token_setup as setup  # lazy: Ray's own rule, reused
 
-    setup.maybe_enable_token_auth_if_token_available(warn_if_disabled=False)
+    said = logging.getLogger(setup.__name__)
+    level = said.level
+    said.setLevel(logging.ERROR)  # its warning that the token is used: docs/sweeps.md says so once and for all
+    try:
+        setup.maybe_enable_token_auth_if_token_available(warn_if_disabled=False)
+    finally:
+        said.setLevel(level)
 
 
 def _ray_output_to_stderr() -> None:
@@ -124,9 +131,12 @@ def connect(executor: Executor) -> None:
                          "(`ray get-auth-token` prints it on the head node) or RAY_AUTH_TOKEN, or start the "
                          "cluster with RAY_AUTH_MODE=disabled on a trusted network") from None
     except (ConnectionError, RuntimeError, ValueError) as exc:
+        untokened = where is not None and os.environ.get("RAY_AUTH_MODE", "").lower() != "token"
         raise ValueError(f"cannot connect to the Ray cluster at {where!r}: {' '.join(str(exc).split())[:200]}; "
                          "accepted: an address that `ray start --head` printed (host:port), or none for a "
-                         "local cluster") from None
+                         "local cluster" + ("; a cluster with token authentication (Ray's default where "
+                                            "~/.ray/auth_token exists on its head node) needs its token here too: "
+                                            "in ~/.ray/auth_token or RAY_AUTH_TOKEN" if untokened else "")) from None
     atexit.register(shutdown)
 
 
