@@ -111,12 +111,15 @@ def test_a_worker_killed_mid_task_is_rerun_with_the_same_figures(cluster, local_
 
 @pytest.mark.slow
 def test_stdout_is_the_json_alone_after_workers_died(cluster, local_text):
-    """Ray's driver prints "(raylet) A worker died …" to stdout, log_to_driver or not: it goes to stderr, and
-    stdout is check's document, byte for byte the local pool's, after the task's worker was killed twice."""
+    """Ray's driver prints "(raylet) A worker died …" to stdout, log_to_driver or not, the last of them often
+    after the run's results are in (at b7c7390 it followed the document on stdout): it goes to stderr, and stdout
+    is check's document, byte for byte the local pool's, after the task's worker was killed on all but its last
+    try."""
     process = _mjharness("check", *CASES, "--json", "--executor", "ray", "--ray-address", cluster)
-    kills = _kill_task("pendulum", times=2)
+    kills = _kill_task("pendulum", times=pool_retries())
     code, out, err = _done(process)
-    assert (kills, code) == (2, 0), err[-2000:]
+    assert (kills, code) == (pool_retries(), 0), err[-2000:]
+    assert "A worker died or was killed" in err  # Ray said so, on stderr
     assert out == local_text, out[-500:]
 
 
