@@ -317,6 +317,17 @@ def test_a_cluster_nobody_answers_at_is_one_line_at_once(capsys):
     assert time.monotonic() - start < 30
 
 
+def test_a_users_own_model_goes_to_the_cluster_asked_for(capsys):
+    """``check --mjcf`` with --executor ray runs on the cluster, never here: at b7c7390 it ran locally and exited
+    0 with nobody at the address."""
+    pytest.importorskip("ray")
+    assert main_cli(["check", "--mjcf", "examples/arm.xml", "--json", "--executor", "ray", "--ray-address",
+                     "127.0.0.1:1"]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.strip().startswith("mjharness: error: no Ray cluster answers at 127.0.0.1:1 (")
+
+
 def test_without_ray_the_executor_names_the_extra(monkeypatch, capsys):
     import importlib.util
 
