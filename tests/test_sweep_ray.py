@@ -1,9 +1,11 @@
 """``mjharness sweep`` for real: the same sweep (two models × MuJoCo 3.3.0 and 4.0.0 × the C backend) on the
 local pool and on a Ray cluster on loopback gives the same sweep.json, every figure and verdict bit for bit;
+the five robots of ../shared/models/menagerie (their files carried to the node) give the same table both ways;
 and a cell whose environment cannot be built is one error line naming it, on the cluster as well (slow: two
 environments built cold, shared by the tests through a session cache).
 
-Skipped, with the reason printed, where Ray is not installed or the package index cannot be reached.
+Skipped, with the reason printed, where Ray is not installed, the package index cannot be reached, or (the
+robots) the menagerie folder is absent.
 """
 
 from __future__ import annotations
