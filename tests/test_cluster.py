@@ -154,6 +154,19 @@ def test_a_users_own_model_runs_on_the_cluster_with_the_local_runs_figures(clust
     assert on_ray == _without_seconds(local)
 
 
+@pytest.mark.slow
+def test_a_users_own_model_reports_on_the_cluster_as_locally(cluster, tmp_path):
+    """``run --mjcf`` on the cluster writes the local run's report.json (the clock's seconds aside) and summary."""
+    outs = {}
+    for name, extra in (("local", ()), ("ray", ("--executor", "ray", "--ray-address", cluster))):
+        outs[name] = tmp_path / name
+        code, _, err = _done(_mjharness("run", "--mjcf", OWN, "--quiet", "--out", str(outs[name]), *extra))
+        assert code == 0, err[-2000:]
+    local, ray = (outs[n] / "report.json" for n in ("local", "ray"))
+    assert _without_seconds(ray.read_text()) == _without_seconds(local.read_text())
+    assert (outs["ray"] / "summary.md").read_bytes() == (outs["local"] / "summary.md").read_bytes()
+
+
 CURRENT = """
 import sys, ray
 from harness.pipeline import cluster
