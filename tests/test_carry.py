@@ -58,7 +58,6 @@ def test_a_model_naming_files_outside_its_folder_compiles_the_same_from_its_carr
     assert _same(mujoco.MjModel.from_xml_path(str(here)), mujoco.MjModel.from_xml_path(str(model)))
     assert carried.here() == here  # unpacked once: a later task of the model reuses it
     assert carried.path == str(model)
-    assert carried.as_user(f"{here} (a note)", here) == f"{model} (a note)"
 
 
 def test_a_copy_missing_one_named_file_does_not_compile(tmp_path, unpack_in):

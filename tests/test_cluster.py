@@ -215,19 +215,22 @@ def test_a_cluster_with_rays_default_authentication_is_used(tmp_path):
     (home / ".ray").mkdir(parents=True)
     stranger.mkdir()
     (home / ".ray" / "auth_token").write_text("a1" * 32)
-    env = {k: v for k, v in os.environ.items() if k not in ("RAY_AUTH_MODE", "RAY_ADDRESS")}
+    # no PYTHONPATH, as a user's cluster has none: the harness reaches its workers as the job's py_modules (in
+    # Ray's session folder), and the document still names the harness's models as this machine has them
+    env = {k: v for k, v in os.environ.items() if k not in ("RAY_AUTH_MODE", "RAY_ADDRESS", "PYTHONPATH")}
     env |= {"HOME": str(home), "RAY_USAGE_STATS_ENABLED": "0", "PYTHONUNBUFFERED": "1",
             "XDG_CACHE_HOME": os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")}  # the derivations
     check = [sys.executable, "-m", "harness.cli.entry", "check", "spring", "--json"]
-    local = subprocess.run(check, env=env, capture_output=True, text=True, timeout=300)
+    root = Path(__file__).resolve().parents[1]  # the driver's harness: this checkout's, found from its folder
+    local = subprocess.run(check, env=env, capture_output=True, text=True, timeout=300, cwd=root)
     assert local.returncode == 0, local.stderr[-2000:]
     with loopback_cluster(environ=env) as address:
         ray = [*check, "--executor", "ray", "--ray-address", address]
-        done = subprocess.run(ray, env=env, capture_output=True, text=True, timeout=300)
+        done = subprocess.run(ray, env=env, capture_output=True, text=True, timeout=300, cwd=root)
         assert done.returncode == 0, done.stderr[-2000:]
         assert done.stdout == local.stdout
         refused = subprocess.run(ray, env=env | {"HOME": str(stranger)}, capture_output=True, text=True,
-                                 timeout=300)
+                                 timeout=300, cwd=root)
     assert refused.returncode == 2
     lines = [line for line in refused.stderr.splitlines() if line.startswith("mjharness:")]
     assert len(lines) == 1 and "needs its token here too: in ~/.ray/auth_token or RAY_AUTH_TOKEN" in lines[0], lines

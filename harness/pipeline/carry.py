@@ -4,8 +4,8 @@ height fields, skins, included and attached MJCF), packed on this machine and un
 A task that judges a user's model on a cluster gets a :class:`Carried` instead of a path: the node may not
 see this machine's files. :func:`pack` reads the model and what it names; :meth:`Carried.here` gives its
 path on the node that runs the task, the files unpacked there once per node (keyed by their digest, in a
-folder of the system's temporary directory) and reused by every later task of the model. The figures a
-run reports name :attr:`Carried.path`, the user's path, never the node's (:meth:`Carried.as_user`).
+folder of the system's temporary directory) and reused by every later task of the model. What the run reports
+names the user's path, never the node's: the driver renames it (:func:`harness.pipeline.matrix._named_here`).
 
 Which files a model names is read from its XML, as MuJoCo resolves them: a mesh's, skin's, texture's or
 height field's ``file`` in the compiler's ``meshdir``/``texturedir``/``assetdir`` (or beside the model),
@@ -71,10 +71,6 @@ class Carried:
             finally:
                 shutil.rmtree(staging, ignore_errors=True)
         return folder / self.entry
-
-    def as_user(self, text: str, here: Path) -> str:
-        """``text`` with the node's copy of the model (``here``) named as the user named it."""
-        return text.replace(str(here), self.path) if text else text
 
 
 def _inside(place: str) -> PurePosixPath:

@@ -259,7 +259,7 @@ def _run_on_cluster(selected: Sequence[cases.Case], executor: Executor, bar, *, 
         refmod.import_solutions(seeds)  # the run's studies reuse these solves
         for i, (result, _) in zip(order[k], ran, strict=False):
             if result is not None:
-                finished(dataclasses.replace(result, case=selected[i]))
+                finished(dataclasses.replace(_named_here(result, str(selected[i].mjcf)), case=selected[i]))
         bar.update(len(ran))
 
     outcomes: dict[int, tuple] = {}
@@ -271,24 +271,37 @@ def _run_on_cluster(selected: Sequence[cases.Case], executor: Executor, bar, *, 
             continue
         if outcomes[i][1] is not None:
             raise outcomes[i][1]
-    return [dataclasses.replace(outcomes[i][0], case=case) for i, case in enumerate(selected)]
+    return [dataclasses.replace(_named_here(outcomes[i][0], str(case.mjcf)), case=case)
+            for i, case in enumerate(selected)]
 
 
 def _run_own(case: cases.Case, carried: Carried, figures_only: bool, options: RunOptions) -> CaseResult:
     """run_case of a user's model on a cluster's node, from the model's files carried there; the result without
-    its case (the driver's, reattached there), the model named by the user's path as a local run names it."""
+    its case (the driver's, reattached there)."""
     here = carried.here()
     if case.tree is not None:  # judged against its own tree: the case is the model's, read from its copy here
         case = dataclasses.replace(case, mjcf=here)
     result = run_case(case, dataclasses.replace(options, mjcf=here))
     if figures_only:
         result = dataclasses.replace(result, reference=None, simulations={})
+    return dataclasses.replace(result, case=None)
+
+
+def _named_here(result: CaseResult, mjcf: str) -> CaseResult:
+    """``result`` of a cluster's node with its model named ``mjcf``, as a run here names it: a node names its own
+    copy (a carried model's, or the harness's own models in Ray's session folder where its packages travelled)."""
     settings = result.settings
-    changed = {k: ({kk: carried.as_user(vv, here) if isinstance(vv, str) else vv for kk, vv in v.items()}
-                   if isinstance(v, dict) else v) for k, v in settings.changed.items()}
-    settings = dataclasses.replace(settings, mjcf=carried.as_user(settings.mjcf, here), changed=changed,
-                                   compat=tuple(carried.as_user(c, here) for c in settings.compat))
-    return dataclasses.replace(result, case=None, settings=settings)
+    node = settings.mjcf
+    if node == mjcf:
+        return result
+
+    def here(value):
+        return value.replace(node, mjcf) if isinstance(value, str) else value
+
+    changed = {k: ({kk: here(vv) for kk, vv in v.items()} if isinstance(v, dict) else v)
+               for k, v in settings.changed.items()}
+    return dataclasses.replace(result, settings=dataclasses.replace(
+        settings, mjcf=mjcf, changed=changed, compat=tuple(here(c) for c in settings.compat)))
 
 
 def _run_own_on_cluster(selected: Sequence[cases.Case], executor: Executor, *, figures_only: bool,
@@ -303,7 +316,7 @@ def _run_own_on_cluster(selected: Sequence[cases.Case], executor: Executor, *, f
     label = f"{case.name} ({options.mjcf}, MuJoCo {mujoco.__version__}, backend {options.backend})"
     (result,) = run_tasks([(_run_own, (case, carried, figures_only, options))], 1, executor=executor,
                           labels=[label])
-    result = dataclasses.replace(result, case=case)
+    result = dataclasses.replace(_named_here(result, str(options.mjcf)), case=case)
     finished(result)
     return [result]
 
