@@ -209,6 +209,7 @@ def test_a_cluster_with_rays_default_authentication_is_used(tmp_path):
     """``ray start --head`` where ``~/.ray/auth_token`` exists (RAY_AUTH_MODE unset: Ray's default) requires the
     token: a run given its address uses it and gets the local pool's figures; a run without it is one line
     saying where the token goes. A home folder of the test's own holds the token."""
+    pytest.importorskip("ray")
     from tests.raycluster import loopback_cluster
 
     home, stranger = tmp_path / "home", tmp_path / "stranger"
