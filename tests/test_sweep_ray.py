@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 from pathlib import Path
 
 import pytest
 
 from harness import zoo
 from harness.cli.commands import main
+from harness.pipeline import carry
 from harness.pipeline.executor import Executor
 from harness.versions import envs, releases, sweep
 from harness.versions import sweep_report as report
@@ -102,11 +104,15 @@ def test_the_menagerie_robots_on_two_releases_give_the_same_table_on_a_ray_clust
         pytest.skip(f"no robots here: {MENAGERIE} is absent")
     monkeypatch.setattr(envs, "envs_root", lambda: cache)
     models = [str(MENAGERIE / r) for r in ROBOTS]
+    copies = [carry.pack(m).here().parent for m in models]  # where this machine's nodes unpack each robot
     runs = {}
     for name, extra in (("local", ()), ("ray", ("--executor", "ray", "--ray-address", ray_address))):
+        for copy in copies:  # the cells on the cluster unpack them anew: they ran on the robots' carried copies
+            shutil.rmtree(copy, ignore_errors=True)
         out = tmp_path / name
         code = main(["sweep", *models, "--releases", *RELEASES, "--integrators", "Euler", "--out", str(out), *extra])
         runs[name] = (code, json.loads((out / "sweep.json").read_text()), _table(out))
+        assert [c.is_dir() for c in copies] == [name == "ray"] * len(copies)
     (code, local, table), (ray_code, ray, ray_table) = runs["local"], runs["ray"]
     assert (code, ray["executor"]) == (ray_code, "ray")
     assert [(c["model"], c["release"]) for c in local["cells"]] == [(m, r) for m in models for r in RELEASES]
