@@ -3,7 +3,8 @@ a fixture and stopped with every process it made (found by that folder), whateve
 
 Token authentication is off (``RAY_AUTH_MODE=disabled``) for the cluster and for every driver the tests
 start or are: the cluster listens on loopback alone, and Ray turns authentication on for ``ray start``
-wherever ``~/.ray/auth_token`` exists, which a driver without the token could not then join."""
+wherever ``~/.ray/auth_token`` exists. The test of a cluster with Ray's default authentication starts one
+with ``environ`` of its own (a home folder holding a token, ``RAY_AUTH_MODE`` unset)."""
 
 from __future__ import annotations
 
@@ -42,20 +43,21 @@ def _free_port() -> int:
 
 
 @contextlib.contextmanager
-def loopback_cluster(cpus: int = 2) -> Iterator[str]:
-    """A head node on 127.0.0.1 with ``cpus`` CPUs; yields its address; stops it (every process of its
-    folder) on leaving."""
+def loopback_cluster(cpus: int = 2, *, environ: dict[str, str] | None = None) -> Iterator[str]:
+    """A head node on 127.0.0.1 with ``cpus`` CPUs, started in ``environ`` (default: this process's, with
+    :data:`AUTH`); yields its address; stops it (every process of its folder) on leaving."""
     ray = Path(sys.executable).with_name("ray")
     folder = tempfile.mkdtemp(prefix="mjh-ray-", dir="/tmp")  # short: Ray's socket paths must fit 107 bytes
     port = _free_port()
-    env = {**os.environ, **AUTH}
+    env = {**os.environ, **AUTH} if environ is None else environ
     head = subprocess.Popen([str(ray), "start", "--head", "--block", "--node-ip-address", "127.0.0.1", "--port",
                              str(port), "--num-cpus", str(cpus), "--include-dashboard", "false",
                              "--disable-usage-stats", "--temp-dir", folder],
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     address = f"127.0.0.1:{port}"
     try:
-        _wait_up(address, env)
+        # a cluster with Ray's default authentication wants the token its folder's home holds
+        _wait_up(address, env if "RAY_AUTH_MODE" in env else env | {"RAY_AUTH_MODE": "token"})
         yield address
     finally:
         with contextlib.suppress(ProcessLookupError):

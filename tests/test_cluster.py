@@ -7,10 +7,12 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -108,6 +110,135 @@ def test_a_worker_killed_mid_task_is_rerun_with_the_same_figures(cluster, local_
 
 
 @pytest.mark.slow
+def test_stdout_is_the_json_alone_after_workers_died(cluster, local_text):
+    """Ray's driver prints "(raylet) A worker died …" to stdout, log_to_driver or not, the last of them often
+    after the run's results are in (at b7c7390 it followed the document on stdout): it goes to stderr, and stdout
+    is check's document, byte for byte the local pool's, after the task's worker was killed on all but its last
+    try."""
+    process = _mjharness("check", *CASES, "--json", "--executor", "ray", "--ray-address", cluster)
+    kills = _kill_task("pendulum", times=pool_retries())
+    code, out, err = _done(process)
+    assert (kills, code) == (pool_retries(), 0), err[-2000:]
+    assert "A worker died or was killed" in err  # Ray said so, on stderr
+    assert out == local_text, out[-500:]
+
+
+OWN = "examples/arm.xml"
+
+
+def _without_seconds(text: str) -> dict:
+    """check --json without what the run's parts took (a tree's "seconds": the clock, not a figure)."""
+    doc = json.loads(text)
+    for case in doc["cases"].values():
+        tree = case["settings"].get("tree") or {}
+        assert isinstance(tree.pop("seconds", None), dict)
+    return doc
+
+
+@pytest.mark.slow
+def test_a_users_own_model_runs_on_the_cluster_with_the_local_runs_figures(cluster):
+    """``check --mjcf`` of a model judged against its own tree is one task on the cluster, the model's files
+    carried there; its document is the local run's, the path the user gave included."""
+    code, local, err = _done(_mjharness("check", "--json", "--mjcf", OWN, "--jobs", "1"))
+    assert code == 0, err
+    process = _mjharness("check", "--json", "--mjcf", OWN, "--executor", "ray", "--ray-address", cluster)
+    seen = []
+    while process.poll() is None and not seen:
+        seen = processes("ray::mjharness:arm (examples/arm.xml")  # the task ran on the cluster, named so
+        time.sleep(0.02)
+    code, out, err = _done(process)
+    assert code == 0, err
+    assert seen, "no task of the model ran on the cluster"
+    on_ray = _without_seconds(out)
+    assert on_ray["cases"]["arm"]["settings"]["mjcf"] == OWN
+    assert on_ray == _without_seconds(local)
+
+
+@pytest.mark.slow
+def test_a_users_own_model_reports_on_the_cluster_as_locally(cluster, tmp_path):
+    """``run --mjcf`` on the cluster writes the local run's report.json (the clock's seconds aside) and summary."""
+    outs = {}
+    for name, extra in (("local", ()), ("ray", ("--executor", "ray", "--ray-address", cluster))):
+        outs[name] = tmp_path / name
+        code, _, err = _done(_mjharness("run", "--mjcf", OWN, "--quiet", "--out", str(outs[name]), *extra))
+        assert code == 0, err[-2000:]
+    local, ray = (outs[n] / "report.json" for n in ("local", "ray"))
+    assert _without_seconds(ray.read_text()) == _without_seconds(local.read_text())
+    assert (outs["ray"] / "summary.md").read_bytes() == (outs["local"] / "summary.md").read_bytes()
+
+
+CURRENT = """
+import sys, ray
+from harness.pipeline import cluster
+from harness.pipeline.executor import Executor
+cluster.connect(Executor("ray"))
+print(ray._private.worker.global_worker.node.gcs_address)
+cluster.shutdown()
+"""
+
+
+@pytest.mark.slow
+def test_without_an_address_a_run_starts_and_stops_a_cluster_of_its_own(cluster):
+    """Ray's ``ray.init()`` joins the cluster ``ray start`` last wrote in Ray's temporary folder: a run without
+    an address starts its own instead (the session's cluster written there, as ``ray start`` writes it), and
+    leaves none of its processes behind."""
+    import tempfile
+
+    folder = Path(tempfile.mkdtemp(prefix="mjh-", dir="/tmp"))  # short: Ray's socket paths must fit 107 bytes
+    try:
+        (folder / "ray").mkdir()
+        (folder / "ray" / "ray_current_cluster").write_text(cluster)
+        env = {**os.environ, **AUTH, "RAY_TMPDIR": str(folder)}
+        env.pop("RAY_ADDRESS", None)
+        done = subprocess.run([sys.executable, "-c", CURRENT], env=env, capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        started = done.stdout.split()[-1]
+        assert started.rpartition(":")[2] != cluster.rpartition(":")[2], (started, cluster)
+        deadline = time.monotonic() + 15
+        while processes(str(folder)) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert processes(str(folder)) == []
+    finally:
+        for pid in processes(str(folder)):
+            os.kill(pid, signal.SIGKILL)
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.mark.slow
+def test_a_cluster_with_rays_default_authentication_is_used(tmp_path):
+    """``ray start --head`` where ``~/.ray/auth_token`` exists (RAY_AUTH_MODE unset: Ray's default) requires the
+    token: a run given its address uses it and gets the local pool's figures; a run without it is one line
+    saying where the token goes. A home folder of the test's own holds the token."""
+    pytest.importorskip("ray")
+    from tests.raycluster import loopback_cluster
+
+    home, stranger = tmp_path / "home", tmp_path / "stranger"
+    (home / ".ray").mkdir(parents=True)
+    stranger.mkdir()
+    (home / ".ray" / "auth_token").write_text("a1" * 32)
+    # no PYTHONPATH, as a user's cluster has none: the harness reaches its workers as the job's py_modules (in
+    # Ray's session folder), and the document still names the harness's models as this machine has them
+    env = {k: v for k, v in os.environ.items() if k not in ("RAY_AUTH_MODE", "RAY_ADDRESS", "PYTHONPATH")}
+    env |= {"HOME": str(home), "RAY_USAGE_STATS_ENABLED": "0", "PYTHONUNBUFFERED": "1",
+            "XDG_CACHE_HOME": os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")}  # the derivations
+    check = [sys.executable, "-m", "harness.cli.entry", "check", "spring", "--json"]
+    root = Path(__file__).resolve().parents[1]  # the driver's harness: this checkout's, found from its folder
+    local = subprocess.run(check, env=env, capture_output=True, text=True, timeout=300, cwd=root)
+    assert local.returncode == 0, local.stderr[-2000:]
+    with loopback_cluster(environ=env) as address:
+        ray = [*check, "--executor", "ray", "--ray-address", address]
+        done = subprocess.run(ray, env=env, capture_output=True, text=True, timeout=300, cwd=root)
+        assert done.returncode == 0, done.stderr[-2000:]
+        assert done.stdout == local.stdout
+        refused = subprocess.run(ray, env=env | {"HOME": str(stranger)}, capture_output=True, text=True,
+                                 timeout=300, cwd=root)
+    assert refused.returncode == 2
+    lines = [line for line in refused.stderr.splitlines() if line.startswith("mjharness:")]
+    assert len(lines) == 1 and "needs its token here too: in ~/.ray/auth_token or RAY_AUTH_TOKEN" in lines[0], lines
+    assert "Traceback" not in refused.stderr
+
+
+@pytest.mark.slow
 def test_a_task_lost_for_good_is_one_line_naming_case_release_and_backend(cluster):
     import mujoco
 
@@ -201,6 +332,17 @@ def test_a_cluster_nobody_answers_at_is_one_line_at_once(capsys):
     assert err.startswith("mjharness: error: no Ray cluster answers at 127.0.0.1:1 (")
     assert "\n" not in err
     assert time.monotonic() - start < 30
+
+
+def test_a_users_own_model_goes_to_the_cluster_asked_for(capsys):
+    """``check --mjcf`` with --executor ray runs on the cluster, never here: at b7c7390 it ran locally and exited
+    0 with nobody at the address."""
+    pytest.importorskip("ray")
+    assert main_cli(["check", "--mjcf", "examples/arm.xml", "--json", "--executor", "ray", "--ray-address",
+                     "127.0.0.1:1"]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.strip().startswith("mjharness: error: no Ray cluster answers at 127.0.0.1:1 (")
 
 
 def test_without_ray_the_executor_names_the_extra(monkeypatch, capsys):

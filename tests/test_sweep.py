@@ -4,6 +4,7 @@ on a Ray cluster: tests/test_sweep_ray.py)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -71,6 +72,40 @@ def test_a_task_lost_for_good_is_one_line_naming_model_release_and_backend(monke
     page = report.markdown(result)
     assert f"- {line}\n" in page and "| dm_control/pendulum | c | pass | error |" in page
     assert "| dm_control/pendulum | mjx | pass | n/a |" in page
+
+
+def test_on_a_cluster_each_models_files_go_with_its_tasks_once(tmp_path, monkeypatch):
+    """A file's model carried to the node (harness/pipeline/carry.py), packed once for all its tasks: the node's
+    check is told its copy, which stands where this machine's file is gone."""
+    import tempfile
+
+    from harness.pipeline.carry import Carried
+    from harness.pipeline.executor import Executor
+
+    model = tmp_path / "own.xml"
+    model.write_text('<mujoco><worldbody><body><joint/><geom size=".1"/></body></worldbody></mujoco>')
+    shipped = Shipped("0" * 16, "x.whl", b"")
+    models = (sweep.Model("own.xml", "file", str(model)), sweep.Model("case:pendulum", "case"))
+    tasks = sweep.plan(models, [Release("3.3.0"), Release("4.0.0")], ["c"], shipped=shipped, root=tmp_path)
+    seen = []
+
+    def fake_run_tasks(calls, workers, *, on_done=None, executor=None, failed=None, labels=None):
+        seen.extend(calls)
+        return [sweep.Cell(t.model.name, str(t.spec.release), t.backend, "pass") for t in tasks]
+
+    monkeypatch.setattr(sweep, "run_tasks", fake_run_tasks)
+    sweep.run(tasks, workers=2, executor=Executor("ray"))
+    carried = [args[1] for _, args in seen[:2]]
+    assert all(isinstance(c, Carried) for c in carried) and carried[0] is carried[1]
+    assert [len(args) for _, args in seen[2:]] == [1, 1]  # a case has no files to carry
+    model.unlink()
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    node = dataclasses.replace(tasks[0].model, carried=carried[0])
+    flag, here = node.check_args()
+    assert flag == "--mjcf" and Path(here).is_relative_to(tmp_path) and Path(here).is_file()
+    seen.clear()
+    sweep.run(tasks, workers=2)  # on this machine nothing is carried
+    assert [len(args) for _, args in seen] == [1, 1, 1, 1]
 
 
 def test_a_refused_spec_is_an_n_a_cell_without_building():

@@ -2,8 +2,18 @@
 
 - **Where.** The cluster at the executor's address, else at ``RAY_ADDRESS``, else a local one that this
   process starts at its first call (every CPU of the machine, one a task) and stops when it ends
-  (:func:`shutdown`). One connection serves every call of a command.
-- **What travels.** To a cluster of its own address the harness's packages (``analytic``, ``harness``,
+  (:func:`shutdown`), never one that happens to run on this machine already (Ray's own ``ray.init()``
+  would join the last cluster ``ray start`` started here). One connection serves every call of a command.
+- **Authentication.** A cluster started with ``ray start --head`` where a token exists
+  (``~/.ray/auth_token``, ``RAY_AUTH_TOKEN``, ``RAY_AUTH_TOKEN_PATH``) requires it (Ray 2.52 and later): a
+  driver given that cluster's address uses the token when ``RAY_AUTH_MODE`` is unset, as Ray's own
+  ``ray.init()`` does for a cluster it finds by itself (docs/sweeps.md, "Ray's authentication").
+  ``RAY_AUTH_MODE`` set (``token``, ``disabled``) is Ray's, and obeyed.
+- **Output.** Ray's own messages (a worker died, a task retried) go to stderr, never to stdout: stdout
+  carries only what the command prints (``check --json``: the document alone).
+- **What travels.** A :class:`~harness.pipeline.carry.Carried` model among a call's arguments is put in
+  the cluster's object store once, however many calls name it; the task unpacks it on its node. To a
+  cluster of its own address the harness's packages (``analytic``, ``harness``,
   ``mjcf``) go as the job's ``runtime_env`` ``py_modules``, so every node runs the code of this process
   (its nodes need the harness's dependencies: ``pip install 'mjharness[ray]'``). A local cluster's
   workers are started from this process's environment and import what it imports.
@@ -23,6 +33,7 @@
 from __future__ import annotations
 
 import atexit
+import logging
 import os
 import socket
 from collections.abc import Callable, Sequence
@@ -32,6 +43,7 @@ from typing import Any
 import ray
 import ray.exceptions
 
+from harness.pipeline.carry import Carried
 from harness.pipeline.executor import Executor, TaskLost
 
 RETRIES = 3
@@ -67,23 +79,64 @@ def _reachable(where: str) -> None:
         raise ValueError(f"no Ray cluster answers at {where} ({exc.strerror or exc}); {accepted}") from None
 
 
+def _token_auth() -> None:
+    """Token authentication for a cluster of a given address where a token exists and ``RAY_AUTH_MODE`` is
+    unset: ``ray start --head`` turns it on there, and Ray's driver does so only for a cluster it finds by
+    itself, never for an address it is given (it would then be refused: "InvalidAuthToken")."""
+    from ray._private.authentication import authentication_token_setup as setup  # lazy: Ray's own rule, reused
+
+    said = logging.getLogger(setup.__name__)
+    level = said.level
+    said.setLevel(logging.ERROR)  # its warning that the token is used: docs/sweeps.md says so once and for all
+    try:
+        setup.maybe_enable_token_auth_if_token_available(warn_if_disabled=False)
+    finally:
+        said.setLevel(level)
+
+
+def _ray_output_to_stderr() -> None:
+    """Ray's driver prints the cluster's error messages ("(raylet) A worker died …") to stdout, log_to_driver
+    or not: sent to stderr instead, so that stdout is the command's own."""
+    worker = ray._private.worker
+    if getattr(worker.print_to_stdstream, "_to_stderr", False):
+        return
+    original = worker.print_to_stdstream
+
+    def to_stderr(data, ignore_prefix: bool) -> None:
+        original({**data, "is_err": True}, ignore_prefix)
+
+    to_stderr._to_stderr = True  # type: ignore[attr-defined]
+    worker.print_to_stdstream = to_stderr
+
+
 def connect(executor: Executor) -> None:
-    """Connect to the cluster ``executor`` names, or start a local one, unless connected already."""
+    """Connect to the cluster ``executor`` names, or start a local one of this process's own, unless
+    connected already."""
     if ray.is_initialized():
         return
     where = address(executor)
     if where is not None:
         _reachable(where)
+    _ray_output_to_stderr()
     try:
-        if where is None:
-            ray.init(include_dashboard=False, log_to_driver=False, logging_level="ERROR",
+        if where is None:  # "local": a cluster of its own, never the last one `ray start` started here
+            ray.init(address="local", include_dashboard=False, log_to_driver=False, logging_level="ERROR",
                      runtime_env={"env_vars": {"MUJOCO_GL": "disable"}})
         else:
+            _token_auth()
             ray.init(address=where, log_to_driver=False, logging_level="ERROR", runtime_env=_runtime_env())
+    except ray.exceptions.AuthenticationError as exc:
+        raise ValueError(f"the Ray cluster at {where!r} refused this run's authentication: "
+                         f"{' '.join(str(exc).split())[:160]}; fix: put the cluster's token in ~/.ray/auth_token "
+                         "(`ray get-auth-token` prints it on the head node) or RAY_AUTH_TOKEN, or start the "
+                         "cluster with RAY_AUTH_MODE=disabled on a trusted network") from None
     except (ConnectionError, RuntimeError, ValueError) as exc:
+        untokened = where is not None and os.environ.get("RAY_AUTH_MODE", "").lower() != "token"
         raise ValueError(f"cannot connect to the Ray cluster at {where!r}: {' '.join(str(exc).split())[:200]}; "
                          "accepted: an address that `ray start --head` printed (host:port), or none for a "
-                         "local cluster") from None
+                         "local cluster" + ("; a cluster with token authentication (Ray's default where "
+                                            "~/.ray/auth_token exists on its head node) needs its token here too: "
+                                            "in ~/.ray/auth_token or RAY_AUTH_TOKEN" if untokened else "")) from None
     atexit.register(shutdown)
 
 
@@ -93,7 +146,7 @@ def shutdown() -> None:
         ray.shutdown()
 
 
-def _call(fn: Callable[..., Any], args: tuple) -> Any:
+def _call(fn: Callable[..., Any], *args: Any) -> Any:
     from harness.engine import recording  # lazy: imported in the worker, where the task runs
 
     recording.set_threads(1)  # one task per CPU: the tasks, not MuJoCo's threads, share the cores
@@ -125,7 +178,18 @@ def run_tasks(calls: Sequence[tuple[Callable[..., Any], tuple]], executor: Execu
         return []
     connect(executor)
     names = list(labels) if labels is not None else [f"{fn.__name__} {i}" for i, (fn, _) in enumerate(calls)]
-    refs = [_task.options(name=f"mjharness:{names[i]}").remote(fn, args) for i, (fn, args) in enumerate(calls)]
+    stored: dict[str, ray.ObjectRef] = {}  # a carried model in the object store once (a top-level argument
+    # that is a reference reaches the task as its value)
+
+    def put(arg: Any) -> Any:
+        if isinstance(arg, Carried):
+            if arg.digest not in stored:
+                stored[arg.digest] = ray.put(arg)
+            return stored[arg.digest]
+        return arg
+
+    refs = [_task.options(name=f"mjharness:{names[i]}").remote(fn, *map(put, args))
+            for i, (fn, args) in enumerate(calls)]
     index = {ref: i for i, ref in enumerate(refs)}
     results: dict[int, Any] = {}
     errors: dict[int, BaseException] = {}

@@ -24,6 +24,7 @@ from harness.core.checks import Check, closest, ratio
 from harness.core.escape import terminal
 from harness.core.options import RunOptions
 from harness.core.tables import terminal_width, wrap
+from harness.pipeline.carry import Carried, pack
 from harness.pipeline.executor import LOCAL, Executor
 from harness.pipeline.limits import Limits, case_limits, check_config, load_limits
 from harness.pipeline.pool import cpus, fork_pool, run_tasks
@@ -147,7 +148,10 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
         bar = LogProgress(selected, "mjharness", "case", quiet=True)
     else:  # with lines, each case's own line says the progress
         bar = progress(selected, "mjharness", quiet=lines)
-    if executor.kind != "local" and options.mjcf is None:
+    if executor.kind != "local" and options.mjcf is not None:
+        results = _run_own_on_cluster(selected, executor, figures_only=figures_only, options=options,
+                                      finished=finished)
+    elif executor.kind != "local":
         results = _run_on_cluster(selected, executor, bar, figures_only=figures_only, options=options,
                                   finished=finished)
     elif options.backend != "c" and len(selected) > 1 and options.mjcf is None:
@@ -257,7 +261,7 @@ def _run_on_cluster(selected: Sequence[cases.Case], executor: Executor, bar, *, 
         refmod.import_solutions(seeds)  # the run's studies reuse these solves
         for i, (result, _) in zip(order[k], ran, strict=False):
             if result is not None:
-                finished(dataclasses.replace(result, case=selected[i]))
+                finished(dataclasses.replace(_named_here(result, str(selected[i].mjcf)), case=selected[i]))
         bar.update(len(ran))
 
     outcomes: dict[int, tuple] = {}
@@ -269,7 +273,54 @@ def _run_on_cluster(selected: Sequence[cases.Case], executor: Executor, bar, *, 
             continue
         if outcomes[i][1] is not None:
             raise outcomes[i][1]
-    return [dataclasses.replace(outcomes[i][0], case=case) for i, case in enumerate(selected)]
+    return [dataclasses.replace(_named_here(outcomes[i][0], str(case.mjcf)), case=case)
+            for i, case in enumerate(selected)]
+
+
+def _run_own(case: cases.Case, carried: Carried, figures_only: bool, options: RunOptions) -> CaseResult:
+    """run_case of a user's model on a cluster's node, from the model's files carried there; the result without
+    its case (the driver's, reattached there)."""
+    here = carried.here()
+    if case.tree is not None:  # judged against its own tree: the case is the model's, read from its copy here
+        case = dataclasses.replace(case, mjcf=here)
+    result = run_case(case, dataclasses.replace(options, mjcf=here))
+    if figures_only:
+        result = dataclasses.replace(result, reference=None, simulations={})
+    return dataclasses.replace(result, case=None)
+
+
+def _named_here(result: CaseResult, mjcf: str) -> CaseResult:
+    """``result`` of a cluster's node with its model named ``mjcf``, as a run here names it: a node names its own
+    copy (a carried model's, or the harness's own models in Ray's session folder where its packages travelled)."""
+    settings = result.settings
+    node = settings.mjcf
+    if node == mjcf:
+        return result
+
+    def here(value):
+        return value.replace(node, mjcf) if isinstance(value, str) else value
+
+    changed = {k: ({kk: here(vv) for kk, vv in v.items()} if isinstance(v, dict) else v)
+               for k, v in settings.changed.items()}
+    return dataclasses.replace(result, settings=dataclasses.replace(
+        settings, mjcf=mjcf, changed=changed, compat=tuple(here(c) for c in settings.compat)))
+
+
+def _run_own_on_cluster(selected: Sequence[cases.Case], executor: Executor, *, figures_only: bool,
+                        options: RunOptions, finished: Callable[[CaseResult], None]) -> list[CaseResult]:
+    """A user's model (``options.mjcf``: judged against its own tree, or a variant of one case's model) as one
+    task on a Ray cluster (named by the model, MuJoCo's release and the backend), its files carried to the
+    node (:mod:`harness.pipeline.carry`); the local run's result, the model named by the user's path."""
+    import mujoco  # lazy: already imported by harness.cases; named here for its release in the task's name
+
+    carried = pack(options.mjcf)
+    (case,) = selected
+    label = f"{case.name} ({options.mjcf}, MuJoCo {mujoco.__version__}, backend {options.backend})"
+    (result,) = run_tasks([(_run_own, (case, carried, figures_only, options))], 1, executor=executor,
+                          labels=[label])
+    result = dataclasses.replace(_named_here(result, str(options.mjcf)), case=case)
+    finished(result)
+    return [result]
 
 
 def _run_isolated(selected: Sequence[cases.Case], bar, *, figures_only: bool, options: RunOptions,

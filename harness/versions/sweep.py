@@ -28,6 +28,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from harness.outputs.schema import SchemaError, check_run
+from harness.pipeline.carry import Carried, pack
 from harness.pipeline.executor import LOCAL, Executor
 from harness.pipeline.pool import run_tasks
 from harness.versions.changes import figures, statuses
@@ -54,6 +55,7 @@ class Model:
     path: str = ""
     package: str = ""
     within: str = ""
+    carried: Carried | None = None
 
     def check_args(self) -> tuple[str, ...]:
         """How ``check`` is told the model, on the node running it."""
@@ -62,7 +64,10 @@ class Model:
         return ("--mjcf", self._here())
 
     def _here(self) -> str:
-        """The file here: a zoo model's in this node's copy of its package where it has one."""
+        """The file here: the model's files carried to this node (a sweep on a cluster), else a zoo model's in
+        this node's copy of its package where it has one."""
+        if self.carried is not None:
+            return str(self.carried.here())
         if self.package:
             with contextlib.suppress(ImportError, ValueError):
                 spec = importlib.util.find_spec(self.package)
@@ -126,9 +131,12 @@ def lost(task: Task, why: str) -> Cell:
     return _cell(task, ERROR, f"the task was lost: {why}")
 
 
-def run_task(task: Task) -> Cell:
-    """``task``'s cell; never raises (whatever goes wrong is an error cell saying what)."""
+def run_task(task: Task, carried: Carried | None = None) -> Cell:
+    """``task``'s cell, its model's files ``carried`` to this node where they are given; never raises (whatever
+    goes wrong is an error cell saying what)."""
     start = time.perf_counter()
+    if carried is not None:
+        task = replace(task, model=replace(task.model, carried=carried))
     if task.spec.refused:
         return _cell(task, NA, task.spec.refused)
     try:
@@ -198,15 +206,20 @@ def plan(models: Sequence[Model], releases: Sequence[Release], backends: Sequenc
 
 def run(tasks: Sequence[Task], *, workers: int, executor: Executor = LOCAL, command: str = "",
         on_done: Callable[[Cell], None] | None = None) -> Sweep:
-    """Every task's cell, ``workers`` at a time on ``executor`` (each task one Ray task there); a task lost
-    for good is an error cell naming it, never a missing one."""
+    """Every task's cell, ``workers`` at a time on ``executor`` (each task one Ray task there, a file's or zoo
+    model's files carried to its node, :mod:`harness.pipeline.carry`); a task lost for good is an error cell
+    naming it, never a missing one."""
     start = time.perf_counter()
+    carried: dict[str, Carried] = {}
+    if executor.kind == "ray":
+        carried = {m.path: pack(m.path) for m in dict.fromkeys(t.model for t in tasks) if m.path}
 
     def done(_i: int, cell: Cell) -> None:
         if on_done is not None:
             on_done(cell)
 
-    cells = run_tasks([(run_task, (t,)) for t in tasks], workers, on_done=done, executor=executor,
+    calls = [(run_task, (t, carried[t.model.path]) if t.model.path in carried else (t,)) for t in tasks]
+    cells = run_tasks(calls, workers, on_done=done, executor=executor,
                       failed=lambda i, why: lost(tasks[i], why), labels=[t.label for t in tasks])
     return Sweep(tuple(dict.fromkeys(t.model.name for t in tasks)),
                  tuple(str(r) for r in sorted({t.spec.release for t in tasks})),
