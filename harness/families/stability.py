@@ -183,6 +183,11 @@ class Stability:
         """Whether the step is beyond the limit: every figure of this integrator's runs is then n/a."""
         return self.timestep > self.limit
 
+    def as_dict(self) -> dict[str, object]:
+        """What report.json's settings keep of it (``limit`` None where no mode bounds the step)."""
+        return {"beyond": self.beyond, "timestep": self.timestep, "h_lambda_max": self.h_lambda,
+                "limit": self.limit if math.isfinite(self.limit) else None, "statement": self.statement()}
+
     def statement(self) -> str:
         """One line: where the step stands against the limit, with the figures and where they come from."""
         h = self.timestep

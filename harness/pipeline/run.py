@@ -163,6 +163,8 @@ def run_case(case: Case, options: RunOptions | None = None) -> CaseResult:
         families |= found.settings
     if sims:
         diverged |= {f"budget.{name}": why for name, why in bench.run_budgets.failed.items()}
+    if bench.stability:  # the explicit integrators against their stability regions, the model's own first
+        families["stability"] = {name: s.as_dict() for name, s in bench.stability.items()}
 
     own = ModelSettings.of(model)
     tested = own.as_dict() | {f"param.{k}": v for k, v in ref.params.items()}
