@@ -147,3 +147,28 @@ def test_the_integrator_the_model_names_leads(tmp_path):
                                  integrators=("RK4", "Euler", "implicitfast"))
         assert next(iter(result.simulations)) == named
         assert next(c.name.integrator for c in checks if c.name.integrator) == named
+
+
+def test_check_says_so_and_exits_0(tmp_path, capsys):
+    from harness.cli.commands import main
+
+    h = 1.05 * _rk4_limit()
+    code = main(["check", "--mjcf", str(_write(tmp_path)), "--timestep", f"{h:.6g}", "--integrators", "RK4", "-q"])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert f"dspring: RK4 at h={float(f'{h:.6g}'):g} s is beyond its stability limit" in " ".join(out.split())
+
+
+def test_the_zoo_leads_with_the_models_own_integrator():
+    from harness import zoo
+
+    said = {"RK4": "RK4 at h=0.01 s is beyond its stability limit (…); stable below h ≈ 0.00185 s",
+            "Euler": "Euler at h=0.01 s is beyond its stability limit (…); stable below h ≈ 0.005 s"}
+    row = zoo.ZooResult("dm_control/x", "dm_control", "x.xml", zoo.PASS, 1.0, nv=3, checks=10, own="Euler",
+                        stability={"Euler": said["Euler"], "RK4": said["RK4"]})
+    assert row.line().index("Euler at h") < row.line().index("RK4 at h")
+    text = zoo.zoo_markdown(zoo.ZooRun(results=(row,)))
+    table_row = next(line for line in text.splitlines() if line.startswith("| dm_control/x "))
+    assert said["Euler"] in table_row and said["RK4"] not in table_row
+    assert "## Beyond a stability limit" in text
+    assert f"**dm_control/x** (its own integrator: Euler): {said['Euler']}; {said['RK4']}" in text
