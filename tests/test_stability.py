@@ -172,3 +172,53 @@ def test_the_zoo_leads_with_the_models_own_integrator():
     assert said["Euler"] in table_row and said["RK4"] not in table_row
     assert "## Beyond a stability limit" in text
     assert f"**dm_control/x** (its own integrator: Euler): {said['Euler']}; {said['RK4']}" in text
+
+
+CHAIN = """<mujoco model="chain">
+  <option timestep="{h}" integrator="{integrator}" gravity="0 0 0"/>
+  <worldbody>
+    <body name="upper" euler="0 0.4 0">
+      <joint name="a" type="hinge" axis="0 1 0" damping="0.3" stiffness="40"/>
+      <inertial pos="0 0 -0.5" mass="1" diaginertia="0.02 0.03 0.04"/>
+      <body name="lower" pos="0 0 -1" euler="0 -0.7 0">
+        <joint name="b" type="hinge" axis="0 1 0" damping="0.4" stiffness="2"/>
+        <inertial pos="0 0 -0.3" mass="0.05" diaginertia="1e-4 2e-4 3e-4"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def _step_jacobian(model: mujoco.MjModel, qpos: np.ndarray, qvel: np.ndarray, delta: float = 1e-6) -> np.ndarray:
+    """∂(qpos, qvel)⁺/∂(qpos, qvel) of one mj_step (hinges: qpos and qvel alike), by central differences."""
+    data = mujoco.MjData(model)
+    x0 = np.concatenate([qpos, qvel])
+    n = model.nv
+
+    def step(x):
+        data.qpos[:], data.qvel[:], data.time = x[:n], x[n:], 0.0
+        mujoco.mj_step(model, data)
+        return np.concatenate([data.qpos, data.qvel])
+
+    return np.column_stack([(step(x0 + delta * e) - step(x0 - delta * e)) / (2 * delta) for e in np.eye(2 * n)])
+
+
+@pytest.mark.parametrize("integrator", ["RK4", "Euler"])
+def test_mujocos_own_step_map_agrees_with_the_one_applied(integrator):
+    """An independent check, never the source: MuJoCo's own step (mj_step), differentiated at a state near rest of
+    a damped, sprung double pendulum (h·|λ|max ≈ 2.2: near both limits), has the eigenvalues of the one-step map
+    applied to the reference's linearization (RK4: R(hλ); Euler: G(h) with the joints' damping implicit). Near
+    rest the step's own nonlinearity (the stages' A moving with the state) is ~1e-6 of it.
+    (mjd_transitionFD would do, but MuJoCo 4.0 refuses it for RK4.)"""
+    h = 0.02
+    model = mujoco.MjModel.from_xml_string(CHAIN.format(h=h, integrator=integrator))
+    qpos, qvel = np.array([1e-3, -2e-3]), np.array([1e-3, -2e-3])
+    engine = np.sort_complex(np.linalg.eigvals(_step_jacobian(model, qpos, qvel)))
+    lin = st.linearize(TreeDynamics.of(read_tree(model)), qpos[None, :], qvel[None, :])
+    assert 1.5 < h * np.max(np.abs(lin.eigenvalues)) < 3
+    if integrator == "RK4":
+        ours = st.rk4_amplification(h * lin.eigenvalues[0])
+    else:
+        ours = np.linalg.eigvals(st.euler_map(lin, h, implicit_damping=True)[0])
+    assert np.sort_complex(ours) == pytest.approx(engine, abs=1e-5)
