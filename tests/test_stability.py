@@ -120,6 +120,13 @@ def test_a_run_just_above_the_limit_diverges_and_is_reported_beyond_it_not_faile
         assert "λ from the linearization at the run's states" in c.reason
         assert f"stable below h ≈ {_rk4_limit():.3g} s" in c.reason
         assert "its run diverged" in c.reason
+    # the report says it where the case is shown, and the job summary in its own section
+    from harness.outputs.report import render_markdown, section_case
+
+    page = section_case(result, checks, None, plots="")
+    assert "Stability at the model's step" in page and "is beyond its stability limit" in page
+    summary = render_markdown([result], {result.case.name: checks})
+    assert "## Beyond a stability limit" in summary and f"RK4 at h={h:g} s is beyond" in summary
 
 
 def test_a_run_below_the_limit_is_judged_as_always(tmp_path):
