@@ -237,10 +237,10 @@ class Bench:
     @cached_property
     def stability(self) -> dict[str, stability.Stability]:
         """Each explicit integrator run against its stability region at the model's step, the reference linearized
-        at :data:`~harness.families.stability.STATES` of its states over the horizon
+        at :func:`~harness.families.stability.states_for` of its states over the horizon
         (:func:`harness.families.stability.assess`); empty where the reference cannot be linearized there."""
         model = self.model
-        times = np.linspace(0.0, self.case.horizon, stability.STATES)
+        times = np.linspace(0.0, self.case.horizon, stability.states_for(self.reference.dynamics.n))
         q, qd = self.reference.solution.state(times)
         eulerdamp = not model.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
         try:

@@ -11,8 +11,8 @@ K = ∂q̈/∂q and C = ∂q̈/∂q̇ of the reference's own q̈(q, q̇) (the tr
 by complex step; the KKT solve for a constrained model, whose directions off the manifold add only zero
 eigenvalues), by central differences of that q̈: exact in q̇ for everything at most quadratic in q̇ (Coriolis
 terms, linear damping, actuators), O(δ²) ≈ 1e-10 relative in q. It is taken at :data:`STATES` states of the
-reference over the run's horizon (the states the run should pass through). Forces the reference does not model
-(contacts, limits, tendons it switches off) are not in it.
+reference over the run's horizon, the states the run should pass through (fewer for a large model,
+:func:`states_for`). Forces the reference does not model (contacts, limits, tendons it switches off) are not in it.
 
 The stability regions, each the method's own, as MuJoCo applies it (doc/computation/index.rst, "Numerical
 integration"):
@@ -50,7 +50,18 @@ ASSESSED = ("Euler", "RK4")
 """The integrators whose stability region is applied (the explicit ones)."""
 
 STATES = 8
-"""The reference's states, evenly over the horizon, at which the dynamics are linearized."""
+"""The reference's states, evenly over the horizon, at which the dynamics are linearized (at most: see
+:func:`states_for`)."""
+
+EVALUATIONS = 1024
+"""The reference's evaluations the linearization may take (4n per state): a large model is linearized at fewer
+states (dm_control's dog, 85 dof: 3; its stiffest modes, damping on light links, change little with the pose)."""
+
+
+def states_for(n: int) -> int:
+    """How many states a model of ``n`` coordinates is linearized at: :data:`STATES`, fewer where 4n of them each
+    would exceed :data:`EVALUATIONS`, never fewer than 2 (the start and the end of the horizon)."""
+    return max(2, min(STATES, EVALUATIONS // max(4 * n, 1)))
 
 GROWING = 1e-6
 """A mode counts as growing in the motion itself where Re λ > GROWING · |λ| (below it, as neutral: the central
@@ -199,7 +210,7 @@ class Stability:
         """One line: where the step stands against the limit, with the figures and where they come from."""
         h = self.timestep
         where = (f"h·|λ|max = {self.h_lambda:.3g}, λ from the linearization at the run's states (the reference's, "
-                 f"{self.states} states over the horizon)")
+                 f"at {self.states} instants over the horizon)")
         if self.integrator == "RK4":
             region = f"RK4's region ends at h·|λ| = {self.region:.3g} along the limiting eigenvalue's ray"
         else:
