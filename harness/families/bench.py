@@ -246,7 +246,7 @@ class Bench:
         try:
             return self.timed("stability", lambda: stability.assess(
                 self.reference.dynamics, q, qd, timestep=float(model.opt.timestep), integrators=self.integrators,
-                implicit_damping=eulerdamp and bool(np.any(model.dof_damping > 0))))
+                implicit_damping=eulerdamp and bool(np.any(model.dof_damping > 0)), horizon=self.case.horizon))
         except np.linalg.LinAlgError:  # a singular KKT system at a state: no statement, every run judged as it is
             return {}
 
