@@ -277,7 +277,7 @@ def euler_limit(lin: Linearization, eigenvalues: Array, *, implicit_damping: boo
                 horizon: float | None = None) -> float:
     """The largest step at which semi-implicit Euler is stable at every state (over ``horizon``: :data:`GROWTH`):
     doubled or halved from ``near`` until the verdict changes (at most 2⁴⁰), then bisected to 1e-6 relative (inf
-    where no step up to 2⁴⁰ · near is unstable)."""
+    where no step up to 2⁴⁰ · near, or up to the horizon, is unstable)."""
     def unstable(h: float) -> bool:
         return bool(np.any(_euler_unstable(lin, eigenvalues, h, implicit_damping=implicit_damping,
                                            horizon=horizon)))
@@ -293,6 +293,8 @@ def euler_limit(lin: Linearization, eigenvalues: Array, *, implicit_damping: boo
     else:
         for _ in range(40):
             hi *= 2.0
+            if horizon and hi > horizon:  # a step longer than the run: no mode bounds any step it can take
+                return math.inf
             if unstable(hi):
                 break
         else:
