@@ -247,3 +247,21 @@ def test_euler_drifting_on_a_gyroscopic_mode_is_judged_not_declared_unstable():
     assert strict.beyond and strict.region > 1.0  # outside the region, strictly
     assert not over_the_run["Euler"].beyond
     assert over_the_run["Euler"].limit > 0.01
+
+
+@pytest.mark.slow
+def test_dm_control_finger_rk4_is_beyond_its_stability_limit_and_euler_is_judged():
+    """A model nobody here wrote (docs/findings/zoo.md): finger's distal link, damped and light, has a mode at
+    λ ≈ −1509/s, so RK4 at the model's 10 ms (h|λ| ≈ 15) is beyond its limit (stable below ≈ 1.85 ms) and its run
+    diverges; Euler, the model's own integrator, takes the damping implicitly and is judged, and leads."""
+    from harness import zoo
+
+    pytest.importorskip("dm_control")
+    models, skipped = zoo.discover()
+    finger = zoo.select(["dm_control/finger"], models, skipped)[0]
+    row = zoo.judge(finger, integrators=("RK4", "Euler"))
+    assert row.verdict == zoo.PASS and row.own == "Euler", row.line()
+    assert list(row.stability) == ["RK4"]
+    said = row.stability["RK4"]
+    assert said.startswith("RK4 at h=0.01 s is beyond its stability limit (h·|λ|max = 15.1")
+    assert "stable below h ≈ 0.00185 s" in said
