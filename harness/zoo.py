@@ -308,6 +308,8 @@ class ZooResult:
         reason: why it was refused, or the crash's exception in one line.
         horizon: the horizon chosen from the motion, and why.
         seconds: wall time from reading the file to the verdict.
+        own: the integrator the model names, which the verdict leads with.
+        stability: by integrator (the model's own first), the statement of each run beyond its stability limit.
     """
 
     model: str
@@ -325,10 +327,18 @@ class ZooResult:
     failed: tuple[str, ...] = ()
     reason: str = ""
     horizon: str = ""
+    own: str = ""
+    stability: Mapping[str, str] = field(default_factory=dict)
 
     @property
     def exit(self) -> int | None:
         return EXIT[self.verdict]
+
+    @property
+    def limits(self) -> tuple[str, ...]:
+        """The statement of each integrator run beyond its stability limit, the model's own first (its figures
+        are n/a: the method's limit, not MuJoCo's defect; harness/families/stability.py)."""
+        return tuple(self.stability.values())
 
     def line(self) -> str:
         """One line for the terminal as the model finishes."""
@@ -339,7 +349,8 @@ class ZooResult:
             tail = f"{len(self.failed)} of {self.checks} checks failed; deciding {self.deciding.text()}"
         else:
             tail = self.reason
-        return f"{head} (nv {self.nv}, {self.seconds:.1f} s): {tail}"
+        limits = "".join(f"; {text}" for text in self.limits)
+        return f"{head} (nv {self.nv}, {self.seconds:.1f} s): {tail}{limits}"
 
     def as_dict(self) -> dict[str, object]:
         out = asdict(self)
@@ -391,11 +402,14 @@ def judge(model: ZooModel, *, integrators: Sequence[str] | None = None, timeout:
                          reason=f"{one_line(exc)} (a bug of the harness)")
     tree = v.settings.tree or {}
     deciding = deciding_check(v.checks)
+    stability = v.settings.families.get("stability", {})
+    beyond = {name: s["statement"] for name, s in stability.items() if s["beyond"]}
     return ZooResult(**base, **have | {"not_examined": dict(tree.get("not examined", gaps))},
                      verdict=PASS if v.passed else FAIL, seconds=time.perf_counter() - clock,
                      integrators=tuple(v.settings.integrators), checks=len(v.checks),
                      deciding=Deciding.of(deciding) if deciding is not None else None,
-                     failed=tuple(str(c.name) for c in v.failures), horizon=str(tree.get("horizon", "")))
+                     failed=tuple(str(c.name) for c in v.failures), horizon=str(tree.get("horizon", "")),
+                     own=v.settings.integrator, stability=beyond)
 
 
 def judge_named(name: str, integrators: tuple[str, ...] | None, timeout: float | None = None) -> ZooResult:
@@ -557,6 +571,8 @@ def zoo_markdown(z: ZooRun) -> str:
         deciding = r.deciding.text() if r.deciding is not None and r.verdict in (PASS, FAIL) else ""
         if r.verdict == PASS and r.deciding is not None:
             deciding = f"closest: {deciding}"
+        if r.own in r.stability:  # the verdict leads with the model's own integrator
+            deciding = f"{r.stability[r.own]}; {deciding}" if deciding else r.stability[r.own]
         lines.append("| " + " | ".join(_cell(x) for x in (
             r.model, str(r.nv), joints, ", ".join(r.features) or "-",
             ", ".join(not_examined_summary(r.not_examined)) or "-", _verdict_cell(r),
@@ -568,6 +584,14 @@ def zoo_markdown(z: ZooRun) -> str:
         for r in failed:
             lines.append(f"- **{r.model}**: {r.deciding.text() if r.deciding else ''}; failed: "
                          f"{', '.join(r.failed)}")
+    limited = [r for r in z.results if r.limits]
+    if limited:
+        lines += ["", "## Beyond a stability limit: the method's, not MuJoCo's defect", "",
+                  "An explicit integrator run at a step where h·λ lies outside its stability region, λ the "
+                  "eigenvalues of the reference's own linearization at the run's states (harness/families/"
+                  "stability.py): its figures are n/a with the statement, neither pass nor fail; the model's own "
+                  "integrator first.", ""]
+        lines += [f"- **{r.model}** (its own integrator: {r.own}): " + "; ".join(r.limits) for r in limited]
     if z.faults or z.fault_models_left_out:
         lines += ["", "## Faults made on the engine's side alone", "",
                   "The reference is built from the unmodified file; only the engine's model is changed "

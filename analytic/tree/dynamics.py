@@ -164,6 +164,16 @@ class TreeDynamics(Dynamics):
         order = np.argsort(rates)[::-1]
         return rates[order], np.linalg.solve(chol.T, vectors[:, order])
 
+    def damping_matrix(self, q: Array, qd: Array) -> Array:
+        """D = −∂Q_damping/∂q̇ at (q, q̇), (..., n, n): the joints' own damping alone, Bᵀ diag(d′(qvel)) B with
+        d′ the derivative of MuJoCo's damping polynomial (what MuJoCo's Euler integrates implicitly)."""
+        q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
+        b = velocity_map(self.tree, self.layout, q)
+        qvel = self._qvel(q, qd)
+        d = self._damping
+        slope = d[:, 0] + 2.0 * d[:, 1] * np.abs(qvel) + 3.0 * d[:, 2] * qvel * qvel
+        return np.swapaxes(b, -1, -2) @ (slope[..., :, None] * b)
+
     def _applied(self, q: Array, qd: Array, lin: Array) -> Array:
         """The non-conservative generalized forces Q at (q, q̇): damping, gravity compensation, actuators
         (:meth:`actuation`)."""

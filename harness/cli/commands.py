@@ -86,6 +86,7 @@ from harness.outputs.table import (
     failures_block,
     fitness_line,
     fitness_table,
+    stability_block,
     verdict_line,
 )
 from harness.pipeline import limits as limits_data
@@ -158,6 +159,11 @@ def _trees(results: Sequence) -> dict[str, dict[str, str] | None]:
             for r in results}
 
 
+def _limits(results: Sequence) -> dict[str, list[str]]:
+    """Each case's statements of the integrators run beyond their stability limit, the model's own first."""
+    return {r.case.name: [s.statement() for s in r.stability.values() if s.beyond] for r in results}
+
+
 def _peers(results: Sequence) -> dict[str, dict | None]:
     """Each case's three-way comparison (None where it did not run: a backend other than C)."""
     return {r.case.name: r.settings.peers for r in results}
@@ -165,11 +171,13 @@ def _peers(results: Sequence) -> dict[str, dict | None]:
 
 def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, written: str = "",
                   trees: dict[str, dict[str, str] | None] | None = None,
-                  peers: dict[str, dict | None] | None = None, opinions: Sequence[str] = ()) -> None:
+                  peers: dict[str, dict | None] | None = None, opinions: Sequence[str] = (),
+                  limits: dict[str, list[str]] | None = None) -> None:
     """After the cases' lines: what each model's own tree covered (``trees``), the second opinions' summary
     (``peers``: each case's three-way comparison, :func:`harness.opinions.threeway.summary`; a hand-derived case's
     with ``verbose`` only: the model one brings is the one that needs it) with the other second opinions'
-    ``opinions`` (a URDF's comparison, Pinocchio's MJCF parser's: :mod:`harness.opinions.urdf`), every check as a table
+    ``opinions`` (a URDF's comparison, Pinocchio's MJCF parser's: :mod:`harness.opinions.urdf`), the integrators run
+    beyond their stability limit (``limits``, by case), every check as a table
     (``verbose``), each failed check with its budget, the requirements judged, ``written`` (what was
     written), and the verdict line last (and the requirements' line, where stated); ``quiet``: the
     failures and the verdict only. All but the table and the verdict's lines fit the terminal
@@ -179,6 +187,8 @@ def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, writt
     fitness = fitness_table(outcome)
     coverage = coverage_block(trees or {}, width)
     parts = [coverage] if coverage and not quiet else []
+    beyond = stability_block(limits or {}, width)  # the method's limit, said even when quiet: its figures are n/a
+    parts += [beyond] if beyond else []
     shown = {case: doc for case, doc in (peers or {}).items() if verbose or (trees or {}).get(case) is not None}
     said = [*(threeway.summary(shown) if not quiet else ()), *opinions]
     parts += ["\n".join(line for text in said for line in wrap(text, width))] if said else []
@@ -490,7 +500,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     # the report and its JUnit, all or none, and an earlier report's pages this one has not removed with them
     paths = write_atomic(with_manifest(args.out, files | _junit(args.junit, outcome)),
                          remove=superseded(args.out, files))
-    _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
+    _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results), limits=_limits(results),
                   peers=_peers(results), opinions=[*opinions.lines(quiet=args.quiet),
                                                    *inertials.lines(quiet=args.quiet)],
                   written=f"wrote in {time.perf_counter() - start:.1f} s: {_written(args.out, paths)}")
@@ -536,7 +546,7 @@ def cmd_check(args: argparse.Namespace) -> int:
             "inertials": inertials.as_dict()}
         sys.stdout.write(dumps(json_doc(results, outcome, appendix=appendix)))
     else:
-        _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results),
+        _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results), limits=_limits(results),
                       peers=_peers(results), opinions=[*opinions.lines(quiet=args.quiet),
                                                        *inertials.lines(quiet=args.quiet)])
     return _exit_code(outcome, opinions, inertials, json=args.json)

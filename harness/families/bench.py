@@ -40,7 +40,7 @@ from harness.engine.integrators import EXPECTED_ORDER, available_integrators, in
 from harness.engine.models import compile_model
 from harness.engine.recording import steps_in
 from harness.engine.variants import SETTLE_TIMECONSTS, ModelUnderTest, compose, contact_timeconst
-from harness.families import runs, sampled
+from harness.families import runs, sampled, stability
 from harness.reference import derivations
 from harness.reference import solutions as refmod
 from harness.reference.tree import switch_note, switched_orders, switches
@@ -185,6 +185,8 @@ class Bench:
         self.model = self.mut.compile()
         h = float(self.model.opt.timestep)
         bounds.check_steps(steps_in(case.horizon, h), horizon=case.horizon, timestep=h)  # before any work
+        own = integrator_name(self.model)  # the integrator the model itself names leads every list of runs
+        chosen = sorted(chosen, key=lambda name: name != own)
         self.integrators, self.skipped = _engine_integrators(self.engine, self.mut, tuple(chosen),
                                                              given=options.integrators is not None)
         self.shipped = compile_model(case.mjcf, edit=case.prepare)
@@ -232,6 +234,22 @@ class Bench:
         return self.timed("instant", lambda: sampled.evaluate(
             self.mut, self.instant_model, self.probe, self.reference, self.engine, self.comparisons.at_states,
             integrator=self._instant_integrator, conditioning=conditioning))
+
+    @cached_property
+    def stability(self) -> dict[str, stability.Stability]:
+        """Each explicit integrator run against its stability region at the model's step, the reference linearized
+        at :func:`~harness.families.stability.states_for` of its states over the horizon
+        (:func:`harness.families.stability.assess`); empty where the reference cannot be linearized there."""
+        model = self.model
+        times = np.linspace(0.0, self.case.horizon, stability.states_for(self.reference.dynamics.n))
+        q, qd = self.reference.solution.state(times)
+        eulerdamp = not model.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
+        try:
+            return self.timed("stability", lambda: stability.assess(
+                self.reference.dynamics, q, qd, timestep=float(model.opt.timestep), integrators=self.integrators,
+                implicit_damping=eulerdamp and bool(np.any(model.dof_damping > 0)), horizon=self.case.horizon))
+        except np.linalg.LinAlgError:  # a singular KKT system at a state: no statement, every run judged as it is
+            return {}
 
     # ------------------------------------------------------------------ the runs
     @cached_property

@@ -383,6 +383,16 @@ def _examined(result: CaseResult) -> str:
             f"{_esc(tree.get('horizon', ''))}.</p></section>")
 
 
+def _stability(result: CaseResult) -> str:
+    """Each explicit integrator against its stability region at the model's step, the model's own first (where one
+    is beyond, its figures are n/a: :mod:`harness.families.stability`); '' where none was assessed."""
+    if not result.stability:
+        return ""
+    items = "".join(f"<li>{'<b>' if s.beyond else ''}{_esc(s.statement())}{'</b>' if s.beyond else ''}</li>"
+                    for s in result.stability.values())
+    return f"<section id='stability'><h3>Stability at the model's step</h3><ul>{items}</ul></section>"
+
+
 def _findings(result: CaseResult) -> str:
     """Engine functions that disagree with what they should compute, found while measuring: '' if none."""
     if not result.findings:
@@ -441,10 +451,12 @@ def section_case(result: CaseResult, checks: Sequence[Check], still: Still | Non
                    f"<td>{_esc(f.unit)}</td><td class='dim'>{_esc(f.description)}</td></tr>"
                    for f in result.figures if f.name not in gated)
     settings = "".join(f"<tr><td>{_esc(k)}</td><td>{_esc(_setting(v))} {_UNITS.get(k, '')}</td></tr>"
-                       for k, v in result.settings.as_dict().items() if k not in ("changed", "projected", "tree"))
+                       for k, v in result.settings.as_dict().items()
+                       if k not in ("changed", "projected", "tree", "stability"))
     return (f"<section id='case'><h2>{_esc(c.name)} <span class='badge {verdict.lower()}'>"
             f"{verdict} {len(checks) - failed}/{len(checks)}</span></h2><p>{_esc(c.description)}</p>"
-            f"{section_model(result, still)}{_examined(result)}{_differences(result)}{_findings(result)}{fitness}"
+            f"{section_model(result, still)}{_examined(result)}{_stability(result)}{_differences(result)}"
+            f"{_findings(result)}{fitness}"
             f"<section id='checks'><h3>Gated checks</h3>{_checks_table(result, checks)}</section>"
             f"<section id='plots'><h3>Plots</h3><div class='plots'>{plots}</div></section>"
             f"<section id='figures'><details class='more'><summary><h3>Other figures (measured, not gated)</h3> "
@@ -615,6 +627,10 @@ def render_markdown(results: Sequence[CaseResult], outcome: Outcome | Mapping[st
         lines += ["", "## Failed checks", "", "| case | check | measured | why |", "|---|---|---|---|"]
         lines += [f"| {markdown_cell(c.case)} | {markdown_cell(c.name)} | {_measured(c)} {c.unit} | "
                   f"{markdown_cell(_failure_text(c))} |" for c in failed]
+    limited = [(r.case.name, s.statement()) for r in results for s in r.stability.values() if s.beyond]
+    if limited:  # the model's own integrator first; their figures are n/a
+        lines += ["", "## Beyond a stability limit (the method's, not MuJoCo's defect: figures n/a)", ""]
+        lines += [f"- {markdown_cell(case)}: {markdown_cell(text)}" for case, text in limited]
     findings = [(r.case.name, f) for r in results for f in r.findings]
     if findings:
         lines += ["", "## Engine findings", ""]

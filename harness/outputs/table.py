@@ -194,3 +194,10 @@ def coverage_block(trees: Mapping[str, Mapping[str, str] | None], width: int) ->
                     "work–energy balance (INTEGRATOR.balance)")
         lines += wrap(text, width)
     return "\n".join(lines)
+
+
+def stability_block(limits: Mapping[str, Sequence[str]], width: int) -> str:
+    """For each case, each integrator run beyond its stability limit at the model's step (its figures n/a: the
+    method's limit, not MuJoCo's defect; :mod:`harness.families.stability`), wrapped to ``width``."""
+    return "\n".join(line for case, said in limits.items() for text in said
+                     for line in wrap(f"{case}: {text}; its figures are n/a", width))

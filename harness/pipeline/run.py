@@ -26,6 +26,7 @@ from harness.engine.compat import fallbacks, joint_types, unavailable_reason
 from harness.engine.models import authored
 from harness.families import COMPARISONS, FAMILIES, invariants, trajectory
 from harness.families.bench import Bench, Measured
+from harness.families.stability import Stability
 from harness.pipeline.settings import ModelSettings, RunSettings, authored_differences, changed_settings
 
 
@@ -44,6 +45,8 @@ class CaseResult:
         unmeasured: figures that could not be measured at these settings, each with the reason (a
             convergence order hidden under a softness floor): their checks are n/a, with the reason.
         joints: the joint types of the model run (known defects match them).
+        stability: each explicit integrator's stability at the model's step (:mod:`harness.families.stability`):
+            where it is beyond its limit, every figure of that integrator is n/a with the statement.
     """
 
     case: Case
@@ -59,6 +62,7 @@ class CaseResult:
     findings: tuple[Finding, ...] = ()
     unmeasured: Mapping[str, str] = field(default_factory=dict)
     diverged: dict[str, str] = field(default_factory=dict)  # INTEGRATOR, converge.INTEGRATOR, instant figure -> why
+    stability: Mapping[str, Stability] = field(default_factory=dict)
 
     def figure(self, name: str) -> Figure:
         for f in self.figures:
@@ -159,6 +163,8 @@ def run_case(case: Case, options: RunOptions | None = None) -> CaseResult:
         families |= found.settings
     if sims:
         diverged |= {f"budget.{name}": why for name, why in bench.run_budgets.failed.items()}
+    if bench.stability:  # the explicit integrators against their stability regions, the model's own first
+        families["stability"] = {name: s.as_dict() for name, s in bench.stability.items()}
 
     own = ModelSettings.of(model)
     tested = own.as_dict() | {f"param.{k}": v for k, v in ref.params.items()}
@@ -200,4 +206,4 @@ def run_case(case: Case, options: RunOptions | None = None) -> CaseResult:
                       simulations=sims, settings=settings, timings=bench.timings, joints=joint_types(model),
                       budgets=budgets, defect_budgets=defect_budgets,
                       orders={k: v for k, v in orders.items() if math.isfinite(v)}, findings=tuple(findings),
-                      unmeasured=unmeasured, diverged=diverged)
+                      unmeasured=unmeasured, diverged=diverged, stability=bench.stability)

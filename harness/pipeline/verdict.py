@@ -49,7 +49,10 @@ def judge(result: CaseResult, limits: Mapping[str, Limit]) -> list[Check]:
     """One Check per limit of ``result``'s case.
 
     A ``budget`` limit judges the figure's unexplained residual against the limit its budget computes;
-    a ``theory`` or ``user`` limit the figure itself against its value. A limit naming no measured
+    a ``theory`` or ``user`` limit the figure itself against its value. Every figure of an integrator run beyond
+    its stability limit at the model's step (:mod:`harness.families.stability`, from the reference's
+    linearization, not the engine's) is n/a with that statement: the method's limit, not MuJoCo's defect; a run
+    that diverges inside the limit stays a failure. A limit naming no measured
     figure is a config error, unless it belongs to an integrator this MuJoCo lacks (n/a) or one the run
     left out (not judged).
     """
@@ -58,8 +61,17 @@ def judge(result: CaseResult, limits: Mapping[str, Limit]) -> list[Check]:
     ran = set(result.settings.integrators)
     checks = []
     unknown = []
+    beyond = {k: s.statement() for k, s in result.stability.items() if s.beyond}
     for name, limit in limits.items():
         figure_name = FigureName(name)
+        if figure_name.integrator in beyond:  # the method's limit, not MuJoCo's defect: n/a, never pass or fail
+            figure = by_name.get(name)
+            why = beyond[figure_name.integrator]
+            if ran_away := diverged_run(name, result.diverged):
+                why += f"; its run {ran_away}"
+            checks.append(Check(case, figure_name, figure.value if figure else math.nan, math.nan,
+                                figure.unit if figure else "", note=why))
+            continue
         if name not in by_name:
             why_diverged = diverged_run(name, result.diverged)
             if why_diverged:
