@@ -18,10 +18,15 @@ from pathlib import Path
 import pytest
 
 import harness
+from harness import cases
 from harness.cli import commands as cli
 from harness.core import bounds, cache
+from harness.core.options import RunOptions
 from harness.outputs import files
+from harness.pipeline.run import run_case
 from harness.versions.envs import EnvSpec
+from tests.conftest import judged
+from tests.helpers import damping
 
 
 @pytest.mark.parametrize("extra", ["--index-url=http://example.invalid/simple", "-e.", " -r requirements.txt"])
@@ -125,3 +130,18 @@ def test_terminal_escapes_in_a_model_name_never_reach_the_terminal(tmp_path, cap
     said = capsys.readouterr()
     assert "\x1b" not in said.out + said.err and "\x07" not in said.out + said.err
     assert "e\\x1b[31mred\\x07" in said.out + said.err
+
+
+def test_a_run_whose_error_grows_past_the_motion_without_a_warning_is_diverged_not_a_number():
+    """An energy-pumping fault (negative damping on MuJoCo's side only) grows the spring's energy by orders of
+    magnitude over its horizon with no MuJoCo warning: each integrator's figures are "diverged", with the growth
+    named, not an "unresolved" or a number. A milder fault of the same kind stays a number (a FAIL, not a
+    divergence): the bound (harness.families.runs.GROWN) says diverged only past 1000 times the motion's size."""
+    case = cases.get("spring")
+    pumped = judged(run_case(case, RunOptions(edit=damping("x", -2.0), integrators=("RK4",))))
+    rk4 = {name: c for name, c in pumped.items() if name.startswith("RK4.")}
+    assert rk4 and all("left the reference by" in c.diverged and "without a MuJoCo warning" in c.diverged
+                       for c in rk4.values()), {name: c.diverged for name, c in rk4.items()}
+    mild = judged(run_case(case, RunOptions(edit=damping("x", -0.1), integrators=("RK4",))))
+    position = mild["RK4.position"]
+    assert not position.diverged and not position.passed and position.value > 0

@@ -356,6 +356,27 @@ RESOLVED = 0.5
 error is still an expansion in h (:func:`unresolved`)."""
 
 
+GROWN = 1e3
+"""How many times its own size (:attr:`Deviation.size`: the motion's extent, its energy's scale) a run's position or
+energy error may reach before the run is called diverged rather than judged (:func:`grown`); its basis is in
+docs/findings/bases.md."""
+
+
+def grown(deviations: Sequence[Deviation], *, integrator: str) -> str:
+    """Why the run at h diverged although MuJoCo raised no warning ('' when it did not): its position or energy
+    left the reference by more than :data:`GROWN` times the quantity's own size. No budget part can explain an
+    error a thousand times the motion it approximates, and no number of such a run is a measurement: it is a
+    divergence, reported as one, never an "unresolved" figure."""
+    for dev in deviations:
+        if dev.name.measure not in ("position", "energy") or dev.size <= 0:
+            continue
+        size = dev.magnitude() / dev.size
+        if size > GROWN:
+            return (f"diverged: {integrator}'s {dev.name.measure} left the reference by {size:.3g} times its own size "
+                    f"(more than {GROWN:g}) without a MuJoCo warning")
+    return ""
+
+
 def unresolved(runs: Runs, *, order: float, integrator: str) -> str:
     """Why ``runs`` cannot be budgeted at all ('' when they can): the timestep is outside the integrator's
     asymptotic range. Richardson assumes the error is its leading term plus a smaller rest; the run at h/4
@@ -523,8 +544,8 @@ def _floors(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: Target
 
 
 def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: Target, sim: Trajectory,
-                     name: str, *, order: float, variants: V.Variants, floors: Mapping[str, np.ndarray] | None,
-                     switching: bool = False) -> Runs:
+                     name: str, *, as_is: list[Deviation], order: float, variants: V.Variants,
+                     floors: Mapping[str, np.ndarray] | None, switching: bool = False) -> Runs:
     model = mut.compile(integrator=name)
     steps = len(sim.t) - 1
     eps = V.softness_factor(model)
@@ -535,7 +556,6 @@ def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, targe
         return _variant_run(mut, probe, engine, target, model, steps=steps, split=split, eps_factor=eps_factor,
                             tc_factor=tc_factor)
 
-    as_is = compared(target, sim, name)
     # every variant that does not wait on another's result, as one batched call to the backend
     plan: dict[str, Variant] = {"half_step": (2, 1.0, 1.0)}
     if not V.solver_converges(model):
@@ -638,9 +658,14 @@ def variant_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: T
                 failed[name] = failed[twin]
             continue
         twins.append((orders[name], sim, name))
+        as_is = compared(target, sim, name)
+        why = grown(as_is, integrator=name)
+        if why:  # a diverged run has no budget: its variants would only diverge further
+            failed[name] = why
+            continue
         try:
-            made = _integrator_runs(mut, probe, engine, target, sim, name, order=orders[name], variants=variants,
-                                    floors=floors, switching=switching)
+            made = _integrator_runs(mut, probe, engine, target, sim, name, as_is=as_is, order=orders[name],
+                                    variants=variants, floors=floors, switching=switching)
         except SimulationDiverged as exc:
             failed[name] = f"a run of its budget (a variant at h/2, h/4 or softer) {exc.reason}"
             continue
