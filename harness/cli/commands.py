@@ -50,6 +50,7 @@ from harness.core.checks import Check
 from harness.core.errors import SimulationDiverged
 from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
 from harness.core.options import RunOptions
+from harness.core.progress import heartbeat
 from harness.core.tables import terminal_width, wrap
 from harness.engine import backends, messages
 from harness.engine.integrators import available_integrators
@@ -420,8 +421,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     check_output(args.out)  # fail before minutes of work, not after
     _check_junit(args.junit, args.out)
+    selected = _selected(args)  # first: a model too large for its reference is refused before anything runs
     opinions = _opinions(args)
-    selected = _selected(args)
     options = _options(args, selected, several=True)
     executor = _executor(args)
     results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs, executor=executor,
@@ -476,8 +477,8 @@ def _args_check(p: argparse.ArgumentParser) -> None:
 
 def cmd_check(args: argparse.Namespace) -> int:
     _check_junit(args.junit)
+    selected = _selected(args)  # first: a model too large for its reference is refused before anything runs
     opinions = _opinions(args)
-    selected = _selected(args)
     # with --json, stdout is the document alone: what a library prints meanwhile goes to stderr (mujoco-mjx
     # prints "Failed to import warp" to stdout when it is imported without Warp)
     with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
@@ -505,7 +506,8 @@ def _opinions(args: argparse.Namespace):
         named = cases.select([*args.cases, *(args.case or [])])
         mjcf = named[0].mjcf if len(named) == 1 else None
     own = args.mjcf is not None and not [*args.cases, *(args.case or [])]  # a model of your own, no case
-    return model_opinions(mjcf, urdf=args.urdf, mapping=args.urdf_map, parser=own and not args.quiet)
+    with heartbeat(f"{Path(mjcf).name if mjcf is not None else 'model'}: second opinions"):  # Pinocchio's: slow
+        return model_opinions(mjcf, urdf=args.urdf, mapping=args.urdf_map, parser=own and not args.quiet)
 
 
 def _exit_code(outcome: Outcome, opinions, *, json: bool = False) -> int:
