@@ -15,7 +15,7 @@ from harness.core import bounds, progress
 from harness.core.errors import RunTooLong
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from tree import chain  # noqa: E402  (benchmarks/tree.py: an n-link chain on alternating hinge axes)
+from tree import chain
 
 
 @pytest.fixture
@@ -52,7 +52,7 @@ def test_the_cost_bound_refuses_past_it_and_names_the_way_to_raise_it(monkeypatc
     bounds.check_reference_cost(evaluation=0.9 * bounds.MAX_REFERENCE_SECONDS / per, span=1.0, nv=7)  # within
     with pytest.raises(RunTooLong, match=r"--horizon 0\.5 or shorter fits"):
         bounds.check_reference_cost(evaluation=2 * bounds.MAX_REFERENCE_SECONDS / per, span=1.0, nv=7)
-    with pytest.raises(RunTooLong, match="more than 0.9 s of CPU") as refused:
+    with pytest.raises(RunTooLong, match=r"more than 0\.9 s of CPU") as refused:
         bounds.check_reference_cost(evaluation=0.9, span=1.0, nv=7, stopped=True)
     assert "--horizon" not in str(refused.value)  # stopped: the evaluation's true cost, and what fits, are unknown
     monkeypatch.setenv(bounds.MAX_REFERENCE_SECONDS_VARIABLE, str(10 * bounds.MAX_REFERENCE_SECONDS))
