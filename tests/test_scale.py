@@ -102,3 +102,35 @@ def test_choosing_the_horizon_is_not_silent(tmp_path, monkeypatch, capsys):
     own.from_mjcf(path)
     err = capsys.readouterr().err
     assert "mjharness: chain2.xml: choosing the horizon: solving its tree reference over 1 s" in err
+
+
+def _png(path: Path, side: int) -> None:
+    """A grey side × side RGB PNG at ``path`` (stdlib only)."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    rows = b"".join(b"\x00" + b"\x80" * (3 * side) for _ in range(side))
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", side, side, 8, 2, 0, 0, 0))
+                     + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+
+
+def test_image_textures_are_not_decoded_for_simulation(tmp_path):
+    """A robot's photographs are drawn, never simulated: compiled for a run, an image texture is a small flat one
+    (ANYmal C's 21 PNGs held 244 MB in every compiled variant), its material still compiling."""
+    import mujoco
+
+    from harness.engine.models import SMALL_TEXTURE, compile_model
+
+    _png(tmp_path / "skin.png", 512)
+    path = tmp_path / "robot.xml"
+    path.write_text("<mujoco><asset><texture name='skin' type='2d' file='skin.png'/>"
+                    "<material name='m' texture='skin'/></asset><worldbody><body><joint axis='0 1 0'/>"
+                    "<geom size='0.1' material='m' pos='0 0 -1'/></body></worldbody></mujoco>")
+    as_written = mujoco.MjModel.from_xml_path(str(path))
+    assert as_written.ntexdata == 512 * 512 * 3  # what the file holds, decoded
+    model = compile_model(path)
+    assert model.ntex == 1 and model.tex("skin").id == 0
+    assert model.ntexdata <= SMALL_TEXTURE * SMALL_TEXTURE * 4

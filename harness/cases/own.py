@@ -33,7 +33,7 @@ from harness.cases import Case, Wiring
 from harness.core import bounds, progress
 from harness.core.errors import ModelError
 from harness.engine.bindings import TreeBinding
-from harness.engine.models import compile_model
+from harness.engine.models import compile_model, load_spec
 from harness.engine.readings.momentum import total_momentum
 from harness.engine.variants import POINT_MASS
 from harness.reference.solutions import TREE_MAX_STEPS
@@ -216,6 +216,30 @@ def _check_cost(model: mujoco.MjModel, system: TreeSystem, qpos: np.ndarray, spa
     bounds.check_reference_cost(evaluation=evaluation, span=span, nv=int(model.nv), stopped=stopped)
 
 
+DEFAULT_MODEL_NAME = "MuJoCo Model"
+"""The ``model`` attribute MuJoCo gives a file that has none."""
+GENERIC_STEMS = ("scene",)
+"""File names that say what a file is, not which model: Menagerie's ``scene.xml``, ``scene_left.xml``."""
+
+
+def model_name(path: Path | str) -> str:
+    """What a model of one's own is called in its report and lines: its MJCF ``model`` attribute where it has one
+    (Menagerie's "panda scene"), else the file's name without ``.xml``, but its folder's name where that is a
+    generic one (``franka_emika_panda/scene.xml``: "franka_emika_panda"). Never "scene" alone."""
+    path = Path(path)
+    try:
+        written = load_spec(path).modelname.strip()
+    except ModelError:  # unreadable: from_mjcf names what is wrong with it
+        written = ""
+    generic = [*GENERIC_STEMS, DEFAULT_MODEL_NAME.lower()]
+    if written and not any(written.lower() == g or written.lower().startswith(f"{g}_") for g in generic):
+        return written
+    stem = path.stem
+    if any(stem.lower() == g or stem.lower().startswith(f"{g}_") for g in GENERIC_STEMS):
+        return path.resolve().parent.name or stem
+    return stem
+
+
 def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[str, float] | None = None,
               horizon: float | None = None, reference: Path | str | None = None) -> Case:
     """The case of the model at ``path`` judged against its own kinematic tree (no hand-derived system).
@@ -269,7 +293,7 @@ def _from_mjcf(path: Path, *, keyframe: str | None, ctrl: Mapping[str, float] | 
                    + (f"; not in the reference, judged by the work–energy balance only: {', '.join(gaps)}"
                       if gaps else ""))
     floating = system.dynamics(compile_model(path, edit=system.edit)).free_floating
-    case = Case(name=path.stem, system=TREE, mjcf=path.resolve(),
+    case = Case(name=model_name(path), system=TREE, mjcf=path.resolve(),
                 motion=motion(model, qpos, qvel, horizon=horizon or HORIZON_CAP, description=description),
                 wiring=Wiring(binding=binding, description=description,
                               invariants=total_momentum() if floating else {}), tree=system)
