@@ -101,7 +101,7 @@ def test_choosing_the_horizon_is_not_silent(tmp_path, monkeypatch, capsys):
     path.write_text(chain(2))
     own.from_mjcf(path)
     err = capsys.readouterr().err
-    assert "mjharness: chain2.xml: choosing the horizon: solving its tree reference over 1 s" in err
+    assert "mjharness: chain2: choosing the horizon: solving its tree reference over 1 s" in err
 
 
 def _png(path: Path, side: int) -> None:

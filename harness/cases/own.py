@@ -250,7 +250,7 @@ def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[st
     fault tests inject). ModelError (one line) for a model the tree reference cannot read or a keyframe or
     actuator it lacks."""
     path = Path(path)
-    with progress.heartbeat(path.name):
+    with progress.heartbeat(model_name(path)):
         return _from_mjcf(path, keyframe=keyframe, ctrl=ctrl, horizon=horizon, reference=reference)
 
 

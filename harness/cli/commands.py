@@ -938,7 +938,12 @@ def cmd_sensitivity(args: argparse.Namespace) -> int:
 
 def _args_zoo(p: argparse.ArgumentParser) -> None:
     p.add_argument("models", nargs="*", metavar="MODEL",
-                   help="zoo models (dm_control/acrobot, or a stem: acrobot; default: every model installed)")
+                   help="zoo models (dm_control/acrobot, or a stem: acrobot; default: every model installed); "
+                        "with --folder, that folder's entries (robot/scene, or a stem)")
+    p.add_argument("--folder", type=Path, metavar="DIR",
+                   help="judge every MJCF entry of DIR instead, a folder of robots laid out like MuJoCo Menagerie's: "
+                        "every .xml file under it whose root is <mujoco> and that no other <include>s (scene.xml, "
+                        "not the robot.xml it includes)")
     p.add_argument("--out", type=Path, default=Path("reports/zoo"), metavar="DIR",
                    help="where zoo.md and zoo.json go (default: reports/zoo)")
     p.add_argument("--faults", action="store_true",
@@ -961,7 +966,13 @@ def cmd_zoo(args: argparse.Namespace) -> int:
     from harness.outputs.studies.injection import cell as injection_cell  # lazy: as above
 
     check_output(args.out)
-    models, skipped = zoo.discover()
+    if args.folder is not None:
+        models, passed = zoo.folder_models(args.folder)
+        skipped: tuple = ()
+        for line in passed:
+            print(f"passed over: {line}", flush=True)
+    else:
+        models, skipped = zoo.discover()
     chosen = zoo.select(args.models, models, skipped)
     for s in skipped:
         print(f"skipped: {s.line()}", flush=True)
@@ -981,7 +992,7 @@ def cmd_zoo(args: argparse.Namespace) -> int:
 
     run = zoo.run(chosen, jobs=args.jobs or cpus(), integrators=args.integrators, faults=args.faults,
                   fault_max_nv=args.fault_max_nv, injection=args.injection, skipped=skipped, on_done=done,
-                  timeout=args.timeout, executor=_executor(args),
+                  timeout=args.timeout, executor=_executor(args), found=args.folder is None,
                   command=" ".join(["mjharness", *sys.argv[1:]]) if sys.argv[1:2] == ["zoo"] else "mjharness zoo")
     prepare_output(args.out)
     paths = write_atomic({args.out / "zoo.md": zoo.zoo_markdown(run), args.out / "zoo.json": dumps(zoo.zoo_json(run))})
