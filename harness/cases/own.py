@@ -289,9 +289,8 @@ def _from_mjcf(path: Path, *, keyframe: str | None, ctrl: Mapping[str, float] | 
         qvel = kicked  # at θ = 0 (the charts are centred at the start) MuJoCo's qvel is q̇ itself
         start = start.replace(" at rest", "") + " with every joint set moving (kinetic energy ½ m g L)"
     binding = functools.partial(TreeBinding, charts=chart)
-    description = (f"{path.name}: its own kinematic tree ({model.nv} dof), from {start}"
-                   + (f"; not in the reference, judged by the work–energy balance only: {', '.join(gaps)}"
-                      if gaps else ""))
+    # what the reference leaves out is the tree's "not examined", said once wherever it lands (report, lines)
+    description = f"{path.name}: its own kinematic tree ({model.nv} dof), from {start}"
     floating = system.dynamics(compile_model(path, edit=system.edit)).free_floating
     case = Case(name=model_name(path), system=TREE, mjcf=path.resolve(),
                 motion=motion(model, qpos, qvel, horizon=horizon or HORIZON_CAP, description=description),
