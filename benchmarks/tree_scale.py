@@ -10,8 +10,12 @@ On chains of n capsule links (``benchmarks/tree.py``'s ``chain``), in this one p
 2. the reference as ``check --mjcf`` solves it (``from_mjcf`` with the horizon given, then its reference over 1 s
    of simulated time, the solution cache off): right-hand-side evaluations per simulated second and the solve's
    seconds, and the solve's seconds over (evaluations × one evaluation's seconds): the share of a solve the
-   evaluations are. The bound estimates a solve as evaluations × one evaluation measured on the model itself, the
-   evaluations at least the fewest per simulated second seen here.
+   evaluations are;
+3. the same evaluations per simulated second on the small zoo models where installed (dm_control, Gymnasium): the
+   slowest motions, whose fewest is the bound's floor (``EVALUATIONS_PER_SECOND``).
+
+The bound estimates a solve as evaluations × one evaluation measured on the model itself, the evaluations at least
+the fewest per simulated second seen here.
 """
 
 from __future__ import annotations
@@ -35,6 +39,8 @@ from tree import chain  # noqa: E402
 
 EVAL_SIZES = (2, 4, 8, 16, 32, 64, 128, 300)
 SOLVE_SIZES = (2, 4, 8, 16)
+ZOO = ("dm_control/pendulum", "dm_control/cartpole", "dm_control/point_mass", "dm_control/acrobot",
+       "gymnasium/inverted_pendulum", "gymnasium/reacher", "gymnasium/swimmer")
 
 
 def one_evaluation(n: int, repeat: int = 5) -> float:
@@ -60,11 +66,16 @@ def _timed(fn, calls: int = 1) -> float:
 
 def one_solve(n: int, folder: Path) -> tuple[int, float]:
     """(right-hand-side evaluations, seconds) of the n-link chain's reference over 1 s, as check --mjcf solves it."""
+    path = folder / f"chain{n}.xml"
+    path.write_text(chain(n))
+    return solved(path)
+
+
+def solved(path: Path) -> tuple[int, float]:
+    """(right-hand-side evaluations, seconds) of the model's reference over 1 s, as check --mjcf solves it."""
     from harness.cases.own import from_mjcf
     from harness.engine.models import compile_model
 
-    path = folder / f"chain{n}.xml"
-    path.write_text(chain(n))
     case = from_mjcf(path, horizon=1.0)
     model = compile_model(path, edit=case.prepare)
     start = time.perf_counter()
@@ -101,6 +112,24 @@ def main() -> None:
                          f"{seconds / (nfev * per[n]):22.2f}")
             print(lines[-1], flush=True)
     lines.append(f"  fewest evaluations per simulated second: {min(s[1] for s in solves)}")
+    from harness import zoo
+
+    models, _ = zoo.discover()
+    found = {m.name: m for m in models}
+    lines += ["", "part 3: the reference over 1 s of the small zoo models (installed ones), cache off",
+              f"  {'model':28} {'nv':>3} {'evaluations':>11} {'solve s':>8}"]
+    fewest = []
+    for name in ZOO:
+        if name not in found:
+            lines.append(f"  {name:28} not installed")
+            continue
+        nfev, seconds = solved(found[name].path)
+        fewest.append(nfev)
+        lines.append(f"  {name:28} {zoo._nv(found[name].path):>3} {nfev:>11} {seconds:8.2f}")
+        print(lines[-1], flush=True)
+    if fewest:
+        lines.append(f"  fewest evaluations per simulated second: {min(fewest)} (the bound's floor: "
+                     "harness.core.bounds.EVALUATIONS_PER_SECOND, rounded down)")
     text = "\n".join(lines) + "\n"
     print(text)
     if args.out:
