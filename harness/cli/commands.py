@@ -428,8 +428,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs, executor=executor,
                                       **_case_lines(args))
     outcome = _outcome(args, results, checks, limits)
-    pages, appendix, plots = draw_report(selected, results, jobs=args.jobs, executor=executor,
-                                         studies=args.studies and options.shipped)
+    with heartbeat("the report: plots, pictures and pages"):  # seconds to minutes, after the cases' lines
+        pages, appendix, plots = draw_report(selected, results, jobs=args.jobs, executor=executor,
+                                             studies=args.studies and options.shipped)
     appendix = (appendix or {}) | ({"opinions": opinions.as_dict()} if opinions.as_dict() else {})
     others = backends.expand(args.backend)[1:]
     if others:  # the first backend's report, and every backend side by side (its verdict is the first's)
@@ -442,8 +443,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         pages = [*pages, Page(BACKENDS_PAGE, "Backends side by side", "every gated figure of each case on each "
                               "backend, and the findings", (side_by_side_html(runs),))]
         appendix = (appendix or {}) | {"backends": side_by_side_json(runs)}
-    files = report_files(args.out, results, outcome, config_source=limits.source, pages=pages,
-                         appendix=appendix, plots=plots)
+    with heartbeat("the report: pages"):
+        files = report_files(args.out, results, outcome, config_source=limits.source, pages=pages,
+                             appendix=appendix, plots=plots)
     prepare_output(args.out)
     # the report and its JUnit, all or none, and an earlier report's pages this one has not removed with them
     paths = write_atomic(files | _junit(args.junit, outcome), remove=superseded(args.out, files))

@@ -3,13 +3,14 @@ so that no command is silent for longer than :data:`HEARTBEAT` on any model.
 
 ``heartbeat(subject)`` around a phase: after each :data:`HEARTBEAT` seconds it lasts, one line
 "mjharness: SUBJECT: STAGE, 20 s so far" (``stage(name)`` names what runs now). Nested, only the outermost prints;
-the inner ones name its stage. The line is written by a thread of its own, started and joined by the block: no
-process is forked while it runs (a pool is forked before or after a phase, never within one).
+the inner ones name its stage. The line is written by a thread of its own, started and joined by the block; a
+process forked meanwhile (a worker pool) starts with no heartbeat and a fresh lock.
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
 import sys
 import threading
 import time
@@ -21,6 +22,17 @@ CI log."""
 
 _state: dict[str, object] = {"depth": 0, "stage": ""}
 _lock = threading.Lock()
+
+
+def _forked() -> None:
+    """In a child forked while a heartbeat ran (a worker pool): no heartbeat of its parent's, and a lock no thread
+    of the parent's can have left held."""
+    global _lock
+    _lock = threading.Lock()
+    _state.update(depth=0, stage="")
+
+
+os.register_at_fork(after_in_child=_forked)
 
 
 def stage(name: str) -> None:
