@@ -35,6 +35,7 @@ def test_an_own_model_is_named_after_its_model_attribute_else_its_folder_never_s
     assert model_name(_file(tmp_path / "acme_arm", "scene_left.xml", "scene")) == "acme_arm"
     assert model_name(_file(tmp_path / "acme_arm", "arm.xml", None)) == "arm"
     assert model_name(_file(tmp_path / "acme_arm", "arm2.xml", "MuJoCo Model")) == "arm2"
+    assert model_name(_file(tmp_path / "acme_arm", "arm3.xml", "two\n  lines\tand a tab")) == "two lines and a tab"
 
 
 @pytest.fixture(scope="module")

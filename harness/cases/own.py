@@ -227,8 +227,8 @@ def model_name(path: Path | str) -> str:
     (Menagerie's "panda scene"), else the file's name without ``.xml``, but its folder's name where that is a
     generic one (``franka_emika_panda/scene.xml``: "franka_emika_panda"). Never "scene" alone."""
     path = Path(path)
-    try:
-        written = load_spec(path).modelname.strip()
+    try:  # one line of printable characters: it lands in terminal lines, file names and pages
+        written = "".join(c if c.isprintable() else "?" for c in " ".join(load_spec(path).modelname.split()))
     except ModelError:  # unreadable: from_mjcf names what is wrong with it
         written = ""
     generic = [*GENERIC_STEMS, DEFAULT_MODEL_NAME.lower()]
@@ -277,6 +277,7 @@ def _from_mjcf(path: Path, *, keyframe: str | None, ctrl: Mapping[str, float] | 
     chart = tuple((j, tuple(float(x) for x in quat)) for j, quat in charts(model, qpos).items())
     progress.stage(f"estimating the cost of its tree reference ({model.nv} dof)")
     _check_cost(model, TreeSystem(charts=chart), qpos, horizon or HORIZON_CAP)
+    progress.stage("preparing its start")
     _refuse_floor_spins(model, qpos)
     source = None
     if reference is not None:
