@@ -136,7 +136,8 @@ def run_case(case: Case, options: RunOptions | None = None) -> CaseResult:
     budget's and the convergence ladder's included; :class:`~harness.core.errors.BackendUnavailable` where it
     cannot.
     """
-    with progress.heartbeat(f"case {case.name}"):  # a line every few seconds while it runs: never silent
+    # a model of one's own: a line every few seconds while it runs, never silent (a shipped case ends in seconds)
+    with progress.heartbeat(f"case {case.name}", quiet=case.tree is None):
         return _run_case(case, options or RunOptions())
 
 
