@@ -35,7 +35,7 @@ def test_a_300_link_chain_is_refused_up_front_with_its_estimate(tmp_path, no_sol
     path.write_text(chain(300))
     assert main(["check", "--mjcf", str(path), "--quiet"]) == 2
     err = capsys.readouterr().err
-    assert "tree reference (300 dof) would take at least" in err
+    assert "tree reference (300 dof) would take more than the bound of" in err and "to solve over 1 s" in err
     assert f"at least {bounds.EVALUATIONS_PER_SECOND} of them" in err and "results_tree_scale.txt" in err
     assert "MJHARNESS_MAX_REFERENCE_SECONDS=" in err
 
@@ -101,7 +101,7 @@ def test_choosing_the_horizon_is_not_silent(tmp_path, monkeypatch, capsys):
     path.write_text(chain(2))
     own.from_mjcf(path)
     err = capsys.readouterr().err
-    assert "mjharness: chain2: choosing the horizon: solving its tree reference over 1 s" in err
+    assert "mjharness: chain2: choosing the horizon: solving " in err  # (the nominal solve may be stored)
 
 
 def _png(path: Path, side: int) -> None:
