@@ -25,11 +25,13 @@ Each model's wall time is measured from reading the file to the verdict.
 from __future__ import annotations
 
 import contextlib
+import html
 import importlib.util
 import math
 import signal
 import time
 import traceback
+import xml.etree.ElementTree as ET
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -155,6 +157,74 @@ def discover(sources: Sequence[Source] = SOURCES) -> tuple[tuple[ZooModel, ...],
         models += [ZooModel(f"{source.package}/{p.stem}", source.package, p)
                    for p in sorted((root / source.folder).glob("*.xml"))]
     return tuple(models), tuple(skipped)
+
+
+FOLDER_FILES = 10_000
+"""The most ``.xml`` files :func:`folder_models` reads in a folder (Menagerie holds about 300): a folder past it is
+refused in one line rather than read for minutes."""
+FOLDER_FILE_BYTES = 16_000_000
+"""The largest ``.xml`` file :func:`folder_models` reads to find its includes (Menagerie's largest is under 1 MB);
+a larger one is not an entry, and said so."""
+
+
+def printable(text: str) -> str:
+    """``text`` with every character a terminal would act on (a control character, an escape) as ``?``: a file's
+    name as it lands in a line."""
+    return "".join(c if c.isprintable() else "?" for c in text)
+
+
+def _included(path: Path, root: ET.Element) -> set[Path]:
+    """The files ``path``'s ``<include file=...>`` elements name, resolved as MuJoCo resolves them (relative to the
+    including file's folder)."""
+    return {(path.parent / inc.get("file", "")).resolve() for inc in root.iter("include") if inc.get("file")}
+
+
+def folder_models(folder: Path | str) -> tuple[tuple[ZooModel, ...], tuple[str, ...]]:
+    """Every MJCF entry of a folder laid out like MuJoCo Menagerie's (a folder per robot, each with its entry files
+    such as ``scene.xml`` and the robot's own ``<robot>.xml``, its meshes in a subfolder), and the files passed over
+    with why. An entry is every ``.xml`` file under ``folder`` whose root element is ``<mujoco>`` and that no other
+    such file ``<include>``s: ``scene.xml`` (which includes ``panda.xml``) is an entry and ``panda.xml`` is not;
+    ``hand.xml``, included by none, is one. Whether it compiles is for its verdict to say (refused, in one line).
+    Each is named by its path under ``folder`` without ``.xml`` (``franka_emika_panda/scene``), its package the
+    robot's folder. ValueError (one line) for a folder that is none, holds no entry, or more than
+    :data:`FOLDER_FILES` files."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ValueError(f"--folder {printable(str(folder))!r} is not a folder; accepted: a folder of robot "
+                         "folders, each with its MJCF files (MuJoCo Menagerie's layout)")
+    files: list[Path] = []
+    for path in sorted(folder.rglob("*.xml")):
+        if len(files) == FOLDER_FILES:
+            raise ValueError(f"--folder {printable(str(folder))!r} holds more than {FOLDER_FILES} .xml files; "
+                             "accepted: a folder of robots (point it at fewer)")
+        if path.is_file():
+            files.append(path)
+    roots: dict[Path, ET.Element] = {}
+    passed: list[str] = []
+    for path in files:
+        where = printable(path.relative_to(folder).as_posix())
+        if path.stat().st_size > FOLDER_FILE_BYTES:
+            passed.append(f"{where}: larger than {FOLDER_FILE_BYTES / 1e6:g} MB, not read")
+            continue
+        try:
+            root = ET.parse(path).getroot()
+        except (ET.ParseError, OSError, ValueError) as exc:
+            passed.append(f"{where}: not XML ({printable(' '.join(str(exc).split()))})")
+            continue
+        if root.tag == "mujoco":
+            roots[path.resolve()] = root
+    included = set().union(*(_included(p, r) for p, r in roots.items())) if roots else set()
+    entries = [p for p in files if p.resolve() in roots and p.resolve() not in included]
+    if not entries:
+        raise ValueError(f"--folder {printable(str(folder))!r} holds no MJCF entry (an .xml file whose root is "
+                         "<mujoco>, included by no other)")
+    models = []
+    for path in entries:
+        relative = path.relative_to(folder)
+        name = relative.with_suffix("").as_posix()
+        package = relative.parts[0] if len(relative.parts) > 1 else folder.resolve().name
+        models.append(ZooModel(name, package, path))
+    return tuple(models), tuple(passed)
 
 
 def select(names: Sequence[str], models: Sequence[ZooModel], skipped: Sequence[Skipped] = ()) -> tuple[ZooModel, ...]:
@@ -350,7 +420,7 @@ class ZooResult:
         else:
             tail = self.reason
         limits = "".join(f"; {text}" for text in self.limits)
-        return f"{head} (nv {self.nv}, {self.seconds:.1f} s): {tail}{limits}"
+        return printable(f"{head} (nv {self.nv}, {self.seconds:.1f} s): {tail}{limits}")
 
     def as_dict(self) -> dict[str, object]:
         out = asdict(self)
@@ -418,6 +488,12 @@ def judge_named(name: str, integrators: tuple[str, ...] | None, timeout: float |
     return judge(select([name], models)[0], integrators=integrators, timeout=timeout)
 
 
+def judge_entry(model: ZooModel, integrators: tuple[str, ...] | None, timeout: float | None = None) -> ZooResult:
+    """:func:`judge` of a model found by :func:`folder_models` (what a worker process is sent: the model itself,
+    which no discovery finds again)."""
+    return judge(model, integrators=integrators, timeout=timeout)
+
+
 # ---- the whole zoo ------------------------------------------------------------------------------------------
 MIN_MODELS = 3
 """Each engine-side fault must be caught, at the size issue 29 names, on at least this many zoo models (or on
@@ -479,18 +555,23 @@ class ZooRun:
 def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str] | None = None,
         faults: bool = False, fault_max_nv: int | None = None, injection: bool = False,
         skipped: Sequence[Skipped] = (), on_done=None, command: str = "", timeout: float | None = None,
-        executor: Executor = LOCAL) -> ZooRun:
+        executor: Executor = LOCAL, found: bool = True) -> ZooRun:
     """Judge every model (and, with ``faults``, size each engine-side fault, with ``injection`` the smallest energy
     injection its balance catches, on those of at most ``fault_max_nv`` dofs) on ``jobs`` worker processes,
     costliest first; ``on_done(result)`` as each ends. ``timeout``: each model's verdict, and each model's fault
     or injection study, stops after so many seconds (unfinished). ``executor``: where the calls run (a Ray
-    cluster: one task a call; a task lost for good is its model's row, crashed, saying so)."""
+    cluster: one task a call; a task lost for good is its model's row, crashed, saying so). ``found``: the models
+    are the installed zoo's (:func:`discover`); False: a folder's (:func:`folder_models`), judged alone (no faults,
+    no injection: those studies find their models by name)."""
+    if not found and (faults or injection):
+        raise ValueError("--faults and --injection size faults on the installed zoo's models; not with --folder")
 
     clock = time.perf_counter()
     nv = {m.name: _nv(m.path) for m in models}
     order = sorted(models, key=lambda m: -nv[m.name])  # the costliest first: the pool ends together
     chosen = tuple(integrators) if integrators is not None else None
-    calls = [(judge_named, (m.name, chosen, timeout)) for m in order]
+    calls = [(judge_named, (m.name, chosen, timeout)) if found else (judge_entry, (m, chosen, timeout))
+             for m in order]
     left_out: list[str] = []
     sized = [m for m in order if fault_max_nv is None or nv[m.name] <= fault_max_nv]
     if faults or injection:
@@ -501,7 +582,11 @@ def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str]
         calls += [(smallest_injection_named, (m.name, timeout)) for m in sized]
     def lost(i: int, reason: str):  # a task the cluster could not run: its rows, never missing
         fn, (name, *_) = calls[i]
+        name = name.name if isinstance(name, ZooModel) else name
         why = f"its Ray task failed for good: {reason}"
+        if fn is judge_entry:
+            chosen = next(m for m in models if m.name == name)
+            return ZooResult(name, chosen.package, str(chosen.path), CRASHED, 0.0, nv=nv[name], reason=why)
         if fn is judge_named:
             chosen = select([name], models)[0]
             return ZooResult(name, chosen.package, str(chosen.path), CRASHED, 0.0, nv=nv[name], reason=why)
@@ -509,8 +594,8 @@ def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str]
             return [Caught(name, f, None, None, crashed=why) for f in FAULTS]
         return Injection(name, None, None, crashed=why)
 
-    labels = [f"zoo {fn.__name__.removesuffix('_named')} {args[0]} (MuJoCo {mujoco.__version__}, backend c)"
-              for fn, args in calls]
+    labels = [f"zoo {fn.__name__.removesuffix('_named')} {printable(getattr(args[0], 'name', args[0]))} "
+              f"(MuJoCo {mujoco.__version__}, backend c)" for fn, args in calls]
     rows = run_tasks(calls, jobs, on_done=(lambda _i, r: on_done(r)) if on_done else None, executor=executor,
                      failed=lost, labels=labels)
     verdicts = {r.model: r for r in rows if isinstance(r, ZooResult)}
@@ -527,14 +612,15 @@ def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str]
 
 def _nv(path: Path) -> int:
     try:
-        return int(mujoco.MjModel.from_xml_path(str(path)).nv)
+        return int(compile_model(path).nv)  # as a run compiles it: a robot's image textures are not decoded
     except ValueError:
         return 0
 
 
 # ---- the report ---------------------------------------------------------------------------------------------
 def _cell(text: str) -> str:
-    return text.replace("|", "\\|").replace("\n", " ")
+    """``text`` as one Markdown table cell: no row or column break, no HTML (a file's name may hold either)."""
+    return html.escape(printable(text), quote=False).replace("|", "\\|")
 
 
 def _verdict_cell(r: ZooResult) -> str:
@@ -582,7 +668,7 @@ def zoo_markdown(z: ZooRun) -> str:
     if failed:
         lines += ["", "## Findings", ""]
         for r in failed:
-            lines.append(f"- **{r.model}**: {r.deciding.text() if r.deciding else ''}; failed: "
+            lines.append(f"- **{_cell(r.model)}**: {r.deciding.text() if r.deciding else ''}; failed: "
                          f"{', '.join(r.failed)}")
     limited = [r for r in z.results if r.limits]
     if limited:

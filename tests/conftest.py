@@ -83,8 +83,9 @@ def assert_faults_cover(case: str, faults: dict, generic: tuple[str, ...] = ("co
 
 
 # the line run and check print as each case finishes (harness/outputs/table.py case_line): on stdout, or with
-# --quiet or --json on stderr where it is not a terminal
-PROGRESS_LINE = re.compile(r"case [\w.-]+: +\d+ checks, +\d+ fail, [^()]+ \(\d+\.\d s\)")
+# --quiet or --json on stderr where it is not a terminal; and the heartbeat of a long phase (harness/core/progress.py)
+PROGRESS_LINE = re.compile(r"case [^:]+: +\d+ checks, +\d+ fail, [^()]+ \(\d+\.\d s\)"
+                           r"|mjharness: .+, \d+(\.\d)? (s|min) so far|mjharness: .+: \d+(\.\d)? (s|min) so far")
 
 
 def without_progress(err: str) -> str:

@@ -30,9 +30,10 @@ import numpy as np
 from analytic.solvers import STIFF_RTOL, TooManySteps, project, solve
 from analytic.tree import TreeDynamics
 from harness.cases import Case, Wiring
+from harness.core import bounds, progress
 from harness.core.errors import ModelError
 from harness.engine.bindings import TreeBinding
-from harness.engine.models import compile_model
+from harness.engine.models import compile_model, load_spec
 from harness.engine.readings.momentum import total_momentum
 from harness.engine.variants import POINT_MASS
 from harness.reference.solutions import TREE_MAX_STEPS
@@ -120,7 +121,9 @@ def chaos_horizon(case: Case, model: mujoco.MjModel) -> tuple[float, str]:
     :data:`HORIZON_CAP` and at least :data:`MIN_STEPS` timesteps."""
     dyn = case.tree.dynamics(model)
     scales = tree_scales(dyn.tree)
+    progress.stage(f"choosing the horizon: solving its tree reference over {HORIZON_CAP:g} s")
     nominal = case.reference(model, t_end=HORIZON_CAP)
+    progress.stage(f"choosing the horizon: solving a perturbed start over {HORIZON_CAP:g} s")
     q0, qd0 = nominal.q0(), nominal.qd0()
     signs = np.where(np.arange(dyn.n) % 2 == 0, 1.0, -1.0)
     kick = SEED * math.sqrt(9.81 / scales.length) * signs
@@ -178,6 +181,74 @@ def _refuse_floor_spins(model: mujoco.MjModel, qpos: np.ndarray) -> None:
                              f"inertia above {SPIN_FLOOR:.2g} of the largest, or the point mass on a pair of hinges")
 
 
+class _Slow(BaseException):
+    """Raised in the timed evaluation once it has run long enough to decide the refusal."""
+
+
+def _timed_evaluation(dyn: TreeDynamics, q: np.ndarray, qd: np.ndarray, deadline: float) -> tuple[float, bool]:
+    """The CPU seconds of one evaluation of the tree's accelerations (the first: it also builds what the tree
+    caches) and False, or ``deadline`` and True where it has not ended by then: it is stopped there (by SIGPROF,
+    in the main thread; elsewhere it runs to its end). One evaluation of a large tree can take a minute."""
+    import signal  # lazy: only the cost's timing stops a computation
+    import threading  # lazy: as above
+
+    stoppable = threading.current_thread() is threading.main_thread() and hasattr(signal, "ITIMER_PROF")
+
+    def stop(_signum, _frame):
+        raise _Slow
+
+    clock = time.process_time()
+    previous = signal.signal(signal.SIGPROF, stop) if stoppable else None
+    if stoppable:
+        signal.setitimer(signal.ITIMER_PROF, deadline)
+    try:
+        dyn.accelerations(q, qd)
+    except _Slow:
+        return deadline, True
+    finally:
+        if stoppable:
+            signal.setitimer(signal.ITIMER_PROF, 0)
+            signal.signal(signal.SIGPROF, previous)
+    return time.process_time() - clock, False
+
+
+def _check_cost(model: mujoco.MjModel, system: TreeSystem, qpos: np.ndarray, span: float) -> None:
+    """RunTooLong, before any solve, where the tree reference over ``span`` would pass
+    :func:`~harness.core.bounds.max_reference_seconds` (:func:`~harness.core.bounds.check_reference_cost`): one
+    evaluation of its accelerations is timed here, and stopped as soon as it is long enough to refuse."""
+    dyn = system.dynamics(model)
+    q0, qd0 = start_state(model, qpos, np.zeros(model.nv))
+    q = np.array([q0[c] for c in dyn.coordinates])
+    qd = np.array([qd0[c] for c in dyn.coordinates])
+    deadline = 1.01 * bounds.max_reference_seconds() / (bounds.EVALUATIONS_PER_SECOND * span)
+    evaluation, stopped = _timed_evaluation(dyn, q, qd, deadline)
+    bounds.check_reference_cost(evaluation=evaluation, span=span, nv=int(model.nv), stopped=stopped)
+
+
+DEFAULT_MODEL_NAME = "MuJoCo Model"
+"""The ``model`` attribute MuJoCo gives a file that has none."""
+GENERIC_STEMS = ("scene",)
+"""File names that say what a file is, not which model: Menagerie's ``scene.xml``, ``scene_left.xml``."""
+
+
+def model_name(path: Path | str) -> str:
+    """What a model of one's own is called in its report and lines: its MJCF ``model`` attribute where it has one
+    (Menagerie's "panda scene"), else the file's name without ``.xml``, but its folder's name where that is a
+    generic one (``franka_emika_panda/scene.xml``: "franka_emika_panda"). Never "scene" alone."""
+    path = Path(path)
+    try:  # one line of printable characters: it lands in terminal lines, file names and pages
+        written = "".join(c if c.isprintable() else "?" for c in " ".join(load_spec(path).modelname.split()))
+    except ModelError:  # unreadable: from_mjcf names what is wrong with it
+        written = ""
+    generic = [*GENERIC_STEMS, DEFAULT_MODEL_NAME.lower()]
+    if written and not any(written.lower() == g or written.lower().startswith(f"{g}_") for g in generic):
+        return written
+    stem = path.stem
+    if any(stem.lower() == g or stem.lower().startswith(f"{g}_") for g in GENERIC_STEMS):
+        return path.resolve().parent.name or stem
+    return stem
+
+
 def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[str, float] | None = None,
               horizon: float | None = None, reference: Path | str | None = None) -> Case:
     """The case of the model at ``path`` judged against its own kinematic tree (no hand-derived system).
@@ -188,6 +259,13 @@ def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[st
     fault tests inject). ModelError (one line) for a model the tree reference cannot read or a keyframe or
     actuator it lacks."""
     path = Path(path)
+    with progress.heartbeat(model_name(path)):
+        return _from_mjcf(path, keyframe=keyframe, ctrl=ctrl, horizon=horizon, reference=reference)
+
+
+def _from_mjcf(path: Path, *, keyframe: str | None, ctrl: Mapping[str, float] | None, horizon: float | None,
+               reference: Path | str | None) -> Case:
+    progress.stage("reading the model")
     model = compile_model(path, edit=prepare)
     why = refusal(model)
     if why:
@@ -206,9 +284,12 @@ def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[st
         limited[:] = False
     controls[limited] = np.clip(controls[limited], model.actuator_ctrlrange[limited, 0],
                                 model.actuator_ctrlrange[limited, 1])
-    _refuse_floor_spins(model, qpos)
     gaps = uncovered(model)
     chart = tuple((j, tuple(float(x) for x in quat)) for j, quat in charts(model, qpos).items())
+    progress.stage(f"estimating the cost of its tree reference ({model.nv} dof)")
+    _check_cost(model, TreeSystem(charts=chart), qpos, horizon or HORIZON_CAP)
+    progress.stage("preparing its start")
+    _refuse_floor_spins(model, qpos)
     source = None
     if reference is not None:
         source = str(Path(reference).resolve())
@@ -220,11 +301,10 @@ def from_mjcf(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[st
         qvel = kicked  # at θ = 0 (the charts are centred at the start) MuJoCo's qvel is q̇ itself
         start = start.replace(" at rest", "") + " with every joint set moving (kinetic energy ½ m g L)"
     binding = functools.partial(TreeBinding, charts=chart)
-    description = (f"{path.name}: its own kinematic tree ({model.nv} dof), from {start}"
-                   + (f"; not in the reference, judged by the work–energy balance only: {', '.join(gaps)}"
-                      if gaps else ""))
+    # what the reference leaves out is the tree's "not examined", said once wherever it lands (report, lines)
+    description = f"{path.name}: its own kinematic tree ({model.nv} dof), from {start}"
     floating = system.dynamics(compile_model(path, edit=system.edit)).free_floating
-    case = Case(name=path.stem, system=TREE, mjcf=path.resolve(),
+    case = Case(name=model_name(path), system=TREE, mjcf=path.resolve(),
                 motion=motion(model, qpos, qvel, horizon=horizon or HORIZON_CAP, description=description),
                 wiring=Wiring(binding=binding, description=description,
                               invariants=total_momentum() if floating else {}), tree=system)

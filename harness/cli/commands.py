@@ -55,6 +55,7 @@ from harness.core.errors import SimulationDiverged
 from harness.core.escape import terminal
 from harness.core.lifetime import Terminated, exit_code, sigterm_as_interrupt
 from harness.core.options import RunOptions
+from harness.core.progress import heartbeat
 from harness.core.tables import terminal_width, wrap
 from harness.engine import backends, messages
 from harness.engine.integrators import available_integrators
@@ -470,16 +471,17 @@ def cmd_run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     check_report_folder(args.out, force=args.force_out)  # fail before minutes of work, not after
     _check_junit(args.junit, args.out)
+    selected = _selected(args)  # first: a model too large for its reference is refused before anything runs
     opinions = _opinions(args)
-    selected = _selected(args)
     options = _options(args, selected, several=True)
     executor = _executor(args)
     results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs, executor=executor,
                                       **_case_lines(args))
     outcome = _outcome(args, results, checks, limits)
     inertials = _inertials(args, selected, limits)
-    pages, appendix, plots = draw_report(selected, results, jobs=args.jobs, executor=executor,
-                                         studies=args.studies and options.shipped)
+    with heartbeat("the report: plots, pictures and pages"):  # seconds to minutes, after the cases' lines
+        pages, appendix, plots = draw_report(selected, results, jobs=args.jobs, executor=executor,
+                                             studies=args.studies and options.shipped)
     appendix = (appendix or {}) | ({"opinions": opinions.as_dict()} if opinions.as_dict() else {})
     appendix |= {"inertials": inertials.as_dict()}
     pages = [*pages, *inertia_page(inertials)]
@@ -494,8 +496,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         pages = [*pages, Page(BACKENDS_PAGE, "Backends side by side", "every gated figure of each case on each "
                               "backend, and the findings", (side_by_side_html(runs),))]
         appendix = (appendix or {}) | {"backends": side_by_side_json(runs)}
-    files = report_files(args.out, results, outcome, config_source=limits.source, pages=pages,
-                         appendix=appendix, plots=plots, banners=inertia_banners(inertials))
+    with heartbeat("the report: pages"):
+        files = report_files(args.out, results, outcome, config_source=limits.source, pages=pages,
+                             appendix=appendix, plots=plots, banners=inertia_banners(inertials))
     prepare_output(args.out)
     # the report and its JUnit, all or none, and an earlier report's pages this one has not removed with them
     paths = write_atomic(with_manifest(args.out, files | _junit(args.junit, outcome)),
@@ -531,8 +534,8 @@ def _args_check(p: argparse.ArgumentParser) -> None:
 
 def cmd_check(args: argparse.Namespace) -> int:
     _check_junit(args.junit)
+    selected = _selected(args)  # first: a model too large for its reference is refused before anything runs
     opinions = _opinions(args)
-    selected = _selected(args)
     # with --json, stdout is the document alone: what a library prints meanwhile goes to stderr (mujoco-mjx
     # prints "Failed to import warp" to stdout when it is imported without Warp)
     with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
@@ -572,7 +575,8 @@ def _opinions(args: argparse.Namespace):
         named = cases.select([*args.cases, *(args.case or [])])
         mjcf = named[0].mjcf if len(named) == 1 else None
     own = args.mjcf is not None and not [*args.cases, *(args.case or [])]  # a model of your own, no case
-    return model_opinions(mjcf, urdf=args.urdf, mapping=args.urdf_map, parser=own and not args.quiet)
+    with heartbeat(f"{Path(mjcf).name if mjcf is not None else 'model'}: second opinions"):  # Pinocchio's: slow
+        return model_opinions(mjcf, urdf=args.urdf, mapping=args.urdf_map, parser=own and not args.quiet)
 
 
 def _exit_code(outcome: Outcome, opinions, inertials, *, json: bool = False) -> int:
@@ -1005,7 +1009,12 @@ def cmd_sensitivity(args: argparse.Namespace) -> int:
 
 def _args_zoo(p: argparse.ArgumentParser) -> None:
     p.add_argument("models", nargs="*", metavar="MODEL",
-                   help="zoo models (dm_control/acrobot, or a stem: acrobot; default: every model installed)")
+                   help="zoo models (dm_control/acrobot, or a stem: acrobot; default: every model installed); "
+                        "with --folder, that folder's entries (robot/scene, or a stem)")
+    p.add_argument("--folder", type=Path, metavar="DIR",
+                   help="judge every MJCF entry of DIR instead, a folder of robots laid out like MuJoCo Menagerie's: "
+                        "every .xml file under it whose root is <mujoco> and that no other <include>s (scene.xml, "
+                        "not the robot.xml it includes)")
     p.add_argument("--out", type=_folder, default=Path("reports/zoo"), metavar="DIR",
                    help="where zoo.md and zoo.json go (default: reports/zoo)")
     p.add_argument("--faults", action="store_true",
@@ -1028,7 +1037,13 @@ def cmd_zoo(args: argparse.Namespace) -> int:
     from harness.outputs.studies.injection import cell as injection_cell  # lazy: as above
 
     check_output(args.out)
-    models, skipped = zoo.discover()
+    if args.folder is not None:
+        models, passed = zoo.folder_models(args.folder)
+        skipped: tuple = ()
+        for line in passed:
+            print(f"passed over: {line}", flush=True)
+    else:
+        models, skipped = zoo.discover()
     chosen = zoo.select(args.models, models, skipped)
     for s in skipped:
         print(f"skipped: {s.line()}", flush=True)
@@ -1048,7 +1063,7 @@ def cmd_zoo(args: argparse.Namespace) -> int:
 
     run = zoo.run(chosen, jobs=args.jobs or cpus(), integrators=args.integrators, faults=args.faults,
                   fault_max_nv=args.fault_max_nv, injection=args.injection, skipped=skipped, on_done=done,
-                  timeout=args.timeout, executor=_executor(args),
+                  timeout=args.timeout, executor=_executor(args), found=args.folder is None,
                   command=" ".join(["mjharness", *sys.argv[1:]]) if sys.argv[1:2] == ["zoo"] else "mjharness zoo")
     prepare_output(args.out)
     paths = write_atomic({args.out / "zoo.md": zoo.zoo_markdown(run), args.out / "zoo.json": dumps(zoo.zoo_json(run))})

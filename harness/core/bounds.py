@@ -9,6 +9,12 @@ its estimate, instead of running for hours or out of memory (the way to raise ea
   is far above what any shipped case takes, and minutes of solving; a start spun far faster than the
   model's own motion would otherwise solve for many minutes before the solver's own cap stops it, so the
   steps a solve needs are estimated from its first :data:`analytic.solvers.TRIAL_STEPS` steps.
+- :func:`max_reference_seconds`: the seconds a model's own tree reference may take (``check --mjcf``). Its
+  first steps are no guide where one evaluation of a large tree takes seconds (a 300-link chain: 500 steps
+  would take hours), so the solve is estimated before it starts, from a cost model: one evaluation of the
+  tree's accelerations timed on the model itself, times the fewest evaluations a simulated second of a
+  reference has taken (:data:`EVALUATIONS_PER_SECOND`): a lower bound, so no model that would solve within
+  the bound is refused.
 
 The measurements these defaults and the estimates' rates rest on: docs/findings/bases.md, "Run bounds".
 
@@ -26,6 +32,16 @@ MAX_STEPS = 1_000_000
 MAX_STEPS_VARIABLE = "MJHARNESS_MAX_STEPS"
 MAX_REFERENCE_STEPS = 100_000
 MAX_REFERENCE_STEPS_VARIABLE = "MJHARNESS_MAX_REFERENCE_STEPS"
+MAX_REFERENCE_SECONDS = 30
+"""The longest a model's own tree reference may be estimated to take (CPU s): half the minute a robot's whole check
+is meant to take on a 2-core machine (issue 43), the rest its runs, budget and ladder (80 % of Panda's check, the
+chaos horizon's two solves 20 %: docs/findings/bases.md). The estimate is a lower bound, so a model refused by it
+could not have met that minute."""
+MAX_REFERENCE_SECONDS_VARIABLE = "MJHARNESS_MAX_REFERENCE_SECONDS"
+EVALUATIONS_PER_SECOND = 90
+"""Evaluations of the tree's accelerations a reference over one simulated second takes at the fewest: the fewest
+measured on the kicked start of ``check --mjcf`` was Gymnasium's reacher's 92 (chains of 2 to 16 links: 863 and
+more; benchmarks/tree_scale.py, benchmarks/results_tree_scale.txt), rounded down."""
 BYTES_PER_STEP = 1.3e9 / 250_000
 """Peak memory per step of the run at the model's timestep, measured on the pendulum (the smallest model:
 larger ones record more per step; docs/findings/bases.md)."""
@@ -34,7 +50,7 @@ SECONDS_PER_STEP = 63.0 / 250_000
 measured on the pendulum (2 shared cores; docs/findings/bases.md)."""
 
 
-def _bound(variable: str, default: int) -> int:
+def _bound(variable: str, default: int, *, unit: str = "steps") -> int:
     text = os.environ.get(variable, "").strip()
     if not text:
         return default
@@ -45,7 +61,7 @@ def _bound(variable: str, default: int) -> int:
     # 1e400 is inf (int() of it raised OverflowError: an internal error) and 1.5 is no whole number (it was
     # silently 1)
     if not (math.isfinite(number) and number >= 1 and number == int(number)):
-        raise ValueError(f"{variable}={text!r}; accepted: a positive whole number of steps (default {default})")
+        raise ValueError(f"{variable}={text!r}; accepted: a positive whole number of {unit} (default {default})")
     return int(number)
 
 
@@ -58,6 +74,12 @@ def max_reference_steps() -> int:
     """The most steps the reference's solver may take (:data:`MAX_REFERENCE_STEPS`, or
     ``MJHARNESS_MAX_REFERENCE_STEPS``)."""
     return _bound(MAX_REFERENCE_STEPS_VARIABLE, MAX_REFERENCE_STEPS)
+
+
+def max_reference_seconds() -> int:
+    """The most seconds a model's tree reference may be estimated to take (:data:`MAX_REFERENCE_SECONDS`, or
+    ``MJHARNESS_MAX_REFERENCE_SECONDS``)."""
+    return _bound(MAX_REFERENCE_SECONDS_VARIABLE, MAX_REFERENCE_SECONDS, unit="seconds")
 
 
 def _duration(seconds: float) -> str:
@@ -83,3 +105,22 @@ def reference_too_long(why: str) -> RunTooLong:
     """The refusal of a reference whose solve would pass :func:`max_reference_steps` (``why``: the estimate)."""
     return RunTooLong(f"the reference of this motion is too long to solve: {why}; fix: a shorter --horizon or a "
                       f"slower initial state, or {MAX_REFERENCE_STEPS_VARIABLE}=N to solve it anyway")
+
+
+def check_reference_cost(*, evaluation: float, span: float, nv: int, stopped: bool = False) -> None:
+    """RunTooLong where a tree reference over ``span`` seconds, one evaluation of its accelerations timed at
+    ``evaluation`` CPU seconds (or more: ``stopped`` there), is estimated to take longer than
+    :func:`max_reference_seconds` (the estimate and its basis in the line)."""
+    bound = max_reference_seconds()
+    estimate = EVALUATIONS_PER_SECOND * span * evaluation
+    if estimate <= bound:
+        return
+    took = f"{'more than ' if stopped else ''}{evaluation:.3g} s"
+    shorter = "" if stopped else f"--horizon {bound / (EVALUATIONS_PER_SECOND * evaluation):.2g} or shorter fits, or "
+    at_least = f"more than the bound of {_duration(bound)}" if stopped else (
+        f"at least {_duration(estimate)}, more than the bound of {_duration(bound)}")
+    raise RunTooLong(f"the model's tree reference ({nv} dof) would take {at_least} to solve over {span:g} s "
+                     f"(one evaluation of its accelerations "
+                     f"took {took} of CPU here, and a simulated second of a reference takes at least "
+                     f"{EVALUATIONS_PER_SECOND} of them: benchmarks/results_tree_scale.txt); fix: {shorter}"
+                     f"{MAX_REFERENCE_SECONDS_VARIABLE}={math.ceil(estimate)} or more to solve it anyway")

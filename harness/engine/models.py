@@ -81,11 +81,13 @@ def authored(path: Path | str, *, timestep: float | None = None,
              edit: Callable[[mujoco.MjSpec], None] | None = None) -> str:
     """The model of ``path`` (with ``edit`` and ``timestep`` applied, as :func:`compile_model` applies them) as
     MuJoCo writes it (``MjSpec.to_xml``: every element, each attribute that differs from MuJoCo's default):
-    what two models differ in is what their texts differ in (:func:`harness.pipeline.settings.authored_differences`)."""
+    what two models differ in is what their texts differ in (:func:`harness.pipeline.settings.authored_differences`).
+    Image textures are written flat (:func:`flat_textures`), on both sides alike: drawn, never simulated."""
     spec = load_spec(path)
     # the compiles (the edit's, if it compiles, and the one below) generate the named textures small; the text
     # has each as written, or as the edit set it
     shrunk = small_textures(spec, named_only=True)
+    flat_textures(spec)  # nor image files decoded (to_xml compiles again after any change: they stay flat here)
     if edit is not None:
         edit(spec)
     if timestep is not None:
@@ -107,9 +109,10 @@ def compile_model(
 ) -> mujoco.MjModel:
     """Compile ``path`` with a spec edit and optional integrator/timestep overrides (applied after the
     edit, so that they hold whatever the edit sets), for simulation: its generated textures are made small
-    (:func:`small_textures`)."""
+    (:func:`small_textures`) and those read from image files flat (:func:`flat_textures`)."""
     spec = load_spec(path)
     small_textures(spec)
+    flat_textures(spec)
     if edit is not None:
         edit(spec)
     if integrator is not None:
@@ -164,6 +167,25 @@ def small_textures(spec: mujoco.MjSpec, *, named_only: bool = False) -> dict[str
         if texture.name:
             changed[texture.name] = (written, (aspect[0] * k, aspect[1] * k))
     return changed
+
+
+def flat_textures(spec: mujoco.MjSpec) -> list[tuple[mujoco.MjsTexture, tuple]]:
+    """Every texture read from an image file (``file``, ``cubefiles``) made a flat one of
+    :data:`SMALL_TEXTURE` texels a side, its name kept (the materials that use it still compile). As for
+    :func:`small_textures`, textures are drawn, never simulated; a robot's photographs are not small: ANYmal C's
+    21 PNG files decode to 244 MB in every compiled variant (its check held several at once, 6.6 GB at its peak)
+    and take 3.6 s of each compile.
+    Returns each texture changed with what it was (file, cubefiles, builtin, width, height)."""
+    was = []
+    for texture in spec.textures:
+        if texture.file or any(texture.cubefiles):
+            was.append((texture, (texture.file, list(texture.cubefiles), texture.builtin, texture.width,
+                                  texture.height)))
+            texture.file = ""
+            texture.cubefiles = [""] * len(texture.cubefiles)
+            texture.builtin = mujoco.mjtBuiltin.mjBUILTIN_FLAT
+            texture.width = texture.height = SMALL_TEXTURE
+    return was
 
 
 def _not_a_file(path: Path) -> str:

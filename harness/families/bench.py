@@ -26,7 +26,7 @@ import mujoco
 import numpy as np
 
 from harness.cases import Case
-from harness.core import bounds
+from harness.core import bounds, progress
 from harness.core.budget import Budget
 from harness.core.checks import Limit
 from harness.core.errors import BackendUnavailable, SimulationDiverged, UnmodelledElement
@@ -199,12 +199,14 @@ class Bench:
             derivations.minimal_dynamics(case.system, params)
         self.timings["derivation"] = time.perf_counter() - clock
         clock = time.perf_counter()
+        progress.stage("solving the reference")
         self.reference = case.reference(self.model)
         self.timings["reference"] = compiling + (time.perf_counter() - clock)
         self.probe = case.probe(self.reference.dynamics)
 
     def timed(self, stage: str, work: Callable[[], object]) -> object:
-        """``work()``, its seconds added to the timings under ``stage``."""
+        """``work()``, its seconds added to the timings under ``stage`` (and named in the progress lines)."""
+        progress.stage(stage)
         clock = time.perf_counter()
         try:
             return work()

@@ -64,6 +64,7 @@ from harness.outputs.page import Page, table_of_contents, unbroken_numbers
 from harness.outputs.plots import section_plots, shipped_integrator
 from harness.outputs.stills import Request, Still, stills
 from harness.outputs.table import fitness_line, fmt_value, parts_shown, ratio, ratio_text, verdict_line
+from harness.pipeline.limits import SHIPPED_SOURCE
 from harness.pipeline.outcome import Outcome
 from harness.pipeline.require import Fitness
 from harness.pipeline.run import CaseResult
@@ -151,7 +152,11 @@ def section_summary(results: Sequence[CaseResult], outcome: Outcome | Mapping[st
         tight = closest_check([c for c in cs if c.passed and not c.known])
         closest = (f"{_esc(tight.name)} <span class='dim'>({ratio_text(ratio(tight))})</span>"
                    if tight else "no passing gates" if cs else "no gates")
-        fails = "<br>".join(f"{_esc(c.name)}: {_esc(_failure_text(c))}" for c in failed)
+        why: dict[str, list[str]] = {}  # a cause shared by several checks (a run that diverged) said once
+        for c in failed:
+            why.setdefault(_failure_text(c) if c.diverged else f"{c.name}\0{_failure_text(c)}", []).append(str(c.name))
+        fails = "<br>".join(f"{_esc(', '.join(names))}: {_esc(text.rpartition(chr(0))[2])}"
+                            for text, names in why.items())
         rows.append(f"<tr class='{verdict.lower()}'><td><a href='{_esc(case_page(r.case.name))}'>"
                     f"{_esc(r.case.name)}</a></td>"
                     f"<td class='verdict'>{verdict}</td><td>{len(cs) - len(failed)}/{len(cs)}</td>"
@@ -272,9 +277,22 @@ def _table(groups: Sequence[tuple[str, CaseResult, Sequence[Check]]], columns: S
     body = []
     for title, result, cs in groups:
         body.append(f"<tr class='group'><td colspan='{len(columns)}'>{title}</td></tr>")
-        body += [f"<tr class='{'na' if c.note else 'pass' if c.passed else 'fail'}'>"
-                 + "".join(f"<td class='{col.css}'>{col.cell(c, result)}</td>" if col.css else
-                           f"<td>{col.cell(c, result)}</td>" for col in columns) + "</tr>" for c in cs]
+        diverged: dict[str, list[Check]] = {}  # a run that diverged: its checks in one row, its cause said once
+        for c in cs:
+            if c.diverged:
+                diverged.setdefault(c.diverged, []).append(c)
+        for c in cs:
+            if c.diverged and len(diverged.get(c.diverged, ())) > 1:
+                same = diverged.pop(c.diverged)
+                names = ", ".join(_esc(d.name).replace(".", ".<wbr>") for d in same)
+                body.append(f"<tr class='fail'><td class='name'>{names}</td><td colspan='{len(columns) - 1}'>"
+                            f"FAIL ({len(same)} checks, one run): {_esc(c.diverged)}</td></tr>")
+                continue
+            if c.diverged and c.diverged not in diverged:
+                continue  # listed with the others of its run
+            body.append(f"<tr class='{'na' if c.note else 'pass' if c.passed else 'fail'}'>"
+                        + "".join(f"<td class='{col.css}'>{col.cell(c, result)}</td>" if col.css else
+                                  f"<td>{col.cell(c, result)}</td>" for col in columns) + "</tr>")
     head = "".join(f"<th>{_esc(col.header)}</th>" for col in columns)
     return f"<table class='checks'><tr>{head}</tr>{''.join(body)}</table>"
 
@@ -328,16 +346,32 @@ def equations_html(system: str) -> str:
 _UNITS = {"timestep": "s", "horizon": "s", "tolerance": ""}
 
 
+OWN_CHANGES = ("What the comparison changed in the model", "as written", "as compared")
+"""A model of one's own has no shipped model: what its section of changes is called instead, and its columns."""
+OWN_CHANGES_NOTE = ("Each force the reference does not model was switched off for the comparison (What was "
+                    "examined); these are those edits, attribute by attribute, and any setting the run changed.")
+
+
 def _differences(result: CaseResult) -> str:
-    """The case page's part on what the model run differs in from the shipped one: '' where nothing."""
+    """The case page's part on what the model run differs in from the shipped one (for a model of one's own, what
+    the comparison changed in it): '' where nothing."""
     table = _difference_table(result)
+    if not table:
+        return ""
+    if result.settings.tree is not None:
+        return (f"<section id='differences'><h3>{OWN_CHANGES[0]}</h3><p class='dim'>{OWN_CHANGES_NOTE}</p>"
+                f"{table}</section>")
     return (f"<section id='differences'><h3>What differs from the shipped model</h3><p class='dim'>The reference "
-            f"is built from the model run: these parameters are its own.</p>{table}</section>") if table else ""
+            f"is built from the model run: these parameters are its own.</p>{table}</section>")
 
 
 def section_differences(results: Sequence[CaseResult]) -> str:
     """Per case, every way the model run differs from the shipped one (each attribute written otherwise, its
-    damping as any other; its parameters; its settings), or that none does."""
+    damping as any other; its parameters; its settings), or that none does; '' where every model is one's own,
+    which has no shipped model (its case page lists what the comparison changed in it)."""
+    results = [r for r in results if r.settings.tree is None]
+    if not results:
+        return ""
     parts = [f"<h3><a href='{_esc(case_page(r.case.name))}#differences'>{_esc(r.case.name)}</a> <span class='dim'>"
              f"({_esc(Path(r.settings.mjcf).name)})</span></h3>{table}"
              for r in results if (table := _difference_table(r))]
@@ -356,11 +390,53 @@ def _difference_table(result: CaseResult) -> str:
         return ""
     rows = "".join(f"<tr><td>{_esc(k)}</td><td class='num'>{_esc(_setting(v.get('shipped')))}</td>"
                    f"<td class='num'>{_esc(_setting(v.get('tested')))}</td></tr>" for k, v in changed.items())
-    table = (f"<table class='settings'><tr><th>parameter or setting</th><th>shipped</th><th>this run</th></tr>"
+    before, after = ("shipped", "this run") if result.settings.tree is None else OWN_CHANGES[1:]
+    table = (f"<table class='settings'><tr><th>parameter or setting</th><th>{before}</th><th>{after}</th></tr>"
              f"{rows}</table>") if rows else ""
     moved = (f"<p class='dim'>Initial state brought onto the constraints of these parameters: "
              f"{_esc('; '.join(projected))}.</p>") if projected else ""
     return f"{table}{moved}"
+
+
+COVERED = ("gravity, every body's mass and inertia, the joints (their kind, anchor, axis and ref), armature, joint "
+           "springs and damping, gravity compensation, actuators at the control given, equality constraints")
+"""What the reference derived from a model's own tree covers (harness.reference.tree)."""
+
+
+def _grouped(names: Sequence[str]) -> str:
+    """Names, those of two or more sharing a first word written once under it ("actuator: a1, a2")."""
+    kinds: dict[str, list[str]] = {}
+    for name in names:
+        kind, _, rest = name.partition(" ")
+        kinds.setdefault(kind, []).append(rest or kind)
+    out = []
+    for name in names:
+        kind = name.partition(" ")[0]
+        members = kinds.pop(kind, None)
+        if members is None:
+            continue  # written with the first of its kind
+        out.append(name if len(members) < 2 else f"{kind} {', '.join(members)}")
+    return "; ".join(out)
+
+
+def scope(result: CaseResult, checks: Sequence[Check]) -> str:
+    """For a model judged against its own tree, the first screen's account of what was examined: the model, what
+    its reference covers, what it does not (switched off for the comparison, judged by the balance alone), the
+    checks run and on which integrators; '' for a shipped case."""
+    tree = result.settings.tree
+    if not tree:
+        return ""
+    gaps = list((tree.get("not examined") or {}).keys())
+    na = sum(bool(c.note) for c in checks)
+    failed = sum(not c.passed for c in checks)
+    not_examined = (f"<b>Not in the reference</b> (switched off for the comparison; the model as it is judged by its "
+                    f"work–energy balance only): {_esc(_grouped(gaps))}." if gaps else
+                    "<b>Not in the reference</b>: nothing this model has.")
+    return (f"<div class='scope'><p><b>{_esc(result.case.name)}</b> ({_esc(Path(result.settings.mjcf).name)}, "
+            f"{len(result.settings.q0)} coordinates) judged against its own kinematic tree. <b>Examined</b>: "
+            f"{COVERED}. {not_examined} <b>Checks run</b>: {len(checks)} ({len(checks) - failed - na} pass, "
+            f"{failed} fail, {na} n/a) on {_esc(', '.join(result.settings.integrators))} over "
+            f"{_setting(result.settings.horizon)} s.</p></div>")
 
 
 def _examined(result: CaseResult) -> str:
@@ -370,9 +446,7 @@ def _examined(result: CaseResult) -> str:
     if not tree:
         return ""
     gaps = tree.get("not examined") or {}
-    covered = ("<p>Checked against the reference derived from the model's own tree: gravity, every body's mass and "
-               "inertia, the joints (their kind, anchor, axis and ref), armature, joint springs and damping, gravity "
-               "compensation, actuators at the control given, equality constraints.</p>")
+    covered = f"<p>Checked against the reference derived from the model's own tree: {COVERED}.</p>"
     if gaps:
         rows = "".join(f"<li><b>{_esc(k)}</b>: {_esc(v)}</li>" for k, v in gaps.items())
         covered += (f"<p>Not in the reference, so switched off for that comparison:</p><ul>{rows}</ul>"
@@ -454,8 +528,9 @@ def section_case(result: CaseResult, checks: Sequence[Check], still: Still | Non
                        for k, v in result.settings.as_dict().items()
                        if k not in ("changed", "projected", "tree", "stability"))
     return (f"<section id='case'><h2>{_esc(c.name)} <span class='badge {verdict.lower()}'>"
-            f"{verdict} {len(checks) - failed}/{len(checks)}</span></h2><p>{_esc(c.description)}</p>"
-            f"{section_model(result, still)}{_examined(result)}{_stability(result)}{_differences(result)}"
+            f"{verdict} {len(checks) - failed}/{len(checks)}</span></h2>{scope(result, checks)}"
+            f"<p>{_esc(c.description)}</p>{section_model(result, still)}{_examined(result)}{_stability(result)}"
+            f"{_differences(result)}"
             f"{_findings(result)}{fitness}"
             f"<section id='checks'><h3>Gated checks</h3>{_checks_table(result, checks)}</section>"
             f"<section id='plots'><h3>Plots</h3><div class='plots'>{plots}</div></section>"
@@ -479,6 +554,7 @@ table{border-collapse:collapse;margin:.4em 0;font-size:.86em;max-width:100%}
 td,th{border:1px solid #d4d4d4;padding:2px 7px;text-align:left;vertical-align:middle}
 th{background:#f3f3f3} td.num{font-family:ui-monospace,monospace;text-align:right;white-space:nowrap}
 .nb{white-space:nowrap}
+.scope{background:#f6f8fb;border:1px solid #dde3ec;border-radius:4px;padding:0 .8em;margin:.5em 0}
 tr.fail td{background:#fde4e4} td.verdict{font-weight:bold} tr.pass td.verdict{color:#17701d}
 tr.fail td.verdict{color:#b00000} tr.na td{color:#888} tr.group td{background:#eef2f7;font-weight:bold}
 tr.shipped td{font-weight:bold} tr.ambiguous td{background:#fff6d5}
@@ -541,6 +617,9 @@ def _start_qpos(result: CaseResult) -> tuple[float, ...]:
     return tuple(float(x) for x in data.qpos)
 
 
+OWN_LIMITS = "each figure's default (a model of one's own has no limits file: mjharness figures gives each basis)"
+
+
 def render_pages(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, Sequence[Check]], *,
                  stills: Mapping[str, Still] | None = None, config_source: str | None = None,
                  pages: Sequence[Page] = (), plots: Mapping[str, str] | None = None,
@@ -559,14 +638,17 @@ def render_pages(results: Sequence[CaseResult], outcome: Outcome | Mapping[str, 
             equations_html(system)  # typeset while the stills render
         shown = pending.result() if pending is not None else stills or {}
     outcome = _outcome(outcome)
+    if config_source == SHIPPED_SOURCE and all(r.settings.tree is not None for r in results):
+        config_source = OWN_LIMITS  # no case, so no limits file: every figure's default
     source = f" Limits from {_esc(config_source)}." if config_source else ""
     overview = (section_summary(results, outcome) + section_failures(results, outcome)
                 + section_differences(results) + section_findings(results) + section_requirements(results, outcome)
                 + section_pages(pages))
+    scopes = "".join(scope(r, outcome.checks[r.case.name]) for r in results)
     out = {OVERVIEW: _document("mjharness report", overview, pages=pages, source=source,
                                top=section_banner(results, outcome) + "".join(
                                    f"<p class='banner {'pass' if ok else 'fail'}'>{_esc(text)}</p>"
-                                   for text, ok in banners), howto=True)}
+                                   for text, ok in banners) + scopes, howto=True)}
     names = [case_page(r.case.name) for r in results]
     for k, r in enumerate(results):
         body = section_case(r, outcome.checks[r.case.name], shown.get(r.case.name), plots=plots[r.case.name],

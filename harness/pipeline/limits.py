@@ -236,6 +236,10 @@ def _overrides(raw: object, path: Path, known_cases: set[str]) -> dict[str, dict
     return out
 
 
+SHIPPED_SOURCE = "the shipped limits (mjcf/CASE.limits.toml)"
+"""Where the limits come from where no config is given."""
+
+
 def load_limits(config: Path | str | None = None) -> Limits:
     """Every case's shipped limits (a case without a limits file has none), overridden key by key by
     ``config``."""
@@ -245,7 +249,7 @@ def load_limits(config: Path | str | None = None) -> Limits:
         path = limits_path(Path(model))
         if path.is_file():
             cases[case] = read_case_limits(case, path)
-    source = "the shipped limits (mjcf/CASE.limits.toml)"
+    source = SHIPPED_SOURCE
     overrides: dict[str, dict[str, float]] = {}
     requirements: tuple[Requirement, ...] = ()
     accept = False

@@ -16,6 +16,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from harness.cases import Case
+from harness.core import progress
 from harness.core.budget import Budget
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
@@ -139,7 +140,12 @@ def run_case(case: Case, options: RunOptions | None = None) -> CaseResult:
     budget's and the convergence ladder's included; :class:`~harness.core.errors.BackendUnavailable` where it
     cannot.
     """
-    options = options or RunOptions()
+    # a model of one's own: a line every few seconds while it runs, never silent (a shipped case ends in seconds)
+    with progress.heartbeat(f"case {case.name}", quiet=case.tree is None):
+        return _run_case(case, options or RunOptions())
+
+
+def _run_case(case: Case, options: RunOptions) -> CaseResult:
     recorder_notes = len(recording.notes())
     bench = Bench(case, options, COMPARISONS)
     measured = [(family.NAME, family.measure(bench)) for family in FAMILIES]
