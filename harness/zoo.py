@@ -25,6 +25,7 @@ Each model's wall time is measured from reading the file to the verdict.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import html
 import importlib.util
 import math
@@ -48,6 +49,7 @@ from harness.core.checks import Check
 from harness.engine.models import compile_model
 from harness.outputs.studies.engine_faults import cell as fault_cell
 from harness.outputs.studies.injection import cell as injection_cell
+from harness.pipeline.carry import Carried, pack
 from harness.pipeline.executor import LOCAL, Executor
 from harness.pipeline.pool import run_tasks
 from harness.reference.tree import prepare, uncovered
@@ -488,10 +490,15 @@ def judge_named(name: str, integrators: tuple[str, ...] | None, timeout: float |
     return judge(select([name], models)[0], integrators=integrators, timeout=timeout)
 
 
-def judge_entry(model: ZooModel, integrators: tuple[str, ...] | None, timeout: float | None = None) -> ZooResult:
+def judge_entry(model: ZooModel, integrators: tuple[str, ...] | None, timeout: float | None = None,
+                carried: Carried | None = None) -> ZooResult:
     """:func:`judge` of a model found by :func:`folder_models` (what a worker process is sent: the model itself,
-    which no discovery finds again)."""
-    return judge(model, integrators=integrators, timeout=timeout)
+    which no discovery finds again). ``carried``: on a cluster's node, the model's files carried there
+    (:mod:`harness.pipeline.carry`), judged from that copy and named by the user's path."""
+    if carried is None:
+        return judge(model, integrators=integrators, timeout=timeout)
+    result = judge(dataclasses.replace(model, path=carried.here()), integrators=integrators, timeout=timeout)
+    return dataclasses.replace(result, path=str(model.path))
 
 
 # ---- the whole zoo ------------------------------------------------------------------------------------------
@@ -570,8 +577,10 @@ def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str]
     nv = {m.name: _nv(m.path) for m in models}
     order = sorted(models, key=lambda m: -nv[m.name])  # the costliest first: the pool ends together
     chosen = tuple(integrators) if integrators is not None else None
-    calls = [(judge_named, (m.name, chosen, timeout)) if found else (judge_entry, (m, chosen, timeout))
-             for m in order]
+    # a folder's models on a cluster: each with its files (meshes, includes), which the nodes need not share
+    carried = {m.name: pack(m.path) for m in order} if not found and executor.kind == "ray" else {}
+    calls = [(judge_named, (m.name, chosen, timeout)) if found else
+             (judge_entry, (m, chosen, timeout, carried.get(m.name))) for m in order]
     left_out: list[str] = []
     sized = [m for m in order if fault_max_nv is None or nv[m.name] <= fault_max_nv]
     if faults or injection:

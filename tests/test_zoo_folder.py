@@ -85,3 +85,34 @@ def test_the_shared_menagerie_folder_in_one_command(tmp_path, capsys):
     assert set(verdicts) == {m.name for m in zoo.folder_models(MENAGERIE)[0]}
     assert "franka_emika_panda/scene" in verdicts and "crashed" not in verdicts.values(), verdicts
     assert code == (1 if "unfinished" in verdicts.values() else 0)
+
+
+def test_a_folder_entry_carried_to_a_node_is_judged_from_its_copy_and_named_by_the_users_path(tmp_path):
+    """On a cluster a folder's entry goes with its files (harness.pipeline.carry): the node judges the carried copy
+    (here the user's folder is gone by then, as on a node that does not share it) and the row names the user's
+    path, with the verdict the local run gives."""
+    from harness.pipeline.carry import pack
+
+    (model,) = [m for m in zoo.folder_models(_robots(tmp_path / "robots"))[0] if m.name == "acme_arm/scene"]
+    local = zoo.judge_entry(model, ("RK4",))
+    carried = pack(model.path)
+    moved = tmp_path / "elsewhere"
+    (tmp_path / "robots").rename(moved)
+    on_node = zoo.judge_entry(model, ("RK4",), carried=carried)
+    assert (on_node.verdict, on_node.path, on_node.failed) == (local.verdict, str(model.path), local.failed)
+    assert local.verdict == zoo.PASS
+
+
+@pytest.mark.slow
+def test_a_folder_on_a_ray_cluster_gives_the_local_table(ray_address, tmp_path):
+    """``zoo --folder DIR --executor ray``: one task per entry, each entry's files carried, the same verdicts
+    and table as the local pool's (the clocks' seconds aside)."""
+    root = _robots(tmp_path / "robots")
+    docs = {}
+    for name, extra in (("local", ()), ("ray", ("--executor", "ray", "--ray-address", ray_address))):
+        out = tmp_path / name
+        assert main(["zoo", "--folder", str(root), "--out", str(out), "--integrators", "RK4", *extra]) == 0
+        docs[name] = {m["model"]: (m["verdict"], m["path"], m.get("failed")) for m in
+                      json.loads((out / "zoo.json").read_text())["models"]}
+    assert docs["ray"] == docs["local"] and set(docs["local"]) == {"acme_arm/gripper", "acme_arm/scene",
+                                                                    "other_bot/scene"}

@@ -357,22 +357,24 @@ error is still an expansion in h (:func:`unresolved`)."""
 
 
 GROWN = 1e3
-"""How many times its own size (:attr:`Deviation.size`: the motion's extent, its energy's scale) a run's position or
-energy error may reach before the run is called diverged rather than judged (:func:`grown`); its basis is in
+"""How many times the motion's own extent (the position figure's :attr:`Deviation.size`) a run's position error may
+reach before the run is called diverged rather than judged (:func:`grown`); its basis is in
 docs/findings/bases.md."""
 
 
 def grown(deviations: Sequence[Deviation], *, integrator: str) -> str:
-    """Why the run at h diverged although MuJoCo raised no warning ('' when it did not): its position or energy
-    left the reference by more than :data:`GROWN` times the quantity's own size. No budget part can explain an
-    error a thousand times the motion it approximates, and no number of such a run is a measurement: it is a
-    divergence, reported as one, never an "unresolved" figure."""
+    """Why the run at h diverged although MuJoCo raised no warning ('' when it did not): its points left the
+    reference by more than :data:`GROWN` times the motion's own extent. No budget part can explain an error a
+    thousand times the motion it approximates, and no number of such a run is a measurement: it is a divergence,
+    reported as one, never an "unresolved" figure. (The position, not the energy: a fault in a potential — a stiff
+    spring the reference lacks — makes the energy huge in a run that stays put, and that run is judged by its
+    numbers.)"""
     for dev in deviations:
-        if dev.name.measure not in ("position", "energy") or dev.size <= 0:
+        if dev.name.measure != "position" or dev.size <= 0:
             continue
         size = dev.magnitude() / dev.size
         if size > GROWN:
-            return (f"diverged: {integrator}'s {dev.name.measure} left the reference by {size:.3g} times its own size "
+            return (f"diverged: {integrator}'s points left the reference by {size:.3g} times the motion's extent "
                     f"(more than {GROWN:g}) without a MuJoCo warning")
     return ""
 
