@@ -1,4 +1,5 @@
-"""``run --out`` removes only what an earlier run wrote there (issue 45, point 3).
+"""``run --out`` (and ``versions``, ``sweep``, ``zoo --out``) removes only what an earlier run wrote there (issue
+45, point 3).
 
 - A folder holding files no run wrote (a user's ``cases/*.html``, ``audit.html``) is refused before any work,
   and nothing in it is touched (not even renamed ``.stale``); with ``--force-out`` the report is written
@@ -129,3 +130,36 @@ def test_a_manifest_naming_files_outside_the_folder_is_ignored(tmp_path):
     digest = hashlib.sha256(b"x").hexdigest()
     (out / files.MANIFEST).write_text(json.dumps({"files": {"../outside.html": digest, str(outside): digest}}))
     assert files.ours(out) == [] and files.report_pages(out) == []
+
+
+@pytest.mark.parametrize("command", [["versions", "4.0.0"], ["sweep", "dm_control/acrobot", "--releases", "4.0.0"],
+                                     ["zoo", "dm_control/acrobot"]])
+def test_every_command_that_writes_a_folder_refuses_one_holding_the_users_files(command, tmp_path, capsys):
+    """versions, sweep and zoo wrote their files over a user's of the same name: each now judges --out as run does,
+    before any environment is built or model judged, and the user's files stay as they were."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "zoo.md").write_text("mine")
+    (out / "sweep.md").write_text("mine")
+    (out / "versions.txt").write_text("mine")
+    before = _tree(out)
+    assert cli.main([*command, "--out", str(out)]) == 2
+    assert "holds files no earlier mjharness run wrote there" in capsys.readouterr().err
+    assert _tree(out) == before
+
+
+def test_a_zoo_table_beside_a_report_keeps_both_the_runs_own(tmp_path):
+    """A zoo --folder written into a report's folder, then the report again: neither refuses the other's files,
+    and a user's file beside them is still refused."""
+    root = tmp_path / "robots" / "acme"
+    root.mkdir(parents=True)
+    root.joinpath("scene.xml").write_text(
+        "<mujoco model='acme'><worldbody><body><joint axis='0 1 0' damping='0.1'/>"
+        "<geom type='capsule' fromto='0 0 0 0.3 0 0' size='0.03'/></body></worldbody></mujoco>")
+    out = tmp_path / "out"
+    assert _run(out) == 0
+    assert cli.main(["zoo", "--folder", str(tmp_path / "robots"), "--integrators", "RK4", "--out", str(out)]) == 0
+    assert _run(out) == 0
+    assert (out / "zoo.md").is_file() and (out / "report.html").is_file()
+    (out / "notes.txt").write_text("mine")
+    assert _run(out) == 2 and (out / "notes.txt").read_text() == "mine"

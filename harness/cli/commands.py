@@ -447,14 +447,20 @@ def _junit(path: Path | None, outcome: Outcome) -> dict[Path, str]:
     return {path: junit_xml(outcome.checks, accept_known_defects=outcome.accept_known_defects)}
 
 
-def _args_run(p: argparse.ArgumentParser) -> None:
-    _add_selection(p)
-    p.add_argument("--out", type=_folder, default=Path("mjharness-report"), metavar="DIR",
-                   help="output directory (default: ./mjharness-report); a new or empty folder, or one an earlier "
-                   "run wrote: only the files it wrote there (its manifest) are replaced or removed")
+def _add_out(p: argparse.ArgumentParser, default: Path, what: str) -> None:
+    """--out and --force-out, as every command that writes a folder of files takes them: a new or empty folder, or
+    one an earlier run wrote (its manifest: :func:`harness.outputs.files.check_report_folder`)."""
+    p.add_argument("--out", type=_folder, default=default, metavar="DIR",
+                   help=f"where to write {what} (default: ./{default}); a new or empty folder, or one an earlier "
+                   "mjharness run wrote: only the files it wrote there (its manifest) are replaced or removed")
     p.add_argument(FORCE, dest="force_out", action="store_true",
                    help="write into --out even if it is not yours or holds other files (those are never removed; "
-                   "a file of the report's own name is replaced)")
+                   "a file of the output's own name is replaced)")
+
+
+def _args_run(p: argparse.ArgumentParser) -> None:
+    _add_selection(p)
+    _add_out(p, Path("mjharness-report"), "the report")
     p.add_argument("--no-studies", dest="studies", action="store_false",
                    help="skip layer 4 (convergence, softness, solver and contact studies) and the seed audit")
     _add_junit(p)
@@ -617,8 +623,7 @@ def _args_versions(p: argparse.ArgumentParser) -> None:
     p.add_argument("--bisect", metavar="CASE:FIGURE|verdicts",
                    help="find the first release of the range at which this figure moved beyond its noise (or any "
                         "verdict flipped), installing only the releases the bisection needs")
-    p.add_argument("--out", type=_folder, default=Path("mjharness-versions"), metavar="DIR",
-                   help="where to write versions.html, versions.json and versions.txt (default: ./mjharness-versions)")
+    _add_out(p, Path("mjharness-versions"), "versions.html, versions.json and versions.txt")
     p.add_argument("--backend", metavar="NAME",
                    help="install the backend's packages in every environment and run the check with --backend NAME")
     p.add_argument("--with", dest="extras", action="append", default=[], metavar="REQUIREMENT", type=_requirement,
@@ -639,6 +644,7 @@ def cmd_versions(args: argparse.Namespace) -> int:
     from harness.versions import envs, releases, session  # lazy: as above
     from harness.versions.runs import CheckCommand, check_environ, noise_runs  # lazy: as above
 
+    check_report_folder(args.out, force=args.force_out)  # before any environment is built
     check_args = list(getattr(args, "check_args", []))
     extras = list(args.extras)
     if args.backend is not None:
@@ -683,9 +689,10 @@ def cmd_versions(args: argparse.Namespace) -> int:
                                               noise=noise, on_done=done, executor=executor)
     summary = report.text(comparison)
     prepare_output(args.out)
-    write_atomic({args.out / "versions.txt": summary,
-                  args.out / "versions.json": dumps(report.json_doc(comparison)),
-                  args.out / "versions.html": report.html_page(comparison, plots=args.plots)})
+    write_atomic(with_manifest(args.out, {args.out / "versions.txt": summary,
+                                          args.out / "versions.json": dumps(report.json_doc(comparison)),
+                                          args.out / "versions.html": report.html_page(comparison,
+                                                                                       plots=args.plots)}))
     print(summary, end="")
     print(f"wrote {args.out / 'versions.html'}, {args.out / 'versions.json'}, {args.out / 'versions.txt'}")
     stopped = comparison.bisection is not None and comparison.bisection.errors
@@ -706,8 +713,7 @@ def _args_sweep(p: argparse.ArgumentParser) -> None:
                    help="judge on these integrators only (default: every one, as check)")
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
                    help="stop each cell's check after so long (the cell: error)")
-    p.add_argument("--out", type=_folder, default=Path("mjharness-sweep"), metavar="DIR",
-                   help="where to write sweep.md and sweep.json (default: ./mjharness-sweep)")
+    _add_out(p, Path("mjharness-sweep"), "sweep.md and sweep.json")
     p.add_argument("--jobs", "-j", type=_positive, metavar="N",
                    help="cells at once on this machine (default: one per CPU); on Ray, one task per CPU of the cluster")
     _add_executor(p)
@@ -730,6 +736,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from harness.versions import envs, releases, sweep  # lazy: only this command builds environments
     from harness.versions import sweep_report as report  # lazy: as above
 
+    check_report_folder(args.out, force=args.force_out)  # before any environment is built
     executor = _executor(args)
     models = zoo.sweep_models(args.models)
     chosen = releases.parse_selection(args.releases)
@@ -745,8 +752,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     result = sweep.run(tasks, workers=args.jobs or cpus(), executor=executor, command=command,
                        on_done=lambda cell: print(cell.line(), flush=True))
     prepare_output(args.out)
-    paths = write_atomic({args.out / "sweep.md": report.markdown(result),
-                          args.out / "sweep.json": dumps(report.json_doc(result))})
+    paths = write_atomic(with_manifest(args.out, {args.out / "sweep.md": report.markdown(result),
+                                                  args.out / "sweep.json": dumps(report.json_doc(result))}))
     print(report.text(result) + f"wrote {', '.join(str(p) for p in paths)}", flush=True)
     return EXIT_FAIL if result.errors else EXIT_OK
 
@@ -1015,8 +1022,7 @@ def _args_zoo(p: argparse.ArgumentParser) -> None:
                    help="judge every MJCF entry of DIR instead, a folder of robots laid out like MuJoCo Menagerie's: "
                         "every .xml file under it whose root is <mujoco> and that no other <include>s (scene.xml, "
                         "not the robot.xml it includes)")
-    p.add_argument("--out", type=_folder, default=Path("reports/zoo"), metavar="DIR",
-                   help="where zoo.md and zoo.json go (default: reports/zoo)")
+    _add_out(p, Path("reports/zoo"), "zoo.md and zoo.json")
     p.add_argument("--faults", action="store_true",
                    help="also find the smallest size of each engine-side fault (inertia, damping, axis tilt) caught")
     p.add_argument("--injection", action="store_true",
@@ -1036,7 +1042,7 @@ def cmd_zoo(args: argparse.Namespace) -> int:
     from harness.outputs.studies.engine_faults import cell as fault_cell  # lazy: as above
     from harness.outputs.studies.injection import cell as injection_cell  # lazy: as above
 
-    check_output(args.out)
+    check_report_folder(args.out, force=args.force_out)
     if args.folder is not None:
         models, passed = zoo.folder_models(args.folder)
         skipped: tuple = ()
@@ -1066,7 +1072,8 @@ def cmd_zoo(args: argparse.Namespace) -> int:
                   timeout=args.timeout, executor=_executor(args), found=args.folder is None,
                   command=" ".join(["mjharness", *sys.argv[1:]]) if sys.argv[1:2] == ["zoo"] else "mjharness zoo")
     prepare_output(args.out)
-    paths = write_atomic({args.out / "zoo.md": zoo.zoo_markdown(run), args.out / "zoo.json": dumps(zoo.zoo_json(run))})
+    paths = write_atomic(with_manifest(args.out, {args.out / "zoo.md": zoo.zoo_markdown(run),
+                                                  args.out / "zoo.json": dumps(zoo.zoo_json(run))}))
     short = run.faults_short()
     print(f"{len(run.results)} models in {run.seconds:.0f} s: "
           + ", ".join(f"{sum(r.verdict == v for r in run.results)} {v}"

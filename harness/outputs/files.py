@@ -170,9 +170,12 @@ def check_report_folder(out: Path | str, *, force: bool = False) -> Path:
 
 
 def with_manifest(out: Path | str, files: Mapping[Path, str]) -> dict[Path, str]:
-    """``files`` and the manifest of those of them inside ``out`` (:data:`MANIFEST`), to be written with them."""
+    """``files`` and the manifest of those of them inside ``out`` (:data:`MANIFEST`), to be written with them; the
+    files an earlier run wrote there and that are still as it wrote them stay listed (a zoo's table written beside a
+    report leaves the report's files the runs' own)."""
     out = Path(out)
-    listed = {}
+    kept = {str(p.relative_to(out)) for p in ours(out) if not p.name.endswith(STALE)}
+    listed = {name: digest for name, digest in manifest(out).items() if name in kept}
     for path, text in files.items():
         with contextlib.suppress(ValueError):
             listed[str(Path(path).relative_to(out))] = hashlib.sha256(text.encode("utf-8")).hexdigest()
