@@ -43,3 +43,18 @@ def test_the_command_refuses_it_in_one_line(tmp_path, capsys):
     assert main(["check", "--mjcf", str(_edited(tmp_path, ROD, ROD.replace('mass="0"', 'mass="nan"')))]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "geom 'rod' mass = 'nan' is not finite" in err
+
+
+def test_a_non_finite_number_in_an_included_file_is_refused_too(tmp_path):
+    """A robot's scene includes the robot: a ``mass="nan"`` there is as silent as in the scene (MuJoCo gives the
+    geom its density's mass), so the included files are read too, and the element is named."""
+    robot = tmp_path / "robot.xml"
+    robot.write_text("<mujoco><worldbody><body name='link'><joint name='j' axis='0 1 0'/>"
+                     "<geom name='arm' type='capsule' fromto='0 0 0 0.3 0 0' size='0.03' mass='nan'/></body>"
+                     "</worldbody></mujoco>")
+    scene = tmp_path / "scene.xml"
+    scene.write_text("<mujoco model='scene'><include file='robot.xml'/></mujoco>")
+    with pytest.raises(ModelError, match="geom 'arm' mass = 'nan' is not finite"):
+        compile_model(scene)
+    robot.write_text(robot.read_text().replace("mass='nan'", "mass='1'"))
+    assert compile_model(scene).nbody == 2

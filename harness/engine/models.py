@@ -23,7 +23,7 @@ from harness.core.errors import ModelError
 from harness.engine import compat
 from harness.engine.compat import after_compile, spec_from_file
 from harness.engine.integrators import integrator_enum
-from harness.engine.validity import InvalidModel, check_model, check_spec, check_text
+from harness.engine.validity import InvalidModel, check_model, check_spec, check_texts
 
 
 def mjcf_path(name: str) -> Path:
@@ -133,7 +133,8 @@ def compile_model(
         check_model(model)
         # then what the compiled model cannot show: a number written non-finite that the spec took for unset
         # (a geom's mass="nan" becomes its density's mass)
-        check_text(_TEXTS.get(str(path), b""))
+        check_texts(_TEXTS.get(str(path), b""), Path(path).parent,
+                    lambda p: inputs.read_bytes(p, what="MJCF", limit=inputs.MODEL_LIMIT))
     except InvalidModel as exc:
         raise ModelError(f"invalid MJCF {str(path)!r}: {exc}") from None
     after_compile(model, str(path))  # fallbacks for an older MuJoCo (harness.compat)

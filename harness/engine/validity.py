@@ -17,6 +17,8 @@ from __future__ import annotations
 import functools
 import math
 import re
+from collections.abc import Callable
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -59,7 +61,7 @@ def check_text(text: bytes) -> None:
     """:class:`InvalidModel` naming the first element of the MJCF ``text`` with a numeric attribute written
     non-finite (``nan``, ``inf``, ``1e400``). Checked as written because the spec cannot tell some of them from
     an unset value: a geom's ``mass="nan"`` reads as "unset" and silently becomes its density's mass
-    (issue 45). Only the file's own text: an included file is MuJoCo's to read."""
+    (issue 45). Its includes: :func:`check_texts`."""
     if not _NON_FINITE.search(text):
         return
     # read as tags and attributes, not as strict XML: MuJoCo's parser accepts what XML does not ("--" in a
@@ -79,6 +81,36 @@ def check_text(text: bytes) -> None:
                 where = f"{tag} {name!r}" if name else f"a <{tag}> (unnamed)"
                 raise InvalidModel(f"{where} {attribute} = {' '.join(value.split())!r} is not finite; accepted: "
                                    "finite numbers")
+
+
+INCLUDED_MAX = 256
+"""The most files :func:`check_texts` reads through ``<include>`` (a model's includes are a handful; a loop of
+them is MuJoCo's to refuse)."""
+
+
+def check_texts(text: bytes, folder: Path, read: Callable[[Path], bytes]) -> None:
+    """:func:`check_text` of the MJCF ``text`` and of every file it ``<include>``s, recursively (their names
+    relative to ``folder``, the model's, as MuJoCo resolves them; each read by ``read``, which bounds it): a
+    ``mass="nan"`` in a robot's included file is as silent as in the scene."""
+    pending, seen = [text], set()
+    while pending:
+        current = pending.pop()
+        check_text(current)
+        if b"<include" not in current:
+            continue
+        source = _COMMENT.sub(" ", current.decode("utf-8", errors="replace"))
+        for tag, attributes in _TAG.findall(source):
+            if tag != "include":
+                continue
+            name = next((d or q for a, d, q in _ATTRIBUTE.findall(attributes) if a == "file"), "")
+            path = folder / name
+            if not name or path in seen or len(seen) >= INCLUDED_MAX:
+                continue
+            seen.add(path)
+            try:
+                pending.append(read(path))
+            except (OSError, ValueError):
+                continue  # unreadable: MuJoCo's parser has said why, or will
 
 
 def check_model(model: mujoco.MjModel) -> None:
