@@ -515,7 +515,8 @@ def test_run_writes_complete_deterministic_report(tmp_path, cached_runs, capsys)
     assert main(["run", CASE, "--out", str(out2)]) == 0
     assert ET.parse(tmp_path / "junit.xml").getroot().get("failures") == "0"
     names = sorted(p.relative_to(out1).as_posix() for p in out1.rglob("*") if p.is_file())
-    assert names == ["audit.html", f"cases/{CASE}.html", "report.html", "report.json", "studies.html", "summary.md"]
+    assert names == [".mjharness-manifest.json", "audit.html", f"cases/{CASE}.html", "inertia.html", "report.html",
+                     "report.json", "studies.html", "summary.md"]
     for name in names:
         assert (out1 / name).read_bytes() == (out2 / name).read_bytes(), name
     doc = json.loads((out1 / "report.json").read_text())
@@ -528,8 +529,8 @@ def test_run_writes_complete_deterministic_report(tmp_path, cached_runs, capsys)
     # what was written (wrapped to the width: continuation lines indented), then the verdict last
     wrote = max(i for i, line in enumerate(out) if line.startswith("wrote in "))
     assert all(not line or line.startswith(" ") for line in out[wrote + 1:-1]) and out[-1].startswith("PASS — ")
-    assert all(name in " ".join(out[wrote:-1]) for name in ("report.html", "report.json", "summary.md",
-                                                               "1 case page(s) in"))
+    written = " ".join(" ".join(out[wrote:-1]).split())  # the wrapping's line breaks and indents folded
+    assert all(name in written for name in ("report.html", "report.json", "summary.md", "1 case page(s) in"))
     assert main(["run", CASE, "--out", str(out2), "--quiet", "--no-studies"]) == 0  # the verdict: the same
     assert capsys.readouterr().out.strip().splitlines() == [out[-1]]
 

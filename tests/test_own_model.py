@@ -337,12 +337,14 @@ def test_a_stiff_model_is_solved_by_radau_iia_rather_than_refused(whip):
 
 @pytest.mark.slow
 def test_a_stiff_model_reaches_a_verdict(whip, tmp_path):
-    """The whole check of the whip (its reference by Radau IIA, the horizon chosen by its own chaos): it passes but
-    for RK4, which cannot run at the model's step (its damping decays at ~1e6/s, h λ ~ 1e3, far past explicit RK4's
-    stability bound of 2.8) and diverges: a failure that says so. The settings name the solver and why."""
+    """The whole check of the whip (its reference by Radau IIA, the horizon chosen by its own chaos): RK4 cannot run
+    at the model's step (its damping decays at ~1e6/s, h λ ~ 1e3, far past explicit RK4's stability bound of 2.8):
+    its figures are n/a with the stability statement (the method's limit, not MuJoCo's defect:
+    harness/families/stability.py), and every other check passes. The settings name the solver and why."""
     v = harness.validate(mjcf=whip)
-    failed = [c for c in v.checks if not c.passed]
-    assert failed and all(c.name.startswith(("RK4.", "converge.RK4.")) and c.diverged for c in failed), failed
+    assert [c for c in v.checks if not c.passed] == []
+    rk4 = [c for c in v.checks if c.name.startswith(("RK4.", "converge.RK4."))]
+    assert rk4 and all(c.status == "n/a" and "beyond its stability limit" in c.note for c in rk4), rk4
     assert v.settings.tree["reference solver"].startswith("Radau IIA: stiff")
 
 

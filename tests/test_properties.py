@@ -261,7 +261,8 @@ def test_any_model_through_run_in_a_process(text):
                               capture_output=True, text=True, timeout=300, cwd=tmp)
         _judge(proc.returncode, proc.stderr, out / "junit.xml")
         written = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()) if out.exists() else []
-        assert written == ([] if proc.returncode == 2 else [f"cases/{CASE}.html", "junit.xml", "report.html",
+        assert written == ([] if proc.returncode == 2 else [".mjharness-manifest.json", f"cases/{CASE}.html",
+                                                            "inertia.html", "junit.xml", "report.html",
                                                             "report.json", "summary.md"])
         if written:
             assert json.loads((out / "report.json").read_text())["cases"][CASE]

@@ -63,8 +63,8 @@ def urdf_model(path: Path | str) -> tuple[mujoco.MjModel, dict[str, str]]:
             dropped.add(mesh.name)
             for geom in [g for g in spec.geoms if g.meshname == mesh.name]:
                 partial.setdefault(geom.parent.name, f"mesh {Path(mesh.file).name} left out: {why}")
-                spec.delete(geom)
-            spec.delete(mesh)
+                _delete(spec, geom)
+            _delete(spec, mesh)
         else:
             mesh.file = str(file)
     try:
@@ -72,3 +72,12 @@ def urdf_model(path: Path | str) -> tuple[mujoco.MjModel, dict[str, str]]:
     except Exception as exc:
         raise ModelError(f"invalid URDF {str(path)!r}: {' '.join(str(exc).split())}; accepted: a URDF that "
                          "MuJoCo's URDF import compiles") from None
+
+
+def _delete(spec: mujoco.MjSpec, element) -> None:
+    """Remove ``element`` from ``spec``: ``MjSpec.delete`` where this MuJoCo has it, the element's own ``delete``
+    before (MuJoCo 3.3.0)."""
+    if hasattr(spec, "delete"):
+        spec.delete(element)
+    else:
+        element.delete()

@@ -83,7 +83,7 @@ def model_section(inertials_index: int, audit) -> str:
         f"<figcaption>{html.escape(b.line())}</figcaption></figure>" for b in said)
     status = "fail" if audit.failed else "pass"
     return (f"<section id='inertia-{inertials_index}'><h2>{html.escape(audit.model)}</h2>"
-            f"<p class='banner {status}'>{html.escape(audit.summary())}</p>{table}{pictures}</section>")
+            f"<p class='banner {status}'>{html.escape(audit.summary(timed=False))}</p>{table}{pictures}</section>")
 
 
 _ABOUT = ("<section id='inertia-about'><h2>What this page checks</h2><p>Each body's inertial (mass, centre of "
@@ -109,7 +109,7 @@ def inertia_banners(inertials: Inertials) -> list[tuple[str, bool]]:
     two models or fewer were audited, else one line for all (the failing models named)."""
     audits = inertials.audits
     if len(audits) <= 2:
-        return [(a.summary(), not a.failed) for a in audits]
+        return [(a.summary(timed=False), not a.failed) for a in audits]
     failing = [a for a in audits if a.failed]
     count = sum(b.failing for a in audits for b in a.bodies)
     said = (f"{count} finding(s) in {', '.join(a.model for a in failing)}: FAIL" if failing else

@@ -85,6 +85,12 @@ def _disabled(model: mujoco.MjModel, bit: mujoco.mjtDisableBit) -> bool:
     return bool(int(model.opt.disableflags) & int(bit))
 
 
+def _tendon_limited(model: mujoco.MjModel, t: int) -> bool:
+    """Whether tendon ``t`` has an actuatorfrcrange (MuJoCo 3.3.0 has none: never)."""
+    limited = getattr(model, "tendon_actfrclimited", None)
+    return limited is not None and bool(limited[t])
+
+
 def _fixed_tendon(model: mujoco.MjModel, t: int) -> np.ndarray | None:
     """The coefficients over the dofs of fixed tendon ``t`` (length = Σ coef qpos), None for a spatial one."""
     coef = np.zeros(model.nv)
@@ -158,7 +164,7 @@ def _actuator_gap(model: mujoco.MjModel, a: int) -> str:
     if why or not _acting(model, a) or int(model.actuator_trntype[a]) != int(mujoco.mjtTrn.mjTRN_TENDON):
         return why
     tendon = int(model.actuator_trnid[a, 0])
-    if model.tendon_actfrclimited[tendon]:
+    if _tendon_limited(model, tendon):
         for other in range(model.nu):
             if other != a and int(model.actuator_trntype[other]) == int(mujoco.mjtTrn.mjTRN_TENDON) \
                     and int(model.actuator_trnid[other, 0]) == tendon and _acting(model, other) \
@@ -294,7 +300,7 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
     tendon_limits = tuple(
         TendonLimit(name=model.tendon(t).name or f"tendon{t}", actuators=members,
                     lo=float(model.tendon_actfrcrange[t, 0]), hi=float(model.tendon_actfrcrange[t, 1]))
-        for t in range(model.ntendon) if model.tendon_actfrclimited[t]
+        for t in range(model.ntendon) if _tendon_limited(model, t)
         and (members := tuple(i for i, a in enumerate(kept) if int(model.actuator_trntype[a])
                               == int(mujoco.mjtTrn.mjTRN_TENDON) and int(model.actuator_trnid[a, 0]) == t)))
     return Tree(bodies=tuple(bodies), joints=tuple(joints), gravity=gravity, points=points,
