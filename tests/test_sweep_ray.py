@@ -75,6 +75,10 @@ def test_a_cell_that_cannot_be_built_is_one_error_line_on_the_cluster(cache, ray
 
 
 MENAGERIE = Path(__file__).resolve().parents[2] / "shared" / "models" / "menagerie"
+CELL_LIMIT = 300
+"""Each cell's time limit (s): Cassie's reference solve takes longer than this whatever the machine (its stiff
+loop's Radau solve ran past 7 CPU minutes), so its cells stop at it, the same in both runs; every other robot
+ends well inside it (Robotiq 2F-85's whole check, every integrator, took 131 s cold on a loaded machine)."""
 ROBOTS = ["franka_emika_panda/panda.xml", "kuka_iiwa_14/iiwa14.xml", "robotiq_2f85/2f85.xml",
           "agility_cassie/cassie.xml", "wonik_allegro/right_hand.xml"]
 
@@ -110,7 +114,8 @@ def test_the_menagerie_robots_on_two_releases_give_the_same_table_on_a_ray_clust
         for copy in copies:  # the cells on the cluster unpack them anew: they ran on the robots' carried copies
             shutil.rmtree(copy, ignore_errors=True)
         out = tmp_path / name
-        code = main(["sweep", *models, "--releases", *RELEASES, "--integrators", "Euler", "--out", str(out), *extra])
+        code = main(["sweep", *models, "--releases", *RELEASES, "--integrators", "Euler", "--timeout", str(CELL_LIMIT),
+                     "--out", str(out), *extra])
         runs[name] = (code, json.loads((out / "sweep.json").read_text()), _table(out))
         assert [c.is_dir() for c in copies] == [name == "ray"] * len(copies)
     (code, local, table), (ray_code, ray, ray_table) = runs["local"], runs["ray"]
@@ -119,6 +124,8 @@ def test_the_menagerie_robots_on_two_releases_give_the_same_table_on_a_ray_clust
     assert len(table) == 1 + len(models) and ray_table == table  # the header, a row per robot
     assert report.differences(_without_clock(local), _without_clock(ray)) == []
     panda = {c["release"]: c for c in local["cells"] if c["model"].endswith("panda.xml")}
-    judged = panda["4.0.0"]  # a robot judged in full on the one integrator asked for
-    assert judged["verdict"] == "pass"
+    judged = panda["4.0.0"]  # a robot judged in full on the one integrator asked for: every check passes, and the
+    # check fails (exit 1) on the inertia audit's seven findings alone (issue 44: docs/findings/inertia.md)
+    assert judged["verdict"] == "fail" and judged["statuses"]
+    assert set(judged["statuses"].values()) <= {"pass", "n/a"}, judged["statuses"]
     assert {"panda:Euler.energy", "panda:Euler.balance", "panda:Euler.drift.energy"} <= set(judged["figures"])
