@@ -5,7 +5,7 @@ As uv (``python fake_uv.py ARGS``, through the shell script the tests write):
 - ``build --wheel --quiet --out-dir DIR SRC``: writes an empty ``DIR/mjharness-0.1.0-py3-none-any.whl``;
 - ``venv --quiet --python PY FOLDER``: makes ``FOLDER/bin/python``, a script running this file as the
   environment's interpreter;
-- ``pip install --quiet --python FOLDER/bin/python [--no-deps --reinstall-package mjharness] WHEEL REQ...``:
+- ``pip install --quiet --python FOLDER/bin/python [--reinstall-package mjharness] WHEEL REQ...``:
   records the requirements in ``FOLDER/requirements.txt`` (fails, exit 1, where ``FAKE_UV_FAIL`` names
   the ``mujoco==`` release being installed).
 

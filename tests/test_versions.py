@@ -232,7 +232,9 @@ def test_environments_are_built_once_and_reused_and_rebuilt_only_in_the_harness(
     third = _run(fake, ["3.3.0"], extras=("mujoco-mjx=={version}",))
     new = _calls(fake["tmp"] / "uv.log")[len(uv_calls):]
     assert third[0].ok and not third[0].env_built
-    assert [c[0] for c in new] == ["build", "pip"] and "--no-deps" in new[1]  # the harness alone reinstalled
+    # the harness reinstalled, with what its new source depends on, the environment's release and pins held
+    assert [c[0] for c in new] == ["build", "pip"] and "--reinstall-package" in new[1]
+    assert tuple(new[1][-3:]) == ("mujoco==3.3.0", "numpy==2.4.6", "mujoco-mjx==3.3.0")
 
 
 def test_each_release_runs_the_check_as_asked_and_twice_perturbed(fake):

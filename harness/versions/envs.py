@@ -8,8 +8,9 @@ two environments is MuJoCo alone). Extra packages (a backend's, ``--with``) are 
 
 Where they live: ``$XDG_CACHE_HOME/mjharness/versions/`` (else ``~/.cache/mjharness/versions/``), one
 folder per release and set of requirements (:meth:`EnvSpec.folder`), reused while present and complete.
-The harness in it is reinstalled, without touching the rest, when the source's hash (every file of
-``analytic/``, ``harness/``, ``mjcf/`` and ``pyproject.toml``) differs from the one it was built from;
+The harness in it is reinstalled (with any dependency it gained, the release and the pins held) when the
+source's hash (every file of ``analytic/``, ``harness/``, ``mjcf/`` and ``pyproject.toml``) differs from the
+one it was built from;
 the wheel is built once per source hash and shared by every environment. uv keeps its downloads in
 its own cache (``$XDG_CACHE_HOME/uv``), so a second environment of the same packages downloads
 nothing. Building is serialised per folder with a lock file, so two commands never build one folder at
@@ -293,8 +294,10 @@ class Builder:
                           f"installing MuJoCo {spec.release} ({' '.join(spec.requirements())})")
                 (folder / COMPLETE).write_text("\n".join(spec.requirements()) + "\n")
             else:
-                self._run(["pip", "install", "--quiet", "--python", python, "--no-deps", "--reinstall-package",
-                           "mjharness", str(wheel)], f"reinstalling the harness for MuJoCo {spec.release}")
+                # with its dependencies, the release and the pins held as they are: a dependency the new source
+                # added (scipy, for the inertia audit) was missing from every environment reused
+                self._run(["pip", "install", "--quiet", "--python", python, "--reinstall-package", "mjharness",
+                           str(wheel), *spec.requirements()], f"reinstalling the harness for MuJoCo {spec.release}")
             (folder / SOURCE_MARK).write_text(digest + "\n")
             return Environment(spec, folder, built=not complete, harness=True, seconds=time.perf_counter() - start)
 
