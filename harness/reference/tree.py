@@ -122,7 +122,7 @@ def uncovered(model: mujoco.MjModel) -> dict[str, str]:
         if _fixed_tendon(model, t) is None:
             out[f"tendon {name}"] = "a spatial tendon's force"
         elif model.tendon_stiffness[t] or np.any(model.tendon_damping[t]) or model.tendon_limited[t] \
-                or model.tendon_frictionloss[t] or model.tendon_armature[t]:
+                or model.tendon_frictionloss[t] or getattr(model, "tendon_armature", np.zeros(model.ntendon))[t]:
             out[f"tendon {name}"] = "a fixed tendon's spring, damping, limit, friction or armature"
     for a in range(model.nu):
         why = _actuator_gap(model, a)
