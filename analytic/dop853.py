@@ -189,12 +189,13 @@ def _dense_coefficients(fun: RightHandSide, t: float, y: Array, y_new: Array, h:
 
 
 def integrate(fun: RightHandSide, t_end: float, y0: Array, *, rtol: float, atol: float,
-              max_steps: int = MAX_STEPS) -> Result:
+              max_steps: int = MAX_STEPS, reach: bool = False) -> Result:
     """Integrate y' = fun(t, y) from y(0) = y0 to t_end > 0 with dense output.
 
     Raises IntegrationError (naming the time) when the step size falls below ten
     units in the last place of t — a singularity, a non-finite right-hand side
-    or a tolerance the arithmetic cannot meet — or after ``max_steps`` steps.
+    or a tolerance the arithmetic cannot meet — or after ``max_steps`` steps
+    (``reach``: returns the solution as far as those steps went instead).
     """
     if not t_end > 0:
         raise ValueError(f"t_end must be positive, got {t_end}")
@@ -209,6 +210,8 @@ def integrate(fun: RightHandSide, t_end: float, y0: Array, *, rtol: float, atol:
     t_starts, hs, y_starts, coeffs = [], [], [], []
     while t < t_end:
         if len(hs) >= max_steps:
+            if reach:
+                break
             raise StepBudgetExceeded(max_steps, t, t_end)
         t_new, h, y_new, factor, rejections = _step(fun, t, y, f, h, t_end, K, rtol, atol)
         coeffs.append(_dense_coefficients(fun, t, y, y_new, h, K))

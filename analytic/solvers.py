@@ -83,6 +83,7 @@ def solve(
     stabilization_rate: float = 10.0,
     max_steps: int = dop853.MAX_STEPS,
     stiff: bool = False,
+    reach: bool = False,
 ) -> Solution:
     """Integrate from (q0, q̇0) over [0, t_end] with dense output.
 
@@ -98,6 +99,9 @@ def solve(
     shipped reference takes fewer), or where its first steps estimate more than ``max_steps``, the motion is
     handed to Radau IIA (at :data:`STIFF_RTOL` at the loosest), judged by its own first steps against the same
     bound, before it is refused (:class:`TooManySteps` then gives both estimates).
+
+    ``reach``: solve only as far as ``max_steps`` steps go (``Solution.t_end`` the time reached, at most
+    ``t_end``), by the solver the start chooses, instead of refusing a longer solve: a span bounded by its cost.
     """
     q0 = np.asarray(q0, dtype=float)
     qd0 = np.asarray(qd0, dtype=float)
@@ -122,7 +126,11 @@ def solve(
         steps, radius = explicit_steps(dynamics, rhs, y0, float(t_end), atol_over_rtol=atol / rtol)
         if steps > min(max_steps, TRIAL_STEPS):
             return _solve_stiff(dynamics, rhs, y0, t_end=float(t_end), rtol=rtol, atol=atol, max_steps=max_steps,
-                                explicit=None, radius=radius)
+                                explicit=None, radius=radius, reach=reach)
+    if reach:
+        result = dop853.integrate(rhs, float(t_end), y0, rtol=rtol, atol=atol, max_steps=max_steps, reach=True)
+        return Solution(dynamics=dynamics, t_end=_reached(result.dense, float(t_end)), rtol=rtol, nfev=result.nfev,
+                        _dense=result.dense)
     trial = min(TRIAL_STEPS, max_steps)
     clock = time.perf_counter()
     try:
@@ -189,11 +197,12 @@ def explicit_steps(dynamics: Dynamics, rhs: dop853.RightHandSide, y0: Array, t_e
 
 
 def _solve_stiff(dynamics: Dynamics, rhs: dop853.RightHandSide, y0: Array, *, t_end: float, rtol: float,
-                 atol: float, max_steps: int, explicit: TooManySteps | None, radius: float | None = None) -> Solution:
+                 atol: float, max_steps: int, explicit: TooManySteps | None, radius: float | None = None,
+                 reach: bool = False) -> Solution:
     """The solve by Radau IIA, chosen because DOP853 would take more than ``max_steps`` steps: by its first steps
     (``explicit``), or (``explicit`` None) by stability alone at the start's spectral radius ``radius``
     (:func:`explicit_steps`). Its own first :data:`TRIAL_STEPS` steps judge its length against ``max_steps``
-    as DOP853's did."""
+    as DOP853's did; ``reach``: as far as ``max_steps`` steps go (:func:`solve`)."""
 
     rtol, atol = max(rtol, STIFF_RTOL), max(atol, STIFF_RTOL)
 
@@ -209,6 +218,14 @@ def _solve_stiff(dynamics: Dynamics, rhs: dop853.RightHandSide, y0: Array, *, t_
         fastest = float(np.max(np.abs(np.linalg.eigvals(jacobian(0.0, y0, rhs(0.0, y0))))))
         why = (f"stiff (rtol {rtol:g}): DOP853 would take about {explicit.estimate:.2g} steps (its stability bounds "
                f"the step: the fastest mode decays at {fastest:.2g}/s)")
+    if reach:
+        try:
+            result, end = radau.integrate(rhs, t_end, y0, rtol=rtol, atol=atol, max_steps=max_steps, jac=jacobian,
+                                          vectorized=True), t_end
+        except radau.StepsTaken as exc:
+            result, end = exc.partial, exc.t
+        return Solution(dynamics=dynamics, t_end=end, rtol=rtol, nfev=result.nfev, _dense=result.dense,
+                        method="Radau IIA", why=why)
     trial = min(TRIAL_STEPS, max_steps)
     clock = time.perf_counter()
     try:
@@ -228,6 +245,11 @@ def _solve_stiff(dynamics: Dynamics, rhs: dop853.RightHandSide, y0: Array, *, t_
         result = radau.joined(exc.partial, rest)
     return Solution(dynamics=dynamics, t_end=t_end, rtol=rtol, nfev=result.nfev, _dense=result.dense,
                     method="Radau IIA", why=why)
+
+
+def _reached(dense: dop853.Dense, t_end: float) -> float:
+    """Where a solve's steps ended: ``t_end``, or short of it where its step budget ran out first."""
+    return min(t_end, float(dense.t_start[-1] + dense.h[-1])) if len(dense.h) else 0.0
 
 
 TRIAL_STEPS = 500

@@ -7,6 +7,8 @@ The models here are written for these tests (nobody's robot); dm_control's and G
 
 from __future__ import annotations
 
+import dataclasses
+import re
 import subprocess
 import sys
 import textwrap
@@ -16,6 +18,7 @@ import numpy as np
 import pytest
 
 import harness
+from harness.cases import own
 from harness.cases.own import from_mjcf
 from harness.core.errors import ModelError
 from harness.engine.compat import set_damping
@@ -142,6 +145,21 @@ def test_the_case_says_what_it_did_not_examine_and_how_it_chose_its_horizon(arm)
     assert "contacts" in notes  # the floor: listed, and switched off for the comparison
     assert "horizon" in case.tree.horizon_note and case.horizon <= 1.0
     assert case.qd0["yaw"] == 0.5 and case.q0["elbow"] == 0.6  # the keyframe's state, as given
+
+
+def test_a_costly_reference_cuts_the_horizon_to_what_its_steps_cover_and_says_so(arm, monkeypatch):
+    """The chaos horizon's reference takes at most own.HORIZON_STEPS solver steps (Cassie's costly rods): its span is
+    cut to what they cover, rounded down, and the note says why; a fault still fails within the cut horizon."""
+    full = from_mjcf(arm, keyframe="reach")
+    monkeypatch.setattr(own, "HORIZON_STEPS", 25)
+    cut = from_mjcf(arm, keyframe="reach")
+    assert cut.horizon < full.horizon and "the reference's cost: 25 steps of its DOP853 solve cover" in \
+        cut.tree.horizon_note, cut.tree.horizon_note
+    reached = float(re.search(r"cover ([0-9.e-]+) s", cut.tree.horizon_note).group(1))
+    assert 0.9 * reached <= cut.horizon <= reached  # two figures, rounded down
+    v = harness.validate(dataclasses.replace(cut, tree=dataclasses.replace(cut.tree, source=str(arm))),
+                         integrators=["RK4"], edit=_heavier("fore", 1.01))
+    assert "RK4.position" in _failed(v)
 
 
 def test_a_model_at_rest_is_set_moving_rather_than_judged_motionless(arm):

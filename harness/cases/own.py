@@ -59,6 +59,11 @@ model's, by Radau IIA, to STIFF_RTOL = SEED: its error then is that of the pertu
 separation GROWTH × SEED at which the horizon ends)."""
 GROWTH = 1e4
 """How much the perturbation may grow before the horizon ends."""
+HORIZON_STEPS = 1500
+"""The most solver steps the chaos horizon's reference may take: its span is cut to what they cover (a motion whose
+reference is costly, Cassie's lightly damped 375 rad/s rods, is judged over less than HORIZON_CAP, and says so).
+Above the 1270 steps of the costliest solve over 1 s among the zoo and the robots (docs/findings/bases.md,
+HORIZON_STEPS), so only such motions are cut."""
 MIN_STEPS = 20
 """The shortest horizon chosen, in timesteps (a very chaotic motion still gets a trajectory)."""
 
@@ -121,25 +126,36 @@ def chaos_horizon(case: Case, model: mujoco.MjModel) -> tuple[float, str]:
     :data:`HORIZON_CAP` and at least :data:`MIN_STEPS` timesteps."""
     dyn = case.tree.dynamics(model)
     scales = tree_scales(dyn.tree)
-    progress.stage(f"choosing the horizon: solving its tree reference over {HORIZON_CAP:g} s")
-    nominal = case.reference(model, t_end=HORIZON_CAP)
-    progress.stage(f"choosing the horizon: solving a perturbed start over {HORIZON_CAP:g} s")
+    progress.stage(f"choosing the horizon: solving its tree reference over {HORIZON_CAP:g} s (at most "
+                   f"{HORIZON_STEPS} steps)")
+    nominal = case.reference(model, t_end=HORIZON_CAP, reach=HORIZON_STEPS)
+    cap = nominal.solution.t_end
+    cut = cap < HORIZON_CAP
+    if cut:  # the span those steps covered, to two figures, rounded down
+        unit = 10.0 ** (math.floor(math.log10(cap)) - 1)
+        cap = float(f"{math.floor(cap / unit) * unit:.2g}")
+    progress.stage(f"choosing the horizon: solving a perturbed start over {cap:g} s")
     q0, qd0 = nominal.q0(), nominal.qd0()
     signs = np.where(np.arange(dyn.n) % 2 == 0, 1.0, -1.0)
     kick = SEED * math.sqrt(9.81 / scales.length) * signs
     q1, qd1 = project(dyn, q0, qd0 + kick)  # the kick's part along the constraints
     try:
-        moved = solve(dyn, q0=q1, qd0=qd1, t_end=HORIZON_CAP, rtol=max(nominal.solution.rtol, SEED / 10),
+        moved = solve(dyn, q0=q1, qd0=qd1, t_end=cap, rtol=max(nominal.solution.rtol, SEED / 10),
                       atol=max(nominal.solution.rtol, SEED / 10), max_steps=TREE_MAX_STEPS, stiff=True)
     except TooManySteps as exc:  # the nominal solve passed its bound: this one cannot be far off it
-        raise ModelError(f"the model's tree reference cannot be solved over {HORIZON_CAP:g} s: {exc}; accepted: "
+        raise ModelError(f"the model's tree reference cannot be solved over {cap:g} s: {exc}; accepted: "
                          "a shorter --horizon") from None
-    t = np.linspace(0.0, HORIZON_CAP, 401)
+    t = np.linspace(0.0, cap, 401)
     a = dyn.points(nominal.solution.state(t)[0]) if dyn.point_names else dyn.body_coms(nominal.solution.state(t)[0])
     b = dyn.points(moved.state(t)[0]) if dyn.point_names else dyn.body_coms(moved.state(t)[0])
     separation = np.max(np.linalg.norm(a - b, axis=-1), axis=-1)
     over = np.flatnonzero(separation > GROWTH * SEED * scales.length)
     floor = MIN_STEPS * float(model.opt.timestep)
+    if over.size == 0 and cut:
+        return max(floor, cap), (f"horizon {max(floor, cap):g} s (the reference's cost: {HORIZON_STEPS} steps of its "
+                                 f"{nominal.solution.method} solve cover {nominal.solution.t_end:.3g} s of the "
+                                 f"{HORIZON_CAP:g} s cap); a {SEED:g} perturbation of the start grows less than "
+                                 f"×{GROWTH:g} within it")
     if over.size == 0:
         return HORIZON_CAP, (f"horizon {HORIZON_CAP:g} s (the cap): a {SEED:g} perturbation of the start grows less "
                              f"than ×{GROWTH:g} within it")

@@ -93,7 +93,7 @@ def _usable(scale: object) -> bool:
 
 def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, float], qd0: Mapping[str, float],
                     horizon: float, rtol: float = DEFAULT_RTOL, t_end: float | None = None,
-                    tree: TreeSystem | None = None) -> Reference:
+                    tree: TreeSystem | None = None, reach: int | None = None) -> Reference:
     """``system`` solved from (q0, qd0) with the parameters read from ``model``, over at least
     ``t_end`` (default: ``horizon``).
 
@@ -107,6 +107,10 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
 
     ``tree``: the system is ``model``'s own kinematic tree (:mod:`harness.reference.tree`), read in
     those charts, rather than a hand-derived module.
+
+    ``reach``: solve only as far as that many solver steps go (at most the span): a span bounded by the
+    reference's cost, which the returned solution's ``t_end`` states (the chaos horizon's cap on a model whose
+    motion is costly to solve). Later requests up to that span reuse it.
     """
     if tree is not None:
         dyn = tree.dynamics(model)
@@ -135,6 +139,8 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     span = max(float(t_end or horizon), float(horizon))
     key = (system, identity, tuple(sorted(params.items())), tuple(q.tolist()), tuple(qd.tolist()), float(rtol),
            span)
+    if reach is not None:
+        return _reach(system, dyn, key, int(reach), rtol, params, scales, q, qd, projected, tree)
     sol = _solutions.get(key)
     if sol is None:  # a solve over a longer span from the same start covers this one: its dense output, cut to span
         longer = next((found for k, found in _solutions.items() if k[:-1] == key[:-1] and k[-1] >= span), None)
@@ -163,6 +169,30 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
         _store(key, bound, sol, time.perf_counter() - clock)
     _solutions[key] = sol
     return _reference(system, params, scales, sol, dyn, q, qd, projected, span, tree)
+
+
+def _reach(system: str, dyn: Dynamics, key: tuple, steps: int, rtol: float, params: dict[str, float],
+           scales: Scales, q: np.ndarray, qd: np.ndarray, projected: tuple[str, ...],
+           tree: TreeSystem | None) -> Reference:
+    """:func:`build_reference` over as much of the span as ``steps`` solver steps cover, kept (in the process and
+    on disk) under its own key and, in the process, under the span it reached."""
+    within = (*key, f"within {steps} steps")
+    sol = _solutions.get(within)
+    if sol is None and within in _seeds:
+        end, tol, nfev, dense, method, why = _seeds.pop(within)
+        sol = Solution(dynamics=dyn, t_end=end, rtol=tol, nfev=nfev, _dense=dense, method=method, why=why)
+    if sol is None:
+        sol = _stored(within, steps, dyn)
+    if sol is None:
+        clock = time.perf_counter()
+        sol = solve(dyn, q0=q, qd0=qd, t_end=key[-1], rtol=rtol, atol=rtol, max_steps=steps, stiff=tree is not None,
+                    reach=True)
+        if tree is not None and sol.why:
+            sol = dataclasses.replace(sol, why=stiffness_cause(dyn, q, sol.why))
+        _store(within, steps, sol, time.perf_counter() - clock)
+    _solutions[within] = sol
+    _solutions.setdefault((*key[:-1], sol.t_end), sol)
+    return _reference(system, params, scales, sol, dyn, q, qd, projected, sol.t_end, tree)
 
 
 def _reference(system: str, params: dict[str, float], scales: Scales, sol: Solution, dyn: Dynamics,
