@@ -165,6 +165,28 @@ def gain(count: int, s: float) -> float:
     return float(sum(abs(w) for w in _weights(count, s)))
 
 
+def from_rigid(levels: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The value at ε → 0 from ``levels`` = values at ε, 2fε and fε (the near-rigid levels:
+    :func:`~harness.engine.variants.rigid_factor`), and its uncertainty per entry: the line through the two
+    near-rigid levels (MuJoCo's softness is linear in ε near the rigid limit), and :data:`RIGID_TAIL` of what
+    that line extrapolates beyond fε. Nothing is extrapolated from the model's own level: however the effect
+    grows between fε and ε (not as a polynomial in closed loops of light links: docs/findings/softness.md),
+    that difference is measured."""
+    ideal = _linear(levels[1], levels[2], 0.5)
+    return ideal, RIGID_TAIL * (levels[2] - ideal)
+
+
+RIGID_TAIL = 1.0
+"""The uncertainty of :func:`from_rigid`'s value at 0, in units of what it extrapolates beyond fε: the whole of
+it, which bounds the error wherever the effect's slope below fε is within a factor 2 of its secant between fε and
+2fε (a weaker assumption than the linearity :data:`SOFTNESS_UNCERTAINTY` rests on; its measured basis, Robotiq
+2F-85's linkage leaving 37 % of it: docs/findings/bases.md, RIGID_TAIL)."""
+
+
+RIGID_GAIN = gain(2, 0.5)
+"""Σ |w| of :func:`from_rigid`'s value at 0, 2 x(fε) − x(2fε): 3."""
+
+
 def to_zero(levels: Sequence[np.ndarray], s: float) -> tuple[np.ndarray, np.ndarray | None]:
     """The value at ε → 0 from ``levels`` = values at ε, sε, s²ε, … (two or three), and its uncertainty
     per entry (None from two levels, whose uncertainty only theory can bound).

@@ -173,10 +173,26 @@ def softness_factor(model: mujoco.MjModel) -> float:
     extrapolation spans ε, not 2ε: MuJoCo's softness grows like ε/(1 − ε)², and from ε = 0.1 — its
     default solimp — a step to 0.2 would leave half the effect unexplained, a step to 0.05 a tenth);
     else 2 (at ε = 1e-4, the stiffest, doubling is linear to 1e-4)."""
-    smallest = min((effective_softness(model, 1.0 - d, solref, row=row)
-                    for solref, solimp, row in _soft_rows(model) if _standard(solref) for d in solimp[:2]),
-                   default=1.0)
-    return 0.5 if smallest >= 2.0 * STIFFEST * (1 + 1e-9) else 2.0
+    return 0.5 if _smallest_softness(model) >= 2.0 * STIFFEST * (1 + 1e-9) else 2.0
+
+
+def _smallest_softness(model: mujoco.MjModel) -> float:
+    """The smallest effective ε of the model's soft rows in solref's standard format (1 where there is none)."""
+    return min((effective_softness(model, 1.0 - d, solref, row=row)
+                for solref, solimp, row in _soft_rows(model) if _standard(solref) for d in solimp[:2]),
+               default=1.0)
+
+
+def rigid_factor(model: mujoco.MjModel) -> float | None:
+    """f, where the softness part is measured down to the near-rigid levels 2fε and fε rather than extrapolated
+    from ε, ε/2 and ε/4: the smallest effective ε × f is twice the stiffest MuJoCo allows (both levels stay
+    representable under ``discrete``'s folding). Where ε is above that and no contact is soft; None elsewhere:
+    at the stiffest already (the levels are ε and 2ε), or with contacts, whose τ part is extrapolated on the
+    levels ε, ε/2, ε/4. A closed loop of light links (Cassie's rods, Robotiq's linkage) at MuJoCo's default
+    solimp answers to ε as no polynomial through ε, ε/2, ε/4 does (docs/findings/softness.md)."""
+    if softness_factor(model) > 1.0 or has_contacts(model):
+        return None
+    return min(1.0, 2.0 * STIFFEST / _smallest_softness(model))
 
 
 def variant(model: mujoco.MjModel, *, split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0

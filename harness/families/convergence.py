@@ -57,7 +57,7 @@ import mujoco
 import numpy as np
 
 from harness.cases import Case
-from harness.core.budget import ROUNDOFF_EPS
+from harness.core.budget import RIGID_TAIL, ROUNDOFF_EPS
 from harness.core.checks import Limit
 from harness.core.errors import SimulationDiverged
 from harness.core.figures import Figure, FigureName
@@ -68,7 +68,7 @@ from harness.engine.compat import joint_types, known_defect
 from harness.engine.integrators import EXPECTED_ORDER, available_integrators
 from harness.engine.models import compile_model
 from harness.engine.recording import steps_in
-from harness.engine.variants import exact_solver, floors_pair, point_masses
+from harness.engine.variants import exact_solver, floors_pair, point_masses, rigid_factor
 from harness.families.bench import Bench, Measured
 from harness.reference import solutions as refmod
 from harness.reference.tree import SWITCHED_ORDER, switched_orders, switches
@@ -264,6 +264,15 @@ def quadruple_softness(spec: mujoco.MjSpec) -> None:
     double_softness(spec)
 
 
+def scaled_softness(factor: float) -> Callable[[mujoco.MjSpec], None]:
+    """The edit that multiplies ε = 1 − d of every equality's impedance (solimp d0 and d_width) by ``factor``."""
+    def edit(spec: mujoco.MjSpec) -> None:
+        for eq in spec.equalities:
+            imp = [float(x) for x in eq.solimp]
+            eq.solimp = [1.0 - factor * (1.0 - imp[0]), 1.0 - factor * (1.0 - imp[1]), *imp[2:]]
+    return edit
+
+
 def _rigid_limit_resolved(fit: OrderFit, errors: Sequence[float], dts: Sequence[float], ladder: Mapping[float, tuple],
                           quadrupled: Mapping[float, Trajectory | None], saturation: float) -> tuple[OrderFit, str]:
     """A constrained ladder's order that falls short, refitted with the rigid-limit extrapolation's own
@@ -281,17 +290,24 @@ def _rigid_limit_resolved(fit: OrderFit, errors: Sequence[float], dts: Sequence[
         return fit, ""
     uncertainty = []
     for h in dts:
-        sim, soft = ladder[h]
+        sim, soft = ladder[h][:2]
         four = quadrupled[h]
         linear = {p: 2 * sim.positions[p] - soft.positions[p] for p in sim.positions}
         quadratic = {p: (8 * sim.positions[p] - 6 * soft.positions[p] + four.positions[p]) / 3
                      for p in sim.positions}
         uncertainty.append(_point_error(linear, quadratic))
+    return _with_known_floors(fit, errors, dts, uncertainty, saturation, "|linear − quadratic in 1 − d|")
+
+
+def _with_known_floors(fit: OrderFit, errors: Sequence[float], dts: Sequence[float], uncertainty: Sequence[float],
+                       saturation: float, what: str) -> tuple[OrderFit, str]:
+    """``fit`` refitted with the rigid-limit extrapolation's own uncertainty at each step (``what`` it is) as a
+    known floor, and the n/a note where that leaves fewer than two points."""
     refit = fit_order(dts, errors, saturation=saturation, known_floors=uncertainty)
     if refit.n_used >= 2:
         return refit, ""
     return refit, (f"not measurable at these settings: the rigid-limit extrapolation's own uncertainty "
-                   f"(|linear − quadratic in 1 − d|, up to {max(uncertainty):.2e} m) lies within "
+                   f"({what}, up to {max(uncertainty):.2e} m) lies within "
                    f"{FLOOR_FACTOR:g}× of the errors, and hides the truncation error (1 − d too large)")
 
 
@@ -498,6 +514,11 @@ def convergence_study(
     crossed = switches(reference.dynamics, reference.solution.state, horizon)
     orders = switched_orders(EXPECTED_ORDER, crossed)
     constrained = bool(probe.constraints)
+    # equalities whose ε is far above the stiffest: their rigid limit from the near-rigid levels fε and 2fε, where
+    # the softness is linear (from ε and 2ε at MuJoCo's default solimp it is not, in loops of light links:
+    # docs/findings/softness.md); ε and 2ε are still run, for the softness shown
+    rigid = rigid_factor(base) if constrained else None
+    near = (scaled_softness(rigid), scaled_softness(2.0 * rigid)) if rigid is not None and rigid < 0.25 else ()
     scales = reference.scales
     grids: dict[int, Trajectory] = {}
     force_floor = initial_force_floor(base, reference) if constrained else None
@@ -510,7 +531,7 @@ def convergence_study(
             return simulate(engine, model, probe, q0=reference.q0(), qd0=reference.qd0(),
                             steps=steps_in(horizon, h))
         except SimulationDiverged as exc:
-            softer = " with 1 − d doubled" if extra is not None else ""
+            softer = " with 1 − d changed" if extra is not None else ""
             diverged.setdefault(name, f"{exc.reason} (h = {h:g} s{softer})")
             return None
 
@@ -543,11 +564,13 @@ def convergence_study(
     for name in chosen:
         dts = tuple(h0 * k for k in multiples[name])
         errs: dict[str, list[float]] = {"position": [], "position@rigid": [], "softness": [], "force": []}
-        ladder = _ladder_runs(run, name, dts, double_softness if constrained else None, probe=probe, path=path,
-                              edit=edit, start=(reference.q0(), reference.qd0()), horizon=horizon, engine=engine)
+        tails: list[float] = []  # the near-rigid extrapolation's own uncertainty per step (RIGID_TAIL: all it adds)
+        extras = (double_softness, *near) if constrained else ()
+        ladder = _ladder_runs(run, name, dts, extras, probe=probe, path=path, edit=edit,
+                              start=(reference.q0(), reference.qd0()), horizon=horizon, engine=engine)
         for h in dts:
-            sim, soft = ladder[h]
-            if sim is None or (constrained and soft is None):  # the series says why (Series.diverged)
+            sim, soft, *pair = ladder[h]
+            if sim is None or (constrained and soft is None) or None in pair:  # the series says why (Series.diverged)
                 for v in errs.values():
                     v.append(math.nan)
                 continue
@@ -556,8 +579,10 @@ def convergence_study(
                 grids[steps] = refmod.trajectory(reference, sim.t)
             ref = grids[steps]
             errs["position"].append(_point_error(sim.positions, ref.positions))
-            if constrained:
-                rigid = {p: 2 * sim.positions[p] - soft.positions[p] for p in ref.positions}
+            if constrained:  # Richardson in ε from ε and 2ε, or from the near-rigid fε and 2fε
+                low, high = pair if pair else (sim, soft)
+                rigid = {p: 2 * low.positions[p] - high.positions[p] for p in ref.positions}
+                tails.append(RIGID_TAIL * _point_error(low.positions, high.positions))
                 errs["position@rigid"].append(_point_error(rigid, ref.positions))
                 errs["softness"].append(_point_error(sim.positions, soft.positions))
                 errs["force"].append(_force_error(sim, ref) / scales.force)
@@ -576,7 +601,9 @@ def convergence_study(
             note = exact or _switched(crossed, name, horizon)
             if (quantity == gated and constrained and not exact and math.isfinite(fit.order)
                     and orders[name] - fit.order > ORDER_TOLERANCE):
-                fit, note = _rigid_limit_resolved(fit, values, dts, ladder, quadruple(name, dts), saturation)
+                fit, note = _with_known_floors(fit, values, dts, tails, saturation, "the line through the "
+                                               "near-rigid levels' whole tail") if near and len(tails) == len(dts) \
+                    else _rigid_limit_resolved(fit, values, dts, ladder, quadruple(name, dts), saturation)
             if quantity == gated and not note and fit.n_used < 2 and fit.floor is not None:
                 softness = [v for v in errs["softness"] if math.isfinite(v)]
                 effects = {"softness": max(softness, default=math.nan), "inertia floor": floor_effect(name, dts[-1])}
@@ -609,13 +636,14 @@ def _switched(crossed: Sequence[tuple[str, float]], integrator: str, horizon: fl
             "switch falls, so the error over the ladder is no expansion in h")
 
 
-def _ladder_runs(run: Callable, name: str, dts: Sequence[float], softer: Callable | None, *, probe, path: Path,
+def _ladder_runs(run: Callable, name: str, dts: Sequence[float], softer: Sequence[Callable], *, probe, path: Path,
                  edit: Callable | None, start: tuple[np.ndarray, np.ndarray], horizon: float,
                  engine: Backend) -> dict[float, tuple]:
-    """Every run of one integrator's ladder (each timestep, and with 1 − d doubled where constrained), as one
-    batched call to ``engine`` (:meth:`harness.engine.backends.Backend.simulate_many`); where any run diverges the
-    ladder is run one by one, so that each diverged run is told apart as before."""
-    extras = (None, softer) if softer is not None else (None,)
+    """Every run of one integrator's ladder (each timestep: as it is, then with each edit of ``softer``; (run,
+    None) where there is none), as one batched call to ``engine``
+    (:meth:`harness.engine.backends.Backend.simulate_many`); where any run diverges the ladder is run one by one,
+    so that each diverged run is told apart as before."""
+    extras = (None, *softer)
     keys = [(h, extra) for h in dts for extra in extras]
     try:
         trajs = engine.simulate_many([Request(compile_model(path, integrator=name, timestep=h,
@@ -624,7 +652,7 @@ def _ladder_runs(run: Callable, name: str, dts: Sequence[float], softer: Callabl
         done = dict(zip(keys, trajs, strict=True))
     except SimulationDiverged:
         done = {key: run(name, *key) for key in keys}
-    return {h: (done[(h, None)], done[(h, softer)] if softer is not None else None) for h in dts}
+    return {h: tuple(done[(h, extra)] for extra in extras) if softer else (done[(h, None)], None) for h in dts}
 
 
 # ----------------------------------------------------------------- outputs

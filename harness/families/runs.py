@@ -25,6 +25,10 @@ C′…    h, ε (sε, s²ε), rτ                       contacts
 D      h, floors doubled                        point masses (one run, shared)
 =====  ======================================  ====================================
 
+Where every ε is above twice the stiffest and no contact is soft, C, C₂ and E are at the near-rigid levels
+instead: 2fε, fε and (h/2, fε) (:func:`~harness.engine.variants.rigid_factor`), and the softness part is
+measured down to fε, not extrapolated across ε (:func:`~harness.core.budget.from_rigid`).
+
 x(h, ε, τ) is smooth in each setting near the ideal (h → 0, ε → 0, τ → 0), so
 sample by sample, with κ = 2ᵖ/(2ᵖ − 1) (Richardson; p the integrator's
 documented order):
@@ -132,6 +136,7 @@ from harness.core.budget import (
     SOLVER,
     SOLVER_PART_UNCERTAINTY,
     Budget,
+    from_rigid,
     richardson,
     to_zero,
     ulp_states,
@@ -231,6 +236,8 @@ class Runs:
             float64 (:attr:`harness.core.trajectory.Trajectory.completed`); every other run is then taken
             completed too, and A − completed is the ``stop`` part.
         eps_factor, tc_factor: s and r.
+        rigid: f where the softness levels are the near-rigid 2fε and fε, and E is at fε
+            (:func:`~harness.engine.variants.rigid_factor`); None where they are sε (and s²ε).
     """
 
     as_is: Sequence[Deviation]
@@ -247,6 +254,7 @@ class Runs:
     eps_factor: float = 2.0
     tc_factor: float = 1.5
     completed: Sequence[Deviation] | None = None
+    rigid: float | None = None
 
 
 def every_nth(sim: Trajectory, n: int) -> Trajectory:
@@ -329,7 +337,15 @@ def parts(runs: Runs, dev: Deviation, *, order: float) -> Parts:
         q = _by_name(runs.quarter_step)[dev.name]
         integration_unc = 2.0 * ((a - kappa * (a - b)) - (b - kappa * (b - q)))
     softness_unc = timeconst = None
-    if runs.softness and runs.softness_half_step is not None:
+    if runs.softness and runs.softness_half_step is not None and runs.rigid is not None:
+        f = runs.rigid  # E at fε; at 2fε the integration error is linear in ε between fε and ε (bilinear model)
+        levels = [a, *(_by_name(group)[dev.name] for group in runs.softness)]
+        at_f = kappa * (levels[2] - _by_name(runs.softness_half_step)[dev.name])
+        corrections = [explained["integration"], at_f + (explained["integration"] - at_f) * f / (1.0 - f), at_f]
+        ideal, uncertainty = from_rigid([x - c for x, c in zip(levels, corrections, strict=True)])
+        explained["softness"] = levels[0] - corrections[0] - ideal
+        softness_unc = np.abs(uncertainty)
+    elif runs.softness and runs.softness_half_step is not None:
         levels = [a, *(_by_name(group)[dev.name] for group in runs.softness)]
         corrections = [explained["integration"], kappa * (levels[1] - _by_name(runs.softness_half_step)[dev.name])]
         for k in range(2, len(levels)):  # the integration error is linear in ε (bilinear model)
@@ -428,7 +444,7 @@ def noise_gain(runs: Runs, *, order: float) -> float:
                          softness_half_step=unit(hot, "softness_half_step") if groups["softness_half_step"]
                          else None,
                          slower=tuple(unit(hot, "slower", k) for k in range(groups["slower"])),
-                         eps_factor=runs.eps_factor, tc_factor=runs.tc_factor)
+                         eps_factor=runs.eps_factor, tc_factor=runs.tc_factor, rigid=runs.rigid)
             dev = probe.as_is[0]
             found = parts(probe, dev, order=order)
             gain += float(abs((dev.values - sum(found.explained.values()))[0]))
@@ -552,7 +568,8 @@ def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, targe
     steps = len(sim.t) - 1
     eps = V.softness_factor(model)
     slow = V.TIMECONST_FACTOR
-    levels = (eps, eps * eps) if eps < 1 else (eps,)
+    rigid = V.rigid_factor(model) if variants.soft else None
+    levels = (2.0 * rigid, rigid) if rigid is not None else (eps, eps * eps) if eps < 1 else (eps,)
 
     def run(split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0) -> list[Deviation]:
         return _variant_run(mut, probe, engine, target, model, steps=steps, split=split, eps_factor=eps_factor,
@@ -563,7 +580,8 @@ def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, targe
     if not V.solver_converges(model):
         plan["converged"] = (1, 1.0, 1.0)
     if variants.soft:
-        plan |= {f"softness{k}": (1, f, 1.0) for k, f in enumerate(levels)} | {"softness_half_step": (2, eps, 1.0)}
+        plan |= {f"softness{k}": (1, f, 1.0) for k, f in enumerate(levels)}
+        plan["softness_half_step"] = (2, rigid or eps, 1.0)
     if variants.contacts:
         plan |= {f"slower{k}": (1, f, slow) for k, f in enumerate((1.0, *levels))}
     float32 = engine.epsilon > float(np.finfo(np.float64).eps)
@@ -591,7 +609,7 @@ def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, targe
         completed=None if sim.completed is None else compared(target, sim.completed, name),
         represented=represented,
         quantized=quantized,
-        eps_factor=eps, tc_factor=slow,
+        eps_factor=eps, tc_factor=slow, rigid=rigid,
     )
 
 

@@ -19,9 +19,9 @@ floors. The same states are evaluated on the model as it is (A), with every ε =
 2 at the stiffest ε; :func:`~harness.engine.variants.softness_factor`) and with the floors doubled (D), and
 state by state
 
-- softness = A − (the levels A, C (and C₂, ε × s²) extrapolated to ε → 0, as the runs' budget does,
-  :mod:`harness.families.runs`): at a consistent state (f = 0, J q̇ = 0) a soft equality's force is
-  −(A + R)⁻¹Rλ off the rigid one and its acceleration follows, with R = (1 − d)/d · Â
+- softness = A − (the levels A, C (and C₂, ε × s²; or the near-rigid 2fε and fε) extrapolated to ε → 0, as
+  the runs' budget does, :mod:`harness.families.runs`): at a consistent state (f = 0, J q̇ = 0) a soft
+  equality's force is −(A + R)⁻¹Rλ off the rigid one and its acceleration follows, with R = (1 − d)/d · Â
   (computation/index.rst, "Soft constraints"): linear in 1 − d up to relative terms O(1 − d);
 - floors = D − A: linear in the inertia;
 - ideal = A − softness − floors,
@@ -64,10 +64,12 @@ from harness.core.budget import (
     PERTURBED_FACTOR,
     PERTURBED_RUNS,
     READ_ULPS,
+    RIGID_GAIN,
     SOFTNESS_UNCERTAINTY,
     SOLVER,
     SOLVER_PART_UNCERTAINTY,
     Budget,
+    from_rigid,
     gain,
     to_zero,
 )
@@ -464,7 +466,9 @@ def evaluate(mut: V.ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref: Re
         return got.completed if got.completed is not None else got.deviations
 
     eps_factor = V.softness_factor(model)
-    levels = (eps_factor, eps_factor**2) if eps_factor < 1 else (eps_factor,)
+    rigid = V.rigid_factor(model) if variants.soft else None
+    levels = (2.0 * rigid, rigid) if rigid is not None else (eps_factor, eps_factor**2) if eps_factor < 1 \
+        else (eps_factor,)
     softness = tuple(at(V.variant(model, eps_factor=f)) for f in levels) if variants.soft else ()
     heavier = lighter = None
     if variants.point_masses:
@@ -474,7 +478,7 @@ def evaluate(mut: V.ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref: Re
     wider = V.wider_margins(model)
     margins = at(wider) if wider is not None else None
     made = budgets(found.deviations, conditioning=conditioning, softness=softness, heavier=heavier, lighter=lighter,
-                   converged=converged, margins=margins, eps_factor=eps_factor,
+                   converged=converged, margins=margins, eps_factor=eps_factor, rigid=rigid is not None,
                    solver_tolerance=V.CONVERGED_TOLERANCE if exact is not None else variants.solver_tolerance,
                    notes=(*variants.notes, *((found.completion_note,) if found.completion_note else ())),
                    perturbed=found.perturbed, represented=found.represented, epsilon=engine.epsilon,
@@ -532,14 +536,16 @@ FLOAT64 = float(np.finfo(float).eps)
 def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation]] = (),
                     heavier: Sequence[Deviation] | None = None, lighter: Sequence[Deviation] | None = None,
                     converged: Sequence[Deviation] | None = None, margins: Sequence[Deviation] | None = None,
-                    eps_factor: float = 2.0, solver_tolerance: float = 0.0, notes: Sequence[str] = (),
+                    eps_factor: float = 2.0, rigid: bool = False, solver_tolerance: float = 0.0,
+                    notes: Sequence[str] = (),
                     perturbed: Sequence[Sequence[Deviation]] = (),
                     represented: Mapping[FigureName, float] | None = None,
                     epsilon: float = float(np.finfo(np.float32).eps),
                     completed: Sequence[Deviation] | None = None,
                     conditioning: float = 1.0) -> dict[FigureName, Budget]:
     """Every figure's budget from the model's deviations at the sampled states (A) and,
-    where they apply, the model's with every ε × s, s² (``softness``, s = ``eps_factor``) and with
+    where they apply, the model's with every ε × s, s² (``softness``, s = ``eps_factor``; ``rigid``: at the
+    near-rigid 2fε and fε instead, :func:`~harness.core.budget.from_rigid`) and with
     heavier floors (D) at the same states; ``lighter``: where given, the floors' part is D − ``lighter``
     instead of D − A (the pair :func:`~harness.engine.variants.floors_pair` makes without fluid forces).
     ``margins``: A with every contact margin doubled (:func:`~harness.engine.variants.wider_margins`); the
@@ -554,7 +560,7 @@ def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation
     exact = {d.name: d.values for d in converged or ()}
     stopped = {d.name: d.values for d in completed or ()}
     wider = {d.name: d.values for d in margins or ()}
-    noise = (gain(len(levels) + 1, eps_factor) if levels else 1.0) + (2.0 if floors else 0.0) \
+    noise = (RIGID_GAIN if rigid else gain(len(levels) + 1, eps_factor) if levels else 1.0) + (2.0 if floors else 0.0) \
         + (2.0 if exact else 0.0) + (2.0 if wider else 0.0)
     copies: dict[FigureName, list[np.ndarray]] = {}
     for group in perturbed:
@@ -572,7 +578,8 @@ def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation
             parts["stop"] = dev.values - a
         softness_unc = None
         if levels:
-            ideal_eps, uncertainty = to_zero([a, *(level[dev.name] for level in levels)], eps_factor)
+            at = [a, *(level[dev.name] for level in levels)]
+            ideal_eps, uncertainty = from_rigid(at) if rigid else to_zero(at, eps_factor)
             parts["softness"] = a - ideal_eps
             softness_unc = None if uncertainty is None else dev.magnitude(uncertainty)
         if dev.name in floors:
