@@ -23,7 +23,7 @@ from functools import cached_property
 import numpy as np
 
 from analytic.tree.model import BALL, FREE, HINGE, SLIDE, Tree
-from analytic.tree.rotations import exp_map, quat_to_mat, right_jacobian, skew
+from analytic.tree.rotations import exp_and_jacobian, quat_to_mat, right_jacobian, skew
 
 Array = np.ndarray
 
@@ -86,6 +86,37 @@ class Layout:
         return np.array([self.tree.joints[j].ref for j in self.hinges], dtype=float)
 
     @cached_property
+    def rotation_vectors(self) -> tuple[np.ndarray, np.ndarray]:
+        """The ball and free joints, and the coordinates (nr, 3) of each one's rotation vector: their Exp(θ) and
+        J_r(θ) are computed together, once per pose."""
+        joints = [j for j, joint in enumerate(self.tree.joints) if joint.kind in (BALL, FREE)]
+        coords = [[self.first[j] + (3 if self.tree.joints[j].kind == FREE else 0) + a for a in range(3)]
+                  for j in joints]
+        return np.array(joints, dtype=int), np.array(coords, dtype=int).reshape(-1, 3)
+
+    @cached_property
+    def plan(self) -> tuple[tuple[int, np.ndarray | None, np.ndarray | None, tuple[tuple, ...]], ...]:
+        """Per body, what :func:`forward` does, decided once: its parent, its offset in the parent's frame and
+        its constant rotation (None where zero or the identity: nothing to add or multiply), and per joint
+        (kind, first coordinate, anchor or None where at the body's origin, axis, the index of its rotation or
+        Exp(θ) in the batched ones, the joint's index)."""
+        hinge_of = {int(j): i for i, j in enumerate(self.hinges)}
+        rotation_of = {int(j): i for i, j in enumerate(self.rotation_vectors[0])}
+        out = []
+        for b, body in enumerate(self.tree.bodies):
+            pos = np.asarray(body.pos, dtype=float)
+            rot = self.body_rotations[b]
+            steps = []
+            for j in body.joints:
+                joint = self.tree.joints[j]
+                anchor = np.asarray(joint.pos, dtype=float)
+                steps.append((joint.kind, self.first[j], anchor if np.any(anchor) else None,
+                              np.asarray(joint.axis, dtype=float), hinge_of.get(j, rotation_of.get(j, -1)), j))
+            out.append((body.parent, pos if body.parent < 0 or np.any(pos) else None,
+                        None if np.array_equal(rot, np.eye(3)) else rot, tuple(steps)))
+        return tuple(out)
+
+    @cached_property
     def body_of_coordinate(self) -> np.ndarray:
         out = np.empty(self.tree.n, dtype=int)
         for j, joint in enumerate(self.tree.joints):
@@ -110,64 +141,59 @@ class Pose:
     shifts: Array
 
 
-def _split(q: Array, layout: Layout, j: int) -> Array:
-    k = layout.first[j]
-    return q[..., k:k + layout.tree.joints[j].ndof]
-
-
 def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
     """Every body's world pose and every coordinate's world motion at configurations q (..., n)."""
     q = np.asarray(q)
     batch = q.shape[:-1]
     dtype = np.result_type(q.dtype, float)
     nb, n = len(tree.bodies), layout.n
-    origin = np.zeros((*batch, nb, 3), dtype=dtype)
-    rotation = np.zeros((*batch, nb, 3, 3), dtype=dtype)
+    origin = np.empty((*batch, nb, 3), dtype=dtype)
+    rotation = np.empty((*batch, nb, 3, 3), dtype=dtype)
     axes = np.zeros((*batch, n, 3), dtype=dtype)
     anchors = np.zeros((*batch, n, 3), dtype=dtype)
     shifts = np.zeros((*batch, n, 3), dtype=dtype)
-    skews, squares, charts = layout.joint_constants
+    _, _, charts = layout.joint_constants
     hinges = layout.hinges
     if hinges.size:  # every hinge's rotation at once (Rodrigues), not one joint at a time
+        skews, squares, _ = layout.joint_constants
         angle = q[..., layout.hinge_coordinates] - layout.hinge_refs
         turns = (np.eye(3) + np.sin(angle)[..., None, None] * skews[hinges]
                  + (1 - np.cos(angle))[..., None, None] * squares[hinges])
-        turn_of = {int(j): i for i, j in enumerate(hinges)}
-    for b, body in enumerate(tree.bodies):
-        if body.parent >= 0:
-            p_par, r_par = origin[..., body.parent, :], rotation[..., body.parent, :, :]
-        else:
-            p_par, r_par = np.zeros((*batch, 3), dtype=dtype), np.broadcast_to(np.eye(3), (*batch, 3, 3))
-        p = p_par + r_par @ body.pos
-        r = r_par @ layout.body_rotations[b]
-        for j in body.joints:
-            joint = tree.joints[j]
-            k = layout.first[j]
-            x = _split(q, layout, j)
-            if joint.kind == HINGE:
-                centred = not np.any(joint.pos)  # at the body's origin (most hinges): the origin stays put
-                anchor = p if centred else p + r @ joint.pos
-                axes[..., k, :] = r @ joint.axis
+    if layout.rotation_vectors[0].size:  # every ball's and free joint's Exp(θ) and J_r(θ) at once
+        exps, jacobians = exp_and_jacobian(q[..., layout.rotation_vectors[1]])
+    for b, (parent, pos, rot, steps) in enumerate(layout.plan):
+        if parent >= 0:
+            p, r = origin[..., parent, :], rotation[..., parent, :, :]
+            if pos is not None:
+                p = p + r @ pos
+        else:  # under the world: its frame as placed (the world's identity rotation changes no bit)
+            p, r = np.broadcast_to(pos, (*batch, 3)), np.broadcast_to(np.eye(3), (*batch, 3, 3))
+        if rot is not None:
+            r = r @ rot
+        for kind, k, offset, axis, i, j in steps:
+            if kind == HINGE:
+                anchor = p if offset is None else p + r @ offset  # at the body's origin: the origin stays put
+                axes[..., k, :] = r @ axis
                 anchors[..., k, :] = anchor
-                r = r @ turns[..., turn_of[j], :, :]
-                p = anchor if centred else anchor - r @ joint.pos
-            elif joint.kind == SLIDE:
-                shifts[..., k, :] = r @ joint.axis
-                p = p + shifts[..., k, :] * (x[..., 0] - joint.ref)[..., None]
-            elif joint.kind == BALL:
-                anchor = p + r @ joint.pos
-                r = r @ charts[j] @ exp_map(x)
-                p = anchor - r @ joint.pos
-                axes[..., k:k + 3, :] = np.swapaxes(r @ right_jacobian(x), -1, -2)
+                r = r @ turns[..., i, :, :]
+                p = anchor if offset is None else anchor - r @ offset
+            elif kind == SLIDE:
+                shifts[..., k, :] = r @ axis
+                p = p + shifts[..., k, :] * (q[..., k] - tree.joints[j].ref)[..., None]
+            elif kind == BALL:
+                anchor = p if offset is None else p + r @ offset
+                r = r @ charts[j] @ exps[..., i, :, :]
+                p = anchor if offset is None else anchor - r @ offset
+                axes[..., k:k + 3, :] = np.swapaxes(r @ jacobians[..., i, :, :], -1, -2)
                 anchors[..., k:k + 3, :] = anchor[..., None, :]
-            elif joint.kind == FREE:
-                p = x[..., :3]
-                r = charts[j] @ exp_map(x[..., 3:])
+            elif kind == FREE:
+                p = q[..., k:k + 3]
+                r = charts[j] @ exps[..., i, :, :]
                 shifts[..., k:k + 3, :] = np.eye(3)
-                axes[..., k + 3:k + 6, :] = np.swapaxes(r @ right_jacobian(x[..., 3:]), -1, -2)
+                axes[..., k + 3:k + 6, :] = np.swapaxes(r @ jacobians[..., i, :, :], -1, -2)
                 anchors[..., k + 3:k + 6, :] = p[..., None, :]
             else:
-                raise ValueError(f"joint {joint.name!r}: unknown kind {joint.kind!r}")
+                raise ValueError(f"joint {tree.joints[j].name!r}: unknown kind {kind!r}")
         origin[..., b, :] = p
         rotation[..., b, :, :] = r
     return Pose(origin=origin, rotation=rotation, axes=axes, anchors=anchors, shifts=shifts)
