@@ -34,7 +34,7 @@ import numpy as np
 
 from analytic.dynamics import Dynamics
 from analytic.tree.kinematics import Layout, Pose, forward, point_jacobians, points_on, velocity_map
-from analytic.tree.model import BALL, FREE, Tree
+from analytic.tree.model import FREE, Tree
 from analytic.tree.rotations import quat_to_mat, right_jacobian, skew, vee
 
 Array = np.ndarray
@@ -177,10 +177,11 @@ class TreeDynamics(Dynamics):
     def _applied(self, q: Array, qd: Array, lin: Array) -> Array:
         """The non-conservative generalized forces Q at (q, q̇): damping, gravity compensation, actuators
         (:meth:`actuation`)."""
-        qvel = self._qvel(q, qd)
+        rates = self._rates(q) if self.layout.rotation_vectors[0].size else None
+        qvel = self._qvel(q, qd, rates=rates)
         d = self._damping
         damper = -(d[:, 0] * qvel + d[:, 1] * qvel * np.abs(qvel) + d[:, 2] * qvel ** 3)
-        out = self._qvel(q, damper, transpose=True)
+        out = self._qvel(q, damper, transpose=True, rates=rates)
         comp = self._gravcomp(lin)
         if comp is not None:
             out = out + comp * self._gravcomp_route[0]
@@ -321,9 +322,10 @@ class TreeDynamics(Dynamics):
         linear_k = mask.T @ linear  # (..., k, n, 3): the momentum of everything coordinate k moves
         angular_k = mask.T @ (_cross(rel, linear) + iw) - _cross(pose.anchors - ref, linear_k)
         momentum = np.sum(pose.axes * angular_k + pose.shifts * linear_k, axis=-1)
-        qvel = self._qvel(c, np.broadcast_to(qd[..., None, :], c.shape))
+        rates = self._rates(c) if self.layout.rotation_vectors[0].size else None
+        qvel = self._qvel(c, np.broadcast_to(qd[..., None, :], c.shape), rates=rates)
         aq = self._armature * qvel
-        momentum = momentum + self._qvel(c, aq, transpose=True)
+        momentum = momentum + self._qvel(c, aq, transpose=True, rates=rates)
         kinetic = 0.5 * (np.sum(linear * v, axis=(-1, -2)) + np.sum(omega * iw, axis=(-1, -2))
                          + np.sum(qvel * aq, axis=-1))
         return momentum, kinetic
@@ -333,23 +335,22 @@ class TreeDynamics(Dynamics):
         """(bodies with mass, n) as floats: coordinate k moves body b."""
         return self.layout.moves[self._bodies["index"]].astype(float)
 
-    @cached_property
-    def _rotation_blocks(self) -> tuple[int, ...]:
-        """The first coordinate of each rotation vector (a ball's, a free joint's last three): where B(q) ≠ I."""
-        return tuple(self.layout.first[j] + (3 if joint.kind == FREE else 0)
-                     for j, joint in enumerate(self.tree.joints) if joint.kind in (BALL, FREE))
+    def _rates(self, c: Array) -> Array:
+        """J_r(θ) of every rotation vector (a ball's, a free joint's last three) at configurations c, (..., nr, 3, 3):
+        where B(c) ≠ I."""
+        return right_jacobian(c[..., self.layout.rotation_vectors[1]])
 
-    def _qvel(self, c: Array, x: Array, *, transpose: bool = False) -> Array:
+    def _qvel(self, c: Array, x: Array, *, transpose: bool = False, rates: Array | None = None) -> Array:
         """B(c) x (MuJoCo's qvel for x = q̇), or B(c)ᵀ x, without forming B: J_r(θ) on each rotation vector's
-        block, the identity elsewhere."""
-        if not self._rotation_blocks:
+        block, the identity elsewhere. ``rates``: :meth:`_rates` at c where already computed."""
+        blocks = self.layout.rotation_vectors[1]
+        if not blocks.size:
             return x
+        jr = self._rates(c) if rates is None else rates
+        if transpose:
+            jr = np.swapaxes(jr, -1, -2)
         out = np.array(x, dtype=np.result_type(c.dtype, x.dtype))
-        for k in self._rotation_blocks:
-            jr = right_jacobian(c[..., k:k + 3])
-            if transpose:
-                jr = np.swapaxes(jr, -1, -2)
-            out[..., k:k + 3] = (jr @ x[..., k:k + 3, None])[..., 0]
+        out[..., blocks] = (jr @ x[..., blocks, None])[..., 0]
         return out
 
     def mass_and_forcing(self, q: Array, qd: Array) -> tuple[Array, Array]:

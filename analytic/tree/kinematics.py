@@ -224,8 +224,9 @@ def velocity_map(tree: Tree, layout: Layout, q: Array) -> Array:
     n = layout.n
     out = np.zeros((*q.shape[:-1], n, n), dtype=np.result_type(q.dtype, float))
     out[..., np.arange(n), np.arange(n)] = 1.0
-    for j, joint in enumerate(tree.joints):
-        if joint.kind in (BALL, FREE):
-            k = layout.first[j] + (3 if joint.kind == FREE else 0)
-            out[..., k:k + 3, k:k + 3] = right_jacobian(q[..., k:k + 3])
+    blocks = layout.rotation_vectors[1]
+    if blocks.size:
+        rates = right_jacobian(q[..., blocks])
+        for i, k in enumerate(blocks[:, 0]):
+            out[..., k:k + 3, k:k + 3] = rates[..., i, :, :]
     return out
