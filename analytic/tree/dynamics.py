@@ -56,6 +56,12 @@ def _cross(a: Array, b: Array) -> Array:
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
+def _member(pose: Pose, i: int) -> Pose:
+    """The pose of the i-th configuration of a batch (..., k, n) of them."""
+    return Pose(*(x[..., i, :, :] if x.ndim == pose.origin.ndim else x[..., i, :, :, :] for x in
+                  (pose.origin, pose.rotation, pose.axes, pose.anchors, pose.shifts)))
+
+
 @dataclass(frozen=True, kw_only=True)
 class TreeDynamics(Dynamics):
     """:class:`~analytic.dynamics.Dynamics` of a :class:`~analytic.tree.model.Tree`: the same interface the
@@ -357,6 +363,21 @@ class TreeDynamics(Dynamics):
         """M(q) and F(q, q̇) from one batched evaluation: the real configuration, q + i h q̇ (for Ṁ q̇ = d/dt ∂T/∂q̇
         at q̈ = 0), and q + i h e_k (for ∂L/∂q_k)."""
         q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
+        return self._mass_and_forcing(q, qd)[:2]
+
+    def kkt_terms(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)
+                  ) -> tuple[Array, Array, Array | None, Array | None]:
+        """M, F, J and the constraints' right-hand side (:meth:`constraint_terms`) from one pass of the kinematics:
+        the constraints' configuration q + i h q̇ is the second of the batch M and F are computed at."""
+        q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
+        mass, force, c, pose = self._mass_and_forcing(q, qd)
+        if self.rows == 0:
+            return mass, force, None, None
+        return (mass, force, *self._constraint_terms(qd, *self._rows(c[..., 1, :], _member(pose, 1)),
+                                                     stabilization=stabilization))
+
+    def _mass_and_forcing(self, q: Array, qd: Array) -> tuple[Array, Array, Array, Pose]:
+        """M, F, and the configurations (..., n + 2, n) they were computed at with their pose."""
         n = self.n
         directions = np.concatenate([np.zeros_like(qd)[..., None, :], qd[..., None, :],
                                      np.broadcast_to(np.eye(n), (*q.shape[:-1], n, n))], axis=-2)
@@ -366,11 +387,9 @@ class TreeDynamics(Dynamics):
         mdot_qd = momentum[..., 1, :].imag / STEP
         potential = self._potential(pose, c)
         dl_dq = (kinetic[..., 2:] - potential[..., 2:]).imag / STEP
-        real = Pose(*(x[..., 0, :, :] if x.ndim == pose.origin.ndim else x[..., 0, :, :, :] for x in
-                      (pose.origin, pose.rotation, pose.axes, pose.anchors, pose.shifts)))
-        _, lin, ang, inertia = self._com_jacobians(real)
+        _, lin, ang, inertia = self._com_jacobians(_member(pose, 0))
         lin0, ang0, inertia0 = lin.real, ang.real, inertia.real
-        return self._mass_from(q, lin0, ang0, inertia0), self._applied(q, qd, lin0) - mdot_qd + dl_dq
+        return self._mass_from(q, lin0, ang0, inertia0), self._applied(q, qd, lin0) - mdot_qd + dl_dq, c, pose
 
     def forcing(self, q: Array, qd: Array) -> Array:
         return self.mass_and_forcing(q, qd)[1]
@@ -476,8 +495,9 @@ class TreeDynamics(Dynamics):
         return self._body_rates(q, qd, qdd)[1]
 
     # ---- constraints --------------------------------------------------------------------------------
-    def _rows(self, q: Array) -> tuple[Array, Array]:
-        """f(q) (..., rows) and J(q) (..., rows, n) at (possibly complex) configurations."""
+    def _rows(self, q: Array, pose: Pose | None = None) -> tuple[Array, Array]:
+        """f(q) (..., rows) and J(q) (..., rows, n) at (possibly complex) configurations; ``pose``: their pose
+        where already computed."""
         tree = self.tree
         batch = q.shape[:-1]
         dtype = np.result_type(q.dtype, float)
@@ -485,7 +505,8 @@ class TreeDynamics(Dynamics):
         jac = np.zeros((*batch, self.rows, tree.n), dtype=dtype)
         if not tree.equalities:
             return f, jac
-        pose = forward(tree, self.layout, q)
+        if pose is None:
+            pose = forward(tree, self.layout, q)
         start = 0
         for eq in tree.equalities:
             if eq.kind in ("connect", "weld"):
@@ -540,7 +561,12 @@ class TreeDynamics(Dynamics):
         """J, and γ − α Jq̇ − β f, from one pass of the kinematics at q + i h q̇: its real parts are f(q) and
         J(q) (the step's h² terms vanish below round-off), its imaginary part J̇q̇ h."""
         q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
-        f, jac = self._rows(q + 1j * STEP * qd)
+        return self._constraint_terms(qd, *self._rows(q + 1j * STEP * qd), stabilization=stabilization)
+
+    @staticmethod
+    def _constraint_terms(qd: Array, f: Array, jac: Array, *, stabilization: tuple[float, float]
+                          ) -> tuple[Array, Array]:
+        """J and γ − α Jq̇ − β f from f and J at q + i h q̇."""
         real = jac.real
         gamma = -np.einsum("...ij,...j->...i", jac.imag, qd) / STEP
         alpha, beta = stabilization
