@@ -35,7 +35,7 @@ import numpy as np
 from analytic.dynamics import Dynamics
 from analytic.tree.kinematics import Layout, Pose, forward, point_jacobians, points_on, velocity_map
 from analytic.tree.model import FREE, Tree
-from analytic.tree.rotations import quat_to_mat, right_jacobian, skew, vee
+from analytic.tree.rotations import cross, quat_to_mat, right_jacobian, skew, vee
 
 Array = np.ndarray
 
@@ -47,13 +47,6 @@ def _clip(x: Array, lo: Array, hi: Array) -> Array:
     """x clipped to [lo, hi] by its real part (a complex step through the clip keeps the branch it is on: slope 0 where
     clipped)."""
     return np.where(x.real > hi, hi, np.where(x.real < lo, lo, x))
-
-
-def _cross(a: Array, b: Array) -> Array:
-    """a × b over the last axis (3), broadcasting; by components, which numpy's cross does with more copying."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def _member(pose: Pose, i: int) -> Pose:
@@ -316,17 +309,17 @@ class TreeDynamics(Dynamics):
         ref = pose.origin[(*(0,) * (pose.origin.ndim - 2), 0)].real
         qdk = qd[..., None, :, None]  # against (..., k, n, 3)
         omega_k = pose.axes * qdk
-        move_k = (_cross(pose.anchors - ref, pose.axes) + pose.shifts) * qdk
+        move_k = (cross(pose.anchors - ref, pose.axes) + pose.shifts) * qdk
         omega = mask @ omega_k  # (..., k, nb, 3)
         rel = points_on(pose, bodies["index"], bodies["ipos"]) - ref
         rot = np.einsum("...bij,bjk->...bik", pose.rotation[..., bodies["index"], :, :], bodies["irot"])
         m = bodies["mass"][:, None]
-        v = mask @ move_k + _cross(omega, rel)
+        v = mask @ move_k + cross(omega, rel)
         # I ω = R diag(I) Rᵀ ω, R the principal frame's rotation (einsum: no BLAS call per 3×3)
         iw = np.einsum("...ij,...j->...i", rot, bodies["inertia"] * np.einsum("...ji,...j->...i", rot, omega))
         linear = m * v
         linear_k = mask.T @ linear  # (..., k, n, 3): the momentum of everything coordinate k moves
-        angular_k = mask.T @ (_cross(rel, linear) + iw) - _cross(pose.anchors - ref, linear_k)
+        angular_k = mask.T @ (cross(rel, linear) + iw) - cross(pose.anchors - ref, linear_k)
         momentum = np.sum(pose.axes * angular_k + pose.shifts * linear_k, axis=-1)
         rates = self._rates(c) if self.layout.rotation_vectors[0].size else None
         qvel = self._qvel(c, np.broadcast_to(qd[..., None, :], c.shape), rates=rates)

@@ -23,7 +23,7 @@ from functools import cached_property
 import numpy as np
 
 from analytic.tree.model import BALL, FREE, HINGE, SLIDE, Tree
-from analytic.tree.rotations import exp_and_jacobian, quat_to_mat, right_jacobian, skew
+from analytic.tree.rotations import cross, exp_and_jacobian, quat_to_mat, right_jacobian, skew
 
 Array = np.ndarray
 
@@ -210,7 +210,7 @@ def point_jacobians(pose: Pose, layout: Layout, bodies: Array, x: Array) -> tupl
     mask = layout.moves[bodies]  # (k, n)
     # a rotation about axis w through anchor o moves x at w × (x − o); a translation at its direction
     rel = x[..., :, None, :] - pose.anchors[..., None, :, :]  # (..., k, n, 3)
-    lin = np.cross(pose.axes[..., None, :, :], rel) + pose.shifts[..., None, :, :]
+    lin = cross(pose.axes[..., None, :, :], rel) + pose.shifts[..., None, :, :]
     ang = np.broadcast_to(pose.axes[..., None, :, :], lin.shape)
     lin = np.where(mask[..., None], lin, 0.0)
     ang = np.where(mask[..., None], ang, 0.0)

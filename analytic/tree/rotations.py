@@ -59,6 +59,19 @@ def skew(v: Array) -> Array:
     return out
 
 
+def cross(a: Array, b: Array) -> Array:
+    """a × b over the last axis (3), broadcasting; by components into one array, which numpy's cross does with
+    more copying (the same products and differences: the same bits)."""
+    a, b = np.asarray(a), np.asarray(b)
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a.dtype, b.dtype))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
+
+
 def vee(m: Array) -> Array:
     """The vector of the skew-symmetric part of (..., 3, 3): vee(skew(a)) = a."""
     return 0.5 * np.stack([m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1]],
