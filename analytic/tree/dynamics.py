@@ -500,11 +500,16 @@ class TreeDynamics(Dynamics):
             return f, jac
         if pose is None:
             pose = forward(tree, self.layout, q)
+        bodies, offsets, sides = self._anchors
+        anchors = None
+        if bodies.size:  # every anchor's position and Jacobians at once
+            x = points_on(pose, bodies, offsets)
+            anchors = (x, *point_jacobians(pose, self.layout, bodies, x))
         start = 0
-        for eq in tree.equalities:
+        for eq, (i1, i2) in zip(tree.equalities, sides, strict=True):
             if eq.kind in ("connect", "weld"):
-                p1, l1, a1, r1 = self._anchor(pose, q, eq.body1, eq.anchor1)
-                p2, l2, a2, r2 = self._anchor(pose, q, eq.body2, eq.anchor2)
+                p1, l1, a1, r1 = self._anchor(pose, batch, eq.body1, eq.anchor1, anchors, i1)
+                p2, l2, a2, r2 = self._anchor(pose, batch, eq.body2, eq.anchor2, anchors, i2)
                 f[..., start:start + 3] = p1 - p2
                 jac[..., start:start + 3, :] = l1 - l2
                 if eq.kind == "weld":
@@ -528,17 +533,32 @@ class TreeDynamics(Dynamics):
             start += eq.rows
         return f, jac
 
-    def _anchor(self, pose: Pose, q: Array, body: int, offset: Array) -> tuple[Array, Array, Array, Array]:
+    @cached_property
+    def _anchors(self) -> tuple[Array, Array, tuple[tuple[int, int], ...]]:
+        """The connects' and welds' anchors on moving bodies (not the world): their bodies (k,) and offsets (k, 3),
+        and per equality the index of its two anchors among them (−1: on the world, or no anchor)."""
+        bodies, offsets, sides = [], [], []
+        for eq in self.tree.equalities:
+            pair = [-1, -1]
+            if eq.kind in ("connect", "weld"):
+                for side, (body, offset) in enumerate(((eq.body1, eq.anchor1), (eq.body2, eq.anchor2))):
+                    if body >= 0:
+                        pair[side] = len(bodies)
+                        bodies.append(body)
+                        offsets.append(np.asarray(offset, dtype=float))
+            sides.append((pair[0], pair[1]))
+        return np.array(bodies, dtype=int), np.array(offsets, dtype=float).reshape(-1, 3), tuple(sides)
+
+    def _anchor(self, pose: Pose, batch: tuple[int, ...], body: int, offset: Array,
+                anchors: tuple[Array, Array, Array] | None, i: int) -> tuple[Array, Array, Array, Array]:
         """A body-fixed point's world position, its linear and the body's angular Jacobian, and the body's
-        rotation; the world (body −1) stands still."""
-        batch = q.shape[:-1]
+        rotation, the i-th of ``anchors`` (positions, linear and angular Jacobians); the world (body −1) stands
+        still."""
         if body < 0:
             zero = np.zeros((*batch, 3, self.tree.n))
             return np.broadcast_to(offset, (*batch, 3)), zero, zero, np.broadcast_to(np.eye(3), (*batch, 3, 3))
-        idx = np.array([body])
-        x = points_on(pose, idx, offset[None, :])
-        lin, ang = point_jacobians(pose, self.layout, idx, x)
-        return x[..., 0, :], lin[..., 0, :, :], ang[..., 0, :, :], pose.rotation[..., body, :, :]
+        x, lin, ang = anchors
+        return x[..., i, :], lin[..., i, :, :], ang[..., i, :, :], pose.rotation[..., body, :, :]
 
     def jacobian(self, q: Array) -> Array:
         return self._rows(np.asarray(q, dtype=float))[1]
