@@ -35,7 +35,7 @@ import numpy as np
 from analytic.dynamics import Dynamics
 from analytic.tree.kinematics import Layout, Pose, forward, point_jacobians, points_on, velocity_map
 from analytic.tree.model import FREE, Tree
-from analytic.tree.rotations import cross, quat_to_mat, right_jacobian, skew, vee
+from analytic.tree.rotations import cross, mat_mat, mat_t_vec, mat_vec, quat_to_mat, right_jacobian, skew, vee
 
 Array = np.ndarray
 
@@ -312,11 +312,11 @@ class TreeDynamics(Dynamics):
         move_k = (cross(pose.anchors - ref, pose.axes) + pose.shifts) * qdk
         omega = mask @ omega_k  # (..., k, nb, 3)
         rel = points_on(pose, bodies["index"], bodies["ipos"]) - ref
-        rot = np.einsum("...bij,bjk->...bik", pose.rotation[..., bodies["index"], :, :], bodies["irot"])
+        rot = mat_mat(pose.rotation[..., bodies["index"], :, :], bodies["irot"])
         m = bodies["mass"][:, None]
         v = mask @ move_k + cross(omega, rel)
-        # I ω = R diag(I) Rᵀ ω, R the principal frame's rotation (einsum: no BLAS call per 3×3)
-        iw = np.einsum("...ij,...j->...i", rot, bodies["inertia"] * np.einsum("...ji,...j->...i", rot, omega))
+        # I ω = R diag(I) Rᵀ ω, R the principal frame's rotation (by components: no BLAS call per 3×3)
+        iw = mat_vec(rot, bodies["inertia"] * mat_t_vec(rot, omega))
         linear = m * v
         linear_k = mask.T @ linear  # (..., k, n, 3): the momentum of everything coordinate k moves
         angular_k = mask.T @ (cross(rel, linear) + iw) - cross(pose.anchors - ref, linear_k)

@@ -23,7 +23,7 @@ from functools import cached_property
 import numpy as np
 
 from analytic.tree.model import BALL, FREE, HINGE, SLIDE, Tree
-from analytic.tree.rotations import cross, exp_and_jacobian, quat_to_mat, right_jacobian, skew
+from analytic.tree.rotations import cross, exp_and_jacobian, mat_vec, quat_to_mat, right_jacobian, skew
 
 Array = np.ndarray
 
@@ -201,7 +201,7 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
 
 def points_on(pose: Pose, bodies: Array, offsets: Array) -> Array:
     """World positions (..., k, 3) of body-fixed points: ``offsets`` (k, 3) in the frames of ``bodies`` (k,)."""
-    return pose.origin[..., bodies, :] + np.einsum("...kij,kj->...ki", pose.rotation[..., bodies, :, :], offsets)
+    return pose.origin[..., bodies, :] + mat_vec(pose.rotation[..., bodies, :, :], offsets)
 
 
 def point_jacobians(pose: Pose, layout: Layout, bodies: Array, x: Array) -> tuple[Array, Array]:

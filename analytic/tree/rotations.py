@@ -72,6 +72,23 @@ def cross(a: Array, b: Array) -> Array:
     return out
 
 
+def mat_vec(m: Array, v: Array) -> Array:
+    """m v for (..., 3, 3) matrices and (..., 3) vectors, broadcasting: three products summed in order, which is
+    what einsum does, without its per-call cost on tiny arrays."""
+    return m[..., :, 0] * v[..., 0, None] + m[..., :, 1] * v[..., 1, None] + m[..., :, 2] * v[..., 2, None]
+
+
+def mat_t_vec(m: Array, v: Array) -> Array:
+    """mᵀ v for (..., 3, 3) matrices and (..., 3) vectors, as :func:`mat_vec`."""
+    return m[..., 0, :] * v[..., 0, None] + m[..., 1, :] * v[..., 1, None] + m[..., 2, :] * v[..., 2, None]
+
+
+def mat_mat(a: Array, b: Array) -> Array:
+    """a b for (..., 3, 3) matrices, broadcasting, as :func:`mat_vec` (column by column of b's rows)."""
+    return (a[..., :, 0, None] * b[..., None, 0, :] + a[..., :, 1, None] * b[..., None, 1, :]
+            + a[..., :, 2, None] * b[..., None, 2, :])
+
+
 def vee(m: Array) -> Array:
     """The vector of the skew-symmetric part of (..., 3, 3): vee(skew(a)) = a."""
     return 0.5 * np.stack([m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1]],
