@@ -52,7 +52,7 @@ def _clip(x: Array, lo: Array, hi: Array) -> Array:
 def _member(pose: Pose, i: int) -> Pose:
     """The pose of the i-th configuration of a batch (..., k, n) of them."""
     return Pose(*(x[..., i, :, :] if x.ndim == pose.origin.ndim else x[..., i, :, :, :] for x in
-                  (pose.origin, pose.rotation, pose.axes, pose.anchors, pose.shifts)))
+                  (pose.origin, pose.rotation, pose.axes, pose.anchors, pose.shifts, pose.rates)))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -321,10 +321,9 @@ class TreeDynamics(Dynamics):
         linear_k = mask.T @ linear  # (..., k, n, 3): the momentum of everything coordinate k moves
         angular_k = mask.T @ (cross(rel, linear) + iw) - cross(pose.anchors - ref, linear_k)
         momentum = np.sum(pose.axes * angular_k + pose.shifts * linear_k, axis=-1)
-        rates = self._rates(c) if self.layout.rotation_vectors[0].size else None
-        qvel = self._qvel(c, np.broadcast_to(qd[..., None, :], c.shape), rates=rates)
+        qvel = self._qvel(c, np.broadcast_to(qd[..., None, :], c.shape), rates=pose.rates)
         aq = self._armature * qvel
-        momentum = momentum + self._qvel(c, aq, transpose=True, rates=rates)
+        momentum = momentum + self._qvel(c, aq, transpose=True, rates=pose.rates)
         kinetic = 0.5 * (np.sum(linear * v, axis=(-1, -2)) + np.sum(omega * iw, axis=(-1, -2))
                          + np.sum(qvel * aq, axis=-1))
         return momentum, kinetic

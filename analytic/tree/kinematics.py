@@ -131,7 +131,8 @@ class Pose:
     ``origin``/``rotation``: each body frame's world position (..., nb, 3) and orientation (..., nb, 3, 3);
     ``axes``/``anchors``: per coordinate, the world angular direction (..., n, 3) it turns about (zero for
     a translation) and the world point it turns about (..., n, 3); ``shifts``: per coordinate, the world
-    translation direction (..., n, 3) (zero for a rotation).
+    translation direction (..., n, 3) (zero for a rotation); ``rates``: J_r(θ) of each ball's and free joint's
+    rotation vector (..., nr, 3, 3), in :attr:`Layout.rotation_vectors` order (what qvel = B(q) q̇ needs).
     """
 
     origin: Array
@@ -139,6 +140,7 @@ class Pose:
     axes: Array
     anchors: Array
     shifts: Array
+    rates: Array
 
 
 def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
@@ -159,8 +161,7 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
         angle = q[..., layout.hinge_coordinates] - layout.hinge_refs
         turns = (np.eye(3) + np.sin(angle)[..., None, None] * skews[hinges]
                  + (1 - np.cos(angle))[..., None, None] * squares[hinges])
-    if layout.rotation_vectors[0].size:  # every ball's and free joint's Exp(θ) and J_r(θ) at once
-        exps, jacobians = exp_and_jacobian(q[..., layout.rotation_vectors[1]])
+    exps, jacobians = exp_and_jacobian(q[..., layout.rotation_vectors[1]])  # every ball's and free joint's at once
     for b, (parent, pos, rot, steps) in enumerate(layout.plan):
         if parent >= 0:
             p, r = origin[..., parent, :], rotation[..., parent, :, :]
@@ -196,7 +197,7 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
                 raise ValueError(f"joint {tree.joints[j].name!r}: unknown kind {kind!r}")
         origin[..., b, :] = p
         rotation[..., b, :, :] = r
-    return Pose(origin=origin, rotation=rotation, axes=axes, anchors=anchors, shifts=shifts)
+    return Pose(origin=origin, rotation=rotation, axes=axes, anchors=anchors, shifts=shifts, rates=jacobians)
 
 
 def points_on(pose: Pose, bodies: Array, offsets: Array) -> Array:
