@@ -35,7 +35,7 @@ import numpy as np
 from analytic.dynamics import Dynamics
 from analytic.tree.kinematics import Layout, Pose, forward, point_jacobians, points_on, velocity_map
 from analytic.tree.model import FREE, Tree
-from analytic.tree.rotations import cross, mat_mat, mat_t_vec, mat_vec, quat_to_mat, right_jacobian, skew, vee
+from analytic.tree.rotations import cross, mat_t_vec, mat_vec, quat_to_mat, right_jacobian, skew, vee
 
 Array = np.ndarray
 
@@ -90,6 +90,13 @@ class TreeDynamics(Dynamics):
             "irot": np.array([quat_to_mat(tree.bodies[i].iquat) for i in massive]).reshape(-1, 3, 3),
             "gravcomp": np.array([tree.bodies[i].gravcomp for i in massive]),
         }
+
+    @cached_property
+    def _body_inertia(self) -> Array:
+        """Each body's inertia tensor about its centre of mass in its body frame, F diag(I) Fᵀ with F the principal
+        frame's rotation, (nb, 3, 3): a constant, so that I ω in the world is R (F diag(I) Fᵀ) Rᵀ ω."""
+        rot, inertia = self._bodies["irot"], self._bodies["inertia"]
+        return np.einsum("bij,bj,bkj->bik", rot, inertia, rot)
 
     @cached_property
     def _armature(self) -> Array:
@@ -312,11 +319,12 @@ class TreeDynamics(Dynamics):
         move_k = (cross(pose.anchors - ref, pose.axes) + pose.shifts) * qdk
         omega = mask @ omega_k  # (..., k, nb, 3)
         rel = points_on(pose, bodies["index"], bodies["ipos"]) - ref
-        rot = mat_mat(pose.rotation[..., bodies["index"], :, :], bodies["irot"])
+        rot = pose.rotation[..., bodies["index"], :, :]
         m = bodies["mass"][:, None]
         v = mask @ move_k + cross(omega, rel)
-        # I ω = R diag(I) Rᵀ ω, R the principal frame's rotation (by components: no BLAS call per 3×3)
-        iw = mat_vec(rot, bodies["inertia"] * mat_t_vec(rot, omega))
+        # I ω = R I_b Rᵀ ω, R the body's rotation, I_b its constant inertia tensor (by components: no BLAS call
+        # per 3×3)
+        iw = mat_vec(rot, mat_vec(self._body_inertia, mat_t_vec(rot, omega)))
         linear = m * v
         linear_k = mask.T @ linear  # (..., k, n, 3): the momentum of everything coordinate k moves
         angular_k = mask.T @ (cross(rel, linear) + iw) - cross(pose.anchors - ref, linear_k)
