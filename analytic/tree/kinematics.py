@@ -95,11 +95,12 @@ class Layout:
         return np.array(joints, dtype=int), np.array(coords, dtype=int).reshape(-1, 3)
 
     @cached_property
-    def plan(self) -> tuple[tuple[int, np.ndarray | None, np.ndarray | None, tuple[tuple, ...]], ...]:
+    def plan(self) -> tuple[tuple[int, np.ndarray | None, np.ndarray | None, tuple[tuple, ...], bool], ...]:
         """Per body, what :func:`forward` does, decided once: its parent, its offset in the parent's frame and
         its constant rotation (None where zero or the identity: nothing to add or multiply), and per joint
         (kind, first coordinate, anchor or None where at the body's origin, axis, the index of its rotation or
-        Exp(θ) in the batched ones, the joint's index)."""
+        Exp(θ) in the batched ones, the joint's index), and whether only hinges at its origin move it
+        (:attr:`centred`)."""
         hinge_of = {int(j): i for i, j in enumerate(self.hinges)}
         rotation_of = {int(j): i for i, j in enumerate(self.rotation_vectors[0])}
         out = []
@@ -112,9 +113,22 @@ class Layout:
                 anchor = np.asarray(joint.pos, dtype=float)
                 steps.append((joint.kind, self.first[j], anchor if np.any(anchor) else None,
                               np.asarray(joint.axis, dtype=float), hinge_of.get(j, rotation_of.get(j, -1)), j))
+            centred = all(kind == HINGE and anchor is None for kind, _, anchor, _, _, _ in steps)
             out.append((body.parent, pos if body.parent < 0 or np.any(pos) else None,
-                        None if np.array_equal(rot, np.eye(3)) else rot, tuple(steps)))
+                        None if np.array_equal(rot, np.eye(3)) else rot, tuple(steps), centred))
         return tuple(out)
+
+    @cached_property
+    def centred(self) -> tuple[np.ndarray, np.ndarray]:
+        """The hinges of the bodies that only hinges at their origin move (most of a robot's): their coordinates and
+        bodies. Such a hinge turns about the body's origin, which none of them moves: its anchor is the body's
+        final origin, set for all of them at once after the bodies are posed."""
+        coords, bodies = [], []
+        for b, (_, _, _, steps, centred) in enumerate(self.plan):
+            if centred:
+                coords += [k for _, k, _, _, _, _ in steps]
+                bodies += [b] * len(steps)
+        return np.array(coords, dtype=int), np.array(bodies, dtype=int)
 
     @cached_property
     def body_of_coordinate(self) -> np.ndarray:
@@ -148,9 +162,7 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
     q = np.asarray(q)
     batch = q.shape[:-1]
     dtype = np.result_type(q.dtype, float)
-    nb, n = len(tree.bodies), layout.n
-    origin = np.empty((*batch, nb, 3), dtype=dtype)
-    rotation = np.empty((*batch, nb, 3, 3), dtype=dtype)
+    n = layout.n
     axes = np.zeros((*batch, n, 3), dtype=dtype)
     anchors = np.zeros((*batch, n, 3), dtype=dtype)
     shifts = np.zeros((*batch, n, 3), dtype=dtype)
@@ -162,20 +174,23 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
         turns = (np.eye(3) + np.sin(angle)[..., None, None] * skews[hinges]
                  + (1 - np.cos(angle))[..., None, None] * squares[hinges])
     exps, jacobians = exp_and_jacobian(q[..., layout.rotation_vectors[1]])  # every ball's and free joint's at once
-    for b, (parent, pos, rot, steps) in enumerate(layout.plan):
+    origin, rotation = [], []  # each body's, stacked at the end
+    for parent, pos, rot, steps, centred in layout.plan:
         if parent >= 0:
-            p, r = origin[..., parent, :], rotation[..., parent, :, :]
+            p, r = origin[parent], rotation[parent]
             if pos is not None:
                 p = p + r @ pos
-        else:  # under the world: its frame as placed (the world's identity rotation changes no bit)
-            p, r = np.broadcast_to(pos, (*batch, 3)), np.broadcast_to(np.eye(3), (*batch, 3, 3))
+        else:  # under the world: its frame as placed (the world's identity rotation changes no bit), in q's type
+            p = np.broadcast_to(pos.astype(dtype), (*batch, 3))
+            r = np.broadcast_to(np.eye(3, dtype=dtype), (*batch, 3, 3))
         if rot is not None:
             r = r @ rot
         for kind, k, offset, axis, i, j in steps:
             if kind == HINGE:
                 anchor = p if offset is None else p + r @ offset  # at the body's origin: the origin stays put
                 axes[..., k, :] = r @ axis
-                anchors[..., k, :] = anchor
+                if not centred:  # else the body's final origin, with the other centred hinges' (below)
+                    anchors[..., k, :] = anchor
                 r = r @ turns[..., i, :, :]
                 p = anchor if offset is None else anchor - r @ offset
             elif kind == SLIDE:
@@ -195,8 +210,11 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
                 anchors[..., k + 3:k + 6, :] = p[..., None, :]
             else:
                 raise ValueError(f"joint {tree.joints[j].name!r}: unknown kind {kind!r}")
-        origin[..., b, :] = p
-        rotation[..., b, :, :] = r
+        origin.append(p)
+        rotation.append(r)
+    origin, rotation = np.stack(origin, axis=-2, dtype=dtype), np.stack(rotation, axis=-3, dtype=dtype)
+    coords, bodies = layout.centred
+    anchors[..., coords, :] = origin[..., bodies, :]
     return Pose(origin=origin, rotation=rotation, axes=axes, anchors=anchors, shifts=shifts, rates=jacobians)
 
 
