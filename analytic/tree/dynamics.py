@@ -137,8 +137,10 @@ class TreeDynamics(Dynamics):
         b = velocity_map(self.tree, self.layout, q)
         return mass + np.swapaxes(b, -1, -2) @ (self._armature[:, None] * b)
 
-    def _potential(self, pose: Pose, q: Array) -> Array:
-        com = points_on(pose, self._bodies["index"], self._bodies["ipos"])
+    def _potential(self, pose: Pose, q: Array, com: Array | None = None) -> Array:
+        """V at configurations q posed as ``pose``; ``com``: the centres of mass where already computed."""
+        if com is None:
+            com = points_on(pose, self._bodies["index"], self._bodies["ipos"])
         v = -np.einsum("b,...bi,i->...", self._bodies["mass"], com, self.tree.gravity)
         for j, joint in enumerate(self.tree.joints):
             if joint.stiffness:
@@ -300,9 +302,10 @@ class TreeDynamics(Dynamics):
         q = np.asarray(q, dtype=float)
         return self._mass(q, forward(self.tree, self.layout, q))
 
-    def _momentum_and_kinetic(self, c: Array, qd: Array, pose: Pose) -> tuple[Array, Array]:
-        """At configurations c (..., k, n) with the real velocity q̇ (..., n): the momentum ∂T/∂q̇ = M(c) q̇
-        (..., k, n) and T(c, q̇) (..., k), without forming M or any Jacobian.
+    def _momentum_and_kinetic(self, c: Array, qd: Array, pose: Pose, com: Array) -> tuple[Array, Array]:
+        """At configurations c (..., k, n) with the real velocity q̇ (..., n), posed as ``pose`` with the bodies'
+        centres of mass ``com``: the momentum ∂T/∂q̇ = M(c) q̇ (..., k, n) and T(c, q̇) (..., k), without forming M
+        or any Jacobian.
 
         The same sums as Σ_b J_bᵀ (m v, I ω), reassociated: each coordinate's world twist (its axis a times q̇_k
         and the velocity (o − r) × a + s it gives the world point r) summed over the coordinates that move a body
@@ -318,7 +321,7 @@ class TreeDynamics(Dynamics):
         omega_k = pose.axes * qdk
         move_k = (cross(pose.anchors - ref, pose.axes) + pose.shifts) * qdk
         omega = mask @ omega_k  # (..., k, nb, 3)
-        rel = points_on(pose, bodies["index"], bodies["ipos"]) - ref
+        rel = com - ref
         rot = pose.rotation[..., bodies["index"], :, :]
         m = bodies["mass"][:, None]
         v = mask @ move_k + cross(omega, rel)
@@ -383,9 +386,10 @@ class TreeDynamics(Dynamics):
                                      np.broadcast_to(np.eye(n), (*q.shape[:-1], n, n))], axis=-2)
         c = self._perturbed(q, directions)
         pose = forward(self.tree, self.layout, c)
-        momentum, kinetic = self._momentum_and_kinetic(c, qd, pose)
+        com = points_on(pose, self._bodies["index"], self._bodies["ipos"])
+        momentum, kinetic = self._momentum_and_kinetic(c, qd, pose, com)
         mdot_qd = momentum[..., 1, :].imag / STEP
-        potential = self._potential(pose, c)
+        potential = self._potential(pose, c, com)
         dl_dq = (kinetic[..., 2:] - potential[..., 2:]).imag / STEP
         _, lin, ang, inertia = self._com_jacobians(_member(pose, 0))
         lin0, ang0, inertia0 = lin.real, ang.real, inertia.real
