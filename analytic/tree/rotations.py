@@ -16,6 +16,8 @@ import numpy as np
 
 Array = np.ndarray
 
+_EYE = np.eye(3)
+
 
 def quat_to_mat(quat: Array) -> Array:
     """(..., 4) unit quaternions (w, x, y, z) -> (..., 3, 3) rotation matrices."""
@@ -73,20 +75,14 @@ def cross(a: Array, b: Array) -> Array:
 
 
 def mat_vec(m: Array, v: Array) -> Array:
-    """m v for (..., 3, 3) matrices and (..., 3) vectors, broadcasting: three products summed in order, which is
-    what einsum does, without its per-call cost on tiny arrays."""
+    """m v for (..., 3, 3) matrices and (..., 3) vectors, broadcasting: three products summed in order, without
+    einsum's or matmul's per-call cost on tiny arrays."""
     return m[..., :, 0] * v[..., 0, None] + m[..., :, 1] * v[..., 1, None] + m[..., :, 2] * v[..., 2, None]
 
 
 def mat_t_vec(m: Array, v: Array) -> Array:
     """mᵀ v for (..., 3, 3) matrices and (..., 3) vectors, as :func:`mat_vec`."""
     return m[..., 0, :] * v[..., 0, None] + m[..., 1, :] * v[..., 1, None] + m[..., 2, :] * v[..., 2, None]
-
-
-def mat_mat(a: Array, b: Array) -> Array:
-    """a b for (..., 3, 3) matrices, broadcasting, as :func:`mat_vec` (column by column of b's rows)."""
-    return (a[..., :, 0, None] * b[..., None, 0, :] + a[..., :, 1, None] * b[..., None, 1, :]
-            + a[..., :, 2, None] * b[..., None, 2, :])
 
 
 def vee(m: Array) -> Array:
@@ -153,6 +149,3 @@ def exp_and_jacobian(theta: Array) -> tuple[Array, Array]:
     kk = k @ k
     a, b, c = a[..., None, None], b[..., None, None], c[..., None, None]
     return _EYE + a * k + b * kk, _EYE - b * k + c * kk
-
-
-_EYE = np.eye(3)
