@@ -546,7 +546,7 @@ class TreeDynamics(Dynamics):
 
     @cached_property
     def _anchors(self) -> tuple[Array, Array, tuple[tuple[int, int], ...]]:
-        """The connects' and welds' anchors on moving bodies (not the world): their bodies (k,) and offsets (k, 3),
+        """The connects' and welds' anchors on bodies (not on the world, body −1): their bodies (k,) and offsets (k, 3),
         and per equality the index of its two anchors among them (−1: on the world, or no anchor)."""
         bodies, offsets, sides = [], [], []
         for eq in self.tree.equalities:
