@@ -119,16 +119,19 @@ class Layout:
         return tuple(out)
 
     @cached_property
-    def centred(self) -> tuple[np.ndarray, np.ndarray]:
-        """The hinges of the bodies that only hinges at their origin move (most of a robot's): their coordinates and
-        bodies. Such a hinge turns about the body's origin, which none of them moves: its anchor is the body's
-        final origin, set for all of them at once after the bodies are posed."""
-        coords, bodies = [], []
+    def centred(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The hinges of the bodies that only hinges at their origin move (most of a robot's): their coordinates,
+        bodies and axes (m, 3) in the body frame. Such a hinge turns about the body's origin, which none of them
+        moves: its anchor is the body's final origin, and its world axis the frame's rotation before its turn
+        times its axis, both set for all of them at once after the bodies are posed."""
+        coords, bodies, axes = [], [], []
         for b, (_, _, _, steps, centred) in enumerate(self.plan):
             if centred:
                 coords += [k for _, k, _, _, _, _ in steps]
                 bodies += [b] * len(steps)
-        return np.array(coords, dtype=int), np.array(bodies, dtype=int)
+                axes += [axis for _, _, _, axis, _, _ in steps]
+        return (np.array(coords, dtype=int), np.array(bodies, dtype=int),
+                np.array(axes, dtype=float).reshape(-1, 3))
 
     @cached_property
     def body_of_coordinate(self) -> np.ndarray:
@@ -175,6 +178,7 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
                  + (1 - np.cos(angle))[..., None, None] * squares[hinges])
     exps, jacobians = exp_and_jacobian(q[..., layout.rotation_vectors[1]])  # every ball's and free joint's at once
     origin, rotation = [], []  # each body's, stacked at the end
+    before = []  # each centred hinge's frame before its turn (Layout.centred)
     for parent, pos, rot, steps, centred in layout.plan:
         if parent >= 0:
             p, r = origin[parent], rotation[parent]
@@ -188,8 +192,10 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
         for kind, k, offset, axis, i, j in steps:
             if kind == HINGE:
                 anchor = p if offset is None else p + r @ offset  # at the body's origin: the origin stays put
-                axes[..., k, :] = r @ axis
-                if not centred:  # else the body's final origin, with the other centred hinges' (below)
+                if centred:  # its axis and anchor with the other centred hinges' (below)
+                    before.append(r)
+                else:
+                    axes[..., k, :] = r @ axis
                     anchors[..., k, :] = anchor
                 r = r @ turns[..., i, :, :]
                 p = anchor if offset is None else anchor - r @ offset
@@ -213,8 +219,10 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
         origin.append(p)
         rotation.append(r)
     origin, rotation = np.stack(origin, axis=-2, dtype=dtype), np.stack(rotation, axis=-3, dtype=dtype)
-    coords, bodies = layout.centred
-    anchors[..., coords, :] = origin[..., bodies, :]
+    coords, bodies, axis = layout.centred
+    if before:
+        axes[..., coords, :] = (np.stack(before, axis=-3) @ axis[:, :, None])[..., 0]
+        anchors[..., coords, :] = origin[..., bodies, :]
     return Pose(origin=origin, rotation=rotation, axes=axes, anchors=anchors, shifts=shifts, rates=jacobians)
 
 
