@@ -176,7 +176,10 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
         angle = q[..., layout.hinge_coordinates] - layout.hinge_refs
         turns = (np.eye(3) + np.sin(angle)[..., None, None] * skews[hinges]
                  + (1 - np.cos(angle))[..., None, None] * squares[hinges])
-    exps, jacobians = exp_and_jacobian(q[..., layout.rotation_vectors[1]])  # every ball's and free joint's at once
+    if layout.rotation_vectors[0].size:  # every ball's and free joint's Exp(θ) and J_r(θ) at once
+        exps, jacobians = exp_and_jacobian(q[..., layout.rotation_vectors[1]])
+    else:
+        jacobians = np.zeros((*batch, 0, 3, 3), dtype=dtype)
     origin, rotation = [], []  # each body's, stacked at the end
     before = []  # each centred hinge's frame before its turn (Layout.centred)
     for parent, pos, rot, steps, centred in layout.plan:
