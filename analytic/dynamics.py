@@ -407,6 +407,15 @@ class Dynamics:
             gamma = gamma - alpha * self.velocity_residual(q, qd) - beta * self.position_residual(q)
         return jac, gamma
 
+    def kkt_terms(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)
+                  ) -> tuple[Array, Array, Array | None, Array | None]:
+        """M, F and, where the system has constraint rows, J and γ − α(Jq̇ + b) − βf (else None, None): the KKT
+        system's blocks (:meth:`constrained`), in one method so that a system can compute them from shared work."""
+        mass, force = self.mass_and_forcing(q, qd)
+        if self.rows == 0:
+            return mass, force, None, None
+        return (mass, force, *self.constraint_terms(q, qd, stabilization=stabilization))
+
     def constrained(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)) -> Constrained:
         """q̈, λ, Jᵀλ and which multipliers are unique, from the KKT system (see :class:`Constrained`).
 
@@ -417,14 +426,13 @@ class Dynamics:
         q̈ and Jᵀλ stay unique and finite and λ is the least-norm multiplier vector."""
         q = np.asarray(q, dtype=float)
         qd = np.asarray(qd, dtype=float)
-        mass, force = self.mass_and_forcing(q, qd)
+        mass, force, jac, gamma = self.kkt_terms(q, qd, stabilization=stabilization)
         m, n = self.rows, self.n
         batch = q.shape[:-1]
         if m == 0:
             qdd = np.linalg.solve(mass, force[..., None])[..., 0]
             return Constrained(qdd=qdd, lam=np.zeros((*batch, 0)), generalized=np.zeros_like(qdd),
                                unique=np.ones((*batch, 0), dtype=bool), rank=np.zeros(batch, dtype=int))
-        jac, gamma = self.constraint_terms(q, qd, stabilization=stabilization)
         try:
             chol = np.linalg.cholesky(mass)
         except np.linalg.LinAlgError:  # M only semi-definite (a massless coordinate the constraints hold): no

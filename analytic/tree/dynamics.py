@@ -34,8 +34,8 @@ import numpy as np
 
 from analytic.dynamics import Dynamics
 from analytic.tree.kinematics import Layout, Pose, forward, point_jacobians, points_on, velocity_map
-from analytic.tree.model import BALL, FREE, Tree
-from analytic.tree.rotations import quat_to_mat, right_jacobian, skew, vee
+from analytic.tree.model import FREE, Tree
+from analytic.tree.rotations import cross, mat_t_vec, mat_vec, quat_to_mat, right_jacobian, skew, vee
 
 Array = np.ndarray
 
@@ -49,11 +49,10 @@ def _clip(x: Array, lo: Array, hi: Array) -> Array:
     return np.where(x.real > hi, hi, np.where(x.real < lo, lo, x))
 
 
-def _cross(a: Array, b: Array) -> Array:
-    """a × b over the last axis (3), broadcasting; by components, which numpy's cross does with more copying."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+def _member(pose: Pose, i: int) -> Pose:
+    """The pose of the i-th configuration of a batch (..., k, n) of them."""
+    return Pose(*(x[..., i, :, :] if x.ndim == pose.origin.ndim else x[..., i, :, :, :] for x in
+                  (pose.origin, pose.rotation, pose.axes, pose.anchors, pose.shifts, pose.rates)))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -91,6 +90,13 @@ class TreeDynamics(Dynamics):
             "irot": np.array([quat_to_mat(tree.bodies[i].iquat) for i in massive]).reshape(-1, 3, 3),
             "gravcomp": np.array([tree.bodies[i].gravcomp for i in massive]),
         }
+
+    @cached_property
+    def _body_inertia(self) -> Array:
+        """Each body's inertia tensor about its centre of mass in its body frame, F diag(I) Fᵀ with F the principal
+        frame's rotation, (nb, 3, 3): a constant, so that I ω in the world is R (F diag(I) Fᵀ) Rᵀ ω."""
+        rot, inertia = self._bodies["irot"], self._bodies["inertia"]
+        return np.einsum("bij,bj,bkj->bik", rot, inertia, rot)
 
     @cached_property
     def _armature(self) -> Array:
@@ -131,8 +137,10 @@ class TreeDynamics(Dynamics):
         b = velocity_map(self.tree, self.layout, q)
         return mass + np.swapaxes(b, -1, -2) @ (self._armature[:, None] * b)
 
-    def _potential(self, pose: Pose, q: Array) -> Array:
-        com = points_on(pose, self._bodies["index"], self._bodies["ipos"])
+    def _potential(self, pose: Pose, q: Array, com: Array | None = None) -> Array:
+        """V at configurations q posed as ``pose``; ``com``: the centres of mass where already computed."""
+        if com is None:
+            com = points_on(pose, self._bodies["index"], self._bodies["ipos"])
         v = -np.einsum("b,...bi,i->...", self._bodies["mass"], com, self.tree.gravity)
         for j, joint in enumerate(self.tree.joints):
             if joint.stiffness:
@@ -177,10 +185,11 @@ class TreeDynamics(Dynamics):
     def _applied(self, q: Array, qd: Array, lin: Array) -> Array:
         """The non-conservative generalized forces Q at (q, q̇): damping, gravity compensation, actuators
         (:meth:`actuation`)."""
-        qvel = self._qvel(q, qd)
+        rates = self._rates(q) if self.layout.rotation_vectors[0].size else None
+        qvel = self._qvel(q, qd, rates=rates)
         d = self._damping
         damper = -(d[:, 0] * qvel + d[:, 1] * qvel * np.abs(qvel) + d[:, 2] * qvel ** 3)
-        out = self._qvel(q, damper, transpose=True)
+        out = self._qvel(q, damper, transpose=True, rates=rates)
         comp = self._gravcomp(lin)
         if comp is not None:
             out = out + comp * self._gravcomp_route[0]
@@ -293,9 +302,10 @@ class TreeDynamics(Dynamics):
         q = np.asarray(q, dtype=float)
         return self._mass(q, forward(self.tree, self.layout, q))
 
-    def _momentum_and_kinetic(self, c: Array, qd: Array, pose: Pose) -> tuple[Array, Array]:
-        """At configurations c (..., k, n) with the real velocity q̇ (..., n): the momentum ∂T/∂q̇ = M(c) q̇
-        (..., k, n) and T(c, q̇) (..., k), without forming M or any Jacobian.
+    def _momentum_and_kinetic(self, c: Array, qd: Array, pose: Pose, com: Array) -> tuple[Array, Array]:
+        """At configurations c (..., k, n) with the real velocity q̇ (..., n), posed as ``pose`` with the bodies'
+        centres of mass ``com``: the momentum ∂T/∂q̇ = M(c) q̇ (..., k, n) and T(c, q̇) (..., k), without forming M
+        or any Jacobian.
 
         The same sums as Σ_b J_bᵀ (m v, I ω), reassociated: each coordinate's world twist (its axis a times q̇_k
         and the velocity (o − r) × a + s it gives the world point r) summed over the coordinates that move a body
@@ -309,21 +319,22 @@ class TreeDynamics(Dynamics):
         ref = pose.origin[(*(0,) * (pose.origin.ndim - 2), 0)].real
         qdk = qd[..., None, :, None]  # against (..., k, n, 3)
         omega_k = pose.axes * qdk
-        move_k = (_cross(pose.anchors - ref, pose.axes) + pose.shifts) * qdk
+        move_k = (cross(pose.anchors - ref, pose.axes) + pose.shifts) * qdk
         omega = mask @ omega_k  # (..., k, nb, 3)
-        rel = points_on(pose, bodies["index"], bodies["ipos"]) - ref
-        rot = np.einsum("...bij,bjk->...bik", pose.rotation[..., bodies["index"], :, :], bodies["irot"])
+        rel = com - ref
+        rot = pose.rotation[..., bodies["index"], :, :]
         m = bodies["mass"][:, None]
-        v = mask @ move_k + _cross(omega, rel)
-        # I ω = R diag(I) Rᵀ ω, R the principal frame's rotation (einsum: no BLAS call per 3×3)
-        iw = np.einsum("...ij,...j->...i", rot, bodies["inertia"] * np.einsum("...ji,...j->...i", rot, omega))
+        v = mask @ move_k + cross(omega, rel)
+        # I ω = R I_b Rᵀ ω, R the body's rotation, I_b its constant inertia tensor (by components: no BLAS call
+        # per 3×3)
+        iw = mat_vec(rot, mat_vec(self._body_inertia, mat_t_vec(rot, omega)))
         linear = m * v
         linear_k = mask.T @ linear  # (..., k, n, 3): the momentum of everything coordinate k moves
-        angular_k = mask.T @ (_cross(rel, linear) + iw) - _cross(pose.anchors - ref, linear_k)
+        angular_k = mask.T @ (cross(rel, linear) + iw) - cross(pose.anchors - ref, linear_k)
         momentum = np.sum(pose.axes * angular_k + pose.shifts * linear_k, axis=-1)
-        qvel = self._qvel(c, np.broadcast_to(qd[..., None, :], c.shape))
+        qvel = self._qvel(c, np.broadcast_to(qd[..., None, :], c.shape), rates=pose.rates)
         aq = self._armature * qvel
-        momentum = momentum + self._qvel(c, aq, transpose=True)
+        momentum = momentum + self._qvel(c, aq, transpose=True, rates=pose.rates)
         kinetic = 0.5 * (np.sum(linear * v, axis=(-1, -2)) + np.sum(omega * iw, axis=(-1, -2))
                          + np.sum(qvel * aq, axis=-1))
         return momentum, kinetic
@@ -333,43 +344,56 @@ class TreeDynamics(Dynamics):
         """(bodies with mass, n) as floats: coordinate k moves body b."""
         return self.layout.moves[self._bodies["index"]].astype(float)
 
-    @cached_property
-    def _rotation_blocks(self) -> tuple[int, ...]:
-        """The first coordinate of each rotation vector (a ball's, a free joint's last three): where B(q) ≠ I."""
-        return tuple(self.layout.first[j] + (3 if joint.kind == FREE else 0)
-                     for j, joint in enumerate(self.tree.joints) if joint.kind in (BALL, FREE))
+    def _rates(self, c: Array) -> Array:
+        """J_r(θ) of every rotation vector (a ball's, a free joint's last three) at configurations c, (..., nr, 3, 3):
+        where B(c) ≠ I."""
+        return right_jacobian(c[..., self.layout.rotation_vectors[1]])
 
-    def _qvel(self, c: Array, x: Array, *, transpose: bool = False) -> Array:
+    def _qvel(self, c: Array, x: Array, *, transpose: bool = False, rates: Array | None = None) -> Array:
         """B(c) x (MuJoCo's qvel for x = q̇), or B(c)ᵀ x, without forming B: J_r(θ) on each rotation vector's
-        block, the identity elsewhere."""
-        if not self._rotation_blocks:
+        block, the identity elsewhere. ``rates``: :meth:`_rates` at c where already computed."""
+        blocks = self.layout.rotation_vectors[1]
+        if not blocks.size:
             return x
+        jr = self._rates(c) if rates is None else rates
+        if transpose:
+            jr = np.swapaxes(jr, -1, -2)
         out = np.array(x, dtype=np.result_type(c.dtype, x.dtype))
-        for k in self._rotation_blocks:
-            jr = right_jacobian(c[..., k:k + 3])
-            if transpose:
-                jr = np.swapaxes(jr, -1, -2)
-            out[..., k:k + 3] = (jr @ x[..., k:k + 3, None])[..., 0]
+        out[..., blocks] = (jr @ x[..., blocks, None])[..., 0]
         return out
 
     def mass_and_forcing(self, q: Array, qd: Array) -> tuple[Array, Array]:
         """M(q) and F(q, q̇) from one batched evaluation: the real configuration, q + i h q̇ (for Ṁ q̇ = d/dt ∂T/∂q̇
         at q̈ = 0), and q + i h e_k (for ∂L/∂q_k)."""
         q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
+        return self._mass_and_forcing(q, qd)[:2]
+
+    def kkt_terms(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)
+                  ) -> tuple[Array, Array, Array | None, Array | None]:
+        """M, F, J and the constraints' right-hand side (:meth:`constraint_terms`) from one pass of the kinematics:
+        the constraints' configuration q + i h q̇ is the second of the batch M and F are computed at."""
+        q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
+        mass, force, c, pose = self._mass_and_forcing(q, qd)
+        if self.rows == 0:
+            return mass, force, None, None
+        return (mass, force, *self._constraint_terms(qd, *self._rows(c[..., 1, :], _member(pose, 1)),
+                                                     stabilization=stabilization))
+
+    def _mass_and_forcing(self, q: Array, qd: Array) -> tuple[Array, Array, Array, Pose]:
+        """M, F, and the configurations (..., n + 2, n) they were computed at with their pose."""
         n = self.n
         directions = np.concatenate([np.zeros_like(qd)[..., None, :], qd[..., None, :],
                                      np.broadcast_to(np.eye(n), (*q.shape[:-1], n, n))], axis=-2)
         c = self._perturbed(q, directions)
         pose = forward(self.tree, self.layout, c)
-        momentum, kinetic = self._momentum_and_kinetic(c, qd, pose)
+        com = points_on(pose, self._bodies["index"], self._bodies["ipos"])
+        momentum, kinetic = self._momentum_and_kinetic(c, qd, pose, com)
         mdot_qd = momentum[..., 1, :].imag / STEP
-        potential = self._potential(pose, c)
+        potential = self._potential(pose, c, com)
         dl_dq = (kinetic[..., 2:] - potential[..., 2:]).imag / STEP
-        real = Pose(*(x[..., 0, :, :] if x.ndim == pose.origin.ndim else x[..., 0, :, :, :] for x in
-                      (pose.origin, pose.rotation, pose.axes, pose.anchors, pose.shifts)))
-        _, lin, ang, inertia = self._com_jacobians(real)
+        _, lin, ang, inertia = self._com_jacobians(_member(pose, 0))
         lin0, ang0, inertia0 = lin.real, ang.real, inertia.real
-        return self._mass_from(q, lin0, ang0, inertia0), self._applied(q, qd, lin0) - mdot_qd + dl_dq
+        return self._mass_from(q, lin0, ang0, inertia0), self._applied(q, qd, lin0) - mdot_qd + dl_dq, c, pose
 
     def forcing(self, q: Array, qd: Array) -> Array:
         return self.mass_and_forcing(q, qd)[1]
@@ -475,8 +499,9 @@ class TreeDynamics(Dynamics):
         return self._body_rates(q, qd, qdd)[1]
 
     # ---- constraints --------------------------------------------------------------------------------
-    def _rows(self, q: Array) -> tuple[Array, Array]:
-        """f(q) (..., rows) and J(q) (..., rows, n) at (possibly complex) configurations."""
+    def _rows(self, q: Array, pose: Pose | None = None) -> tuple[Array, Array]:
+        """f(q) (..., rows) and J(q) (..., rows, n) at (possibly complex) configurations; ``pose``: their pose
+        where already computed."""
         tree = self.tree
         batch = q.shape[:-1]
         dtype = np.result_type(q.dtype, float)
@@ -484,12 +509,18 @@ class TreeDynamics(Dynamics):
         jac = np.zeros((*batch, self.rows, tree.n), dtype=dtype)
         if not tree.equalities:
             return f, jac
-        pose = forward(tree, self.layout, q)
+        if pose is None:
+            pose = forward(tree, self.layout, q)
+        bodies, offsets, sides = self._anchors
+        anchors = None
+        if bodies.size:  # every anchor's position and Jacobians at once
+            x = points_on(pose, bodies, offsets)
+            anchors = (x, *point_jacobians(pose, self.layout, bodies, x))
         start = 0
-        for eq in tree.equalities:
+        for eq, (i1, i2) in zip(tree.equalities, sides, strict=True):
             if eq.kind in ("connect", "weld"):
-                p1, l1, a1, r1 = self._anchor(pose, q, eq.body1, eq.anchor1)
-                p2, l2, a2, r2 = self._anchor(pose, q, eq.body2, eq.anchor2)
+                p1, l1, a1, r1 = self._anchor(pose, batch, eq.body1, eq.anchor1, anchors, i1)
+                p2, l2, a2, r2 = self._anchor(pose, batch, eq.body2, eq.anchor2, anchors, i2)
                 f[..., start:start + 3] = p1 - p2
                 jac[..., start:start + 3, :] = l1 - l2
                 if eq.kind == "weld":
@@ -513,17 +544,32 @@ class TreeDynamics(Dynamics):
             start += eq.rows
         return f, jac
 
-    def _anchor(self, pose: Pose, q: Array, body: int, offset: Array) -> tuple[Array, Array, Array, Array]:
+    @cached_property
+    def _anchors(self) -> tuple[Array, Array, tuple[tuple[int, int], ...]]:
+        """The connects' and welds' anchors on bodies (not on the world, body −1): their bodies (k,) and offsets (k, 3),
+        and per equality the index of its two anchors among them (−1: on the world, or no anchor)."""
+        bodies, offsets, sides = [], [], []
+        for eq in self.tree.equalities:
+            pair = [-1, -1]
+            if eq.kind in ("connect", "weld"):
+                for side, (body, offset) in enumerate(((eq.body1, eq.anchor1), (eq.body2, eq.anchor2))):
+                    if body >= 0:
+                        pair[side] = len(bodies)
+                        bodies.append(body)
+                        offsets.append(np.asarray(offset, dtype=float))
+            sides.append((pair[0], pair[1]))
+        return np.array(bodies, dtype=int), np.array(offsets, dtype=float).reshape(-1, 3), tuple(sides)
+
+    def _anchor(self, pose: Pose, batch: tuple[int, ...], body: int, offset: Array,
+                anchors: tuple[Array, Array, Array] | None, i: int) -> tuple[Array, Array, Array, Array]:
         """A body-fixed point's world position, its linear and the body's angular Jacobian, and the body's
-        rotation; the world (body −1) stands still."""
-        batch = q.shape[:-1]
+        rotation, the i-th of ``anchors`` (positions, linear and angular Jacobians); the world (body −1) stands
+        still."""
         if body < 0:
             zero = np.zeros((*batch, 3, self.tree.n))
             return np.broadcast_to(offset, (*batch, 3)), zero, zero, np.broadcast_to(np.eye(3), (*batch, 3, 3))
-        idx = np.array([body])
-        x = points_on(pose, idx, offset[None, :])
-        lin, ang = point_jacobians(pose, self.layout, idx, x)
-        return x[..., 0, :], lin[..., 0, :, :], ang[..., 0, :, :], pose.rotation[..., body, :, :]
+        x, lin, ang = anchors
+        return x[..., i, :], lin[..., i, :, :], ang[..., i, :, :], pose.rotation[..., body, :, :]
 
     def jacobian(self, q: Array) -> Array:
         return self._rows(np.asarray(q, dtype=float))[1]
@@ -539,7 +585,12 @@ class TreeDynamics(Dynamics):
         """J, and γ − α Jq̇ − β f, from one pass of the kinematics at q + i h q̇: its real parts are f(q) and
         J(q) (the step's h² terms vanish below round-off), its imaginary part J̇q̇ h."""
         q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
-        f, jac = self._rows(q + 1j * STEP * qd)
+        return self._constraint_terms(qd, *self._rows(q + 1j * STEP * qd), stabilization=stabilization)
+
+    @staticmethod
+    def _constraint_terms(qd: Array, f: Array, jac: Array, *, stabilization: tuple[float, float]
+                          ) -> tuple[Array, Array]:
+        """J and γ − α Jq̇ − β f from f and J at q + i h q̇."""
         real = jac.real
         gamma = -np.einsum("...ij,...j->...i", jac.imag, qd) / STEP
         alpha, beta = stabilization

@@ -23,7 +23,7 @@ from functools import cached_property
 import numpy as np
 
 from analytic.tree.model import BALL, FREE, HINGE, SLIDE, Tree
-from analytic.tree.rotations import exp_map, quat_to_mat, right_jacobian, skew
+from analytic.tree.rotations import cross, exp_and_jacobian, mat_vec, quat_to_mat, right_jacobian, skew
 
 Array = np.ndarray
 
@@ -86,6 +86,54 @@ class Layout:
         return np.array([self.tree.joints[j].ref for j in self.hinges], dtype=float)
 
     @cached_property
+    def rotation_vectors(self) -> tuple[np.ndarray, np.ndarray]:
+        """The ball and free joints, and the coordinates (nr, 3) of each one's rotation vector: their Exp(θ) and
+        J_r(θ) are computed together, once per pose."""
+        joints = [j for j, joint in enumerate(self.tree.joints) if joint.kind in (BALL, FREE)]
+        coords = [[self.first[j] + (3 if self.tree.joints[j].kind == FREE else 0) + a for a in range(3)]
+                  for j in joints]
+        return np.array(joints, dtype=int), np.array(coords, dtype=int).reshape(-1, 3)
+
+    @cached_property
+    def plan(self) -> tuple[tuple[int, np.ndarray | None, np.ndarray | None, tuple[tuple, ...], bool], ...]:
+        """Per body, what :func:`forward` does, decided once: its parent, its offset in the parent's frame and
+        its constant rotation (None where zero or the identity: nothing to add or multiply), and per joint
+        (kind, first coordinate, anchor or None where at the body's origin, axis, the index of its rotation or
+        Exp(θ) in the batched ones, the joint's index), and whether only hinges at its origin move it
+        (:attr:`centred`)."""
+        hinge_of = {int(j): i for i, j in enumerate(self.hinges)}
+        rotation_of = {int(j): i for i, j in enumerate(self.rotation_vectors[0])}
+        out = []
+        for b, body in enumerate(self.tree.bodies):
+            pos = np.asarray(body.pos, dtype=float)
+            rot = self.body_rotations[b]
+            steps = []
+            for j in body.joints:
+                joint = self.tree.joints[j]
+                anchor = np.asarray(joint.pos, dtype=float)
+                steps.append((joint.kind, self.first[j], anchor if np.any(anchor) else None,
+                              np.asarray(joint.axis, dtype=float), hinge_of.get(j, rotation_of.get(j, -1)), j))
+            centred = all(kind == HINGE and anchor is None for kind, _, anchor, _, _, _ in steps)
+            out.append((body.parent, pos if body.parent < 0 or np.any(pos) else None,
+                        None if np.array_equal(rot, np.eye(3)) else rot, tuple(steps), centred))
+        return tuple(out)
+
+    @cached_property
+    def centred(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The hinges of the bodies that only hinges at their origin move (most of a robot's): their coordinates,
+        bodies and axes (m, 3) in the body frame. Such a hinge turns about the body's origin, which none of them
+        moves: its anchor is the body's final origin, and its world axis the frame's rotation before its turn
+        times its axis, both set for all of them at once after the bodies are posed."""
+        coords, bodies, axes = [], [], []
+        for b, (_, _, _, steps, centred) in enumerate(self.plan):
+            if centred:
+                coords += [k for _, k, _, _, _, _ in steps]
+                bodies += [b] * len(steps)
+                axes += [axis for _, _, _, axis, _, _ in steps]
+        return (np.array(coords, dtype=int), np.array(bodies, dtype=int),
+                np.array(axes, dtype=float).reshape(-1, 3))
+
+    @cached_property
     def body_of_coordinate(self) -> np.ndarray:
         out = np.empty(self.tree.n, dtype=int)
         for j, joint in enumerate(self.tree.joints):
@@ -100,7 +148,8 @@ class Pose:
     ``origin``/``rotation``: each body frame's world position (..., nb, 3) and orientation (..., nb, 3, 3);
     ``axes``/``anchors``: per coordinate, the world angular direction (..., n, 3) it turns about (zero for
     a translation) and the world point it turns about (..., n, 3); ``shifts``: per coordinate, the world
-    translation direction (..., n, 3) (zero for a rotation).
+    translation direction (..., n, 3) (zero for a rotation); ``rates``: J_r(θ) of each ball's and free joint's
+    rotation vector (..., nr, 3, 3), in :attr:`Layout.rotation_vectors` order (what qvel = B(q) q̇ needs).
     """
 
     origin: Array
@@ -108,11 +157,7 @@ class Pose:
     axes: Array
     anchors: Array
     shifts: Array
-
-
-def _split(q: Array, layout: Layout, j: int) -> Array:
-    k = layout.first[j]
-    return q[..., k:k + layout.tree.joints[j].ndof]
+    rates: Array
 
 
 def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
@@ -120,62 +165,73 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
     q = np.asarray(q)
     batch = q.shape[:-1]
     dtype = np.result_type(q.dtype, float)
-    nb, n = len(tree.bodies), layout.n
-    origin = np.zeros((*batch, nb, 3), dtype=dtype)
-    rotation = np.zeros((*batch, nb, 3, 3), dtype=dtype)
+    n = layout.n
     axes = np.zeros((*batch, n, 3), dtype=dtype)
     anchors = np.zeros((*batch, n, 3), dtype=dtype)
     shifts = np.zeros((*batch, n, 3), dtype=dtype)
-    skews, squares, charts = layout.joint_constants
+    _, _, charts = layout.joint_constants
     hinges = layout.hinges
     if hinges.size:  # every hinge's rotation at once (Rodrigues), not one joint at a time
+        skews, squares, _ = layout.joint_constants
         angle = q[..., layout.hinge_coordinates] - layout.hinge_refs
         turns = (np.eye(3) + np.sin(angle)[..., None, None] * skews[hinges]
                  + (1 - np.cos(angle))[..., None, None] * squares[hinges])
-        turn_of = {int(j): i for i, j in enumerate(hinges)}
-    for b, body in enumerate(tree.bodies):
-        if body.parent >= 0:
-            p_par, r_par = origin[..., body.parent, :], rotation[..., body.parent, :, :]
-        else:
-            p_par, r_par = np.zeros((*batch, 3), dtype=dtype), np.broadcast_to(np.eye(3), (*batch, 3, 3))
-        p = p_par + r_par @ body.pos
-        r = r_par @ layout.body_rotations[b]
-        for j in body.joints:
-            joint = tree.joints[j]
-            k = layout.first[j]
-            x = _split(q, layout, j)
-            if joint.kind == HINGE:
-                centred = not np.any(joint.pos)  # at the body's origin (most hinges): the origin stays put
-                anchor = p if centred else p + r @ joint.pos
-                axes[..., k, :] = r @ joint.axis
-                anchors[..., k, :] = anchor
-                r = r @ turns[..., turn_of[j], :, :]
-                p = anchor if centred else anchor - r @ joint.pos
-            elif joint.kind == SLIDE:
-                shifts[..., k, :] = r @ joint.axis
-                p = p + shifts[..., k, :] * (x[..., 0] - joint.ref)[..., None]
-            elif joint.kind == BALL:
-                anchor = p + r @ joint.pos
-                r = r @ charts[j] @ exp_map(x)
-                p = anchor - r @ joint.pos
-                axes[..., k:k + 3, :] = np.swapaxes(r @ right_jacobian(x), -1, -2)
+    if layout.rotation_vectors[0].size:  # every ball's and free joint's Exp(θ) and J_r(θ) at once
+        exps, jacobians = exp_and_jacobian(q[..., layout.rotation_vectors[1]])
+    else:
+        jacobians = np.zeros((*batch, 0, 3, 3), dtype=dtype)
+    origin, rotation = [], []  # each body's, stacked at the end
+    before = []  # each centred hinge's frame before its turn (Layout.centred)
+    for parent, pos, rot, steps, centred in layout.plan:
+        if parent >= 0:
+            p, r = origin[parent], rotation[parent]
+            if pos is not None:
+                p = p + r @ pos
+        else:  # under the world: its frame as placed (the world's identity rotation changes no bit), in q's type
+            p = np.broadcast_to(pos.astype(dtype), (*batch, 3))
+            r = np.broadcast_to(np.eye(3, dtype=dtype), (*batch, 3, 3))
+        if rot is not None:
+            r = r @ rot
+        for kind, k, offset, axis, i, j in steps:
+            if kind == HINGE:
+                anchor = p if offset is None else p + r @ offset  # at the body's origin: the origin stays put
+                if centred:  # its axis and anchor with the other centred hinges' (below)
+                    before.append(r)
+                else:
+                    axes[..., k, :] = r @ axis
+                    anchors[..., k, :] = anchor
+                r = r @ turns[..., i, :, :]
+                p = anchor if offset is None else anchor - r @ offset
+            elif kind == SLIDE:
+                shifts[..., k, :] = r @ axis
+                p = p + shifts[..., k, :] * (q[..., k] - tree.joints[j].ref)[..., None]
+            elif kind == BALL:
+                anchor = p if offset is None else p + r @ offset
+                r = r @ charts[j] @ exps[..., i, :, :]
+                p = anchor if offset is None else anchor - r @ offset
+                axes[..., k:k + 3, :] = np.swapaxes(r @ jacobians[..., i, :, :], -1, -2)
                 anchors[..., k:k + 3, :] = anchor[..., None, :]
-            elif joint.kind == FREE:
-                p = x[..., :3]
-                r = charts[j] @ exp_map(x[..., 3:])
+            elif kind == FREE:
+                p = q[..., k:k + 3]
+                r = charts[j] @ exps[..., i, :, :]
                 shifts[..., k:k + 3, :] = np.eye(3)
-                axes[..., k + 3:k + 6, :] = np.swapaxes(r @ right_jacobian(x[..., 3:]), -1, -2)
+                axes[..., k + 3:k + 6, :] = np.swapaxes(r @ jacobians[..., i, :, :], -1, -2)
                 anchors[..., k + 3:k + 6, :] = p[..., None, :]
             else:
-                raise ValueError(f"joint {joint.name!r}: unknown kind {joint.kind!r}")
-        origin[..., b, :] = p
-        rotation[..., b, :, :] = r
-    return Pose(origin=origin, rotation=rotation, axes=axes, anchors=anchors, shifts=shifts)
+                raise ValueError(f"joint {tree.joints[j].name!r}: unknown kind {kind!r}")
+        origin.append(p)
+        rotation.append(r)
+    origin, rotation = np.stack(origin, axis=-2, dtype=dtype), np.stack(rotation, axis=-3, dtype=dtype)
+    coords, bodies, axis = layout.centred
+    if before:
+        axes[..., coords, :] = (np.stack(before, axis=-3) @ axis[:, :, None])[..., 0]
+        anchors[..., coords, :] = origin[..., bodies, :]
+    return Pose(origin=origin, rotation=rotation, axes=axes, anchors=anchors, shifts=shifts, rates=jacobians)
 
 
 def points_on(pose: Pose, bodies: Array, offsets: Array) -> Array:
     """World positions (..., k, 3) of body-fixed points: ``offsets`` (k, 3) in the frames of ``bodies`` (k,)."""
-    return pose.origin[..., bodies, :] + np.einsum("...kij,kj->...ki", pose.rotation[..., bodies, :, :], offsets)
+    return pose.origin[..., bodies, :] + mat_vec(pose.rotation[..., bodies, :, :], offsets)
 
 
 def point_jacobians(pose: Pose, layout: Layout, bodies: Array, x: Array) -> tuple[Array, Array]:
@@ -184,7 +240,7 @@ def point_jacobians(pose: Pose, layout: Layout, bodies: Array, x: Array) -> tupl
     mask = layout.moves[bodies]  # (k, n)
     # a rotation about axis w through anchor o moves x at w × (x − o); a translation at its direction
     rel = x[..., :, None, :] - pose.anchors[..., None, :, :]  # (..., k, n, 3)
-    lin = np.cross(pose.axes[..., None, :, :], rel) + pose.shifts[..., None, :, :]
+    lin = cross(pose.axes[..., None, :, :], rel) + pose.shifts[..., None, :, :]
     ang = np.broadcast_to(pose.axes[..., None, :, :], lin.shape)
     lin = np.where(mask[..., None], lin, 0.0)
     ang = np.where(mask[..., None], ang, 0.0)
@@ -198,8 +254,9 @@ def velocity_map(tree: Tree, layout: Layout, q: Array) -> Array:
     n = layout.n
     out = np.zeros((*q.shape[:-1], n, n), dtype=np.result_type(q.dtype, float))
     out[..., np.arange(n), np.arange(n)] = 1.0
-    for j, joint in enumerate(tree.joints):
-        if joint.kind in (BALL, FREE):
-            k = layout.first[j] + (3 if joint.kind == FREE else 0)
-            out[..., k:k + 3, k:k + 3] = right_jacobian(q[..., k:k + 3])
+    blocks = layout.rotation_vectors[1]
+    if blocks.size:
+        rates = right_jacobian(q[..., blocks])
+        for i, k in enumerate(blocks[:, 0]):
+            out[..., k:k + 3, k:k + 3] = rates[..., i, :, :]
     return out

@@ -16,6 +16,8 @@ import numpy as np
 
 Array = np.ndarray
 
+_EYE = np.eye(3)
+
 
 def quat_to_mat(quat: Array) -> Array:
     """(..., 4) unit quaternions (w, x, y, z) -> (..., 3, 3) rotation matrices."""
@@ -48,10 +50,39 @@ def mat_to_quat(mat: Array) -> Array:
 
 
 def skew(v: Array) -> Array:
-    """(..., 3) -> (..., 3, 3) with skew(a) b = a × b."""
-    x, y, z = np.moveaxis(np.asarray(v), -1, 0)
-    zero = np.zeros_like(x)
-    return np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)], -2)
+    """(..., 3) -> (..., 3, 3) with skew(a) b = a × b (filled in place: this runs on tiny arrays, where numpy's
+    stacking costs more than the arithmetic)."""
+    v = np.asarray(v)
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    out = np.zeros((*v.shape[:-1], 3, 3), dtype=v.dtype)
+    out[..., 0, 1], out[..., 0, 2] = -z, y
+    out[..., 1, 0], out[..., 1, 2] = z, -x
+    out[..., 2, 0], out[..., 2, 1] = -y, x
+    return out
+
+
+def cross(a: Array, b: Array) -> Array:
+    """a × b over the last axis (3), broadcasting; by components into one array, which numpy's cross does with
+    more copying (the same products and differences: the same bits)."""
+    a, b = np.asarray(a), np.asarray(b)
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a.dtype, b.dtype))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
+
+
+def mat_vec(m: Array, v: Array) -> Array:
+    """m v for (..., 3, 3) matrices and (..., 3) vectors, broadcasting: three products summed in order, without
+    einsum's or matmul's per-call cost on tiny arrays."""
+    return m[..., :, 0] * v[..., 0, None] + m[..., :, 1] * v[..., 1, None] + m[..., :, 2] * v[..., 2, None]
+
+
+def mat_t_vec(m: Array, v: Array) -> Array:
+    """mᵀ v for (..., 3, 3) matrices and (..., 3) vectors, as :func:`mat_vec`."""
+    return m[..., 0, :] * v[..., 0, None] + m[..., 1, :] * v[..., 1, None] + m[..., 2, :] * v[..., 2, None]
 
 
 def vee(m: Array) -> Array:
@@ -77,20 +108,29 @@ SERIES_T = 1e-4
 def _coefficients(t: Array) -> tuple[Array, Array, Array]:
     t = np.asarray(t)
     small = np.abs(t.real) < SERIES_T
+    if small.all():  # the branch every entry takes (a batch of complex steps shares its real part): that one alone
+        return _series(t)
     safe = np.where(small, 1.0, t)
-    theta = np.sqrt(safe)
-    a = np.where(small, 1 - t / 6 + t * t / 120 - t ** 3 / 5040, np.sin(theta) / theta)
-    b = np.where(small, 0.5 - t / 24 + t * t / 720 - t ** 3 / 40320, (1 - np.cos(theta)) / safe)
-    c = np.where(small, 1 / 6 - t / 120 + t * t / 5040 - t ** 3 / 362880, (theta - np.sin(theta)) / (safe * theta))
-    return a, b, c
+    if not small.any():
+        return _closed(safe)
+    series, closed = _series(t), _closed(safe)
+    return tuple(np.where(small, s, c) for s, c in zip(series, closed, strict=True))
+
+
+def _series(t: Array) -> tuple[Array, Array, Array]:
+    return (1 - t / 6 + t * t / 120 - t ** 3 / 5040, 0.5 - t / 24 + t * t / 720 - t ** 3 / 40320,
+            1 / 6 - t / 120 + t * t / 5040 - t ** 3 / 362880)
+
+
+def _closed(t: Array) -> tuple[Array, Array, Array]:
+    theta = np.sqrt(t)
+    sin = np.sin(theta)
+    return sin / theta, (1 - np.cos(theta)) / t, (theta - sin) / (t * theta)
 
 
 def exp_map(theta: Array) -> Array:
     """Exp(θ): (..., 3) rotation vectors -> (..., 3, 3) rotation matrices."""
-    theta = np.asarray(theta)
-    a, b, _ = _coefficients(np.sum(theta * theta, axis=-1))
-    k = skew(theta)
-    return np.eye(3) + a[..., None, None] * k + b[..., None, None] * (k @ k)
+    return exp_and_jacobian(theta)[0]
 
 
 def right_jacobian(theta: Array) -> Array:
@@ -98,4 +138,14 @@ def right_jacobian(theta: Array) -> Array:
     theta = np.asarray(theta)
     _, b, c = _coefficients(np.sum(theta * theta, axis=-1))
     k = skew(theta)
-    return np.eye(3) - b[..., None, None] * k + c[..., None, None] * (k @ k)
+    return _EYE - b[..., None, None] * k + c[..., None, None] * (k @ k)
+
+
+def exp_and_jacobian(theta: Array) -> tuple[Array, Array]:
+    """Exp(θ) and J_r(θ) together, (..., 3, 3) each: one skew, one square and one set of coefficients for both."""
+    theta = np.asarray(theta)
+    a, b, c = _coefficients(np.sum(theta * theta, axis=-1))
+    k = skew(theta)
+    kk = k @ k
+    a, b, c = a[..., None, None], b[..., None, None], c[..., None, None]
+    return _EYE + a * k + b * kk, _EYE - b * k + c * kk
