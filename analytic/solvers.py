@@ -84,6 +84,7 @@ def solve(
     max_steps: int = dop853.MAX_STEPS,
     stiff: bool = False,
     reach: bool = False,
+    cpu_seconds: float | None = None,
 ) -> Solution:
     """Integrate from (q0, q̇0) over [0, t_end] with dense output.
 
@@ -102,6 +103,8 @@ def solve(
 
     ``reach``: solve only as far as ``max_steps`` steps go (``Solution.t_end`` the time reached, at most
     ``t_end``), by the solver the start chooses, instead of refusing a longer solve: a span bounded by its cost.
+    ``cpu_seconds``: :class:`TooSlow` once the solve has used that much of the process's CPU time, with how far
+    it got (a bound on a solve whose first steps cannot tell its cost: a large stiff tree's Jacobians).
     """
     q0 = np.asarray(q0, dtype=float)
     qd0 = np.asarray(qd0, dtype=float)
@@ -117,7 +120,13 @@ def solve(
     stab = (2.0 * omega, omega * omega)
     n = dynamics.n
 
-    def rhs(_t: float | Array, y: Array) -> Array:  # also a batch: y of shape (k, 2n)
+    started, reached = time.process_time(), [0.0]
+
+    def rhs(t: float | Array, y: Array) -> Array:  # also a batch: y of shape (k, 2n)
+        if cpu_seconds is not None:
+            reached[0] = max(reached[0], float(np.max(t)))
+            if time.process_time() - started > cpu_seconds:
+                raise TooSlow(cpu_seconds, reached[0], float(t_end))
         qdd, _ = dynamics.accelerations(y[..., :n], y[..., n:], stabilization=stab)
         return np.concatenate([y[..., n:], qdd], axis=-1)
 
@@ -256,6 +265,19 @@ TRIAL_STEPS = 500
 """The steps a solve takes before it judges its length: twice those of the longest shipped reference
 (docs/findings/bases.md, TRIAL_STEPS), so a shipped case is solved in one go; where they cover only part of the
 span, the whole is estimated as proportional to the time they covered."""
+
+
+class TooSlow(dop853.IntegrationError):
+    """A solve stopped once it had used its ``seconds`` of CPU, at ``reached`` of ``t_end``."""
+
+    def __init__(self, seconds: float, reached: float, t_end: float) -> None:
+        self.seconds, self.reached, self.t_end = float(seconds), float(reached), float(t_end)
+        whole = seconds * t_end / reached if reached > 0 else float("inf")
+        super().__init__(f"it used {seconds:.3g} s of CPU to cover {reached:.3g} s of {t_end:g} s (about "
+                         f"{whole / 60:.2g} min for the whole span at that rate)")
+
+    def __reduce__(self):  # pickled with its parts (a worker sends it to the parent)
+        return (type(self), (self.seconds, self.reached, self.t_end))
 
 
 class TooManySteps(dop853.IntegrationError):

@@ -137,3 +137,20 @@ def test_image_textures_are_not_decoded_for_simulation(tmp_path):
     model = compile_model(path)
     assert model.ntex == 1 and model.tex("skin").id == 0
     assert model.ntexdata <= SMALL_TEXTURE * SMALL_TEXTURE * 4
+
+
+def test_a_solve_past_its_cpu_bound_is_stopped_and_refused_with_how_far_it_got(tmp_path, capsys, monkeypatch):
+    """A reference solve the up-front estimate lets through (its floor misses a large stiff tree's Jacobians:
+    dm_control's dog ran its horizon's two solves for 11 min) is stopped once it has used bounds.max_solve_seconds
+    of CPU, and the model refused in one line with how far the solve got; the bound scaled down here to a
+    hundredth of a second, which the 8-link chain's solve passes on any machine."""
+    from harness.cli.commands import main
+
+    monkeypatch.setattr(bounds, "SOLVE_FACTOR", 0.01)
+    monkeypatch.setenv(bounds.MAX_REFERENCE_SECONDS_VARIABLE, "1")
+    path = tmp_path / "chain8.xml"
+    path.write_text(chain(8))
+    assert main(["check", "--mjcf", str(path), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "tree reference (8 dof) was stopped: it used 0.01 s of CPU to cover" in err, err
+    assert "MJHARNESS_MAX_REFERENCE_SECONDS=N" in err

@@ -27,7 +27,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from analytic.solvers import STIFF_RTOL, TooManySteps, project, solve
+from analytic.solvers import STIFF_RTOL, TooManySteps, TooSlow, project, solve
 from analytic.tree import TreeDynamics
 from harness.cases import Case, Wiring
 from harness.core import bounds, progress
@@ -141,7 +141,10 @@ def chaos_horizon(case: Case, model: mujoco.MjModel) -> tuple[float, str]:
     q1, qd1 = project(dyn, q0, qd0 + kick)  # the kick's part along the constraints
     try:
         moved = solve(dyn, q0=q1, qd0=qd1, t_end=cap, rtol=max(nominal.solution.rtol, SEED / 10),
-                      atol=max(nominal.solution.rtol, SEED / 10), max_steps=TREE_MAX_STEPS, stiff=True)
+                      atol=max(nominal.solution.rtol, SEED / 10), max_steps=TREE_MAX_STEPS, stiff=True,
+                      cpu_seconds=bounds.max_solve_seconds())
+    except TooSlow as exc:
+        raise bounds.solve_too_slow(str(exc), nv=dyn.n) from None
     except TooManySteps as exc:  # the nominal solve passed its bound: this one cannot be far off it
         raise ModelError(f"the model's tree reference cannot be solved over {cap:g} s: {exc}; accepted: "
                          "a shorter --horizon") from None

@@ -107,6 +107,27 @@ def reference_too_long(why: str) -> RunTooLong:
                       f"slower initial state, or {MAX_REFERENCE_STEPS_VARIABLE}=N to solve it anyway")
 
 
+SOLVE_FACTOR = 4
+"""How many times :func:`max_reference_seconds` one solve of a model's tree reference may use of CPU before it is
+stopped and the model refused (:func:`max_solve_seconds`): the up-front estimate is a floor that a large stiff
+tree's Jacobians pass by far (dm_control's dog: 11 min for its horizon's two solves). 120 s by default, above the
+costliest solve measured on the zoo and the Menagerie robots (docs/findings/bases.md, SOLVE_FACTOR)."""
+
+
+def max_solve_seconds() -> float:
+    """The CPU seconds one solve of a model's tree reference may use (:data:`SOLVE_FACTOR` ×
+    :func:`max_reference_seconds`)."""
+    return float(SOLVE_FACTOR * max_reference_seconds())
+
+
+def solve_too_slow(why: str, *, nv: int) -> RunTooLong:
+    """The refusal of a model whose tree reference's solve passed :func:`max_solve_seconds` (``why``: how far it got
+    and the whole at that rate)."""
+    return RunTooLong(f"the model's tree reference ({nv} dof) was stopped: {why}, more than the bound of "
+                      f"{max_solve_seconds():g} s a solve ({SOLVE_FACTOR} × {MAX_REFERENCE_SECONDS_VARIABLE}); fix: "
+                      f"a shorter --horizon, or {MAX_REFERENCE_SECONDS_VARIABLE}=N to allow {SOLVE_FACTOR} × N s")
+
+
 def check_reference_cost(*, evaluation: float, span: float, nv: int, stopped: bool = False) -> None:
     """RunTooLong where a tree reference over ``span`` seconds, one evaluation of its accelerations timed at
     ``evaluation`` CPU seconds (or more: ``stopped`` there), is estimated to take longer than

@@ -30,7 +30,7 @@ import numpy as np
 import analytic
 from analytic import systems
 from analytic.dynamics import Dynamics
-from analytic.solvers import DEFAULT_RTOL, Solution, TooManySteps, project, solve
+from analytic.solvers import DEFAULT_RTOL, Solution, TooManySteps, TooSlow, project, solve
 from analytic.systems import Scales
 from analytic.tree import TreeDynamics
 from harness.core import bounds, cache
@@ -156,7 +156,10 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     if sol is None:
         clock = time.perf_counter()
         try:
-            sol = solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, atol=rtol, max_steps=bound, stiff=tree is not None)
+            sol = solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, atol=rtol, max_steps=bound, stiff=tree is not None,
+                        cpu_seconds=bounds.max_solve_seconds() if tree is not None else None)
+        except TooSlow as exc:
+            raise bounds.solve_too_slow(str(exc), nv=dyn.n) from None
         except TooManySteps as exc:
             if tree is not None:  # a model the user brings: its motion, not the run asked for, is what is too long
                 raise ModelError(f"the model's tree reference cannot be solved to rtol {rtol:g} over {span:g} s: "
@@ -185,8 +188,12 @@ def _reach(system: str, dyn: Dynamics, key: tuple, steps: int, rtol: float, para
         sol = _stored(within, steps, dyn)
     if sol is None:
         clock = time.perf_counter()
-        sol = solve(dyn, q0=q, qd0=qd, t_end=key[-1], rtol=rtol, atol=rtol, max_steps=steps, stiff=tree is not None,
-                    reach=True)
+        try:
+            sol = solve(dyn, q0=q, qd0=qd, t_end=key[-1], rtol=rtol, atol=rtol, max_steps=steps,
+                        stiff=tree is not None, reach=True,
+                        cpu_seconds=bounds.max_solve_seconds() if tree is not None else None)
+        except TooSlow as exc:
+            raise bounds.solve_too_slow(str(exc), nv=dyn.n) from None
         if tree is not None and sol.why:
             sol = dataclasses.replace(sol, why=stiffness_cause(dyn, q, sol.why))
         _store(within, steps, sol, time.perf_counter() - clock)
