@@ -138,6 +138,11 @@ def test_the_near_rigid_factor_brings_the_smallest_eps_to_twice_the_stiffest():
     assert V.rigid_factor(_pendulum()) is None  # at the stiffest already: the levels ε and 2ε
     assert V.rigid_factor(_pendulum(soft)) == pytest.approx(2.0 * V.STIFFEST / 0.05)
 
+    def nearly(spec: mujoco.MjSpec) -> None:  # ε 5e-4: f would be 0.4, the levels ε/2, ε/4 near rigid already
+        for eq in spec.equalities:
+            eq.solimp = [0.9995, 0.9995, 0.001, 0.5, 2.0]
+    assert V.softness_factor(_pendulum(nearly)) == 0.5 and V.rigid_factor(_pendulum(nearly)) is None
+
 
 def test_an_integrator_of_lower_order_than_documented_is_not_explained():
     second = lambda h, e: 50.0 * h * h  # noqa: E731  (a "fourth-order" method that is second order)

@@ -186,13 +186,21 @@ def _smallest_softness(model: mujoco.MjModel) -> float:
 def rigid_factor(model: mujoco.MjModel) -> float | None:
     """f, where the softness part is measured down to the near-rigid levels 2fε and fε rather than extrapolated
     from ε, ε/2 and ε/4: the smallest effective ε × f is twice the stiffest MuJoCo allows (both levels stay
-    representable under ``discrete``'s folding). Where ε is above that and no contact is soft; None elsewhere:
-    at the stiffest already (the levels are ε and 2ε), or with contacts, whose τ part is extrapolated on the
-    levels ε, ε/2, ε/4. A closed loop of light links (Cassie's rods, Robotiq's linkage) at MuJoCo's default
-    solimp answers to ε as no polynomial through ε, ε/2, ε/4 does (docs/findings/softness.md)."""
-    if softness_factor(model) > 1.0 or has_contacts(model):
+    representable under ``discrete``'s folding). Where the smallest ε is at least 8 × the stiffest (f ≤
+    :data:`RIGID_LEVELS_BELOW`) and no contact is soft; None elsewhere: near or at the stiffest already (the levels
+    are ε, ε/2, ε/4, or ε and 2ε), or with contacts, whose τ part is extrapolated on the levels ε, ε/2, ε/4.
+    A closed loop of light links (Cassie's rods, Robotiq's linkage) at MuJoCo's default solimp answers to ε as
+    no polynomial through ε, ε/2, ε/4 does (docs/findings/softness.md)."""
+    factor = 2.0 * STIFFEST / _smallest_softness(model)
+    if factor > RIGID_LEVELS_BELOW or has_contacts(model):
         return None
-    return min(1.0, 2.0 * STIFFEST / _smallest_softness(model))
+    return factor
+
+
+RIGID_LEVELS_BELOW = 0.25
+"""The largest f :func:`rigid_factor` gives: nearer the stiffest (ε below 8 × 1e-4) the levels ε, ε/2, ε/4 are near
+the rigid limit already, and the integration correction at 2fε, interpolated between fε and ε with the weight
+f/(1 − f), would grow without bound as f → 1."""
 
 
 def variant(model: mujoco.MjModel, *, split: int = 1, eps_factor: float = 1.0, tc_factor: float = 1.0

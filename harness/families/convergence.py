@@ -518,7 +518,7 @@ def convergence_study(
     # the softness is linear (from ε and 2ε at MuJoCo's default solimp it is not, in loops of light links:
     # docs/findings/softness.md); ε and 2ε are still run, for the softness shown
     rigid = rigid_factor(base) if constrained else None
-    near = (scaled_softness(rigid), scaled_softness(2.0 * rigid)) if rigid is not None and rigid < 0.25 else ()
+    near = (scaled_softness(rigid), scaled_softness(2.0 * rigid)) if rigid is not None else ()
     scales = reference.scales
     grids: dict[int, Trajectory] = {}
     force_floor = initial_force_floor(base, reference) if constrained else None

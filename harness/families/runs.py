@@ -25,7 +25,7 @@ C′…    h, ε (sε, s²ε), rτ                       contacts
 D      h, floors doubled                        point masses (one run, shared)
 =====  ======================================  ====================================
 
-Where every ε is above twice the stiffest and no contact is soft, C, C₂ and E are at the near-rigid levels
+Where every ε is at least 8 × the stiffest and no contact is soft, C, C₂ and E are at the near-rigid levels
 instead: 2fε, fε and (h/2, fε) (:func:`~harness.engine.variants.rigid_factor`), and the softness part is
 measured down to fε, not extrapolated across ε (:func:`~harness.core.budget.from_rigid`).
 
