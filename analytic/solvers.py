@@ -35,7 +35,9 @@ STIFF_RTOL = 1e-8
 """The loosest tolerance a solve handed to Radau IIA is made to (rtol and atol): Radau's steps grow as rtol^(-1/4)
 (its error estimate is O(h⁴)), so 1e-12 on a robot's 1 s of motion takes it 5e4 steps. What the trajectory budget
 must resolve is MuJoCo's own integration error at the model's step, which the reference's allowance
-(harness.core.budget.REFERENCE × rtol × the size) must stay far below: docs/findings/bases.md, STIFF_RTOL."""
+(harness.core.budget.REFERENCE × rtol × the size) must stay below: this is the first tolerance, and a check
+solves again at the tighter one its budgets derive (``solve(stiff_rtol=…)``, harness.core.budget.reference_rtol;
+docs/findings/bases.md, STIFF_RTOL and REFERENCE_SHARE)."""
 
 
 @dataclass(frozen=True)
@@ -85,6 +87,7 @@ def solve(
     stiff: bool = False,
     reach: bool = False,
     cpu_seconds: float | None = None,
+    stiff_rtol: float = STIFF_RTOL,
 ) -> Solution:
     """Integrate from (q0, q̇0) over [0, t_end] with dense output.
 
@@ -98,8 +101,8 @@ def solve(
     ``stiff``: where stability alone would take DOP853 more than :data:`TRIAL_STEPS` steps at the start
     (:func:`explicit_steps`: its step is then set by a fast decaying mode, not by the motion's accuracy; every
     shipped reference takes fewer), or where its first steps estimate more than ``max_steps``, the motion is
-    handed to Radau IIA (at :data:`STIFF_RTOL` at the loosest), judged by its own first steps against the same
-    bound, before it is refused (:class:`TooManySteps` then gives both estimates).
+    handed to Radau IIA (to ``stiff_rtol``, by default :data:`STIFF_RTOL`, at the loosest), judged by its own
+    first steps against the same bound, before it is refused (:class:`TooManySteps` then gives both estimates).
 
     ``reach``: solve only as far as ``max_steps`` steps go (``Solution.t_end`` the time reached, at most
     ``t_end``), by the solver the start chooses, instead of refusing a longer solve: a span bounded by its cost.
@@ -114,6 +117,8 @@ def solve(
         raise ValueError(f"t_end must be positive, got {t_end}")
     if not 0 < rtol <= 1e-6:
         raise ValueError(f"rtol must be in (0, 1e-6], got {rtol}")
+    if not 0 < stiff_rtol <= 1e-6:
+        raise ValueError(f"stiff_rtol must be in (0, 1e-6], got {stiff_rtol}")
     _check_consistent(dynamics, q0, qd0)
 
     omega = float(stabilization_rate)
@@ -134,8 +139,9 @@ def solve(
     if stiff:  # the criterion: stability alone sets DOP853's step (more than its trial's steps): Radau IIA at once
         steps, radius = explicit_steps(dynamics, rhs, y0, float(t_end), atol_over_rtol=atol / rtol)
         if steps > min(max_steps, TRIAL_STEPS):
-            return _solve_stiff(dynamics, rhs, y0, t_end=float(t_end), rtol=rtol, atol=atol, max_steps=max_steps,
-                                explicit=None, radius=radius, reach=reach)
+            return _solve_stiff(dynamics, rhs, y0, t_end=float(t_end), rtol=max(rtol, stiff_rtol),
+                                atol=max(atol, stiff_rtol), max_steps=max_steps, explicit=None, radius=radius,
+                                reach=reach)
     if reach:
         result = dop853.integrate(rhs, float(t_end), y0, rtol=rtol, atol=atol, max_steps=max_steps, reach=True)
         return Solution(dynamics=dynamics, t_end=_reached(result.dense, float(t_end)), rtol=rtol, nfev=result.nfev,
@@ -150,8 +156,8 @@ def solve(
         if estimate <= max_steps and trial < max_steps:
             result = dop853.integrate(rhs, float(t_end), y0, rtol=rtol, atol=atol, max_steps=max_steps)
         elif stiff:
-            return _solve_stiff(dynamics, rhs, y0, t_end=float(t_end), rtol=rtol, atol=atol, max_steps=max_steps,
-                                explicit=too_many)
+            return _solve_stiff(dynamics, rhs, y0, t_end=float(t_end), rtol=max(rtol, stiff_rtol),
+                                atol=max(atol, stiff_rtol), max_steps=max_steps, explicit=too_many)
         else:
             raise too_many from None
     return Solution(dynamics=dynamics, t_end=float(t_end), rtol=rtol, nfev=result.nfev, _dense=result.dense)
@@ -211,9 +217,8 @@ def _solve_stiff(dynamics: Dynamics, rhs: dop853.RightHandSide, y0: Array, *, t_
     """The solve by Radau IIA, chosen because DOP853 would take more than ``max_steps`` steps: by its first steps
     (``explicit``), or (``explicit`` None) by stability alone at the start's spectral radius ``radius``
     (:func:`explicit_steps`). Its own first :data:`TRIAL_STEPS` steps judge its length against ``max_steps``
-    as DOP853's did; ``reach``: as far as ``max_steps`` steps go (:func:`solve`)."""
-
-    rtol, atol = max(rtol, STIFF_RTOL), max(atol, STIFF_RTOL)
+    as DOP853's did; ``reach``: as far as ``max_steps`` steps go (:func:`solve`). ``rtol``, ``atol``: Radau's
+    own (:func:`solve` raises them to its ``stiff_rtol``)."""
 
     def jacobian(t: float, y: Array, f: Array) -> Array:
         return state_jacobian(dynamics, rhs, t, y, f, atol_over_rtol=atol / rtol)

@@ -490,3 +490,68 @@ def test_the_represented_model_holds_every_real_constant_in_float32():
     assert not np.array_equal(rounded.body_mass, model.body_mass)
     assert rounded.opt.timestep == float(np.float32(model.opt.timestep))
     assert np.array_equal(rounded.jnt_type, model.jnt_type)
+
+
+def _shares(made: dict, scale: float) -> list[float]:
+    """Each budget's reference share once its reference part is × ``scale`` (the part is linear in rtol)."""
+    out = []
+    for b in made.values():
+        own = b.tolerance["reference"] * scale
+        out.append(own / (b.limit - b.tolerance["reference"] + own))
+    return out
+
+
+def test_the_reference_is_solved_again_only_where_its_part_passes_half_a_limit():
+    """harness.core.budget.reference_rtol: a budget whose reference part is a third of its limit needs nothing; one
+    whose part is 98 % of it gets the power of ten at or below what brings it to REFERENCE_SHARE (1e-8 × 1e-4 /
+    5e-3 = 2e-10 → 1e-10, where it is a third); a limit that is the reference's alone goes to the floor; a
+    reference at the floor already cannot be tightened."""
+    from harness.core.budget import REFERENCE_SHARE, Budget, reference_rtol, reference_share
+
+    within = {"a": Budget(measured=1.0, tolerance={"integration": 1e-3, "reference": 5e-4})}
+    assert reference_rtol(within, rtol=1e-8, floor=1e-12) is None
+    assert reference_share(within) == (pytest.approx(1 / 3), "a")
+    over = within | {"b": Budget(measured=1.0, tolerance={"integration": 1e-4, "reference": 5e-3, "roundoff": 0.0})}
+    assert reference_rtol(over, rtol=1e-8, floor=1e-12) == 1e-10
+    assert max(_shares(over, 1e-10 / 1e-8)) <= REFERENCE_SHARE < max(_shares(over, 1.0))
+    assert reference_share(over)[1] == "b"
+    alone = {"c": Budget(measured=1.0, tolerance={"roundoff": 1e-15, "reference": 5e-3})}
+    assert reference_rtol(alone, rtol=1e-8, floor=1e-12) == 1e-12
+    assert reference_rtol(alone, rtol=1e-12, floor=1e-12) is None
+    assert reference_share({}) == (0.0, "")
+
+
+def test_a_stiff_references_tolerance_is_derived_from_its_budgets_and_stated(tmp_path, monkeypatch):
+    """The whip's Radau IIA reference (tests/test_own_model.py) at STIFF_RTOL takes at most 0.1 % of any figure's
+    limit: within REFERENCE_SHARE, said so. With the share asked for set to 1e-5 the same check solves the reference
+    again at the derived rtol, says so, and then every budget is within the share or the reference at 1e-12; a
+    tighter solve that is refused leaves the first one standing, said so."""
+    import harness
+    from harness.cases.own import from_mjcf
+    from harness.core import budget as B
+    from harness.core.errors import RunTooLong
+    from harness.pipeline import run as R
+    from tests.test_own_model import WHIP
+
+    whip = tmp_path / "whip.xml"
+    whip.write_text(WHIP)
+    said = harness.validate(mjcf=whip).settings.tree["reference tolerance"]
+    assert said.startswith("rtol 1e-08: its part is at most") and "within REFERENCE_SHARE 50%" in said
+    monkeypatch.setattr(B, "REFERENCE_SHARE", 1e-5)
+    v = run_case(from_mjcf(whip), RunOptions())
+    said = v.settings.tree["reference tolerance"]
+    assert ", derived: at rtol 1e-08 its part was at most" in said, said
+    rtol = float(said.split(",")[0].removeprefix("rtol "))
+    assert 1e-12 <= rtol < 1e-8
+    shares = [b.tolerance["reference"] / b.limit for b in v.budgets.values() if b.tolerance.get("reference")]
+    assert shares and (max(shares) <= 1e-5 or rtol == 1e-12)
+    first = R._measure
+
+    def refused(case, options, *, stiff_rtol=R.STIFF_RTOL):
+        if stiff_rtol != R.STIFF_RTOL:
+            raise RunTooLong("planted: past the bounds")
+        return first(case, options)
+
+    monkeypatch.setattr(R, "_measure", refused)
+    said = harness.validate(mjcf=whip).settings.tree["reference tolerance"]
+    assert said.startswith("rtol 1e-08: its part is at most") and "was refused (planted: past the bounds)" in said

@@ -27,7 +27,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from analytic.solvers import STIFF_RTOL, TooManySteps, TooSlow, project, solve
+from analytic.solvers import STIFF_RTOL, TooManySteps, project
 from analytic.tree import TreeDynamics
 from harness.cases import Case, Wiring
 from harness.core import bounds, progress
@@ -36,7 +36,7 @@ from harness.engine.bindings import TreeBinding
 from harness.engine.models import compile_model, load_spec
 from harness.engine.readings.momentum import total_momentum
 from harness.engine.variants import POINT_MASS
-from harness.reference.solutions import TREE_MAX_STEPS
+from harness.reference.solutions import TREE_MAX_STEPS, bounded_solve
 from harness.reference.tree import (
     TREE,
     TreeSystem,
@@ -140,11 +140,8 @@ def chaos_horizon(case: Case, model: mujoco.MjModel) -> tuple[float, str]:
     kick = SEED * math.sqrt(9.81 / scales.length) * signs
     q1, qd1 = project(dyn, q0, qd0 + kick)  # the kick's part along the constraints
     try:
-        moved = solve(dyn, q0=q1, qd0=qd1, t_end=cap, rtol=max(nominal.solution.rtol, SEED / 10),
-                      atol=max(nominal.solution.rtol, SEED / 10), max_steps=TREE_MAX_STEPS, stiff=True,
-                      cpu_seconds=bounds.max_solve_seconds())
-    except TooSlow as exc:
-        raise bounds.solve_too_slow(str(exc), nv=dyn.n) from None
+        moved = bounded_solve(dyn, q0=q1, qd0=qd1, t_end=cap, rtol=max(nominal.solution.rtol, SEED / 10),
+                              max_steps=TREE_MAX_STEPS, tree=True)
     except TooManySteps as exc:  # the nominal solve passed its bound: this one cannot be far off it
         raise ModelError(f"the model's tree reference cannot be solved over {cap:g} s: {exc}; accepted: "
                          "a shorter --horizon") from None

@@ -25,6 +25,7 @@ from typing import Protocol
 import mujoco
 import numpy as np
 
+from analytic.solvers import STIFF_RTOL
 from harness.cases import Case
 from harness.core import bounds, progress
 from harness.core.budget import Budget
@@ -154,14 +155,15 @@ class Bench:
         mut: the model under test (its file, the timestep asked for, the case's preparation and the user's edit).
         model: that model compiled (the model's own integrator).
         shipped: the case's shipped model, compiled (what the settings are compared with).
-        reference: the reference solved from ``model``.
+        reference: the reference solved from ``model`` (a stiff tree's to ``stiff_rtol``).
         probe: what is read from MuJoCo's runs of it.
         integrators: the integrators run (those asked for that the engine can run); ``skipped``: why the others
             are not.
         timings: seconds per stage, the shared measurements' and each family's.
     """
 
-    def __init__(self, case: Case, options: RunOptions, comparisons: Comparisons) -> None:
+    def __init__(self, case: Case, options: RunOptions, comparisons: Comparisons, *,
+                 stiff_rtol: float = STIFF_RTOL) -> None:
         self.options = options
         self.comparisons = comparisons
         self.engine = backends.get(options.backend)
@@ -200,7 +202,7 @@ class Bench:
         self.timings["derivation"] = time.perf_counter() - clock
         clock = time.perf_counter()
         progress.stage("solving the reference")
-        self.reference = case.reference(self.model)
+        self.reference = case.reference(self.model, stiff_rtol=stiff_rtol)
         self.timings["reference"] = compiling + (time.perf_counter() - clock)
         self.probe = case.probe(self.reference.dynamics)
 

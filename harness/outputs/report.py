@@ -441,7 +441,8 @@ def scope(result: CaseResult, checks: Sequence[Check]) -> str:
 
 def _examined(result: CaseResult) -> str:
     """For a model judged against its own tree: what the reference covers, what it does not (switched off for the
-    comparison), how the model as it is was judged instead, and how the horizon was chosen; '' for a shipped case."""
+    comparison), how the model as it is was judged instead, how the horizon was chosen, and the reference's solver
+    and tolerance; '' for a shipped case."""
     tree = result.settings.tree
     if not tree:
         return ""
@@ -453,8 +454,11 @@ def _examined(result: CaseResult) -> str:
                     "<p>The model as it is, with these acting, is judged by the work–energy balance "
                     "(<code>INTEGRATOR.balance</code>: its energy change against the work of every force MuJoCo "
                     "applied).</p>")
+    solved = "".join(f"<p class='dim'>{label}: {_esc(tree[key])}.</p>" for key, label in
+                     (("reference solver", "The reference's solver"), ("reference tolerance", "Its tolerance"))
+                     if tree.get(key))
     return (f"<section id='examined'><h3>What was examined</h3>{covered}<p class='dim'>"
-            f"{_esc(tree.get('horizon', ''))}.</p></section>")
+            f"{_esc(tree.get('horizon', ''))}.</p>{solved}</section>")
 
 
 def _stability(result: CaseResult) -> str:

@@ -30,7 +30,7 @@ import numpy as np
 import analytic
 from analytic import systems
 from analytic.dynamics import Dynamics
-from analytic.solvers import DEFAULT_RTOL, Solution, TooManySteps, TooSlow, project, solve
+from analytic.solvers import DEFAULT_RTOL, STIFF_RTOL, Solution, TooManySteps, TooSlow, project, solve
 from analytic.systems import Scales
 from analytic.tree import TreeDynamics
 from harness.core import bounds, cache
@@ -93,7 +93,8 @@ def _usable(scale: object) -> bool:
 
 def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, float], qd0: Mapping[str, float],
                     horizon: float, rtol: float = DEFAULT_RTOL, t_end: float | None = None,
-                    tree: TreeSystem | None = None, reach: int | None = None) -> Reference:
+                    tree: TreeSystem | None = None, reach: int | None = None,
+                    stiff_rtol: float = STIFF_RTOL) -> Reference:
     """``system`` solved from (q0, qd0) with the parameters read from ``model``, over at least
     ``t_end`` (default: ``horizon``).
 
@@ -111,6 +112,10 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     ``reach``: solve only as far as that many solver steps go (at most the span): a span bounded by the
     reference's cost, which the returned solution's ``t_end`` states (the chaos horizon's cap on a model whose
     motion is costly to solve). Later requests up to that span reuse it.
+
+    ``stiff_rtol``: the tolerance a stiff tree's Radau IIA solve is made to (:func:`analytic.solvers.solve`),
+    tighter than :data:`~analytic.solvers.STIFF_RTOL` where the budget needs it (:func:`harness.core.budget.
+    reference_rtol`).
     """
     if tree is not None:
         dyn = tree.dynamics(model)
@@ -137,10 +142,10 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
                       for name, a, b in zip(dyn.coordinates, asked, got, strict=True)
                       if abs(b - a) > 1e-12 * max(1.0, abs(a)))
     span = max(float(t_end or horizon), float(horizon))
-    key = (system, identity, tuple(sorted(params.items())), tuple(q.tolist()), tuple(qd.tolist()), float(rtol),
-           span)
+    tolerance = float(rtol) if stiff_rtol == STIFF_RTOL else (float(rtol), float(stiff_rtol))
+    key = (system, identity, tuple(sorted(params.items())), tuple(q.tolist()), tuple(qd.tolist()), tolerance, span)
     if reach is not None:
-        return _reach(system, dyn, key, int(reach), rtol, params, scales, q, qd, projected, tree)
+        return _reach(system, dyn, key, int(reach), rtol, params, scales, q, qd, projected, tree, stiff_rtol)
     sol = _solutions.get(key)
     if sol is None:  # a solve over a longer span from the same start covers this one: its dense output, cut to span
         longer = next((found for k, found in _solutions.items() if k[:-1] == key[:-1] and k[-1] >= span), None)
@@ -156,10 +161,8 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     if sol is None:
         clock = time.perf_counter()
         try:
-            sol = solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, atol=rtol, max_steps=bound, stiff=tree is not None,
-                        cpu_seconds=bounds.max_solve_seconds() if tree is not None else None)
-        except TooSlow as exc:
-            raise bounds.solve_too_slow(str(exc), nv=dyn.n) from None
+            sol = bounded_solve(dyn, q0=q, qd0=qd, t_end=span, rtol=rtol, max_steps=bound, tree=tree is not None,
+                                stiff_rtol=stiff_rtol)
         except TooManySteps as exc:
             if tree is not None:  # a model the user brings: its motion, not the run asked for, is what is too long
                 raise ModelError(f"the model's tree reference cannot be solved to rtol {rtol:g} over {span:g} s: "
@@ -174,9 +177,21 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     return _reference(system, params, scales, sol, dyn, q, qd, projected, span, tree)
 
 
+def bounded_solve(dyn: Dynamics, *, q0: np.ndarray, qd0: np.ndarray, t_end: float, rtol: float, max_steps: int,
+                  tree: bool, reach: bool = False, stiff_rtol: float = STIFF_RTOL) -> Solution:
+    """:func:`analytic.solvers.solve` to ``rtol`` (and atol) within ``max_steps``; a tree reference (``tree``: a
+    model the user brings) also stiff-capable and within :func:`harness.core.bounds.max_solve_seconds` of CPU,
+    refused (RunTooLong, with how far it got) past them."""
+    try:
+        return solve(dyn, q0=q0, qd0=qd0, t_end=t_end, rtol=rtol, atol=rtol, max_steps=max_steps, stiff=tree,
+                     reach=reach, cpu_seconds=bounds.max_solve_seconds() if tree else None, stiff_rtol=stiff_rtol)
+    except TooSlow as exc:
+        raise bounds.solve_too_slow(str(exc), nv=dyn.n) from None
+
+
 def _reach(system: str, dyn: Dynamics, key: tuple, steps: int, rtol: float, params: dict[str, float],
            scales: Scales, q: np.ndarray, qd: np.ndarray, projected: tuple[str, ...],
-           tree: TreeSystem | None) -> Reference:
+           tree: TreeSystem | None, stiff_rtol: float) -> Reference:
     """:func:`build_reference` over as much of the span as ``steps`` solver steps cover, kept (in the process and
     on disk) under its own key and, in the process, under the span it reached."""
     within = (*key, f"within {steps} steps")
@@ -188,12 +203,8 @@ def _reach(system: str, dyn: Dynamics, key: tuple, steps: int, rtol: float, para
         sol = _stored(within, steps, dyn)
     if sol is None:
         clock = time.perf_counter()
-        try:
-            sol = solve(dyn, q0=q, qd0=qd, t_end=key[-1], rtol=rtol, atol=rtol, max_steps=steps,
-                        stiff=tree is not None, reach=True,
-                        cpu_seconds=bounds.max_solve_seconds() if tree is not None else None)
-        except TooSlow as exc:
-            raise bounds.solve_too_slow(str(exc), nv=dyn.n) from None
+        sol = bounded_solve(dyn, q0=q, qd0=qd, t_end=key[-1], rtol=rtol, max_steps=steps, tree=tree is not None,
+                            reach=True, stiff_rtol=stiff_rtol)
         if tree is not None and sol.why:
             sol = dataclasses.replace(sol, why=stiffness_cause(dyn, q, sol.why))
         _store(within, steps, sol, time.perf_counter() - clock)
