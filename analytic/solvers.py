@@ -16,7 +16,8 @@ asks for. A stiff motion (a fast decaying mode, e.g. joint damping on a light
 link, bounds an explicit method's step by stability, not accuracy) can be
 handed to our Radau IIA (:mod:`analytic.radau`, L-stable, order 5) instead:
 the same index-1 ODE with the same stabilization, so the constraint residuals
-and every figure read from the solution mean the same.
+and every figure read from the solution mean the same. Its Newton iteration's
+Jacobian (:func:`state_jacobian`) is exact for the tree reference.
 """
 
 from __future__ import annotations

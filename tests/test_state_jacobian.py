@@ -26,7 +26,7 @@ import analytic.dual as dual_module
 from analytic.dual import Dual, seeded, tangent
 from analytic.solvers import project, state_jacobian
 from analytic.tree import TreeDynamics
-from harness.reference.tree import charts, prepare, read_tree
+from harness.reference.tree import charts, prepare, read_tree, start_state
 
 MENAGERIE = Path(__file__).resolve().parent.parent.parent / "shared" / "models" / "menagerie"
 STEP = 1e-30
@@ -195,6 +195,79 @@ def test_the_humanoids_free_joint_and_balls_are_exact():
     rhs = _rhs(dyn)
     exact = state_jacobian(dyn, rhs, 0.0, y, rhs(0.0, y))
     assert _disagreement(exact, rhs, y, np.eye(y.size), 1e-3) <= 1.0
+
+
+# Every kind of constraint row at once, with the terms the robots above lack: a ball closing a loop by a connect, a
+# weld between a free body and a hinged one, a joint equality with a quadratic polynomial, a slide's spring, and
+# MuJoCo's polynomial damping (a v + b v|v| + c v³) on a hinge.
+ROWS = """
+<mujoco model="every constraint">
+  <option gravity="0.3 -0.2 -9.81"/>
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <joint name="a" type="hinge" axis="0 1 0" damping="0.3 0.2 0.05"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="1"/>
+      <body name="b" pos="0.3 0 0">
+        <joint name="b" type="ball" damping="0.02"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.02" mass="0.5"/>
+      </body>
+    </body>
+    <body name="c" pos="0.3 0 0.7">
+      <joint name="c" type="hinge" axis="0 1 0"/>
+      <joint name="s" type="slide" axis="1 0 0" stiffness="20"/>
+      <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.7"/>
+    </body>
+    <body name="f" pos="1 0 1">
+      <freejoint name="f"/>
+      <geom type="box" size="0.1 0.05 0.03" mass="0.8"/>
+    </body>
+    <body name="g" pos="1.4 0 1">
+      <joint name="g" type="hinge" axis="0 0 1"/>
+      <geom type="box" size="0.1 0.05 0.03" mass="0.3"/>
+    </body>
+  </worldbody>
+  <equality>
+    <connect body1="b" body2="c" anchor="0 0 -0.3"/>
+    <weld body1="f" body2="g" relpose="-0.4 0 0 1 0 0 0"/>
+    <joint joint1="s" joint2="c" polycoef="0.01 0.3 0.5 0 0"/>
+  </equality>
+</mujoco>"""
+
+
+def _features() -> list:
+    from tests.test_actuation import CLAMPED, SERVOS, TENDON_CLAMPS, TENDONS
+    from tests.test_tree import EVERY_KIND
+
+    return [pytest.param(SERVOS, id="servos"), pytest.param(CLAMPED, id="clamped joints"),
+            pytest.param(TENDONS, id="tendon clamps", marks=pytest.mark.skipif(not TENDON_CLAMPS, reason="no tendon "
+                                                                               "actuatorfrcrange in this MuJoCo")),
+            pytest.param(EVERY_KIND, id="every joint kind"), pytest.param(ROWS, id="every constraint")]
+
+
+@pytest.mark.parametrize("xml", _features())
+def test_every_term_is_exact(xml):
+    """Each term q̈ depends on, on small models: actuators with force ranges (clipped ones have slope 0) and gears,
+    joints' and tendons' actuatorfrcrange, gravity compensation routed to the actuators (tests/test_actuation.py's
+    models, at their keyframes); every joint kind with springs, damping, armature, gravcomp and an affine actuator
+    (tests/test_tree.py's); connect, weld and joint-equality rows with their stabilization (``ROWS``): the exact
+    Jacobian along every direction on the constraints within the central differences' own error."""
+    spec = mujoco.MjSpec.from_string(xml)
+    prepare(spec)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    if model.nkey:
+        mujoco.mj_resetDataKeyframe(model, data, 0)
+    else:
+        data.qvel[:] = np.random.default_rng(0).normal(size=model.nv)
+    ctrl = data.ctrl.copy() if model.nkey else np.linspace(0.3, 0.8, model.nu)
+    dyn = TreeDynamics.of(read_tree(model, chart=charts(model, data.qpos), ctrl=ctrl))
+    q0, qd0 = start_state(model, data.qpos, data.qvel)
+    q, qd = project(dyn, np.array([q0[c] for c in dyn.coordinates]) + 0.05,
+                    np.array([qd0[c] for c in dyn.coordinates]), polish=True)
+    y = np.concatenate([q, qd])
+    rhs = _rhs(dyn)
+    assert _disagreement(state_jacobian(dyn, rhs, 0.0, y, rhs(0.0, y)), rhs, y, _tangent_directions(dyn, y),
+                         1e-3) <= 1.0
 
 
 def _dropped(monkeypatch, block: int) -> None:

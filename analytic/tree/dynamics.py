@@ -23,6 +23,11 @@ form of the same equations, the hand-derived systems, MuJoCo as the thing judged
 Constraints are blocks of rows f(q) = 0 with J = ∂f/∂q written from the point
 Jacobians and γ = −J̇ q̇ by complex step on J, in the sign convention of
 :class:`analytic.dynamics.Dynamics`: M q̈ = F + Jᵀ λ.
+
+The same code takes dual-number states (:mod:`analytic.dual`: y + ε d, ε² = 0,
+ε independent of the complex step's i), so that q̈'s own derivatives in q and
+q̇ are exact too (the stiff solver's Jacobian, :func:`analytic.solvers.state_jacobian`):
+arrays it fills are allocated ``like`` its input, clamps compare real values.
 """
 
 from __future__ import annotations

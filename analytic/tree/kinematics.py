@@ -5,7 +5,8 @@ the model defines them (a hinge rotates its body about its anchor and axis, a
 slide translates it, a ball and a free joint rotate it by R₀ Exp(θ)), never
 read from an engine. Every function broadcasts over leading batch dimensions
 of q and accepts a complex q, so that the dynamics can differentiate through
-it by complex step (:mod:`analytic.tree.dynamics`).
+it by complex step (:mod:`analytic.tree.dynamics`), and a dual-number q
+(:class:`analytic.dual.Dual`) for the derivatives of those.
 
 The Jacobian columns are the exact derivatives of the poses: a hinge's column
 is (a × (x − o), a) with a its world axis and o its anchor, a slide's (a, 0),
