@@ -291,7 +291,9 @@ def seeded(y: Array, directions: Array) -> Dual:
     return Dual(np.broadcast_to(np.asarray(y, dtype=float), directions.shape).copy(), directions.copy())
 
 
-def tangent(x) -> Array:
-    """The tangent of a result (zero for one that does not depend on the seeds)."""
-    value, part = _parts(x)
-    return np.zeros(np.shape(value)) if part is None else part
+def tangent(x: Dual) -> Array:
+    """The tangent of a result; TypeError where it is no dual number (code that dropped its seeds' tangents would
+    otherwise read as a zero derivative)."""
+    if not isinstance(x, Dual):
+        raise TypeError(f"a {type(x).__name__} where a dual number was expected: its derivative would read as zero")
+    return x.tangent

@@ -67,6 +67,8 @@ def test_what_has_no_dual_rule_is_refused_not_dropped():
     real = Dual(np.zeros(2), np.zeros(2))
     with pytest.raises(TypeError, match="imaginary part"):
         real[0] = z[0] + 1j
+    with pytest.raises(TypeError, match="would read as zero"):
+        tangent(np.zeros(2))
 
 
 def test_a_clip_has_the_slope_of_its_branch():
