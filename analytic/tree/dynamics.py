@@ -168,7 +168,9 @@ class TreeDynamics(Dynamics):
     @property
     def velocity_polynomial(self) -> bool:
         """q̈ at a fixed q is a polynomial of degree ≤ 3 in q̇ (velocity products, damping a v + c v³, actuators'
-        affine l̇, γ quadratic) unless a joint's damping has the v|v| term."""
+        affine l̇, γ quadratic) unless a joint's damping has the v|v| term; only piecewise where a clamp acts on a
+        velocity-dependent force (a servo's kv under its force range): the forward-difference path's stencil
+        (``state_jacobian(differences=True)``, no longer the tree's) can straddle its switch."""
         return not np.any(self._damping[:, 1])
 
     def damping_modes(self, q: Array) -> tuple[Array, Array]:
