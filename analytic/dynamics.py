@@ -22,6 +22,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from analytic.dual import Dual
+
 if TYPE_CHECKING:
     import sympy as sp
 
@@ -417,56 +419,114 @@ class Dynamics:
         return (mass, force, *self.constraint_terms(q, qd, stabilization=stabilization))
 
     def constrained(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)) -> Constrained:
-        """q̈, λ, Jᵀλ and which multipliers are unique, from the KKT system (see :class:`Constrained`).
+        """q̈, λ, Jᵀλ and which multipliers are unique, from the KKT system (:func:`solve_kkt`).
 
-        Where J (weighted by M⁻¹ᐟ²: J_w = J L⁻ᵀ, M = L Lᵀ) has full row rank at every state, the KKT matrix is
-        solved as it stands (LU); otherwise, at the states where it has not, in J_w's singular vectors: only the
-        directions whose singular value exceeds :func:`rank_tolerance` × the largest are constraints, the others
-        are redundant rows (a planar loop's out-of-plane ones) or a singular configuration's lost direction, so
-        q̈ and Jᵀλ stay unique and finite and λ is the least-norm multiplier vector."""
-        q = np.asarray(q, dtype=float)
-        qd = np.asarray(qd, dtype=float)
+        Dual-number states (:attr:`dual_states`: :class:`~analytic.dual.Dual`) give q̈ as a dual number, its
+        tangent exact (:func:`kkt_tangent`)."""
+        if not (isinstance(q, Dual) or isinstance(qd, Dual)):
+            q = np.asarray(q, dtype=float)
+            qd = np.asarray(qd, dtype=float)
         mass, force, jac, gamma = self.kkt_terms(q, qd, stabilization=stabilization)
-        m, n = self.rows, self.n
-        batch = q.shape[:-1]
-        if m == 0:
-            qdd = np.linalg.solve(mass, force[..., None])[..., 0]
-            return Constrained(qdd=qdd, lam=np.zeros((*batch, 0)), generalized=np.zeros_like(qdd),
-                               unique=np.ones((*batch, 0), dtype=bool), rank=np.zeros(batch, dtype=int))
-        try:
-            chol = np.linalg.cholesky(mass)
-        except np.linalg.LinAlgError:  # M only semi-definite (a massless coordinate the constraints hold): no
-            chol = None  # weighting; the KKT matrix as it stands, which constraints that fix it make regular
-        if chol is not None:
-            weighted = np.swapaxes(np.linalg.solve(chol, np.swapaxes(jac, -1, -2)), -1, -2)  # J L⁻ᵀ, (..., m, n)
-            s = np.linalg.svd(weighted, compute_uv=False)  # the singular values alone first: most models' J is regular
-            keep = s > rank_tolerance(m, n) * s[..., :1]  # (..., min(m, n)), descending
-            rank = np.sum(keep, axis=-1)
-            unique = np.ones((*batch, m), dtype=bool)
-            if not np.all(rank == m):
-                u, s, _ = np.linalg.svd(weighted, full_matrices=True)
-                # a row's unit vector with a part in the left null space (U's columns past the rank): λ not unique
-                null = np.concatenate([~keep, np.ones((*batch, m - keep.shape[-1]), dtype=bool)], axis=-1)
-                unique = np.sqrt(np.sum(u * u * null[..., None, :], axis=-1)) <= rank_tolerance(m, n)
-        else:
-            rank, unique = np.full(batch, m), np.ones((*batch, m), dtype=bool)
-        if chol is None or np.all(rank == m):  # full row rank everywhere: the KKT system as it stands
-            kkt = np.zeros((*batch, n + m, n + m))
-            kkt[..., :n, :n] = mass
-            kkt[..., :n, n:] = -np.swapaxes(jac, -1, -2)
-            kkt[..., n:, :n] = jac
-            sol = np.linalg.solve(kkt, np.concatenate([force, gamma], axis=-1)[..., None])[..., 0]
-            qdd, lam = sol[..., :n], sol[..., n:]
-        else:  # z = Lᵀq̈ = y + J_wᵀλ, y = L⁻¹F, J_w J_wᵀ λ = γ − J_w y, in U's basis on the kept directions
-            y = np.linalg.solve(chol, force[..., None])[..., 0]
-            k = s.shape[-1]
-            rhs = np.einsum("...mj,...m->...j", u[..., :, :k], gamma - np.einsum("...mn,...n->...m", weighted, y))
-            safe = np.where(keep, s, 1.0)
-            lam = np.einsum("...mj,...j->...m", u[..., :, :k], np.where(keep, rhs / (safe * safe), 0.0))
-            z = y + np.einsum("...mn,...m->...n", weighted, lam)
-            qdd = np.linalg.solve(np.swapaxes(chol, -1, -2), z[..., None])[..., 0]
-        generalized = np.einsum("...mn,...m->...n", jac, lam)
-        return Constrained(qdd=qdd, lam=lam, generalized=generalized, unique=unique, rank=rank)
+        if any(isinstance(x, Dual) for x in (mass, force, jac, gamma)):
+            return kkt_tangent(mass, force, jac, gamma)
+        return solve_kkt(mass, force, jac, gamma)
+
+    @property
+    def dual_states(self) -> bool:
+        """Whether :meth:`accelerations` takes :class:`~analytic.dual.Dual` states (q̈'s exact derivative, what
+        :func:`analytic.solvers.state_jacobian` uses); not a derived system's (its code is compiled for floats)."""
+        return False
+
+
+def solve_kkt(mass: Array, force: Array, jac: Array | None, gamma: Array | None) -> Constrained:
+    """q̈, λ, Jᵀλ and which multipliers are unique, from the KKT system [[M, −Jᵀ], [J, 0]] [q̈; λ] = [F; γ]
+    (see :class:`Constrained`); ``jac`` None where there are no constraint rows.
+
+    Where J (weighted by M⁻¹ᐟ²: J_w = J L⁻ᵀ, M = L Lᵀ) has full row rank at every state, the KKT matrix is
+    solved as it stands (LU); otherwise, at the states where it has not, in J_w's singular vectors: only the
+    directions whose singular value exceeds :func:`rank_tolerance` × the largest are constraints, the others
+    are redundant rows (a planar loop's out-of-plane ones) or a singular configuration's lost direction, so
+    q̈ and Jᵀλ stay unique and finite and λ is the least-norm multiplier vector."""
+    m, n = 0 if jac is None else jac.shape[-2], mass.shape[-1]
+    batch = force.shape[:-1]
+    if m == 0:
+        qdd = np.linalg.solve(mass, force[..., None])[..., 0]
+        return Constrained(qdd=qdd, lam=np.zeros((*batch, 0)), generalized=np.zeros_like(qdd),
+                           unique=np.ones((*batch, 0), dtype=bool), rank=np.zeros(batch, dtype=int))
+    try:
+        chol = np.linalg.cholesky(mass)
+    except np.linalg.LinAlgError:  # M only semi-definite (a massless coordinate the constraints hold): no
+        chol = None  # weighting; the KKT matrix as it stands, which constraints that fix it make regular
+    if chol is not None:
+        weighted = np.swapaxes(np.linalg.solve(chol, np.swapaxes(jac, -1, -2)), -1, -2)  # J L⁻ᵀ, (..., m, n)
+        s = np.linalg.svd(weighted, compute_uv=False)  # the singular values alone first: most models' J is regular
+        keep = s > rank_tolerance(m, n) * s[..., :1]  # (..., min(m, n)), descending
+        rank = np.sum(keep, axis=-1)
+        unique = np.ones((*batch, m), dtype=bool)
+        if not np.all(rank == m):
+            u, s, _ = np.linalg.svd(weighted, full_matrices=True)
+            # a row's unit vector with a part in the left null space (U's columns past the rank): λ not unique
+            null = np.concatenate([~keep, np.ones((*batch, m - keep.shape[-1]), dtype=bool)], axis=-1)
+            unique = np.sqrt(np.sum(u * u * null[..., None, :], axis=-1)) <= rank_tolerance(m, n)
+    else:
+        rank, unique = np.full(batch, m), np.ones((*batch, m), dtype=bool)
+    if chol is None or np.all(rank == m):  # full row rank everywhere: the KKT system as it stands
+        kkt = np.zeros((*batch, n + m, n + m))
+        kkt[..., :n, :n] = mass
+        kkt[..., :n, n:] = -np.swapaxes(jac, -1, -2)
+        kkt[..., n:, :n] = jac
+        sol = np.linalg.solve(kkt, np.concatenate([force, gamma], axis=-1)[..., None])[..., 0]
+        qdd, lam = sol[..., :n], sol[..., n:]
+    else:  # z = Lᵀq̈ = y + J_wᵀλ, y = L⁻¹F, J_w J_wᵀ λ = γ − J_w y, in U's basis on the kept directions
+        y = np.linalg.solve(chol, force[..., None])[..., 0]
+        k = s.shape[-1]
+        rhs = np.einsum("...mj,...m->...j", u[..., :, :k], gamma - np.einsum("...mn,...n->...m", weighted, y))
+        safe = np.where(keep, s, 1.0)
+        lam = np.einsum("...mj,...j->...m", u[..., :, :k], np.where(keep, rhs / (safe * safe), 0.0))
+        z = y + np.einsum("...mn,...m->...n", weighted, lam)
+        qdd = np.linalg.solve(np.swapaxes(chol, -1, -2), z[..., None])[..., 0]
+    generalized = np.einsum("...mn,...m->...n", jac, lam)
+    return Constrained(qdd=qdd, lam=lam, generalized=generalized, unique=unique, rank=rank)
+
+
+def kkt_tangent(mass: Array | Dual, force: Array | Dual, jac: Array | Dual | None, gamma: Array | Dual | None
+                ) -> Constrained:
+    """:func:`solve_kkt` of dual-number blocks: q̈ as a dual number whose tangent is the solve's exact derivative.
+
+    Differentiating M q̈ = F + Jᵀλ and P(J q̈ − γ) = 0 (P the projector on the constraint directions, range J) gives
+    the same system for the tangent q̈′, with the same M and J, right-hand sides F′ − M′q̈ + J′ᵀλ and
+    γ′ − J′q̈ − (J⁺)ᵀJ′ᵀ r, r = J q̈ − γ: so q̈′ is :func:`solve_kkt` again, its truncation the same. Any λ with
+    Jᵀλ the constraint force serves (another differs by ν with Jᵀν = 0, whose J′ᵀν lies in range Jᵀ, absorbed by
+    the multiplier); the last term is the turning of range J, nonzero only where redundant rows disagree
+    (r ≠ 0, outside range J). Exact wherever the rank of J is locally constant (not at a state where it
+    changes: a singular configuration, where q̈ has no derivative). λ keeps no tangent."""
+    (m, dm), (f, df) = _parts(mass), _parts(force)
+    j, dj = _parts(jac) if jac is not None else (None, None)
+    g, dg = _parts(gamma) if gamma is not None else (None, None)
+    base = solve_kkt(m, f, j, g)
+    qdd = base.qdd
+    rhs_force = df - np.einsum("...ij,...j->...i", dm, qdd)
+    rhs_gamma = None
+    if j is not None:
+        rhs_force = rhs_force + np.einsum("...mn,...m->...n", dj, base.lam)
+        rhs_gamma = dg - np.einsum("...mn,...n->...m", dj, qdd)
+        if not np.all(base.rank == j.shape[-2]):  # redundant rows: the turning of range J where they disagree
+            residual = np.einsum("...mn,...n->...m", j, qdd) - g
+            u, s, vt = np.linalg.svd(j, full_matrices=False)
+            keep = np.arange(s.shape[-1]) < base.rank[..., None]
+            v = np.einsum("...mn,...m->...n", dj, residual)  # J′ᵀ r, then (Jᵀ)⁺ of it on the kept directions
+            coef = np.where(keep, np.einsum("...kn,...n->...k", vt, v) / np.where(keep, s, 1.0), 0.0)
+            rhs_gamma = rhs_gamma - np.einsum("...mk,...k->...m", u, coef)
+    moved = solve_kkt(m, rhs_force, j, rhs_gamma)
+    return Constrained(qdd=Dual(qdd, moved.qdd), lam=base.lam, generalized=base.generalized, unique=base.unique,
+                       rank=base.rank)
+
+
+def _parts(x: Array | Dual) -> tuple[Array, Array]:
+    """A block's value and tangent (zero for a plain array)."""
+    if isinstance(x, Dual):
+        return x.value, x.tangent
+    return x, np.zeros_like(x)
 
 
 def rank_tolerance(rows: int, n: int) -> float:

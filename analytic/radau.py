@@ -12,8 +12,9 @@ by the accuracy of the motion alone. The method follows Hairer & Wanner,
   A⁻¹ brought to block-diagonal form T⁻¹ A⁻¹ T = diag(γ, [[α, β], [−β, α]]):
   one real system (γ/h − J) and one complex one ((α − iβ)/h − J) per Jacobian
   and step size, reused while the iteration converges fast;
-- the Jacobian J by forward differences (the right-hand side of a tree's
-  equations already uses complex step inside, so it cannot take complex input);
+- the Jacobian J as the caller gives it (the tree reference's is exact, by dual
+  numbers over its complex steps: :func:`analytic.solvers.state_jacobian`), else
+  by forward differences (:func:`fd_jacobian`);
 - the error is the embedded third-order estimate filtered through
   (γ/h − J)⁻¹ (so it stays bounded on stiff components), each component scaled
   by atol + rtol·max(|y|, |y_new|); a step is kept when its RMS is below 1;

@@ -16,7 +16,8 @@ asks for. A stiff motion (a fast decaying mode, e.g. joint damping on a light
 link, bounds an explicit method's step by stability, not accuracy) can be
 handed to our Radau IIA (:mod:`analytic.radau`, L-stable, order 5) instead:
 the same index-1 ODE with the same stabilization, so the constraint residuals
-and every figure read from the solution mean the same.
+and every figure read from the solution mean the same. Its Newton iteration's
+Jacobian (:func:`state_jacobian`) is exact for the tree reference.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analytic import dop853, radau
+from analytic import dop853, dual, radau
 from analytic.dynamics import Array, Dynamics
 
 DEFAULT_RTOL = 1e-12
@@ -164,16 +165,24 @@ def solve(
 
 
 def state_jacobian(dynamics: Dynamics, rhs: dop853.RightHandSide, t: float, y: Array, f: Array, *,
-                   atol_over_rtol: float = 1.0) -> Array:
+                   atol_over_rtol: float = 1.0, differences: bool = False) -> Array:
     """∂f/∂y of the first-order form f(y) = (q̇, q̈(q, q̇)), every column in one batch.
 
-    The velocity columns ∂q̈/∂q̇ are exact where :attr:`Dynamics.velocity_polynomial` (q̈ at fixed q a polynomial
-    of degree ≤ 3 in q̇: the velocity-product forces, linear and cubic damping, an actuator's velocity feedback,
-    γ and the stabilization, through a KKT solve linear in them): the five-point derivative
-    (f(−2δ) − 8f(−δ) + 8f(δ) − f(2δ))/12δ is exact for degree ≤ 4, whatever δ, so δ is the velocity's own size
-    and only round-off is left. They carry the stiffness of damping and servos. The position columns (and the
-    velocity ones otherwise) are forward differences, step √ε × max(|y_j|, atol/rtol): q̈'s q-dependence goes
-    through complex steps inside the tree's equations, which a complex step cannot be nested into."""
+    Where the dynamics takes dual-number states (:attr:`Dynamics.dual_states`: the tree reference), every column
+    is exact to round-off: ``rhs`` (built on the dynamics, as :func:`solve` builds it) runs once on the batch of
+    dual numbers y + ε e_j (:mod:`analytic.dual`), and the tangent of its j-th result is column j. ε is a second
+    infinitesimal beside the complex step i the tree's equations take their own q-derivatives with (Ṁq̇, ∂L/∂q,
+    J̇q̇), which a complex step could not be nested into; the KKT solve is differentiated as a solve
+    (:func:`analytic.dynamics.kkt_tangent`, exact where the constraints' rank is locally constant); a clamp
+    (an actuator's force range) has the slope of the branch it is on.
+
+    Forward differences are left only where the dynamics cannot take dual numbers (the derived systems, whose code
+    is compiled for floats), or with ``differences`` (the former path, a baseline for benchmarks and tests): every
+    column (f(y + δe_j) − f(y))/δ, step √ε × max(|y_j|, atol/rtol), except the velocity columns where
+    :attr:`Dynamics.velocity_polynomial` (q̈ at fixed q a polynomial of degree ≤ 3 in q̇): the five-point derivative
+    (f(−2δ) − 8f(−δ) + 8f(δ) − f(2δ))/12δ, exact for degree ≤ 4 whatever δ, so δ is the velocity's own size."""
+    if dynamics.dual_states and not differences:
+        return np.asarray(dual.tangent(rhs(t, dual.seeded(y, np.eye(y.size))))).T.copy()
     n = y.size // 2
     eps = np.finfo(float).eps
     exact = dynamics.velocity_polynomial

@@ -23,6 +23,11 @@ form of the same equations, the hand-derived systems, MuJoCo as the thing judged
 Constraints are blocks of rows f(q) = 0 with J = ∂f/∂q written from the point
 Jacobians and γ = −J̇ q̇ by complex step on J, in the sign convention of
 :class:`analytic.dynamics.Dynamics`: M q̈ = F + Jᵀ λ.
+
+The same code takes dual-number states (:mod:`analytic.dual`: y + ε d, ε² = 0,
+ε independent of the complex step's i), so that q̈'s own derivatives in q and
+q̇ are exact too (the stiff solver's Jacobian, :func:`analytic.solvers.state_jacobian`):
+arrays it fills are allocated ``like`` its input, clamps compare real values.
 """
 
 from __future__ import annotations
@@ -32,6 +37,7 @@ from functools import cached_property
 
 import numpy as np
 
+from analytic.dual import Dual
 from analytic.dynamics import Dynamics
 from analytic.tree.kinematics import Layout, Pose, forward, point_jacobians, points_on, velocity_map
 from analytic.tree.model import FREE, Tree
@@ -47,6 +53,11 @@ def _clip(x: Array, lo: Array, hi: Array) -> Array:
     """x clipped to [lo, hi] by its real part (a complex step through the clip keeps the branch it is on: slope 0 where
     clipped)."""
     return np.where(x.real > hi, hi, np.where(x.real < lo, lo, x))
+
+
+def _state(x: Array | Dual) -> Array | Dual:
+    """A state's q or q̇ as a float array, or as given where a dual number."""
+    return x if isinstance(x, Dual) else np.asarray(x, dtype=float)
 
 
 def _member(pose: Pose, i: int) -> Pose:
@@ -149,9 +160,17 @@ class TreeDynamics(Dynamics):
         return v
 
     @property
+    def dual_states(self) -> bool:
+        """The tree's equations take :class:`~analytic.dual.Dual` states: every derivative inside them is a complex
+        step, in i, and ε is independent of it."""
+        return True
+
+    @property
     def velocity_polynomial(self) -> bool:
         """q̈ at a fixed q is a polynomial of degree ≤ 3 in q̇ (velocity products, damping a v + c v³, actuators'
-        affine l̇, γ quadratic) unless a joint's damping has the v|v| term."""
+        affine l̇, γ quadratic) unless a joint's damping has the v|v| term; only piecewise where a clamp acts on a
+        velocity-dependent force (a servo's kv under its force range): the forward-difference path's stencil
+        (``state_jacobian(differences=True)``, no longer the tree's) can straddle its switch."""
         return not np.any(self._damping[:, 1])
 
     def damping_modes(self, q: Array) -> tuple[Array, Array]:
@@ -238,7 +257,7 @@ class TreeDynamics(Dynamics):
             tendons.append(total)
             scale = np.where(total.real > lim.hi, lim.hi / np.where(total.real > lim.hi, total, 1.0),
                              np.where(total.real < lim.lo, lim.lo / np.where(total.real < lim.lo, total, 1.0), 1.0))
-            force = np.array(force, copy=True)
+            force = force.copy()
             force[..., members] = force[..., members] * scale[..., None]
         limited = acts["limited"]
         before = force[..., limited]
@@ -249,7 +268,7 @@ class TreeDynamics(Dynamics):
         dofs, lo, hi = self._limits
         summed = total[..., dofs]
         if len(dofs):
-            total = np.array(total, copy=True)
+            total = total.copy()
             total[..., dofs] = _clip(summed, lo, hi)
         return total, np.concatenate([*(t[..., None] for t in tendons), before, summed], axis=-1)
 
@@ -358,7 +377,7 @@ class TreeDynamics(Dynamics):
         jr = self._rates(c) if rates is None else rates
         if transpose:
             jr = np.swapaxes(jr, -1, -2)
-        out = np.array(x, dtype=np.result_type(c.dtype, x.dtype))
+        out = np.array(x, dtype=np.result_type(c.dtype, x.dtype), like=x if isinstance(jr, np.ndarray) else jr)
         out[..., blocks] = (jr @ x[..., blocks, None])[..., 0]
         return out
 
@@ -371,8 +390,9 @@ class TreeDynamics(Dynamics):
     def kkt_terms(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)
                   ) -> tuple[Array, Array, Array | None, Array | None]:
         """M, F, J and the constraints' right-hand side (:meth:`constraint_terms`) from one pass of the kinematics:
-        the constraints' configuration q + i h q̇ is the second of the batch M and F are computed at."""
-        q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
+        the constraints' configuration q + i h q̇ is the second of the batch M and F are computed at. Dual-number
+        states (:attr:`dual_states`) give each block's exact tangent."""
+        q, qd = np.broadcast_arrays(_state(q), _state(qd))
         mass, force, c, pose = self._mass_and_forcing(q, qd)
         if self.rows == 0:
             return mass, force, None, None
@@ -505,8 +525,8 @@ class TreeDynamics(Dynamics):
         tree = self.tree
         batch = q.shape[:-1]
         dtype = np.result_type(q.dtype, float)
-        f = np.zeros((*batch, self.rows), dtype=dtype)
-        jac = np.zeros((*batch, self.rows, tree.n), dtype=dtype)
+        f = np.zeros((*batch, self.rows), dtype=dtype, like=q)
+        jac = np.zeros((*batch, self.rows, tree.n), dtype=dtype, like=q)
         if not tree.equalities:
             return f, jac
         if pose is None:

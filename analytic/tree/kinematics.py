@@ -5,7 +5,8 @@ the model defines them (a hinge rotates its body about its anchor and axis, a
 slide translates it, a ball and a free joint rotate it by R₀ Exp(θ)), never
 read from an engine. Every function broadcasts over leading batch dimensions
 of q and accepts a complex q, so that the dynamics can differentiate through
-it by complex step (:mod:`analytic.tree.dynamics`).
+it by complex step (:mod:`analytic.tree.dynamics`), and a dual-number q
+(:class:`analytic.dual.Dual`) for the derivatives of those.
 
 The Jacobian columns are the exact derivatives of the poses: a hinge's column
 is (a × (x − o), a) with a its world axis and o its anchor, a slide's (a, 0),
@@ -22,6 +23,7 @@ from functools import cached_property
 
 import numpy as np
 
+from analytic.dual import Dual
 from analytic.tree.model import BALL, FREE, HINGE, SLIDE, Tree
 from analytic.tree.rotations import cross, exp_and_jacobian, mat_vec, quat_to_mat, right_jacobian, skew
 
@@ -161,14 +163,15 @@ class Pose:
 
 
 def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
-    """Every body's world pose and every coordinate's world motion at configurations q (..., n)."""
-    q = np.asarray(q)
+    """Every body's world pose and every coordinate's world motion at configurations q (..., n) (complex, or
+    :class:`~analytic.dual.Dual`: the arrays filled here are allocated ``like`` q)."""
+    q = q if isinstance(q, Dual) else np.asarray(q)
     batch = q.shape[:-1]
     dtype = np.result_type(q.dtype, float)
     n = layout.n
-    axes = np.zeros((*batch, n, 3), dtype=dtype)
-    anchors = np.zeros((*batch, n, 3), dtype=dtype)
-    shifts = np.zeros((*batch, n, 3), dtype=dtype)
+    axes = np.zeros((*batch, n, 3), dtype=dtype, like=q)
+    anchors = np.zeros((*batch, n, 3), dtype=dtype, like=q)
+    shifts = np.zeros((*batch, n, 3), dtype=dtype, like=q)
     _, _, charts = layout.joint_constants
     hinges = layout.hinges
     if hinges.size:  # every hinge's rotation at once (Rodrigues), not one joint at a time
@@ -250,9 +253,9 @@ def point_jacobians(pose: Pose, layout: Layout, bodies: Array, x: Array) -> tupl
 def velocity_map(tree: Tree, layout: Layout, q: Array) -> Array:
     """B(q), (..., n, n): MuJoCo's qvel = B(q) q̇ (identity for hinges and slides, J_r(θ) on a ball's
     and a free joint's rotation vector)."""
-    q = np.asarray(q)
+    q = q if isinstance(q, Dual) else np.asarray(q)
     n = layout.n
-    out = np.zeros((*q.shape[:-1], n, n), dtype=np.result_type(q.dtype, float))
+    out = np.zeros((*q.shape[:-1], n, n), dtype=np.result_type(q.dtype, float), like=q)
     out[..., np.arange(n), np.arange(n)] = 1.0
     blocks = layout.rotation_vectors[1]
     if blocks.size:

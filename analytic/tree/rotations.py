@@ -19,6 +19,12 @@ Array = np.ndarray
 _EYE = np.eye(3)
 
 
+def _array(x: Array) -> Array:
+    """x as an array: itself where it takes part in numpy's functions already (an array, or a
+    :class:`~analytic.dual.Dual`, which ``np.asarray`` would turn into an object array)."""
+    return x if hasattr(x, "__array_function__") else np.asarray(x)
+
+
 def quat_to_mat(quat: Array) -> Array:
     """(..., 4) unit quaternions (w, x, y, z) -> (..., 3, 3) rotation matrices."""
     w, x, y, z = np.moveaxis(np.asarray(quat), -1, 0)
@@ -52,9 +58,9 @@ def mat_to_quat(mat: Array) -> Array:
 def skew(v: Array) -> Array:
     """(..., 3) -> (..., 3, 3) with skew(a) b = a × b (filled in place: this runs on tiny arrays, where numpy's
     stacking costs more than the arithmetic)."""
-    v = np.asarray(v)
+    v = _array(v)
     x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    out = np.zeros((*v.shape[:-1], 3, 3), dtype=v.dtype)
+    out = np.zeros((*v.shape[:-1], 3, 3), dtype=v.dtype, like=v)
     out[..., 0, 1], out[..., 0, 2] = -z, y
     out[..., 1, 0], out[..., 1, 2] = z, -x
     out[..., 2, 0], out[..., 2, 1] = -y, x
@@ -64,10 +70,11 @@ def skew(v: Array) -> Array:
 def cross(a: Array, b: Array) -> Array:
     """a × b over the last axis (3), broadcasting; by components into one array, which numpy's cross does with
     more copying (the same products and differences: the same bits)."""
-    a, b = np.asarray(a), np.asarray(b)
+    a, b = _array(a), _array(b)
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a.dtype, b.dtype))
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a.dtype, b.dtype),
+                   like=b if isinstance(a, np.ndarray) else a)
     out[..., 0] = a1 * b2 - a2 * b1
     out[..., 1] = a2 * b0 - a0 * b2
     out[..., 2] = a0 * b1 - a1 * b0
@@ -93,7 +100,7 @@ def vee(m: Array) -> Array:
 
 def axis_angle(axis: Array, angle: Array) -> Array:
     """Rotation matrices by ``angle`` (...) about the unit ``axis`` (3,) or (..., 3) (Rodrigues)."""
-    angle = np.asarray(angle)
+    angle = _array(angle)
     k = skew(np.broadcast_to(axis, (*angle.shape, 3)))
     s, c = np.sin(angle)[..., None, None], np.cos(angle)[..., None, None]
     return np.eye(3) + s * k + (1 - c) * (k @ k)
@@ -106,7 +113,7 @@ SERIES_T = 1e-4
 
 
 def _coefficients(t: Array) -> tuple[Array, Array, Array]:
-    t = np.asarray(t)
+    t = _array(t)
     small = np.abs(t.real) < SERIES_T
     if small.all():  # the branch every entry takes (a batch of complex steps shares its real part): that one alone
         return _series(t)
@@ -135,7 +142,7 @@ def exp_map(theta: Array) -> Array:
 
 def right_jacobian(theta: Array) -> Array:
     """J_r(θ), (..., 3, 3): the body-frame angular velocity of R₀ Exp(θ(t)) is J_r(θ) θ̇."""
-    theta = np.asarray(theta)
+    theta = _array(theta)
     _, b, c = _coefficients(np.sum(theta * theta, axis=-1))
     k = skew(theta)
     return _EYE - b[..., None, None] * k + c[..., None, None] * (k @ k)
@@ -143,7 +150,7 @@ def right_jacobian(theta: Array) -> Array:
 
 def exp_and_jacobian(theta: Array) -> tuple[Array, Array]:
     """Exp(θ) and J_r(θ) together, (..., 3, 3) each: one skew, one square and one set of coefficients for both."""
-    theta = np.asarray(theta)
+    theta = _array(theta)
     a, b, c = _coefficients(np.sum(theta * theta, axis=-1))
     k = skew(theta)
     kk = k @ k
