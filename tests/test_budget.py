@@ -19,7 +19,7 @@ from harness.engine import variants as V
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
 from harness.families import convergence as orders
-from harness.families.runs import Runs, budgets, noise_gain, unresolved
+from harness.families.runs import RIGID_SPLITS, Runs, budgets, noise_gain, rigid_resolved, unresolved
 from harness.outputs.studies.sensitivity import trials_table
 from harness.pipeline.limits import load_limits
 from harness.pipeline.run import run_case
@@ -122,6 +122,54 @@ def test_near_rigid_levels_measure_a_softness_no_polynomial_in_eps_follows():
     faulty = budgets(_rigid_runs(saturating, h=h, eps=eps, f=f, fault=1e-4), order=1, steps=1000, rtol=1e-12,
                      solver_tolerance=0)[NAME]
     assert not faulty.passed and faulty.unexplained == pytest.approx(1e-4, rel=0.05)
+
+
+def _slow_near_rigid(h: float, e: float) -> float:
+    """A figure whose integration error at the near-rigid ε saturates in h: 0.2 h/(h + τ*(ε)), τ*(ε) = ε/8 (at the
+    model's ε = 0.1 it is linear in h over h = 1e-3 … h/256; at fε = 2e-4, τ* = 2.5e-5, h/τ* runs from 40 at h to
+    0.16 at h/256). Cassie's loops under ``discrete`` do so (docs/findings/softness.md, "discrete")."""
+    return 0.003 * h + 0.02 * e / (1.0 + e / 1e-2) + 0.2 * h / (h + e / 8)
+
+
+def _deepened_runs(model, *, h: float, eps: float, f: float, fault: float = 0.0) -> Runs:
+    """As :func:`harness.families.runs._rigid_ladder` makes them: the near-rigid levels at the first h/s, h/2s,
+    h/4s of RIGID_SPLITS inside the asymptotic range."""
+    t = np.linspace(0.0, 1.0, 11)
+
+    def run(hh: float, ee: float) -> list[Deviation]:
+        return _dev(model(hh, ee) * (1 + t) + fault)
+
+    base = _rigid_runs(model, h=h, eps=eps, f=f, fault=fault)
+    for s in RIGID_SPLITS:
+        level = tuple(run(h / k, f * eps) for k in (s, 2 * s, 4 * s))
+        if rigid_resolved(level, order=1):
+            break
+    assert s > 1
+    twice = tuple(run(h / k, 2 * f * eps) for k in (s, 2 * s, 4 * s))
+    return Runs(as_is=base.as_is, half_step=base.half_step, softness=base.softness,
+                softness_half_step=base.softness_half_step, eps_factor=0.5, rigid=f, rigid_ladder=(twice, level),
+                rigid_split=s)
+
+
+def test_near_rigid_levels_outside_the_asymptotic_range_are_taken_to_h_zero_from_deeper_runs():
+    """Where the near-rigid levels' error saturates in h (outside the integrator's asymptotic range at h, h/2, h/4,
+    as discrete's is on Cassie's loops), their correction from h and h/2 leaves most of it, and a legitimate model
+    fails; taken from the first h/s, h/2s, h/4s inside the range, it passes, and a fault still fails."""
+    h, eps = 1e-3, 0.1
+    f = 2.0 * V.STIFFEST / eps
+    t = np.linspace(0.0, 1.0, 11)
+    at_h = tuple(_dev(_slow_near_rigid(h / k, f * eps) * (1 + t)) for k in (1, 2, 4))
+    assert not rigid_resolved(at_h, order=1)
+    old = budgets(_rigid_runs(_slow_near_rigid, h=h, eps=eps, f=f), order=1, steps=1000, rtol=1e-12,
+                  solver_tolerance=0)[NAME]
+    assert not old.passed  # what the budget did before: the false alarm
+    deep = budgets(_deepened_runs(_slow_near_rigid, h=h, eps=eps, f=f), order=1, steps=1000, rtol=1e-12,
+                   solver_tolerance=0)[NAME]
+    assert deep.passed, (deep.unexplained, deep.limit)
+    assert any("near-rigid levels" in n for n in deep.notes)
+    faulty = budgets(_deepened_runs(_slow_near_rigid, h=h, eps=eps, f=f, fault=0.2), order=1, steps=1000,
+                     rtol=1e-12, solver_tolerance=0)[NAME]
+    assert not faulty.passed and faulty.unexplained == pytest.approx(0.2 + deep.unexplained, rel=1e-6)
 
 
 def test_from_rigid_is_the_line_through_the_near_rigid_levels_and_its_whole_tail():
