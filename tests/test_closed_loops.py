@@ -139,3 +139,28 @@ def test_cassies_light_rods_are_no_longer_refused():
     assert SPIN_FLOOR < 3.8e-6 / 34.4
     case = from_mjcf(path, horizon=0.01)
     assert case.tree is not None and len(case.qd0) == 32
+
+
+CASSIE = "agility_cassie/cassie.xml"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif("discrete" not in __import__("harness.engine.integrators", fromlist=["x"]).available_integrators(),
+                    reason="no discrete integrator in this MuJoCo")
+def test_cassie_under_discrete_passes_its_trajectory_figures_and_a_heavier_rod_still_fails():
+    """Under ``discrete`` Cassie's near-rigid softness levels are outside the asymptotic range at h, h/2 and h/4
+    (their runs' differences shrink 1.1-1.5x per halving): their correction is taken from deeper runs
+    (harness.families.runs.rigid_resolved) and the trajectory figures that failed by 2.4-12.9x pass
+    (docs/findings/softness.md, "discrete"). The discrete order shortfall is left open (said there). A link of the
+    loop 1 % heavier on MuJoCo's side alone still fails."""
+    horizon, body = LOOPS[CASSIE]
+    path = _robot(CASSIE)
+    v = harness.validate(from_mjcf(path, horizon=horizon), integrators=["discrete"])
+    trajectory = [(c.name, c.value, c.threshold) for c in v.checks if c.name.startswith("discrete.") and not c.passed
+                  and c.status != "n/a"]
+    assert not trajectory, trajectory
+    assert any("near-rigid levels" in note for c in v.checks if c.name == "discrete.position"
+               for note in (c.budget.notes if c.budget else ()))
+    failed = _failed(harness.validate(from_mjcf(path, horizon=horizon, reference=path), integrators=["discrete"],
+                                      edit=_heavier(body, 1.01)))
+    assert {"instant.mass_matrix", "instant.forcing"} <= failed, failed
