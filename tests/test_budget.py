@@ -538,3 +538,20 @@ def test_the_represented_model_holds_every_real_constant_in_float32():
     assert not np.array_equal(rounded.body_mass, model.body_mass)
     assert rounded.opt.timestep == float(np.float32(model.opt.timestep))
     assert np.array_equal(rounded.jnt_type, model.jnt_type)
+
+
+def test_a_softness_that_saturates_below_the_near_rigid_levels_is_said_so():
+    """MuJoCo's soft force error along a direction of J M⁻¹ Jᵀ with a small eigenvalue a is r/(a + r), r ∝ ε: once ε
+    is near ε* = a/Â it no longer halves with ε (Cassie's plantar loops: ε* ≈ 3e-4, above MuJoCo's stiffest 1e-4).
+    The sampled budget says so where its differences 2fε→fε→fε/2 shrink less than LINEAR_SHRINK; a linear effect
+    gets no note."""
+    from harness.families.sampled import LINEAR_SHRINK, linearity_note
+
+    def x(e: float, star: float) -> np.ndarray:
+        return np.array([0.05 * e / (e + star)])
+
+    dev = _dev([0.0])[0]
+    said = linearity_note(dev, x(4e-4, 3e-4), x(2e-4, 3e-4), x(1e-4, 3e-4))
+    assert "not linear" in said and "1.14×" in said  # (4/7 − 2/5)/(2/5 − 1/4) for ε* = 3e-4
+    assert linearity_note(dev, x(4e-4, 1.0), x(2e-4, 1.0), x(1e-4, 1.0)) == ""  # ε ≪ ε*: linear, shrink 2
+    assert 1.0 < LINEAR_SHRINK < 2.0

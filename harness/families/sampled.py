@@ -470,6 +470,7 @@ def evaluate(mut: V.ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref: Re
     levels = (2.0 * rigid, rigid) if rigid is not None else (eps_factor, eps_factor**2) if eps_factor < 1 \
         else (eps_factor,)
     softness = tuple(at(V.variant(model, eps_factor=f)) for f in levels) if variants.soft else ()
+    stiffest = at(V.variant(model, eps_factor=rigid / 2.0)) if rigid is not None else None  # fε/2: 1e-4 (the cap)
     heavier = lighter = None
     if variants.point_masses:
         base, more = V.floors_pair(model, variants.point_masses)
@@ -479,6 +480,7 @@ def evaluate(mut: V.ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref: Re
     margins = at(wider) if wider is not None else None
     made = budgets(found.deviations, conditioning=conditioning, softness=softness, heavier=heavier, lighter=lighter,
                    converged=converged, margins=margins, eps_factor=eps_factor, rigid=rigid is not None,
+                   stiffest=stiffest,
                    solver_tolerance=V.CONVERGED_TOLERANCE if exact is not None else variants.solver_tolerance,
                    notes=(*variants.notes, *((found.completion_note,) if found.completion_note else ())),
                    perturbed=found.perturbed, represented=found.represented, epsilon=engine.epsilon,
@@ -542,7 +544,8 @@ def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation
                     represented: Mapping[FigureName, float] | None = None,
                     epsilon: float = float(np.finfo(np.float32).eps),
                     completed: Sequence[Deviation] | None = None,
-                    conditioning: float = 1.0) -> dict[FigureName, Budget]:
+                    conditioning: float = 1.0, stiffest: Sequence[Deviation] | None = None
+                    ) -> dict[FigureName, Budget]:
     """Every figure's budget from the model's deviations at the sampled states (A) and,
     where they apply, the model's with every ε × s, s² (``softness``, s = ``eps_factor``; ``rigid``: at the
     near-rigid 2fε and fε instead, :func:`~harness.core.budget.from_rigid`) and with
@@ -553,8 +556,11 @@ def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation
     ``converged``: A with the constraints solved exactly, where the model's own solver does not converge
     (the other evaluations are then made that way too).
     ``completed``: on a float32 backend, A with the backend's stopped solve completed in float64
-    (:mod:`harness.engine.backends.completion`; the other evaluations are then passed completed too)."""
+    (:mod:`harness.engine.backends.completion`; the other evaluations are then passed completed too).
+    ``stiffest``: with ``rigid``, A at fε/2 (the smallest ε at MuJoCo's stiffest, 1e-4): not used in the part, only
+    to say where the softness is not linear down there (:func:`linearity_note`)."""
     levels = [{d.name: d.values for d in group} for group in softness]
+    lowest = {d.name: d.values for d in stiffest or ()}
     floors = {d.name: d.values for d in heavier or ()}
     floors_base = {d.name: d.values for d in lighter or ()}
     exact = {d.name: d.values for d in converged or ()}
@@ -604,6 +610,30 @@ def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation
                      "stop": SOLVER_PART_UNCERTAINTY * explained.get("stop", 0.0),
                      "roundoff": roundoff,
                      "convergence": noise * SOLVER * solver_tolerance * dev.size}
+        said = linearity_note(dev, levels[0][dev.name], levels[1][dev.name], lowest[dev.name]) \
+            if rigid and len(levels) == 2 and dev.name in lowest else ""
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
-                               tolerance=tolerance, notes=tuple(notes))
+                               tolerance=tolerance, notes=(*notes, *((said,) if said else ())))
     return out
+
+
+LINEAR_SHRINK = 1.5
+"""A linear softness halves its difference from one near-rigid level to the next (2fε → fε → fε/2: a shrink of 2);
+below this shrink the effect is said not to be linear there (:func:`linearity_note`). Cassie's loops, measured: its
+achilles connects' Jᵀλ shrinks by 2.00, the total's (with the plantar loops' nearly redundant rows) by 1.15
+(docs/findings/softness.md, "generalized force")."""
+
+
+def linearity_note(dev: Deviation, twice: np.ndarray, once: np.ndarray, half: np.ndarray) -> str:
+    """Where a figure's softness is not linear down to MuJoCo's stiffest ε ('' where it is): its values at 2fε, fε
+    and fε/2 (``twice``, ``once``, ``half``) differ by amounts whose shrink is below :data:`LINEAR_SHRINK`. The line
+    through 2fε and fε, and its tail (:data:`~harness.core.budget.RIGID_TAIL`), then rest on a premise the levels
+    contradict: an effect r/(a + r) along a direction of J M⁻¹ Jᵀ whose eigenvalue a is small against the
+    regularizer r (nearly redundant rows) saturates rather than vanishing linearly in ε."""
+    upper, lower = dev.magnitude(twice - once), dev.magnitude(once - half)
+    if not lower > 0 or upper / lower >= LINEAR_SHRINK:
+        return ""
+    return (f"softness: not linear down to MuJoCo's stiffest ε: its differences over 2fε→fε and fε→fε/2 "
+            f"({upper:.2g}, {lower:.2g}) shrink {upper / lower:.2f}×, not 2× (nearly redundant constraint rows: "
+            f"the soft force's error r/(a + r) saturates along a small eigenvalue a of J M⁻¹ Jᵀ), so the line through "
+            f"the near-rigid levels does not bound what lies below them")
