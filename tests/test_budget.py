@@ -11,7 +11,7 @@ import pytest
 
 from harness import cases
 from harness.cli.commands import main
-from harness.core.budget import RIGID_GAIN, from_rigid, gain, richardson, to_zero
+from harness.core.budget import LINEAR_SHRINK, RIGID_GAIN, from_rigid, gain, linearity_note, richardson, to_zero
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.core.options import RunOptions
@@ -545,13 +545,30 @@ def test_a_softness_that_saturates_below_the_near_rigid_levels_is_said_so():
     is near ε* = a/Â it no longer halves with ε (Cassie's plantar loops: ε* ≈ 3e-4, above MuJoCo's stiffest 1e-4).
     The sampled budget says so where its differences 2fε→fε→fε/2 shrink less than LINEAR_SHRINK; a linear effect
     gets no note."""
-    from harness.families.sampled import LINEAR_SHRINK, linearity_note
-
     def x(e: float, star: float) -> np.ndarray:
         return np.array([0.05 * e / (e + star)])
 
     dev = _dev([0.0])[0]
-    said = linearity_note(dev, x(4e-4, 3e-4), x(2e-4, 3e-4), x(1e-4, 3e-4))
+    said = linearity_note(dev.magnitude, x(4e-4, 3e-4), x(2e-4, 3e-4), x(1e-4, 3e-4))
     assert "not linear" in said and "1.14×" in said  # (4/7 − 2/5)/(2/5 − 1/4) for ε* = 3e-4
-    assert linearity_note(dev, x(4e-4, 1.0), x(2e-4, 1.0), x(1e-4, 1.0)) == ""  # ε ≪ ε*: linear, shrink 2
+    assert linearity_note(dev.magnitude, x(4e-4, 1.0), x(2e-4, 1.0), x(1e-4, 1.0)) == ""  # ε ≪ ε*: linear, shrink 2
     assert 1.0 < LINEAR_SHRINK < 2.0
+
+
+def test_a_runs_budget_says_where_its_softness_saturates_and_only_from_runs_inside_the_asymptotic_range():
+    """The runs' budget: the level fε/2 at h beside 2fε and fε. A softness saturating below them (ε* = 3e-4) gets the
+    note; a linear one none; nor one whose levels had to be taken from deeper runs (at h their differences are the
+    integrator's as much as the softness's)."""
+    h, eps = 1e-3, 0.1
+    f = 2.0 * V.STIFFEST / eps
+    t = np.linspace(0.0, 1.0, 11)
+    for star, noted in ((3e-4, True), (1.0, False)):
+        figure = lambda hh, e, s=star: 0.003 * hh + 0.05 * e / (e + s)  # noqa: E731
+        runs = _rigid_runs(figure, h=h, eps=eps, f=f)
+        runs = Runs(**{**runs.__dict__, "stiffest": _dev(figure(h, f * eps / 2) * (1 + t))})
+        said = budgets(runs, order=1, steps=1000, rtol=1e-12, solver_tolerance=0)[NAME].notes
+        assert any("not linear" in n for n in said) == noted, said
+        ladder = _deepened_runs(_slow_near_rigid, h=h, eps=eps, f=f).rigid_ladder
+        deep = Runs(**{**runs.__dict__, "rigid_ladder": ladder, "rigid_split": 16})
+        assert not any("not linear" in n for n in budgets(deep, order=1, steps=1000, rtol=1e-12,
+                                                           solver_tolerance=0)[NAME].notes)

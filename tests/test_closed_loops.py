@@ -217,16 +217,16 @@ def test_near_a_singular_pose_mujocos_soft_connect_force_saturates_below_its_sti
     stiffest (1e-4); 0.5° from it (a = 8.6e-5 of A's mean diagonal) it shrinks 1.2× from 4e-4 → 2e-4 → 1e-4, and
     at 1e-4 it is still 18 % of the force: no solimp MuJoCo accepts resolves it (Cassie's plantar loops, ε* ≈ 3e-4:
     docs/findings/softness.md, "generalized force"). The sampled budget's note says so (linearity_note)."""
+    from harness.core.budget import linearity_note
     from harness.core.deviation import Deviation
     from harness.core.figures import FigureName
-    from harness.families.sampled import linearity_note
 
     for theta, shrinks in ((60.0, (1.95, 2.05)), (0.5, (1.1, 1.3))):
         errors = [_generalized_force_error(theta, eps) for eps in (4e-4, 2e-4, 1e-4)]
         shrink = (errors[0] - errors[1]) / (errors[1] - errors[2])
         assert shrinks[0] < shrink < shrinks[1], (theta, errors)
         dev = Deviation(FigureName("instant.generalized_force"), np.zeros(1), "scalar", "1", "")
-        said = linearity_note(dev, *(np.array([e]) for e in errors))
+        said = linearity_note(dev.magnitude, *(np.array([e]) for e in errors))
         assert bool(said) == (theta < 1.0), said
     assert _generalized_force_error(0.5, 1e-4) > 0.15  # at MuJoCo's stiffest ε
     assert _generalized_force_error(60.0, 1e-4) < 1e-3

@@ -137,6 +137,7 @@ from harness.core.budget import (
     SOLVER_PART_UNCERTAINTY,
     Budget,
     from_rigid,
+    linearity_note,
     richardson,
     to_zero,
     ulp_states,
@@ -243,6 +244,10 @@ class Runs:
             (s = 4, 16, 64) that is inside it: their value at h → 0 is taken from there (:func:`parts`);
             ``rigid_split`` is that s. ``rigid_unresolved``: why no s down to :data:`RIGID_SPLITS`' last is (the
             integrator's figures then fail with that reason: :func:`unresolved`).
+        stiffest: with ``rigid``, the run at h at fε/2 (the smallest ε at MuJoCo's stiffest): not in any part, only
+            to say where the softness is not linear down there (:func:`~harness.core.budget.linearity_note`), from
+            the levels at h where those are inside the asymptotic range (elsewhere their differences at h are
+            the integrator's as much as the softness's).
     """
 
     as_is: Sequence[Deviation]
@@ -263,6 +268,7 @@ class Runs:
     rigid_ladder: Sequence[Sequence[Sequence[Deviation]]] = ()
     rigid_split: int = 1
     rigid_unresolved: str = ""
+    stiffest: Sequence[Deviation] | None = None
 
 
 def every_nth(sim: Trajectory, n: int) -> Trajectory:
@@ -544,8 +550,12 @@ def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_toleran
                                   if runs.perturbed else gain * roundoff * walk * dev.size),
                      "reference": REFERENCE * rtol * dev.size,
                      "convergence": gain * SOLVER * solver_tolerance * dev.size}
+        said = linearity_note(dev.magnitude, *(_by_name(group)[dev.name] for group in runs.softness),
+                              _by_name(runs.stiffest)[dev.name]) \
+            if runs.rigid is not None and runs.stiffest is not None and len(runs.softness) == 2 \
+            and not runs.rigid_ladder and not runs.rigid_unresolved else ""  # at h: only inside the asymptotic range
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
-                               tolerance=tolerance, notes=tuple(notes))
+                               tolerance=tolerance, notes=(*notes, *((said,) if said else ())))
     return out
 
 
@@ -635,6 +645,8 @@ def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, targe
     if variants.soft:
         plan |= {f"softness{k}": (1, f, 1.0) for k, f in enumerate(levels)}
         plan["softness_half_step"] = (2, rigid or eps, 1.0)
+        if rigid is not None:
+            plan["stiffest"] = (1, rigid / 2.0, 1.0)
     if variants.contacts:
         plan |= {f"slower{k}": (1, f, slow) for k, f in enumerate((1.0, *levels))}
     float32 = engine.epsilon > float(np.finfo(np.float64).eps)
@@ -665,7 +677,7 @@ def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, targe
         represented=represented,
         quantized=quantized,
         eps_factor=eps, tc_factor=slow, rigid=rigid, rigid_ladder=ladder, rigid_split=rigid_split,
-        rigid_unresolved=rigid_why,
+        rigid_unresolved=rigid_why, stiffest=done.get("stiffest"),
     )
 
 
@@ -797,7 +809,8 @@ def _renamed(runs: Runs, integrator: str, as_is: Sequence[Deviation]) -> Runs:
                                softness_half_step=devs(runs.softness_half_step),
                                slower=tuple(devs(r) for r in runs.slower),
                                perturbed=tuple(devs(r) for r in runs.perturbed), completed=devs(runs.completed),
-                               rigid_ladder=tuple(tuple(devs(r) for r in level) for level in runs.rigid_ladder))
+                               rigid_ladder=tuple(tuple(devs(r) for r in level) for level in runs.rigid_ladder),
+                               stiffest=devs(runs.stiffest))
 
 
 TWIN_TOLERANCE = 1e-9

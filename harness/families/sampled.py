@@ -71,6 +71,7 @@ from harness.core.budget import (
     Budget,
     from_rigid,
     gain,
+    linearity_note,
     to_zero,
 )
 from harness.core.deviation import Deviation
@@ -610,30 +611,9 @@ def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation
                      "stop": SOLVER_PART_UNCERTAINTY * explained.get("stop", 0.0),
                      "roundoff": roundoff,
                      "convergence": noise * SOLVER * solver_tolerance * dev.size}
-        said = linearity_note(dev, levels[0][dev.name], levels[1][dev.name], lowest[dev.name]) \
+        said = linearity_note(dev.magnitude, levels[0][dev.name], levels[1][dev.name], lowest[dev.name]) \
             if rigid and len(levels) == 2 and dev.name in lowest else ""
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
                                tolerance=tolerance, notes=(*notes, *((said,) if said else ())))
     return out
 
-
-LINEAR_SHRINK = 1.5
-"""A linear softness halves its difference from one near-rigid level to the next (2fε → fε → fε/2: a shrink of 2);
-below this shrink the effect is said not to be linear there (:func:`linearity_note`). Cassie's loops, measured: its
-achilles connects' Jᵀλ shrinks by 2.00, the total's (with the plantar loops' nearly redundant rows) by 1.15
-(docs/findings/softness.md, "generalized force")."""
-
-
-def linearity_note(dev: Deviation, twice: np.ndarray, once: np.ndarray, half: np.ndarray) -> str:
-    """Where a figure's softness is not linear down to MuJoCo's stiffest ε ('' where it is): its values at 2fε, fε
-    and fε/2 (``twice``, ``once``, ``half``) differ by amounts whose shrink is below :data:`LINEAR_SHRINK`. The line
-    through 2fε and fε, and its tail (:data:`~harness.core.budget.RIGID_TAIL`), then rest on a premise the levels
-    contradict: an effect r/(a + r) along a direction of J M⁻¹ Jᵀ whose eigenvalue a is small against the
-    regularizer r (nearly redundant rows) saturates rather than vanishing linearly in ε."""
-    upper, lower = dev.magnitude(twice - once), dev.magnitude(once - half)
-    if not lower > 0 or upper / lower >= LINEAR_SHRINK:
-        return ""
-    return (f"softness: not linear down to MuJoCo's stiffest ε: its differences over 2fε→fε and fε→fε/2 "
-            f"({upper:.2g}, {lower:.2g}) shrink {upper / lower:.2f}×, not 2× (nearly redundant constraint rows: "
-            f"the soft force's error r/(a + r) saturates along a small eigenvalue a of J M⁻¹ Jᵀ), so the line through "
-            f"the near-rigid levels does not bound what lies below them")
