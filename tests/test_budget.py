@@ -11,7 +11,7 @@ import pytest
 
 from harness import cases
 from harness.cli.commands import main
-from harness.core.budget import RIGID_GAIN, from_rigid, gain, richardson, to_zero
+from harness.core.budget import LINEAR_SHRINK, RIGID_GAIN, from_rigid, gain, linearity_note, richardson, to_zero
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.core.options import RunOptions
@@ -19,7 +19,7 @@ from harness.engine import variants as V
 from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
 from harness.families import convergence as orders
-from harness.families.runs import Runs, budgets, noise_gain, unresolved
+from harness.families.runs import RIGID_SPLITS, Runs, budgets, noise_gain, rigid_resolved, unresolved
 from harness.outputs.studies.sensitivity import trials_table
 from harness.pipeline.limits import load_limits
 from harness.pipeline.run import run_case
@@ -122,6 +122,54 @@ def test_near_rigid_levels_measure_a_softness_no_polynomial_in_eps_follows():
     faulty = budgets(_rigid_runs(saturating, h=h, eps=eps, f=f, fault=1e-4), order=1, steps=1000, rtol=1e-12,
                      solver_tolerance=0)[NAME]
     assert not faulty.passed and faulty.unexplained == pytest.approx(1e-4, rel=0.05)
+
+
+def _slow_near_rigid(h: float, e: float) -> float:
+    """A figure whose integration error at the near-rigid ε saturates in h: 0.2 h/(h + τ*(ε)), τ*(ε) = ε/8 (at the
+    model's ε = 0.1 it is linear in h over h = 1e-3 … h/256; at fε = 2e-4, τ* = 2.5e-5, h/τ* runs from 40 at h to
+    0.16 at h/256). Cassie's loops under ``discrete`` do so (docs/findings/softness.md, "discrete")."""
+    return 0.003 * h + 0.02 * e / (1.0 + e / 1e-2) + 0.2 * h / (h + e / 8)
+
+
+def _deepened_runs(model, *, h: float, eps: float, f: float, fault: float = 0.0) -> Runs:
+    """As :func:`harness.families.runs._rigid_ladder` makes them: the near-rigid levels at the first h/s, h/2s,
+    h/4s of RIGID_SPLITS inside the asymptotic range."""
+    t = np.linspace(0.0, 1.0, 11)
+
+    def run(hh: float, ee: float) -> list[Deviation]:
+        return _dev(model(hh, ee) * (1 + t) + fault)
+
+    base = _rigid_runs(model, h=h, eps=eps, f=f, fault=fault)
+    for s in RIGID_SPLITS:
+        level = tuple(run(h / k, f * eps) for k in (s, 2 * s, 4 * s))
+        if rigid_resolved(level, order=1):
+            break
+    assert s > 1
+    twice = tuple(run(h / k, 2 * f * eps) for k in (s, 2 * s, 4 * s))
+    return Runs(as_is=base.as_is, half_step=base.half_step, softness=base.softness,
+                softness_half_step=base.softness_half_step, eps_factor=0.5, rigid=f, rigid_ladder=(twice, level),
+                rigid_split=s)
+
+
+def test_near_rigid_levels_outside_the_asymptotic_range_are_taken_to_h_zero_from_deeper_runs():
+    """Where the near-rigid levels' error saturates in h (outside the integrator's asymptotic range at h, h/2, h/4,
+    as discrete's is on Cassie's loops), their correction from h and h/2 leaves most of it, and a legitimate model
+    fails; taken from the first h/s, h/2s, h/4s inside the range, it passes, and a fault still fails."""
+    h, eps = 1e-3, 0.1
+    f = 2.0 * V.STIFFEST / eps
+    t = np.linspace(0.0, 1.0, 11)
+    at_h = tuple(_dev(_slow_near_rigid(h / k, f * eps) * (1 + t)) for k in (1, 2, 4))
+    assert not rigid_resolved(at_h, order=1)
+    old = budgets(_rigid_runs(_slow_near_rigid, h=h, eps=eps, f=f), order=1, steps=1000, rtol=1e-12,
+                  solver_tolerance=0)[NAME]
+    assert not old.passed  # what the budget did before: the false alarm
+    deep = budgets(_deepened_runs(_slow_near_rigid, h=h, eps=eps, f=f), order=1, steps=1000, rtol=1e-12,
+                   solver_tolerance=0)[NAME]
+    assert deep.passed, (deep.unexplained, deep.limit)
+    assert any("near-rigid levels" in n for n in deep.notes)
+    faulty = budgets(_deepened_runs(_slow_near_rigid, h=h, eps=eps, f=f, fault=0.2), order=1, steps=1000,
+                     rtol=1e-12, solver_tolerance=0)[NAME]
+    assert not faulty.passed and faulty.unexplained == pytest.approx(0.2 + deep.unexplained, rel=1e-6)
 
 
 def test_from_rigid_is_the_line_through_the_near_rigid_levels_and_its_whole_tail():
@@ -555,3 +603,37 @@ def test_a_stiff_references_tolerance_is_derived_from_its_budgets_and_stated(tmp
     monkeypatch.setattr(R, "_measure", refused)
     said = harness.validate(mjcf=whip).settings.tree["reference tolerance"]
     assert said.startswith("rtol 1e-08: its part is at most") and "was refused (planted: past the bounds)" in said
+
+
+def test_a_softness_that_saturates_below_the_near_rigid_levels_is_said_so():
+    """MuJoCo's soft force error along a direction of J M⁻¹ Jᵀ with a small eigenvalue a is r/(a + r), r ∝ ε: once ε
+    is near ε* = a/Â it no longer halves with ε (Cassie's plantar loops: ε* ≈ 3e-4, above MuJoCo's stiffest 1e-4).
+    The sampled budget says so where its differences 2fε→fε→fε/2 shrink less than LINEAR_SHRINK; a linear effect
+    gets no note."""
+    def x(e: float, star: float) -> np.ndarray:
+        return np.array([0.05 * e / (e + star)])
+
+    dev = _dev([0.0])[0]
+    said = linearity_note(dev.magnitude, x(4e-4, 3e-4), x(2e-4, 3e-4), x(1e-4, 3e-4))
+    assert "not linear" in said and "1.14×" in said  # (4/7 − 2/5)/(2/5 − 1/4) for ε* = 3e-4
+    assert linearity_note(dev.magnitude, x(4e-4, 1.0), x(2e-4, 1.0), x(1e-4, 1.0)) == ""  # ε ≪ ε*: linear, shrink 2
+    assert 1.0 < LINEAR_SHRINK < 2.0
+
+
+def test_a_runs_budget_says_where_its_softness_saturates_and_only_from_runs_inside_the_asymptotic_range():
+    """The runs' budget: the level fε/2 at h beside 2fε and fε. A softness saturating below them (ε* = 3e-4) gets the
+    note; a linear one none; nor one whose levels had to be taken from deeper runs (at h their differences are the
+    integrator's as much as the softness's)."""
+    h, eps = 1e-3, 0.1
+    f = 2.0 * V.STIFFEST / eps
+    t = np.linspace(0.0, 1.0, 11)
+    for star, noted in ((3e-4, True), (1.0, False)):
+        figure = lambda hh, e, s=star: 0.003 * hh + 0.05 * e / (e + s)  # noqa: E731
+        runs = _rigid_runs(figure, h=h, eps=eps, f=f)
+        runs = Runs(**{**runs.__dict__, "stiffest": _dev(figure(h, f * eps / 2) * (1 + t))})
+        said = budgets(runs, order=1, steps=1000, rtol=1e-12, solver_tolerance=0)[NAME].notes
+        assert any("not linear" in n for n in said) == noted, said
+        ladder = _deepened_runs(_slow_near_rigid, h=h, eps=eps, f=f).rigid_ladder
+        deep = Runs(**{**runs.__dict__, "rigid_ladder": ladder, "rigid_split": 16})
+        assert not any("not linear" in n for n in budgets(deep, order=1, steps=1000, rtol=1e-12,
+                                                           solver_tolerance=0)[NAME].notes)

@@ -156,3 +156,94 @@ def test_the_iiwas_reference_is_tightened_to_what_its_budgets_resolve():
     assert ", derived: at rtol 1e-08" in said, said
     shares = [b.tolerance["reference"] / b.limit for b in result.budgets.values() if b.tolerance.get("reference")]
     assert shares and max(shares) <= REFERENCE_SHARE, max(shares)
+
+
+CASSIE = "agility_cassie/cassie.xml"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif("discrete" not in __import__("harness.engine.integrators", fromlist=["x"]).available_integrators(),
+                    reason="no discrete integrator in this MuJoCo")
+def test_cassie_under_discrete_passes_its_trajectory_figures_and_a_heavier_rod_still_fails():
+    """Under ``discrete`` Cassie's near-rigid softness levels are outside the asymptotic range at h, h/2 and h/4
+    (their runs' differences shrink 1.1-1.5x per halving): their correction is taken from deeper runs
+    (harness.families.runs.rigid_resolved) and the trajectory figures that failed by 2.4-12.9x pass
+    (docs/findings/softness.md, "discrete"). The discrete order shortfall is left open (said there). A link of the
+    loop 1 % heavier on MuJoCo's side alone still fails."""
+    horizon, body = LOOPS[CASSIE]
+    path = _robot(CASSIE)
+    v = harness.validate(from_mjcf(path, horizon=horizon), integrators=["discrete"])
+    trajectory = [(c.name, c.value, c.threshold) for c in v.checks if c.name.startswith("discrete.") and not c.passed
+                  and c.status != "n/a"]
+    assert not trajectory, trajectory
+    assert any("near-rigid levels" in note for c in v.checks if c.name == "discrete.position"
+               for note in (c.budget.notes if c.budget else ()))
+    failed = _failed(harness.validate(from_mjcf(path, horizon=horizon, reference=path), integrators=["discrete"],
+                                      edit=_heavier(body, 1.01)))
+    assert {"instant.mass_matrix", "instant.forcing"} <= failed, failed
+
+
+def _four_bar_near_singular(theta_deg: float, eps: float):
+    """A planar four-bar (crank 0.1 m, 1 kg; a light coupler 0.3 m, 0.05 kg; a rocker to ground 0.35 m away), at rest,
+    its crank at ``theta_deg`` and coupler bent back by as much (the rocker closing it wherever that puts the coupler's
+    end), closed by a connect at solimp d = 1 − ``eps``: near theta = 0 every link is nearly collinear, A02's singular
+    pose, and A = J M⁻¹ Jᵀ has an in-plane eigenvalue near 0 (its out-of-plane one is 0: the rows are redundant)."""
+    a, b, d, th = 0.1, 0.3, 0.35, np.radians(theta_deg)
+    tip = a * np.array([np.cos(th), np.sin(th)]) + b * np.array([1.0, 0.0])
+    c, psi = np.linalg.norm(tip - [d, 0.0]), np.degrees(np.arctan2(tip[1], tip[0] - d))
+    xml = f"""<mujoco><option gravity="0 -9.81 0"><flag contact="disable"/></option>
+      <default><joint type="hinge" axis="0 0 1"/><geom type="capsule" size="0.005"/></default>
+      <worldbody>
+        <body name="crank" euler="0 0 {theta_deg}"><joint/>
+          <inertial pos="{a / 2} 0 0" mass="1" diaginertia="1e-4 {a * a / 12} {a * a / 12}"/>
+          <body name="coupler" pos="{a} 0 0" euler="0 0 {-theta_deg}"><joint/>
+            <inertial pos="{b / 2} 0 0" mass="0.05" diaginertia="1e-6 {0.05 * b * b / 12} {0.05 * b * b / 12}"/>
+          </body></body>
+        <body name="rocker" pos="{d} 0 0" euler="0 0 {psi}"><joint/>
+          <inertial pos="{c / 2} 0 0" mass="0.5" diaginertia="1e-5 {0.5 * c * c / 12} {0.5 * c * c / 12}"/></body>
+      </worldbody>
+      <equality><connect body1="coupler" body2="rocker" anchor="{b} 0 0" solimp="{1 - eps} {1 - eps} 0.001 0.5 2"
+                         solref="0.02 1"/></equality></mujoco>"""
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_string(xml)
+    model.opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    return model, data
+
+
+def _generalized_force_error(theta_deg: float, eps: float) -> float:
+    """|MuJoCo's Jᵀλ − the rigid one| / |the rigid one| at the four-bar's rest pose. The rigid one is an independent
+    check computed here from the KKT system of MuJoCo's own M and J at rest (J q̈ = 0; the pseudo-inverse, the rows
+    being redundant; Jᵀλ is unique): this pins MuJoCo's softness law, it judges no dynamics."""
+    import mujoco
+
+    model, data = _four_bar_near_singular(theta_deg, eps)
+    mass = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, data, mass)
+    jac = data.efc_J.reshape(data.nefc, model.nv)
+    a = jac @ np.linalg.solve(mass, jac.T)
+    rigid = -jac.T @ (np.linalg.pinv(a, rcond=1e-12) @ (jac @ np.linalg.solve(mass, data.qfrc_smooth)))
+    return float(np.max(np.abs(data.qfrc_constraint - rigid)) / np.max(np.abs(rigid)))
+
+
+def test_near_a_singular_pose_mujocos_soft_connect_force_saturates_below_its_stiffest_softness():
+    """MuJoCo's force error −(A + R)⁻¹Rλ, R ∝ ε, is r/(a + r) along an eigenvalue a of A: linear in ε only while
+    r ≪ a. Far from the singular pose the generalized constraint force's error halves with ε down to MuJoCo's
+    stiffest (1e-4); 0.5° from it (a = 8.6e-5 of A's mean diagonal) it shrinks 1.2× from 4e-4 → 2e-4 → 1e-4, and
+    at 1e-4 it is still 18 % of the force: no solimp MuJoCo accepts resolves it (Cassie's plantar loops, ε* ≈ 3e-4:
+    docs/findings/softness.md, "generalized force"). The sampled budget's note says so (linearity_note)."""
+    from harness.core.budget import linearity_note
+    from harness.core.deviation import Deviation
+    from harness.core.figures import FigureName
+
+    for theta, shrinks in ((60.0, (1.95, 2.05)), (0.5, (1.1, 1.3))):
+        errors = [_generalized_force_error(theta, eps) for eps in (4e-4, 2e-4, 1e-4)]
+        shrink = (errors[0] - errors[1]) / (errors[1] - errors[2])
+        assert shrinks[0] < shrink < shrinks[1], (theta, errors)
+        dev = Deviation(FigureName("instant.generalized_force"), np.zeros(1), "scalar", "1", "")
+        said = linearity_note(dev.magnitude, *(np.array([e]) for e in errors))
+        assert bool(said) == (theta < 1.0), said
+    assert _generalized_force_error(0.5, 1e-4) > 0.15  # at MuJoCo's stiffest ε
+    assert _generalized_force_error(60.0, 1e-4) < 1e-3

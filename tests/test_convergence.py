@@ -247,3 +247,28 @@ def test_full_study_confirms_every_gated_order(name, config):
         if s.integrator in gated:
             assert s.passed, (s.integrator, s.fit.order, s.errors)
     assert name in text(run_studies([cases.get(name)], fast=True, with_softness=False, with_solvers=False))
+
+
+def _force_ladder(force, dts):
+    """Runs whose one connect force over t ∈ [0, 0.1] is ``force(h, t)``, each at its own step h of ``dts``."""
+    from harness.core.trajectory import Trajectory
+
+    out = []
+    for h in dts:
+        t = np.arange(round(0.1 / h) + 1) * h
+        out.append(Trajectory(t=t, positions={}, velocities={}, multipliers={"loop": force(h, t)}))
+    return out
+
+
+def test_a_failed_order_says_where_the_near_rigid_level_is_outside_the_asymptotic_range():
+    """Cassie's loops under ``discrete``: at the near-rigid ε the connect forces change 1.1–1.3× per halving of h at
+    the ladder's steps, not 2× (docs/findings/softness.md); a first-order error c h does not get that cause."""
+    dts = (1e-3, 5e-4, 2.5e-4)
+    first_order = _force_ladder(lambda h, t: 10.0 + 50.0 * h * np.sin(20 * t), dts)
+    assert orders.pre_asymptotic(first_order, dts, order=1) == ""
+    g = lambda h: 0.5 * h / (h + 1e-3)  # noqa: E731  (an error saturating in h: h/τ from 1 to 1/4)
+    saturating = _force_ladder(lambda h, t: 10.0 + g(h) * np.sin(20 * t), dts)
+    said = orders.pre_asymptotic(saturating, dts, order=1)
+    shrink = (g(dts[0]) - g(dts[1])) / (g(dts[1]) - g(dts[2]))
+    assert "outside the integrator's asymptotic range" in said and f"{shrink:.2f}×" in said, said
+    assert 1.0 < shrink < 4.0 / 3.0  # a shrink the asymptotic range of a first-order method excludes

@@ -35,7 +35,7 @@ measured uncertainty.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -232,3 +232,28 @@ def to_zero(levels: Sequence[np.ndarray], s: float) -> tuple[np.ndarray, np.ndar
         raise ValueError(f"extrapolation takes two or three levels, got {len(levels)}")
     quadratic = sum(w * x for w, x in zip(_weights(3, s), levels, strict=True))
     return quadratic, quadratic - _linear(levels[1], levels[2], s)
+
+
+LINEAR_SHRINK = 1.5
+"""A softness linear in ε halves its difference from one near-rigid level to the next (2fε → fε → fε/2, the last at
+MuJoCo's stiffest ε: a shrink of 2); below this shrink the effect is said not to be linear there
+(:func:`linearity_note`). Measured on Cassie's loops: its achilles connects' Jᵀλ shrinks 2.00, the total's (with the
+plantar loops' nearly redundant rows) 1.15; the four-bar written for it near its singular pose 1.20 at 0.5° from it,
+2.00 at 60° (docs/findings/softness.md, "generalized force")."""
+
+
+def linearity_note(magnitude: Callable[[np.ndarray], float], twice: np.ndarray, once: np.ndarray,
+                   half: np.ndarray) -> str:
+    """Where a figure's softness is not linear down to MuJoCo's stiffest ε ('' where it is): its values at 2fε, fε
+    and fε/2 (``twice``, ``once``, ``half``; ``magnitude`` reduces a difference as the figure is) differ by amounts
+    whose shrink is below :data:`LINEAR_SHRINK`. :func:`from_rigid`'s line and its tail (:data:`RIGID_TAIL`) then
+    rest on a premise the levels contradict: MuJoCo's force error r/(a + r) along an eigenvalue a of J M⁻¹ Jᵀ that is
+    small against the regularizer r (nearly redundant rows, a pose near a singular one) saturates rather than
+    vanishing linearly in ε."""
+    upper, lower = magnitude(twice - once), magnitude(once - half)
+    if not lower > 0 or upper / lower >= LINEAR_SHRINK:
+        return ""
+    return (f"softness: not linear down to MuJoCo's stiffest ε: its differences over 2fε→fε and fε→fε/2 "
+            f"({upper:.2g}, {lower:.2g}) shrink {upper / lower:.2f}×, not 2× (nearly redundant constraint rows: "
+            f"the soft force's error r/(a + r) saturates along a small eigenvalue a of J M⁻¹ Jᵀ), so the line through "
+            f"the near-rigid levels does not bound what lies below them")

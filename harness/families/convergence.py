@@ -177,6 +177,7 @@ class Series:
     note: str = ""
     predicted_floor: float | None = None
     diverged: str = ""  # the first run of the ladder that diverged ("diverged: WARNING at t = … (h = …)")
+    cause: str = ""  # what was measured about a failed verdict's ladder (:func:`pre_asymptotic`), said with it
 
     @property
     def shortfall(self) -> float | None:
@@ -611,8 +612,10 @@ def convergence_study(
                     effects[f"{engine.precision} round-off"] = roundoff_floor(steps_in(horizon, min(dts)),
                                                                               scales.length, engine.epsilon)
                 note = explained_floor(fit, effects)
+            cause = pre_asymptotic([ladder[h][2] for h in dts], dts, order=orders[name]) \
+                if quantity == gated and near and all(ladder[h][2] is not None for h in dts) else ""
             series.append(Series(
-                integrator=name, quantity=quantity, unit=unit, dts=dts, errors=values, fit=fit,
+                integrator=name, quantity=quantity, unit=unit, dts=dts, errors=values, fit=fit, cause=cause,
                 expected=float(orders[name]) if quantity == gated and not note else None,
                 note=note if quantity == gated else "",
                 predicted_floor=force_floor if quantity == "force" else None,
@@ -620,6 +623,43 @@ def convergence_study(
     unavailable = unavailable_integrators() if integrators is None else {}
     return ConvergenceStudy(case=case.name, horizon=horizon, fast=fast, constrained=constrained,
                             series=tuple(series), unavailable=unavailable, joints=joint_types(base))
+
+
+PRE_ASYMPTOTIC = 0.5
+"""The largest next-order rest, relative to the Richardson correction, at which a run's constraint forces are still an
+expansion in h (the rule :data:`harness.families.runs.RESOLVED` sets for the budget's runs: for a first-order method,
+a shrink per halving of h between 4/3 and 4)."""
+
+
+def pre_asymptotic(lows: Sequence[Trajectory], dts: Sequence[float], *, order: float) -> str:
+    """Where the ladder's near-rigid level fε (``lows``, one run per step of ``dts``, each halving the last) is
+    outside the integrator's asymptotic range on its constraint forces ('' where it is inside, or cannot be told):
+    the rest twice the distance between the Richardson extrapolations from consecutive pairs above
+    :data:`PRE_ASYMPTOTIC` of the correction, where that correction is not below 1e-3 of the forces (round-off).
+    Its ``position@rigid`` is then no expansion in h either, and an order fitted there is the pre-asymptotic
+    range's, not the method's (Cassie under ``discrete``: docs/findings/softness.md)."""
+    if len(lows) < 3 or any(abs(a / b - 2.0) > 1e-9 for a, b in itertools.pairwise(dts)) \
+            or not lows[0].multipliers:
+        return ""
+    kappa = 2.0**order / (2.0**order - 1.0)
+    worst = None
+    for k in range(len(lows) - 2):
+        x, y, z = (np.concatenate([np.reshape(run.multipliers[c][::2**j], (len(run.multipliers[c][::2**j]), -1))
+                                   for c in sorted(run.multipliers)], axis=1)
+                   for j, run in zip((0, 1, 2), lows[k:k + 3], strict=True))
+        n = min(len(x), len(y), len(z))
+        x, y, z = x[:n], y[:n], z[:n]
+        leading = float(np.max(np.abs(kappa * (x - y))))
+        rest = float(np.max(np.abs(2.0 * ((x - kappa * (x - y)) - (y - kappa * (y - z))))))
+        if leading > 1e-3 * float(np.max(np.abs(z))) and rest > PRE_ASYMPTOTIC * leading:
+            shrink = float(np.max(np.abs(x - y))) / max(float(np.max(np.abs(y - z))), 1e-300)
+            worst = (dts[k], shrink)
+            break
+    if worst is None:
+        return ""
+    return (f"the near-rigid level fε's constraint forces change {worst[1]:.2f}× per halving of h from h = "
+            f"{worst[0] * 1e3:g} ms, not {2.0**order:g}×: these steps are outside the integrator's asymptotic range "
+            f"at the near-rigid softness, where the order fitted is not the method's")
 
 
 def _switched(crossed: Sequence[tuple[str, float]], integrator: str, horizon: float) -> str:
@@ -668,7 +708,8 @@ def order_figures(study: ConvergenceStudy) -> list[Figure]:
         figs.append(Figure(
             FigureName.converge(s.integrator, "order_shortfall"), float(s.shortfall), "1",
             f"max(0, documented order {s.expected:g} − observed {s.fit.order:.2f}) of the {s.quantity} error "
-            f"over T = {study.horizon:g} s, fitted on h = {', '.join(used) or 'none'} ms{floor}"))
+            f"over T = {study.horizon:g} s, fitted on h = {', '.join(used) or 'none'} ms{floor}"
+            + (f"; {s.cause}" if s.cause and s.passed is False else "")))
     return figs
 
 

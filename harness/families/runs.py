@@ -137,6 +137,7 @@ from harness.core.budget import (
     SOLVER_PART_UNCERTAINTY,
     Budget,
     from_rigid,
+    linearity_note,
     richardson,
     to_zero,
     ulp_states,
@@ -238,6 +239,15 @@ class Runs:
         eps_factor, tc_factor: s and r.
         rigid: f where the softness levels are the near-rigid 2fε and fε, and E is at fε
             (:func:`~harness.engine.variants.rigid_factor`); None where they are sε (and s²ε).
+        rigid_ladder: where the near-rigid levels' runs at h, h/2 and h/4 are outside the integrator's
+            asymptotic range (:func:`rigid_resolved`), each level (2fε, then fε) at the first h/s, h/2s, h/4s
+            (s = 4, 16, 64) that is inside it: their value at h → 0 is taken from there (:func:`parts`);
+            ``rigid_split`` is that s. ``rigid_unresolved``: why no s down to :data:`RIGID_SPLITS`' last is (the
+            integrator's figures then fail with that reason: :func:`unresolved`).
+        stiffest: with ``rigid``, the run at h at fε/2 (the smallest ε at MuJoCo's stiffest): not in any part, only
+            to say where the softness is not linear down there (:func:`~harness.core.budget.linearity_note`), from
+            the levels at h where those are inside the asymptotic range (elsewhere their differences at h are
+            the integrator's as much as the softness's).
     """
 
     as_is: Sequence[Deviation]
@@ -255,6 +265,10 @@ class Runs:
     tc_factor: float = 1.5
     completed: Sequence[Deviation] | None = None
     rigid: float | None = None
+    rigid_ladder: Sequence[Sequence[Sequence[Deviation]]] = ()
+    rigid_split: int = 1
+    rigid_unresolved: str = ""
+    stiffest: Sequence[Deviation] | None = None
 
 
 def every_nth(sim: Trajectory, n: int) -> Trajectory:
@@ -337,7 +351,18 @@ def parts(runs: Runs, dev: Deviation, *, order: float) -> Parts:
         q = _by_name(runs.quarter_step)[dev.name]
         integration_unc = 2.0 * ((a - kappa * (a - b)) - (b - kappa * (b - q)))
     softness_unc = timeconst = None
-    if runs.softness and runs.softness_half_step is not None and runs.rigid is not None:
+    if runs.rigid is not None and runs.rigid_ladder:
+        estimates, uncertainties = [], []
+        for level in runs.rigid_ladder:  # Richardson from h/2s and h/4s; its rest bounded by twice the distance
+            x, y, z = (_by_name(group)[dev.name] for group in level)  # from the one from h/s and h/2s
+            first, second = x - kappa * (x - y), y - kappa * (y - z)
+            estimates.append(second)
+            uncertainties.append(2.0 * (first - second))
+        ideal, tail = from_rigid([a, *estimates])
+        explained["softness"] = a - explained["integration"] - ideal
+        # ideal = 2 x₀(fε) − x₀(2fε): each level's own extrapolation uncertainty enters with its weight
+        softness_unc = np.abs(tail) + np.abs(uncertainties[0]) + 2.0 * np.abs(uncertainties[1])
+    elif runs.softness and runs.softness_half_step is not None and runs.rigid is not None:
         f = runs.rigid  # E at fε; at 2fε the integration error is linear in ε between fε and ε (bilinear model)
         levels = [a, *(_by_name(group)[dev.name] for group in runs.softness)]
         at_f = kappa * (levels[2] - _by_name(runs.softness_half_step)[dev.name])
@@ -402,6 +427,8 @@ def unresolved(runs: Runs, *, order: float, integrator: str) -> str:
     the position, h, h/2 and h/4 are not a converging sequence — a pendulum stepped by a sizeable part of its
     period — and no estimate separates integration error from a fault: every figure of the integrator fails
     with this reason rather than pass inside a limit as large as the figure."""
+    if runs.rigid_unresolved:
+        return runs.rigid_unresolved
     if runs.quarter_step is None:
         return ""
     for dev in runs.as_is:
@@ -419,6 +446,30 @@ def unresolved(runs: Runs, *, order: float, integrator: str) -> str:
     return ""
 
 
+RIGID_SPLITS = (1, 4, 16, 64)
+"""The first split s of the near-rigid levels' runs at h/s, h/2s and h/4s, tried in turn until they are inside the
+integrator's asymptotic range (:func:`rigid_resolved`); the deepest run is at h/256. Under ``discrete`` a closed loop
+of light links at the near-rigid ε leaves that range at the model's step while the model's own ε does not (Cassie:
+docs/findings/softness.md, "discrete")."""
+
+
+def rigid_resolved(level: Sequence[Sequence[Deviation]], *, order: float) -> bool:
+    """Whether one near-rigid level's runs at h/s, h/2s and h/4s (``level``) are inside the integrator's asymptotic
+    range: on every figure whose Richardson correction from h/s and h/2s exceeds :data:`ASYMPTOTIC` of its size, the
+    next-order rest (twice the distance between the extrapolations from (h/s, h/2s) and (h/2s, h/4s)) is at most
+    :data:`RESOLVED` of that correction. The rule :func:`unresolved` applies to the model's own position, here on
+    every figure: at a near-rigid ε a loop's connect force can leave the range while the position barely does."""
+    kappa = richardson(order)
+    x, y, z = (_by_name(group) for group in level)
+    for dev in level[0]:
+        a, b, c = x[dev.name], y[dev.name], z[dev.name]
+        leading = dev.magnitude(kappa * (a - b))
+        rest = dev.magnitude(2.0 * ((a - kappa * (a - b)) - (b - kappa * (b - c))))
+        if leading > ASYMPTOTIC * dev.size and rest > RESOLVED * leading:
+            return False
+    return True
+
+
 def noise_gain(runs: Runs, *, order: float) -> float:
     """Σ |wᵢ|: how much the ideal estimate (a linear combination Σ wᵢ xᵢ of the runs, Σ wᵢ = 1) can
     amplify noise that is independent from run to run (round-off, the constraint solver stopping at its
@@ -428,7 +479,7 @@ def noise_gain(runs: Runs, *, order: float) -> float:
     groups = {"as_is": 1, "converged": int(runs.converged is not None), "half_step": 1,
               "quarter_step": int(runs.quarter_step is not None),
               "softness": len(runs.softness), "softness_half_step": int(runs.softness_half_step is not None),
-              "slower": len(runs.slower)}
+              "slower": len(runs.slower), "rigid_ladder": 3 * len(runs.rigid_ladder)}
 
     def unit(hot: tuple[str, int], label: str, index: int = 0) -> list[Deviation]:
         return [Deviation(name, np.array([1.0 if hot == (label, index) else 0.0]), "scalar", "1", "")]
@@ -444,7 +495,9 @@ def noise_gain(runs: Runs, *, order: float) -> float:
                          softness_half_step=unit(hot, "softness_half_step") if groups["softness_half_step"]
                          else None,
                          slower=tuple(unit(hot, "slower", k) for k in range(groups["slower"])),
-                         eps_factor=runs.eps_factor, tc_factor=runs.tc_factor, rigid=runs.rigid)
+                         eps_factor=runs.eps_factor, tc_factor=runs.tc_factor, rigid=runs.rigid,
+                         rigid_ladder=tuple(tuple(unit(hot, "rigid_ladder", 3 * level + k) for k in range(3))
+                                            for level in range(len(runs.rigid_ladder))))
             dev = probe.as_is[0]
             found = parts(probe, dev, order=order)
             gain += float(abs((dev.values - sum(found.explained.values()))[0]))
@@ -462,10 +515,16 @@ def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_toleran
     walk = math.sqrt(max(steps, 1))
     gain = noise_gain(runs, order=order)
     longest = 4.0 if runs.quarter_step is not None else 2.0  # the most steps of any run, in units of N
+    if runs.rigid_ladder:
+        longest = max(longest, 4.0 * runs.rigid_split)
     spread = {d.name: 0.0 for d in runs.as_is}
     for copy in runs.perturbed:
         for dev, other in zip(runs.as_is, copy, strict=True):
             spread[dev.name] = max(spread[dev.name], dev.magnitude(other.values - dev.values))
+    if runs.rigid_ladder:
+        s = runs.rigid_split
+        notes = (*notes, f"softness: the near-rigid levels 2fε, fε taken to h → 0 from their runs at h/{s}, h/{2 * s} "
+                         f"and h/{4 * s}: at h, h/2 and h/4 they are outside the integrator's asymptotic range")
     out = {}
     for dev in runs.as_is:
         found = parts(runs, dev, order=order)
@@ -491,8 +550,12 @@ def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_toleran
                                   if runs.perturbed else gain * roundoff * walk * dev.size),
                      "reference": REFERENCE * rtol * dev.size,
                      "convergence": gain * SOLVER * solver_tolerance * dev.size}
+        said = linearity_note(dev.magnitude, *(_by_name(group)[dev.name] for group in runs.softness),
+                              _by_name(runs.stiffest)[dev.name]) \
+            if runs.rigid is not None and runs.stiffest is not None and len(runs.softness) == 2 \
+            and not runs.rigid_ladder and not runs.rigid_unresolved else ""  # at h: only inside the asymptotic range
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
-                               tolerance=tolerance, notes=tuple(notes))
+                               tolerance=tolerance, notes=(*notes, *((said,) if said else ())))
     return out
 
 
@@ -582,6 +645,8 @@ def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, targe
     if variants.soft:
         plan |= {f"softness{k}": (1, f, 1.0) for k, f in enumerate(levels)}
         plan["softness_half_step"] = (2, rigid or eps, 1.0)
+        if rigid is not None:
+            plan["stiffest"] = (1, rigid / 2.0, 1.0)
     if variants.contacts:
         plan |= {f"slower{k}": (1, f, slow) for k, f in enumerate((1.0, *levels))}
     float32 = engine.epsilon > float(np.finfo(np.float64).eps)
@@ -594,6 +659,8 @@ def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, targe
     # across a clamp's switch the error is no expansion in h (harness.reference.tree.SWITCHED_ORDER): always measured
     asymptotic = not switching and not past_asymptotic(converged or as_is, half_step, order) \
         and V.steps_per_timeconst(model) <= 0.5
+    ladder, rigid_split, rigid_why = _rigid_ladder(mut, probe, engine, target, model, done, steps=steps, order=order,
+                                                   rigid=rigid, integrator=name) if rigid is not None else ((), 1, "")
     represented = _represented(probe, target, model, steps=steps) if float32 else {}
     quantized = _quantized(probe, target, model, steps=steps) if float32 else {}
     return Runs(
@@ -609,8 +676,39 @@ def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, targe
         completed=None if sim.completed is None else compared(target, sim.completed, name),
         represented=represented,
         quantized=quantized,
-        eps_factor=eps, tc_factor=slow, rigid=rigid,
+        eps_factor=eps, tc_factor=slow, rigid=rigid, rigid_ladder=ladder, rigid_split=rigid_split,
+        rigid_unresolved=rigid_why, stiffest=done.get("stiffest"),
     )
+
+
+def _rigid_ladder(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: Target, model: mujoco.MjModel,
+                  done: Mapping[str, list[Deviation]], *, steps: int, order: float, rigid: float, integrator: str
+                  ) -> tuple[tuple[tuple[list[Deviation], ...], ...], int, str]:
+    """The near-rigid levels where fε's runs at h, h/2 (``done``) and h/4 are outside the asymptotic range
+    (:attr:`Runs.rigid_ladder`): () and split 1 where they are inside (the levels at h are then corrected as
+    the module docstring says), else each level at the first h/s, h/2s, h/4s of :data:`RIGID_SPLITS` inside it;
+    the third result says why none down to the last is."""
+    at = {1: done["softness1"], 2: done["softness_half_step"]}
+
+    def runs_at(splits: Sequence[int], factor: float, have: dict[int, list[Deviation]]) -> None:
+        missing = [k for k in splits if k not in have]
+        made = _variant_runs(mut, probe, engine, target, model, steps=steps,
+                             variants=[(k, factor, 1.0) for k in missing])
+        have.update(zip(missing, made, strict=True))
+
+    for s in RIGID_SPLITS:
+        runs_at((s, 2 * s, 4 * s), rigid, at)
+        if rigid_resolved((at[s], at[2 * s], at[4 * s]), order=order):
+            if s == 1:
+                return (), 1, ""
+            twice: dict[int, list[Deviation]] = {}
+            runs_at((s, 2 * s, 4 * s), 2.0 * rigid, twice)
+            return ((twice[s], twice[2 * s], twice[4 * s]), (at[s], at[2 * s], at[4 * s])), s, ""
+    deepest = 4 * RIGID_SPLITS[-1]
+    return (), 1, (f"unresolved: the near-rigid softness level (every ε × {rigid:.3g}) is outside {integrator}'s "
+                   f"asymptotic range at every timestep down to h/{deepest} (the runs at h/s, h/2s and h/4s give a "
+                   f"next-order term above {RESOLVED:g} of the leading one on some figure), so no budget can tell "
+                   f"its softness from a fault")
 
 
 def _represented(probe: Probe, target: Target, model: mujoco.MjModel, *, steps: int) -> dict[str, float]:
@@ -710,7 +808,9 @@ def _renamed(runs: Runs, integrator: str, as_is: Sequence[Deviation]) -> Runs:
                                softness=tuple(devs(r) for r in runs.softness),
                                softness_half_step=devs(runs.softness_half_step),
                                slower=tuple(devs(r) for r in runs.slower),
-                               perturbed=tuple(devs(r) for r in runs.perturbed), completed=devs(runs.completed))
+                               perturbed=tuple(devs(r) for r in runs.perturbed), completed=devs(runs.completed),
+                               rigid_ladder=tuple(tuple(devs(r) for r in level) for level in runs.rigid_ladder),
+                               stiffest=devs(runs.stiffest))
 
 
 TWIN_TOLERANCE = 1e-9

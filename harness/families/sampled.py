@@ -71,6 +71,7 @@ from harness.core.budget import (
     Budget,
     from_rigid,
     gain,
+    linearity_note,
     to_zero,
 )
 from harness.core.deviation import Deviation
@@ -470,6 +471,7 @@ def evaluate(mut: V.ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref: Re
     levels = (2.0 * rigid, rigid) if rigid is not None else (eps_factor, eps_factor**2) if eps_factor < 1 \
         else (eps_factor,)
     softness = tuple(at(V.variant(model, eps_factor=f)) for f in levels) if variants.soft else ()
+    stiffest = at(V.variant(model, eps_factor=rigid / 2.0)) if rigid is not None else None  # fε/2: 1e-4 (the cap)
     heavier = lighter = None
     if variants.point_masses:
         base, more = V.floors_pair(model, variants.point_masses)
@@ -479,6 +481,7 @@ def evaluate(mut: V.ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref: Re
     margins = at(wider) if wider is not None else None
     made = budgets(found.deviations, conditioning=conditioning, softness=softness, heavier=heavier, lighter=lighter,
                    converged=converged, margins=margins, eps_factor=eps_factor, rigid=rigid is not None,
+                   stiffest=stiffest,
                    solver_tolerance=V.CONVERGED_TOLERANCE if exact is not None else variants.solver_tolerance,
                    notes=(*variants.notes, *((found.completion_note,) if found.completion_note else ())),
                    perturbed=found.perturbed, represented=found.represented, epsilon=engine.epsilon,
@@ -542,7 +545,8 @@ def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation
                     represented: Mapping[FigureName, float] | None = None,
                     epsilon: float = float(np.finfo(np.float32).eps),
                     completed: Sequence[Deviation] | None = None,
-                    conditioning: float = 1.0) -> dict[FigureName, Budget]:
+                    conditioning: float = 1.0, stiffest: Sequence[Deviation] | None = None
+                    ) -> dict[FigureName, Budget]:
     """Every figure's budget from the model's deviations at the sampled states (A) and,
     where they apply, the model's with every ε × s, s² (``softness``, s = ``eps_factor``; ``rigid``: at the
     near-rigid 2fε and fε instead, :func:`~harness.core.budget.from_rigid`) and with
@@ -553,8 +557,11 @@ def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation
     ``converged``: A with the constraints solved exactly, where the model's own solver does not converge
     (the other evaluations are then made that way too).
     ``completed``: on a float32 backend, A with the backend's stopped solve completed in float64
-    (:mod:`harness.engine.backends.completion`; the other evaluations are then passed completed too)."""
+    (:mod:`harness.engine.backends.completion`; the other evaluations are then passed completed too).
+    ``stiffest``: with ``rigid``, A at fε/2 (the smallest ε at MuJoCo's stiffest, 1e-4): not used in the part, only
+    to say where the softness is not linear down there (:func:`linearity_note`)."""
     levels = [{d.name: d.values for d in group} for group in softness]
+    lowest = {d.name: d.values for d in stiffest or ()}
     floors = {d.name: d.values for d in heavier or ()}
     floors_base = {d.name: d.values for d in lighter or ()}
     exact = {d.name: d.values for d in converged or ()}
@@ -604,6 +611,9 @@ def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation
                      "stop": SOLVER_PART_UNCERTAINTY * explained.get("stop", 0.0),
                      "roundoff": roundoff,
                      "convergence": noise * SOLVER * solver_tolerance * dev.size}
+        said = linearity_note(dev.magnitude, levels[0][dev.name], levels[1][dev.name], lowest[dev.name]) \
+            if rigid and len(levels) == 2 and dev.name in lowest else ""
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
-                               tolerance=tolerance, notes=tuple(notes))
+                               tolerance=tolerance, notes=(*notes, *((said,) if said else ())))
     return out
+
