@@ -49,7 +49,9 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -561,14 +563,21 @@ def convergence_study(
         except (SimulationDiverged, ValueError):
             return dict.fromkeys(dts)
 
+    extras = (double_softness, *near) if constrained else ()
+
+    def ladder_of(name: str) -> dict[float, tuple]:
+        return _ladder_runs(run, name, tuple(h0 * k for k in multiples[name]), extras, probe=probe, path=path,
+                            edit=edit, start=(reference.q0(), reference.qd0()), horizon=horizon, engine=engine)
+
+    # every integrator's ladder side by side (their compiles and steps run in C, Python's lock released)
+    with ThreadPoolExecutor(max_workers=max(1, min(len(chosen), os.cpu_count() or 1))) as pool:
+        ladders = dict(zip(chosen, pool.map(ladder_of, chosen), strict=True))
     series: list[Series] = []
     for name in chosen:
         dts = tuple(h0 * k for k in multiples[name])
         errs: dict[str, list[float]] = {"position": [], "position@rigid": [], "softness": [], "force": []}
         tails: list[float] = []  # the near-rigid extrapolation's own uncertainty per step (RIGID_TAIL: all it adds)
-        extras = (double_softness, *near) if constrained else ()
-        ladder = _ladder_runs(run, name, dts, extras, probe=probe, path=path, edit=edit,
-                              start=(reference.q0(), reference.qd0()), horizon=horizon, engine=engine)
+        ladder = ladders[name]
         for h in dts:
             sim, soft, *pair = ladder[h]
             if sim is None or (constrained and soft is None) or None in pair:  # the series says why (Series.diverged)
@@ -685,10 +694,16 @@ def _ladder_runs(run: Callable, name: str, dts: Sequence[float], softer: Sequenc
     so that each diverged run is told apart as before."""
     extras = (None, *softer)
     keys = [(h, extra) for h in dts for extra in extras]
+
+    def request(key: tuple[float, Callable | None]) -> Request:
+        h, extra = key
+        return Request(compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra)), *start,
+                       steps_in(horizon, h))
+
     try:
-        trajs = engine.simulate_many([Request(compile_model(path, integrator=name, timestep=h,
-                                                     edit=_compose(edit, extra)),
-                                       *start, steps_in(horizon, h)) for h, extra in keys], probe)
+        with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:  # compiled side by side (no GIL in C)
+            requests = list(pool.map(request, keys))
+        trajs = engine.simulate_many(requests, probe)
         done = dict(zip(keys, trajs, strict=True))
     except SimulationDiverged:
         done = {key: run(name, *key) for key in keys}

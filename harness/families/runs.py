@@ -116,7 +116,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import mujoco
@@ -766,14 +768,13 @@ def variant_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: T
             return runs, {name: f"the budget's run with the point masses' floors doubled {exc.reason}"
                           for name in sims}
     twins: list[tuple[float, Trajectory, str]] = []  # (order, run at h, the integrator whose variants it has)
+    twin_of: dict[str, str] = {}
+    jobs: list[tuple[str, Trajectory, list[Deviation]]] = []
     for name, sim in sims.items():
         twin = next((owner for order, other, owner in twins
                      if order == orders[name] and _twins(sim, other, target.scales)), None)
         if twin is not None:  # the same step map: its variants are the same runs
-            if twin in runs:
-                runs[name] = _renamed(runs[twin], name, compared(target, sim, name))
-            else:
-                failed[name] = failed[twin]
+            twin_of[name] = twin
             continue
         twins.append((orders[name], sim, name))
         as_is = compared(target, sim, name)
@@ -781,18 +782,32 @@ def variant_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: T
         if why:  # a diverged run has no budget: its variants would only diverge further
             failed[name] = why
             continue
+        jobs.append((name, sim, as_is))
+
+    def budgeted(job: tuple[str, Trajectory, list[Deviation]]) -> tuple[Runs | None, str]:
+        name, sim, as_is = job
         try:
             made = _integrator_runs(mut, probe, engine, target, sim, name, as_is=as_is, order=orders[name],
                                     variants=variants, floors=floors, switching=switching)
         except SimulationDiverged as exc:
-            failed[name] = f"a run of its budget (a variant at h/2, h/4 or softer) {exc.reason}"
-            continue
-        why = unresolved(made, order=orders[name], integrator=name)
-        if why:
-            failed[name] = why
+            return None, f"a run of its budget (a variant at h/2, h/4 or softer) {exc.reason}"
+        return made, unresolved(made, order=orders[name], integrator=name)
+
+    # each integrator's variants side by side (their steps and compiles run in C, Python's lock released)
+    with ThreadPoolExecutor(max_workers=max(1, min(len(jobs), os.cpu_count() or 1))) as pool:
+        for (name, _, _), (made, why) in zip(jobs, pool.map(budgeted, jobs), strict=True):
+            if why or made is None:
+                failed[name] = why
+            else:
+                runs[name] = made
+    for name, twin in twin_of.items():
+        if twin in runs:
+            runs[name] = _renamed(runs[twin], name, compared(target, sims[name], name))
         else:
-            runs[name] = made
-    return runs, failed
+            failed[name] = failed[twin]
+    order = list(sims)
+    return ({k: runs[k] for k in sorted(runs, key=order.index)},
+            {k: failed[k] for k in sorted(failed, key=order.index)})
 
 
 def _renamed(runs: Runs, integrator: str, as_is: Sequence[Deviation]) -> Runs:

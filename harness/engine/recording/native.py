@@ -41,6 +41,7 @@ import shutil
 import stat
 import subprocess
 import tempfile
+import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -85,16 +86,21 @@ def why_not() -> str | None:
     return _why_not[0] if _why_not else None
 
 
+_LOADING = threading.Lock()
+
+
 @functools.cache
 def library() -> ctypes.CDLL | None:
-    """The built recorder, loaded; None (and :func:`why_not` set) where it cannot be built or loaded."""
-    try:
-        lib = _load()
-    except _Unavailable as exc:
-        _why_not[:] = [str(exc)]
-        return None
-    _why_not.clear()
-    return lib
+    """The built recorder, loaded; None (and :func:`why_not` set) where it cannot be built or loaded. One thread
+    at a time builds or loads it (runs are recorded side by side)."""
+    with _LOADING:
+        try:
+            lib = _load()
+        except _Unavailable as exc:
+            _why_not[:] = [str(exc)]
+            return None
+        _why_not.clear()
+        return lib
 
 
 class _Unavailable(Exception):
