@@ -13,7 +13,7 @@ import pytest
 
 import harness
 from harness.cases.own import from_mjcf
-from harness.engine.compat import set_damping
+from harness.engine.compat import full_mass_matrix, set_damping
 
 ROOT = Path(__file__).resolve().parents[1]
 FOUR_BAR = ROOT / "examples" / "four_bar_a02.xml"
@@ -217,11 +217,9 @@ def _generalized_force_error(theta_deg: float, eps: float) -> float:
     """|MuJoCo's Jᵀλ − the rigid one| / |the rigid one| at the four-bar's rest pose. The rigid one is an independent
     check computed here from the KKT system of MuJoCo's own M and J at rest (J q̈ = 0; the pseudo-inverse, the rows
     being redundant; Jᵀλ is unique): this pins MuJoCo's softness law, it judges no dynamics."""
-    import mujoco
 
     model, data = _four_bar_near_singular(theta_deg, eps)
-    mass = np.zeros((model.nv, model.nv))
-    mujoco.mj_fullM(model, data, mass)
+    mass = full_mass_matrix(model, data)
     jac = data.efc_J.reshape(data.nefc, model.nv)
     a = jac @ np.linalg.solve(mass, jac.T)
     rigid = -jac.T @ (np.linalg.pinv(a, rcond=1e-12) @ (jac @ np.linalg.solve(mass, data.qfrc_smooth)))

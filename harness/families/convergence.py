@@ -249,16 +249,14 @@ def unavailable_integrators() -> dict[str, str]:
 
 
 def double_softness(spec: mujoco.MjSpec) -> None:
-    """Double ε = 1 − d of every equality's impedance (solimp d0 and d_width)."""
+    """Double ε = 1 − d of every equality's impedance (solimp d0 and d_width): :func:`scaled_softness` by 2, where
+    every 1 − d has room to double."""
     for eq in spec.equalities:
-        imp = [float(x) for x in eq.solimp]
         for k in (0, 1):
-            eps = 1.0 - imp[k]
-            if not 0 < eps < 0.5:
-                raise ValueError(f"equality {eq.name!r}: solimp[{k}] = {imp[k]} leaves no room to double "
-                                 "1 − d; accepted: 0.5 < d < 1")
-            imp[k] = 1.0 - 2.0 * eps
-        eq.solimp = imp
+            if not 0 < 1.0 - float(eq.solimp[k]) < 0.5:
+                raise ValueError(f"equality {eq.name!r}: solimp[{k}] = {float(eq.solimp[k])} leaves no room to "
+                                 "double 1 − d; accepted: 0.5 < d < 1")
+    scaled_softness(2.0)(spec)
 
 
 def quadruple_softness(spec: mujoco.MjSpec) -> None:
