@@ -69,8 +69,8 @@ def test_the_timed_evaluation_is_stopped_at_its_deadline(tmp_path):
     from harness.engine.models import compile_model
     from harness.reference.tree import TreeSystem, prepare
 
-    path = tmp_path / "chain64.xml"
-    path.write_text(chain(64))
+    path = tmp_path / "chain128.xml"  # its first evaluation (~0.15 s) far past a timer tick (4-10 ms)
+    path.write_text(chain(128))
     model = compile_model(path, edit=prepare)
     dyn = TreeSystem().dynamics(model)
     import numpy as np

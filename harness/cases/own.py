@@ -209,9 +209,11 @@ def _timed_evaluation(dyn: TreeDynamics, q: np.ndarray, qd: np.ndarray, deadline
     import threading  # lazy: as above
 
     stoppable = threading.current_thread() is threading.main_thread() and hasattr(signal, "ITIMER_PROF")
+    armed = [True]
 
-    def stop(_signum, _frame):
-        raise _Slow
+    def stop(_signum, _frame):  # Python runs it between bytecodes: past the evaluation's end it must do nothing
+        if armed[0]:
+            raise _Slow
 
     clock = time.process_time()
     previous = signal.signal(signal.SIGPROF, stop) if stoppable else None
@@ -219,9 +221,11 @@ def _timed_evaluation(dyn: TreeDynamics, q: np.ndarray, qd: np.ndarray, deadline
         signal.setitimer(signal.ITIMER_PROF, deadline)
     try:
         dyn.accelerations(q, qd)
+        armed[0] = False
     except _Slow:
         return deadline, True
     finally:
+        armed[0] = False
         if stoppable:
             signal.setitimer(signal.ITIMER_PROF, 0)
             signal.signal(signal.SIGPROF, previous)
