@@ -32,6 +32,18 @@ if TYPE_CHECKING:
 Array = np.ndarray
 
 
+CHUNK_CONFIGURATIONS = 1024
+"""The most configurations one batched evaluation of a tree's equations holds (each state takes n + 2 of them, the
+complex steps of its q-derivatives): a longer batch (a reference sampled on a run's grid, the 2n dual-number
+columns of a Jacobian) is evaluated in chunks of states, whose arrays stay in the caches instead of being paged in
+(docs/findings/bases.md, CHUNK_CONFIGURATIONS)."""
+
+
+def chunk_states(n: int) -> int:
+    """How many states of a system of ``n`` coordinates one batched evaluation takes (:data:`CHUNK_CONFIGURATIONS`)."""
+    return max(1, CHUNK_CONFIGURATIONS // (n + 2))
+
+
 def _source(exprs: sp.Matrix, args: list[sp.Symbol]) -> str:
     """The source of ``lambdify(args, entries of exprs)`` (empty for an empty matrix), every numpy
     function written ``numpy.<name>`` so that the code runs with numpy alone in its namespace."""

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from analytic import dop853, dual, radau
-from analytic.dynamics import Array, Dynamics
+from analytic.dynamics import Array, Dynamics, chunk_states
 
 DEFAULT_RTOL = 1e-12
 DEFAULT_ATOL = 1e-12
@@ -181,8 +181,10 @@ def state_jacobian(dynamics: Dynamics, rhs: dop853.RightHandSide, t: float, y: A
     column (f(y + δe_j) − f(y))/δ, step √ε × max(|y_j|, atol/rtol), except the velocity columns where
     :attr:`Dynamics.velocity_polynomial` (q̈ at fixed q a polynomial of degree ≤ 3 in q̇): the five-point derivative
     (f(−2δ) − 8f(−δ) + 8f(δ) − f(2δ))/12δ, exact for degree ≤ 4 whatever δ, so δ is the velocity's own size."""
-    if dynamics.dual_states and not differences:
-        return np.asarray(dual.tangent(rhs(t, dual.seeded(y, np.eye(y.size))))).T.copy()
+    if dynamics.dual_states and not differences:  # the columns in chunks (analytic.dynamics.chunk_states)
+        eye, per = np.eye(y.size), chunk_states(dynamics.n)
+        return np.concatenate([np.asarray(dual.tangent(rhs(t, dual.seeded(y, eye[j:j + per]))))
+                               for j in range(0, y.size, per)]).T.copy()
     n = y.size // 2
     eps = np.finfo(float).eps
     exact = dynamics.velocity_polynomial

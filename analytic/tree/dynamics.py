@@ -38,7 +38,7 @@ from functools import cached_property
 import numpy as np
 
 from analytic.dual import Dual
-from analytic.dynamics import Dynamics
+from analytic.dynamics import Dynamics, chunk_states
 from analytic.tree.kinematics import Layout, Pose, forward, point_jacobians, points_on, velocity_map
 from analytic.tree.model import FREE, Tree
 from analytic.tree.rotations import cross, mat_t_vec, mat_vec, quat_to_mat, right_jacobian, skew, vee
@@ -47,6 +47,22 @@ Array = np.ndarray
 
 STEP = 1e-30
 """The complex step h: Im f(q + i h v)/h = f′(q) v + O(h² |v|³), so any h far below round-off will do."""
+
+
+
+def _chunked(evaluate, q: Array, qd: Array, n: int) -> tuple:
+    """``evaluate(q, qd)`` (a tuple of arrays or None, each with the states' leading shape) over at most
+    :func:`~analytic.dynamics.chunk_states` states at a time, joined; at once where the batch is that small or the
+    states are dual numbers."""
+    lead = q.shape[:-1]
+    states = int(np.prod(lead)) if lead else 1
+    per = chunk_states(n)
+    if states <= per or not isinstance(q, np.ndarray) or not isinstance(qd, np.ndarray):
+        return evaluate(q, qd)
+    q, qd = q.reshape(states, -1), qd.reshape(states, -1)
+    parts = [evaluate(q[i:i + per], qd[i:i + per]) for i in range(0, states, per)]
+    return tuple(None if group[0] is None else np.concatenate(group).reshape(*lead, *group[0].shape[1:])
+                 for group in zip(*parts, strict=True))
 
 
 def _clip(x: Array, lo: Array, hi: Array) -> Array:
@@ -385,7 +401,7 @@ class TreeDynamics(Dynamics):
         """M(q) and F(q, q̇) from one batched evaluation: the real configuration, q + i h q̇ (for Ṁ q̇ = d/dt ∂T/∂q̇
         at q̈ = 0), and q + i h e_k (for ∂L/∂q_k)."""
         q, qd = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(qd, dtype=float))
-        return self._mass_and_forcing(q, qd)[:2]
+        return _chunked(lambda a, b: self._mass_and_forcing(a, b)[:2], q, qd, self.n)
 
     def kkt_terms(self, q: Array, qd: Array, *, stabilization: tuple[float, float] = (0.0, 0.0)
                   ) -> tuple[Array, Array, Array | None, Array | None]:
@@ -393,11 +409,15 @@ class TreeDynamics(Dynamics):
         the constraints' configuration q + i h q̇ is the second of the batch M and F are computed at. Dual-number
         states (:attr:`dual_states`) give each block's exact tangent."""
         q, qd = np.broadcast_arrays(_state(q), _state(qd))
-        mass, force, c, pose = self._mass_and_forcing(q, qd)
-        if self.rows == 0:
-            return mass, force, None, None
-        return (mass, force, *self._constraint_terms(qd, *self._rows(c[..., 1, :], _member(pose, 1)),
-                                                     stabilization=stabilization))
+
+        def terms(q: Array, qd: Array) -> tuple[Array, Array, Array | None, Array | None]:
+            mass, force, c, pose = self._mass_and_forcing(q, qd)
+            if self.rows == 0:
+                return mass, force, None, None
+            return (mass, force, *self._constraint_terms(qd, *self._rows(c[..., 1, :], _member(pose, 1)),
+                                                         stabilization=stabilization))
+
+        return _chunked(terms, q, qd, self.n)
 
     def _mass_and_forcing(self, q: Array, qd: Array) -> tuple[Array, Array, Array, Pose]:
         """M, F, and the configurations (..., n + 2, n) they were computed at with their pose."""
