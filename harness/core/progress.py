@@ -35,10 +35,13 @@ def _forked() -> None:
 os.register_at_fork(after_in_child=_forked)
 
 
-def stage(name: str) -> None:
-    """Name what the phase now running does (the next line says it); nothing where no phase runs."""
+def stage(name: str) -> str:
+    """Name what the phase now running does (the next line says it); nothing where no phase runs. Returns the
+    stage it replaces (to name again when a step inside it ends)."""
     with _lock:
+        previous = str(_state["stage"])
         _state["stage"] = name
+    return previous
 
 
 def _line(subject: str, started: float) -> str:

@@ -207,13 +207,15 @@ class Bench:
         self.probe = case.probe(self.reference.dynamics)
 
     def timed(self, stage: str, work: Callable[[], object]) -> object:
-        """``work()``, its seconds added to the timings under ``stage`` (and named in the progress lines)."""
-        progress.stage(stage)
+        """``work()``, its seconds added to the timings under ``stage`` (and named in the progress lines until it
+        ends: a stage timed inside another, the budget's switches inside its runs, gives the name back)."""
+        previous = progress.stage(stage)
         clock = time.perf_counter()
         try:
             return work()
         finally:
             self.timings[stage] = self.timings.get(stage, 0.0) + time.perf_counter() - clock
+            progress.stage(previous)
 
     # ------------------------------------------------------------------ the sampled states
     @cached_property

@@ -72,6 +72,7 @@ from harness.engine.models import compile_model
 from harness.engine.recording import steps_in
 from harness.engine.variants import exact_solver, floors_pair, point_masses, rigid_factor
 from harness.families.bench import Bench, Measured
+from harness.families.runs import every_nth
 from harness.reference import solutions as refmod
 from harness.reference.tree import SWITCHED_ORDER, switched_orders, switches
 
@@ -521,7 +522,6 @@ def convergence_study(
     rigid = rigid_factor(base) if constrained else None
     near = (scaled_softness(rigid), scaled_softness(2.0 * rigid)) if rigid is not None else ()
     scales = reference.scales
-    grids: dict[int, Trajectory] = {}
     force_floor = initial_force_floor(base, reference) if constrained else None
 
     diverged: dict[str, str] = {}  # per integrator, the first run of its ladder that diverged
@@ -570,6 +570,8 @@ def convergence_study(
     # every integrator's ladder side by side (their compiles and steps run in C, Python's lock released)
     with ThreadPoolExecutor(max_workers=max(1, min(len(chosen), os.cpu_count() or 1))) as pool:
         ladders = dict(zip(chosen, pool.map(ladder_of, chosen), strict=True))
+    grids = _reference_grids(reference, [run[0].t for ladder in ladders.values() for run in ladder.values()
+                                         if run[0] is not None])
     series: list[Series] = []
     for name in chosen:
         dts = tuple(h0 * k for k in multiples[name])
@@ -583,8 +585,6 @@ def convergence_study(
                     v.append(math.nan)
                 continue
             steps = len(sim.t) - 1
-            if steps not in grids:
-                grids[steps] = refmod.trajectory(reference, sim.t)
             ref = grids[steps]
             errs["position"].append(_point_error(sim.positions, ref.positions))
             if constrained:  # Richardson in ε from ε and 2ε, or from the near-rigid fε and 2fε
@@ -630,6 +630,25 @@ def convergence_study(
     unavailable = unavailable_integrators() if integrators is None else {}
     return ConvergenceStudy(case=case.name, horizon=horizon, fast=fast, constrained=constrained,
                             series=tuple(series), unavailable=unavailable, joints=joint_types(base))
+
+
+def _reference_grids(reference: refmod.Reference, grids: Sequence[np.ndarray]) -> dict[int, Trajectory]:
+    """The reference on each of ``grids`` (sample times k·h), by number of steps: evaluated once on the finest and
+    taken every m-th sample for each grid that is exactly every m-th of its times (the ladder's halvings of h),
+    else evaluated on its own. Each sample's constraint forces cost a KKT solve of the tree."""
+    by_steps = {len(t) - 1: t for t in grids}
+    if not by_steps:
+        return {}
+    finest = max(by_steps)
+    fine = refmod.trajectory(reference, by_steps[finest])
+    out = {finest: fine}
+    for steps, t in by_steps.items():
+        if steps == finest:
+            continue
+        m = finest // steps
+        same = finest % steps == 0 and np.array_equal(fine.t[::m], t)
+        out[steps] = every_nth(fine, m) if same else refmod.trajectory(reference, t)
+    return out
 
 
 PRE_ASYMPTOTIC = 0.5

@@ -448,11 +448,12 @@ def unresolved(runs: Runs, *, order: float, integrator: str) -> str:
     return ""
 
 
-RIGID_SPLITS = (1, 4, 16, 64)
+RIGID_SPLITS = (1, 2, 4, 8, 16, 32, 64)
 """The first split s of the near-rigid levels' runs at h/s, h/2s and h/4s, tried in turn until they are inside the
-integrator's asymptotic range (:func:`rigid_resolved`); the deepest run is at h/256. Under ``discrete`` a closed loop
-of light links at the near-rigid ε leaves that range at the model's step while the model's own ε does not (Cassie:
-docs/findings/softness.md, "discrete")."""
+integrator's asymptotic range (:func:`rigid_resolved`); the deepest run is at h/256. Halving s from one try to the
+next costs one new run a try (h/4s; the other two are the last try's) and stops at the shallowest split inside the
+range. Under ``discrete`` a closed loop of light links at the near-rigid ε leaves that range at the model's step
+while the model's own ε does not (Cassie: docs/findings/softness.md, "discrete")."""
 
 
 def rigid_resolved(level: Sequence[Sequence[Deviation]], *, order: float) -> bool:
