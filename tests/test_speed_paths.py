@@ -534,6 +534,25 @@ def test_the_command_loads_no_gl_binding_and_leaves_mujoco_gl_as_it_was(user):
     assert proc.stdout.split() == ["False", str(user)], proc.stderr
 
 
+BLAS_THREADS = (
+    "import ctypes, glob, os, sys; from harness.cli import entry as command; command.import_mujoco_without_gl(); "
+    "import numpy; libs = glob.glob(os.path.join(os.path.dirname(numpy.__file__), os.pardir, '*.libs', '*openblas*'));"
+    "names = ('scipy_openblas_get_num_threads64_', 'openblas_get_num_threads64_', 'openblas_get_num_threads');"
+    "found = [getattr(ctypes.CDLL(lib), n) for lib in libs for n in names if hasattr(ctypes.CDLL(lib), n)];"
+    "print(found[0]() if found else 'none', os.environ.get('OPENBLAS_NUM_THREADS'))")
+
+
+@pytest.mark.parametrize("user", [None, "2"])
+def test_the_command_runs_numpy_on_one_blas_thread_unless_the_user_says_otherwise(user):
+    """A command spreads its work over the cores itself, so numpy's OpenBLAS gets one thread (a user's
+    OPENBLAS_NUM_THREADS stands); the variable is the user's again after."""
+    proc = _python("-c", BLAS_THREADS, OPENBLAS_NUM_THREADS=user)
+    threads, after = proc.stdout.split()
+    if threads == "none":
+        pytest.skip("this numpy's BLAS is not OpenBLAS (nothing to count its threads by)")
+    assert (int(threads), after) == (1 if user is None else 2, str(user)), proc.stderr
+
+
 def _square_or_fail(x: int) -> int:
     if x in (3, 5):
         raise ValueError(f"call {x} failed")
