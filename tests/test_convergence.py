@@ -272,3 +272,29 @@ def test_a_failed_order_says_where_the_near_rigid_level_is_outside_the_asymptoti
     shrink = (g(dts[0]) - g(dts[1])) / (g(dts[1]) - g(dts[2]))
     assert "outside the integrator's asymptotic range" in said and f"{shrink:.2f}×" in said, said
     assert 1.0 < shrink < 4.0 / 3.0  # a shrink the asymptotic range of a first-order method excludes
+
+
+def test_the_ladders_reference_is_evaluated_once_on_the_finest_grid_and_taken_every_mth_sample(monkeypatch):
+    """The reference on each rung's grid (constraint forces: a KKT solve per sample) is the finest grid's every
+    m-th sample where the grids nest, the same values as evaluated on its own (to round-off); a grid that does
+    not nest is evaluated on its own."""
+    from harness.reference import solutions as refmod
+
+    case = cases.get("slider_crank")
+    model = compile_model(case.mjcf)
+    ref = case.reference(model)
+    h = float(model.opt.timestep)
+    grids = [np.arange(k * 50 + 1) * (h / k) for k in (1, 2, 4)] + [np.arange(31) * (1.5 * h)]
+    evaluated = []
+    real = refmod.trajectory
+    monkeypatch.setattr(refmod, "trajectory", lambda r, t: evaluated.append(len(t)) or real(r, t))
+    got = orders._reference_grids(ref, grids)
+    assert sorted(evaluated) == [31, 201]
+    for t in grids:
+        alone = real(ref, t)
+        mine = got[len(t) - 1]
+        assert np.array_equal(mine.t, t)
+        for name, values in alone.multipliers.items():
+            assert np.allclose(mine.multipliers[name], values, rtol=0, atol=1e-12 * np.abs(values).max())
+        for name, values in alone.positions.items():
+            assert np.allclose(mine.positions[name], values, rtol=0, atol=1e-12 * np.abs(values).max())

@@ -337,3 +337,35 @@ def test_forces_it_does_not_model_are_listed():
     xml = xml.replace("<worldbody>", "<worldbody><geom type='plane' size='5 5 .1'/>")
     gaps = uncovered(_compiled(xml))
     assert {"fluid forces", "joint limits", "dry friction", "contacts"} <= set(gaps)
+
+
+@pytest.mark.parametrize("chunk", [1, 13 * 7, 10**9])
+def test_a_batch_is_each_states_evaluation_however_it_is_chunked(monkeypatch, chunk):
+    """A long batch of states is evaluated in chunks (analytic.dynamics.CHUNK_CONFIGURATIONS: its arrays stay in
+    the caches); every state's M, F and the Radau Jacobian's columns are its own evaluation's, to round-off,
+    whether the batch is one chunk, several uneven ones, or a state at a time."""
+    import analytic.dynamics
+    from analytic.solvers import state_jacobian
+
+    monkeypatch.setattr(analytic.dynamics, "CHUNK_CONFIGURATIONS", chunk)
+    model = _compiled(EVERY_KIND)
+    qpos, qvel = _random_states(model, 1, seed=3)[0]
+    dyn, q, qd = _at(model, qpos, qvel)
+    rng = np.random.default_rng(5)
+    qs, qds = q + 0.1 * rng.normal(size=(40, dyn.n)), qd + rng.normal(size=(40, dyn.n))
+    mass, force = dyn.mass_and_forcing(qs, qds)
+    kkt = dyn.kkt_terms(qs.reshape(5, 8, dyn.n), qds.reshape(5, 8, dyn.n))
+    for i in (0, 7, 8, 39):
+        m_i, f_i = dyn.mass_and_forcing(qs[i], qds[i])
+        assert np.allclose(mass[i], m_i, rtol=0, atol=AGREE * np.abs(m_i).max())
+        assert np.allclose(force[i], f_i, rtol=0, atol=AGREE * np.abs(f_i).max())
+        assert np.allclose(kkt[1].reshape(40, dyn.n)[i], f_i, rtol=0, atol=AGREE * np.abs(f_i).max())
+
+    def rhs(t, y):
+        return np.concatenate([y[..., dyn.n:], dyn.accelerations(y[..., :dyn.n], y[..., dyn.n:])[0]], axis=-1)
+
+    y = np.concatenate([q, qd])
+    jac = state_jacobian(dyn, rhs, 0.0, y, rhs(0.0, y))
+    monkeypatch.setattr(analytic.dynamics, "CHUNK_CONFIGURATIONS", 10**9)
+    whole = state_jacobian(dyn, rhs, 0.0, y, rhs(0.0, y))
+    assert np.allclose(jac, whole, rtol=0, atol=AGREE * np.abs(whole).max())
