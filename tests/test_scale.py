@@ -43,6 +43,41 @@ def test_a_300_link_chain_is_refused_up_front_with_its_estimate(tmp_path, no_sol
     assert "MJHARNESS_MAX_REFERENCE_SECONDS=" in err
 
 
+def test_a_tree_whose_start_jacobian_passes_the_bound_is_refused_up_front(tmp_path, no_solve, monkeypatch):
+    """Every tree solve starts with the exact Jacobian of its stiffness test (2n dual-number columns): where the
+    evaluations' floor fits the bound but that Jacobian does not, the model is refused before any solve, the
+    Jacobian named. The bound is set to twice the chain's own floor, so the test holds on any machine: its Jacobian
+    is some 2n evaluations' worth, far past the 90 of the floor."""
+    import numpy as np
+
+    from harness.engine.models import compile_model
+    from harness.reference.tree import TreeSystem, prepare
+
+    path = tmp_path / "chain128.xml"
+    path.write_text(chain(128))
+    model = compile_model(path, edit=prepare)
+    dyn = TreeSystem().dynamics(model)
+    q = np.zeros(dyn.n)
+    own._timed_evaluation(lambda: dyn.accelerations(q, q), deadline=100.0)  # what the tree caches, built
+    seconds, _ = own._timed_evaluation(lambda: dyn.accelerations(q, q), deadline=100.0)
+    bound = max(1, round(2 * bounds.EVALUATIONS_PER_SECOND * seconds))
+    monkeypatch.setenv(bounds.MAX_REFERENCE_SECONDS_VARIABLE, str(bound))
+    with pytest.raises(RunTooLong, match=r"each solve starts with its exact Jacobian \(its stiffness test: 256 "
+                                         r"columns\), more than"):
+        own.from_mjcf(path)
+
+
+def test_the_start_jacobian_counts_with_the_evaluations_floor():
+    per, bound = bounds.EVALUATIONS_PER_SECOND, bounds.MAX_REFERENCE_SECONDS
+    bounds.check_reference_cost(evaluation=0.5 * bound / per, span=1.0, nv=7, jacobian=0.4 * bound)  # within
+    with pytest.raises(RunTooLong, match=r"at least .*--horizon 0\.8 or shorter fits") as refused:
+        bounds.check_reference_cost(evaluation=0.5 * bound / per, span=1.0, nv=7, jacobian=0.6 * bound)
+    assert "(its stiffness test: 14 columns), 18 s by one chunk" in str(refused.value)
+    with pytest.raises(RunTooLong) as alone:  # the Jacobian alone past the bound: no horizon fits
+        bounds.check_reference_cost(evaluation=0.1 * bound / per, span=1.0, nv=7, jacobian=1.5 * bound)
+    assert "--horizon" not in str(alone.value)
+
+
 def test_a_normal_model_is_not_refused(tmp_path):
     path = tmp_path / "chain4.xml"
     path.write_text(chain(4))
@@ -76,9 +111,9 @@ def test_the_timed_evaluation_is_stopped_at_its_deadline(tmp_path):
     import numpy as np
 
     q = np.zeros(dyn.n)
-    seconds, stopped = own._timed_evaluation(dyn, q, q, deadline=1e-4)
+    seconds, stopped = own._timed_evaluation(lambda: dyn.accelerations(q, q), deadline=1e-4)
     assert stopped and seconds == 1e-4
-    seconds, stopped = own._timed_evaluation(dyn, q, q, deadline=100.0)
+    seconds, stopped = own._timed_evaluation(lambda: dyn.accelerations(q, q), deadline=100.0)
     assert not stopped and 0 < seconds < 100.0
 
 

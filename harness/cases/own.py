@@ -21,12 +21,14 @@ import dataclasses
 import functools
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
+from analytic import dual
+from analytic.dynamics import chunk_states
 from analytic.solvers import STIFF_RTOL, TooManySteps, project
 from analytic.tree import TreeDynamics
 from harness.cases import Case, Wiring
@@ -201,8 +203,8 @@ class _Slow(BaseException):
     """Raised in the timed evaluation once it has run long enough to decide the refusal."""
 
 
-def _timed_evaluation(dyn: TreeDynamics, q: np.ndarray, qd: np.ndarray, deadline: float) -> tuple[float, bool]:
-    """The CPU seconds of one evaluation of the tree's accelerations (the first: it also builds what the tree
+def _timed_evaluation(work: Callable[[], object], deadline: float) -> tuple[float, bool]:
+    """The CPU seconds of ``work()`` (an evaluation of the tree's equations; the first also builds what the tree
     caches) and False, or ``deadline`` and True where it has not ended by then: it is stopped there (by SIGPROF,
     in the main thread; elsewhere it runs to its end). One evaluation of a large tree can take a minute."""
     import signal  # lazy: only the cost's timing stops a computation
@@ -220,7 +222,7 @@ def _timed_evaluation(dyn: TreeDynamics, q: np.ndarray, qd: np.ndarray, deadline
     if stoppable:
         signal.setitimer(signal.ITIMER_PROF, deadline)
     try:
-        dyn.accelerations(q, qd)
+        work()
         armed[0] = False
     except _Slow:
         return deadline, True
@@ -235,14 +237,25 @@ def _timed_evaluation(dyn: TreeDynamics, q: np.ndarray, qd: np.ndarray, deadline
 def _check_cost(model: mujoco.MjModel, system: TreeSystem, qpos: np.ndarray, span: float) -> None:
     """RunTooLong, before any solve, where the tree reference over ``span`` would pass
     :func:`~harness.core.bounds.max_reference_seconds` (:func:`~harness.core.bounds.check_reference_cost`): one
-    evaluation of its accelerations is timed here, and stopped as soon as it is long enough to refuse."""
+    evaluation of its accelerations is timed here, then one chunk of the exact Jacobian every tree solve takes at
+    its start (:func:`analytic.solvers.explicit_steps`; its 2n dual-number columns go in chunks of equal size,
+    :func:`analytic.dynamics.chunk_states`), each stopped as soon as it is long enough to refuse."""
     dyn = system.dynamics(model)
     q0, qd0 = start_state(model, qpos, np.zeros(model.nv))
     q = np.array([q0[c] for c in dyn.coordinates])
     qd = np.array([qd0[c] for c in dyn.coordinates])
-    deadline = 1.01 * bounds.max_reference_seconds() / (bounds.EVALUATIONS_PER_SECOND * span)
-    evaluation, stopped = _timed_evaluation(dyn, q, qd, deadline)
+    bound = bounds.max_reference_seconds()
+    deadline = 1.01 * bound / (bounds.EVALUATIONS_PER_SECOND * span)
+    evaluation, stopped = _timed_evaluation(lambda: dyn.accelerations(q, qd), deadline)
     bounds.check_reference_cost(evaluation=evaluation, span=span, nv=int(model.nv), stopped=stopped)
+    columns = 2 * dyn.n
+    per = min(chunk_states(dyn.n), columns)
+    seeds = dual.seeded(np.concatenate([q, qd]), np.eye(columns)[:per])
+    left = bound - bounds.EVALUATIONS_PER_SECOND * span * evaluation
+    chunk, late = _timed_evaluation(lambda: dyn.accelerations(seeds[..., :dyn.n], seeds[..., dyn.n:]),
+                                    1.01 * left * per / columns)
+    bounds.check_reference_cost(evaluation=evaluation, span=span, nv=int(model.nv),
+                                jacobian=chunk * columns / per, jacobian_stopped=late)
 
 
 DEFAULT_MODEL_NAME = "MuJoCo Model"

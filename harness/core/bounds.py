@@ -128,20 +128,28 @@ def solve_too_slow(why: str, *, nv: int) -> RunTooLong:
                       f"a shorter --horizon, or {MAX_REFERENCE_SECONDS_VARIABLE}=N to allow {SOLVE_FACTOR} × N s")
 
 
-def check_reference_cost(*, evaluation: float, span: float, nv: int, stopped: bool = False) -> None:
+def check_reference_cost(*, evaluation: float, span: float, nv: int, stopped: bool = False,
+                         jacobian: float = 0.0, jacobian_stopped: bool = False) -> None:
     """RunTooLong where a tree reference over ``span`` seconds, one evaluation of its accelerations timed at
     ``evaluation`` CPU seconds (or more: ``stopped`` there), is estimated to take longer than
-    :func:`max_reference_seconds` (the estimate and its basis in the line)."""
+    :func:`max_reference_seconds` (the estimate and its basis in the line). ``jacobian``: the CPU seconds of the
+    exact Jacobian every tree solve takes at its start (its stiffness test), measured from one chunk of its columns
+    (or more: ``jacobian_stopped``), added to the evaluations' floor."""
     bound = max_reference_seconds()
-    estimate = EVALUATIONS_PER_SECOND * span * evaluation
+    estimate = EVALUATIONS_PER_SECOND * span * evaluation + jacobian
     if estimate <= bound:
         return
+    more = stopped or jacobian_stopped
     took = f"{'more than ' if stopped else ''}{evaluation:.3g} s"
-    shorter = "" if stopped else f"--horizon {bound / (EVALUATIONS_PER_SECOND * evaluation):.2g} or shorter fits, or "
-    at_least = f"more than the bound of {_duration(bound)}" if stopped else (
+    fits = (bound - jacobian) / (EVALUATIONS_PER_SECOND * evaluation)
+    shorter = "" if more or fits <= 0 else f"--horizon {fits:.2g} or shorter fits, or "
+    at_least = f"more than the bound of {_duration(bound)}" if more else (
         f"at least {_duration(estimate)}, more than the bound of {_duration(bound)}")
+    start = "" if not jacobian else (
+        f"; and each solve starts with its exact Jacobian (its stiffness test: {2 * nv} columns), "
+        f"{'more than ' if jacobian_stopped else ''}{_duration(jacobian)} by one chunk of them timed here")
     raise RunTooLong(f"the model's tree reference ({nv} dof) would take {at_least} to solve over {span:g} s "
                      f"(one evaluation of its accelerations "
                      f"took {took} of CPU here, and a simulated second of a reference takes at least "
-                     f"{EVALUATIONS_PER_SECOND} of them: benchmarks/results_tree_scale.txt); fix: {shorter}"
+                     f"{EVALUATIONS_PER_SECOND} of them: benchmarks/results_tree_scale.txt{start}); fix: {shorter}"
                      f"{MAX_REFERENCE_SECONDS_VARIABLE}={math.ceil(estimate)} or more to solve it anyway")
