@@ -46,25 +46,26 @@ def test_a_300_link_chain_is_refused_up_front_with_its_estimate(tmp_path, no_sol
 def test_a_tree_whose_start_jacobian_passes_the_bound_is_refused_up_front(tmp_path, no_solve, monkeypatch):
     """Every tree solve starts with the exact Jacobian of its stiffness test (2n dual-number columns): where the
     evaluations' floor fits the bound but that Jacobian does not, the model is refused before any solve, the
-    Jacobian named. The bound is set to twice the chain's own floor, so the test holds on any machine: its Jacobian
-    is some 2n evaluations' worth, far past the 90 of the floor."""
-    import numpy as np
+    Jacobian named. The timings are set (CPU time on a shared machine varies twofold): the evaluation at a tenth
+    of the bound's floor, the Jacobian's first chunk past its share of what is left."""
+    from analytic.dynamics import chunk_states
 
-    from harness.engine.models import compile_model
-    from harness.reference.tree import TreeSystem, prepare
+    path = tmp_path / "chain64.xml"  # 128 columns, in chunks of 15
+    path.write_text(chain(64))
+    bound = bounds.max_reference_seconds()
+    evaluation = 0.1 * bound / bounds.EVALUATIONS_PER_SECOND
+    deadlines = []
 
-    path = tmp_path / "chain128.xml"
-    path.write_text(chain(128))
-    model = compile_model(path, edit=prepare)
-    dyn = TreeSystem().dynamics(model)
-    q = np.zeros(dyn.n)
-    own._timed_evaluation(lambda: dyn.accelerations(q, q), deadline=100.0)  # what the tree caches, built
-    seconds, _ = own._timed_evaluation(lambda: dyn.accelerations(q, q), deadline=100.0)
-    bound = max(1, round(2 * bounds.EVALUATIONS_PER_SECOND * seconds))
-    monkeypatch.setenv(bounds.MAX_REFERENCE_SECONDS_VARIABLE, str(bound))
-    with pytest.raises(RunTooLong, match=r"each solve starts with its exact Jacobian \(its stiffness test: 256 "
-                                         r"columns\), more than"):
+    def timed(work, deadline):
+        deadlines.append(deadline)
+        return (evaluation, False) if len(deadlines) == 1 else (deadline, True)
+
+    monkeypatch.setattr(own, "_timed_evaluation", timed)
+    with pytest.raises(RunTooLong, match=r"each solve starts with its exact Jacobian \(its stiffness test: 128 "
+                                         r"columns\), more than 27 s by one chunk"):
         own.from_mjcf(path)
+    per = chunk_states(64)
+    assert per < 128 and deadlines[1] == pytest.approx(1.01 * 0.9 * bound * per / 128)  # its share of what is left
 
 
 def test_the_start_jacobian_counts_with_the_evaluations_floor():
