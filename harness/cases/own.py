@@ -211,10 +211,11 @@ def _timed_evaluation(work: Callable[[], object], deadline: float) -> tuple[floa
     import threading  # lazy: as above
 
     stoppable = threading.current_thread() is threading.main_thread() and hasattr(signal, "ITIMER_PROF")
-    armed = [True]
+    armed, fired = [True], [False]
 
     def stop(_signum, _frame):  # Python runs it between bytecodes: past the evaluation's end it must do nothing
         if armed[0]:
+            fired[0] = True
             raise _Slow
 
     clock = time.process_time()
@@ -231,7 +232,10 @@ def _timed_evaluation(work: Callable[[], object], deadline: float) -> tuple[floa
         if stoppable:
             signal.setitimer(signal.ITIMER_PROF, 0)
             signal.signal(signal.SIGPROF, previous)
-    return time.process_time() - clock, False
+    elapsed = time.process_time() - clock
+    if stoppable and (fired[0] or elapsed >= deadline):  # the stop came where Python swallows what it raises (a
+        return deadline, True                            # finalizer's frame), or not at all: it ran past anyway
+    return elapsed, False
 
 
 def _check_cost(model: mujoco.MjModel, system: TreeSystem, qpos: np.ndarray, span: float) -> None:
