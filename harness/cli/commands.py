@@ -1098,6 +1098,67 @@ def _progress(total: int) -> Callable[[int, object], None]:
     return report
 
 
+def _args_advise(p: argparse.ArgumentParser) -> None:
+    p.add_argument("cases", nargs="?", default=None, metavar="CASE",
+                   help="a shipped case (or one of --systems); none with --mjcf: your model against its own tree")
+    _add_systems(p)
+    p.add_argument("--mjcf", type=Path, metavar="PATH", help="the model: any MJCF, against its own kinematic tree")
+    p.add_argument("--keyframe", metavar="NAME", help="with --mjcf: start at this keyframe (default: qpos0, every "
+                                                      "joint set moving)")
+    p.add_argument("--ctrl", type=_state, metavar="NAME=VALUE,...",
+                   help="with --mjcf: actuator controls by name (default: the keyframe's, else 0)")
+    p.add_argument("--require", action="append", default=[], metavar="MEASURE=VALUE", required=True,
+                   help="the accuracy you need (e.g. position=1e-3, drift.energy=1e-4, force=1e-2; repeatable, at "
+                        "least one): the recommendation is the cheapest setting that meets every one, verified")
+    p.add_argument("--integrators", type=_names, metavar="NAMES",
+                   help=f"consider only these, comma-separated (default: every one: "
+                        f"{', '.join(available_integrators())})")
+    p.add_argument("--horizon", type=_seconds, metavar="SECONDS", help="simulate this long (default: the case's)")
+    p.add_argument("--json", action="store_true", help="print the advice as JSON instead of the text")
+    p.add_argument("--html", type=Path, metavar="FILE", help="also write a page with the plot and the text")
+    p.add_argument("--png", type=Path, metavar="FILE", help="also write the plot: error against timestep per "
+                                                            "integrator, stability limits, the requirement and "
+                                                            "the recommendation")
+
+
+def cmd_advise(args: argparse.Namespace) -> int:
+    from harness.outputs import advice as shown  # lazy: its plot loads matplotlib
+    from harness.studies.advice import advise  # lazy: only this command runs it
+
+    for path in (args.html, args.png):
+        if path is not None:
+            check_output(path.parent)
+    requirements = require.parse(args.require)
+    if (args.cases is None) == (args.mjcf is None):
+        raise ValueError("advise needs one model: a case name, or --mjcf FILE (not both); known cases: "
+                         + ", ".join(cases.names()))
+    if args.mjcf is None and (args.keyframe or args.ctrl):
+        raise ValueError("--keyframe and --ctrl apply to a model judged against its own tree: --mjcf FILE, no case")
+    case = from_mjcf(args.mjcf, keyframe=args.keyframe, ctrl=args.ctrl, horizon=args.horizon) \
+        if args.mjcf is not None else cases.get(args.cases)
+    require.check_possible(requirements, figure_names(case))
+    options = RunOptions(horizon=args.horizon if args.mjcf is None else None)
+    with heartbeat(f"advise {case.name}"):
+        found = advise(case, requirements, options=options, integrators=args.integrators)
+    files = {}
+    png = shown.plot(found) if args.png is not None or args.html is not None else b""
+    if args.png is not None:
+        files[args.png] = png
+    if args.html is not None:
+        files[args.html] = shown.html_page([found], [png])
+    if files:
+        for path in files:
+            prepare_output(path.parent)
+        write_atomic(files)
+    if args.json:
+        sys.stdout.write(dumps(shown.as_dict(found)))
+    else:
+        print("\n".join(terminal(line) for line in shown.text(found).split("\n")))
+        if files:
+            print("wrote " + ", ".join(terminal(str(p)) for p in files))
+    return EXIT_OK if found.recommended is not None else EXIT_UNFIT
+
+
 @dataclass(frozen=True)
 class Command:
     """A subcommand: ``help``, one line for the command list (``mjharness --help``); ``description``, more
@@ -1160,6 +1221,11 @@ COMMANDS: dict[str, Command] = {
                    "or MuJoCo, in the report: exit 0 when every model ran to a verdict (pass, finding or refusal) "
                    "and each fault is caught on at least 3 models, 1 when a fault is caught on fewer or a model "
                    "stopped at --timeout, 2 when a model crashed (a bug of the harness) or on bad input"),
+    "advise": Command("which integrator and timestep meet your accuracy, verified", _args_advise, cmd_advise,
+                      "every integrator's error against the reference over a ladder of timesteps (with error bars), "
+                      "its largest stable timestep (the linearization's, confirmed by runs just below and above) and "
+                      "its cost on this machine; then the cheapest (integrator, timestep) that meets every --require, "
+                      "verified by checking the model at that setting (exit 0), or why none does (exit 3)"),
     "audit": Command("the seed documents' claims, checked", _args_audit, cmd_audit,
                      "the seed documents' claims: confirmed, refuted (with the correction) or ambiguous"),
 }

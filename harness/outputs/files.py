@@ -199,11 +199,11 @@ def superseded(out: Path | str, files: Mapping[Path, str]) -> list[Path]:
     return [p for p in report_pages(out) if p.resolve() not in new]
 
 
-def write_atomic(files: Mapping[Path, str], *, remove: Iterable[Path] = ()) -> list[Path]:
-    """Write every file or none, and remove ``remove`` with them: each text beside its destination under a
-    temporary name (missing folders created), then all moved into place and the others removed; where one
-    cannot be, the destinations already replaced or removed get their old files back (and the folders made
-    for them go)."""
+def write_atomic(files: Mapping[Path, str | bytes], *, remove: Iterable[Path] = ()) -> list[Path]:
+    """Write every file or none, and remove ``remove`` with them: each text (or bytes: a picture) beside its
+    destination under a temporary name (missing folders created), then all moved into place and the others
+    removed; where one cannot be, the destinations already replaced or removed get their old files back (and the
+    folders made for them go)."""
     staged: list[tuple[Path, Path]] = []
     created: list[Path] = []
     written = False
@@ -214,7 +214,7 @@ def write_atomic(files: Mapping[Path, str], *, remove: Iterable[Path] = ()) -> l
             fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", dir=dest.parent)
             staged.append((Path(tmp), dest))
             os.chmod(tmp, 0o666 & ~_umask())  # mkstemp's 0600 would make the report private
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            with os.fdopen(fd, "wb") if isinstance(text, bytes) else os.fdopen(fd, "w", encoding="utf-8") as fh:
                 fh.write(text)
         _move_all(staged, list(remove))
         written = True
