@@ -22,16 +22,17 @@ from typing import TYPE_CHECKING
 from harness.core import VERSION
 
 if TYPE_CHECKING:
-    from harness.api import Validation, ValidationFailed, case_names, validate
+    from harness.api import Advice, Validation, ValidationFailed, advise, case_names, validate
     from harness.cases import Case
     from harness.core.checks import Check
     from harness.core.figures import Figure, FigureName
 
 __version__ = VERSION
-__all__ = ["Case", "Check", "Figure", "FigureName", "Validation", "ValidationFailed", "__version__", "case_names",
-           "validate"]
+__all__ = ["Advice", "Case", "Check", "Figure", "FigureName", "Validation", "ValidationFailed", "__version__", "advise",
+           "case_names", "validate"]
 
-_EXPORTS = {"validate": "harness.api", "Validation": "harness.api", "ValidationFailed": "harness.api",
+_EXPORTS = {"advise": "harness.api", "Advice": "harness.api",
+            "validate": "harness.api", "Validation": "harness.api", "ValidationFailed": "harness.api",
             "case_names": "harness.api", "Case": "harness.cases", "Check": "harness.core.checks",
             "Figure": "harness.core.figures", "FigureName": "harness.core.figures"}
 

@@ -40,17 +40,20 @@ from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
 from harness.core.options import RunOptions
 from harness.engine import messages
+from harness.families import figure_names
 from harness.outputs.jsondoc import json_doc
 from harness.outputs.table import checks_table, ratio, ratio_text, verdict_line
 from harness.pipeline.limits import case_limits, check_config, load_limits
 from harness.pipeline.outcome import Outcome
-from harness.pipeline.require import Fitness, check_known, judge_fitness
+from harness.pipeline.require import Fitness, check_known, check_possible, judge_fitness
 from harness.pipeline.require import requirement as requirement_of
 from harness.pipeline.run import CaseResult, run_case
 from harness.pipeline.settings import RunSettings
 from harness.pipeline.verdict import judge
+from harness.studies import advice
+from harness.studies.advice import Advice
 
-__all__ = ["Validation", "ValidationFailed", "case_names", "validate"]
+__all__ = ["Advice", "Validation", "ValidationFailed", "advise", "case_names", "validate"]
 
 
 def _amount(value: float, unit: str) -> str:
@@ -385,3 +388,50 @@ def _validate(case: str | Case | None, options: RunOptions, judging: _Judging, *
                       fitness=tuple(judge_fitness(result, requirements)), findings=tuple(result.findings),
                       accept_known_defects=judging.accept_known_defects or shipped.accept_known_defects,
                       result=result)
+
+
+def advise(
+    case: str | Case | None = None,
+    *,
+    require: Mapping[str, float],
+    mjcf: str | Path | None = None,
+    keyframe: str | None = None,
+    ctrl: Mapping[str, float] | None = None,
+    integrators: Sequence[str] | None = None,
+    horizon: float | None = None,
+    systems: Iterable[str | os.PathLike] | None = None,
+) -> Advice:
+    """Which integrator and timestep meet ``require`` for ``case`` (a name or a :class:`~harness.cases.Case`) or
+    any model ``mjcf`` (against its own tree): every integrator's error against the reference over a ladder of
+    timesteps with error bars, its stability limit (confirmed by runs) and its measured cost, and the cheapest
+    setting meeting every requirement, verified by checking the model there (:mod:`harness.studies.advice`).
+
+    Args:
+        case, mjcf, keyframe, ctrl, horizon, systems: as for :func:`validate` (one model: a case, or ``mjcf``).
+        require: the accuracy needed by measure, e.g. ``{"position": 1e-3, "force": 1e-2}`` (at least one).
+        integrators: consider only these (default: every integrator this MuJoCo has).
+
+    :attr:`Advice.recommended` is None where no setting meets the requirements, and :attr:`Advice.why_none` says
+    why. An argument of the wrong type raises TypeError naming it, before any work.
+    """
+    _check_arguments(integrators=integrators, timestep=None, horizon=horizon, q0=None, qd0=None, limits=None,
+                     require=require, accept_known_defects=False, edit=None, keyframe=keyframe, ctrl=ctrl)
+    if not require:
+        raise ValueError("advise needs at least one requirement, e.g. require={'position': 1e-3}")
+    if (case is None) == (mjcf is None):
+        raise ValueError("advise needs one model: a case (name or Case), or mjcf= (not both); known cases: "
+                         + ", ".join(cases.names()))
+    requirements = tuple(requirement_of(str(k), v, source="advise(require=...)") for k, v in require.items())
+    with sources.using(_directories(systems)), messages.kept_within():
+        if mjcf is not None:
+            chosen = from_mjcf(mjcf, keyframe=keyframe, ctrl=ctrl, horizon=horizon)
+        else:
+            if keyframe is not None or ctrl:
+                raise ValueError("keyframe and ctrl apply to a model judged against its own tree (mjcf=, no case)")
+            chosen = cases.get(case) if isinstance(case, str) else case
+            if not isinstance(chosen, Case):
+                raise ValueError(f"case must be a case name or a harness.cases.Case, got {type(case).__name__}")
+        check_possible(requirements, figure_names(chosen))
+        options = RunOptions(horizon=horizon if mjcf is None else None)
+        return advice.advise(chosen, requirements, options=options,
+                             integrators=tuple(integrators) if integrators is not None else None)

@@ -187,3 +187,52 @@ def test_nothing_met_exits_3():
     done = _cli("spring", "--require", "position=1e-14", "--integrators", "RK4")
     assert done.returncode == 3
     assert "No recommendation: no integrator meets" in done.stdout
+
+
+def test_the_api_is_the_command():
+    import harness
+
+    advice = harness.advise("spring", require={"position": 1e-4}, integrators=["RK4"])
+    assert isinstance(advice, harness.Advice) and advice.recommended is not None
+    done = _cli("spring", "--require", "position=1e-4", "--integrators", "RK4", "--json")
+    doc = json.loads(done.stdout)
+    assert doc["recommended"]["timestep"] == advice.recommended.timestep
+    assert doc["recommended"]["measured"] == dict(advice.recommended.measured)
+
+
+@pytest.mark.parametrize(("kwargs", "error"), [
+    ({"require": {}}, ValueError), ({"require": {"position": "x"}}, TypeError),
+    ({"require": {"position": 1e-3}, "mjcf": "mjcf/spring.xml"}, ValueError),
+    ({"require": {"position": 1e-3}, "integrators": "RK4"}, TypeError),
+])
+def test_the_api_refuses_bad_arguments_before_any_work(kwargs, error):
+    import harness
+
+    with pytest.raises(error):
+        harness.advise("spring", **kwargs)
+
+
+def test_the_model_as_it_is_is_held_to_the_requirement_where_the_reference_lacks_its_forces(tmp_path):
+    """The spring with a joint limit its motion hits (amplitude 0.25 m, range ±0.1 m): the tree reference leaves
+    the limit out, the comparison switches it off, and only the model as it is, by self-convergence, shows the
+    impacts' error. The recommendation must meet the requirement there too, or be refused."""
+    from harness.cases.own import from_mjcf
+
+    model = tmp_path / "limited_spring.xml"
+    model.write_text((ROOT / "mjcf" / "spring.xml").read_text().replace(
+        'stiffness="20"', 'stiffness="20" limited="true" range="-0.1 0.1"'))
+    case = from_mjcf(model)
+    assert "joint limits" in dict(case.tree.uncovered)
+    required = 1e-4
+    advice = A.advise(case, parse([f"position={required}"]), integrators=("RK4",))
+    assert advice.tried, advice.why_none
+    first = advice.tried[0]
+    assert "position" in first.as_is and first.as_is["position"][1].startswith("self-convergence")
+    v = advice.recommended
+    if v is not None:
+        assert v.as_is["position"][0] <= required
+    else:
+        assert "as it is" in advice.why_none
+    # the tree comparison alone would have taken a coarser step: the model as it is decided
+    alone = A.candidate(advice.curve("RK4"), advice.requirements)[0]
+    assert first.timestep < alone

@@ -102,7 +102,7 @@ MAX_RUN_STEPS = 2 ** 18
 """The most steps one run of the ladder takes (an explicit integrator's steps below a stiff model's stability limit:
 each sample is recorded)."""
 
-AS_IS_TRIES = 4
+AS_IS_TRIES = 6
 """How many times a candidate's step is made smaller for the model as it is before it is verified as it stands."""
 
 FLAT = 0.8
@@ -199,7 +199,7 @@ class Verification:
         cost: CPU seconds per simulated second at that setting, measured.
         met: every covered figure within its requirement, no check failed, and what the model as it is gave (where
             the reference lacks forces) within the requirements that name it.
-        margin: the smallest requirement / measured value over the covered figures.
+        margin: the smallest requirement / value over the covered figures, measured and (as it is) estimated.
         as_is: with forces the reference does not cover, what the model as it is gave at the setting: by measure,
             (value, how it was obtained).
     """
@@ -587,8 +587,6 @@ def verify(case: Case, options: RunOptions, curve: Curve, h: float, requirements
                 and any(r.covers(f.name) for r in requirements)}
     within = all(math.isfinite(v) and v <= r.value for r in requirements
                  for m, v in measured.items() if covered(r, m))
-    margin = min((r.value / v if v > 0 else math.inf for r in requirements for m, v in measured.items()
-                  if covered(r, m)), default=math.nan)
     model = bench.mut.compile(integrator=name, timestep=h)
     cost = _cost(model, bench, steps_in(case.horizon, h))
     predicted = {m: _predict(curve, h, m) for m in measured}
@@ -600,6 +598,9 @@ def verify(case: Case, options: RunOptions, curve: Curve, h: float, requirements
             as_is["drift.energy"] = (balance[0], "the work–energy balance of the model as it is (|E(t) − E(0) − "
                                                  "∫P dt| / energy scale)")
     as_is_within = all(value <= r.value for r in requirements for m, (value, _) in as_is.items() if covered(r, m))
+    judged = [*measured.items(), *((m, value) for m, (value, _) in as_is.items())]
+    margin = min((r.value / v if v > 0 else math.inf for r in requirements for m, v in judged if covered(r, m)),
+                 default=math.nan)
     return Verification(integrator=name, timestep=h, predicted=predicted, measured=measured, failures=failures,
                         cost=cost, met=bool(measured) and within and as_is_within and not failures, margin=margin,
                         as_is=as_is)
@@ -660,16 +661,25 @@ def recommend(case: Case, options: RunOptions, curves: Sequence[Curve], requirem
 
 def _as_is_step(case: Case, bench: Bench, curve: Curve, h: float, requirements: Sequence[Requirement]) -> float:
     """``h``, made smaller where the model as it is (every force on) estimates its own position error above a
-    requirement with MARGIN: by its order, from its self-convergence, at most :data:`AS_IS_TRIES` times (its runs
-    are MuJoCo's alone: cheap beside a verification)."""
+    requirement with MARGIN: by the order its self-convergence shows between two tries (the documented one at the
+    first; impacts make it lower), at most :data:`AS_IS_TRIES` times and never below :data:`MAX_RUN_STEPS` steps
+    over the horizon (its runs are MuJoCo's alone: cheap beside a verification)."""
     required = min((r.value for r in requirements if covered(r, "position")), default=math.inf)
     if not math.isfinite(required):
         return h
+    order = curve.order
+    last: tuple[float, float] | None = None
     for _ in range(AS_IS_TRIES):
         error = _as_is(case, bench, curve.integrator, h, curve.order)["position"][0]
         if not math.isfinite(error) or error * MARGIN <= required:
             return h
-        h = _round_down(h * (required / (MARGIN * error)) ** (1.0 / curve.order))
+        if last is not None and last[1] > error > 0:
+            order = min(curve.order, max(0.5, math.log(last[1] / error) / math.log(last[0] / h)))
+        last = (h, error)
+        smaller = _round_down(h * (required / (MARGIN * error)) ** (1.0 / order))
+        if case.horizon / smaller > MAX_RUN_STEPS:
+            return h
+        h = smaller
     return h
 
 
