@@ -84,6 +84,7 @@ def text(advice: Advice) -> str:
     lines.append("")
     if advice.recommended is not None:
         lines.append("Recommended: " + _verified(advice.recommended, advice))
+        lines += [f"  not {name}: {why}" for name, why in advice.rejected.items()]
     else:
         lines.append("No recommendation: " + advice.why_none)
     others = [v for v in advice.tried if v is not advice.recommended]
@@ -137,7 +138,8 @@ def as_dict(advice: Advice) -> dict[str, object]:
                                            "ordered": {m: list(r) for m, r in c.ordered.items()},
                                            "points": [point(p) for p in c.points]} for c in advice.curves},
             "recommended": verification(advice.recommended), "tried": [verification(v) for v in advice.tried],
-            "why_none": advice.why_none or None, "not_in_reference": dict(advice.uncovered),
+            "why_none": advice.why_none or None, "rejected": dict(advice.rejected),
+            "not_in_reference": dict(advice.uncovered),
             "seconds": dict(advice.seconds)}
 
 

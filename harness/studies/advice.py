@@ -91,9 +91,6 @@ CONFIRM_STEPS = (1000, 20000)
 """A confirmation run's steps: the horizon's, at least the first (a mode slightly outside the region grows by
 ρᴺ: 1.1 × RK4's limit on the real axis gives ρ ≈ 1.5, 1e16 in 90 steps), at most the second."""
 
-SELF_CONVERGENCE_NOTE = ("not in the reference: the model as it is checked only by self-convergence "
-                         "(κ·|x(h) − x(h/2)|, κ = 2ᵖ/(2ᵖ − 1)) and its work–energy balance")
-
 MIN_CPU = 0.02
 """A cost is timed over repeated runs until this much CPU time has passed (s): one run of a small model takes
 microseconds."""
@@ -228,6 +225,8 @@ class Advice:
         recommended: the verified setting (None: none meets the requirements).
         tried: every verification made, in order.
         why_none: where none is recommended, why.
+        rejected: why each integrator that was not recommended was not, by integrator (one never verified because
+            a cheaper one was: not listed).
         uncovered: forces the reference does not model, by kind (what only self-convergence checks).
         seconds: the wall time of each stage.
     """
@@ -240,6 +239,7 @@ class Advice:
     recommended: Verification | None
     tried: tuple[Verification, ...]
     why_none: str
+    rejected: Mapping[str, str] = field(default_factory=dict)
     uncovered: Mapping[str, str] = field(default_factory=dict)
     seconds: Mapping[str, float] = field(default_factory=dict)
 
@@ -625,8 +625,9 @@ def _as_is(case: Case, bench: Bench, name: str, h: float, order: float) -> dict[
 
 
 def recommend(case: Case, options: RunOptions, curves: Sequence[Curve], requirements: Sequence[Requirement], *,
-              bench: Bench) -> tuple[Verification | None, tuple[Verification, ...], str]:
-    """The cheapest verified setting, every verification made, and why none where none is recommended."""
+              bench: Bench) -> tuple[Verification | None, tuple[Verification, ...], dict[str, str]]:
+    """The cheapest verified setting (None: none), every verification made, and why each integrator not
+    recommended was not (those never verified because a cheaper one was: not listed)."""
     found: list[tuple[float, Curve, float]] = []
     reasons: dict[str, str] = {}
     for curve in curves:
@@ -642,7 +643,11 @@ def recommend(case: Case, options: RunOptions, curves: Sequence[Curve], requirem
         if best is not None and best.cost <= cost:
             break  # every other candidate predicts more than the verified one measured
         if case.tree is not None and case.tree.uncovered:
-            h = _as_is_step(case, bench, curve, h, requirements)
+            progress.stage(f"the model as it is: {curve.integrator} at h = {h:.3g} s")
+            h, why = _as_is_step(case, bench, curve, h, requirements)
+            if why:
+                reasons[curve.integrator] = why
+                continue
         progress.stage(f"verifying {curve.integrator} at h = {h:.3g} s")
         v = verify(case, options, curve, h, requirements, bench=bench)
         tried.append(v)
@@ -653,34 +658,37 @@ def recommend(case: Case, options: RunOptions, curves: Sequence[Curve], requirem
             best = v
         elif not v.met:
             reasons[curve.integrator] = _missed(v)
-    if best is not None:
-        return best, tuple(tried), ""
-    lines = [f"{name}: {why}" for name, why in reasons.items()]
-    return None, tuple(tried), "no integrator meets the requirements: " + "; ".join(lines)
+    return best, tuple(tried), reasons
 
 
-def _as_is_step(case: Case, bench: Bench, curve: Curve, h: float, requirements: Sequence[Requirement]) -> float:
+def _as_is_step(case: Case, bench: Bench, curve: Curve, h: float, requirements: Sequence[Requirement]
+                ) -> tuple[float, str]:
     """``h``, made smaller where the model as it is (every force on) estimates its own position error above a
     requirement with MARGIN: by the order its self-convergence shows between two tries (the documented one at the
-    first; impacts make it lower), at most :data:`AS_IS_TRIES` times and never below :data:`MAX_RUN_STEPS` steps
-    over the horizon (its runs are MuJoCo's alone: cheap beside a verification)."""
+    first; impacts make it lower), at most :data:`AS_IS_TRIES` times (its runs are MuJoCo's alone: cheap beside a
+    verification). nan, and why, where it would need a step below the ladder's finest: a verification there would
+    cost more than the whole ladder."""
     required = min((r.value for r in requirements if covered(r, "position")), default=math.inf)
     if not math.isfinite(required):
-        return h
+        return h, ""
+    finest = float(bench.model.opt.timestep) / 2 ** HALVINGS
     order = curve.order
     last: tuple[float, float] | None = None
     for _ in range(AS_IS_TRIES):
         error = _as_is(case, bench, curve.integrator, h, curve.order)["position"][0]
         if not math.isfinite(error) or error * MARGIN <= required:
-            return h
+            return h, ""
         if last is not None and last[1] > error > 0:
             order = min(curve.order, max(0.5, math.log(last[1] / error) / math.log(last[0] / h)))
         last = (h, error)
         smaller = _round_down(h * (required / (MARGIN * error)) ** (1.0 / order))
-        if case.horizon / smaller > MAX_RUN_STEPS:
-            return h
+        if smaller < finest:
+            return math.nan, (f"the model as it is (with {', '.join(dict(case.tree.uncovered))} on) estimates its "
+                              f"position error at {error:.3g} m at h = {h:.3g} s by self-convergence, converging at "
+                              f"order {order:.2g}: it would need h ≈ {smaller:.2g} s, below the ladder's finest "
+                              f"step ({finest:.3g} s)")
         h = smaller
-    return h
+    return h, ""
 
 
 def _missed(v: Verification) -> str:
@@ -713,10 +721,13 @@ def advise(case: Case, requirements: Sequence[Requirement], *, options: RunOptio
         curves = tuple(_attributed(bench, c, requirements) for c in curves)
     seconds["ladder"] = time.perf_counter() - clock
     clock = time.perf_counter()
-    best, tried, why = recommend(bench.case, options, curves, requirements, bench=bench)
+    best, tried, reasons = recommend(bench.case, options, curves, requirements, bench=bench)
+    why = "" if best is not None else "no integrator meets the requirements: " + "; ".join(
+        f"{name}: {text}" for name, text in reasons.items())
     seconds["verification"] = time.perf_counter() - clock
     model = bench.model
     return Advice(model=case.name, requirements=tuple(requirements), horizon=bench.case.horizon,
                   own=(integrator_name(model), float(model.opt.timestep)), curves=curves, recommended=best,
-                  tried=tried, why_none=why, uncovered=dict(case.tree.uncovered) if case.tree is not None else {},
+                  tried=tried, why_none=why, rejected=reasons,
+                  uncovered=dict(case.tree.uncovered) if case.tree is not None else {},
                   seconds=seconds)
