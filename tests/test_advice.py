@@ -232,3 +232,22 @@ def test_the_model_as_it_is_is_held_to_the_requirement_where_the_reference_lacks
     # and where the impacts would need a step below the ladder, no recommendation, saying why
     strict = A.advise(case, parse(["position=1e-5"]), integrators=("RK4",))
     assert strict.recommended is None and "the model as it is" in strict.why_none
+
+
+@pytest.mark.slow
+def test_an_implicit_integrators_limit_is_found_by_runs_and_is_the_closed_forms(tmp_path):
+    """MuJoCo's implicit integrator solves velocity terms implicitly, not a spring's stiffness: on an undamped
+    spring it is semi-implicit Euler, stable iff h ω ≤ 2. A spring with ω = 2/(1.5 ms) puts that limit between two
+    ladder steps (1 and 2 ms); the runs' bisection must bracket it."""
+    from harness.cases.own import from_mjcf
+
+    omega = 2.0 / 1.5e-3
+    model = tmp_path / "stiff_spring.xml"
+    model.write_text((ROOT / "mjcf" / "spring.xml").read_text().replace('stiffness="20"',
+                                                                         f'stiffness="{M * omega ** 2:.6g}"'))
+    advice = A.advise(from_mjcf(model), parse(["position=1"]), integrators=("implicit",))
+    limit = advice.curve("implicit").limit
+    assert limit.confirmed and limit.basis.startswith("runs:")
+    grew_at = float(limit.basis.split("grew at ")[1].split(" s")[0])
+    assert limit.timestep <= 2 / omega <= grew_at * 1.001
+    assert grew_at / limit.timestep < 1.05

@@ -300,6 +300,47 @@ def _ladder(bench: Bench, integrator: str, steps: Sequence[float], span: float) 
     return out
 
 
+BISECTIONS = 4
+"""Where runs bound the step (an implicit integrator's ladder diverged, or an explicit one diverged below the
+linearization's limit), the bracket between a bounded and a diverged run is halved this many times in log h (a
+factor 2 to 4 %)."""
+
+
+def _speed(sim: Trajectory) -> float:
+    return max((float(np.max(np.linalg.norm(v, axis=1))) for v in sim.velocities.values()), default=0.0)
+
+
+def _grows(bench: Bench, integrator: str, h: float, baseline: float) -> tuple[bool, str]:
+    """Whether a run at ``h`` grows: diverges (MuJoCo's own check) or its largest point speed passes GROWN ×
+    ``baseline``, over the horizon's steps (CONFIRM_STEPS at least and at most); and what it did, one line."""
+    steps = min(max(steps_in(bench.case.horizon, h), CONFIRM_STEPS[0]), CONFIRM_STEPS[1])
+    model = bench.mut.compile(integrator=integrator, timestep=h)
+    try:
+        sim = simulate(bench.engine, model, bench.probe, q0=bench.reference.q0(), qd0=bench.reference.qd0(),
+                       steps=steps)
+    except (SimulationDiverged, UnmodelledElement) as exc:
+        return True, f"diverged at h = {h:.3g} s ({exc.reason})"
+    speed = _speed(sim)
+    grew = speed > GROWN * max(baseline, 1e-300)
+    return grew, f"h = {h:.3g} s, {steps} steps: largest point speed {speed:.3g} m/s" + (": grew" if grew else "")
+
+
+def _bisected(bench: Bench, integrator: str, lo: float, hi: float, baseline: float) -> Limit:
+    """The largest stable step as runs find it, between ``lo`` (a bounded run) and ``hi`` (one that grew)."""
+    said_lo, said_hi = "bounded on the ladder", "diverged on the ladder"
+    for _ in range(BISECTIONS):
+        mid = math.sqrt(lo * hi)
+        grew, said = _grows(bench, integrator, mid, baseline)
+        if grew:
+            hi, said_hi = mid, said
+        else:
+            lo, said_lo = mid, said
+    return Limit(lo, f"runs: bounded at h = {lo:.3g} s, grew at {hi:.3g} s ({BISECTIONS} bisections between the "
+                     "ladder's runs; the implicit integrators are not assessed by the linearization, and a "
+                     "linearization's limit that a run below it contradicts is replaced)",
+                 below=said_lo, above=said_hi, confirmed=True)
+
+
 def _confirm(bench: Bench, integrator: str, limit: float) -> tuple[str, str, bool]:
     """The runs at BELOW and ABOVE × the limit: what each did, and whether they confirm it."""
     said = []
@@ -354,10 +395,19 @@ def measure(bench: Bench, *, integrators: Sequence[str], limits: Mapping[str, fl
     span = max(1, math.floor(horizon / h_top + 1e-9)) * h_top  # every ladder's grid nests in the finest one
     finest = h0 / 2 ** HALVINGS  # runs below it are compared at its samples (every m-th of theirs)
 
-    def one(name: str) -> tuple[list[tuple[float, object]], tuple[str, str, bool] | None]:
+    def one(name: str) -> tuple[list[tuple[float, object]], tuple[str, str, bool] | None, Limit | None]:
         limit = limits.get(name, math.inf)
         confirm = _confirm(bench, name, limit) if math.isfinite(limit) and limit > 0 else None
-        return _ladder(bench, name, ladders[name], span), confirm
+        ladder = _ladder(bench, name, ladders[name], span)
+        bounded = [(h, run[0]) for h, run in ladder if not isinstance(run, str)]
+        grew = [h for h, run in ladder if isinstance(run, str) and (not bounded or h > bounded[0][0])]
+        found = None
+        if bounded and (grew or (confirm is not None and confirm[0].startswith("diverged"))):
+            hi = min(grew) if grew else BELOW * limit  # runs diverged there: the limit lies below
+            lo, sim = bounded[0]
+            if hi > lo:
+                found = _bisected(bench, name, lo, hi, _speed(sim))
+        return ladder, confirm, found
 
     with ThreadPoolExecutor(max_workers=max(1, min(len(integrators), os.cpu_count() or 1))) as pool:
         done = dict(zip(integrators, pool.map(one, integrators), strict=True))
@@ -367,14 +417,14 @@ def measure(bench: Bench, *, integrators: Sequence[str], limits: Mapping[str, fl
         m = round(finest / h) if h < finest * (1 - 1e-9) else 1
         return runs.every_nth(sim, m) if m > 1 else sim
 
-    compared_runs = {(name, h): on_grid(run[0]) for name, (ladder, _) in done.items() for h, run in ladder
+    compared_runs = {(name, h): on_grid(run[0]) for name, (ladder, _, _) in done.items() for h, run in ladder
                      if not isinstance(run, str)}
     grids = _reference_grids(bench.reference, [sim.t for sim in compared_runs.values()])
     rtol = bench.reference.solution.rtol
     tolerance = float(bench.model.opt.tolerance) if bench.probe.constraints else 0.0
     curves = []
     for name in integrators:
-        ladder, confirm = done[name]
+        ladder, confirm, found = done[name]
         points = []
         for h, run in ladder:
             if isinstance(run, str):
@@ -388,7 +438,7 @@ def measure(bench: Bench, *, integrators: Sequence[str], limits: Mapping[str, fl
                                       for d in devs},
                                 units={d.name.measure: d.unit for d in devs}, cost=run[1]))
         order = float(bench.orders.get(name, EXPECTED_ORDER[name]))
-        limit = _limit(name, limits, confirm, points)
+        limit = found if found is not None else _limit(name, limits, confirm, points)
         measures = {m for p in points for m in p.values}
         ordered = {m: r for m in sorted(measures) if (r := _ordered(points, m, order)) is not None}
         curves.append(Curve(integrator=name, order=order, points=tuple(points), limit=limit, ordered=ordered,
