@@ -57,6 +57,11 @@ CASES = [
                                                     "dyntype='filter' gainprm='5'/></actuator>"}, {}),
     ("actuators", "actuator pushing", {"actuator": "<actuator><general name='pushing' site='s1' "
                                                    "gear='0 0 1 0 0 0'/></actuator>"}, {}),
+    # unnamed: found by index, not by a name (before the table, isolate matched names and left these acting)
+    ("tendons", "tendon tendon0", {"tendon": "<tendon><spatial stiffness='100' springlength='0.5'>"
+                                             "<site site='s0'/><site site='s1'/></spatial></tendon>"}, {}),
+    ("actuators", "actuator 0", {"actuator": "<actuator><general joint='hinge' dyntype='integrator' "
+                                             "gainprm='5'/></actuator>"}, {}),
     ("joint springs", "joint ball spring", {"bodies": BALL.format("stiffness='40'")}, {"bodies": BALL.format("")}),
 ]
 

@@ -255,8 +255,6 @@ def _slack(spec: mujoco.MjSpec, found: Sequence[int]) -> None:
     """The tendons ``found`` without spring, damping, friction, armature or limit (their length stays read)."""
     for t in found:
         tendon = spec.tendons[t]
-        if not tendon.name:
-            continue  # as before the table: an unnamed tendon was not matched by name
         for attribute in ("stiffness", "damping", "frictionloss", "armature"):
             if hasattr(tendon, attribute):  # a scalar on MuJoCo 3, MuJoCo 4's polynomial (a, b, c) where it is one
                 setattr(tendon, attribute, np.zeros_like(np.asarray(getattr(tendon, attribute), dtype=float)))
@@ -273,8 +271,7 @@ def _actuator_gaps(model: mujoco.MjModel) -> Iterator[Gap]:
 def _ungeared(spec: mujoco.MjSpec, found: Sequence[int]) -> None:
     """The actuators ``found`` with gear 0: they apply no force (their controls and states stay)."""
     for a in found:
-        if spec.actuators[a].name:  # as before the table: an unnamed actuator was not matched by name
-            spec.actuators[a].gear = [0.0] * 6
+        spec.actuators[a].gear = [0.0] * 6
 
 
 def _spring_gaps(model: mujoco.MjModel) -> Iterator[Gap]:
