@@ -8,10 +8,12 @@ and the disable flags that switch any of them off — never MuJoCo's dynamics
 (``mj_fullM``, ``qfrc_bias``, ``qacc``): the equations are derived from this
 description by :mod:`analytic.tree`.
 
-What the tree reference does not model is listed, per kind, by
-:func:`uncovered` (contacts, joint limits, dry friction, fluid forces,
-spatial tendons, activation dynamics, …) and what it cannot read at all is
-refused by :func:`refusal` (flex, plugins, a model with nothing that moves).
+Each MuJoCo feature is stated once, in :data:`FEATURES`: what of it is read,
+what is not covered and why (listed, per kind, by :func:`uncovered`: contacts,
+joint limits, dry friction, fluid forces, spatial tendons, activation
+dynamics, …) and how it is switched off (:func:`isolate`); what the reference
+cannot read at all is refused by :func:`refusal` (flex, plugins, a model with
+nothing that moves).
 Where the reference motion crosses a clamp's switch is located by
 :func:`switches`, and what that does to an integrator's order is
 :data:`SWITCHED_ORDER`.
@@ -21,7 +23,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -102,42 +104,6 @@ def _fixed_tendon(model: mujoco.MjModel, t: int) -> np.ndarray | None:
             return None
         coef[int(model.jnt_dofadr[jid])] += float(model.wrap_prm[w])
     return coef
-
-
-def uncovered(model: mujoco.MjModel) -> dict[str, str]:
-    """Forces in ``model`` that the tree reference does not model, by kind, each with why it matters and
-    what is checked instead. Empty: every force MuJoCo applies is in the reference."""
-    out: dict[str, str] = {}
-    contacts_on = not _disabled(model, _DSBL.mjDSBL_CONTACT) and not _disabled(model, _DSBL.mjDSBL_CONSTRAINT)
-    if contacts_on and (model.npair or _may_collide(model)):
-        out["contacts"] = "geoms may collide; contact forces are not in the tree reference"
-    if np.any(model.jnt_limited) and not _disabled(model, _DSBL.mjDSBL_LIMIT):
-        out["joint limits"] = "limited joints: a limit's force acts only when reached"
-    if np.any(model.dof_frictionloss > 0) and not _disabled(model, _DSBL.mjDSBL_FRICTIONLOSS):
-        out["dry friction"] = "joint frictionloss (a dry-friction constraint)"
-    if model.opt.density > 0 or model.opt.viscosity > 0 or np.any(model.opt.wind) or np.any(model.geom_fluid[:, 0]):
-        out["fluid forces"] = "density, viscosity, wind or a geom's fluidshape: fluid forces"
-    for t in range(model.ntendon):
-        name = model.tendon(t).name or f"tendon{t}"
-        if _fixed_tendon(model, t) is None:
-            out[f"tendon {name}"] = "a spatial tendon's force"
-        elif model.tendon_stiffness[t] or np.any(model.tendon_damping[t]) or model.tendon_limited[t] \
-                or model.tendon_frictionloss[t] or getattr(model, "tendon_armature", np.zeros(model.ntendon))[t]:
-            out[f"tendon {name}"] = "a fixed tendon's spring, damping, limit, friction or armature"
-    for a in range(model.nu):
-        why = _actuator_gap(model, a)
-        if why:
-            out[f"actuator {model.actuator(a).name or a}"] = why
-    for j in range(model.njnt):
-        kind = int(model.jnt_type[j])
-        name = model.joint(j).name
-        if model.jnt_stiffness[j] and kind not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
-            out[f"joint {name} spring"] = "a ball or free joint's spring"
-        if hasattr(model, "jnt_stiffnesspoly") and np.any(model.jnt_stiffnesspoly[j]):
-            out[f"joint {name} spring"] = "a polynomial spring (stiffnesspoly)"
-        if hasattr(model, "jnt_springyield") and np.any(model.jnt_springyield[j]):
-            out[f"joint {name} spring"] = "a spring that yields (springyield)"
-    return out
 
 
 def _may_collide(model: mujoco.MjModel) -> bool:
@@ -222,6 +188,154 @@ def _moment(model: mujoco.MjModel, a: int) -> np.ndarray | None:
         coef = _fixed_tendon(model, target)
         return None if coef is None else gear * coef
     return None
+
+
+# ---- what the tree reference covers: one table, from which uncovered and isolate are derived -------------------
+Gap = tuple[str, str, int]
+"""One element of a compiled model with a feature the reference does not model: its key in :func:`uncovered`, why
+it matters, and its index among its kind's elements (-1 for a model-wide feature)."""
+
+
+@dataclass(frozen=True)
+class Feature:
+    """One MuJoCo feature and how the tree reference treats it, stated once: what of it :func:`read_tree` reads
+    (``read``: the fields of :mod:`analytic.tree`'s types it fills), where a compiled model has what is not
+    covered (``gaps``, listed by :func:`uncovered`), and how :func:`isolate` switches that off in a spec
+    (``switch_off``, given the indices ``gaps`` found; a model-wide switch is set whether or not the model has
+    the feature). A feature with gaps and no ``switch_off`` is left acting in the comparison."""
+
+    name: str
+    read: tuple[str, ...] = ()
+    gaps: Callable[[mujoco.MjModel], Iterator[Gap]] | None = None
+    switch_off: Callable[[mujoco.MjSpec, Sequence[int]], None] | None = None
+
+
+def _model_wide(key: str, why: str, has: Callable[[mujoco.MjModel], bool]) -> Callable[[mujoco.MjModel], Iterator[Gap]]:
+    def gaps(model: mujoco.MjModel) -> Iterator[Gap]:
+        if has(model):
+            yield key, why, -1
+    return gaps
+
+
+def _disabling(bit: mujoco.mjtDisableBit) -> Callable[[mujoco.MjSpec, Sequence[int]], None]:
+    def switch_off(spec: mujoco.MjSpec, found: Sequence[int]) -> None:
+        spec.option.disableflags |= int(bit)
+    return switch_off
+
+
+def _contacts_on(model: mujoco.MjModel) -> bool:
+    on = not _disabled(model, _DSBL.mjDSBL_CONTACT) and not _disabled(model, _DSBL.mjDSBL_CONSTRAINT)
+    return on and bool(model.npair or _may_collide(model))
+
+
+def _fluid(model: mujoco.MjModel) -> bool:
+    return bool(model.opt.density > 0 or model.opt.viscosity > 0 or np.any(model.opt.wind)
+                or np.any(model.geom_fluid[:, 0]))
+
+
+def _still_air(spec: mujoco.MjSpec, found: Sequence[int]) -> None:
+    spec.option.density = 0.0
+    spec.option.viscosity = 0.0
+    spec.option.wind = [0.0, 0.0, 0.0]
+    for geom in spec.geoms:
+        geom.fluid_ellipsoid = 0.0
+
+
+def _tendon_gaps(model: mujoco.MjModel) -> Iterator[Gap]:
+    for t in range(model.ntendon):
+        key = f"tendon {model.tendon(t).name or f'tendon{t}'}"
+        if _fixed_tendon(model, t) is None:
+            yield key, "a spatial tendon's force", t
+        elif model.tendon_stiffness[t] or np.any(model.tendon_damping[t]) or model.tendon_limited[t] \
+                or model.tendon_frictionloss[t] or getattr(model, "tendon_armature", np.zeros(model.ntendon))[t]:
+            yield key, "a fixed tendon's spring, damping, limit, friction or armature", t
+
+
+def _slack(spec: mujoco.MjSpec, found: Sequence[int]) -> None:
+    """The tendons ``found`` without spring, damping, friction, armature or limit (their length stays read)."""
+    for t in found:
+        tendon = spec.tendons[t]
+        for attribute in ("stiffness", "damping", "frictionloss", "armature"):
+            if hasattr(tendon, attribute):  # a scalar on MuJoCo 3, MuJoCo 4's polynomial (a, b, c) where it is one
+                setattr(tendon, attribute, np.zeros_like(np.asarray(getattr(tendon, attribute), dtype=float)))
+        tendon.limited = 0
+
+
+def _actuator_gaps(model: mujoco.MjModel) -> Iterator[Gap]:
+    for a in range(model.nu):
+        why = _actuator_gap(model, a)
+        if why:
+            yield f"actuator {model.actuator(a).name or a}", why, a
+
+
+def _ungeared(spec: mujoco.MjSpec, found: Sequence[int]) -> None:
+    """The actuators ``found`` with gear 0: they apply no force (their controls and states stay)."""
+    for a in found:
+        spec.actuators[a].gear = [0.0] * 6
+
+
+def _spring_gaps(model: mujoco.MjModel) -> Iterator[Gap]:
+    for j in range(model.njnt):
+        why = ""
+        if model.jnt_stiffness[j] and int(model.jnt_type[j]) not in (int(mujoco.mjtJoint.mjJNT_HINGE),
+                                                                     int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            why = "a ball or free joint's spring"
+        if hasattr(model, "jnt_stiffnesspoly") and np.any(model.jnt_stiffnesspoly[j]):
+            why = "a polynomial spring (stiffnesspoly)"
+        if hasattr(model, "jnt_springyield") and np.any(model.jnt_springyield[j]):
+            why = "a spring that yields (springyield)"
+        if why:
+            yield f"joint {model.joint(j).name} spring", why, j
+
+
+FEATURES: tuple[Feature, ...] = (
+    Feature("bodies", read=("Body.pos", "Body.quat", "Body.ipos", "Body.iquat", "Body.mass", "Body.inertia",
+                            "Tree.points", "Tree.size")),
+    Feature("joints: hinge, slide, ball and free", read=("Joint.kind", "Joint.pos", "Joint.axis", "Joint.ref",
+                                                         "Joint.armature", "Joint.chart")),
+    Feature("joint damping", read=("Joint.damping",)),
+    Feature("gravity and gravity compensation", read=("Tree.gravity", "Body.gravcomp", "Joint.gravcomp")),
+    Feature("equality constraints: connect, weld, joint, tendon", read=("Tree.equalities",)),
+    Feature("contacts", gaps=_model_wide("contacts", "geoms may collide; contact forces are not in the tree reference",
+                                         _contacts_on), switch_off=_disabling(_DSBL.mjDSBL_CONTACT)),
+    Feature("joint limits", gaps=_model_wide(
+        "joint limits", "limited joints: a limit's force acts only when reached",
+        lambda m: bool(np.any(m.jnt_limited)) and not _disabled(m, _DSBL.mjDSBL_LIMIT)),
+        switch_off=_disabling(_DSBL.mjDSBL_LIMIT)),
+    Feature("dry friction", gaps=_model_wide(
+        "dry friction", "joint frictionloss (a dry-friction constraint)",
+        lambda m: bool(np.any(m.dof_frictionloss > 0)) and not _disabled(m, _DSBL.mjDSBL_FRICTIONLOSS)),
+        switch_off=_disabling(_DSBL.mjDSBL_FRICTIONLOSS)),
+    Feature("fluid forces", gaps=_model_wide(
+        "fluid forces", "density, viscosity, wind or a geom's fluidshape: fluid forces", _fluid),
+        switch_off=_still_air),
+    Feature("tendons: fixed ones' lengths; spatial ones, fixed ones' springs, damping, limits, friction, armature",
+            read=("Equality.y", "Equality.x", "Actuator.moment", "TendonLimit.lo", "TendonLimit.hi"),
+            gaps=_tendon_gaps, switch_off=_slack),
+    Feature("actuators: affine force on a hinge, slide or fixed tendon, its clamps; any other",
+            read=("Tree.actuators", "Tree.limits", "Tree.tendon_limits"), gaps=_actuator_gaps,
+            switch_off=_ungeared),
+    Feature("joint springs: hinge and slide; ball and free, polynomial, yielding",
+            read=("Joint.stiffness", "Joint.springref"), gaps=_spring_gaps),
+)
+"""Every MuJoCo feature the tree reference reads or leaves out, in the order :func:`uncovered` lists them: adding
+a feature is one entry here."""
+
+
+def uncovered(model: mujoco.MjModel) -> dict[str, str]:
+    """Forces in ``model`` that the tree reference does not model, by kind, each with why it matters and
+    what is checked instead (:data:`FEATURES`' gaps). Empty: every force MuJoCo applies is in the reference."""
+    return {key: why for feature in FEATURES if feature.gaps for key, why, _ in feature.gaps(model)}
+
+
+def isolate(spec: mujoco.MjSpec) -> None:
+    """Switch off, in ``spec``, every force the tree reference does not model that :data:`FEATURES` says how to:
+    contacts, joint limits, dry friction, fluid forces; spatial and damped tendons' forces; actuators whose force
+    it does not model. Everything it does model is left as it is."""
+    model = spec.compile()
+    for feature in FEATURES:
+        if feature.switch_off is not None:
+            feature.switch_off(spec, [i for _, _, i in feature.gaps(model)] if feature.gaps else [])
 
 
 def charts(model: mujoco.MjModel, qpos: np.ndarray) -> dict[int, np.ndarray]:
@@ -396,30 +510,6 @@ def _actuator(model: mujoco.MjModel, a: int, ctrl: float) -> Actuator:
     return Actuator(name=model.actuator(a).name or f"actuator{a}", moment=_moment(model, a),
                     gain=tuple(float(v) for v in gain), bias=tuple(float(v) for v in bias), ctrl=ctrl,
                     forcerange=forcerange)
-
-
-def isolate(spec: mujoco.MjSpec) -> None:
-    """Switch off, in ``spec``, every force the tree reference does not model: contacts, joint limits, dry
-    friction, fluid forces; spatial and damped tendons' forces; actuators whose force it does not model.
-    Everything it does model is left as it is."""
-    dsbl = mujoco.mjtDisableBit
-    spec.option.disableflags |= int(dsbl.mjDSBL_CONTACT) | int(dsbl.mjDSBL_LIMIT) | int(dsbl.mjDSBL_FRICTIONLOSS)
-    spec.option.density = 0.0
-    spec.option.viscosity = 0.0
-    spec.option.wind = [0.0, 0.0, 0.0]
-    for geom in spec.geoms:
-        geom.fluid_ellipsoid = 0.0
-    model = spec.compile()
-    gaps = {k for k in uncovered(model) if k.startswith(("actuator ", "tendon "))}
-    for actuator in spec.actuators:
-        if f"actuator {actuator.name}" in gaps:
-            actuator.gear = [0.0] * 6
-    for tendon in spec.tendons:
-        if f"tendon {tendon.name}" in gaps:
-            for attribute in ("stiffness", "damping", "frictionloss", "armature"):
-                if hasattr(tendon, attribute):  # a scalar on MuJoCo 3, MuJoCo 4's polynomial (a, b, c) where it is one
-                    setattr(tendon, attribute, np.zeros_like(np.asarray(getattr(tendon, attribute), dtype=float)))
-            tendon.limited = 0
 
 
 @dataclass(frozen=True)
