@@ -74,10 +74,10 @@ def text(advice: Advice) -> str:
               text_table(["integrator", "h", "position (m)", "energy (rel.)", "force (rel.)", "cost"], rows)]
     lines += ["", "Stability and order:"]
     for curve in advice.curves:
-        ordered = curve.ordered.get("position")
-        order = (f"order {curve.order:g} holds for position from {_ms(ordered[0])} to {_ms(ordered[1])}"
-                 if ordered else f"order {curve.order:g} not observed on the ladder (fewer than two runs in its "
-                                 "asymptotic range)")
+        held = [f"{m} from {_ms(r[0])} to {_ms(r[1])}" for m, r in curve.ordered.items()
+                if m in ("position", "drift.energy") or m.startswith("force.")]
+        order = (f"order {curve.order:g} holds for " + ", ".join(held) if held else
+                 f"order {curve.order:g} not observed on the ladder (fewer than two runs in its asymptotic range)")
         lines.append(f"  {curve.integrator}: largest stable step {_limit_text(curve)}: {curve.limit.basis}"
                      + (f"; below: {curve.limit.below}; above: {curve.limit.above}" if curve.limit.below else "")
                      + f"; {order}")

@@ -716,12 +716,12 @@ def _as_is_step(case: Case, bench: Bench, curve: Curve, h: float, requirements: 
     """``h``, made smaller where the model as it is (every force on) estimates its own position error above a
     requirement with MARGIN: by the order its self-convergence shows between two tries (the documented one at the
     first; impacts make it lower), at most :data:`AS_IS_TRIES` times (its runs are MuJoCo's alone: cheap beside a
-    verification). nan, and why, where it would need a step below the ladder's finest: a verification there would
-    cost more than the whole ladder."""
+    verification). nan, and why, where it would need a step below the ladder's finest (or the candidate's, where
+    that is finer): a verification there would cost more than the whole ladder."""
     required = min((r.value for r in requirements if covered(r, "position")), default=math.inf)
     if not math.isfinite(required):
         return h, ""
-    finest = float(bench.model.opt.timestep) / 2 ** HALVINGS
+    finest = min(float(bench.model.opt.timestep) / 2 ** HALVINGS, h)  # the ladder's finest, or the candidate's
     order = curve.order
     last: tuple[float, float] | None = None
     for _ in range(AS_IS_TRIES):
@@ -735,8 +735,8 @@ def _as_is_step(case: Case, bench: Bench, curve: Curve, h: float, requirements: 
         if smaller < finest:
             return math.nan, (f"the model as it is (with {', '.join(dict(case.tree.uncovered))} on) estimates its "
                               f"position error at {error:.3g} m at h = {h:.3g} s by self-convergence, converging at "
-                              f"order {order:.2g}: it would need h ≈ {smaller:.2g} s, below the ladder's finest "
-                              f"step ({finest:.3g} s)")
+                              f"order {order:.2g}: it would need h ≈ {smaller:.2g} s, below the finest step the "
+                              f"ladder measured or extrapolated to ({finest:.3g} s)")
         h = smaller
     return h, ""
 
