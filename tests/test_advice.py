@@ -174,30 +174,24 @@ def test_the_command_writes_the_plot_and_the_page_and_escapes_names(tmp_path):
     assert "Recommended: RK4" in done.stdout
 
 
-def test_the_json_document_is_the_advice():
-    done = _cli("spring", "--require", "position=1e-3", "--integrators", "RK4", "--json")
-    assert done.returncode == 0, done.stderr
-    doc = json.loads(done.stdout)
-    rec = doc["recommended"]
-    assert rec["integrator"] == "RK4" and rec["met"] and rec["measured"]["position"] <= 1e-3
-    assert doc["integrators"]["RK4"]["limit"]["confirmed"] is True
-
-
 def test_nothing_met_exits_3():
     done = _cli("spring", "--require", "position=1e-14", "--integrators", "RK4")
     assert done.returncode == 3
     assert "No recommendation: no integrator meets" in done.stdout
 
 
-def test_the_api_is_the_command():
+def test_the_api_is_the_command_and_the_json_document_is_the_advice():
     import harness
 
     advice = harness.advise("spring", require={"position": 1e-4}, integrators=["RK4"])
     assert isinstance(advice, harness.Advice) and advice.recommended is not None
     done = _cli("spring", "--require", "position=1e-4", "--integrators", "RK4", "--json")
+    assert done.returncode == 0, done.stderr
     doc = json.loads(done.stdout)
-    assert doc["recommended"]["timestep"] == advice.recommended.timestep
-    assert doc["recommended"]["measured"] == dict(advice.recommended.measured)
+    rec = doc["recommended"]
+    assert rec["integrator"] == "RK4" and rec["met"] and rec["measured"]["position"] <= 1e-4
+    assert rec["timestep"] == advice.recommended.timestep and rec["measured"] == dict(advice.recommended.measured)
+    assert doc["integrators"]["RK4"]["limit"]["confirmed"] is True
 
 
 @pytest.mark.parametrize(("kwargs", "error"), [
