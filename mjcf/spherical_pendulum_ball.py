@@ -79,7 +79,7 @@ class BallBinding(QuaternionJointBinding):
         return float(named["theta"]), float(named["phi"])
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
-                  q: Sequence[float], qd: Sequence[float]) -> None:
+                  q: Sequence[float] | np.ndarray, qd: Sequence[float] | np.ndarray) -> None:
         """qpos ← quaternion of R(θ, φ); qvel ← Rᵀ ω_world (local angular velocity)."""
         theta, phi = self._split(q)
         theta_d, phi_d = self._split(qd)

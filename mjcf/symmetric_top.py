@@ -77,7 +77,7 @@ class EulerBallBinding(QuaternionJointBinding):
         return [COORDINATES.index(c) for c in self.coordinates]
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
-                  q: Sequence[float], qd: Sequence[float]) -> None:
+                  q: Sequence[float] | np.ndarray, qd: Sequence[float] | np.ndarray) -> None:
         """qpos ← quaternion of R(φ, θ, ψ); qvel ← ω_b = B(q) q̇ (the local angular velocity)."""
         jnt = model.joint(self.joint)
         data.qpos[jnt.qposadr[0]:jnt.qposadr[0] + 4] = orientation(*(float(v) for v in self._angles(q)))

@@ -71,7 +71,7 @@ class FreeBinding(QuaternionJointBinding):
     joint: str = "free"
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
-                  q: Sequence[float], qd: Sequence[float]) -> None:
+                  q: Sequence[float] | np.ndarray, qd: Sequence[float] | np.ndarray) -> None:
         """qpos ← (c, quaternion of R(φ, θ, ψ)); qvel ← (ċ, A(θ, ψ)(φ̇, θ̇, ψ̇))."""
         pos = self._named([float(v) for v in q])
         rates = np.asarray(list(self._named(qd).values()), dtype=float)  # length checked; in coordinates order

@@ -101,7 +101,7 @@ TOLERANCES = ("integration", "softness", "floors", "margin", "solver", "stop", "
               "convergence")
 
 
-def ulp_states(x: Sequence[float], *, epsilon: float, seed: int) -> np.ndarray:
+def ulp_states(x: Sequence[float] | np.ndarray, *, epsilon: float, seed: int) -> np.ndarray:
     """``x`` with each component × (1 ± ε/2), the signs seeded by ``seed``: a state half an ulp away in an
     arithmetic of machine epsilon ``epsilon`` (:data:`QUANTIZATION`)."""
     x = np.asarray(x, dtype=float)
