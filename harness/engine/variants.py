@@ -476,7 +476,7 @@ class ModelUnderTest:
     """How the model under test is compiled (its file, the timestep asked for, the edit applied), so
     that each variant is the same model with one more change."""
 
-    path: Path
+    path: Path | str
     timestep: float | None = None
     edit: Callable[[mujoco.MjSpec], None] | None = None
     floors: bool = True
