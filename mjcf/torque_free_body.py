@@ -94,7 +94,7 @@ class FreeBinding(QuaternionJointBinding):
         return (np.array([float(values[c]) for c in self.coordinates]),
                 np.array([float(speeds[c]) for c in self.coordinates]))
 
-    def velocity_map(self, model: mujoco.MjModel, q: Sequence) -> np.ndarray:
+    def velocity_map(self, model: mujoco.MjModel, q: Sequence | np.ndarray) -> np.ndarray:
         """B(q) with qvel = B q̇, shape (nv, 6) (numpy; a complex q gives a complex B)."""
         named = self._named(list(q))
         angular = euler_rate_matrix(named["theta"], named["psi"])

@@ -107,7 +107,7 @@ class QuaternionJointBinding:
         if sorted(self.coordinates) != sorted(self.COORDINATES):
             raise ValueError(f"{type(self).__name__} binds the coordinates {self.COORDINATES}, got {self.coordinates}")
 
-    def _named(self, values: Sequence) -> dict:
+    def _named(self, values: Sequence | np.ndarray) -> dict:
         """``values`` by coordinate name; ValueError where there is not one per coordinate."""
         if len(values) != len(self.COORDINATES):
             raise ValueError(f"expected {len(self.COORDINATES)} values for {self.coordinates}, got {len(values)}")
