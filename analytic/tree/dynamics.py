@@ -34,6 +34,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import cast
 
 import numpy as np
 
@@ -580,7 +581,7 @@ class TreeDynamics(Dynamics):
                 s = q @ eq.x - eq.x0 if eq.x is not None else np.zeros(batch, dtype=dtype)
                 poly = eq.poly
                 f[..., start] = y - sum(a * s ** k for k, a in enumerate(poly))
-                slope = np.asarray(sum(k * a * s ** (k - 1) for k, a in enumerate(poly) if k >= 1))
+                slope = cast(Array, sum(k * a * s ** (k - 1) for k, a in enumerate(poly) if k >= 1))  # (or duals)
                 jac[..., start, :] = eq.y - (slope[..., None] * eq.x if eq.x is not None else 0.0)
             start += eq.rows
         return f, jac
