@@ -206,8 +206,9 @@ def integrate(fun: RightHandSide, t_end: float, y0: Array, *, rtol: float, atol:
 
     def stages(times: Array, states: Array) -> Array:
         count["f"] += len(times)
-        if vectorized:  # fun takes every stage's time at once (its type names one time)
-            return np.asarray(fun(times, states), dtype=float)  # type: ignore[arg-type]
+        if vectorized:
+            every: Callable[..., Array] = fun  # it takes every stage's time at once (its type names one time)
+            return np.asarray(every(times, states), dtype=float)
         return np.array([fun(float(s), states[i]) for i, s in enumerate(times)], dtype=float)
 
     def jacobian(t: float, state: Array, f: Array) -> Array:

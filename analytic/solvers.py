@@ -23,8 +23,9 @@ Jacobian (:func:`state_jacobian`) is exact for the tree reference.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -184,8 +185,8 @@ def state_jacobian(dynamics: Dynamics, rhs: dop853.RightHandSide, t: float, y: A
     (f(−2δ) − 8f(−δ) + 8f(δ) − f(2δ))/12δ, exact for degree ≤ 4 whatever δ, so δ is the velocity's own size."""
     if dynamics.dual_states and not differences:  # the columns in chunks (analytic.dynamics.chunk_states)
         eye, per = np.eye(y.size), chunk_states(dynamics.n)
-        # the right-hand side takes dual numbers where dynamics.dual_states (its type names only arrays)
-        return np.concatenate([np.asarray(dual.tangent(rhs(t, dual.seeded(y, eye[j:j + per]))))  # type: ignore[arg-type]
+        on_duals: Callable[[float, Any], Any] = rhs  # dual numbers, where dynamics.dual_states (its type: arrays)
+        return np.concatenate([np.asarray(dual.tangent(on_duals(t, dual.seeded(y, eye[j:j + per]))))
                                for j in range(0, y.size, per)]).T.copy()
     n = y.size // 2
     eps = np.finfo(float).eps

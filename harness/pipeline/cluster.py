@@ -105,7 +105,8 @@ def _ray_output_to_stderr() -> None:
     def to_stderr(data, ignore_prefix: bool) -> None:
         original({**data, "is_err": True}, ignore_prefix)
 
-    to_stderr._to_stderr = True  # type: ignore[attr-defined]  # a mark on the function, found by name
+    # a mark on the function, found by name (a function's attributes are not in its type)
+    to_stderr._to_stderr = True  # type: ignore[attr-defined]
     worker.print_to_stdstream = to_stderr
 
 

@@ -71,7 +71,7 @@ class CaseResult:
     def without_case(self) -> CaseResult:
         """This result without its case, to send to another process (a case's system may hold closures, which do
         not pickle); the receiver puts the case back."""
-        return dataclasses.replace(self, case=None)  # type: ignore[arg-type]  # None only in transit
+        return dataclasses.replace(self, case=None)  # type: ignore[arg-type]  # (None only in transit)
 
     def figure(self, name: str) -> Figure:
         for f in self.figures:

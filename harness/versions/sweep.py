@@ -123,8 +123,9 @@ class Cell:
 
 
 def _cell(task: Task, verdict: str, reason: str = "", **kw: object) -> Cell:
+    # kw: Cell's other fields, by name (their types are Cell's)
     return Cell(task.model.name, str(task.spec.release), task.backend, verdict, " ".join(reason.split()),
-                host=socket.gethostname(), **kw)  # type: ignore[arg-type]  # kw: Cell's other fields, by name
+                host=socket.gethostname(), **kw)  # type: ignore[arg-type]
 
 
 def lost(task: Task, why: str) -> Cell:

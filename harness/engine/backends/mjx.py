@@ -201,7 +201,8 @@ class MjxBackend:
                                            fields={**rec, "mass": rec["qM"]},
                                            equality={c: rec["efc_force"][:, rows[c]] for c in probe.constraints},
                                            epsilon=self.epsilon)
-        return out  # type: ignore[return-value]  # every entry set: the groups cover every request
+        # every entry is set: the groups cover every request
+        return out  # type: ignore[return-value]
 
     def forward_many(self, model: mujoco.MjModel, probe: Probe, qpos: np.ndarray, qvel: np.ndarray) -> Forward:
         """MJX's ``forward`` at every state as one ``jit(vmap)`` call (compiled once per model structure),

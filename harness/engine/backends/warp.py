@@ -442,7 +442,8 @@ class WarpBackend:
             for i, traj in zip(group.indices, _run_group(chosen, group.models, probe), strict=True):
                 out[i] = traj
         timings["simulate_many"] = timings.get("simulate_many", 0.0) + time.perf_counter() - clock
-        return out  # type: ignore[return-value]  # every entry set: the groups cover every request
+        # every entry is set: the groups cover every request
+        return out  # type: ignore[return-value]
 
 
 def adaptations(model: mujoco.MjModel) -> tuple[str, ...]:
