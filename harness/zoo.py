@@ -583,8 +583,9 @@ def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str]
     chosen = tuple(integrators) if integrators is not None else None
     # a folder's models on a cluster: each with its files (meshes, includes), which the nodes need not share
     carried = {m.name: pack(m.path) for m in order} if not found and executor.kind == "ray" else {}
-    calls: list[tuple[Callable[..., Any], tuple[Any, ...]]] = [(judge_named, (m.name, chosen, timeout)) if found else
-             (judge_entry, (m, chosen, timeout, carried.get(m.name))) for m in order]
+    calls: list[tuple[Callable[..., Any], tuple[Any, ...]]] = [
+        (judge_named, (m.name, chosen, timeout)) if found else
+        (judge_entry, (m, chosen, timeout, carried.get(m.name))) for m in order]
     left_out: list[str] = []
     sized = [m for m in order if fault_max_nv is None or nv[m.name] <= fault_max_nv]
     if faults or injection:
