@@ -207,6 +207,7 @@ def integrate(fun: RightHandSide, t_end: float, y0: Array, *, rtol: float, atol:
     h = _initial_step(fun, y, f, t_end, rtol, atol)
     nfev, rejected = 2, 0
     K = np.empty((len(table.C), y.size))
+    hs: list[float]
     t_starts, hs, y_starts, coeffs = [], [], [], []
     while t < t_end:
         if len(hs) >= max_steps:

@@ -291,7 +291,7 @@ def seeded(y: Array, directions: Array) -> Dual:
     return Dual(np.broadcast_to(np.asarray(y, dtype=float), directions.shape).copy(), directions.copy())
 
 
-def tangent(x: Dual) -> Array:
+def tangent(x: object) -> Array:
     """The tangent of a result; TypeError where it is no dual number (code that dropped its seeds' tangents would
     otherwise read as a zero derivative)."""
     if not isinstance(x, Dual):

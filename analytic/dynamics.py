@@ -18,7 +18,7 @@ import ast
 import inspect
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -112,7 +112,8 @@ def _small_exponent(node: ast.expr) -> bool:
         return _small_exponent(node.operand)
     if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Div):
         return _small_exponent(node.left) and _small_exponent(node.right)
-    return isinstance(node, ast.Constant) and type(node.value) in (int, float) and abs(node.value) <= _MAX_EXPONENT
+    return (isinstance(node, ast.Constant) and type(node.value) in (int, float)
+            and abs(cast(float, node.value)) <= _MAX_EXPONENT)
 
 
 def _vectorized(source: str, rows: int, cols: int) -> Callable[..., Array]:
@@ -122,9 +123,9 @@ def _vectorized(source: str, rows: int, cols: int) -> Callable[..., Array]:
     is broadcast to the batch shape, giving an array (*batch, rows, cols). The
     code names numpy functions as ``numpy.<name>`` only, so numpy is all it needs.
     """
-    fn = None
+    fn: Callable[..., Any] | None = None
     if source:
-        namespace: dict[str, object] = {"numpy": np, "__builtins__": {}}
+        namespace: dict[str, Any] = {"numpy": np, "__builtins__": {}}
         # only code checked to be arithmetic on numpy's functions runs, wherever it was read from
         exec(compile(_checked_source(source), "<stored dynamics>", "exec"), namespace)
         fn = namespace["_lambdifygenerated"]
@@ -469,6 +470,7 @@ def solve_kkt(mass: Array, force: Array, jac: Array | None, gamma: Array | None)
         chol = np.linalg.cholesky(mass)
     except np.linalg.LinAlgError:  # M only semi-definite (a massless coordinate the constraints hold): no
         chol = None  # weighting; the KKT matrix as it stands, which constraints that fix it make regular
+    assert jac is not None and gamma is not None  # m > 0: the constraint rows and their right-hand side
     if chol is not None:
         weighted = np.swapaxes(np.linalg.solve(chol, np.swapaxes(jac, -1, -2)), -1, -2)  # J L⁻ᵀ, (..., m, n)
         s = np.linalg.svd(weighted, compute_uv=False)  # the singular values alone first: most models' J is regular
@@ -520,6 +522,7 @@ def kkt_tangent(mass: Array | Dual, force: Array | Dual, jac: Array | Dual | Non
     rhs_force = df - np.einsum("...ij,...j->...i", dm, qdd)
     rhs_gamma = None
     if j is not None:
+        assert dj is not None and dg is not None and g is not None  # the constraints' parts, with j
         rhs_force = rhs_force + np.einsum("...mn,...m->...n", dj, base.lam)
         rhs_gamma = dg - np.einsum("...mn,...n->...m", dj, qdd)
         if not np.all(base.rank == j.shape[-2]):  # redundant rows: the turning of range J where they disagree
@@ -530,8 +533,9 @@ def kkt_tangent(mass: Array | Dual, force: Array | Dual, jac: Array | Dual | Non
             coef = np.where(keep, np.einsum("...kn,...n->...k", vt, v) / np.where(keep, s, 1.0), 0.0)
             rhs_gamma = rhs_gamma - np.einsum("...mk,...k->...m", u, coef)
     moved = solve_kkt(m, rhs_force, j, rhs_gamma)
-    return Constrained(qdd=Dual(qdd, moved.qdd), lam=base.lam, generalized=base.generalized, unique=base.unique,
-                       rank=base.rank)
+    # q̈ a dual number (it acts as an array: Constrained's type names arrays only)
+    return Constrained(qdd=Dual(qdd, moved.qdd),  # type: ignore[arg-type]
+                       lam=base.lam, generalized=base.generalized, unique=base.unique, rank=base.rank)
 
 
 def _parts(x: Array | Dual) -> tuple[Array, Array]:

@@ -207,7 +207,8 @@ def integrate(fun: RightHandSide, t_end: float, y0: Array, *, rtol: float, atol:
     def stages(times: Array, states: Array) -> Array:
         count["f"] += len(times)
         if vectorized:
-            return np.asarray(fun(times, states), dtype=float)
+            every: Callable[..., Array] = fun  # it takes every stage's time at once (its type names one time)
+            return np.asarray(every(times, states), dtype=float)
         return np.array([fun(float(s), states[i]) for i, s in enumerate(times)], dtype=float)
 
     def jacobian(t: float, state: Array, f: Array) -> Array:
@@ -230,6 +231,10 @@ def integrate(fun: RightHandSide, t_end: float, y0: Array, *, rtol: float, atol:
     h_old = err_old = None
     previous: tuple[float, float, Array] | None = None  # the last step's (t, h, coefficients), to predict Z
     rejected = 0
+    t_starts: list[float]
+    hs: list[float]
+    y_starts: list[Array]
+    coeffs: list[Array]
     t_starts, hs, y_starts, coeffs = [], [], [], []
     def solved() -> Result:
         dense = Dense(t_start=np.array(t_starts), h=np.array(hs), y_start=np.array(y_starts),
@@ -257,7 +262,7 @@ def integrate(fun: RightHandSide, t_end: float, y0: Array, *, rtol: float, atol:
                       + y_starts[-1] - y)
             scale = atol + np.abs(y) * rtol
             while True:
-                if inv_real is None:
+                if inv_real is None or inv_complex is None:  # both set, or both cleared, together
                     inv_real = np.linalg.inv(GAMMA / h * eye - jmat)
                     inv_complex = np.linalg.inv(MU / h * eye - jmat)
                 result = _newton(stages, t, y, h, z0, scale, newton_tol, inv_real, inv_complex)

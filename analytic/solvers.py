@@ -23,7 +23,9 @@ Jacobian (:func:`state_jacobian`) is exact for the tree reference.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -55,7 +57,7 @@ class Solution:
     """``method``: the integrator that solved it (DOP853 or Radau IIA); ``why``: the reason, where Radau IIA
     was chosen."""
 
-    def state(self, t: Array) -> tuple[Array, Array]:
+    def state(self, t: Array | Sequence[float]) -> tuple[Array, Array]:
         """q and q̇ at times t, shapes (N, n)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         if t.min() < -1e-12 or t.max() > self.t_end * (1 + 1e-12) + 1e-12:
@@ -64,7 +66,7 @@ class Solution:
         n = self.dynamics.n
         return y[:, :n], y[:, n:]
 
-    def multipliers(self, t: Array) -> Array:
+    def multipliers(self, t: Array | Sequence[float]) -> Array:
         """λ at times t, shape (N, m), from the KKT system at the dense state."""
         q, qd = self.state(t)
         return self.dynamics.accelerations(q, qd)[1]
@@ -183,7 +185,8 @@ def state_jacobian(dynamics: Dynamics, rhs: dop853.RightHandSide, t: float, y: A
     (f(−2δ) − 8f(−δ) + 8f(δ) − f(2δ))/12δ, exact for degree ≤ 4 whatever δ, so δ is the velocity's own size."""
     if dynamics.dual_states and not differences:  # the columns in chunks (analytic.dynamics.chunk_states)
         eye, per = np.eye(y.size), chunk_states(dynamics.n)
-        return np.concatenate([np.asarray(dual.tangent(rhs(t, dual.seeded(y, eye[j:j + per]))))
+        on_duals: Callable[[float, Any], Any] = rhs  # dual numbers, where dynamics.dual_states (its type: arrays)
+        return np.concatenate([np.asarray(dual.tangent(on_duals(t, dual.seeded(y, eye[j:j + per]))))
                                for j in range(0, y.size, per)]).T.copy()
     n = y.size // 2
     eps = np.finfo(float).eps
@@ -235,6 +238,7 @@ def _solve_stiff(dynamics: Dynamics, rhs: dop853.RightHandSide, y0: Array, *, t_
         return state_jacobian(dynamics, rhs, t, y, f, atol_over_rtol=atol / rtol)
 
     if explicit is None:
+        assert radius is not None  # the caller gives the radius where DOP853 took no steps
         why = (f"stiff (rtol {rtol:g}): DOP853 would take at least {t_end * radius / STABILITY:.2g} steps by "
                f"stability alone (the linearization's fastest mode decays at {radius:.2g}/s, which bounds its step "
                f"to {STABILITY:g} over that)")

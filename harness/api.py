@@ -28,6 +28,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from numbers import Real
 from pathlib import Path
+from typing import TypeGuard
 
 import mujoco
 import numpy as np
@@ -193,7 +194,7 @@ class Validation:
             raise ValidationFailed(self)
 
 
-def _number(value: object) -> bool:
+def _number(value: object) -> TypeGuard[Real]:
     """A real number (int or float, numpy's included), not a bool or a string."""
     return isinstance(value, Real) and not isinstance(value, bool)
 
@@ -246,7 +247,7 @@ def _check_arguments(*, integrators: object, timestep: object, horizon: object, 
     _numbers_by_name("ctrl", ctrl, "{'shoulder': 0.5}")
 
 
-def _in_place(edit: Callable[[mujoco.MjSpec], None]) -> Callable[[mujoco.MjSpec], None]:
+def _in_place(edit: Callable[[mujoco.MjSpec], object]) -> Callable[[mujoco.MjSpec], None]:
     """``edit``, refusing a result: an edit changes the spec it is given and returns None, so a function
     that returns something (a new spec, a model) would otherwise be run for nothing, silently."""
     def checked(spec: mujoco.MjSpec) -> None:
@@ -364,6 +365,7 @@ def _validate(case: str | Case | None, options: RunOptions, judging: _Judging, *
         raise ValueError("validate needs a case name (or Case) or an mjcf path; known cases: "
                          + ", ".join(cases.names()))
     if case is None:  # any model, judged against its own tree: the model is the case's, not a variant of it
+        assert options.mjcf is not None  # (checked above)
         chosen = from_mjcf(options.mjcf, keyframe=keyframe, ctrl=ctrl, horizon=options.horizon)
         options = dataclasses.replace(options, mjcf=None)
     else:

@@ -33,9 +33,10 @@ import signal
 import time
 import traceback
 import xml.etree.ElementTree as ET
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any, cast
 
 import mujoco
 import numpy as np
@@ -447,13 +448,13 @@ def judge(model: ZooModel, *, integrators: Sequence[str] | None = None, timeout:
     """``model`` judged as ``mjharness check --mjcf FILE`` judges it; never raises (a crash is a verdict, and so
     is running past ``timeout`` seconds: unfinished)."""
     clock = time.perf_counter()
-    base = {"model": model.name, "package": model.package, "path": str(model.path)}
+    base: dict[str, Any] = {"model": model.name, "package": model.package, "path": str(model.path)}
     compiled, why = _described(model.path)
     if compiled is None:
         return ZooResult(**base, verdict=REFUSED, seconds=time.perf_counter() - clock, reason=why)
     gaps = uncovered(compiled)
-    have = {"nv": int(compiled.nv), "joints": joint_kinds(compiled), "features": features(compiled, gaps),
-            "not_examined": gaps}
+    have: dict[str, Any] = {"nv": int(compiled.nv), "joints": joint_kinds(compiled),
+                            "features": features(compiled, gaps), "not_examined": gaps}
     try:
         with time_limit(timeout):
             case = from_mjcf(model.path)
@@ -472,16 +473,19 @@ def judge(model: ZooModel, *, integrators: Sequence[str] | None = None, timeout:
     except Exception as exc:
         return ZooResult(**base, **have, verdict=CRASHED, seconds=time.perf_counter() - clock,
                          reason=f"{one_line(exc)} (a bug of the harness)")
-    tree = v.settings.tree or {}
+    settings = v.settings
+    assert settings is not None  # validate() always records the settings it ran with
+    tree: Mapping[str, Any] = settings.tree or {}
     deciding = deciding_check(v.checks)
-    stability = v.settings.families.get("stability", {})
+    # the stability family's entry: each integrator's statement (harness/families/stability.py)
+    stability = cast("Mapping[str, Mapping[str, Any]]", settings.families.get("stability", {}))
     beyond = {name: s["statement"] for name, s in stability.items() if s["beyond"]}
     return ZooResult(**base, **have | {"not_examined": dict(tree.get("not examined", gaps))},
                      verdict=PASS if v.passed else FAIL, seconds=time.perf_counter() - clock,
-                     integrators=tuple(v.settings.integrators), checks=len(v.checks),
+                     integrators=tuple(settings.integrators), checks=len(v.checks),
                      deciding=Deciding.of(deciding) if deciding is not None else None,
                      failed=tuple(str(c.name) for c in v.failures), horizon=str(tree.get("horizon", "")),
-                     own=v.settings.integrator, stability=beyond)
+                     own=settings.integrator, stability=beyond)
 
 
 def judge_named(name: str, integrators: tuple[str, ...] | None, timeout: float | None = None) -> ZooResult:
@@ -579,8 +583,9 @@ def run(models: Sequence[ZooModel], *, jobs: int = 1, integrators: Sequence[str]
     chosen = tuple(integrators) if integrators is not None else None
     # a folder's models on a cluster: each with its files (meshes, includes), which the nodes need not share
     carried = {m.name: pack(m.path) for m in order} if not found and executor.kind == "ray" else {}
-    calls = [(judge_named, (m.name, chosen, timeout)) if found else
-             (judge_entry, (m, chosen, timeout, carried.get(m.name))) for m in order]
+    calls: list[tuple[Callable[..., Any], tuple[Any, ...]]] = [
+        (judge_named, (m.name, chosen, timeout)) if found else
+        (judge_entry, (m, chosen, timeout, carried.get(m.name))) for m in order]
     left_out: list[str] = []
     sized = [m for m in order if fault_max_nv is None or nv[m.name] <= fault_max_nv]
     if faults or injection:

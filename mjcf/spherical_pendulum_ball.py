@@ -74,12 +74,12 @@ class BallBinding(QuaternionJointBinding):
 
     joint: str = "ball"
 
-    def _split(self, values: Sequence[float]) -> tuple[float, float]:
+    def _split(self, values: Sequence[float] | np.ndarray) -> tuple[float, float]:
         named = self._named(values)
         return float(named["theta"]), float(named["phi"])
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
-                  q: Sequence[float], qd: Sequence[float]) -> None:
+                  q: Sequence[float] | np.ndarray, qd: Sequence[float] | np.ndarray) -> None:
         """qpos ← quaternion of R(θ, φ); qvel ← Rᵀ ω_world (local angular velocity)."""
         theta, phi = self._split(q)
         theta_d, phi_d = self._split(qd)
@@ -110,7 +110,7 @@ class BallBinding(QuaternionJointBinding):
         return (np.array([angles[c] for c in self.coordinates]),
                 np.array([rates[c] for c in self.coordinates]))
 
-    def velocity_map(self, model: mujoco.MjModel, q: Sequence[float]) -> np.ndarray:
+    def velocity_map(self, model: mujoco.MjModel, q: Sequence[float] | np.ndarray) -> np.ndarray:
         """B(θ, φ) with qvel = B (θ̇, φ̇) in ``coordinates`` order, shape (nv, 2): the ball's local
         angular velocity ω_local = R_−y(θ)ᵀ (φ̇ ẑ + θ̇ (−ŷ)) (R_z(φ) leaves ẑ fixed and, turned back,
         takes the turned −y axis to −y; R_−y(θ) leaves −y fixed), so

@@ -68,7 +68,7 @@ class EulerBallBinding(QuaternionJointBinding):
 
     joint: str = "ball"
 
-    def _angles(self, values: Sequence) -> tuple:
+    def _angles(self, values: Sequence | np.ndarray) -> tuple:
         named = self._named(values)
         return tuple(named[c] for c in COORDINATES)
 
@@ -77,14 +77,14 @@ class EulerBallBinding(QuaternionJointBinding):
         return [COORDINATES.index(c) for c in self.coordinates]
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
-                  q: Sequence[float], qd: Sequence[float]) -> None:
+                  q: Sequence[float] | np.ndarray, qd: Sequence[float] | np.ndarray) -> None:
         """qpos ← quaternion of R(φ, θ, ψ); qvel ← ω_b = B(q) q̇ (the local angular velocity)."""
         jnt = model.joint(self.joint)
         data.qpos[jnt.qposadr[0]:jnt.qposadr[0] + 4] = orientation(*(float(v) for v in self._angles(q)))
         rates = body_rates(*(float(v) for v in self._angles(q))) @ np.array(self._angles(qd), dtype=float)
         data.qvel[jnt.dofadr[0]:jnt.dofadr[0] + 3] = rates
 
-    def velocity_map(self, model: mujoco.MjModel, q: Sequence) -> np.ndarray:
+    def velocity_map(self, model: mujoco.MjModel, q: Sequence | np.ndarray) -> np.ndarray:
         """B(q), shape (nv, 3): qvel = B(q) q̇; accepts a complex q (numpy operations only)."""
         jnt = model.joint(self.joint)
         block = body_rates(*self._angles(q))[:, self._order()]

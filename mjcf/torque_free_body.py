@@ -71,7 +71,7 @@ class FreeBinding(QuaternionJointBinding):
     joint: str = "free"
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
-                  q: Sequence[float], qd: Sequence[float]) -> None:
+                  q: Sequence[float] | np.ndarray, qd: Sequence[float] | np.ndarray) -> None:
         """qpos ← (c, quaternion of R(φ, θ, ψ)); qvel ← (ċ, A(θ, ψ)(φ̇, θ̇, ψ̇))."""
         pos = self._named([float(v) for v in q])
         rates = np.asarray(list(self._named(qd).values()), dtype=float)  # length checked; in coordinates order
@@ -94,7 +94,7 @@ class FreeBinding(QuaternionJointBinding):
         return (np.array([float(values[c]) for c in self.coordinates]),
                 np.array([float(speeds[c]) for c in self.coordinates]))
 
-    def velocity_map(self, model: mujoco.MjModel, q: Sequence) -> np.ndarray:
+    def velocity_map(self, model: mujoco.MjModel, q: Sequence | np.ndarray) -> np.ndarray:
         """B(q) with qvel = B q̇, shape (nv, 6) (numpy; a complex q gives a complex B)."""
         named = self._named(list(q))
         angular = euler_rate_matrix(named["theta"], named["psi"])

@@ -61,7 +61,7 @@ MOTION = Motion(
     q0={"z1": 0.0, "z2": 0.0, "theta": 0.0},
     qd0={"z1": 0.0, "z2": 0.0, "theta": 0.0},  # from rest: consistent for any radius a
     horizon=1.5,
-    tags={"fast", "ci", "constrained"},
+    tags=frozenset({"fast", "ci", "constrained"}),
 )
 
 

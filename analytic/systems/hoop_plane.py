@@ -63,7 +63,7 @@ MOTION = Motion(
     # v = a φ̇ = 1 m/s, θ̇ = 1 rad/s: a circle of radius 1 m about (0, 1)
     qd0={"x": 1.0, "y": 0.0, "z": 0.0, "theta": 1.0, "phi": 2.0},
     horizon=2.0,
-    tags={"fast", "ci", "constrained", "contact"},
+    tags=frozenset({"fast", "ci", "constrained", "contact"}),
 )
 
 

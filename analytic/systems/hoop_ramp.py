@@ -67,7 +67,7 @@ MOTION = Motion(
     q0={"x": 0.0, "s": 0.25, "phi": 0.0},
     qd0={"x": 0.5, "s": 0.0, "phi": 2.0},  # rolling: ẋ = a φ̇ with a = 0.25 m
     horizon=2.0,
-    tags={"fast", "ci", "constrained"},
+    tags=frozenset({"fast", "ci", "constrained"}),
 )
 
 RollForm = Literal["holonomic", "pfaffian"]

@@ -42,7 +42,7 @@ MOTION = Motion(
     q0={"theta": 1.0, "r": 1.0},
     qd0={"theta": 0.5, "r": 0.0},
     horizon=5.0,
-    tags={"fast", "ci", "constrained"},
+    tags=frozenset({"fast", "ci", "constrained"}),
 )
 
 

@@ -71,7 +71,7 @@ MOTION = Motion(
     q0={"theta": -0.5, "phi": 0.7420699834873062, "x": 0.8457810807767445, "y": 0.0},
     qd0={"theta": 0.0, "phi": 0.0, "x": 0.0, "y": 0.0},
     horizon=2.0,
-    tags={"fast", "ci", "constrained"},
+    tags=frozenset({"fast", "ci", "constrained"}),
 )
 
 

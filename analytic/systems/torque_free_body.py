@@ -121,7 +121,7 @@ def euler_state(inertia: Sequence[float], omega_body: Sequence[float]) -> tuple[
     theta = math.acos(momentum[2] / size)
     psi = math.atan2(momentum[0], momentum[1])
     rates = np.linalg.solve(euler_rate_matrix(theta, psi), omega)
-    return (0.0, theta, psi), tuple(float(r) for r in rates)
+    return (0.0, theta, psi), (float(rates[0]), float(rates[1]), float(rates[2]))
 
 
 def flip_period(inertia: Sequence[float], omega_body: Sequence[float]) -> float:

@@ -78,7 +78,7 @@ MOTION = Motion(
         "pitch": 0.8, "roll": 0.0, "yaw": 0.0},
     qd0={"theta": 0.0, "x": 0.0, "y": 0.0, "z": 0.0, "pitch": 0.0, "roll": 0.0, "yaw": 0.0},
     horizon=2.0,
-    tags={"fast", "ci", "constrained"},
+    tags=frozenset({"fast", "ci", "constrained"}),
 )
 
 

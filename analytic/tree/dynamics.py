@@ -34,6 +34,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import cast
 
 import numpy as np
 
@@ -456,7 +457,7 @@ class TreeDynamics(Dynamics):
         tree = self.tree
         if np.any(tree.gravity):
             return False
-        moves = self.layout.moves.any(axis=1)
+        moves = np.asarray(self.layout.moves.any(axis=1))
         for b in range(len(tree.bodies)):
             root = b
             while tree.bodies[root].parent >= 0:
@@ -575,11 +576,12 @@ class TreeDynamics(Dynamics):
                     lead = -0.5 * eq.torquescale * (w[..., None, None] * np.eye(3) - skew(v))
                     jac[..., start + 3:start + 6, :] = lead @ np.swapaxes(s, -1, -2) @ (a2 - a1)
             else:
+                assert eq.y is not None  # a joint or tendon equality has its row y
                 y = q @ eq.y - eq.y0
                 s = q @ eq.x - eq.x0 if eq.x is not None else np.zeros(batch, dtype=dtype)
                 poly = eq.poly
                 f[..., start] = y - sum(a * s ** k for k, a in enumerate(poly))
-                slope = sum(k * a * s ** (k - 1) for k, a in enumerate(poly) if k >= 1)
+                slope = cast(Array, sum(k * a * s ** (k - 1) for k, a in enumerate(poly) if k >= 1))  # (or duals)
                 jac[..., start, :] = eq.y - (slope[..., None] * eq.x if eq.x is not None else 0.0)
             start += eq.rows
         return f, jac
@@ -588,7 +590,9 @@ class TreeDynamics(Dynamics):
     def _anchors(self) -> tuple[Array, Array, tuple[tuple[int, int], ...]]:
         """The connects' and welds' anchors on bodies (not on the world, body −1): their bodies (k,) and offsets (k, 3),
         and per equality the index of its two anchors among them (−1: on the world, or no anchor)."""
-        bodies, offsets, sides = [], [], []
+        bodies: list[int] = []
+        offsets: list[Array] = []
+        sides: list[tuple[int, int]] = []
         for eq in self.tree.equalities:
             pair = [-1, -1]
             if eq.kind in ("connect", "weld"):
@@ -608,6 +612,7 @@ class TreeDynamics(Dynamics):
         if body < 0:
             zero = np.zeros((*batch, 3, self.tree.n))
             return np.broadcast_to(offset, (*batch, 3)), zero, zero, np.broadcast_to(np.eye(3), (*batch, 3, 3))
+        assert anchors is not None  # computed wherever an equality has an anchor on a body
         x, lin, ang = anchors
         return x[..., i, :], lin[..., i, :, :], ang[..., i, :, :], pose.rotation[..., body, :, :]
 

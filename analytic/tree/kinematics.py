@@ -183,14 +183,16 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
         exps, jacobians = exp_and_jacobian(q[..., layout.rotation_vectors[1]])
     else:
         jacobians = np.zeros((*batch, 0, 3, 3), dtype=dtype)
-    origin, rotation = [], []  # each body's, stacked at the end
+    origins: list[Array] = []  # each body's, stacked at the end
+    rotations: list[Array] = []
     before = []  # each centred hinge's frame before its turn (Layout.centred)
     for parent, pos, rot, steps, centred in layout.plan:
         if parent >= 0:
-            p, r = origin[parent], rotation[parent]
+            p, r = origins[parent], rotations[parent]
             if pos is not None:
                 p = p + r @ pos
         else:  # under the world: its frame as placed (the world's identity rotation changes no bit), in q's type
+            assert pos is not None  # a body under the world keeps its offset (Layout.plan)
             p = np.broadcast_to(pos.astype(dtype), (*batch, 3))
             r = np.broadcast_to(np.eye(3, dtype=dtype), (*batch, 3, 3))
         if rot is not None:
@@ -222,9 +224,9 @@ def forward(tree: Tree, layout: Layout, q: Array) -> Pose:
                 anchors[..., k + 3:k + 6, :] = p[..., None, :]
             else:
                 raise ValueError(f"joint {tree.joints[j].name!r}: unknown kind {kind!r}")
-        origin.append(p)
-        rotation.append(r)
-    origin, rotation = np.stack(origin, axis=-2, dtype=dtype), np.stack(rotation, axis=-3, dtype=dtype)
+        origins.append(p)
+        rotations.append(r)
+    origin, rotation = np.stack(origins, axis=-2, dtype=dtype), np.stack(rotations, axis=-3, dtype=dtype)
     coords, bodies, axis = layout.centred
     if before:
         axes[..., coords, :] = (np.stack(before, axis=-3) @ axis[:, :, None])[..., 0]

@@ -237,6 +237,7 @@ class Tree:
             out[f"actuator.{a.name}.ctrl"] = float(a.ctrl)
             if a.forcerange is not None:
                 out |= {f"actuator.{a.name}.forcerange.{k}": float(v) for k, v in enumerate(a.forcerange)}
-        for lim in (*self.limits, *self.tendon_limits):
+        limits: tuple[ForceLimit | TendonLimit, ...] = (*self.limits, *self.tendon_limits)
+        for lim in limits:
             out |= {f"{lim.name}.actuatorfrcrange.0": float(lim.lo), f"{lim.name}.actuatorfrcrange.1": float(lim.hi)}
         return out

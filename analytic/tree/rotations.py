@@ -121,7 +121,8 @@ def _coefficients(t: Array) -> tuple[Array, Array, Array]:
     if not small.any():
         return _closed(safe)
     series, closed = _series(t), _closed(safe)
-    return tuple(np.where(small, s, c) for s, c in zip(series, closed, strict=True))
+    (s0, s1, s2), (c0, c1, c2) = series, closed
+    return np.where(small, s0, c0), np.where(small, s1, c1), np.where(small, s2, c2)
 
 
 def _series(t: Array) -> tuple[Array, Array, Array]:

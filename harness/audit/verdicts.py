@@ -107,7 +107,7 @@ def _ours(expr: sp.Expr, claim: Claim, view: DocView) -> sp.Expr:
 
 def _quantity_in_ours(claim: Claim, view: DocView) -> str:
     """A value claim's left-hand side in our variables: our multiplier or acceleration where it is one."""
-    truth = sp.sympify(claim.truth(view)) if claim.truth is not None else None  # type: ignore[misc]
+    truth = sp.sympify(claim.truth(view)) if claim.truth is not None else None
     if truth is not None and truth in {*view.frame.lam.values(), *view.frame.qdd}:
         return doc_text(_ours(truth, claim, view))
     return claim.lhs or "value"
@@ -117,11 +117,11 @@ def _project_form(fixed: object, claim: Claim, view: DocView) -> str:
     """The corrected relation in our variables, solved for our multiplier where it has one."""
     prefix = "" if view.frame.reading == "the document's coordinates are ours" else f"({view.frame.reading}) "
     if claim.kind in ("value", "value_up_to_constant"):
-        return f"{prefix}{_quantity_in_ours(claim, view)} = {doc_text(_ours(fixed, claim, view))}"  # type: ignore[arg-type]
+        return f"{prefix}{_quantity_in_ours(claim, view)} = {doc_text(_ours(fixed, claim, view))}"
     relation = fixed.lhs - fixed.rhs if isinstance(fixed, sp.Equality) else fixed
     if isinstance(relation, sp.MatrixBase):
         return f"{prefix}{doc_text(relation.applyfunc(lambda e: _ours(e, claim, view)))} = 0"
-    ours = _ours(relation, claim, view)  # type: ignore[arg-type]
+    ours = _ours(relation, claim, view)
     lams = [s for s in view.derivation.multiplier_symbols if s in ours.free_symbols]
     if len(lams) == 1:
         (solved,) = sp.solve(ours, lams[0])

@@ -152,7 +152,7 @@ def resolve(formula: object, view: DocView) -> sp.Expr | sp.Matrix:
     """A claim's formula: as given, or made from the view where it is a general display's instance."""
     if callable(formula) and not isinstance(formula, sp.Basic | sp.MatrixBase):
         return formula(view)
-    return formula  # type: ignore[return-value]
+    return formula
 
 
 @dataclass(frozen=True)

@@ -197,13 +197,14 @@ class Case:
         time after ``settle``."""
         coordinates = tuple(self.q0)
         for label, given in (("q0", q0), ("qd0", qd0)):
-            unknown = sorted(set(given or {}) - set(coordinates))
+            values = given or {}
+            unknown = sorted(set(values) - set(coordinates))
             if unknown:
                 raise ValueError(f"{label} names unknown coordinate(s) {', '.join(unknown)} of case {self.name!r}; "
                                  f"accepted: {', '.join(coordinates)}")
-            bad = [k for k, v in (given or {}).items() if not math.isfinite(v)]
+            bad = [k for k, v in values.items() if not math.isfinite(v)]
             if bad:
-                raise ValueError(f"{label} must be finite numbers, got {', '.join(f'{k}={given[k]}' for k in bad)}")
+                raise ValueError(f"{label} must be finite numbers, got {', '.join(f'{k}={values[k]}' for k in bad)}")
         if horizon is not None and not (math.isfinite(horizon) and horizon > self.settle):
             raise ValueError(f"horizon must be a number of seconds above the case's settle time "
                              f"({self.settle:g} s), got {horizon}")
@@ -224,7 +225,7 @@ class Case:
             return self.tree.params_from_model(model)
         return params_of(self.system, model)
 
-    def reference(self, model: mujoco.MjModel, *, t_end: float | None = None, **solve: float) -> Reference:
+    def reference(self, model: mujoco.MjModel, *, t_end: float | None = None, **solve: Any) -> Reference:
         """The case's motion solved with the parameters of ``model`` (over at least ``t_end``)."""
         return build_reference(self.system, model, q0=self.q0, qd0=self.qd0, horizon=self.horizon,
                                t_end=t_end, tree=self.tree, **solve)

@@ -23,6 +23,7 @@ import math
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import cast
 
 import mujoco
 import numpy as np
@@ -126,6 +127,7 @@ def chaos_horizon(case: Case, model: mujoco.MjModel) -> tuple[float, str]:
     """The horizon for ``case``'s motion and why: the first time a perturbation of :data:`SEED` in the start's
     velocities (in units of √(g/L)) separates a point by :data:`GROWTH` × SEED × L, capped at
     :data:`HORIZON_CAP` and at least :data:`MIN_STEPS` timesteps."""
+    assert case.tree is not None  # a model of one's own, judged against its tree
     dyn = case.tree.dynamics(model)
     scales = tree_scales(dyn.tree)
     progress.stage(f"choosing the horizon: solving its tree reference over {HORIZON_CAP:g} s (at most "
@@ -254,7 +256,7 @@ def _check_cost(model: mujoco.MjModel, system: TreeSystem, qpos: np.ndarray, spa
     bounds.check_reference_cost(evaluation=evaluation, span=span, nv=int(model.nv), stopped=stopped)
     columns = 2 * dyn.n
     per = min(chunk_states(dyn.n), columns)
-    seeds = dual.seeded(np.concatenate([q, qd]), np.eye(columns)[:per])
+    seeds = cast(np.ndarray, dual.seeded(np.concatenate([q, qd]), np.eye(columns)[:per]))  # dual numbers: as arrays
     left = bound - bounds.EVALUATIONS_PER_SECOND * span * evaluation
     chunk, late = _timed_evaluation(lambda: dyn.accelerations(seeds[..., :dyn.n], seeds[..., dyn.n:]),
                                     1.01 * left * per / columns)

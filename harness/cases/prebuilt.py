@@ -49,7 +49,9 @@ def write_all() -> list[str]:
     written = []
     for kind, system, params in entries:
         deriving = derivations.derivation if kind == "dynamics" else derivations.minimal_derivation
-        compiled = Compiled.of(deriving(system), dict(params))
+        derived = deriving(system)
+        assert derived is not None  # needed() names the minimal form only of a system that has one
+        compiled = Compiled.of(derived, dict(params))
         written.append(prebuilt.write(kind, system, derivations.numeric_sources(system), params, compiled))
     for old in prebuilt.DIRECTORY.glob(f"*{prebuilt.SUFFIX}"):
         if old not in written:

@@ -97,8 +97,9 @@ def directory_source(path: str | os.PathLike) -> Source:
 
 
 def _package_source(entry: metadata.EntryPoint) -> Source:
+    dist = getattr(entry, "dist", None)
     label = f"entry point {entry.name} = {entry.value} ({GROUP}" + (
-        f", package {entry.dist.name})" if getattr(entry, "dist", None) is not None else ")")
+        f", package {dist.name})" if dist is not None else ")")
     accepted = f"accepted: a package (a directory with __init__.py) holding {LAYOUT}"
     try:
         module = entry.load()

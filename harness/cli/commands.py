@@ -39,6 +39,7 @@ from collections.abc import Callable, Sequence
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NoReturn
 
 import mujoco
 from numpy.linalg import LinAlgError
@@ -119,7 +120,7 @@ TRACEBACK_VARIABLE = "MJHARNESS_TRACEBACK"  # set to 1: an internal error prints
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line, exit 2 (argparse's own code)
+    def error(self, message: str) -> NoReturn:  # one line, exit 2 (argparse's own code)
         self.exit(EXIT_USAGE, f"mjharness: error: {message}\n")
 
 
@@ -426,7 +427,7 @@ def _check_junit(path: Path | None, report: Path | None = None) -> None:
     if path is not None:
         if path.is_dir():
             raise ValueError(f"--junit {str(path)!r} is a directory; give a file name")
-        names = (*REPORT_FILES, *PAGES)
+        names: tuple[str, ...] = (*REPORT_FILES, *PAGES)
         names = (*names, *(n + STALE for n in names))
         if report is not None and any(_same_file(path, report / name) for name in names):
             raise ValueError(f"--junit {str(path)!r} is a file of the report in {str(report)!r} "
@@ -794,7 +795,7 @@ def _backend_refusals(backend: str | None, chosen: Sequence, *, every: bool = Fa
 
 
 class _CheckOptions(_Parser):
-    def error(self, message: str) -> None:  # raised, not printed: the command's one line names it
+    def error(self, message: str) -> NoReturn:  # raised, not printed: the command's one line names it
         raise ValueError(f"the check options after -- are not ones `mjharness check` takes here: {message}")
 
 

@@ -37,6 +37,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -101,7 +102,7 @@ TOLERANCES = ("integration", "softness", "floors", "margin", "solver", "stop", "
               "convergence")
 
 
-def ulp_states(x: Sequence[float], *, epsilon: float, seed: int) -> np.ndarray:
+def ulp_states(x: Sequence[float] | np.ndarray, *, epsilon: float, seed: int) -> np.ndarray:
     """``x`` with each component × (1 ± ε/2), the signs seeded by ``seed``: a state half an ulp away in an
     arithmetic of machine epsilon ``epsilon`` (:data:`QUANTIZATION`)."""
     x = np.asarray(x, dtype=float)
@@ -230,7 +231,7 @@ def to_zero(levels: Sequence[np.ndarray], s: float) -> tuple[np.ndarray, np.ndar
         return _linear(levels[0], levels[1], s), None
     if len(levels) != 3:
         raise ValueError(f"extrapolation takes two or three levels, got {len(levels)}")
-    quadratic = sum(w * x for w, x in zip(_weights(3, s), levels, strict=True))
+    quadratic = cast(np.ndarray, sum(w * x for w, x in zip(_weights(3, s), levels, strict=True)))  # a sum of arrays
     return quadratic, quadratic - _linear(levels[1], levels[2], s)
 
 

@@ -14,6 +14,7 @@ import functools
 import io
 from collections.abc import Mapping, Sequence
 from types import ModuleType
+from typing import cast
 
 import numpy as np
 
@@ -70,7 +71,7 @@ def pyplot() -> ModuleType:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # lazy: as above
 
-    plt.rcParams.update(STYLE)
+    plt.rcParams.update(cast(dict, STYLE))  # (matplotlib's hints name its keys one literal each)
     return plt
 
 

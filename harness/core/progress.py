@@ -15,12 +15,13 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from typing import Any
 
 HEARTBEAT = 8.0
 """Seconds between two lines while a phase lasts: within the 10 s any command may be silent, yet few lines in a
 CI log."""
 
-_state: dict[str, object] = {"depth": 0, "stage": ""}
+_state: dict[str, Any] = {"depth": 0, "stage": ""}
 _lock = threading.Lock()
 
 

@@ -34,7 +34,7 @@ class Binding(Protocol):
         """Raise ModelMismatch if ``model`` lacks the joints this binding drives."""
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
-                  q: Sequence[float], qd: Sequence[float]) -> None:
+                  q: Sequence[float] | np.ndarray, qd: Sequence[float] | np.ndarray) -> None:
         """Write qpos and qvel for the analytic state (q, q̇)."""
 
     def dof_matrix(self, model: mujoco.MjModel) -> np.ndarray | None:
@@ -75,7 +75,7 @@ class JointBinding:
             require_joint(model, name, ONE_DOF, "a hinge or slide")
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
-                  q: Sequence[float], qd: Sequence[float]) -> None:
+                  q: Sequence[float] | np.ndarray, qd: Sequence[float] | np.ndarray) -> None:
         for name, qk, vk in zip(self.joints, q, qd, strict=True):
             jnt = model.joint(name)
             adr = int(jnt.qposadr[0])
@@ -107,7 +107,7 @@ class QuaternionJointBinding:
         if sorted(self.coordinates) != sorted(self.COORDINATES):
             raise ValueError(f"{type(self).__name__} binds the coordinates {self.COORDINATES}, got {self.coordinates}")
 
-    def _named(self, values: Sequence) -> dict:
+    def _named(self, values: Sequence | np.ndarray) -> dict:
         """``values`` by coordinate name; ValueError where there is not one per coordinate."""
         if len(values) != len(self.COORDINATES):
             raise ValueError(f"expected {len(self.COORDINATES)} values for {self.coordinates}, got {len(values)}")
@@ -164,7 +164,7 @@ class TreeBinding:
                                 f"{len(self.coordinates)}: it is not the model the reference was read from")
 
     def set_state(self, model: mujoco.MjModel, data: mujoco.MjData,
-                  q: Sequence[float], qd: Sequence[float]) -> None:
+                  q: Sequence[float] | np.ndarray, qd: Sequence[float] | np.ndarray) -> None:
         q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
         for j in range(model.njnt):
             kind, adr, dof = int(model.jnt_type[j]), int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j])

@@ -92,7 +92,7 @@ def check_texts(text: bytes, folder: Path, read: Callable[[Path], bytes]) -> Non
     """:func:`check_text` of the MJCF ``text`` and of every file it ``<include>``s, recursively (their names
     relative to ``folder``, the model's, as MuJoCo resolves them; each read by ``read``, which bounds it): a
     ``mass="nan"`` in a robot's included file is as silent as in the scene."""
-    pending, seen = [text], set()
+    pending, seen = [text], set[Path]()
     while pending:
         current = pending.pop()
         check_text(current)
@@ -116,13 +116,15 @@ def check_texts(text: bytes, folder: Path, read: Callable[[Path], bytes]) -> Non
 def check_model(model: mujoco.MjModel) -> None:
     """:class:`InvalidModel` naming the first non-finite number (options, then the elements' inputs, then
     the reference configuration), a timestep that is not positive or a solref mixing its two formats."""
-    for name in _option_fields(type(model.opt)):
+    options: type = type(model.opt)  # (typed: mypy takes type[Any] for unhashable)
+    for name in _option_fields(options):
         value = np.asarray(getattr(model.opt, name), dtype=float)
         if not np.isfinite(value).all():
             raise _non_finite_option(name, value)
     if not model.opt.timestep > 0:
         raise InvalidModel(f"option timestep = {model.opt.timestep:g} s; accepted: a timestep > 0 s")
-    present = [f for f, count in _element_fields(type(model)) if count is None or getattr(model, count)]
+    model_type: type = type(model)
+    present = [f for f, count in _element_fields(model_type) if count is None or getattr(model, count)]
     arrays = [getattr(model, f) for f in present]
     if not np.isfinite(np.concatenate([a.ravel() for a in arrays])).all():  # one test: it runs at every (cheap) compile
         field, values = next((f, a) for f, a in zip(present, arrays, strict=True) if not np.isfinite(a).all())
@@ -153,7 +155,8 @@ def check_spec(spec: mujoco.MjSpec) -> None:
 
     MuJoCo before 4 runs a forward pass while compiling and fails on what it warns about ("Nan, Inf or
     huge value in QACC", "mixed solref format"), naming no attribute; this says which."""
-    for name in _option_fields(type(mujoco.MjModel.from_xml_string("<mujoco/>").opt)):
+    options: type = type(mujoco.MjModel.from_xml_string("<mujoco/>").opt)  # (typed, as in check_model)
+    for name in _option_fields(options):
         value = np.asarray(getattr(spec.option, name, 0.0), dtype=float)
         if not np.isfinite(value).all():
             raise _non_finite_option(name, value)

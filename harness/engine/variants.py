@@ -49,7 +49,7 @@ import copy
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import mujoco
 import numpy as np
@@ -131,7 +131,7 @@ def _overridden(spec: mujoco.MjSpec) -> bool:
     return bool(int(spec.option.enableflags) & int(mujoco.mjtEnableBit.mjENBL_OVERRIDE))
 
 
-def _friction_solref(holder: object) -> list[float]:
+def _friction_solref(holder: Any) -> list[float]:
     """A pair's friction solref: its solreffriction, or its solref where that is unset (0 0)."""
     friction = [float(x) for x in holder.solreffriction]
     return friction if any(friction) else [float(x) for x in holder.solref]
@@ -161,8 +161,8 @@ def _soft_rows(model: mujoco.MjModel) -> Iterator[tuple[list[float], list[float]
         yield [float(x) for x in model.opt.o_solref], [float(x) for x in model.opt.o_solimp], "contact"
         return
     colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
-    for i in np.flatnonzero(colliding):
-        yield [float(x) for x in model.geom_solref[i]], [float(x) for x in model.geom_solimp[i]], "contact"
+    for g in np.flatnonzero(colliding):
+        yield [float(x) for x in model.geom_solref[g]], [float(x) for x in model.geom_solimp[g]], "contact"
     for i in range(model.npair):
         yield [float(x) for x in model.pair_solref[i]], [float(x) for x in model.pair_solimp[i]], "contact"
 
@@ -476,7 +476,7 @@ class ModelUnderTest:
     """How the model under test is compiled (its file, the timestep asked for, the edit applied), so
     that each variant is the same model with one more change."""
 
-    path: Path
+    path: Path | str
     timestep: float | None = None
     edit: Callable[[mujoco.MjSpec], None] | None = None
     floors: bool = True

@@ -266,14 +266,14 @@ def theory_limit(name: FigureName) -> Limit | None:
 def measure(bench: Bench) -> Measured:
     """The balance of each integrator's run, where the model has forces its tree reference does not model (they
     were switched off for the comparison): the model as it is, every force acting."""
-    case = bench.case
-    if case.tree is None or not case.tree.uncovered:
+    case, tree = bench.case, bench.case.tree
+    if tree is None or not tree.uncovered:
         return Measured()
-    as_is = compose(TreeEdit(isolating=False, ctrl=case.tree.ctrl), bench.options.edit)
+    as_is = compose(TreeEdit(isolating=False, ctrl=tree.ctrl), bench.options.edit)
     ref = bench.reference
     found, budgets, diverged, unjudged = bench.timed(NAME, lambda: balance_figures(
         bench.path, as_is, bench.probe.binding, integrators=tuple(bench.sims), q0=ref.q0(), qd0=ref.qd0(),
         horizon=case.horizon, energy_scale=ref.scales.energy, orders=bench.orders,
-        not_examined=tuple(dict(case.tree.uncovered)), engine=bench.engine, timestep=bench.options.timestep))
+        not_examined=tuple(dict(tree.uncovered)), engine=bench.engine, timestep=bench.options.timestep))
     return Measured(figures=tuple(found), budgets=budgets, diverged=diverged,
                     unmeasured=unjudged)  # n/a with why: impacts the timestep does not resolve

@@ -20,7 +20,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Protocol
+from typing import Protocol, TypeVar
 
 import mujoco
 import numpy as np
@@ -45,6 +45,8 @@ from harness.families import runs, sampled, stability
 from harness.reference import derivations
 from harness.reference import solutions as refmod
 from harness.reference.tree import switch_note, switched_orders, switches
+
+T = TypeVar("T")  # what a timed stage returns
 
 
 @dataclass(frozen=True)
@@ -188,8 +190,8 @@ class Bench:
         h = float(self.model.opt.timestep)
         bounds.check_steps(steps_in(case.horizon, h), horizon=case.horizon, timestep=h)  # before any work
         own = integrator_name(self.model)  # the integrator the model itself names leads every list of runs
-        chosen = sorted(chosen, key=lambda name: name != own)
-        self.integrators, self.skipped = _engine_integrators(self.engine, self.mut, tuple(chosen),
+        leading = sorted(chosen, key=lambda name: name != own)
+        self.integrators, self.skipped = _engine_integrators(self.engine, self.mut, tuple(leading),
                                                              given=options.integrators is not None)
         self.shipped = compile_model(case.mjcf, edit=case.prepare)
         compiling = time.perf_counter() - clock  # counted with the reference, which reads the model
@@ -206,7 +208,7 @@ class Bench:
         self.timings["reference"] = compiling + (time.perf_counter() - clock)
         self.probe = case.probe(self.reference.dynamics)
 
-    def timed(self, stage: str, work: Callable[[], object]) -> object:
+    def timed(self, stage: str, work: Callable[[], T]) -> T:
         """``work()``, its seconds added to the timings under ``stage`` (and named in the progress lines until it
         ends: a stage timed inside another, the budget's switches inside its runs, gives the name back)."""
         previous = progress.stage(stage)

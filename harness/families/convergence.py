@@ -294,6 +294,7 @@ def _rigid_limit_resolved(fit: OrderFit, errors: Sequence[float], dts: Sequence[
     for h in dts:
         sim, soft = ladder[h][:2]
         four = quadrupled[h]
+        assert sim is not None and soft is not None and four is not None  # returned above where one is None
         linear = {p: 2 * sim.positions[p] - soft.positions[p] for p in sim.positions}
         quadratic = {p: (8 * sim.positions[p] - 6 * soft.positions[p] + four.positions[p]) / 3
                      for p in sim.positions}
@@ -589,9 +590,9 @@ def convergence_study(
             errs["position"].append(_point_error(sim.positions, ref.positions))
             if constrained:  # Richardson in ε from ε and 2ε, or from the near-rigid fε and 2fε
                 low, high = pair if pair else (sim, soft)
-                rigid = {p: 2 * low.positions[p] - high.positions[p] for p in ref.positions}
+                at_rigid = {p: 2 * low.positions[p] - high.positions[p] for p in ref.positions}
                 tails.append(RIGID_TAIL * _point_error(low.positions, high.positions))
-                errs["position@rigid"].append(_point_error(rigid, ref.positions))
+                errs["position@rigid"].append(_point_error(at_rigid, ref.positions))
                 errs["softness"].append(_point_error(sim.positions, soft.positions))
                 errs["force"].append(_force_error(sim, ref) / scales.force)
         sat = SATURATION * scales.length
@@ -735,10 +736,12 @@ def order_figures(study: ConvergenceStudy) -> list[Figure]:
     for s in study.verdicts:
         if s.diverged:
             continue
+        shortfall = s.shortfall
+        assert shortfall is not None  # a verdict's series that did not diverge has a documented order
         used = [f"{h * 1e3:g}" for h, st in zip(s.dts, s.fit.status, strict=True) if st == "used"]
         floor = f"; floor {s.fit.floor:.2e} {s.unit}" if s.fit.floor is not None else ""
         figs.append(Figure(
-            FigureName.converge(s.integrator, "order_shortfall"), float(s.shortfall), "1",
+            FigureName.converge(s.integrator, "order_shortfall"), float(shortfall), "1",
             f"max(0, documented order {s.expected:g} − observed {s.fit.order:.2f}) of the {s.quantity} error "
             f"over T = {study.horizon:g} s, fitted on h = {', '.join(used) or 'none'} ms{floor}"
             + (f"; {s.cause}" if s.cause and s.passed is False else "")))

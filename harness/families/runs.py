@@ -378,9 +378,9 @@ def parts(runs: Runs, dev: Deviation, *, order: float) -> Parts:
         for k in range(2, len(levels)):  # the integration error is linear in ε (bilinear model)
             corrections.append(corrections[0] + (corrections[1] - corrections[0]) * (s**k - 1.0) / (s - 1.0))
         at_zero_h = [x - c for x, c in zip(levels, corrections, strict=True)]
-        ideal, uncertainty = to_zero(at_zero_h, s)
+        ideal, maybe_uncertainty = to_zero(at_zero_h, s)
         softness = at_zero_h[0] - ideal
-        softness_unc = None if uncertainty is None else np.abs(uncertainty)
+        softness_unc = None if maybe_uncertainty is None else np.abs(maybe_uncertainty)
         if runs.slower:
             y_tau, unc_tau = to_zero(levels, s)
             y_slow, unc_slow = to_zero([_by_name(group)[dev.name] for group in runs.slower], s)
@@ -553,8 +553,8 @@ def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_toleran
                                   if runs.perturbed else gain * roundoff * walk * dev.size),
                      "reference": REFERENCE * rtol * dev.size,
                      "convergence": gain * SOLVER * solver_tolerance * dev.size}
-        said = linearity_note(dev.magnitude, *(_by_name(group)[dev.name] for group in runs.softness),
-                              _by_name(runs.stiffest)[dev.name]) \
+        said = linearity_note(dev.magnitude, _by_name(runs.softness[0])[dev.name],
+                              _by_name(runs.softness[1])[dev.name], _by_name(runs.stiffest)[dev.name]) \
             if runs.rigid is not None and runs.stiffest is not None and len(runs.softness) == 2 \
             and not runs.rigid_ladder and not runs.rigid_unresolved else ""  # at h: only inside the asymptotic range
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
@@ -814,19 +814,20 @@ def variant_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: T
 def _renamed(runs: Runs, integrator: str, as_is: Sequence[Deviation]) -> Runs:
     """``runs`` as another integrator's, with that integrator's own run at h: every deviation's figure name
     carries that integrator."""
-    def devs(values: Sequence[Deviation] | None) -> list[Deviation] | None:
-        if values is None:
-            return None
+    def devs(values: Sequence[Deviation]) -> list[Deviation]:
         return [dataclasses.replace(d, name=FigureName(f"{integrator}.{d.name.measure}")) for d in values]
 
+    def maybe(values: Sequence[Deviation] | None) -> list[Deviation] | None:  # the runs not every budget has
+        return None if values is None else devs(values)
+
     return dataclasses.replace(runs, as_is=list(as_is), half_step=devs(runs.half_step),
-                               converged=devs(runs.converged), quarter_step=devs(runs.quarter_step),
+                               converged=maybe(runs.converged), quarter_step=maybe(runs.quarter_step),
                                softness=tuple(devs(r) for r in runs.softness),
-                               softness_half_step=devs(runs.softness_half_step),
+                               softness_half_step=maybe(runs.softness_half_step),
                                slower=tuple(devs(r) for r in runs.slower),
-                               perturbed=tuple(devs(r) for r in runs.perturbed), completed=devs(runs.completed),
+                               perturbed=tuple(devs(r) for r in runs.perturbed), completed=maybe(runs.completed),
                                rigid_ladder=tuple(tuple(devs(r) for r in level) for level in runs.rigid_ladder),
-                               stiffest=devs(runs.stiffest))
+                               stiffest=maybe(runs.stiffest))
 
 
 TWIN_TOLERANCE = 1e-9

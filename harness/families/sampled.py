@@ -53,11 +53,12 @@ import weakref
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import cast
 
 import mujoco
 import numpy as np
 
-from analytic.dynamics import Constrained
+from analytic.dynamics import Constrained, Dynamics
 from analytic.solvers import project
 from harness.core.budget import (
     FLOOR_UNCERTAINTY,
@@ -201,7 +202,7 @@ class Sample:
     block_gen: dict[str, list]
     reactions: Recorder
     unavailable: str
-    dynamics: object
+    dynamics: Dynamics
 
     @cached_property
     def solved(self) -> Constrained:
@@ -306,7 +307,7 @@ def _carry(model: mujoco.MjModel, data: mujoco.MjData, probe: Probe, fwd: Forwar
 
 def _measure(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarray, qd: np.ndarray, *,
              states: tuple[np.ndarray, np.ndarray] | None, fwd: Forward | None, offset: int, backend: str,
-             dynamics: object = None, compared_on: mujoco.MjModel | None = None) -> Sample:
+             dynamics: Dynamics | None = None, compared_on: mujoco.MjModel | None = None) -> Sample:
     """The engine's side at each state: the C engine's ``mj_forward`` at (q, q̇) (through the binding), or at
     MuJoCo's coordinates ``states`` (qpos, qvel), carrying the backend's dynamics ``fwd`` (rows ``offset``..)
     where the backend is not C; beside the analytic side, ``dynamics`` (default: the reference's), compared on
@@ -316,9 +317,9 @@ def _measure(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarray,
     mapped = getattr(probe.binding, "velocity_map", None) is not None
     coordinates = constant or mapped
     data = mujoco.MjData(model)
-    got = {k: [] for k in ("mass", "forcing", "qacc", "gen", "pts", "acc", "kinetic")}
-    got_lam = {c: [] for c in probe.constraints}
-    got_block_gen = {c: [] for c in probe.constraints}
+    got: dict[str, list] = {k: [] for k in ("mass", "forcing", "qacc", "gen", "pts", "acc", "kinetic")}
+    got_lam: dict[str, list] = {c: [] for c in probe.constraints}
+    got_block_gen: dict[str, list] = {c: [] for c in probe.constraints}
     reactions = Recorder(model, dyn, probe.loads)
     unavailable = ""
     for i in range(len(q)):
@@ -339,7 +340,9 @@ def _measure(model: mujoco.MjModel, probe: Probe, ref: Reference, q: np.ndarray,
         if reactions and not unavailable:
             reactions.record(model, data)
         if coordinates:
-            dof, rate = velocity_map(probe.binding, model, q[i], qd[i])
+            mapping = velocity_map(probe.binding, model, q[i], qd[i])
+            assert mapping is not None  # coordinates: the binding has a dof matrix or a velocity map
+            dof, rate = mapping
             qacc = data.qacc if rate is None else data.qacc - rate  # B q̈ = qacc − Ḃ q̇
             smooth = data.qfrc_passive + data.qfrc_actuator - data.qfrc_bias  # every force but the constraints'
             bias = smooth if rate is None else smooth - full @ rate
@@ -401,7 +404,8 @@ def at_states(model: mujoco.MjModel, probe: Probe, ref: Reference, engine: Backe
         # the copies measure it
         epsilon = float(np.finfo(np.float64).eps)
         c_copies = [V.roundoff_copy(model, epsilon=epsilon, index=k) for k in range(1, PERTURBED_RUNS + 1)]
-        same = _Reused(dyn)  # the analytic side at the same states: evaluated for the first copy, reused after
+        # the analytic side at the same states: evaluated for the first copy, reused after (a Dynamics by its methods)
+        same = cast(Dynamics, _Reused(dyn))
         others = [[d for d in compare(_measure(copy, probe, ref, q, qd, states=None, fwd=None, offset=0, backend="c",
                                                dynamics=same))[0]
                    if d.name != FigureName.instant("kinematics")] for copy in c_copies]

@@ -178,9 +178,9 @@ class ModelAudit:
 
 def _body_inertial(model: mujoco.MjModel, b: int) -> tuple[float, np.ndarray, np.ndarray]:
     """(mass, centre of mass, inertia about it) of body ``b`` in its body frame."""
-    rot = np.zeros(9)
-    mujoco.mju_quat2Mat(rot, model.body_iquat[b])
-    rot = rot.reshape(3, 3)
+    flat = np.zeros(9)
+    mujoco.mju_quat2Mat(flat, model.body_iquat[b])
+    rot = flat.reshape(3, 3)
     inertia = rot @ np.diag(model.body_inertia[b]) @ rot.T
     return float(model.body_mass[b]), model.body_ipos[b].copy(), inertia
 
@@ -274,7 +274,8 @@ def effect(model: mujoco.MjModel, body: int, c: np.ndarray, sigma: np.ndarray,
     simple = model.body_simple.copy(), model.dof_simplenum.copy()  # and reads a simple body's M from dof_M0
     model.body_simple[:], model.dof_simplenum[:] = 0, 0  # the general path, for both inertials alike
     d = mujoco.MjData(model)
-    before, after = [], []
+    before: list[tuple[np.ndarray, np.ndarray]] = []
+    after: list[tuple[np.ndarray, np.ndarray]] = []
     try:
         for fields, out in ((own, before), ((c, quat, values), after)):  # the model's own, then the replacement
             model.body_ipos[body], model.body_iquat[body], model.body_inertia[body] = fields
@@ -314,14 +315,15 @@ def audit_body(model: mujoco.MjModel, b: int, *, meshes: dict[int, np.ndarray] |
     shape = Shape.of(geoms)
     lower = bounds.lower_ratio(mass, sigma)
     if not geoms:
-        problems = (f"inertia {lower:.3g}× too small for any material (tr Σ below the densest ball's "
-                    f"{bounds.densest_ball(mass):.3g} kg·m²)",) if lower > 1 else ()
-        kind = "finding" if problems else "no geometry"
-        return BodyAudit(name, mass, kind, c, sigma, lower=lower, problems=problems,
-                         causes=tuple(causes(mass, c, inertia, shape, None)) if problems else ())
+        found = (f"inertia {lower:.3g}× too small for any material (tr Σ below the densest ball's "
+                 f"{bounds.densest_ball(mass):.3g} kg·m²)",) if lower > 1 else ()
+        kind = "finding" if found else "no geometry"
+        return BodyAudit(name, mass, kind, c, sigma, lower=lower, problems=found,
+                         causes=tuple(causes(mass, c, inertia, shape, None)) if found else ())
     hull = solid(geoms)
     upper, direction = bounds.upper_ratio(mass, c, sigma, shape)
     outside = bounds.com_outside(c, shape)
+    assert shape.ext is not None  # the shape of some geoms has their extent (Shape.of)
     size = float(shape.ext.width(c).max())
     density = mass / hull.volume if hull is not None else None
     implied = None
@@ -338,7 +340,7 @@ def audit_body(model: mujoco.MjModel, b: int, *, meshes: dict[int, np.ndarray] |
                         f"{bounds.densest_ball(mass):.3g} kg·m²)")
     if outside > 0:
         problems.append(f"centre of mass {outside * 1e3:.3g} mm outside the geometry's hull")
-    if density is not None and density > bounds.DENSEST * DENSITY_MARGIN:
+    if hull is not None and density is not None and density > bounds.DENSEST * DENSITY_MARGIN:  # (a hull's)
         problems.append(f"mean density {density:.3g} kg/m³ over the hull's {hull.volume:.3g} m³, above the "
                         f"densest element's {bounds.DENSEST:.0f}")
     if problems:
@@ -372,7 +374,7 @@ def audit_model(model: mujoco.MjModel, *, name: str = "the model", accept: Mappi
         audit = audit_body(model, b, meshes=meshes)
         if audit.kind == "finding" and audit.body in (partial or {}) and audit.lower <= 1:
             audit = _with(audit, kind="warning", problems=(*audit.problems, f"geometry partial: "
-                                                           f"{partial[audit.body]}"))
+                                                           f"{(partial or {})[audit.body]}"))
         if audit.kind == "finding":
             states = states if states is not None else sample_states(model, list(range(model.njnt)), STATES, 0)
             shape = Shape.of(body_geoms(model, b, meshes=meshes))

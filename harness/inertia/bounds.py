@@ -83,6 +83,7 @@ class Shape:
     def with_axes(self, axes: np.ndarray) -> Extent:
         """The supports at the standard directions and at ``axes`` (rows) too."""
         plus, minus = supports(list(self.geoms), axes)
+        assert self.ext is not None  # asked only of a shape with geoms
         return Extent(np.vstack([self.ext.directions, axes]), np.concatenate([self.ext.plus, plus]),
                       np.concatenate([self.ext.minus, minus]))
 
@@ -128,6 +129,7 @@ def lower_ratio(mass: float, sigma: np.ndarray) -> float:
 
 def com_outside(c: np.ndarray, shape: Shape) -> float:
     """How far the centre of mass ``c`` lies outside the geoms' hull (m; ≤ 0 inside)."""
+    assert shape.ext is not None  # asked only of a shape with geoms
     return shape.ext.outside(c)
 
 

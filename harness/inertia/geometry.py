@@ -144,9 +144,9 @@ def body_geoms(model: mujoco.MjModel, body: int, *, meshes: dict[int, np.ndarray
         kind = int(model.geom_type[g])
         if kind in SKIPPED:
             continue
-        rot = np.zeros(9)
-        mujoco.mju_quat2Mat(rot, model.geom_quat[g])
-        rot = rot.reshape(3, 3)
+        flat = np.zeros(9)
+        mujoco.mju_quat2Mat(flat, model.geom_quat[g])
+        rot = flat.reshape(3, 3)
         pos = model.geom_pos[g].copy()
         vertices = None
         if kind in (_G.mjGEOM_MESH, _G.mjGEOM_SDF):

@@ -25,6 +25,7 @@ import copy
 import importlib.util
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -64,14 +65,14 @@ class PinocchioModel:
         qpos0: MuJoCo's reference configuration (a hinge's or slide's Pinocchio coordinate is measured from it).
     """
 
-    model: object
+    model: Any  # a pinocchio.Model (pinocchio ships no type hints)
     joints: tuple[tuple[int, int, int, int, int], ...]
     qpos0: np.ndarray
 
     def q(self, qpos: np.ndarray) -> np.ndarray:
         """Pinocchio's configuration of MuJoCo's ``qpos``."""
         qpos0 = self.qpos0
-        out = np.zeros(self.model.nq)  # type: ignore[attr-defined]
+        out = np.zeros(self.model.nq)
         for kind, adr, _, iq, _ in self.joints:
             if kind in (_HINGE, _SLIDE):
                 out[iq] = qpos[adr] - qpos0[adr]
@@ -84,7 +85,7 @@ class PinocchioModel:
 
     def frames(self, qpos: np.ndarray) -> np.ndarray:
         """T with Pinocchio's v = T qvel at ``qpos``: Rᵀ on each free joint's linear block, else the identity."""
-        nv = self.model.nv  # type: ignore[attr-defined]
+        nv = self.model.nv
         t = np.eye(nv)
         for kind, adr, _, _, iv in self.joints:
             if kind == _FREE:
@@ -134,7 +135,7 @@ class PinocchioModel:
         """Pinocchio's M (CRBA, symmetrized), mapped to MuJoCo's dofs: Tᵀ M T."""
         import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
-        data = self.model.createData()  # type: ignore[attr-defined]
+        data = self.model.createData()
         upper = np.array(pin.crba(self.model, data, self.q(qpos)))
         m = np.triu(upper) + np.triu(upper, 1).T
         t = self.frames(qpos)
@@ -144,7 +145,7 @@ class PinocchioModel:
     @cached_property
     def _order(self) -> np.ndarray:
         """Pinocchio's dof index of each MuJoCo dof."""
-        out = np.zeros(self.model.nv, dtype=int)  # type: ignore[attr-defined]
+        out = np.zeros(self.model.nv, dtype=int)
         for kind, _, dof, _, iv in self.joints:
             k = _NDOF[kind]
             out[dof:dof + k] = np.arange(iv, iv + k)
@@ -159,7 +160,7 @@ class PinocchioModel:
         """The generalized force that gives ``qacc`` (RNEA, armature included), in MuJoCo's dofs."""
         import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
-        data = self.model.createData()  # type: ignore[attr-defined]
+        data = self.model.createData()
         tau = pin.rnea(self.model, data, self.q(qpos), self.v(qpos, qvel),
                        self.acceleration(qpos, qvel, qacc))
         return self.force(qpos, np.array(tau))
@@ -168,7 +169,7 @@ class PinocchioModel:
         """The qacc that the generalized ``force`` gives (ABA, armature included), in MuJoCo's dofs."""
         import pinocchio as pin  # lazy: Pinocchio is optional (the pin extra)
 
-        data = self.model.createData()  # type: ignore[attr-defined]
+        data = self.model.createData()
         a = pin.aba(self.model, data, self.q(qpos), self.v(qpos, qvel), self.pin_force(qpos, force))
         return self.qacc(qpos, qvel, np.array(a))
 

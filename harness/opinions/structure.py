@@ -313,7 +313,10 @@ def sample_states(m: mujoco.MjModel, joints: list[int], count: int, seed: int) -
 def _dof_map(pm, m: mujoco.MjModel, pairs: list[_Pair]) -> tuple[list[int], list[int], list[str], list[int]]:
     """Matched dof indices: Pinocchio's, MuJoCo's, the MuJoCo joint each belongs to, and the free joints'
     first positions in these lists (their linear rows need the rotation)."""
-    pin_v, mj_v, names, free = [], [], [], []
+    pin_v: list[int] = []
+    mj_v: list[int] = []
+    names: list[str] = []
+    free: list[int] = []
     for p in pairs:
         joint = pm.joints[p.i]
         mj = [d for j in p.mj_joints for d in range(m.jnt_dofadr[j], m.jnt_dofadr[j] + _nv(m, j))]

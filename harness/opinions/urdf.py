@@ -147,6 +147,7 @@ class Opinions:
         """The line under the checks' verdict where the URDF comparison fails ("" otherwise)."""
         if not self.failed:
             return ""
+        assert self.urdf is not None  # failed: the URDF comparison failed
         return (f"FAIL — the URDF disagrees with the MJCF: {len(self.urdf.comparison.differences)} difference(s) "
                 "over tolerance (listed above)")
 

@@ -151,7 +151,7 @@ def compare(baseline: Mapping, case: str, figures: Iterable[Figure],
     if entry is None:
         return [Finding(case, None, f"case {case!r} is not in the baseline {source}; after checking its "
                                     f"figures, add it deliberately with `{refresh}`")]
-    measured = {f.name: f.value for f in figures}
+    measured: dict[str, float] = {f.name: f.value for f in figures}
     stored = entry.get("figures", {})
     missing = [name for name in thresholds if name not in stored and not unavailable_reason(name)]
     found = []

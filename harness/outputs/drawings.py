@@ -72,7 +72,7 @@ def draw_report(selected: Sequence[cases.Case], results: Sequence[CaseResult], *
     start = time.perf_counter()
     layer4 = study_calls(selected) if studies else []
     calls = ([(study, call) for call in layer4]
-             + [(case_plots, (r.case.name if r.case.tree is None else r.case, dataclasses.replace(r, case=None)))
+             + [(case_plots, (r.case.name if r.case.tree is None else r.case, r.without_case()))
                 for r in results])
     labels = [" ".join(c) for c in layer4] + [f"plots {r.case.name}" for r in results]
     workers = min(jobs or cpus(), len(calls))

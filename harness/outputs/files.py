@@ -221,8 +221,8 @@ def write_atomic(files: Mapping[Path, str | bytes], *, remove: Iterable[Path] = 
     except OSError as exc:  # a full disk names no file: the one being written then is named
         raise ValueError(f"cannot write {str(exc.filename or dest or '')!r}: {exc.strerror or exc}") from None
     finally:
-        for tmp, _ in staged:
-            tmp.unlink(missing_ok=True)
+        for staged_tmp, _ in staged:
+            staged_tmp.unlink(missing_ok=True)
         for folder in reversed(created if not written else []):
             with contextlib.suppress(OSError):
                 folder.rmdir()

@@ -38,7 +38,7 @@ def _figure(rows: int = 1, height: float = 3.3):
 
 def _legend(fig, *axes, columns: int = 2) -> None:
     """One legend for ``axes`` (each label once), below the plot, outside the data."""
-    entries = {}
+    entries: dict[str, object] = {}
     for ax in axes:
         for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
             entries.setdefault(label, handle)
@@ -64,6 +64,7 @@ def _log_curves(ax, t: np.ndarray, curves: dict[str, np.ndarray]) -> None:
 def plot_overlay(result: CaseResult) -> str:
     """World coordinates of each point: reference (line) vs MuJoCo's shipped integrator (dashed)."""
     ref, sim = result.reference, result.simulations[shipped_integrator(result)]
+    assert ref is not None  # plotted only of a run that kept its reference (not a figures-only one)
     fig, axes = _figure()
     ax = axes[0, 0]
     k = 0
@@ -82,10 +83,12 @@ def plot_overlay(result: CaseResult) -> str:
 
 def plot_errors(result: CaseResult) -> str:
     """Position error vs time for every integrator (log scale; coinciding integrators drawn once)."""
+    ref = result.reference
+    assert ref is not None  # plotted only of a run that kept its reference (not a figures-only one)
     fig, axes = _figure()
     ax = axes[0, 0]
-    t = result.reference.t[1:]
-    _log_curves(ax, t, {name: position_error(result.reference, sim)[1:]
+    t = ref.t[1:]
+    _log_curves(ax, t, {name: position_error(ref, sim)[1:]
                         for name, sim in result.simulations.items()})
     ax.set(xlabel="t [s]", ylabel="|x_mj − x_ref| [m]", title="Position error vs time, per integrator")
     ax.grid(True, which="major", lw=0.3)
@@ -98,6 +101,7 @@ def plot_forces(result: CaseResult) -> str | None:
     difference below on a log scale, so the first instants do not flatten the rest; the settle time after
     which force figures are taken is marked."""
     ref, sim = result.reference, result.simulations[shipped_integrator(result)]
+    assert ref is not None  # plotted only of a run that kept its reference (not a figures-only one)
     names = [c for c in ref.multipliers if c in sim.multipliers]
     if not names:
         return None
@@ -122,14 +126,16 @@ def plot_forces(result: CaseResult) -> str | None:
 
 def plot_invariants(result: CaseResult) -> str | None:
     """Drift of each invariant of MuJoCo's own state, per integrator (|I(t) − I(0)|, log)."""
-    names = list(result.reference.invariants)
+    ref = result.reference
+    assert ref is not None  # plotted only of a run that kept its reference (not a figures-only one)
+    names = list(ref.invariants)
     if not names:
         return None
     fig, axes = _figure(len(names), 1.2 + 2.1 * len(names))
     for ax, inv in zip(axes[:, 0], names, strict=True):
         drifts = {name: np.abs(sim.invariants[inv] - sim.invariants[inv][0])[1:]
                   for name, sim in result.simulations.items() if inv in sim.invariants}
-        _log_curves(ax, result.reference.t[1:], drifts)
+        _log_curves(ax, ref.t[1:], drifts)
         ax.set(ylabel=f"|{inv}(t) − {inv}(0)|", title=f"{inv} drift of MuJoCo's own state")
         ax.grid(True, which="major", lw=0.3)
     axes[-1, 0].set(xlabel="t [s]")

@@ -37,6 +37,7 @@ from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -423,7 +424,7 @@ def scope(result: CaseResult, checks: Sequence[Check]) -> str:
     """For a model judged against its own tree, the first screen's account of what was examined: the model, what
     its reference covers, what it does not (switched off for the comparison, judged by the balance alone), the
     checks run and on which integrators; '' for a shipped case."""
-    tree = result.settings.tree
+    tree: Mapping[str, Any] | None = result.settings.tree
     if not tree:
         return ""
     gaps = list((tree.get("not examined") or {}).keys())
@@ -443,7 +444,7 @@ def _examined(result: CaseResult) -> str:
     """For a model judged against its own tree: what the reference covers, what it does not (switched off for the
     comparison), how the model as it is was judged instead, how the horizon was chosen, and the reference's solver
     and tolerance; '' for a shipped case."""
-    tree = result.settings.tree
+    tree: Mapping[str, Any] | None = result.settings.tree
     if not tree:
         return ""
     gaps = tree.get("not examined") or {}
@@ -521,7 +522,7 @@ def section_case(result: CaseResult, checks: Sequence[Check], still: Still | Non
     """One case: model and equations, what differs from the shipped model, engine findings, fitness
     for the stated requirements, gated checks, plots (already drawn: :func:`section_plots`), the rest."""
     c = result.case
-    fitness = _fitness_table(fitness)
+    fitness_table = _fitness_table(fitness)
     failed = sum(not ch.passed for ch in checks)
     verdict = "PASS" if not failed else "FAIL"
     gated = {ch.name for ch in checks}
@@ -535,7 +536,7 @@ def section_case(result: CaseResult, checks: Sequence[Check], still: Still | Non
             f"{verdict} {len(checks) - failed}/{len(checks)}</span></h2>{scope(result, checks)}"
             f"<p>{_esc(c.description)}</p>{section_model(result, still)}{_examined(result)}{_stability(result)}"
             f"{_differences(result)}"
-            f"{_findings(result)}{fitness}"
+            f"{_findings(result)}{fitness_table}"
             f"<section id='checks'><h3>Gated checks</h3>{_checks_table(result, checks)}</section>"
             f"<section id='plots'><h3>Plots</h3><div class='plots'>{plots}</div></section>"
             f"<section id='figures'><details class='more'><summary><h3>Other figures (measured, not gated)</h3> "
@@ -617,7 +618,9 @@ def _start_qpos(result: CaseResult) -> tuple[float, ...]:
     model = compile_model(result.case.mjcf, edit=result.case.prepare)
     data = mujoco.MjData(model)
     q0 = result.settings.q0
-    result.case.binding(tuple(q0)).set_state(model, data, list(q0.values()), [0.0] * len(q0))
+    binding = result.case.binding
+    assert binding is not None  # a tree case is bound by its tree
+    binding(tuple(q0)).set_state(model, data, list(q0.values()), [0.0] * len(q0))
     return tuple(float(x) for x in data.qpos)
 
 

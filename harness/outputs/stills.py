@@ -31,6 +31,7 @@ import subprocess
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -175,7 +176,7 @@ def _staged(path: str) -> mujoco.MjModel:
     return spec.compile()
 
 
-def _render_one(item: Mapping[str, object]) -> bytes:
+def _render_one(item: Mapping[str, Any]) -> bytes:  # (a JSON entry)
     from PIL import Image  # lazy: Pillow, in the render child only
 
     model = _staged(str(item["mjcf"]))
@@ -183,7 +184,7 @@ def _render_one(item: Mapping[str, object]) -> bytes:
     if item.get("qpos"):
         data.qpos[:] = item["qpos"]
     else:
-        _pose(model, data, str(item["case"]), list(item["coordinates"]))  # type: ignore[arg-type]
+        _pose(model, data, str(item["case"]), list(item["coordinates"]))
     mujoco.mj_forward(model, data)
     model.vis.headlight.ambient[:] = 0.45
     model.vis.headlight.diffuse[:] = 0.55

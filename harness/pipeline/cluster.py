@@ -105,6 +105,7 @@ def _ray_output_to_stderr() -> None:
     def to_stderr(data, ignore_prefix: bool) -> None:
         original({**data, "is_err": True}, ignore_prefix)
 
+    # a mark on the function, found by name (a function's attributes are not in its type)
     to_stderr._to_stderr = True  # type: ignore[attr-defined]
     worker.print_to_stdstream = to_stderr
 
@@ -120,11 +121,11 @@ def connect(executor: Executor) -> None:
     _ray_output_to_stderr()
     try:
         if where is None:  # "local": a cluster of its own, never the last one `ray start` started here
-            ray.init(address="local", include_dashboard=False, log_to_driver=False, logging_level="ERROR",
+            ray.init(address="local", include_dashboard=False, log_to_driver=False, logging_level=logging.ERROR,
                      runtime_env={"env_vars": {"MUJOCO_GL": "disable"}})
         else:
             _token_auth()
-            ray.init(address=where, log_to_driver=False, logging_level="ERROR", runtime_env=_runtime_env())
+            ray.init(address=where, log_to_driver=False, logging_level=logging.ERROR, runtime_env=_runtime_env())
     except ray.exceptions.AuthenticationError as exc:
         raise ValueError(f"the Ray cluster at {where!r} refused this run's authentication: "
                          f"{' '.join(str(exc).split())[:160]}; fix: put the cluster's token in ~/.ray/auth_token "

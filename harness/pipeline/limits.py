@@ -50,6 +50,7 @@ import tomllib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from harness import families
 from harness.cases import Case, all_cases, did_you_mean
@@ -198,7 +199,7 @@ def case_limits(limits: Limits, case: Case, figures: Iterable[str]) -> dict[str,
 
 
 def _config_section(path: Path) -> dict:
-    data = _read_toml(path, "config")
+    data: Any = _read_toml(path, "config")  # TOML's tables, checked below
     if "tool" in data:
         tool = data["tool"]
         data = tool.get("mjharness") if isinstance(tool, dict) else None

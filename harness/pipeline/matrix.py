@@ -196,7 +196,7 @@ def _run_group(names: Sequence[str], figures_only: bool, options: RunOptions):
     """A group's cases in a worker, in order, until one fails: per case (its result without the
     unpicklable Case, or its error), then the references this worker solved (none if
     ``figures_only``, when the results carry no trajectories either)."""
-    outcomes = []
+    outcomes: list[tuple[CaseResult | None, Exception | None]] = []
     for name in names:
         try:
             result = run_case(cases.get(name), options)
@@ -205,7 +205,7 @@ def _run_group(names: Sequence[str], figures_only: bool, options: RunOptions):
             break
         if figures_only:
             result = dataclasses.replace(result, reference=None, simulations={})
-        outcomes.append((dataclasses.replace(result, case=None), None))
+        outcomes.append((result.without_case(), None))
     return outcomes, ({} if figures_only else refmod.export_solutions())
 
 
@@ -286,7 +286,7 @@ def _run_own(case: cases.Case, carried: Carried, figures_only: bool, options: Ru
     result = run_case(case, dataclasses.replace(options, mjcf=here))
     if figures_only:
         result = dataclasses.replace(result, reference=None, simulations={})
-    return dataclasses.replace(result, case=None)
+    return result.without_case()
 
 
 def _named_here(result: CaseResult, mjcf: str) -> CaseResult:
@@ -313,6 +313,7 @@ def _run_own_on_cluster(selected: Sequence[cases.Case], executor: Executor, *, f
     node (:mod:`harness.pipeline.carry`); the local run's result, the model named by the user's path."""
     import mujoco  # lazy: already imported by harness.cases; named here for its release in the task's name
 
+    assert options.mjcf is not None  # a user's model: the one task is its file
     carried = pack(options.mjcf)
     (case,) = selected
     label = f"{case.name} ({options.mjcf}, MuJoCo {mujoco.__version__}, backend {options.backend})"
@@ -349,7 +350,7 @@ def _run_backend(names: Sequence[str], config_path: Path | None, options: RunOpt
     """run_all in a backend's own process; its results go back to the parent without their case (a case's
     system may hold closures, which do not pickle: symmetric_top's axial momentum), reattached there."""
     results, checks, _ = run_all([cases.get(n) for n in names], config_path, options, jobs=1)
-    return [dataclasses.replace(r, case=None) for r in results], checks
+    return [r.without_case() for r in results], checks
 
 
 def run_backends(selected: Sequence[cases.Case], config_path: Path | None, options: RunOptions,

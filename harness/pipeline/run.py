@@ -11,6 +11,7 @@ model with one setting changed, or a limit from theory (:mod:`harness.families`)
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -66,6 +67,11 @@ class CaseResult:
     unmeasured: Mapping[str, str] = field(default_factory=dict)
     diverged: dict[str, str] = field(default_factory=dict)  # INTEGRATOR, converge.INTEGRATOR, instant figure -> why
     stability: Mapping[str, Stability] = field(default_factory=dict)
+
+    def without_case(self) -> CaseResult:
+        """This result without its case, to send to another process (a case's system may hold closures, which do
+        not pickle); the receiver puts the case back."""
+        return dataclasses.replace(self, case=None)  # type: ignore[arg-type]  # (None only in transit)
 
     def figure(self, name: str) -> Figure:
         for f in self.figures:

@@ -19,7 +19,7 @@ from collections.abc import Mapping
 
 from harness.core.checks import Check
 from harness.core.errors import ConfigError
-from harness.core.figures import FigureName
+from harness.core.figures import Figure, FigureName
 from harness.engine.compat import applicable_defect, unavailable_reason
 from harness.engine.integrators import DOCUMENTED_INTEGRATORS
 from harness.families.convergence import ORDER_TOLERANCE
@@ -57,7 +57,7 @@ def judge(result: CaseResult, limits: Mapping[str, Limit]) -> list[Check]:
     left out (not judged).
     """
     case = result.case.name
-    by_name = {f.name: f for f in result.figures}
+    by_name: dict[str, Figure] = {f.name: f for f in result.figures}
     ran = set(result.settings.integrators)
     checks = []
     unknown = []
@@ -94,7 +94,8 @@ def judge(result: CaseResult, limits: Mapping[str, Limit]) -> list[Check]:
                 continue
             check = Check(case, figure_name, figure.value, budget.limit, figure.unit, budget=budget)
         else:
-            check = Check(case, figure_name, figure.value, float(limit.value), figure.unit)  # type: ignore[arg-type]
+            assert limit.value is not None  # a theory's or a user's limit has its value (Limit checks)
+            check = Check(case, figure_name, figure.value, float(limit.value), figure.unit)
         if not check.passed and (known := defect_signature(result, figure_name)):
             check = Check(case, figure_name, check.value, check.threshold, check.unit, known=known,
                           budget=check.budget)

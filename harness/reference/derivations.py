@@ -60,7 +60,7 @@ def _stored_derivation(kind: str, system: str, minimal: bool) -> Derivation:
     on a fresh derivation of the system), else derived and stored for next time."""
     digest = cache.source_key(_sources(system))
     results = cache.load(kind, system, digest, dict)
-    if results is not None and set(results) == set(SYMBOLIC):
+    if isinstance(results, dict) and set(results) == set(SYMBOLIC):  # (load gives a dict or None)
         found = systems.build(system, minimal=minimal).derive()
         found.__dict__.update(results)  # the cached_property values, as derive() would compute them
         return found
@@ -123,7 +123,9 @@ def _compiled(kind: str, system: str, params: tuple[tuple[str, float], ...],
                 return shipped
             except Exception:  # unusable here: derived below like an absent one
                 pass
-        return Compiled.of(deriving(system), dict(params))
+        derived = deriving(system)
+        assert derived is not None  # asked only of a system that has this form (minimal_dynamics checks)
+        return Compiled.of(derived, dict(params))
 
     return cache.cached(kind, system, digest, compute, Compiled, _opened)
 

@@ -23,6 +23,7 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, cast
 
 import mujoco
 import numpy as np
@@ -82,13 +83,14 @@ first 500 steps, never left to run for hours."""
 # solutions by (system, params, q0, qd0, rtol, horizon); seeds (exported by another process) wait
 # there without their dynamics until asked for
 _solutions: dict[tuple, Solution] = {}
-_seeds: dict[tuple, tuple[float, float, int, object, str, str]] = {}
+# a solution's (t_end, rtol, nfev, dense output, method, why): Solution's fields, the dense output as unpickled
+_seeds: dict[tuple, tuple[float, float, int, Any, str, str]] = {}
 _exported: set[tuple] = set()
 
 
 def _usable(scale: object) -> bool:
     """A scale a relative figure can divide by: a positive, finite real (a reversed gravity makes √(g l) complex)."""
-    return isinstance(scale, (int, float, np.floating)) and bool(np.isfinite(scale)) and scale > 0
+    return isinstance(scale, (int, float, np.floating)) and bool(np.isfinite(scale)) and bool(scale > 0)
 
 
 def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, float], qd0: Mapping[str, float],
@@ -117,9 +119,10 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     tighter than :data:`~analytic.solvers.STIFF_RTOL` where the budget needs it (:func:`harness.core.budget.
     reference_rtol`).
     """
+    dyn: Dynamics
     if tree is not None:
-        dyn = tree.dynamics(model)
-        params, scales, identity = dict(dyn.params), tree_scales(dyn.tree), dyn.tree.digest()
+        dyn = own = tree.dynamics(model)
+        params, scales, identity = dict(own.params), tree_scales(own.tree), own.tree.digest()
     else:
         module = systems.load(system)
         params = params_of(system, model)
@@ -170,8 +173,8 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
                                  "reference (accepted: a model whose tree solves within the bound, or a shorter "
                                  "--horizon)") from None
             raise bounds.reference_too_long(str(exc)) from None
-        if tree is not None and sol.why:
-            sol = dataclasses.replace(sol, why=stiffness_cause(dyn, q, sol.why))
+        if tree is not None and sol.why:  # a tree's dynamics (tree given)
+            sol = dataclasses.replace(sol, why=stiffness_cause(cast(TreeDynamics, dyn), q, sol.why))
         _store(key, bound, sol, time.perf_counter() - clock)
     _solutions[key] = sol
     return _reference(system, params, scales, sol, dyn, q, qd, projected, span, tree)
@@ -205,8 +208,8 @@ def _reach(system: str, dyn: Dynamics, key: tuple, steps: int, rtol: float, para
         clock = time.perf_counter()
         sol = bounded_solve(dyn, q0=q, qd0=qd, t_end=key[-1], rtol=rtol, max_steps=steps, tree=tree is not None,
                             reach=True, stiff_rtol=stiff_rtol)
-        if tree is not None and sol.why:
-            sol = dataclasses.replace(sol, why=stiffness_cause(dyn, q, sol.why))
+        if tree is not None and sol.why:  # a tree's dynamics (tree given)
+            sol = dataclasses.replace(sol, why=stiffness_cause(cast(TreeDynamics, dyn), q, sol.why))
         _store(within, steps, sol, time.perf_counter() - clock)
     _solutions[within] = sol
     _solutions.setdefault((*key[:-1], sol.t_end), sol)
@@ -218,7 +221,8 @@ def _reference(system: str, params: dict[str, float], scales: Scales, sol: Solut
                tree: TreeSystem | None) -> Reference:
     if tree is not None:  # a model of one's own: its length is at least how far its motion goes
         points = dyn.points(sol.state(np.linspace(0.0, span, 65))[0]) if dyn.point_names else np.zeros((1, 1, 3))
-        scales = tree_scales(dyn.tree, excursion=float(np.max(np.linalg.norm(points - points[:1], axis=-1))))
+        excursion = float(np.max(np.linalg.norm(points - points[:1], axis=-1)))
+        scales = tree_scales(cast(TreeDynamics, dyn).tree, excursion=excursion)  # a tree's dynamics (tree given)
     return Reference(system=system, params=params, scales=scales, solution=sol,
                      initial=(tuple(q.tolist()), tuple(qd.tolist())), projected=projected)
 
@@ -249,7 +253,7 @@ def _stored(key: tuple, bound: int, dyn: Dynamics) -> Solution | None:
     """The solution of ``key`` within ``bound`` steps stored on disk by an earlier run, given these dynamics;
     None if there is none that loads."""
     seed = cache.load("solution", _entry_name(key), _digest(key, bound), tuple)
-    if seed is None or len(seed) != 6:
+    if not isinstance(seed, tuple) or len(seed) != 6:  # (load gives a tuple or None)
         return None
     end, tol, nfev, dense, method, why = seed
     return Solution(dynamics=dyn, t_end=end, rtol=tol, nfev=nfev, _dense=dense, method=method, why=why)
@@ -270,7 +274,7 @@ def stiffness_cause(dyn: TreeDynamics, q: np.ndarray, why: str) -> str:
     return f"{why}; joint damping on light links (M⁻¹D up to {fastest:.2g}/s)"
 
 
-def export_solutions() -> dict[tuple, tuple[float, float, int, object, str, str]]:
+def export_solutions() -> dict[tuple, tuple[float, float, int, Any, str, str]]:
     """The solutions of this process not exported before, in a picklable form (no dynamics)."""
     out = {k: (s.t_end, s.rtol, s.nfev, s._dense, s.method, s.why) for k, s in _solutions.items()
            if k not in _exported}

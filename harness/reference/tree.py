@@ -26,6 +26,7 @@ import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -489,11 +490,11 @@ def _equality(model: mujoco.MjModel, i: int) -> Equality | None:
                         x0=float(model.qpos0[model.jnt_qposadr[j2]]) if j2 >= 0 else 0.0,
                         poly=tuple(float(v) for v in data[:5]))
     t1, t2 = int(model.eq_obj1id[i]), int(model.eq_obj2id[i])
-    y = _fixed_tendon(model, t1)
+    coef1 = _fixed_tendon(model, t1)
     x = _fixed_tendon(model, t2) if t2 >= 0 else None
-    if y is None or (t2 >= 0 and x is None):
+    if coef1 is None or (t2 >= 0 and x is None):
         raise ModelError(f"equality {name!r} couples a spatial tendon; accepted: fixed tendons (joint wraps)")
-    return Equality(name=name, kind="tendon", y=y, x=x, y0=float(model.tendon_length0[t1]),
+    return Equality(name=name, kind="tendon", y=coef1, x=x, y0=float(model.tendon_length0[t1]),
                     x0=float(model.tendon_length0[t2]) if t2 >= 0 else 0.0, poly=tuple(float(v) for v in data[:5]))
 
 
@@ -507,9 +508,11 @@ def _actuator(model: mujoco.MjModel, a: int, ctrl: float) -> Actuator:
         else np.zeros(3)
     forcerange = (float(model.actuator_forcerange[a, 0]), float(model.actuator_forcerange[a, 1])) \
         if model.actuator_forcelimited[a] else None
-    return Actuator(name=model.actuator(a).name or f"actuator{a}", moment=_moment(model, a),
-                    gain=tuple(float(v) for v in gain), bias=tuple(float(v) for v in bias), ctrl=ctrl,
-                    forcerange=forcerange)
+    moment = _moment(model, a)
+    assert moment is not None  # the actuators read are those with a linear transmission (_actuator_gap)
+    return Actuator(name=model.actuator(a).name or f"actuator{a}", moment=moment,
+                    gain=(float(gain[0]), float(gain[1]), float(gain[2])),
+                    bias=(float(bias[0]), float(bias[1]), float(bias[2])), ctrl=ctrl, forcerange=forcerange)
 
 
 @dataclass(frozen=True)
@@ -646,7 +649,7 @@ in the step the switch falls (not an expansion in h: Richardson does not remove 
 then errs at order 3; one of order ≤ 3 (Euler, implicit) keeps its own."""
 
 
-def switches(dynamics: object, state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], t_end: float
+def switches(dynamics: Any, state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], t_end: float
              ) -> tuple[tuple[str, float], ...]:
     """Where the reference motion crosses a clamp's switch: (clamp, instant) in time order, each instant located by
     bisection on the reference's dense output ``state`` to round-off, for ``dynamics`` with clamps (a tree's

@@ -23,6 +23,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -60,7 +61,7 @@ class StudyResult:
     integrator: str
     timestep: float
     shipped: Mapping[str, object]
-    rows: tuple[Mapping[str, object], ...]
+    rows: tuple[Mapping[str, Any], ...]
 
     def shipped_row(self) -> Mapping[str, object]:
         """The row with the MJCF's own cone, impratio, noslip and softness."""

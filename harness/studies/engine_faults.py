@@ -246,7 +246,7 @@ def smallest_caught(path: Path | str, faults: Sequence[str] = FAULTS, *, name: s
 
         def detects(s: float, fault: str = fault) -> str:
             new = {k: r for k, r in _failed(case, integrators, target.edit(fault, s)).items() if k not in already}
-            return max(new, key=new.get) if new else ""  # the check furthest over its limit
+            return max(new, key=new.__getitem__) if new else ""  # the check furthest over its limit
 
         size, deciding, runs = bisect_decades(detects)
         note = f"fails unfaulted: {', '.join(sorted(already))}" if already and math.isnan(size) else ""

@@ -139,6 +139,7 @@ def smallest_injection(path: Path | str, *, name: str | None = None, horizon: fl
     if joint is None:
         return Injection(name, None, None, note="no hinge or slide")
     ref = case.reference(compile_model(path, edit=case.prepare))
+    assert case.tree is not None  # from_mjcf: a model judged against its own tree
     as_is = TreeEdit(isolating=False, ctrl=case.tree.ctrl)
     binding = case.probe(ref.dynamics).binding
     scale = damping_scale(compile_model(path, edit=prepare), joint)
@@ -157,7 +158,7 @@ def smallest_injection(path: Path | str, *, name: str | None = None, horizon: fl
 
     def detects(s: float) -> str:
         new = {k: r for k, r in failing(s * scale).items() if k not in already}
-        return max(new, key=new.get) if new else ""
+        return max(new, key=new.__getitem__) if new else ""
 
     size, deciding, runs = bisect_decades(detects, SIZES_SEARCHED)
     note = f"fails without an injection: {', '.join(sorted(already))}" if already else ""

@@ -28,6 +28,7 @@ import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -172,8 +173,8 @@ def compare(a: Snapshot, b: Snapshot, *, factor: float = NOISE_FACTOR) -> list[C
         s_old, s_new = a.statuses.get(key), b.statuses.get(key)
         here_a, here_b = _available(a, key), _available(b, key)
         noise = max(n_old, n_new) if here_a and here_b else (n_new if here_b else n_old)
-        common = {"case": case, "figure": name, "since": a.release, "release": b.release, "old": old, "new": new,
-                  "noise": noise, "status_old": s_old, "status_new": s_new}
+        common: dict[str, Any] = {"case": case, "figure": name, "since": a.release, "release": b.release, "old": old,
+                                  "new": new, "noise": noise, "status_old": s_old, "status_new": s_new}
         if here_a != here_b:
             out.append(Change(kind="appeared" if here_b else "vanished", **common))
         elif status_flipped(s_old, s_new):

@@ -26,6 +26,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 from harness.outputs.schema import SchemaError, check_run
 from harness.pipeline.carry import Carried, pack
@@ -122,6 +123,7 @@ class Cell:
 
 
 def _cell(task: Task, verdict: str, reason: str = "", **kw: object) -> Cell:
+    # kw: Cell's other fields, by name (their types are Cell's)
     return Cell(task.model.name, str(task.spec.release), task.backend, verdict, " ".join(reason.split()),
                 host=socket.gethostname(), **kw)  # type: ignore[arg-type]
 
@@ -151,7 +153,7 @@ def run_task(task: Task, carried: Carried | None = None) -> Cell:
                      seconds=time.perf_counter() - start)
     except (EnvError, OSError, ValueError) as exc:
         return _cell(task, ERROR, str(exc), seconds=time.perf_counter() - start)
-    spent = {"seconds": time.perf_counter() - start - env.seconds, "env_seconds": env.seconds}
+    spent: dict[str, Any] = {"seconds": time.perf_counter() - start - env.seconds, "env_seconds": env.seconds}
     last = (done.stderr.strip().splitlines() or ["no message"])[-1].strip()
     if done.returncode == 2 and last.startswith("mjharness: error:"):
         return _cell(task, REFUSED, last.removeprefix("mjharness: error:"), **spent)

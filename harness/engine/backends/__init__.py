@@ -192,7 +192,7 @@ def get(name: str) -> Backend:
     return _loaded[name]
 
 
-def simulate(engine: Backend, model: mujoco.MjModel, probe: Probe, *, q0: Sequence[float], qd0: Sequence[float],
-             steps: int) -> Trajectory:
+def simulate(engine: Backend, model: mujoco.MjModel, probe: Probe, *, q0: Sequence[float] | np.ndarray,
+             qd0: Sequence[float] | np.ndarray, steps: int) -> Trajectory:
     """One run on ``engine`` (:func:`harness.engine.recording.record`'s contract)."""
     return engine.simulate_many([Request(model, np.asarray(q0, float), np.asarray(qd0, float), steps)], probe)[0]

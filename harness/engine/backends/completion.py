@@ -151,11 +151,11 @@ def completed_forward(model: mujoco.MjModel, fwd: Forward, epsilon: float,
     count = fwd.qacc.shape[0]
     out = {name: getattr(fwd, name).copy() for name in ("qacc", "qfrc_constraint")}
     equality = {c: v.copy() for c, v in fwd.equality.items()}
-    reactions = computes_reactions(model) and fwd.sensordata is not None and fwd.cfrc_int is not None \
-        and fwd.cfrc_ext is not None
-    sensordata = fwd.sensordata.copy() if reactions else fwd.sensordata
-    cfrc_int = fwd.cfrc_int.copy() if reactions else fwd.cfrc_int
-    cfrc_ext = fwd.cfrc_ext.copy() if reactions else fwd.cfrc_ext
+    reactions = False
+    sensordata, cfrc_int, cfrc_ext = fwd.sensordata, fwd.cfrc_int, fwd.cfrc_ext
+    if computes_reactions(model) and sensordata is not None and cfrc_int is not None and cfrc_ext is not None:
+        reactions = True
+        sensordata, cfrc_int, cfrc_ext = sensordata.copy(), cfrc_int.copy(), cfrc_ext.copy()
     kept = np.zeros(count, dtype=bool)
     improvement = np.zeros(count)
     data = mujoco.MjData(model)
@@ -186,6 +186,7 @@ def completed_forward(model: mujoco.MjModel, fwd: Forward, epsilon: float,
         for c in equality:
             equality[c][k] = fwd.equality[c][k] + change[equality_rows(model, data, c)]
         if reactions:
+            assert sensordata is not None and cfrc_int is not None and cfrc_ext is not None  # as reactions says
             before = _reactions(model, data, solution[0], solution[1])
             after = _reactions(model, data, solution[0] - delta, solution[1] + change)
             sensordata[k] += after[0] - before[0]

@@ -61,6 +61,7 @@ import copy
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import jax
 import mujoco
@@ -157,7 +158,7 @@ class MjxBackend:
         self.x64 = name == "mjx-f64"
         self.precision = "float64" if self.x64 else "float32"
         self.epsilon = float(np.finfo(np.float64 if self.x64 else np.float32).eps)
-        self._compiled: dict[tuple, object] = {}
+        self._compiled: dict[tuple, Any] = {}  # jitted functions: a forward, or a run's (chunk, final) pair
         self.mjx, self.forward, self.support = _mjx(name, self.x64)
 
     def unsupported(self, model: mujoco.MjModel) -> str:
@@ -193,13 +194,14 @@ class MjxBackend:
         for indices, puts in self._groups(requests).values():
             records = self._run_group([requests[i] for i in indices], puts, probe)
             for i, rec in zip(indices, records, strict=True):
-                out[i] = _trajectory(requests[i], probe, rec)
+                out[i] = run = _trajectory(requests[i], probe, rec)
                 if not self.x64 and probe.constraints:  # float32: the stopped solves, completed (completion.py)
                     rows = equality_rows(requests[i].model)
-                    out[i] = completed_run(requests[i].model, probe, out[i], qpos=rec["qpos"], qvel=rec["qvel"],
+                    out[i] = completed_run(requests[i].model, probe, run, qpos=rec["qpos"], qvel=rec["qvel"],
                                            fields={**rec, "mass": rec["qM"]},
                                            equality={c: rec["efc_force"][:, rows[c]] for c in probe.constraints},
                                            epsilon=self.epsilon)
+        # every entry is set: the groups cover every request
         return out  # type: ignore[return-value]
 
     def forward_many(self, model: mujoco.MjModel, probe: Probe, qpos: np.ndarray, qvel: np.ndarray) -> Forward:

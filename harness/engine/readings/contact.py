@@ -43,7 +43,7 @@ and q̇ read from the same-named joints and the parameters from the model.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Literal
+from typing import Any, Literal
 
 import mujoco
 import numpy as np
@@ -105,7 +105,7 @@ def slide_force(*, geom: str, joint: str) -> Reading:
     """A reading of the contact force on ``geom`` along the world axis of the slide ``joint`` (N):
     ``qfrc_constraint`` at the slide's dof (see the module docstring for why that is the contact force,
     and when it would not be, which raises UnmodelledElement)."""
-    checked: dict[str, object] = {}
+    checked: dict[str, Any] = {}
 
     def evaluate(model: mujoco.MjModel, rec: Mapping[str, np.ndarray]) -> np.ndarray:
         if checked.get("model") is not model:
@@ -140,7 +140,7 @@ def analytic_residual(*, system: str, constraints: Sequence[str], level: Residua
         raise ValueError(f"level must be 'position' or 'velocity', got {level!r}")
     if not constraints:
         raise ValueError("constraints must name at least one constraint")
-    bound: dict[str, object] = {}
+    bound: dict[str, Any] = {}
 
     def bind(model: mujoco.MjModel) -> None:
         dyn = dynamics_of(system, model)

@@ -44,12 +44,12 @@ def subtree(model: mujoco.MjModel, body: int) -> list[int]:
 Components = tuple  # three rows (N,) of samples, or three floats
 
 
-def _cross(a: Sequence, b: Sequence) -> Components:
+def _cross(a: Sequence | np.ndarray, b: Sequence | np.ndarray) -> Components:
     """a × b, componentwise."""
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-def _spatial_momentum(inert: Sequence, vel: Sequence) -> tuple[Components, Components]:
+def _spatial_momentum(inert: Sequence | np.ndarray, vel: Sequence | np.ndarray) -> tuple[Components, Components]:
     """mju_mulInertVec, componentwise: (angular momentum about the com-frame origin, linear momentum), from
     cinert's 10 components and cvel's 6."""
     i, v = inert, vel
@@ -62,7 +62,7 @@ def _spatial_momentum(inert: Sequence, vel: Sequence) -> tuple[Components, Compo
     return angular, linear
 
 
-def _body_about(inert: Sequence, vel: Sequence, lever: Sequence) -> Components:
+def _body_about(inert: Sequence | np.ndarray, vel: Sequence | np.ndarray, lever: Sequence | np.ndarray) -> Components:
     """A body's angular momentum about a point, componentwise: its own about the com-frame origin plus
     lever × its linear momentum, ``lever`` from the point to the com-frame origin."""
     angular, linear = _spatial_momentum(inert, vel)
@@ -127,7 +127,8 @@ def about_at(model: mujoco.MjModel, data: mujoco.MjData, body: str, site: str) -
 def _about(model: mujoco.MjModel, rec: Mapping[str, np.ndarray], body: str, site: str) -> np.ndarray:
     """L_o (3, N) of the subtree rooted at ``body`` about ``site`` over the run ``rec``, computed once per run
     (the recorder's, where it gave it: :func:`about_key`)."""
-    kept = getattr(_memo, "run", None)
+    kept: tuple[Mapping[str, np.ndarray], dict[tuple, tuple[mujoco.MjModel, np.ndarray]]] | None = \
+        getattr(_memo, "run", None)
     if kept is None or kept[0] is not rec:
         kept = _memo.run = (rec, {})
     key = (id(model), body, site)

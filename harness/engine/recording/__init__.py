@@ -28,6 +28,7 @@ import time
 from collections.abc import Callable, Sequence
 
 import mujoco
+import numpy as np
 
 from harness.core.trajectory import Trajectory
 from harness.engine.probe import Probe
@@ -74,8 +75,8 @@ def record(
     model: mujoco.MjModel,
     probe: Probe,
     *,
-    q0: Sequence[float],
-    qd0: Sequence[float],
+    q0: Sequence[float] | np.ndarray,
+    qd0: Sequence[float] | np.ndarray,
     steps: int,
     method: str = "auto",
     timings: dict[str, float] | None = None,

@@ -380,8 +380,9 @@ def record(lib: ctypes.CDLL, model: mujoco.MjModel, probe: Probe, data: mujoco.M
             check_warnings(data.warning.number, float(rec.states[k, 0]))
         fixed = fixed_rows(model, rec.states) if nrows and rows_ok else None
         lam, viol = {}, {}
-        for c in read if fixed is not None else ():
-            lam[c], viol[c] = signed(probe.sign(c), force[:, fixed[c]], pos[:, fixed[c]])
+        if fixed is not None:
+            for c in read:
+                lam[c], viol[c] = signed(probe.sign(c), force[:, fixed[c]], pos[:, fixed[c]])
         return checked_run(model, probe, data, rec, lam, viol, timings,
                            velocities=dict(zip(probe.points, velocity, strict=True)),
                            momenta=dict(zip(made.momenta, momentum, strict=True)),

@@ -42,8 +42,8 @@ def text(studies: Studies) -> str:
     parts.append(convergence.LEGEND + ".")
     for st in studies.softness:
         parts += ["", "Softness " + softness.text(st)]
-    for st in studies.solvers:
-        parts += ["", "Solvers " + solvers.text(st)]
+    for solver_study in studies.solvers:
+        parts += ["", "Solvers " + solvers.text(solver_study)]
     failed = studies.failures
     parts += ["", f"{sum(len(s.verdicts) for s in studies.convergence) - len(failed)} order verdicts passed, "
                   f"{len(failed)} failed" + (": " + ", ".join(

@@ -22,7 +22,7 @@ HEADER = ("case", "integrator", "quantity", "h [ms]", "error", "order", "expecte
 def rows(study: ConvergenceStudy, *, gated: bool = True) -> list[tuple[str, ...]]:
     """Table rows (case × integrator): the gated series and unavailable integrators, or
     (``gated=False``) the series shown for information only."""
-    out = []
+    out: list[tuple[str, ...]] = []
     for s in study.series:
         if (s.expected is not None or bool(s.note)) != gated:
             continue

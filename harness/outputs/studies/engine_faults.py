@@ -10,7 +10,10 @@ from harness.studies.engine_faults import SIZES, Caught
 
 def cell(found: Caught) -> str:
     """One fault's cell: its smallest size caught and the check that caught it there."""
-    return unsized_cell(found, largest=SIZES[0]) or f"{sized(found.size)} ({found.deciding})"
+    if unsized := unsized_cell(found, largest=SIZES[0]):
+        return unsized
+    assert found.size is not None  # unsized_cell names every fault without a size
+    return f"{sized(found.size)} ({found.deciding})"
 
 
 def unsized_cell(found, *, largest: float) -> str:

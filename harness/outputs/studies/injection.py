@@ -12,6 +12,7 @@ def cell(found: Injection) -> str:
     """One model's cell: the smallest injection caught, with the energy it fed in, or why none was."""
     if unsized := unsized_cell(found, largest=SIZES_SEARCHED[0]):
         return unsized
+    assert found.size is not None  # unsized_cell names every model without a size
     if math.isnan(found.energy):
         return f"{sized(found.size)} ({found.deciding}; {found.note})"
     return (f"{sized(found.size)}: {found.of_kinetic:.1e} of the peak kinetic energy, {found.of_scale:.1e} of m g L "
