@@ -426,13 +426,13 @@ def advise(
     requirements = tuple(requirement_of(str(k), v, source="advise(require=...)") for k, v in require.items())
     with sources.using(_directories(systems)), messages.kept_within():
         if mjcf is not None:
-            chosen = from_mjcf(mjcf, keyframe=keyframe, ctrl=ctrl, horizon=horizon)
+            chosen: object = from_mjcf(mjcf, keyframe=keyframe, ctrl=ctrl, horizon=horizon)
         else:
             if keyframe is not None or ctrl:
                 raise ValueError("keyframe and ctrl apply to a model judged against its own tree (mjcf=, no case)")
             chosen = cases.get(case) if isinstance(case, str) else case
-            if not isinstance(chosen, Case):
-                raise ValueError(f"case must be a case name or a harness.cases.Case, got {type(case).__name__}")
+        if not isinstance(chosen, Case):
+            raise ValueError(f"case must be a case name or a harness.cases.Case, got {type(case).__name__}")
         check_possible(requirements, figure_names(chosen))
         options = RunOptions(horizon=horizon if mjcf is None else None)
         return advice.advise(chosen, requirements, options=options,

@@ -1141,7 +1141,7 @@ def cmd_advise(args: argparse.Namespace) -> int:
     options = RunOptions(horizon=args.horizon if args.mjcf is None else None)
     with heartbeat(f"advise {case.name}"):
         found = advise(case, requirements, options=options, integrators=args.integrators)
-    files = {}
+    files: dict[Path, str | bytes] = {}
     png = shown.plot(found) if args.png is not None or args.html is not None else b""
     if args.png is not None:
         files[args.png] = png

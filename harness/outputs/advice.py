@@ -87,14 +87,13 @@ def text(advice: Advice) -> str:
         lines += [f"  not {name}: {why}" for name, why in advice.rejected.items()]
     else:
         lines.append("No recommendation: " + advice.why_none)
-    others = [v for v in advice.tried if v is not advice.recommended]
-    for v in others:
-        as_is = ", ".join(f"{m} {x:.3g}" for m, (x, _) in sorted(v.as_is.items()))
-        state = "met" if v.met else ("failed its checks: " + ", ".join(v.failures[:3]) if v.failures
-                                     else "missed the requirement" + (f" (as it is: {as_is})" if as_is else ""))
-        lines.append(f"  also verified: {v.integrator} at h = {_ms(v.timestep)}: "
-                     + ", ".join(f"{m} {x:.3g}" for m, x in sorted(v.measured.items()))
-                     + f", cost {v.cost:.3g}: {state}")
+    for other in (t for t in advice.tried if t is not advice.recommended):
+        as_is = ", ".join(f"{m} {x:.3g}" for m, (x, _) in sorted(other.as_is.items()))
+        state = "met" if other.met else ("failed its checks: " + ", ".join(other.failures[:3]) if other.failures
+                                         else "missed the requirement" + (f" (as it is: {as_is})" if as_is else ""))
+        lines.append(f"  also verified: {other.integrator} at h = {_ms(other.timestep)}: "
+                     + ", ".join(f"{m} {x:.3g}" for m, x in sorted(other.measured.items()))
+                     + f", cost {other.cost:.3g}: {state}")
     if advice.uncovered:
         lines.append("")
         lines.append(coverage(advice))

@@ -214,8 +214,12 @@ def write_atomic(files: Mapping[Path, str | bytes], *, remove: Iterable[Path] = 
             fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", dir=dest.parent)
             staged.append((Path(tmp), dest))
             os.chmod(tmp, 0o666 & ~_umask())  # mkstemp's 0600 would make the report private
-            with os.fdopen(fd, "wb") if isinstance(text, bytes) else os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
+            if isinstance(text, bytes):
+                with os.fdopen(fd, "wb") as raw:
+                    raw.write(text)
+            else:
+                with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                    fh.write(text)
         _move_all(staged, list(remove))
         written = True
     except OSError as exc:  # a full disk names no file: the one being written then is named

@@ -284,9 +284,13 @@ def _steps(bench: Bench, limit: float, span_top: float) -> tuple[float, ...]:
     return tuple(h for h in ladder if horizon / h <= MAX_RUN_STEPS)
 
 
-def _ladder(bench: Bench, integrator: str, steps: Sequence[float], span: float) -> list[tuple[float, object]]:
+Run = tuple[Trajectory, float] | str
+"""A ladder run: its trajectory and cost, or why it diverged."""
+
+
+def _ladder(bench: Bench, integrator: str, steps: Sequence[float], span: float) -> list[tuple[float, Run]]:
     """The integrator's runs at each of ``steps`` over ``span``: each (trajectory, cost), or why it diverged."""
-    out: list[tuple[float, object]] = []
+    out: list[tuple[float, Run]] = []
     for h in steps:
         model = bench.mut.compile(integrator=integrator, timestep=h)
         n = steps_in(span, h)
@@ -395,7 +399,7 @@ def measure(bench: Bench, *, integrators: Sequence[str], limits: Mapping[str, fl
     span = max(1, math.floor(horizon / h_top + 1e-9)) * h_top  # every ladder's grid nests in the finest one
     finest = h0 / 2 ** HALVINGS  # runs below it are compared at its samples (every m-th of theirs)
 
-    def one(name: str) -> tuple[list[tuple[float, object]], tuple[str, str, bool] | None, Limit | None]:
+    def one(name: str) -> tuple[list[tuple[float, Run]], tuple[str, str, bool] | None, Limit | None]:
         limit = limits.get(name, math.inf)
         confirm = _confirm(bench, name, limit) if math.isfinite(limit) and limit > 0 else None
         ladder = _ladder(bench, name, ladders[name], span)
@@ -660,6 +664,7 @@ def _as_is(case: Case, bench: Bench, name: str, h: float, order: float) -> dict[
     """The model as it is (every force on) at ``h``: its position error by self-convergence, κ·|x(h) − x(h/2)|
     with κ = 2ᵖ/(2ᵖ − 1) and p the order its runs at h, h/2 and h/4 show (at most the documented ``order``, at
     least 1/2: impacts lower it, and the documented κ would then understate the error up to twofold)."""
+    assert case.tree is not None  # only a model judged against its own tree lacks forces in its reference
     edit = compose(TreeEdit(isolating=False, ctrl=case.tree.ctrl), bench.options.edit)
     steps = steps_in(case.horizon, h)
     requests = [Request(compile_model(bench.path, integrator=name, timestep=h / k, edit=edit), bench.reference.q0(),
@@ -737,7 +742,8 @@ def _as_is_step(case: Case, bench: Bench, curve: Curve, h: float, requirements: 
         last = (h, error)
         smaller = _round_down(h * (required / (MARGIN * error)) ** (1.0 / order))
         if smaller < finest:
-            return math.nan, (f"the model as it is (with {', '.join(dict(case.tree.uncovered))} on) estimates its "
+            lacking = ", ".join(dict(case.tree.uncovered)) if case.tree is not None else ""
+            return math.nan, (f"the model as it is (with {lacking} on) estimates its "
                               f"position error at {error:.3g} m at h = {h:.3g} s by self-convergence, converging at "
                               f"order {order:.2g}: it would need h ≈ {smaller:.2g} s, below the finest step the "
                               f"ladder measured or extrapolated to ({finest:.3g} s)")
