@@ -248,3 +248,24 @@ def test_an_implicit_integrators_limit_is_found_by_runs_and_is_the_closed_forms(
     grew_at = float(limit.basis.split("grew at ")[1].split(" s")[0])
     assert limit.timestep <= 2 / omega <= grew_at * 1.001
     assert grew_at / limit.timestep < 1.05
+
+
+@pytest.mark.parametrize(("failing", "recommended"), [("instant.qacc", True), ("RK4.position", False),
+                                                     ("converge.RK4.order_shortfall", False)])
+def test_only_the_integrators_own_checks_decide_a_verification(monkeypatch, failing, recommended):
+    """A check failing at the sampled states is about the model, whatever the setting: said beside the
+    recommendation (a finding), never a reason to refuse it; one of the integrator's runs is such a reason."""
+    from harness.core.checks import Check
+
+    real = A.judge
+
+    def judged(result, limits):
+        return [*real(result, limits), Check(case="spring", name=failing, value=1.0, threshold=0.5, unit="1")]
+
+    monkeypatch.setattr(A, "judge", judged)
+    advice = A.advise(cases.get("spring"), parse(["position=1e-4"]), integrators=("RK4",))
+    first = advice.tried[0]
+    if recommended:
+        assert advice.recommended is first and first.findings == (failing,) and not first.failures
+    else:
+        assert advice.recommended is None and failing in first.failures and failing in advice.why_none

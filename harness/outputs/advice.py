@@ -49,7 +49,7 @@ def _verified(v: Verification, advice: Advice) -> str:
     figures = ", ".join(f"{m} {x:.3g}" for m, x in sorted(v.measured.items()))
     predicted = ", ".join(f"{m} {x:.3g}" for m, x in sorted(v.predicted.items()) if math.isfinite(x))
     return (f"{v.integrator} at h = {_ms(v.timestep)}: measured {figures} (predicted {predicted}), margin "
-            f"{v.margin:.3g}× within {_requirements(advice)}; every check of that run passes its budget; cost "
+            f"{v.margin:.3g}× within {_requirements(advice)}; every check of its runs passes its budget; cost "
             f"{v.cost:.3g} CPU s per simulated s (measured here)")
 
 
@@ -84,6 +84,10 @@ def text(advice: Advice) -> str:
     lines.append("")
     if advice.recommended is not None:
         lines.append("Recommended: " + _verified(advice.recommended, advice))
+        if advice.recommended.findings:
+            lines.append(f"  the check at that setting also fails {', '.join(advice.recommended.findings)}: "
+                         "figures no integrator or timestep changes (at the sampled states, of the reference), a "
+                         "finding about the model that `mjharness check --mjcf` explains")
         lines += [f"  not {name}: {why}" for name, why in advice.rejected.items()]
     else:
         lines.append("No recommendation: " + advice.why_none)
@@ -128,7 +132,8 @@ def as_dict(advice: Advice) -> dict[str, object]:
         if v is None:
             return None
         return {"integrator": v.integrator, "timestep": v.timestep, "measured": dict(v.measured),
-                "predicted": dict(v.predicted), "failures": list(v.failures), "cost": v.cost, "met": v.met,
+                "predicted": dict(v.predicted), "failures": list(v.failures), "findings": list(v.findings),
+                "cost": v.cost, "met": v.met,
                 "margin": v.margin, "as_is": {m: {"value": x, "how": how} for m, (x, how) in v.as_is.items()}}
 
     return {"model": advice.model, "own": {"integrator": advice.own[0], "timestep": advice.own[1]},

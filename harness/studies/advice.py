@@ -99,6 +99,10 @@ MAX_RUN_STEPS = 2 ** 18
 """The most steps one run of the ladder takes (an explicit integrator's steps below a stiff model's stability limit:
 each sample is recorded)."""
 
+VERIFY_STEPS = 2 ** 14
+"""The most steps over the horizon a verification is asked to run (the check at that setting runs its budget's
+variants at h/2 and h/4 too): the bound on what the model as it is may ask for."""
+
 AS_IS_TRIES = 6
 """How many times a candidate's step is made smaller for the model as it is before it is verified as it stands."""
 
@@ -192,7 +196,9 @@ class Verification:
         integrator, timestep: the setting.
         predicted: the error the ladder predicted, by measure (value + bar).
         measured: each figure the requirements cover, as the check measured it, by measure.
-        failures: the checks of that run that failed (their names), each a reason not to recommend it.
+        failures: the checks of that integrator's runs that failed (their names), each a reason not to recommend it.
+        findings: the other checks of that run that failed (at the sampled states, of the reference): about the
+            model, not the setting (no integrator or timestep changes them), said beside the recommendation.
         cost: CPU seconds per simulated second at that setting, measured.
         met: every covered figure within its requirement, no check failed, and what the model as it is gave (where
             the reference lacks forces) within the requirements that name it.
@@ -210,6 +216,7 @@ class Verification:
     met: bool
     margin: float
     as_is: Mapping[str, tuple[float, str]] = field(default_factory=dict)
+    findings: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -635,7 +642,8 @@ def verify(case: Case, options: RunOptions, curve: Curve, h: float, requirements
     name = curve.integrator
     result = run_case(case, dataclasses.replace(options, integrators=(name,), timestep=h))
     checks: list[Check] = judge(result, case_limits(load_limits(None), case, result.judged_names))
-    failures = tuple(str(c.name) for c in checks if not c.passed)
+    failures = tuple(str(c.name) for c in checks if not c.passed and c.name.integrator == name)
+    findings = tuple(str(c.name) for c in checks if not c.passed and c.name.integrator != name)
     measured = {f.name.measure: f.value for f in result.figures
                 if f.name.layer == "trajectory" and f.name.integrator == name
                 and any(r.covers(f.name) for r in requirements)}
@@ -657,7 +665,7 @@ def verify(case: Case, options: RunOptions, curve: Curve, h: float, requirements
                  default=math.nan)
     return Verification(integrator=name, timestep=h, predicted=predicted, measured=measured, failures=failures,
                         cost=cost, met=bool(measured) and within and as_is_within and not failures, margin=margin,
-                        as_is=as_is)
+                        as_is=as_is, findings=findings)
 
 
 def _as_is(case: Case, bench: Bench, name: str, h: float, order: float) -> dict[str, tuple[float, str]]:
@@ -725,12 +733,12 @@ def _as_is_step(case: Case, bench: Bench, curve: Curve, h: float, requirements: 
     """``h``, made smaller where the model as it is (every force on) estimates its own position error above a
     requirement with MARGIN: by the order its self-convergence shows between two tries (the documented one at the
     first; impacts make it lower), at most :data:`AS_IS_TRIES` times (its runs are MuJoCo's alone: cheap beside a
-    verification). nan, and why, where it would need a step below the ladder's finest (or the candidate's, where
-    that is finer): a verification there would cost more than the whole ladder."""
+    verification). nan, and why, where it would need a step finer than :data:`VERIFY_STEPS` over the horizon (or
+    the candidate's, where that is finer)."""
     required = min((r.value for r in requirements if covered(r, "position")), default=math.inf)
     if not math.isfinite(required):
         return h, ""
-    finest = min(float(bench.model.opt.timestep) / 2 ** HALVINGS, h)  # the ladder's finest, or the candidate's
+    finest = min(case.horizon / VERIFY_STEPS, h)  # the finest a verification runs at, or the candidate's
     order = curve.order
     last: tuple[float, float] | None = None
     for _ in range(AS_IS_TRIES):
@@ -745,8 +753,8 @@ def _as_is_step(case: Case, bench: Bench, curve: Curve, h: float, requirements: 
             lacking = ", ".join(dict(case.tree.uncovered)) if case.tree is not None else ""
             return math.nan, (f"the model as it is (with {lacking} on) estimates its "
                               f"position error at {error:.3g} m at h = {h:.3g} s by self-convergence, converging at "
-                              f"order {order:.2g}: it would need h ≈ {smaller:.2g} s, below the finest step the "
-                              f"ladder measured or extrapolated to ({finest:.3g} s)")
+                              f"order {order:.2g}: it would need h ≈ {smaller:.2g} s, below the finest step a "
+                              f"verification runs at ({finest:.3g} s, {VERIFY_STEPS} steps over the horizon)")
         h = smaller
     return h, ""
 
