@@ -33,9 +33,8 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
     """How the cases run and what decides the exit code (run, check)."""
     g = p.add_argument_group("how the cases run (default: as shipped)")
     g.add_argument("--timestep", type=_seconds, metavar="SECONDS", help="run every model at this timestep")
-    g.add_argument("--horizon", type=_seconds, metavar="SECONDS", help="simulate this long (default: the case's)")
-    g.add_argument("--integrators", type=_names, metavar="NAMES",
-                   help=f"run only these, comma-separated (default: every one: {', '.join(available_integrators())})")
+    _add_horizon(g)
+    _add_integrators(g)
     g.add_argument("--q0", type=_state, metavar="NAME=VALUE,...",
                    help="initial coordinates (the case's names; needs one case); the rest as the case has them, "
                         "then brought onto the constraints")
@@ -130,23 +129,61 @@ def _systems_directory(text: str) -> Path:
 
 
 def _add_selection(p: argparse.ArgumentParser, *, mjcf: bool = True) -> None:
-    p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    _add_cases(p)
     p.add_argument("--case", action="append", metavar="NAME", help="a case name (same as CASE; repeatable)")
     _add_systems(p)
-    p.add_argument("--config", type=Path, metavar="FILE",
-                   help="TOML: limits of your own ([thresholds.CASE] \"FIGURE\" = LIMIT), requirements "
-                        "([require] QUANTITY = SIZE) and accept_known_defects = true")
-    p.add_argument("--jobs", "-j", type=_positive, metavar="N",
-                   help=f"worker processes for the cases (default: one per CPU, here {cpus()}); "
-                        "the results do not depend on N")
+    _add_config(p)
+    _add_jobs(p)
     if mjcf:
-        p.add_argument("--mjcf", type=Path, metavar="PATH",
-                       help="validate this MJCF: with no case, any model against its own kinematic tree; with "
-                            "one case, your variant of that case's model against the case's reference and limits")
-        p.add_argument("--keyframe", metavar="NAME", help="with --mjcf and no case: start at this keyframe "
-                                                          "(default: qpos0, every joint set moving)")
-        p.add_argument("--ctrl", type=_state, metavar="NAME=VALUE,...",
-                       help="with --mjcf and no case: actuator controls by name (default: the keyframe's, else 0)")
+        _add_model(p)
+
+
+def _add_cases(p: argparse.ArgumentParser) -> None:
+    """The cases named on the command line, positionally (``args.cases``)."""
+    p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+
+
+def _add_config(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--config", type=Path, metavar="FILE",
+                   help="TOML: limits of your own ([thresholds.CASE] \"FIGURE\" = LIMIT, over the shipped ones: "
+                        "basis 'user'), requirements ([require] QUANTITY = SIZE) and accept_known_defects = true")
+
+
+def _add_jobs(p: argparse.ArgumentParser) -> None:
+    """--jobs: how many worker processes share a command's runs on this machine (cases, tasks, cells, a release's
+    check), each command's work shared among them."""
+    p.add_argument("--jobs", "-j", type=_positive, metavar="N",
+                   help=f"worker processes (default: one per CPU, here {cpus()}, shared by what runs at once); "
+                        "the results do not depend on N")
+
+
+def _add_model(p: argparse.ArgumentParser, *, variant: bool = True) -> None:
+    """--mjcf, --keyframe and --ctrl: a model of one's own; ``variant``: with one case, a variant of its model."""
+    p.add_argument("--mjcf", type=Path, metavar="PATH",
+                   help="validate this MJCF: with no case, any model against its own kinematic tree" + (
+                        "; with one case, your variant of that case's model against the case's reference and limits"
+                        if variant else ""))
+    p.add_argument("--keyframe", metavar="NAME", help="with --mjcf and no case: start at this keyframe "
+                                                      "(default: qpos0, every joint set moving)")
+    p.add_argument("--ctrl", type=_state, metavar="NAME=VALUE,...",
+                   help="with --mjcf and no case: actuator controls by name (default: the keyframe's, else 0)")
+
+
+def _add_horizon(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    p.add_argument("--horizon", type=_seconds, metavar="SECONDS", help="simulate this long (default: the case's)")
+
+
+def _add_integrators(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    p.add_argument("--integrators", type=_names, metavar="NAMES",
+                   help=f"run only these, comma-separated (default: every one: {', '.join(available_integrators())})")
+
+
+def _add_json(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--json", action="store_true", help="print the outcome as JSON instead of the text")
+
+
+def _add_html(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--html", type=Path, metavar="FILE", help="also write the text and the plots as one HTML page")
 
 
 def _add_executor(p: argparse.ArgumentParser) -> None:

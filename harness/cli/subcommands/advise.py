@@ -9,11 +9,10 @@ from pathlib import Path
 from harness import cases
 from harness.cases.own import from_mjcf
 from harness.cli.common import EXIT_OK, Command
-from harness.cli.options import _add_systems, _names, _seconds, _state
+from harness.cli.options import _add_horizon, _add_html, _add_integrators, _add_json, _add_model, _add_systems
 from harness.core.escape import terminal
 from harness.core.options import RunOptions
 from harness.core.progress import heartbeat
-from harness.engine.integrators import available_integrators
 from harness.families import figure_names
 from harness.outputs.files import check_output, prepare_output, write_atomic
 from harness.outputs.jsondoc import dumps
@@ -25,20 +24,14 @@ def _args_advise(p: argparse.ArgumentParser) -> None:
     p.add_argument("cases", nargs="?", default=None, metavar="CASE",
                    help="a shipped case (or one of --systems); none with --mjcf: your model against its own tree")
     _add_systems(p)
-    p.add_argument("--mjcf", type=Path, metavar="PATH", help="the model: any MJCF, against its own kinematic tree")
-    p.add_argument("--keyframe", metavar="NAME", help="with --mjcf: start at this keyframe (default: qpos0, every "
-                                                      "joint set moving)")
-    p.add_argument("--ctrl", type=_state, metavar="NAME=VALUE,...",
-                   help="with --mjcf: actuator controls by name (default: the keyframe's, else 0)")
+    _add_model(p, variant=False)
     p.add_argument("--require", action="append", default=[], metavar="MEASURE=VALUE", required=True,
                    help="the accuracy you need (e.g. position=1e-3, drift.energy=1e-4, force=1e-2; repeatable, at "
                         "least one): the recommendation is the cheapest setting that meets every one, verified")
-    p.add_argument("--integrators", type=_names, metavar="NAMES",
-                   help=f"consider only these, comma-separated (default: every one: "
-                        f"{', '.join(available_integrators())})")
-    p.add_argument("--horizon", type=_seconds, metavar="SECONDS", help="simulate this long (default: the case's)")
-    p.add_argument("--json", action="store_true", help="print the advice as JSON instead of the text")
-    p.add_argument("--html", type=Path, metavar="FILE", help="also write a page with the plot and the text")
+    _add_integrators(p)
+    _add_horizon(p)
+    _add_json(p)
+    _add_html(p)
     p.add_argument("--png", type=Path, metavar="FILE", help="also write the plot: error against timestep per "
                                                             "integrator, stability limits, the requirement and "
                                                             "the recommendation")

@@ -6,11 +6,12 @@ import argparse
 import sys
 
 from harness.cli.common import EXIT_OK, Command
+from harness.cli.options import _add_json
 from harness.outputs.jsondoc import dumps
 
 
 def _args_audit(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--json", action="store_true", help="print the verdicts as JSON instead of the table")
+    _add_json(p)
 
 
 def cmd_audit(args: argparse.Namespace) -> int:

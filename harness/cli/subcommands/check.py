@@ -24,7 +24,15 @@ from harness.cli.common import (
     _selected,
     _trees,
 )
-from harness.cli.options import _add_executor, _add_junit, _add_quiet, _add_run_options, _add_selection, _number
+from harness.cli.options import (
+    _add_executor,
+    _add_json,
+    _add_junit,
+    _add_quiet,
+    _add_run_options,
+    _add_selection,
+    _number,
+)
 from harness.outputs.files import write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
 from harness.pipeline.matrix import run_all
@@ -33,8 +41,7 @@ from harness.pipeline.matrix import run_all
 def _args_check(p: argparse.ArgumentParser) -> None:
     _add_selection(p)
     _add_junit(p)
-    p.add_argument("--json", action="store_true", help="print the run as JSON (report.json schema) "
-                                                       "instead of the table")
+    _add_json(p)
     p.add_argument("--perturb", type=_tiny, metavar="SIZE",
                    help="move every initial coordinate and velocity x by SIZE × max(|x|, 1) (round-off: SIZE within "
                         "±1e-6, e.g. 1e-15 or =-1e-15 in float64, 5e-7 on a float32 backend): how far each figure "

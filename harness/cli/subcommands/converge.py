@@ -3,22 +3,21 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from harness import cases
 from harness.cli.common import EXIT_FAIL, EXIT_OK, Command
-from harness.cli.options import _add_backend, _add_systems
+from harness.cli.options import _add_backend, _add_cases, _add_html, _add_systems
 from harness.engine import backends
 from harness.outputs.files import check_output, prepare_output, write_atomic
 
 
 def _args_converge(p: argparse.ArgumentParser) -> None:
-    p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    _add_cases(p)
     _add_systems(p)
     p.add_argument("--fast", action="store_true", help="the 3-timestep subset `check` gates (T ≤ 0.5 s)")
     p.add_argument("--softness", action="store_true", help="also sweep solref/solimp of the equality cases")
     p.add_argument("--solvers", action="store_true", help="also compare Newton, CG and PGS on the constrained cases")
-    p.add_argument("--html", type=Path, metavar="FILE", help="also write the tables and plots as one HTML page")
+    _add_html(p)
     _add_backend(p)
 
 

@@ -8,16 +8,16 @@ import mujoco
 
 from harness import cases
 from harness.cli.common import EXIT_FAIL, EXIT_OK, Command, _executor, _progress
-from harness.cli.options import _add_executor, _add_systems, _positive
+from harness.cli.options import _add_cases, _add_executor, _add_jobs, _add_systems
 from harness.pipeline.pool import cpus, run_tasks
 
 
 def _args_faults(p: argparse.ArgumentParser) -> None:
-    p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    _add_cases(p)
     _add_systems(p)
     p.add_argument("--coarse", action="store_true",
                    help="also judge each fault at 2 × the timestep with MuJoCo's default softness, at its coarse size")
-    p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
+    _add_jobs(p)
     _add_executor(p)
 
 

@@ -3,21 +3,19 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from harness import cases
 from harness.cli.common import EXIT_OK, Command
-from harness.cli.options import _add_systems, _positive
+from harness.cli.options import _add_cases, _add_config, _add_jobs, _add_systems
 from harness.core.tables import terminal_width, wrap
 from harness.pipeline.matrix import run_all
 
 
 def _args_figures(p: argparse.ArgumentParser) -> None:
-    p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    _add_cases(p)
     _add_systems(p)
-    p.add_argument("--config", type=Path, metavar="FILE", help="TOML overriding the shipped limits (shown as "
-                                                               "basis 'user')")
-    p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
+    _add_config(p)
+    _add_jobs(p)
 
 
 def cmd_figures(args: argparse.Namespace) -> int:

@@ -6,20 +6,20 @@ import argparse
 
 from harness import cases
 from harness.cli.common import EXIT_OK, Command
-from harness.cli.options import _add_systems, _positive
+from harness.cli.options import _add_cases, _add_jobs, _add_systems
 from harness.outputs.files import check_output, write_atomic
 from harness.pipeline import limits as limits_data
 from harness.pipeline.matrix import run_all
 
 
 def _args_limits(p: argparse.ArgumentParser) -> None:
-    p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    _add_cases(p)
     _add_systems(p)
     p.add_argument("--write", action="store_true",
                    help="run the cases that have no limits file and write one by the default rule (the "
                         "figures it gates, each judged by its budget or its theory limit); files that exist "
                         "are left as they are")
-    p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
+    _add_jobs(p)
 
 
 def cmd_limits(args: argparse.Namespace) -> int:

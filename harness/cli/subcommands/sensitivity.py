@@ -8,16 +8,16 @@ import mujoco
 
 from harness import cases
 from harness.cli.common import EXIT_OK, Command, _executor, _progress
-from harness.cli.options import _add_executor, _add_systems, _positive
+from harness.cli.options import _add_cases, _add_executor, _add_jobs, _add_systems
 from harness.pipeline.pool import cpus, run_tasks
 
 
 def _args_sensitivity(p: argparse.ArgumentParser) -> None:
-    p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
+    _add_cases(p)
     _add_systems(p)
     p.add_argument("--faults", type=lambda text: text.split(","), metavar="NAME,...",
                    help="the faults to size (default: every fault of the catalog)")
-    p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
+    _add_jobs(p)
     _add_executor(p)
 
 

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from harness.cli.common import EXIT_FAIL, EXIT_OK, Command, _backend_refusals, _executor
-from harness.cli.options import _add_executor, _add_out, _names, _positive, _seconds
+from harness.cli.options import _add_executor, _add_integrators, _add_jobs, _add_out, _seconds
 from harness.outputs.files import check_output, check_report_folder, prepare_output, with_manifest, write_atomic
 from harness.outputs.jsondoc import dumps
 from harness.pipeline.pool import cpus
@@ -23,13 +23,11 @@ def _args_sweep(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backends", type=_backend_list, default=("c",), metavar="NAMES",
                    help="comma-separated backends, each cell run with check --backend NAME (default: c; "
                         "mjx where the index has mujoco-mjx of the release, else the cell is n/a)")
-    p.add_argument("--integrators", type=_names, metavar="NAMES",
-                   help="judge on these integrators only (default: every one, as check)")
+    _add_integrators(p)
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
                    help="stop each cell's check after so long (the cell: error)")
     _add_out(p, Path("mjharness-sweep"), "sweep.md and sweep.json")
-    p.add_argument("--jobs", "-j", type=_positive, metavar="N",
-                   help="cells at once on this machine (default: one per CPU); on Ray, one task per CPU of the cluster")
+    _add_jobs(p)
     _add_executor(p)
 
 

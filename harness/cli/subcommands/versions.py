@@ -9,7 +9,7 @@ from pathlib import Path
 
 from harness import cases
 from harness.cli.common import EXIT_FAIL, EXIT_OK, Command, _backend_refusals, _executor
-from harness.cli.options import _add_executor, _add_out, _Parser, _positive
+from harness.cli.options import _add_executor, _add_jobs, _add_out, _Parser, _positive
 from harness.cli.subcommands.check import _args_check
 from harness.engine import backends
 from harness.outputs.files import check_output, check_report_folder, prepare_output, with_manifest, write_atomic
@@ -33,8 +33,7 @@ def _args_versions(p: argparse.ArgumentParser) -> None:
     p.add_argument("--parallel", type=_positive, metavar="N",
                    help="releases run at once (default: as many as CPUs, here "
                         f"{cpus()}; one with --bisect)")
-    p.add_argument("--jobs", "-j", type=_positive, metavar="N",
-                   help="worker processes of each release's check (default: the CPUs left per release, at least 1)")
+    _add_jobs(p)
     p.add_argument("--no-plots", dest="plots", action="store_false", help="versions.html without the plots")
     _add_executor(p)
 

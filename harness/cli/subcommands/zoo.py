@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from harness.cli.common import Command, _executor
-from harness.cli.options import _add_executor, _add_out, _names, _positive, _seconds
+from harness.cli.options import _add_executor, _add_integrators, _add_jobs, _add_out, _positive, _seconds
 from harness.outputs.files import check_report_folder, prepare_output, with_manifest, write_atomic
 from harness.outputs.jsondoc import dumps
 from harness.pipeline.pool import cpus
@@ -28,11 +28,10 @@ def _args_zoo(p: argparse.ArgumentParser) -> None:
                    help="also find the smallest energy injection (energy from no force) each model's balance catches")
     p.add_argument("--fault-max-nv", type=_positive, metavar="N",
                    help="size the faults and injections on models of ≤ N dofs only")
-    p.add_argument("--integrators", type=_names, metavar="NAMES",
-                   help="judge the verdicts on these integrators only (default: every one, as check)")
+    _add_integrators(p)
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
                    help="stop each model's verdict, and each model's fault study, after so long (unfinished)")
-    p.add_argument("--jobs", "-j", type=_positive, metavar="N", help="worker processes (default: one per CPU)")
+    _add_jobs(p)
     _add_executor(p)
 
 
