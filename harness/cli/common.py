@@ -48,11 +48,7 @@ from harness.pipeline.matrix import LogProgress
 from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
-
-
 EXIT_NUMERIC = 4
-
-
 EXIT_CODES = {EXIT_OK: "every check passes (and every --require is met)",
               EXIT_FAIL: "a check fails: an error its budget does not explain, a run that could not be measured, "
                          "or a known defect of this MuJoCo not accepted (baseline --compare: a figure regressed or "
@@ -67,6 +63,17 @@ EXIT_CODES = {EXIT_OK: "every check passes (and every --require is met)",
               141: "stdout closed (| head): stopped quietly",
               130: "interrupted (Ctrl-C); 143: terminated (SIGTERM); the report files it would have written "
                    "are marked stale"}
+
+
+@dataclass(frozen=True)
+class Command:
+    """A subcommand: ``help``, one line for the command list (``mjharness --help``); ``description``, more
+    for ``mjharness NAME --help`` (``help`` when empty)."""
+
+    help: str
+    add_arguments: Callable[[argparse.ArgumentParser], None]
+    run: Callable[[argparse.Namespace], int]
+    description: str = ""
 
 
 def _selected(args: argparse.Namespace) -> tuple[cases.Case, ...]:
@@ -275,14 +282,3 @@ def _backend_refusals(backend: str | None, chosen: Sequence, *, every: bool = Fa
         raise ValueError(f"--backend {backend}: the package index has no {package} of "
                          f"{', '.join(str(r) for r in chosen)} (it offers {span}); choose releases in that span")
     return refused
-
-
-@dataclass(frozen=True)
-class Command:
-    """A subcommand: ``help``, one line for the command list (``mjharness --help``); ``description``, more
-    for ``mjharness NAME --help`` (``help`` when empty)."""
-
-    help: str
-    add_arguments: Callable[[argparse.ArgumentParser], None]
-    run: Callable[[argparse.Namespace], int]
-    description: str = ""

@@ -1,6 +1,5 @@
 """The options several commands take, each declared here once, the types that read their values, and the parser
-class that makes argparse's errors one line (exit 2).
-"""
+class that makes argparse's errors one line (exit 2)."""
 
 from __future__ import annotations
 
