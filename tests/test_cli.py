@@ -22,6 +22,7 @@ few go through a real subprocess to pin "no traceback" and the process exit code
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import re
@@ -78,9 +79,45 @@ def _one_line_error(err: str, needle: str) -> None:
 
 
 # --------------------------------------------------------------- list, check
-def test_every_subcommand_is_one_function():
+def test_every_subcommand_is_one_function_in_a_module_of_its_own():
     assert set(COMMANDS) >= {"list", "run", "check", "diff", "baseline"}
     assert all(c.run.__name__ == f"cmd_{name}" for name, c in COMMANDS.items())
+    assert all(c.run.__module__ == c.add_arguments.__module__ == f"harness.cli.subcommands.{name}"
+               for name, c in COMMANDS.items())
+
+
+NAMESAKES = {  # a flag of several commands that means something else in one of them, with what
+    "--backend": "versions: the backend whose packages every environment installs (one, no 'all')",
+    "--require": "advise: required, the accuracy its recommendation must meet",
+    "--timeout": "sweep: the cell is an error; zoo: the model unfinished",
+    "--write": "baseline: a PATH to write; limits: a switch",
+    "--faults": "sensitivity: the faults to size; zoo: a switch",
+    "--case": "diff: the rows shown, not the cases run",
+    "--mjcf": "advise: a model of one's own only, no case's variant",
+    "--out": "what each command writes there, and its default folder",
+    "cases": "advise: one case or none",
+    "models": "sweep: zoo models, MJCF files or case:NAME, one at least; zoo: its models or --folder's entries",
+}
+
+
+def test_an_option_several_commands_take_says_the_same_in_each():
+    """Every option is declared once (harness/cli/options.py): wherever two commands take it, its help, type,
+    default and metavar are the same, but for the namesakes above, each its own command's."""
+    from harness.cli.commands import _parser
+
+    parser = _parser()
+    commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices
+    seen: dict[str, dict[tuple, list[str]]] = {}
+    for name, sub in commands.items():
+        for action in sub._actions:
+            flag = max(action.option_strings, key=len) if action.option_strings else action.dest
+            said = (action.help, action.type, repr(action.default), action.metavar, action.nargs)
+            seen.setdefault(flag, {}).setdefault(said, []).append(name)
+    shared = {flag for flag, ways in seen.items() if sum(map(len, ways.values())) > 1}
+    assert {"--jobs", "cases", "--mjcf", "--quiet", "--integrators", "--json", "--executor"} <= shared
+    differ = {flag: list(ways.values()) for flag, ways in seen.items() if len(ways) > 1 and flag not in NAMESAKES}
+    assert not differ, differ
+    assert set(NAMESAKES) <= shared  # each a namesake still
 
 
 def test_list_names_every_case(capsys):

@@ -1,2 +1,4 @@
-"""The ``mjharness`` command line: :mod:`.commands` (one function per subcommand over the harness's pure
-functions) and :mod:`.entry` (the console script: MuJoCo without GL, no interpreter teardown)."""
+"""The ``mjharness`` command line: :mod:`.commands` (the command table, the parser, errors to exit codes),
+:mod:`.subcommands` (a module per subcommand over the harness's pure functions), :mod:`.options` (the options
+several commands take, each declared once), :mod:`.common` (what several commands share) and :mod:`.entry` (the
+console script: MuJoCo without GL, no interpreter teardown)."""
