@@ -269,3 +269,21 @@ def test_only_the_integrators_own_checks_decide_a_verification(monkeypatch, fail
         assert advice.recommended is first and first.findings == (failing,) and not first.failures
     else:
         assert advice.recommended is None and failing in first.failures and failing in advice.why_none
+
+
+def test_a_prediction_the_measurement_contradicts_is_never_printed(monkeypatch):
+    """The ladder's prediction made wrong on purpose (4× the step it found): the verification measures the miss,
+    halves the step once, misses again (RK4: 16× the requirement at 2×), and nothing is recommended."""
+    real = A.candidate
+
+    def optimistic(curve, requirements):
+        h, why = real(curve, requirements)
+        return 4 * h, why
+
+    monkeypatch.setattr(A, "candidate", optimistic)
+    advice = A.advise(cases.get("spring"), parse(["position=1e-4"]), integrators=("RK4",))
+    assert advice.recommended is None
+    assert len(advice.tried) == 2 and not any(v.met for v in advice.tried)
+    assert advice.tried[1].timestep == pytest.approx(advice.tried[0].timestep / 2, rel=0.05)
+    assert all(v.measured["position"] > 1e-4 for v in advice.tried)
+    assert "beyond the requirement" in advice.why_none
