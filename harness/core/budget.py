@@ -10,15 +10,20 @@ distance is expected from the model's own settings, and the budget names it:
   MuJoCo's stiffest), extrapolated to the rigid limit;
 - ``floors``: a point mass's tiny rotational inertia (MuJoCo needs some), from a
   run with it doubled, extrapolated to zero;
+- ``margin``: a contact pair's margin (the contact pushes before it touches), from
+  the sampled states with every margin doubled (instantaneous figures only);
 - ``solver``: where the model's constraint solver stops short of the solution
-  (CG or PGS at their iteration cap), the difference a converged solve makes.
+  (CG or PGS at their iteration cap), the difference a converged solve makes;
+- ``stop``: on a float32 backend, where its solver stopped at float32's
+  resolution, the difference the solve completed in float64 makes.
 
 What remains after removing those parts from MuJoCo's run — the run
 extrapolated to the ideal limits, compared with the reference — is the
 ``unexplained`` residual. The verdict judges it against the ``limit``: the sum
 of the uncertainties of the estimates themselves (``tolerance``: each part's
-own accuracy, float round-off, the reference's tolerance, the constraint
-solver's convergence). A fault (damping, armature, a wrong coefficient) leaves a
+own accuracy, and what no part removes: ``roundoff``, float round-off;
+``reference``, the reference's tolerance; ``convergence``, the constraint
+solver's). A fault (damping, armature, a wrong coefficient) leaves a
 residual no part explains; a legitimate setting (another timestep, softer
 constraints) moves the parts, not the residual.
 

@@ -1,0 +1,123 @@
+"""The error budget's parts and tolerances as the docs name them and as the code makes them: the same names, both
+ways. The docs read: README.md's parts table ("Read a verdict: the error budget"), docs/design.md's budget line
+(``measured = explained parts (…) + unexplained``) and its tolerance table, and the budget module's docstring (its
+``- ``name``:`` list of parts). The code read: the declared lists of parts and tolerances, and the keys the runs'
+and the sampled states' budgets actually produce (each budget made from one synthetic figure)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from harness.core import budget as B
+from harness.core.deviation import Deviation
+from harness.core.figures import FigureName
+from harness.families import runs, sampled
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _section(text: str, heading: str) -> str:
+    """The text under a markdown heading, up to the next heading of the same or a higher level."""
+    level = len(heading) - len(heading.lstrip("#"))
+    start = text.index(heading + "\n") + len(heading) + 1
+    end = re.search(rf"^#{{1,{level}}} ", text[start:], flags=re.M)
+    return text[start:start + end.start()] if end else text[start:]
+
+
+def _table_names(section: str, header: str) -> list[str]:
+    """The backticked names in the first column of the markdown table whose header row starts ``| header |``."""
+    lines = section.splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith(f"| {header} |"))
+    names = []
+    for line in lines[first + 2:]:
+        if not line.startswith("|"):
+            break
+        names.append(re.fullmatch(r"\| `(\w+)` ", line[:line.index("|", 1) + 1].rstrip("|")).group(1))
+    return names
+
+
+def _readme_parts() -> list[str]:
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    return _table_names(_section(text, "## Read a verdict: the error budget"), "part")
+
+
+def _design() -> str:
+    return _section((ROOT / "docs" / "design.md").read_text(encoding="utf-8"), "## Verdicts: the error budget")
+
+
+def _design_parts() -> list[str]:
+    line = re.search(r"^measured = explained parts \(([^)]*)\) \+ unexplained$", _design(), flags=re.M)
+    assert line, "docs/design.md: the budget line 'measured = explained parts (…) + unexplained' is gone"
+    return [p.strip() for p in line.group(1).split(",")]
+
+
+def _design_tolerances() -> list[str]:
+    return _table_names(_section(_design(), "### The tolerances and their bases"), "tolerance")
+
+
+def _docstring_parts() -> list[str]:
+    return re.findall(r"^- ``(\w+)``:", B.__doc__ or "", flags=re.M)
+
+
+def _made() -> tuple[set[str], set[str], set[str], set[str]]:
+    """The explained and tolerance keys of a runs' budget and of a sampled states' budget, one synthetic figure
+    each, with every part that context has present (so the explained keys are every part it can make)."""
+    name = FigureName("Euler.position")
+
+    def dev(values: list[float]) -> list[Deviation]:
+        return [Deviation(name, np.asarray(values, dtype=float), "scalar", "m", "", size=1.0)]
+
+    a = dev([1.0, 2.0])
+    made = runs.budgets(runs.Runs(as_is=a, half_step=dev([0.9, 1.9]), softness=(dev([0.8, 1.8]),),
+                                  softness_half_step=dev([0.7, 1.7]), floors={"position": np.array([0.1, 0.1])},
+                                  converged=dev([0.95, 1.95])),
+                        order=1.0, steps=1, rtol=1e-12, solver_tolerance=1e-10)[name]
+    stopped = runs.budgets(runs.Runs(as_is=a, half_step=dev([0.9, 1.9]), completed=dev([0.95, 1.95])),
+                           order=1.0, steps=1, rtol=1e-12, solver_tolerance=1e-10)[name]
+    at_states = sampled.budgets(a, softness=(dev([0.8, 1.8]),), heavier=dev([1.1, 2.1]), margins=dev([1.2, 2.2]),
+                                converged=dev([0.95, 1.95]))[name]
+    at_states_stopped = sampled.budgets(a, completed=dev([0.95, 1.95]))[name]
+    return (set(made.explained) | set(stopped.explained), set(made.tolerance) | set(stopped.tolerance),
+            set(at_states.explained) | set(at_states_stopped.explained),
+            set(at_states.tolerance) | set(at_states_stopped.tolerance))
+
+
+def test_the_docs_name_the_parts_the_code_has():
+    """README's parts table, docs/design.md's budget line and the budget module's docstring each name exactly the
+    code's parts: none the code lacks (``roundoff`` is a tolerance, not a part), none left out."""
+    code = set(B.PARTS)
+    for where, named in (("README.md's parts table", _readme_parts()), ("docs/design.md's budget line",
+                         _design_parts()), ("harness/core/budget.py's docstring", _docstring_parts())):
+        assert len(named) == len(set(named)), f"{where} names a part twice: {named}"
+        assert not set(named) - code, f"{where} names parts the code lacks: {sorted(set(named) - code)}"
+        assert not code - set(named), f"{where} leaves out parts of the code: {sorted(code - set(named))}"
+
+
+def test_the_docs_name_the_tolerances_the_code_has():
+    """docs/design.md's tolerance table names exactly the code's tolerances (a row for each, no other)."""
+    named = _design_tolerances()
+    assert len(named) == len(set(named)), named
+    assert set(named) == set(B.TOLERANCES), (sorted(set(named) - set(B.TOLERANCES)),
+                                             sorted(set(B.TOLERANCES) - set(named)))
+
+
+def test_the_declared_parts_and_tolerances_are_what_the_budgets_make():
+    """The declared lists are the code's truth: the runs' and the sampled states' budgets make exactly the declared
+    parts between them (each a part of the declared list) and exactly the declared tolerances; every part is one
+    of the tolerances (its own estimate's uncertainty)."""
+    run_parts, run_tolerances, state_parts, state_tolerances = _made()
+    assert run_parts | state_parts == set(B.PARTS)
+    assert run_tolerances | state_tolerances == set(B.TOLERANCES)
+    assert set(B.PARTS) <= set(B.TOLERANCES)
+    assert {"integration", "reference"} <= run_tolerances - state_tolerances  # nothing is integrated at states
+    assert "margin" in state_parts - run_parts
+
+
+def test_the_readers_fail_on_drift():
+    """The readers are not vacuous: a part added to the docs or left out of them is seen."""
+    assert _readme_parts() and _design_parts() and _docstring_parts() and _design_tolerances()
+    drifted = set(_readme_parts()) | {"roundoff"}
+    assert drifted - set(B.PARTS) == {"roundoff"}
