@@ -1,17 +1,22 @@
 """The error budget's parts and tolerances as the docs name them and as the code makes them: the same names, both
 ways. The docs read: README.md's parts table ("Read a verdict: the error budget"), docs/design.md's budget line
-(``measured = explained parts (…) + unexplained``) and its tolerance table, and the budget module's docstring (its
-``- ``name``:`` list of parts). The code read: the declared lists of parts and tolerances, and the keys the runs'
-and the sampled states' budgets actually produce (each budget made from one synthetic figure)."""
+(``measured = explained parts (…) + unexplained``) and its tolerance table, and the budget package's docstring (its
+``- ``name``:`` list of parts). The code read: the one list of parts (harness.budget.registry) and the tolerances,
+the part modules, and the keys the runs' and the sampled states' budgets actually produce (each budget made from
+one synthetic figure)."""
 
 from __future__ import annotations
 
+import importlib
+import inspect
 import re
 from pathlib import Path
 
 import numpy as np
 
-from harness.core import budget as B
+import harness.budget as B
+from harness.budget import registry
+from harness.budget.part import Part
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.families import runs, sampled
@@ -90,7 +95,7 @@ def test_the_docs_name_the_parts_the_code_has():
     code's parts: none the code lacks (``roundoff`` is a tolerance, not a part), none left out."""
     code = set(B.PARTS)
     for where, named in (("README.md's parts table", _readme_parts()), ("docs/design.md's budget line",
-                         _design_parts()), ("harness/core/budget.py's docstring", _docstring_parts())):
+                         _design_parts()), ("harness/budget/__init__.py's docstring", _docstring_parts())):
         assert len(named) == len(set(named)), f"{where} names a part twice: {named}"
         assert not set(named) - code, f"{where} names parts the code lacks: {sorted(set(named) - code)}"
         assert not code - set(named), f"{where} leaves out parts of the code: {sorted(code - set(named))}"
@@ -121,3 +126,37 @@ def test_the_readers_fail_on_drift():
     assert _readme_parts() and _design_parts() and _docstring_parts() and _design_tolerances()
     drifted = set(_readme_parts()) | {"roundoff"}
     assert drifted - set(B.PARTS) == {"roundoff"}
+
+
+def test_each_part_is_a_module_with_its_part_and_the_registry_is_the_one_list():
+    """Every part of the registry is its own module's ``PART`` (harness/budget/NAME.py), a :class:`Part` whose
+    words the docs can use (what it varies, explains, must not absorb, its basis), whose variant is an edit of
+    harness.engine.variants or None, with an estimate for at least one budget; and the tolerances are the parts'
+    and the three no part removes."""
+    from harness.engine import variants
+
+    assert tuple(p.name for p in B.ALL) == B.PARTS and len(set(B.PARTS)) == len(B.PARTS)
+    assert (*B.PARTS, *registry.UNREMOVED) == B.TOLERANCES
+    for part in B.ALL:
+        module = importlib.import_module(f"harness.budget.{part.name}")
+        assert module.PART is part and isinstance(part, Part)
+        for text in (part.varies, part.explains, part.must_not_absorb, part.basis):
+            assert text.strip(), part.name
+        assert 0 < part.uncertainty < 1, part.name
+        assert part.variant is None or (inspect.getmodule(part.variant) is variants), part.name
+        assert part.over_runs is not None or part.at_states is not None, part.name
+    for name in registry.UNREMOVED:  # a module each, named by the tolerance it holds
+        assert name == importlib.import_module(f"harness.budget.{name}").NAME
+    # the parts a converged or completed solve replaces the base of are estimated first
+    assert [p.name for p in registry.OVER_RUNS][:2] == ["solver", "stop"]
+    assert [p.name for p in registry.AT_STATES][:2] == ["solver", "stop"]
+
+
+def test_design_names_the_part_modules_that_exist():
+    """docs/design.md's "Where it lives" names each part's module, and each module it names under harness/budget/
+    exists."""
+    section = _section(_design(), "### Where it lives")
+    named = set(re.findall(r"`(\w+)\.py`", section.split("Each family's figures")[0]))
+    modules = {p.stem for p in (ROOT / "harness" / "budget").glob("*.py")} - {"__init__"}
+    assert {f"{p}" for p in B.PARTS} <= named
+    assert named <= modules | {"budget", "variants"}, sorted(named - modules)
