@@ -160,3 +160,28 @@ def test_design_names_the_part_modules_that_exist():
     modules = {p.stem for p in (ROOT / "harness" / "budget").glob("*.py")} - {"__init__"}
     assert {f"{p}" for p in B.PARTS} <= named
     assert named <= modules | {"budget", "variants"}, sorted(named - modules)
+
+
+def test_the_constants_the_tolerance_table_names_exist():
+    """Every constant docs/design.md's tolerance table names (a backticked UPPER_CASE name, or a dotted path to
+    one) is a constant of the budget package, or of the runs' or the sampled states' module where a path says so
+    or the table's preamble does (``ROUNDOFF``, ``ASYMPTOTIC``)."""
+    import harness.budget.convergence
+    import harness.budget.extrapolation
+    import harness.budget.reference
+    import harness.budget.roundoff
+    import harness.engine.variants
+
+    section = _section(_design(), "### The tolerances and their bases")
+    table = "\n".join(line for line in section.splitlines() if line.startswith("| `"))
+    homes = [importlib.import_module(f"harness.budget.{p}") for p in B.PARTS] + [
+        harness.budget.extrapolation, harness.budget.roundoff, harness.budget.reference, harness.budget.convergence,
+        runs, harness.engine.variants]
+    named = re.findall(r"`((?:[a-z_]+\.)*[A-Z][A-Z0-9_]+)`", table)
+    assert len(named) >= 10, named
+    for name in named:
+        if "." in name:
+            module, _, constant = name.rpartition(".")
+            assert hasattr(importlib.import_module(module), constant), name
+        else:
+            assert any(hasattr(m, name) for m in homes), f"the tolerance table names {name}: no such constant"

@@ -53,11 +53,14 @@ figure is. Estimating the softness at h → 0 (run E) matters: under ``discrete`
 a constraint's response depends on h/τ (the row is folded into the implicit
 step), and without E that interaction would be counted twice — once in each part.
 
-What bounds the residual is each estimate's own accuracy (the tolerances, in
-the figure's unit):
+Each part's estimate and tolerance is its module's in :mod:`harness.budget` (the
+registry's parts, iterated by :func:`parts` and :func:`budgets`); this module
+makes the runs they read and the round-off, reference and convergence
+tolerances. What bounds the residual is each estimate's own accuracy (the
+tolerances, in the figure's unit):
 
 - integration: Richardson removes the leading term; what remains is the next
-  order, relatively O(ω h) of the correction: :data:`INTEGRATION_UNCERTAINTY`
+  order, relatively O(ω h) of the correction: :data:`~harness.budget.integration.INTEGRATION_UNCERTAINTY`
   = 1/4 of it allows ω h up to about 1/2. Where the correction exceeds
   :data:`ASYMPTOTIC` of the quantity's size, or a soft constraint gets fewer
   than two steps per time constant
@@ -66,12 +69,12 @@ the figure's unit):
   as twice the distance between the extrapolations from (h, h/2) and
   (h/2, h/4), and the larger of the two bounds holds;
 - softness: from two levels (at the stiffest ε, 1e-4) linear up to relative
-  terms O(ε) and O(h/τ): :data:`SOFTNESS_UNCERTAINTY` = 1/4 of it; from three,
+  terms O(ε) and O(h/τ): :data:`~harness.budget.softness.SOFTNESS_UNCERTAINTY` = 1/4 of it; from three,
   measured: the distance between the quadratic and the linear estimate (the
   last level's correction), plus 1/4 of the contacts' τ part;
-- floors: an inertia of at most 1e-6 m L² acts linearly: :data:`FLOOR_UNCERTAINTY`;
+- floors: an inertia of at most 1e-6 m L² acts linearly: :data:`~harness.budget.floors.FLOOR_UNCERTAINTY`;
 - round-off, in float64 (the C engine, ``mjx-f64``): :data:`ROUNDOFF` a step
-  (:data:`ROUNDOFF_EPS` machine epsilons), accumulating as a random walk over the
+  (:data:`~harness.budget.roundoff.ROUNDOFF_EPS` machine epsilons), accumulating as a random walk over the
   run's N steps, × the quantity's size, × the noise gain of the combination
   (:func:`noise_gain`: Σ|wᵢ| of the runs' weights in the ideal estimate, from
   1.1 for RK4 alone to about 30 with contacts and three softness levels). It sits
@@ -99,9 +102,9 @@ the figure's unit):
   figure's response to the initial state moved by half an ulp (C engine,
   float64: a stiff constraint's force spike when a stored coordinate crosses
   from one float to the next, :attr:`Runs.quantized`), × the noise gain;
-- the reference: :data:`REFERENCE` × its rtol × the quantity's size (its global
+- the reference: :data:`~harness.budget.reference.REFERENCE` × its rtol × the quantity's size (its global
   error, measured: docs/findings/bases.md);
-- the constraint solver's convergence: :data:`SOLVER` × its tolerance × the
+- the constraint solver's convergence: :data:`~harness.budget.convergence.SOLVER` × its tolerance × the
   quantity's size × the noise gain, where the model has constraints (the solver
   stops when the relative improvement falls below its tolerance, independently
   in each run). Where the model's own solver does not converge (CG or PGS
@@ -109,7 +112,7 @@ the figure's unit):
   the constraints solved exactly (Newton,
   :func:`~harness.engine.variants.converged_solver`) and the difference the
   model's own solver makes is the ``solver`` part, known to
-  :data:`SOLVER_PART_UNCERTAINTY` of itself (it feeds back into the motion).
+  :data:`~harness.budget.solver.SOLVER_PART_UNCERTAINTY` of itself (it feeds back into the motion).
 """
 
 from __future__ import annotations

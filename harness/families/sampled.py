@@ -26,8 +26,9 @@ state by state
 - floors = D − A: linear in the inertia;
 - ideal = A − softness − floors,
 
-each reduced as the figure is. The tolerances: 1/4 of the softness part (the O(1 − d) terms for 1 − d up to
-1/4), 1/10 of the floors', float round-off (:data:`ROUNDOFF` × the quantity's size: the analytic side is a
+each reduced as the figure is (each part's estimate and tolerance is its module's in :mod:`harness.budget`, the
+registry's parts iterated by :func:`budgets`). The tolerances: 1/4 of the softness part (the O(1 − d) terms for
+1 − d up to 1/4), 1/10 of the floors', float round-off (:data:`ROUNDOFF` × the quantity's size: the analytic side is a
 closed-form evaluation and one KKT solve, MuJoCo's a forward pass) and the constraint solver's tolerance
 (:data:`~harness.budget.convergence.SOLVER` × tolerance × size), both × the noise gain of the extrapolation (Σ|w| of
 the evaluations' weights).
