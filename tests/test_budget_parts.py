@@ -185,3 +185,25 @@ def test_the_constants_the_tolerance_table_names_exist():
             assert hasattr(importlib.import_module(module), constant), name
         else:
             assert any(hasattr(m, name) for m in homes), f"the tolerance table names {name}: no such constant"
+
+
+def _rows(section: str, header: str) -> list[list[str]]:
+    """The cells of each row of the markdown table whose header row starts ``| header |``."""
+    lines = section.splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith(f"| {header} |"))
+    rows = []
+    for line in lines[first + 2:]:
+        if not line.startswith("|"):
+            break
+        rows.append([cell.strip() for cell in line.strip().strip("|").split(" | ")])
+    return rows
+
+
+def test_the_docs_words_for_each_part_are_its_fields():
+    """docs/design.md's parts table is each part's own words (what it varies, what it may explain, what it must not
+    absorb: the Part's fields), in the registry's order; README's "what it is" is what the part may explain."""
+    design = _rows(_section(_design(), "### The parts and their variants"), "part")
+    assert design == [[f"`{p.name}`", p.varies, p.explains, p.must_not_absorb] for p in B.ALL]
+    readme = _rows(_section((ROOT / "README.md").read_text(encoding="utf-8"), "## Read a verdict: the error budget"),
+                   "part")
+    assert [row[:2] for row in readme] == [[f"`{p.name}`", p.explains] for p in B.ALL]

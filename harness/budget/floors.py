@@ -29,9 +29,9 @@ PART = Part(
     name="floors",
     varies="the point masses' floor inertia (at most 1e-6 m L²), doubled",
     variant=V.floors_pair,
-    explains="the floor inertia MuJoCo needs on a point mass the analytic system has none of",
-    must_not_absorb="extra inertia on a body that is not a point mass (a fault); the inertia-box fluid force, sized "
-                    "by the same inertia (both runs of the pair are made without fluid)",
+    explains="the tiny inertia a point mass needs in MuJoCo",
+    must_not_absorb="extra inertia on a rigid body (a fault); the inertia-box fluid force, sized by the same inertia "
+                    "(both runs are made without fluid)",
     uncertainty=FLOOR_UNCERTAINTY,
     basis="an inertia ≤ 1e-6 m L² acts linearly",
     tolerance=fraction("floors", FLOOR_UNCERTAINTY),

@@ -34,11 +34,11 @@ def tolerance(estimates: Estimates, explained: Mapping[str, float]) -> float:
 
 PART = Part(
     name="integration",
-    varies="the timestep: the same run at h/2 (and h/4 past the integrator's asymptotic range)",
+    varies="the timestep: the same run at h/2 (and h/4 past the asymptotic range)",
     variant=V.variant,
-    explains="the truncation error at the model's timestep h, by Richardson at the integrator's documented order",
-    must_not_absorb="an error that does not shrink with h at that order (damping, a wrong coefficient); the "
-                    "softness's own change with h/τ (each softness level is brought to h → 0 by its own correction)",
+    explains="truncation error at the model's timestep h",
+    must_not_absorb="an error that does not shrink with h at the integrator's order (damping, a wrong coefficient); "
+                    "the softness's change with h/τ (each softness level is taken to h → 0 by its own correction)",
     uncertainty=INTEGRATION_UNCERTAINTY,
     basis="Richardson leaves the next order, relatively O(ω h): a quarter allows ω h up to about 1/2; past the "
           "asymptotic range the run at h/4 measures it",

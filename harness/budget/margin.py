@@ -18,10 +18,10 @@ def at_states(states: States, estimates: Estimates) -> None:
 
 PART = Part(
     name="margin",
-    varies="every contact margin, doubled",
+    varies="every contact margin, doubled (sampled states only)",
     variant=V.wider_margins,
-    explains="at a state in contact, the push k·margin towards the margin (linear in it, independent of 1 − d)",
-    must_not_absorb="a contact's softness (the softness part's) or a wrong contact geometry",
+    explains="a contact pair's `margin`, pushing before it touches",
+    must_not_absorb="a contact's softness (the softness part's); a wrong contact geometry",
     uncertainty=FLOOR_UNCERTAINTY,
     basis="the reference acceleration k·(distance − margin) is linear in the margin; the impedance moves with it by "
           "(margin/width)²",

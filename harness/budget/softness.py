@@ -93,13 +93,12 @@ def tolerance(estimates: Estimates, explained: Mapping[str, float]) -> float:
 
 PART = Part(
     name="softness",
-    varies="every constraint's effective softness ε = 1 − d (× s = ½, or 2 at the stiffest; or the near-rigid 2fε, "
-           "fε), and with contacts their time constant τ (× 1.5)",
+    varies="every constraint's effective ε = 1 − d (× ½, or × 2 at the stiffest; or the near-rigid 2fε and "
+           "fε), and with contacts their τ (× 1.5)",
     variant=V.variant,
-    explains="what MuJoCo's soft constraints (solref/solimp) cost against rigid ones: the sag, the force error "
-             "−(A + R)⁻¹Rλ, a contact's slip",
-    must_not_absorb="the integration error's share of the levels (each level is taken to h → 0 first: the cross "
-                    "term counted once); a stiff spring or damping the reference lacks",
+    explains="`solref`/`solimp`: constraints that give a little",
+    must_not_absorb="the integration error at each level (the cross term is counted once, in the integration part); a "
+                    "spring or damping the reference lacks",
     uncertainty=SOFTNESS_UNCERTAINTY,
     basis="two levels are linear in ε up to relative terms O(ε) and O(h/τ); three: the distance between the quadratic "
           "and the linear estimate; near-rigid: the whole tail beyond fε (RIGID_TAIL)",

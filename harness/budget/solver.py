@@ -30,11 +30,11 @@ def _apply(estimates: Estimates, converged) -> None:
 
 PART = Part(
     name="solver",
-    varies="the constraint solver: Newton to CONVERGED_TOLERANCE where the model's own does not converge",
+    varies="the constraint solver: Newton to `CONVERGED_TOLERANCE` where the model's own does not converge",
     variant=V.converged_solver,
-    explains="where the model's own solver stops short of the constraints' solution",
-    must_not_absorb="the solver's convergence at its tolerance (the convergence tolerance's), wrong constraint forces "
-                    "that a converged solve keeps",
+    explains="CG or PGS stopped short of the solution",
+    must_not_absorb="the stop at the solver's tolerance (the `convergence` tolerance's); wrong forces a converged "
+                    "solve keeps",
     uncertainty=SOLVER_PART_UNCERTAINTY,
     basis="the solver's difference feeds back into the motion",
     tolerance=fraction("solver", SOLVER_PART_UNCERTAINTY),

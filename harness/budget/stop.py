@@ -29,11 +29,10 @@ def _apply(estimates: Estimates, completed) -> None:
 
 PART = Part(
     name="stop",
-    varies="nothing of the model: each of its solves completed in float64 where the backend's stopped",
+    varies="nothing of the model: each solve completed in float64 where the backend's stopped",
     variant=None,
-    explains="the backend's own imbalance r = M a + c − τ − Jᵀf where its float32 solver stopped",
-    must_not_absorb="balanced but wrong forces (they stay); the float32 round-off of the rest (the roundoff "
-                    "tolerance's)",
+    explains="a float32 backend's solver stopped at float32's resolution",
+    must_not_absorb="balanced but wrong forces (they stay); float32 round-off elsewhere (the `roundoff` tolerance's)",
     uncertainty=SOLVER_PART_UNCERTAINTY,
     basis="the completion is exact on the piecewise-quadratic cost in the piece of the C engine's solution; its "
           "regulariser differs from the backend's by O(1 − d) of a stiff row's share",
