@@ -207,3 +207,20 @@ def test_the_docs_words_for_each_part_are_its_fields():
     readme = _rows(_section((ROOT / "README.md").read_text(encoding="utf-8"), "## Read a verdict: the error budget"),
                    "part")
     assert [row[:2] for row in readme] == [[f"`{p.name}`", p.explains] for p in B.ALL]
+
+
+def test_a_new_variant_field_is_a_tripwire_for_the_noise_gain():
+    """The runs' noise gain (runs.noise_gain) weighs the variant runs it lists, and the states' (sampled.budgets'
+    ``noise``) the evaluations it lists: a variant added to the budget's inputs without its weight there would make
+    the round-off and convergence tolerances silently too small. This test lists the variant fields as the gains
+    know them; a new field fails it until the gains count it (and the list here is extended)."""
+    import dataclasses
+
+    from harness.budget.inputs import Runs, States
+
+    assert [f.name for f in dataclasses.fields(Runs)] == [
+        "as_is", "half_step", "quarter_step", "softness", "softness_half_step", "slower", "floors", "converged",
+        "perturbed", "represented", "quantized", "eps_factor", "tc_factor", "completed", "rigid", "rigid_ladder",
+        "rigid_split", "rigid_unresolved", "stiffest"]
+    assert [f.name for f in dataclasses.fields(States)] == [
+        "levels", "eps_factor", "rigid", "lowest", "heavier", "lighter", "converged", "completed", "wider"]
