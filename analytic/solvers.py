@@ -38,8 +38,8 @@ STIFF_RTOL = 1e-8
 """The loosest tolerance a solve handed to Radau IIA is made to (rtol and atol): Radau's steps grow as rtol^(-1/4)
 (its error estimate is O(h⁴)), so 1e-12 on a robot's 1 s of motion takes it 5e4 steps. What the trajectory budget
 must resolve is MuJoCo's own integration error at the model's step, which the reference's allowance
-(harness.core.budget.REFERENCE × rtol × the size) must stay below: this is the first tolerance, and a check
-solves again at the tighter one its budgets derive (``solve(stiff_rtol=…)``, harness.core.budget.reference_rtol;
+(harness.budget.reference.REFERENCE × rtol × the size) must stay below: this is the first tolerance, and a check
+solves again at the tighter one its budgets derive (``solve(stiff_rtol=…)``, harness.budget.reference.reference_rtol;
 docs/findings/bases.md, STIFF_RTOL and REFERENCE_SHARE)."""
 
 

@@ -73,7 +73,7 @@ def test_runs_differing_in_per_world_fields_share_one_call_and_change_no_number(
 def _roundoff_bound(steps: int, size: float) -> float:
     """The budget's round-off part (harness/families/runs.py: ROUNDOFF_EPS machine epsilons a step,
     a random walk over the steps) in float32, for one run (noise gain 1) of a quantity of ``size``."""
-    from harness.core.budget import ROUNDOFF_EPS
+    from harness.budget.roundoff import ROUNDOFF_EPS
 
     return ROUNDOFF_EPS * float(np.finfo(np.float32).eps) * math.sqrt(steps) * size
 
@@ -146,7 +146,7 @@ def test_warp_float32_passes_and_a_fault_still_fails():
     6.8e-4 of the energy (measured), 190 times the float32 round-off part of its budget (3.4e-6: the
     round-off copies' spread, the constants held in float32, the reading). The rod's force is not asked to
     fail: its float32 budget includes the state's quantization (a stiff rod's k × ulp force spikes,
-    harness.core.budget.QUANTIZATION), 3.3e-2 of the tension at this budget's noise gain, above the 1.6e-3
+    harness.budget.roundoff.QUANTIZATION), 3.3e-2 of the tension at this budget's noise gain, above the 1.6e-3
     the damping moves it."""
     from harness import validate
     from harness.engine.compat import set_damping

@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 
 from harness import cases
+from harness.budget.roundoff import ROUNDOFF_EPS
 from harness.cli.commands import main
-from harness.core.budget import ROUNDOFF_EPS
 from harness.core.errors import BackendUnavailable
 from harness.core.options import RunOptions
 from harness.engine import backends
@@ -376,7 +376,7 @@ def test_instant_roundoff_is_the_copies_spread_on_float32_and_unchanged_on_float
     """With copies, the round-off tolerance is PERTURBED_FACTOR × the largest copy difference (+ the measured
     shift of the constants in float32, + READ_ULPS ε32 × size), × the noise gain; without, today's ROUNDOFF ×
     size."""
-    from harness.core.budget import PERTURBED_FACTOR, READ_ULPS
+    from harness.budget.roundoff import PERTURBED_FACTOR, READ_ULPS
     from harness.core.deviation import Deviation
     from harness.core.figures import FigureName
     from harness.families.sampled import ROUNDOFF
@@ -400,7 +400,7 @@ def test_instant_roundoff_is_the_copies_spread_on_float32_and_unchanged_on_float
 _ROUNDOFF_VS_C = """
 import json, numpy as np
 from harness import cases
-from harness.core.budget import PERTURBED_FACTOR, PERTURBED_RUNS, QUANTIZATION, READ_ULPS, ulp_states
+from harness.budget.roundoff import PERTURBED_FACTOR, PERTURBED_RUNS, QUANTIZATION, READ_ULPS, ulp_states
 from harness.engine import backends, variants as V
 from harness.engine.backends import Request
 from harness.engine.models import compile_model

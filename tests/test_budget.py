@@ -10,8 +10,16 @@ import numpy as np
 import pytest
 
 from harness import cases
+from harness.budget.extrapolation import (
+    LINEAR_SHRINK,
+    RIGID_GAIN,
+    from_rigid,
+    gain,
+    linearity_note,
+    richardson,
+    to_zero,
+)
 from harness.cli.commands import main
-from harness.core.budget import LINEAR_SHRINK, RIGID_GAIN, from_rigid, gain, linearity_note, richardson, to_zero
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.core.options import RunOptions
@@ -489,13 +497,13 @@ def test_a_timestep_longer_than_the_horizon_is_refused(capsys):
 
 @pytest.mark.parametrize("name", ["pendulum", "atwood", "welded_pendulum", "hoop_ramp_contact", "spring"])
 def test_a_roundoff_copy_moves_each_mass_by_one_ulp_and_the_motion_by_no_more_than_that(name):
-    """The float32 round-off copies (harness.engine.variants.roundoff_copy, harness.core.budget.PERTURBED_RUNS):
+    """The float32 round-off copies (harness.engine.variants.roundoff_copy, harness.budget.roundoff.PERTURBED_RUNS):
     each body's mass and each principal inertia × (1 ± ε), independent seeded signs (both drawn, the same for
     the same index, different between copies); the motion then moves by O(ε) only — the copies measure round-off,
     not another physics. Checked on the C engine in float64 at the case's initial state and a state moved off
     it (0.3 in every coordinate and velocity: constraints violated, the contact pressed), with float32's ε:
     |Δqacc| ≤ 8 ε × max|qacc| (measured at most 1.0 ε on MuJoCo 4.0.0 and 3.3.0)."""
-    from harness.core.budget import PERTURBED_RUNS
+    from harness.budget.roundoff import PERTURBED_RUNS
 
     if name in cases.unavailable():  # an older MuJoCo: the case is n/a there, with its measured reason
         pytest.skip(cases.unavailable()[name])
@@ -550,11 +558,12 @@ def _shares(made: dict, scale: float) -> list[float]:
 
 
 def test_the_reference_is_solved_again_only_where_its_part_passes_half_a_limit():
-    """harness.core.budget.reference_rtol: a budget whose reference part is a third of its limit needs nothing; one
+    """harness.budget.reference.reference_rtol: a budget whose reference part is a third of its limit needs nothing; one
     whose part is 98 % of it gets the power of ten at or below what brings it to REFERENCE_SHARE (1e-8 × 1e-4 /
     5e-3 = 2e-10 → 1e-10, where it is a third); a limit that is the reference's alone goes to the floor; a
     reference at the floor already cannot be tightened."""
-    from harness.core.budget import REFERENCE_SHARE, Budget, reference_rtol, reference_share
+    from harness.budget.reference import REFERENCE_SHARE, reference_rtol, reference_share
+    from harness.core.budget import Budget
 
     within = {"a": Budget(measured=1.0, tolerance={"integration": 1e-3, "reference": 5e-4})}
     assert reference_rtol(within, rtol=1e-8, floor=1e-12) is None
@@ -575,8 +584,8 @@ def test_a_stiff_references_tolerance_is_derived_from_its_budgets_and_stated(tmp
     again at the derived rtol, says so, and then every budget is within the share or the reference at 1e-12; a
     tighter solve that is refused leaves the first one standing, said so."""
     import harness
+    from harness.budget import reference as B
     from harness.cases.own import from_mjcf
-    from harness.core import budget as B
     from harness.core.errors import RunTooLong
     from harness.pipeline import run as R
     from tests.test_own_model import WHIP

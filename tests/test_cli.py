@@ -34,8 +34,8 @@ from pathlib import Path
 import pytest
 
 from harness import cases
+from harness.budget import PARTS
 from harness.cli.commands import COMMANDS, main
-from harness.core.budget import PARTS
 from harness.core.errors import ConfigError
 from harness.core.options import RunOptions
 from harness.pipeline import matrix

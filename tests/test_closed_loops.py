@@ -145,9 +145,9 @@ def test_cassies_light_rods_are_no_longer_refused():
 def test_the_iiwas_reference_is_tightened_to_what_its_budgets_resolve():
     """KUKA iiwa 14 settles onto its servos' targets, so MuJoCo's end positions match the reference far below the
     stiff reference's first tolerance: at STIFF_RTOL 1e-8 its part is ~99 % of discrete.position_final's limit.
-    The check solves it again at the derived rtol (harness.core.budget.reference_rtol), says so, and then no
+    The check solves it again at the derived rtol (harness.budget.reference.reference_rtol), says so, and then no
     figure's limit is more than REFERENCE_SHARE the reference's."""
-    from harness.core.budget import REFERENCE_SHARE
+    from harness.budget.reference import REFERENCE_SHARE
     from harness.core.options import RunOptions
     from harness.pipeline.run import run_case
 
@@ -232,7 +232,7 @@ def test_near_a_singular_pose_mujocos_soft_connect_force_saturates_below_its_sti
     stiffest (1e-4); 0.5° from it (a = 8.6e-5 of A's mean diagonal) it shrinks 1.2× from 4e-4 → 2e-4 → 1e-4, and
     at 1e-4 it is still 18 % of the force: no solimp MuJoCo accepts resolves it (Cassie's plantar loops, ε* ≈ 3e-4:
     docs/findings/softness.md, "generalized force"). The sampled budget's note says so (linearity_note)."""
-    from harness.core.budget import linearity_note
+    from harness.budget.extrapolation import linearity_note
     from harness.core.deviation import Deviation
     from harness.core.figures import FigureName
 

@@ -6,13 +6,15 @@ a cycle hidden behind a function-local import counts too. Imports under ``if TYP
 annotations only: they never run) must point down the layers too, but do not count as cycles. Layers, lowest
 first, as the data flows (design: docs/design.md):
 
-    analytic  <  harness.core  <  harness.reference  <  harness.engine  <  harness.cases  <  mjcf
+    analytic  <  harness.core  <  harness.reference  <  harness.engine  <  harness.budget  <  harness.cases  <  mjcf
       <  harness.opinions  <  harness.inertia  <  harness.families  <  harness.pipeline  <  harness.studies
       <  harness.audit  <  harness.outputs  <  harness.versions  <  harness.api, harness.pytest_plugin  <  harness.cli
       <  harness (the package's face)
 
-A module may import from its own layer or lower ones. The model modules (mjcf/NAME.py) are found by the
-case registry at run time (importlib), never imported by name.
+A module may import from its own layer or lower ones. The budget's parts (harness.budget) sit on the engine: a
+part names the variant edit it is made by (harness.engine.variants) and reads the deviations and the ``Budget``
+record (harness.core); the families that make the runs and states they estimate from are above them. The model
+modules (mjcf/NAME.py) are found by the case registry at run time (importlib), never imported by name.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("analytic", "harness", "mjcf")
-LAYERS = ("analytic", "harness.core", "harness.reference", "harness.engine", "harness.cases", "mjcf",
+LAYERS = ("analytic", "harness.core", "harness.reference", "harness.engine", "harness.budget", "harness.cases", "mjcf",
           "harness.opinions", "harness.inertia", "harness.families", "harness.pipeline", "harness.studies",
           "harness.audit", "harness.outputs", "harness.versions", "harness.api", "harness.cli", "harness")
 SAME_LAYER = {"harness.pytest_plugin": "harness.api", "harness.__main__": "harness.cli",

@@ -12,7 +12,7 @@ import pytest
 
 from analytic.solvers import STABILITY, explicit_steps, solve, state_jacobian
 from analytic.tree import TreeDynamics
-from harness.core.budget import REFERENCE
+from harness.budget.reference import REFERENCE
 from harness.reference.tree import read_tree
 
 MASS, DAMPING, STIFFNESS = 1e-3, 1e3, 1e2  # ẍ = −1e6 ẋ − 1e5 x: a decay at 1e6 /s beside a slow one at 0.1 /s

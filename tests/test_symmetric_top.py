@@ -248,7 +248,7 @@ def test_reference_nutates_between_the_cubics_roots():
     t = np.linspace(0.0, case.horizon, 4001)
     q, qd = ref.solution.state(t)
     d = ref.dynamics
-    # the reference's global error: harness.core.budget.REFERENCE = 50 rtol (1e-12) of the size
+    # the reference's global error: harness.budget.reference.REFERENCE = 50 rtol (1e-12) of the size
     assert np.max(np.abs(d.energy(q, qd) - energy)) < 50e-12 * energy
     momenta = d.momenta(q, qd)
     assert np.max(np.abs(momenta[:, 0] - p_phi)) < 50e-12 * p_phi

@@ -425,7 +425,7 @@ def roundoff_copy(model: mujoco.MjModel, *, epsilon: float, index: int) -> mujoc
     3.3.0 (docs/findings/backends.md); without it the motion moves by O(ε) (pinned in tests/test_budget.py).
 
     Why: to measure a float32 run's round-off, copies must round differently from the first operation on
-    (they then round independently: stochastic arithmetic, :data:`harness.core.budget.PERTURBED_FACTOR`),
+    (they then round independently: stochastic arithmetic, :data:`harness.budget.roundoff.PERTURBED_FACTOR`),
     and in every direction an error can take. Independent signs do that: an ill-conditioned step (a stiff
     constraint's solve, a point mass's 1e-10 inertia) turns ε-sized changes of its inputs into changes of
     its result as large as its own round-off (the condition number at work), so the copies' spread sees it.

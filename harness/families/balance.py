@@ -82,7 +82,7 @@ ATTRIBUTED = 0.2
 2-norm over the run): the residual then follows that force's work in time."""
 ROUNDOFF_PER_STEP = 64 * np.finfo(float).eps
 """The round-off a step leaves in E and in the work, relative to the energy scale (the float64 allowance of the
-trajectory budget, harness/core/budget.py), accumulating as a random walk."""
+trajectory budget, harness/budget/roundoff.py), accumulating as a random walk."""
 RESOLVED = 0.5
 """As the trajectory budget's (harness/families/runs.py): a next-order term above half the leading one, on a
 balance above :data:`ASYMPTOTIC` of the energy scale, means h, h/2, h/4 are no converging sequence (as on gymnasium's

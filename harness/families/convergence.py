@@ -58,8 +58,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from harness.budget.extrapolation import RIGID_TAIL
+from harness.budget.roundoff import ROUNDOFF_EPS
 from harness.cases import Case
-from harness.core.budget import RIGID_TAIL, ROUNDOFF_EPS
 from harness.core.checks import Limit
 from harness.core.errors import SimulationDiverged
 from harness.core.figures import Figure, FigureName
@@ -440,7 +441,7 @@ def _force_error(sim: Trajectory, ref: Trajectory) -> float:
 
 def roundoff_floor(steps: float, length: float, epsilon: float) -> float:
     """The round-off a run of ``steps`` steps carries in the active backend's arithmetic (m):
-    :data:`~harness.core.budget.ROUNDOFF_EPS` machine epsilons a step, a random walk, × the case's
+    :data:`~harness.budget.roundoff.ROUNDOFF_EPS` machine epsilons a step, a random walk, × the case's
     length. 3e-12 m for 10⁴ float64 steps; 8e-4 m in float32 (MJX, Warp), where an RK4 error below it
     stops decreasing with h: a floor, not an order."""
     return ROUNDOFF_EPS * epsilon * math.sqrt(max(steps, 1.0)) * length

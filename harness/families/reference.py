@@ -12,8 +12,8 @@ import mujoco
 import numpy as np
 
 from analytic.solvers import DEFAULT_RTOL, solve
+from harness.budget.reference import REFERENCE
 from harness.cases import Case
-from harness.core.budget import REFERENCE
 from harness.core.checks import Limit
 from harness.core.figures import Figure, FigureName, max_abs
 from harness.families.bench import Bench, Measured

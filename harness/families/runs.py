@@ -27,7 +27,7 @@ D      h, floors doubled                        point masses (one run, shared)
 
 Where every ε is at least 8 × the stiffest and no contact is soft, C, C₂ and E are at the near-rigid levels
 instead: 2fε, fε and (h/2, fε) (:func:`~harness.engine.variants.rigid_factor`), and the softness part is
-measured down to fε, not extrapolated across ε (:func:`~harness.core.budget.from_rigid`).
+measured down to fε, not extrapolated across ε (:func:`~harness.budget.extrapolation.from_rigid`).
 
 x(h, ε, τ) is smooth in each setting near the ideal (h → 0, ε → 0, τ → 0), so
 sample by sample, with κ = 2ᵖ/(2ᵖ − 1) (Richardson; p the integrator's
@@ -37,7 +37,7 @@ documented order):
   at each softness level the same correction, κ(C − E) at sε, and for s²ε the
   line through those two (the bilinear model: integration error linear in ε);
 - softness: the levels at h → 0 (x₀(ε) = A − κ(A − B), …) extrapolated to
-  ε → 0 (:func:`~harness.core.budget.to_zero`): linearly from two
+  ε → 0 (:func:`~harness.budget.extrapolation.to_zero`): linearly from two
   levels (the documented sag a_u ε τ² and force error −(A + R)⁻¹Rλ, R ∝
   ε/(1 − ε), are linear near the rigid limit), quadratically from three —
   from MuJoCo's default solimp (ε = 0.1, 0.05 over a 1 mm width) the effect
@@ -53,11 +53,14 @@ figure is. Estimating the softness at h → 0 (run E) matters: under ``discrete`
 a constraint's response depends on h/τ (the row is folded into the implicit
 step), and without E that interaction would be counted twice — once in each part.
 
-What bounds the residual is each estimate's own accuracy (the tolerances, in
-the figure's unit):
+Each part's estimate and tolerance is its module's in :mod:`harness.budget` (the
+registry's parts, iterated by :func:`parts` and :func:`budgets`); this module
+makes the runs they read and the round-off, reference and convergence
+tolerances. What bounds the residual is each estimate's own accuracy (the
+tolerances, in the figure's unit):
 
 - integration: Richardson removes the leading term; what remains is the next
-  order, relatively O(ω h) of the correction: :data:`INTEGRATION_UNCERTAINTY`
+  order, relatively O(ω h) of the correction: :data:`~harness.budget.integration.INTEGRATION_UNCERTAINTY`
   = 1/4 of it allows ω h up to about 1/2. Where the correction exceeds
   :data:`ASYMPTOTIC` of the quantity's size, or a soft constraint gets fewer
   than two steps per time constant
@@ -66,26 +69,26 @@ the figure's unit):
   as twice the distance between the extrapolations from (h, h/2) and
   (h/2, h/4), and the larger of the two bounds holds;
 - softness: from two levels (at the stiffest ε, 1e-4) linear up to relative
-  terms O(ε) and O(h/τ): :data:`SOFTNESS_UNCERTAINTY` = 1/4 of it; from three,
+  terms O(ε) and O(h/τ): :data:`~harness.budget.softness.SOFTNESS_UNCERTAINTY` = 1/4 of it; from three,
   measured: the distance between the quadratic and the linear estimate (the
   last level's correction), plus 1/4 of the contacts' τ part;
-- floors: an inertia of at most 1e-6 m L² acts linearly: :data:`FLOOR_UNCERTAINTY`;
+- floors: an inertia of at most 1e-6 m L² acts linearly: :data:`~harness.budget.floors.FLOOR_UNCERTAINTY`;
 - round-off, in float64 (the C engine, ``mjx-f64``): :data:`ROUNDOFF` a step
-  (:data:`ROUNDOFF_EPS` machine epsilons), accumulating as a random walk over the
+  (:data:`~harness.budget.roundoff.ROUNDOFF_EPS` machine epsilons), accumulating as a random walk over the
   run's N steps, × the quantity's size, × the noise gain of the combination
   (:func:`noise_gain`: Σ|wᵢ| of the runs' weights in the ideal estimate, from
   1.1 for RK4 alone to about 30 with contacts and three softness levels). It sits
   orders of magnitude below every other tolerance there;
 - round-off, in float32 (``mjx``, ``warp``), where it is 2²⁹ times larger and
   decides: measured on the backend itself, as stochastic arithmetic measures it
-  (Vignes' CESTAC): :data:`~harness.core.budget.PERTURBED_RUNS` copies of the
+  (Vignes' CESTAC): :data:`~harness.budget.roundoff.PERTURBED_RUNS` copies of the
   run at h, the same model with its masses an ulp or two away (the same motion:
   :func:`~harness.engine.variants.roundoff_copy`, :attr:`Runs.perturbed`), round
   independently from the first step on, and are carried by the system's own dynamics — a pendulum's
   phase error grows with t, a chaotic double pendulum's exponentially, an energy
   error random-walks — so their spread is the round-off this model accumulates
   in this arithmetic, whatever its dynamics do to it. The part is
-  :data:`~harness.core.budget.PERTURBED_FACTOR` × the largest difference
+  :data:`~harness.budget.roundoff.PERTURBED_FACTOR` × the largest difference
   between the figure and a copy's (the factor's basis is in its docstring), ×
   the noise gain, × √(the most steps of any run of the combination / N) (the
   runs at h/2 and h/4 take more steps: a random walk's √); plus what every copy
@@ -93,15 +96,15 @@ the figure's unit):
   in float32, each off by up to ½ε (:attr:`Runs.represented`: the figure's
   shift on the C engine in float64 when they are rounded; systematic, common to
   every run of the combination, whose weights sum to 1: no noise gain); and
-  each number's own reading, :data:`~harness.core.budget.READ_ULPS` × ε × the
+  each number's own reading, :data:`~harness.budget.roundoff.READ_ULPS` × ε × the
   quantity's size (what copies holding the same state share bit for bit); and
-  the state's own quantization: :data:`~harness.core.budget.QUANTIZATION` × the
+  the state's own quantization: :data:`~harness.budget.roundoff.QUANTIZATION` × the
   figure's response to the initial state moved by half an ulp (C engine,
   float64: a stiff constraint's force spike when a stored coordinate crosses
   from one float to the next, :attr:`Runs.quantized`), × the noise gain;
-- the reference: :data:`REFERENCE` × its rtol × the quantity's size (its global
+- the reference: :data:`~harness.budget.reference.REFERENCE` × its rtol × the quantity's size (its global
   error, measured: docs/findings/bases.md);
-- the constraint solver's convergence: :data:`SOLVER` × its tolerance × the
+- the constraint solver's convergence: :data:`~harness.budget.convergence.SOLVER` × its tolerance × the
   quantity's size × the noise gain, where the model has constraints (the solver
   stops when the relative improvement falls below its tolerance, independently
   in each run). Where the model's own solver does not converge (CG or PGS
@@ -109,7 +112,7 @@ the figure's unit):
   the constraints solved exactly (Newton,
   :func:`~harness.engine.variants.converged_solver`) and the difference the
   model's own solver makes is the ``solver`` part, known to
-  :data:`SOLVER_PART_UNCERTAINTY` of itself (it feeds back into the motion).
+  :data:`~harness.budget.solver.SOLVER_PART_UNCERTAINTY` of itself (it feeds back into the motion).
 """
 
 from __future__ import annotations
@@ -119,31 +122,23 @@ import math
 import os
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
 
 from analytic.systems import Scales
+from harness.budget import registry
+from harness.budget.convergence import SOLVER
+from harness.budget.extrapolation import linearity_note, richardson
+from harness.budget.inputs import Runs, by_name
+from harness.budget.integration import INTEGRATION_UNCERTAINTY
+from harness.budget.part import Estimates
+from harness.budget.reference import REFERENCE
+from harness.budget.roundoff import PERTURBED_FACTOR, PERTURBED_RUNS, QUANTIZATION, READ_ULPS, ROUNDOFF_EPS, ulp_states
 from harness.cases import Series
-from harness.core.budget import (
-    FLOOR_UNCERTAINTY,
-    PERTURBED_FACTOR,
-    PERTURBED_RUNS,
-    QUANTIZATION,
-    READ_ULPS,
-    REFERENCE,
-    ROUNDOFF_EPS,
-    SOFTNESS_UNCERTAINTY,
-    SOLVER,
-    SOLVER_PART_UNCERTAINTY,
-    Budget,
-    from_rigid,
-    linearity_note,
-    richardson,
-    to_zero,
-    ulp_states,
-)
+from harness.core.budget import Budget
 from harness.core.deviation import Deviation
 from harness.core.errors import SimulationDiverged
 from harness.core.figures import FigureName
@@ -155,7 +150,8 @@ from harness.engine.integrators import EXPECTED_ORDER, integrator_name
 from harness.engine.probe import Probe
 from harness.engine.recording import record
 
-INTEGRATION_UNCERTAINTY = 0.25
+__all__ = ["INTEGRATION_UNCERTAINTY", "Runs"]  # the integration part's, and the runs' record: read here too
+
 ROUNDOFF = ROUNDOFF_EPS * float(np.finfo(float).eps)
 ASYMPTOTIC = 0.01
 
@@ -209,69 +205,6 @@ def largest(values: np.ndarray, *, vector: bool = False) -> float:
 
 
 # ----------------------------------------------------------------- the budget's arithmetic
-@dataclass(frozen=True)
-class Runs:
-    """One integrator's runs of the model (see the module docstring), each as its deviations from the
-    reference on the grid of the run at h.
-
-    Attributes:
-        as_is: A (h, ε, τ).
-        half_step: B (h/2).
-        quarter_step: h/4, only past the asymptotic range.
-        softness: at h with ε × s (C) and, where ε is not at the stiffest, also × s² (C₂).
-        softness_half_step: E (h/2, ε × s).
-        slower: with contacts, at h with τ × r and ε, ε × s (and ε × s²): C′, C″ (and C‴).
-        floors: D − A per figure (:attr:`FigureName.measure`), shared by the integrators: a point
-            mass's floor is physics, not integration.
-        converged: where the model's own constraint solver does not converge (CG, PGS, a loose
-            tolerance), A with the constraints solved exactly (Newton); every other run is then made
-            that way too, and A − converged is the ``solver`` part.
-        perturbed: on a float32 backend, :data:`~harness.core.budget.PERTURBED_RUNS` copies of A from
-            its masses an ulp or two away (:func:`~harness.engine.variants.roundoff_copy`): their
-            spread measures A's round-off (empty on float64, where :data:`ROUNDOFF` applies).
-        represented: on a float32 backend, each figure's shift (by measure) with the model's constants and
-            the initial state held in float32 (:func:`_represented`): what every copy
-            shares, so none measures it.
-        quantized: on a float32 backend, each figure's response (by measure) to the initial state moved by
-            half an ulp, on the C engine (:func:`_quantized`): × :data:`QUANTIZATION`,
-            the state's own quantization.
-        completed: on a float32 backend with constraints, A with each sample's stopped solve completed in
-            float64 (:attr:`harness.core.trajectory.Trajectory.completed`); every other run is then taken
-            completed too, and A − completed is the ``stop`` part.
-        eps_factor, tc_factor: s and r.
-        rigid: f where the softness levels are the near-rigid 2fε and fε, and E is at fε
-            (:func:`~harness.engine.variants.rigid_factor`); None where they are sε (and s²ε).
-        rigid_ladder: where the near-rigid levels' runs at h, h/2 and h/4 are outside the integrator's
-            asymptotic range (:func:`rigid_resolved`), each level (2fε, then fε) at the first h/s, h/2s, h/4s
-            (s = 4, 16, 64) that is inside it: their value at h → 0 is taken from there (:func:`parts`);
-            ``rigid_split`` is that s. ``rigid_unresolved``: why no s down to :data:`RIGID_SPLITS`' last is (the
-            integrator's figures then fail with that reason: :func:`unresolved`).
-        stiffest: with ``rigid``, the run at h at fε/2 (the smallest ε at MuJoCo's stiffest): not in any part, only
-            to say where the softness is not linear down there (:func:`~harness.core.budget.linearity_note`), from
-            the levels at h where those are inside the asymptotic range (elsewhere their differences at h are
-            the integrator's as much as the softness's).
-    """
-
-    as_is: Sequence[Deviation]
-    half_step: Sequence[Deviation]
-    quarter_step: Sequence[Deviation] | None = None
-    softness: Sequence[Sequence[Deviation]] = ()
-    softness_half_step: Sequence[Deviation] | None = None
-    slower: Sequence[Sequence[Deviation]] = ()
-    floors: Mapping[str, np.ndarray] | None = None
-    converged: Sequence[Deviation] | None = None
-    perturbed: Sequence[Sequence[Deviation]] = ()
-    represented: Mapping[str, float] = field(default_factory=dict)
-    quantized: Mapping[str, float] = field(default_factory=dict)
-    eps_factor: float = 2.0
-    tc_factor: float = 1.5
-    completed: Sequence[Deviation] | None = None
-    rigid: float | None = None
-    rigid_ladder: Sequence[Sequence[Sequence[Deviation]]] = ()
-    rigid_split: int = 1
-    rigid_unresolved: str = ""
-    stiffest: Sequence[Deviation] | None = None
-
 
 def every_nth(sim: Trajectory, n: int) -> Trajectory:
     """A run at h/n on the grid of the run at h (every n-th sample)."""
@@ -293,7 +226,7 @@ def past_asymptotic(as_is: Sequence[Deviation], half_step: Sequence[Deviation], 
     size (a relative figure's size is 1), or any figure's error changes with h unlike the documented order
     (:func:`off_order`)."""
     kappa = richardson(order)
-    b = _by_name(half_step)
+    b = by_name(half_step)
     return any(d.magnitude(kappa * (d.values - b[d.name])) > ASYMPTOTIC * d.size
                or off_order(d, b[d.name], order) for d in as_is)
 
@@ -318,10 +251,6 @@ def off_order(dev: Deviation, half: np.ndarray, order: float) -> bool:
     return share >= SHARE_FLOOR and abs(share - (1.0 - 2.0 ** -order)) > SHARE_SLACK
 
 
-def _by_name(group: Sequence[Deviation] | None) -> dict[str, np.ndarray]:
-    return {d.name: d.values for d in group or ()}
-
-
 @dataclass(frozen=True)
 class Parts:
     """One figure's explained parts, sample by sample, and the uncertainties measured for them (None
@@ -332,66 +261,15 @@ class Parts:
     integration_uncertainty: np.ndarray | None = None
     softness_uncertainty: np.ndarray | None = None
     timeconst: np.ndarray | None = None
+    estimates: Estimates | None = None
 
 
 def parts(runs: Runs, dev: Deviation, *, order: float) -> Parts:
-    """The explained parts of one figure, sample by sample (see the module docstring)."""
-    kappa = richardson(order)
-    s, r = runs.eps_factor, runs.tc_factor
-    explained: dict[str, np.ndarray] = {}
-    a = dev.values
-    if runs.converged is not None:  # the other runs solve their constraints exactly; so does this one
-        a = _by_name(runs.converged)[dev.name]
-        explained["solver"] = dev.values - a
-    elif runs.completed is not None:  # the other runs are taken completed; so is this one
-        a = _by_name(runs.completed)[dev.name]
-        explained["stop"] = dev.values - a
-    b = _by_name(runs.half_step)[dev.name]
-    explained["integration"] = kappa * (a - b)
-    integration_unc = None
-    if runs.quarter_step is not None:
-        q = _by_name(runs.quarter_step)[dev.name]
-        integration_unc = 2.0 * ((a - kappa * (a - b)) - (b - kappa * (b - q)))
-    softness_unc = timeconst = None
-    if runs.rigid is not None and runs.rigid_ladder:
-        estimates, uncertainties = [], []
-        for level in runs.rigid_ladder:  # Richardson from h/2s and h/4s; its rest bounded by twice the distance
-            x, y, z = (_by_name(group)[dev.name] for group in level)  # from the one from h/s and h/2s
-            first, second = x - kappa * (x - y), y - kappa * (y - z)
-            estimates.append(second)
-            uncertainties.append(2.0 * (first - second))
-        ideal, tail = from_rigid([a, *estimates])
-        explained["softness"] = a - explained["integration"] - ideal
-        # ideal = 2 x₀(fε) − x₀(2fε): each level's own extrapolation uncertainty enters with its weight
-        softness_unc = np.abs(tail) + np.abs(uncertainties[0]) + 2.0 * np.abs(uncertainties[1])
-    elif runs.softness and runs.softness_half_step is not None and runs.rigid is not None:
-        f = runs.rigid  # E at fε; at 2fε the integration error is linear in ε between fε and ε (bilinear model)
-        levels = [a, *(_by_name(group)[dev.name] for group in runs.softness)]
-        at_f = kappa * (levels[2] - _by_name(runs.softness_half_step)[dev.name])
-        corrections = [explained["integration"], at_f + (explained["integration"] - at_f) * f / (1.0 - f), at_f]
-        ideal, uncertainty = from_rigid([x - c for x, c in zip(levels, corrections, strict=True)])
-        explained["softness"] = levels[0] - corrections[0] - ideal
-        softness_unc = np.abs(uncertainty)
-    elif runs.softness and runs.softness_half_step is not None:
-        levels = [a, *(_by_name(group)[dev.name] for group in runs.softness)]
-        corrections = [explained["integration"], kappa * (levels[1] - _by_name(runs.softness_half_step)[dev.name])]
-        for k in range(2, len(levels)):  # the integration error is linear in ε (bilinear model)
-            corrections.append(corrections[0] + (corrections[1] - corrections[0]) * (s**k - 1.0) / (s - 1.0))
-        at_zero_h = [x - c for x, c in zip(levels, corrections, strict=True)]
-        ideal, maybe_uncertainty = to_zero(at_zero_h, s)
-        softness = at_zero_h[0] - ideal
-        softness_unc = None if maybe_uncertainty is None else np.abs(maybe_uncertainty)
-        if runs.slower:
-            y_tau, unc_tau = to_zero(levels, s)
-            y_slow, unc_slow = to_zero([_by_name(group)[dev.name] for group in runs.slower], s)
-            timeconst = (y_slow - y_tau) / (r - 1.0)
-            softness = softness + timeconst
-            if softness_unc is not None and unc_tau is not None and unc_slow is not None:
-                softness_unc = softness_unc + (r * np.abs(unc_tau) + np.abs(unc_slow)) / (r - 1.0)
-        explained["softness"] = softness
-    if runs.floors is not None and dev.name.measure in runs.floors:
-        explained["floors"] = runs.floors[dev.name.measure]
-    return Parts(explained, integration_unc, softness_unc, timeconst)
+    """The explained parts of one figure, sample by sample (see the module docstring): each part's estimate
+    over the runs (:data:`harness.budget.registry.OVER_RUNS`)."""
+    found = registry.over_runs(runs, dev, kappa=richardson(order))
+    return Parts(found.explained, found.uncertainty.get("integration"), found.uncertainty.get("softness"),
+                 found.timeconst, found)
 
 
 RESOLVED = 0.5
@@ -463,7 +341,7 @@ def rigid_resolved(level: Sequence[Sequence[Deviation]], *, order: float) -> boo
     :data:`RESOLVED` of that correction. The rule :func:`unresolved` applies to the model's own position, here on
     every figure: at a near-rigid ε a loop's connect force can leave the range while the position barely does."""
     kappa = richardson(order)
-    x, y, z = (_by_name(group) for group in level)
+    x, y, z = (by_name(group) for group in level)
     for dev in level[0]:
         a, b, c = x[dev.name], y[dev.name], z[dev.name]
         leading = dev.magnitude(kappa * (a - b))
@@ -533,28 +411,16 @@ def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_toleran
         found = parts(runs, dev, order=order)
         ideal = dev.values - sum(found.explained.values())
         explained = {part: dev.magnitude(values) for part, values in found.explained.items()}
-        integration = INTEGRATION_UNCERTAINTY * explained["integration"]
-        if found.integration_uncertainty is not None:  # measured: never below what theory allows
-            integration = max(integration, dev.magnitude(found.integration_uncertainty))
-        if found.softness_uncertainty is None:
-            softness = SOFTNESS_UNCERTAINTY * explained.get("softness", 0.0)
-        else:
-            softness = dev.magnitude(found.softness_uncertainty)
-            if found.timeconst is not None:
-                softness += SOFTNESS_UNCERTAINTY * dev.magnitude(found.timeconst)
-        tolerance = {"integration": integration,
-                     "softness": softness,
-                     "solver": SOLVER_PART_UNCERTAINTY * explained.get("solver", 0.0),
-                     "stop": SOLVER_PART_UNCERTAINTY * explained.get("stop", 0.0),
-                     "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),
+        assert found.estimates is not None
+        tolerance = {**registry.tolerances(found.estimates, explained, runs=True),
                      "roundoff": (gain * PERTURBED_FACTOR * math.sqrt(longest) * spread[dev.name]
                                   + gain * QUANTIZATION * runs.quantized.get(dev.name.measure, 0.0)
                                   + runs.represented.get(dev.name.measure, 0.0) + READ_ULPS * epsilon * dev.size
                                   if runs.perturbed else gain * roundoff * walk * dev.size),
                      "reference": REFERENCE * rtol * dev.size,
                      "convergence": gain * SOLVER * solver_tolerance * dev.size}
-        said = linearity_note(dev.magnitude, _by_name(runs.softness[0])[dev.name],
-                              _by_name(runs.softness[1])[dev.name], _by_name(runs.stiffest)[dev.name]) \
+        said = linearity_note(dev.magnitude, by_name(runs.softness[0])[dev.name],
+                              by_name(runs.softness[1])[dev.name], by_name(runs.stiffest)[dev.name]) \
             if runs.rigid is not None and runs.stiffest is not None and len(runs.softness) == 2 \
             and not runs.rigid_ladder and not runs.rigid_unresolved else ""  # at h: only inside the asymptotic range
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
@@ -731,9 +597,9 @@ def _represented(probe: Probe, target: Target, model: mujoco.MjModel, *, steps: 
 
 def _quantized(probe: Probe, target: Target, model: mujoco.MjModel, *, steps: int) -> dict[str, float]:
     """Each figure's response (by measure) to the initial state moved by half an ulp of float32
-    (:func:`~harness.core.budget.ulp_states`, :data:`~harness.core.budget.PERTURBED_RUNS` seeds, the largest):
+    (:func:`~harness.budget.roundoff.ulp_states`, :data:`~harness.budget.roundoff.PERTURBED_RUNS` seeds, the largest):
     the C engine in float64, so the physics' answer to a state's quantization (a stiff constraint's force
-    spike), not arithmetic (:data:`~harness.core.budget.QUANTIZATION`)."""
+    spike), not arithmetic (:data:`~harness.budget.roundoff.QUANTIZATION`)."""
     q0, qd0 = np.asarray(target.q0, float), np.asarray(target.qd0, float)
     eps = float(np.finfo(np.float32).eps)
     name = integrator_name(model)
@@ -813,21 +679,19 @@ def variant_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: T
 
 def _renamed(runs: Runs, integrator: str, as_is: Sequence[Deviation]) -> Runs:
     """``runs`` as another integrator's, with that integrator's own run at h: every deviation's figure name
-    carries that integrator."""
-    def devs(values: Sequence[Deviation]) -> list[Deviation]:
-        return [dataclasses.replace(d, name=FigureName(f"{integrator}.{d.name.measure}")) for d in values]
+    carries that integrator (every field of deviations, however nested; the rest as it is)."""
+    def renamed(value: object) -> object:
+        if isinstance(value, Deviation):
+            return dataclasses.replace(value, name=FigureName(f"{integrator}.{value.name.measure}"))
+        if isinstance(value, list):
+            return [renamed(v) for v in value]
+        if isinstance(value, tuple):
+            return tuple(renamed(v) for v in value)
+        return value
 
-    def maybe(values: Sequence[Deviation] | None) -> list[Deviation] | None:  # the runs not every budget has
-        return None if values is None else devs(values)
-
-    return dataclasses.replace(runs, as_is=list(as_is), half_step=devs(runs.half_step),
-                               converged=maybe(runs.converged), quarter_step=maybe(runs.quarter_step),
-                               softness=tuple(devs(r) for r in runs.softness),
-                               softness_half_step=maybe(runs.softness_half_step),
-                               slower=tuple(devs(r) for r in runs.slower),
-                               perturbed=tuple(devs(r) for r in runs.perturbed), completed=maybe(runs.completed),
-                               rigid_ladder=tuple(tuple(devs(r) for r in level) for level in runs.rigid_ladder),
-                               stiffest=maybe(runs.stiffest))
+    changed: dict[str, Any] = {f.name: renamed(getattr(runs, f.name)) for f in dataclasses.fields(runs)
+                               if f.name != "as_is"}
+    return dataclasses.replace(runs, **changed, as_is=list(as_is))
 
 
 TWIN_TOLERANCE = 1e-9

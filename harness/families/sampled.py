@@ -26,24 +26,25 @@ state by state
 - floors = D − A: linear in the inertia;
 - ideal = A − softness − floors,
 
-each reduced as the figure is. The tolerances: 1/4 of the softness part (the O(1 − d) terms for 1 − d up to
-1/4), 1/10 of the floors', float round-off (:data:`ROUNDOFF` × the quantity's size: the analytic side is a
+each reduced as the figure is (each part's estimate and tolerance is its module's in :mod:`harness.budget`, the
+registry's parts iterated by :func:`budgets`). The tolerances: 1/4 of the softness part (the O(1 − d) terms for
+1 − d up to 1/4), 1/10 of the floors', float round-off (:data:`ROUNDOFF` × the quantity's size: the analytic side is a
 closed-form evaluation and one KKT solve, MuJoCo's a forward pass) and the constraint solver's tolerance
-(:data:`~harness.core.budget.SOLVER` × tolerance × size), both × the noise gain of the extrapolation (Σ|w| of
+(:data:`~harness.budget.convergence.SOLVER` × tolerance × size), both × the noise gain of the extrapolation (Σ|w| of
 the evaluations' weights).
 
 On a float32 backend (MJX, MuJoCo Warp) the round-off part is measured instead of assumed: the backend also
-evaluates the same states on :data:`~harness.core.budget.PERTURBED_RUNS` round-off copies of the model
+evaluates the same states on :data:`~harness.budget.roundoff.PERTURBED_RUNS` round-off copies of the model
 (masses an ulp or two away: the same motion, every rounding different,
 :func:`harness.engine.variants.roundoff_copy`), and the round-off tolerance is
-:data:`~harness.core.budget.PERTURBED_FACTOR` × the largest difference between a copy's figure and the figure
-(× the same noise gain): the basis is :data:`~harness.core.budget.PERTURBED_FACTOR`'s. To it is added what no
+:data:`~harness.budget.roundoff.PERTURBED_FACTOR` × the largest difference between a copy's figure and the figure
+(× the same noise gain): the basis is :data:`~harness.budget.roundoff.PERTURBED_FACTOR`'s. To it is added what no
 copy moves: the model's constants and the state held in float32 (each off by up to ½ε relative; a
 state-independent figure such as the Atwood machine's forcing (m₁ − m₂)g shows the same shift in every copy,
 and a coordinate held by a soft equality, off by half an ulp, draws the constraint's force k ½ε L), measured
 as the figure's shift on the C engine in float64 when both are rounded
 (:func:`harness.engine.variants.represented_model`), and each number's own reading,
-:data:`~harness.core.budget.READ_ULPS` × ε × its size. A figure with no copies (``instant.kinematics``: the C
+:data:`~harness.budget.roundoff.READ_ULPS` × ε × its size. A figure with no copies (``instant.kinematics``: the C
 engine's float64 geometry on every backend) and every figure on a float64 backend keep :data:`ROUNDOFF`.
 """
 
@@ -60,21 +61,12 @@ import numpy as np
 
 from analytic.dynamics import Constrained, Dynamics
 from analytic.solvers import project
-from harness.core.budget import (
-    FLOOR_UNCERTAINTY,
-    PERTURBED_FACTOR,
-    PERTURBED_RUNS,
-    READ_ULPS,
-    RIGID_GAIN,
-    SOFTNESS_UNCERTAINTY,
-    SOLVER,
-    SOLVER_PART_UNCERTAINTY,
-    Budget,
-    from_rigid,
-    gain,
-    linearity_note,
-    to_zero,
-)
+from harness.budget import registry
+from harness.budget.convergence import SOLVER
+from harness.budget.extrapolation import RIGID_GAIN, gain, linearity_note
+from harness.budget.inputs import States, by_name
+from harness.budget.roundoff import PERTURBED_FACTOR, PERTURBED_RUNS, READ_ULPS
+from harness.core.budget import Budget
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.engine import variants as V
@@ -239,7 +231,7 @@ class Evaluation:
         deviations: one per figure, a row per sampled state.
         budgets: each figure's error budget, by name.
         perturbed: on a float32 backend, the same figures from the backend's forward of each of the
-            :data:`~harness.core.budget.PERTURBED_RUNS` round-off copies of the model (masses an ulp or two away,
+            :data:`~harness.budget.roundoff.PERTURBED_RUNS` round-off copies of the model (masses an ulp or two away,
             :func:`harness.engine.variants.roundoff_copy`: the same motion, every rounding different) at the same
             states: their spread is the round-off of the backend's arithmetic. Figures read from the C engine's
             float64 geometry alone (``instant.kinematics``) are left out. On the C backend, the float64 copies'
@@ -553,7 +545,7 @@ def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation
                     ) -> dict[FigureName, Budget]:
     """Every figure's budget from the model's deviations at the sampled states (A) and,
     where they apply, the model's with every ε × s, s² (``softness``, s = ``eps_factor``; ``rigid``: at the
-    near-rigid 2fε and fε instead, :func:`~harness.core.budget.from_rigid`) and with
+    near-rigid 2fε and fε instead, :func:`~harness.budget.extrapolation.from_rigid`) and with
     heavier floors (D) at the same states; ``lighter``: where given, the floors' part is D − ``lighter``
     instead of D − A (the pair :func:`~harness.engine.variants.floors_pair` makes without fluid forces).
     ``margins``: A with every contact margin doubled (:func:`~harness.engine.variants.wider_margins`); the
@@ -564,39 +556,20 @@ def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation
     (:mod:`harness.engine.backends.completion`; the other evaluations are then passed completed too).
     ``stiffest``: with ``rigid``, A at fε/2 (the smallest ε at MuJoCo's stiffest, 1e-4): not used in the part, only
     to say where the softness is not linear down there (:func:`linearity_note`)."""
-    levels = [{d.name: d.values for d in group} for group in softness]
-    lowest = {d.name: d.values for d in stiffest or ()}
-    floors = {d.name: d.values for d in heavier or ()}
-    floors_base = {d.name: d.values for d in lighter or ()}
-    exact = {d.name: d.values for d in converged or ()}
-    stopped = {d.name: d.values for d in completed or ()}
-    wider = {d.name: d.values for d in margins or ()}
-    noise = (RIGID_GAIN if rigid else gain(len(levels) + 1, eps_factor) if levels else 1.0) + (2.0 if floors else 0.0) \
-        + (2.0 if exact else 0.0) + (2.0 if wider else 0.0)
+    states = States(levels=[by_name(group) for group in softness], eps_factor=eps_factor, rigid=rigid,
+                    lowest=by_name(stiffest), heavier=by_name(heavier), lighter=by_name(lighter),
+                    converged=by_name(converged), completed=by_name(completed), wider=by_name(margins))
+    levels, lowest = states.levels, states.lowest
+    noise = (RIGID_GAIN if rigid else gain(len(levels) + 1, eps_factor) if levels else 1.0) \
+        + (2.0 if states.heavier else 0.0) + (2.0 if states.converged else 0.0) + (2.0 if states.wider else 0.0)
     copies: dict[FigureName, list[np.ndarray]] = {}
     for group in perturbed:
         for d in group:
             copies.setdefault(d.name, []).append(d.values)
     out = {}
     for dev in as_is:
-        parts = {}
-        a = dev.values
-        if dev.name in exact:
-            a = exact[dev.name]
-            parts["solver"] = dev.values - a
-        elif dev.name in stopped:
-            a = stopped[dev.name]
-            parts["stop"] = dev.values - a
-        softness_unc = None
-        if levels:
-            at = [a, *(level[dev.name] for level in levels)]
-            ideal_eps, uncertainty = from_rigid(at) if rigid else to_zero(at, eps_factor)
-            parts["softness"] = a - ideal_eps
-            softness_unc = None if uncertainty is None else dev.magnitude(uncertainty)
-        if dev.name in floors:
-            parts["floors"] = floors[dev.name] - floors_base.get(dev.name, a)
-        if dev.name in wider:
-            parts["margin"] = wider[dev.name] - a
+        found = registry.at_states(states, dev)  # each part's estimate at the states
+        parts = found.explained
         ideal = dev.values - sum(parts.values()) if parts else dev.values
         explained = {part: dev.magnitude(values) for part, values in parts.items()}
         # float64: noise × ROUNDOFF × size, in that order (the C backend's limits bit for bit as before)
@@ -607,12 +580,7 @@ def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation
                               + (represented or {}).get(dev.name, 0.0) + READ_ULPS * epsilon * dev.size)
             # float32: the copies' spread is the round-off; float64 (a constraint solve): the larger of the two
             roundoff = spread if epsilon > FLOAT64 else max(roundoff, spread)
-        tolerance = {"softness": SOFTNESS_UNCERTAINTY * explained.get("softness", 0.0) if softness_unc is None
-                     else softness_unc,
-                     "floors": FLOOR_UNCERTAINTY * explained.get("floors", 0.0),
-                     "margin": FLOOR_UNCERTAINTY * explained.get("margin", 0.0),
-                     "solver": SOLVER_PART_UNCERTAINTY * explained.get("solver", 0.0),
-                     "stop": SOLVER_PART_UNCERTAINTY * explained.get("stop", 0.0),
+        tolerance = {**registry.tolerances(found, explained, runs=False),
                      "roundoff": roundoff,
                      "convergence": noise * SOLVER * solver_tolerance * dev.size}
         said = linearity_note(dev.magnitude, levels[0][dev.name], levels[1][dev.name], lowest[dev.name]) \

@@ -13,7 +13,7 @@ Every body with mass falls in one category:
   body on slides only, a body welded to the world). Printed as a warning, never failing;
 - ``point mass``: every principal moment at most :data:`POINT_MASS` × m L² (L the geometry's largest extent
   from the centre of mass): an idealised point mass, the convention the harness's budget uses for the textbook
-  systems' bobs (harness.core.budget's ``floors``); the lower bound is not applied to it (an ideal point is
+  systems' bobs (harness.budget.floors); the lower bound is not applied to it (an ideal point is
   denser than any element by definition), the others are;
 - ``no geometry``: mass on a body without a geom: only the lower bound applies (nothing says where the mass
   may lie: MJCF lets a body carry an inertial without drawing it, a motor's rotor, a sensor's housing);
@@ -39,7 +39,7 @@ from harness.inertia.bounds import Shape
 from harness.inertia.geometry import Solid, body_geoms, solid
 from harness.opinions.structure import sample_states
 
-POINT_MASS = 1e-6  # principal moments ≤ this × m L²: the harness's point-mass floor (harness.core.budget)
+POINT_MASS = 1e-6  # principal moments ≤ this × m L²: the harness's point-mass floor (harness.budget.floors)
 IMPLAUSIBLE = 10.0  # tr Σ this many times above or below the filled hull's: a warning
 DENSITY_MARGIN = 1.25  # the tessellated hull's volume falls short of the exact hull's by ≤ 6.1 % (a sphere's; tests pin
 # it), so its mean density over-reads by ≤ 6.5 %: a quarter is margin enough

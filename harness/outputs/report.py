@@ -43,8 +43,8 @@ import mujoco
 import numpy as np
 
 from harness.audit.notation import latex_text
+from harness.budget import PARTS
 from harness.core import VERSION as __version__
-from harness.core.budget import PARTS
 from harness.core.checks import Check
 from harness.core.checks import closest as closest_check
 from harness.core.escape import markdown_cell

@@ -18,7 +18,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from harness.core.budget import PARTS
+from harness.budget import PARTS
 from harness.core.checks import Check, ratio
 from harness.core.tables import text_table, wrap
 from harness.pipeline.outcome import Outcome

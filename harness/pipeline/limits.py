@@ -11,7 +11,7 @@ A case's limits are data shipped with its model, ``mjcf/NAME.limits.toml``
 
 Every limit carries its basis:
 
-- ``budget``: the figure is judged by its error budget (:mod:`harness.core.budget`, each family's):
+- ``budget``: the figure is judged by its error budget (:mod:`harness.budget`, each family's):
   what the model's own settings explain — integration error, softness, the
   point masses' inertia floors — is removed, and the unexplained residual must
   lie within the limit the estimates' own accuracy sets, computed for each run

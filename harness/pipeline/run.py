@@ -17,9 +17,10 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from analytic.solvers import DEFAULT_RTOL, STIFF_RTOL
+from harness.budget.reference import REFERENCE_SHARE, reference_rtol, reference_share
 from harness.cases import Case
 from harness.core import progress
-from harness.core.budget import REFERENCE_SHARE, Budget, reference_rtol, reference_share
+from harness.core.budget import Budget
 from harness.core.errors import ModelError, RunTooLong
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
@@ -162,7 +163,7 @@ def _measure(case: Case, options: RunOptions, *, stiff_rtol: float = STIFF_RTOL
 def _tightened(case: Case, options: RunOptions) -> tuple[Bench, list[tuple[str, Measured]], str]:
     """The case measured with its reference as tight as its budgets need: a stiff tree's Radau IIA solve is made
     to STIFF_RTOL first and, where its part passes REFERENCE_SHARE of a figure's limit, once more at the rtol that
-    the budgets derive (:func:`harness.core.budget.reference_rtol`); the statement of the reference's tolerance
+    the budgets derive (:func:`harness.budget.reference.reference_rtol`); the statement of the reference's tolerance
     and its share ("" where the reference is not a stiff tree's)."""
     bench, measured = _measure(case, options)
     rtol = bench.reference.solution.rtol

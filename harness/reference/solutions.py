@@ -116,7 +116,7 @@ def build_reference(system: str, model: mujoco.MjModel, *, q0: Mapping[str, floa
     motion is costly to solve). Later requests up to that span reuse it.
 
     ``stiff_rtol``: the tolerance a stiff tree's Radau IIA solve is made to (:func:`analytic.solvers.solve`),
-    tighter than :data:`~analytic.solvers.STIFF_RTOL` where the budget needs it (:func:`harness.core.budget.
+    tighter than :data:`~analytic.solvers.STIFF_RTOL` where the budget needs it (:func:`harness.budget.reference.
     reference_rtol`).
     """
     dyn: Dynamics

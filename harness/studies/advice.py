@@ -5,9 +5,9 @@ The ladder: for each integrator MuJoCo offers, the model runs from the reference
 model's own), from the largest the horizon (:data:`FEWEST_STEPS`) and the stability limit allow down to
 h₀/2^HALVINGS, each run compared with the reference by the families' own comparisons (the figures ``check``
 measures: ``position``, ``drift.energy``, ``force.*``, …). Each figure has its error bar: what the reference's own
-error (:data:`~harness.core.budget.REFERENCE` × its rtol), round-off (a random walk of
-:data:`~harness.core.budget.ROUNDOFF_EPS` ε a step) and, with constraints, the solver's stop
-(:data:`~harness.core.budget.SOLVER` × its tolerance) leave unknown of it. Each run's cost is measured on this
+error (:data:`~harness.budget.reference.REFERENCE` × its rtol), round-off (a random walk of
+:data:`~harness.budget.roundoff.ROUNDOFF_EPS` ε a step) and, with constraints, the solver's stop
+(:data:`~harness.budget.convergence.SOLVER` × its tolerance) leave unknown of it. Each run's cost is measured on this
 machine: the CPU seconds of a bare ``mj_step`` loop over the run, per simulated second.
 
 Stability: an explicit integrator's largest stable step is the linearization's (:mod:`harness.families.stability`,
@@ -40,9 +40,11 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from harness.budget.convergence import SOLVER
+from harness.budget.reference import REFERENCE
+from harness.budget.roundoff import ROUNDOFF_EPS
 from harness.cases import Case
 from harness.core import progress
-from harness.core.budget import REFERENCE, ROUNDOFF_EPS, SOLVER
 from harness.core.checks import Check
 from harness.core.deviation import Deviation
 from harness.core.errors import SimulationDiverged, UnmodelledElement

@@ -1,0 +1,44 @@
+"""The ``solver`` part: where the model's constraint solver stops short of the solution (CG or PGS at their iteration
+cap, a loose tolerance), the difference a converged solve makes. Every other variant is then made converged too."""
+
+from __future__ import annotations
+
+from harness.budget.inputs import Runs, States, by_name
+from harness.budget.part import Estimates, Part, fraction
+from harness.engine import variants as V
+
+SOLVER_PART_UNCERTAINTY = 0.1
+"""The solver part (what a converged solve changes) feeds back into the motion: known to a tenth of itself."""
+
+
+def over_runs(runs: Runs, estimates: Estimates, kappa: float) -> None:
+    """A − A(converged); the other parts are then taken from A(converged)."""
+    if runs.converged is not None:
+        _apply(estimates, by_name(runs.converged)[estimates.dev.name])
+
+
+def at_states(states: States, estimates: Estimates) -> None:
+    """As over the runs, at the states."""
+    if estimates.dev.name in states.converged:
+        _apply(estimates, states.converged[estimates.dev.name])
+
+
+def _apply(estimates: Estimates, converged) -> None:
+    estimates.base = converged
+    estimates.explained["solver"] = estimates.dev.values - converged
+
+
+PART = Part(
+    name="solver",
+    varies="the constraint solver: Newton to `CONVERGED_TOLERANCE` where the model's own does not converge",
+    variant=V.converged_solver,
+    explains="CG or PGS stopped short of the solution",
+    must_not_absorb="the stop at the solver's tolerance (the `convergence` tolerance's); wrong forces a converged "
+                    "solve keeps",
+    uncertainty=SOLVER_PART_UNCERTAINTY,
+    basis="the solver's difference feeds back into the motion",
+    tolerance=fraction("solver", SOLVER_PART_UNCERTAINTY),
+    over_runs=over_runs,
+    at_states=at_states,
+    baseline=True,
+)

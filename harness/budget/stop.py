@@ -1,0 +1,43 @@
+"""The ``stop`` part (float32 backends only): where the backend's solver stopped at float32's resolution, the
+difference the solve completed in float64 makes (:mod:`harness.engine.backends.completion`). No variant of the model:
+the same run, each solve completed. Every variant is then taken completed too. Not with the ``solver`` part: where
+the model's solver does not converge, that part's converged runs are what the others are taken from."""
+
+from __future__ import annotations
+
+from harness.budget.inputs import Runs, States, by_name
+from harness.budget.part import Estimates, Part, fraction
+from harness.budget.solver import SOLVER_PART_UNCERTAINTY
+
+
+def over_runs(runs: Runs, estimates: Estimates, kappa: float) -> None:
+    """A − A(completed); the other parts are then taken from A(completed)."""
+    if "solver" not in estimates.explained and runs.completed is not None:
+        _apply(estimates, by_name(runs.completed)[estimates.dev.name])
+
+
+def at_states(states: States, estimates: Estimates) -> None:
+    """As over the runs, at the states."""
+    if "solver" not in estimates.explained and estimates.dev.name in states.completed:
+        _apply(estimates, states.completed[estimates.dev.name])
+
+
+def _apply(estimates: Estimates, completed) -> None:
+    estimates.base = completed
+    estimates.explained["stop"] = estimates.dev.values - completed
+
+
+PART = Part(
+    name="stop",
+    varies="nothing of the model: each solve completed in float64 where the backend's stopped",
+    variant=None,
+    explains="a float32 backend's solver stopped at float32's resolution",
+    must_not_absorb="balanced but wrong forces (they stay); float32 round-off elsewhere (the `roundoff` tolerance's)",
+    uncertainty=SOLVER_PART_UNCERTAINTY,
+    basis="the completion is exact on the piecewise-quadratic cost in the piece of the C engine's solution; its "
+          "regulariser differs from the backend's by O(1 − d) of a stiff row's share",
+    tolerance=fraction("stop", SOLVER_PART_UNCERTAINTY),
+    over_runs=over_runs,
+    at_states=at_states,
+    baseline=True,
+)
