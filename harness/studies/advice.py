@@ -7,8 +7,8 @@ h₀/2^HALVINGS, each run compared with the reference by the families' own compa
 measures: ``position``, ``drift.energy``, ``force.*``, …). Each figure has its error bar: what the reference's own
 error (:data:`~harness.budget.reference.REFERENCE` × its rtol), round-off (a random walk of
 :data:`~harness.budget.roundoff.ROUNDOFF_EPS` ε a step) and, with constraints, the solver's stop
-(:data:`~harness.budget.convergence.SOLVER` × its tolerance) leave unknown of it. Each run's cost is measured on this
-machine: the CPU seconds of a bare ``mj_step`` loop over the run, per simulated second.
+(:data:`~harness.budget.convergence.SOLVER` × its tolerance) leave unknown of it. Each run's cost is measured on
+this machine: the CPU seconds of a bare ``mj_step`` loop over the run, per simulated second.
 
 Stability: an explicit integrator's largest stable step is the linearization's (:mod:`harness.families.stability`,
 the reference linearized along the run), confirmed by a run at :data:`BELOW` × the limit, which must stay bounded,
@@ -19,10 +19,10 @@ The recommendation (:func:`recommend`): per integrator, the largest step whose e
 ladder's runs (log–log: exact for a power law), plus their error bars, are :data:`MARGIN` times within every
 requirement (below the ladder's finest step only where the order holds there, by the documented order). Each
 candidate is verified, cheapest predicted cost first: the model is checked at that setting (``check --integrators I
---timestep h``: every figure with its budget), and the setting is recommended only where every check passes and
-every figure the requirements cover is within them, as measured; the figures, the margin and the cost printed are
-the measured ones. Where the reference lacks forces the model has (contacts, limits: :func:`harness.reference.tree.
-uncovered`), the model as it is is held to the requirements by what can be known without the reference: its
+--timestep h``: every figure with its budget), and the setting is recommended only where every check of its runs
+passes and every figure the requirements cover is within them, as measured; the figures, the margin and the cost
+printed are the measured ones. Where the reference lacks forces the model has (contacts, limits:
+:func:`harness.reference.tree.uncovered`), the model as it is is held to the requirements by what can be known without the reference: its
 position by self-convergence, its energy by the work–energy balance (:mod:`harness.families.balance`).
 """
 
