@@ -22,8 +22,9 @@ candidate is verified, cheapest predicted cost first: the model is checked at th
 --timestep h``: every figure with its budget), and the setting is recommended only where every check of its runs
 passes and every figure the requirements cover is within them, as measured; the figures, the margin and the cost
 printed are the measured ones. Where the reference lacks forces the model has (contacts, limits:
-:func:`harness.reference.tree.uncovered`), the model as it is is held to the requirements by what can be known without the reference: its
-position by self-convergence, its energy by the work–energy balance (:mod:`harness.families.balance`).
+:func:`harness.reference.tree.uncovered`), the model as it is is held to the requirements by what can be known
+without the reference: its position by self-convergence, its energy by the work–energy balance
+(:mod:`harness.families.balance`).
 """
 
 from __future__ import annotations
