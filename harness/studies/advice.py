@@ -324,19 +324,26 @@ def _speed(sim: Trajectory) -> float:
     return max((float(np.max(np.linalg.norm(v, axis=1))) for v in sim.velocities.values()), default=0.0)
 
 
-def _grows(bench: Bench, integrator: str, h: float, baseline: float) -> tuple[bool, str]:
-    """Whether a run at ``h`` grows: diverges (MuJoCo's own check) or its largest point speed passes GROWN ×
-    ``baseline``, over the horizon's steps (CONFIRM_STEPS at least and at most); and what it did, one line."""
+def _confirmation_run(bench: Bench, integrator: str, h: float) -> tuple[float, str]:
+    """A run at ``h`` over the horizon's steps (CONFIRM_STEPS at least and at most): its largest point speed (inf
+    where it diverged: MuJoCo's own check), and what it did, one line."""
     steps = min(max(steps_in(bench.case.horizon, h), CONFIRM_STEPS[0]), CONFIRM_STEPS[1])
     model = bench.mut.compile(integrator=integrator, timestep=h)
     try:
         sim = simulate(bench.engine, model, bench.probe, q0=bench.reference.q0(), qd0=bench.reference.qd0(),
                        steps=steps)
     except (SimulationDiverged, UnmodelledElement) as exc:
-        return True, f"diverged at h = {h:.3g} s ({exc.reason})"
+        return math.inf, f"diverged at h = {h:.3g} s ({exc.reason})"
     speed = _speed(sim)
+    return speed, f"h = {h:.3g} s, {steps} steps: largest point speed {speed:.3g} m/s"
+
+
+def _grows(bench: Bench, integrator: str, h: float, baseline: float) -> tuple[bool, str]:
+    """Whether a run at ``h`` grows (diverges, or its largest point speed passes GROWN × ``baseline``), and what
+    it did."""
+    speed, said = _confirmation_run(bench, integrator, h)
     grew = speed > GROWN * max(baseline, 1e-300)
-    return grew, f"h = {h:.3g} s, {steps} steps: largest point speed {speed:.3g} m/s" + (": grew" if grew else "")
+    return grew, said + (": grew" if grew and math.isfinite(speed) else "")
 
 
 def _bisected(bench: Bench, integrator: str, lo: float, hi: float, baseline: float) -> Limit:
@@ -357,27 +364,12 @@ def _bisected(bench: Bench, integrator: str, lo: float, hi: float, baseline: flo
 
 def _confirm(bench: Bench, integrator: str, limit: float) -> tuple[str, str, bool]:
     """The runs at BELOW and ABOVE × the limit: what each did, and whether they confirm it."""
-    said = []
-    speeds = []
-    for factor in (BELOW, ABOVE):
-        h = factor * limit
-        steps = min(max(steps_in(bench.case.horizon, h), CONFIRM_STEPS[0]), CONFIRM_STEPS[1])
-        model = bench.mut.compile(integrator=integrator, timestep=h)
-        try:
-            sim = simulate(bench.engine, model, bench.probe, q0=bench.reference.q0(), qd0=bench.reference.qd0(),
-                                steps=steps)
-        except (SimulationDiverged, UnmodelledElement) as exc:
-            said.append(f"diverged at h = {h:.3g} s ({exc.reason})")
-            speeds.append(math.inf)
-            continue
-        speed = max((float(np.max(np.linalg.norm(v, axis=1))) for v in sim.velocities.values()), default=0.0)
-        speeds.append(speed)
-        said.append(f"h = {h:.3g} s, {steps} steps: largest point speed {speed:.3g} m/s")
-    below_ok = math.isfinite(speeds[0])
-    above_grew = not math.isfinite(speeds[1]) or speeds[1] > GROWN * max(speeds[0], 1e-300)
-    if below_ok and above_grew and math.isfinite(speeds[1]):
-        said[1] += f", {speeds[1] / speeds[0]:.3g}× the run below: grew"
-    return said[0], said[1], below_ok and above_grew
+    (below, said_below), (above, said_above) = (_confirmation_run(bench, integrator, f * limit) for f in (BELOW, ABOVE))
+    below_ok = math.isfinite(below)
+    above_grew = not math.isfinite(above) or above > GROWN * max(below, 1e-300)
+    if below_ok and above_grew and math.isfinite(above):
+        said_above += f", {above / below:.3g}× the run below: grew"
+    return said_below, said_above, below_ok and above_grew
 
 
 def _ordered(points: Sequence[Point], measure: str, order: float) -> tuple[float, float] | None:
