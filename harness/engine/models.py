@@ -117,9 +117,12 @@ def authored(path: Path | str, *, timestep: float | None = None,
 
 
 COMPILED_MAX = 32
-"""How many compiled models :func:`compile_model` keeps (least recently used dropped first): a run's variants of
-one model, bounded whatever the model's size."""
+"""How many compiled models :func:`compile_model` keeps (least recently used dropped first)."""
+COMPILED_BYTES = 512 * 2**20
+"""How many bytes of compiled models it keeps at most (``MjModel.nbuffer``): a robot's meshes make a model tens of
+MB (Menagerie's Panda: 35 MB)."""
 _COMPILED: OrderedDict[tuple, tuple[tuple, mujoco.MjModel]] = OrderedDict()
+_ASKED: OrderedDict[tuple, None] = OrderedDict()  # the variants asked for once, not kept (yet)
 COMPILES = {"compiled": 0, "reused": 0}
 """How many models :func:`compile_model` compiled and how many it handed out again (tests, benchmarks)."""
 
@@ -135,10 +138,13 @@ def compile_model(
     edit, so that they hold whatever the edit sets), for simulation: its generated textures are made small
     (:func:`small_textures`) and those read from image files flat (:func:`flat_textures`).
 
-    Each variant is compiled once per process: a copy of the model compiled before is handed out where the
-    file (and every file it includes or reads a mesh, height field or skin from) is unchanged on disk and the
-    integrator, timestep and edit are equal (:func:`edit_identity`; an edit without a stable identity, such as
-    a closure, is compiled every time). A copy, since callers may change a model in place."""
+    A variant asked for again is not compiled again: a variant asked for a second time is kept (a copy of it),
+    and from then on a copy is handed out, as long as the file (and every file it includes or reads a mesh,
+    height field or skin from) is unchanged on disk and the integrator, timestep and edit are equal
+    (:func:`edit_identity`; an edit without a stable identity, such as a closure, is compiled every time).
+    Copies, since callers may change a model in place; kept from the second time only, since a copy costs a
+    third of a compile on a model with large meshes and most variants are asked for once. Bounded:
+    :data:`COMPILED_MAX` models, :data:`COMPILED_BYTES` bytes."""
     key = _variant_key(path, integrator, timestep, edit)
     if key is not None:
         with _CACHES:
@@ -151,14 +157,30 @@ def compile_model(
     spec, model = _compiled(path, integrator=integrator, timestep=timestep, edit=edit)
     COMPILES["compiled"] += 1
     if key is not None:
-        files = _identities(tuple(sorted({str(Path(path).resolve()), *_included(Path(path).resolve()),
-                                          *_assets(spec, Path(path).resolve().parent)})))
-        with _CACHES:
-            _COMPILED[key] = (files, copy.copy(model))
-            _COMPILED.move_to_end(key)
-            while len(_COMPILED) > COMPILED_MAX:
-                _COMPILED.popitem(last=False)
+        _keep(key, spec, model, path)
     return model
+
+
+def _keep(key: tuple, spec: mujoco.MjSpec, model: mujoco.MjModel, path: Path | str) -> None:
+    """Keep a copy of ``model`` where its variant was asked for before (else note that it was)."""
+    with _CACHES:
+        again = key in _ASKED or key in _COMPILED
+        _ASKED.pop(key, None)
+        if not again:
+            _ASKED[key] = None
+            while len(_ASKED) > 8 * COMPILED_MAX:
+                _ASKED.popitem(last=False)
+            return
+    if int(model.nbuffer) > COMPILED_BYTES:
+        return
+    resolved = Path(path).resolve()
+    files = _identities(tuple(sorted({str(resolved), *_included(resolved), *_assets(spec, resolved.parent)})))
+    kept = copy.copy(model)
+    with _CACHES:
+        _COMPILED[key] = (files, kept)
+        _COMPILED.move_to_end(key)
+        while len(_COMPILED) > COMPILED_MAX or sum(int(m.nbuffer) for _, m in _COMPILED.values()) > COMPILED_BYTES:
+            _COMPILED.popitem(last=False)
 
 
 def _compiled(path: Path | str, *, integrator: str | None, timestep: float | None,
