@@ -63,3 +63,12 @@ def test_the_zoo_judges_a_model_through_the_entry(through_entry):
                        integrators=RK4)
     assert result.verdict == "pass", result.reason
     assert len(through_entry) == 1
+
+
+def test_a_model_of_ones_own_is_evaluated_as_validate_judges_it(through_entry):
+    path = mjcf_path("pendulum")
+    evaluated = evaluate(str(path), options=RunOptions(integrators=RK4))
+    validated = harness.validate(mjcf=path, integrators=RK4)
+    assert [r.case.tree is not None for r in evaluated.results] == [True]  # judged against its own tree
+    assert tuple(evaluated.checks[validated.case]) == validated.checks
+    assert through_entry == [(validated.case,)] * 2

@@ -58,19 +58,19 @@ def own_case(path: Path | str, *, keyframe: str | None = None, ctrl: Mapping[str
     return from_mjcf(path, keyframe=keyframe, ctrl=ctrl, horizon=horizon)
 
 
-def evaluate(target: Case | Sequence[Case] | Path, *, options: RunOptions | None = None,
+def evaluate(target: Case | Sequence[Case] | Path | str, *, options: RunOptions | None = None,
              judging: Judging = Judging(), keyframe: str | None = None, ctrl: Mapping[str, float] | None = None,
              jobs: int | None = None, figures_only: bool = False, lines: bool = False, out: TextIO | None = None,
              executor: Executor = LOCAL, bar: bool = True, record_costs: bool = True) -> Evaluated:
-    """Run ``target`` (a case, several, or the path of a model of one's own: :func:`own_case` with ``keyframe``,
-    ``ctrl`` and the options' horizon) as ``options`` ask and judge it as ``judging`` says.
+    """Run ``target`` (a case, several, or the path of a model of one's own, a ``str`` included: :func:`own_case`
+    with ``keyframe``, ``ctrl`` and the options' horizon) as ``options`` ask and judge it as ``judging`` says.
 
     ``jobs``, ``figures_only``, ``lines``, ``out``, ``executor``: how and where the cases run and say they
     finished (:func:`~harness.pipeline.matrix.run_all`); ``bar``: a progress bar (or a log's progress lines)
     while they run; ``record_costs``: keep each shipped case's measured cost for the next run's scheduling.
     ValueError where a requirement names no figure the runs measured."""
     options = options or RunOptions()
-    if isinstance(target, Path):
+    if isinstance(target, (Path, str)):
         target = own_case(target, keyframe=keyframe, ctrl=ctrl, horizon=options.horizon)
     selected = (target,) if isinstance(target, Case) else tuple(target)
     results, checks, limits = run_all(selected, judging.config, options,
