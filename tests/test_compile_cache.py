@@ -1,5 +1,5 @@
-"""Each variant of a model is compiled once per process (:func:`harness.engine.models.compile_model`), and a model
-compiled for one variant is never handed out for another."""
+"""A variant of a model asked for again is not compiled again (:func:`harness.engine.models.compile_model` keeps it
+from its second request on), and a model compiled for one variant is never handed out for another."""
 
 from __future__ import annotations
 
