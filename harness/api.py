@@ -35,7 +35,6 @@ import numpy as np
 
 from harness import cases
 from harness.cases import Case, sources
-from harness.cases.own import from_mjcf
 from harness.core.checks import Check, Limit, gate
 from harness.core.figures import Figure, FigureName
 from harness.core.findings import Finding
@@ -44,13 +43,12 @@ from harness.engine import messages
 from harness.families import figure_names
 from harness.outputs.jsondoc import json_doc
 from harness.outputs.table import checks_table, ratio, ratio_text, verdict_line
-from harness.pipeline.limits import case_limits, check_config, load_limits
+from harness.pipeline.entry import Judging, evaluate, own_case
 from harness.pipeline.outcome import Outcome
-from harness.pipeline.require import Fitness, check_known, check_possible, judge_fitness
+from harness.pipeline.require import Fitness, check_possible, judge_fitness
 from harness.pipeline.require import requirement as requirement_of
-from harness.pipeline.run import CaseResult, run_case
+from harness.pipeline.run import CaseResult
 from harness.pipeline.settings import RunSettings
-from harness.pipeline.verdict import judge
 from harness.studies import advice
 from harness.studies.advice import Advice
 
@@ -366,7 +364,7 @@ def _validate(case: str | Case | None, options: RunOptions, judging: _Judging, *
                          + ", ".join(cases.names()))
     if case is None:  # any model, judged against its own tree: the model is the case's, not a variant of it
         assert options.mjcf is not None  # (checked above)
-        chosen = from_mjcf(options.mjcf, keyframe=keyframe, ctrl=ctrl, horizon=options.horizon)
+        chosen = own_case(options.mjcf, keyframe=keyframe, ctrl=ctrl, horizon=options.horizon)
         options = dataclasses.replace(options, mjcf=None)
     else:
         chosen = cases.get(case) if isinstance(case, str) else case
@@ -376,20 +374,17 @@ def _validate(case: str | Case | None, options: RunOptions, judging: _Judging, *
         raise ValueError("keyframe and ctrl apply to a model judged against its own tree (mjcf= without a case)")
     if options.integrators is not None and not options.integrators:
         raise ValueError("integrators must name at least one integrator (None: every one)")
-    shipped = load_limits(judging.config)
-    check_config(shipped.overrides, cases.all_cases(), source=repr(str(judging.config)))  # every case it names
     given = {str(FigureName(k)): Limit("user", float(v), "given to validate()") for k, v in judging.limits.items()}
-    requirements = (*shipped.requirements,
-                    *(requirement_of(str(k), v, source="validate(require=...)") for k, v in judging.require.items()))
-    result = run_case(chosen, options)
-    checks = judge(result, case_limits(shipped, chosen, result.judged_names) | given)
-    check_known(requirements, [result])
-    source = shipped.source + (" + limits given to validate()" if judging.limits else "")
+    required = tuple(requirement_of(str(k), v, source="validate(require=...)") for k, v in judging.require.items())
+    done = evaluate(chosen, options=options, judging=Judging(config=judging.config, limits=given, require=required,
+                                                             accept_known_defects=judging.accept_known_defects),
+                    jobs=1, bar=False, record_costs=False)
+    result, checks = done.results[0], done.checks[chosen.name]
+    source = done.limits.source + (" + limits given to validate()" if judging.limits else "")
     return Validation(case=chosen.name, mjcf=result.settings.mjcf, checks=tuple(checks),
                       figures=result.figures, settings=result.settings, limits=source,
-                      fitness=tuple(judge_fitness(result, requirements)), findings=tuple(result.findings),
-                      accept_known_defects=judging.accept_known_defects or shipped.accept_known_defects,
-                      result=result)
+                      fitness=tuple(judge_fitness(result, done.outcome.requirements)), findings=tuple(result.findings),
+                      accept_known_defects=done.outcome.accept_known_defects, result=result)
 
 
 def advise(
@@ -426,7 +421,7 @@ def advise(
     requirements = tuple(requirement_of(str(k), v, source="advise(require=...)") for k, v in require.items())
     with sources.using(_directories(systems)), messages.kept_within():
         if mjcf is not None:
-            chosen: object = from_mjcf(mjcf, keyframe=keyframe, ctrl=ctrl, horizon=horizon)
+            chosen: object = own_case(mjcf, keyframe=keyframe, ctrl=ctrl, horizon=horizon)
         else:
             if keyframe is not None or ctrl:
                 raise ValueError("keyframe and ctrl apply to a model judged against its own tree (mjcf=, no case)")

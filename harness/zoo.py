@@ -6,8 +6,9 @@ that is not installed gives no models and one line saying what it would give and
 the pip command that installs it, never an error.
 
 Each model runs case-free, exactly as ``mjharness check --mjcf FILE`` runs it
-(:func:`harness.cases.own.from_mjcf`, then :func:`harness.validate`: every layer and
-budget, every integrator unless told otherwise), and ends in one of four verdicts:
+(:func:`harness.pipeline.entry.own_case`, then :func:`harness.validate`, which runs
+:func:`harness.pipeline.entry.evaluate`: every layer and budget, every integrator unless told otherwise),
+and ends in one of four verdicts:
 
 - ``pass``: every check within its budget's limit (``check`` exits 0);
 - ``fail``: a finding, named by the check that decides it (the failed check furthest over
@@ -44,13 +45,13 @@ import numpy as np
 from analytic.dop853 import IntegrationError
 from analytic.solvers import TooManySteps
 from harness.api import validate
-from harness.cases.own import from_mjcf
 from harness.core import VERSION
 from harness.core.checks import Check
 from harness.engine.models import compile_model
 from harness.outputs.studies.engine_faults import cell as fault_cell
 from harness.outputs.studies.injection import cell as injection_cell
 from harness.pipeline.carry import Carried, pack
+from harness.pipeline.entry import own_case
 from harness.pipeline.executor import LOCAL, Executor
 from harness.pipeline.pool import run_tasks
 from harness.reference.tree import prepare, uncovered
@@ -457,7 +458,7 @@ def judge(model: ZooModel, *, integrators: Sequence[str] | None = None, timeout:
                             "features": features(compiled, gaps), "not_examined": gaps}
     try:
         with time_limit(timeout):
-            case = from_mjcf(model.path)
+            case = own_case(model.path)
             v = validate(case, integrators=integrators)
     except TimeLimit as exc:
         return ZooResult(**base, **have, verdict=UNFINISHED, seconds=time.perf_counter() - clock, reason=str(exc))

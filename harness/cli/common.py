@@ -21,9 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from harness import cases
-from harness.cases.own import from_mjcf
 from harness.core.bounds import max_steps
-from harness.core.checks import Check
 from harness.core.escape import terminal
 from harness.core.options import RunOptions
 from harness.core.progress import heartbeat
@@ -43,9 +41,10 @@ from harness.outputs.table import (
     verdict_line,
 )
 from harness.pipeline import require
+from harness.pipeline.entry import Judging, own_case
 from harness.pipeline.executor import Executor
 from harness.pipeline.matrix import LogProgress
-from harness.pipeline.outcome import EXIT_UNFIT, Outcome, outcome_of
+from harness.pipeline.outcome import EXIT_UNFIT, Outcome
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 EXIT_NUMERIC = 4
@@ -82,7 +81,7 @@ def _selected(args: argparse.Namespace) -> tuple[cases.Case, ...]:
     names = [*args.cases, *(args.case or [])]
     mjcf = getattr(args, "mjcf", None)
     if mjcf is not None and not names:
-        return (from_mjcf(mjcf, keyframe=args.keyframe, ctrl=args.ctrl, horizon=args.horizon),)
+        return (own_case(mjcf, keyframe=args.keyframe, ctrl=args.ctrl, horizon=args.horizon),)
     if (getattr(args, "keyframe", None) or getattr(args, "ctrl", None)) and mjcf is None:
         raise ValueError("--keyframe and --ctrl apply to a model judged against its own tree: --mjcf FILE, no case")
     selected = cases.select(names)
@@ -168,11 +167,10 @@ def _options(args: argparse.Namespace, selected: Sequence[cases.Case], *, severa
                       q0=args.q0, qd0=args.qd0, perturb=getattr(args, "perturb", None), backend=chosen[0])
 
 
-def _outcome(args: argparse.Namespace, results: Sequence, checks: dict[str, list[Check]], limits) -> Outcome:
-    requirements = (*limits.requirements, *require.parse(args.require))
-    require.check_known(requirements, results)
-    return outcome_of(results, checks, requirements=requirements,
-                      accept_known_defects=args.accept_known_defects or limits.accept_known_defects)
+def _judging(args: argparse.Namespace) -> Judging:
+    """How the flags ask the runs to be judged: ``--config``, ``--require``, ``--accept-known-defects``."""
+    return Judging(config=args.config, require=require.parse(args.require),
+                   accept_known_defects=args.accept_known_defects)
 
 
 def _executor(args: argparse.Namespace) -> Executor:

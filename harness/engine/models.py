@@ -10,9 +10,18 @@ its formats is a :class:`ModelError` naming the attribute.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
+import enum
+import functools
+import hashlib
 import math
+import os
+import re
 import stat
 import threading
+import types
+from collections import OrderedDict
 from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
@@ -107,6 +116,17 @@ def authored(path: Path | str, *, timestep: float | None = None,
     return spec.to_xml()
 
 
+COMPILED_MAX = 32
+"""How many compiled models :func:`compile_model` keeps (least recently used dropped first)."""
+COMPILED_BYTES = 512 * 2**20
+"""How many bytes of compiled models it keeps at most (``MjModel.nbuffer``): a robot's meshes make a model tens of
+MB (Menagerie's Panda: 35 MB)."""
+_COMPILED: OrderedDict[tuple, tuple[tuple, mujoco.MjModel]] = OrderedDict()
+_ASKED: OrderedDict[tuple, None] = OrderedDict()  # the variants asked for once, not kept (yet)
+COMPILES = {"compiled": 0, "reused": 0}
+"""How many models :func:`compile_model` compiled and how many it handed out again (tests, benchmarks)."""
+
+
 def compile_model(
     path: Path | str,
     *,
@@ -116,7 +136,55 @@ def compile_model(
 ) -> mujoco.MjModel:
     """Compile ``path`` with a spec edit and optional integrator/timestep overrides (applied after the
     edit, so that they hold whatever the edit sets), for simulation: its generated textures are made small
-    (:func:`small_textures`) and those read from image files flat (:func:`flat_textures`)."""
+    (:func:`small_textures`) and those read from image files flat (:func:`flat_textures`).
+
+    A variant asked for again is not compiled again: a variant asked for a second time is kept (a copy of it),
+    and from then on a copy is handed out, as long as the file (and every file it includes or reads a mesh,
+    height field or skin from) is unchanged on disk and the integrator, timestep and edit are equal
+    (:func:`edit_identity`; an edit without a stable identity, such as a closure, is compiled every time).
+    Copies, since callers may change a model in place; kept from the second time only, since a copy costs a
+    third of a compile on a model with large meshes and most variants are asked for once. Bounded:
+    :data:`COMPILED_MAX` models, :data:`COMPILED_BYTES` bytes."""
+    key = _variant_key(path, integrator, timestep, edit)
+    if key is not None:
+        with _CACHES:
+            entry = _COMPILED.get(key)
+            if entry is not None:
+                _COMPILED.move_to_end(key)
+        if entry is not None and _identities(entry[0]) == entry[0]:
+            COMPILES["reused"] += 1
+            return copy.copy(entry[1])
+    spec, model = _compiled(path, integrator=integrator, timestep=timestep, edit=edit)
+    COMPILES["compiled"] += 1
+    if key is not None:
+        _keep(key, spec, model, path)
+    return model
+
+
+def _keep(key: tuple, spec: mujoco.MjSpec, model: mujoco.MjModel, path: Path | str) -> None:
+    """Keep a copy of ``model`` where its variant was asked for before (else note that it was)."""
+    with _CACHES:
+        again = key in _ASKED or key in _COMPILED
+        _ASKED.pop(key, None)
+        if not again:
+            _ASKED[key] = None
+            while len(_ASKED) > 8 * COMPILED_MAX:
+                _ASKED.popitem(last=False)
+            return
+    if int(model.nbuffer) > COMPILED_BYTES:
+        return
+    resolved = Path(path).resolve()
+    files = _identities(tuple(sorted({str(resolved), *_included(resolved), *_assets(spec, resolved.parent)})))
+    kept = copy.copy(model)
+    with _CACHES:
+        _COMPILED[key] = (files, kept)
+        _COMPILED.move_to_end(key)
+        while len(_COMPILED) > COMPILED_MAX or sum(int(m.nbuffer) for _, m in _COMPILED.values()) > COMPILED_BYTES:
+            _COMPILED.popitem(last=False)
+
+
+def _compiled(path: Path | str, *, integrator: str | None, timestep: float | None,
+              edit: Callable[[mujoco.MjSpec], None] | None) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
     spec = load_spec(path)
     small_textures(spec)
     flat_textures(spec)
@@ -145,7 +213,99 @@ def compile_model(
     except InvalidModel as exc:
         raise ModelError(f"invalid MJCF {str(path)!r}: {exc}") from None
     after_compile(model, str(path))  # fallbacks for an older MuJoCo (harness.compat)
-    return model
+    return spec, model
+
+
+def _variant_key(path: Path | str, integrator: str | None, timestep: float | None,
+                 edit: Callable[[mujoco.MjSpec], None] | None) -> tuple | None:
+    """What makes a variant of ``path``'s model, or None where it cannot be told (never reused then): an
+    edit without a stable identity, a file that cannot be read, an older MuJoCo's per-parse fallbacks."""
+    identity = edit_identity(edit)
+    if identity is None or compat.missing_flags():
+        return None
+    try:
+        text = inputs.read_bytes(path, what="MJCF", limit=inputs.MODEL_LIMIT)
+    except (OSError, inputs.InputFileError):
+        return None
+    return (str(Path(path).resolve()), hashlib.sha256(text).hexdigest(), integrator,
+            _identity(timestep), identity)
+
+
+def _identities(paths: tuple) -> tuple:
+    """Each file of ``paths`` (or of the identities given) with its identity on disk now: (size, mtime_ns,
+    inode), None where it is absent."""
+    out: list[tuple[str, tuple[int, int, int] | None]] = []
+    for item in paths:
+        name = item[0] if isinstance(item, tuple) else item
+        try:
+            st = os.stat(name)
+            out.append((name, (st.st_size, st.st_mtime_ns, st.st_ino)))
+        except OSError:
+            out.append((name, None))
+    return tuple(out)
+
+
+_INCLUDE = re.compile(rb"<include\s[^>]*?file\s*=\s*[\"']([^\"']+)[\"']")
+
+
+def _included(path: Path, depth: int = 0) -> list[str]:
+    """The files ``path`` includes, recursively (as MuJoCo resolves them: against the including model's
+    folder), whether or not they exist."""
+    try:
+        text = inputs.read_bytes(path, what="MJCF", limit=inputs.MODEL_LIMIT)
+    except (OSError, inputs.InputFileError):
+        return []
+    out = []
+    for name in _INCLUDE.findall(text):
+        included = (path.parent / os.fsdecode(name)).resolve()
+        out.append(str(included))
+        if depth < 16 and included != path:
+            out.extend(_included(included, depth + 1))
+    return out
+
+
+def _assets(spec: mujoco.MjSpec, folder: Path) -> list[str]:
+    """The files the compiled ``spec`` read its meshes, height fields and skins from (each where MuJoCo looks
+    for it: the compiler's meshdir or assetdir, or the model's folder)."""
+    dirs = [d for d in (getattr(spec.compiler, "meshdir", ""), getattr(spec.compiler, "assetdir", "")) if d]
+    out: list[str] = []
+    for element in (*spec.meshes, *spec.hfields, *spec.skins):
+        name = getattr(element, "file", "")
+        if name:
+            out.extend(str((folder / d / name).resolve()) for d in dirs)
+            out.append(str((folder / name).resolve()))
+    return out
+
+
+def edit_identity(edit: object) -> tuple | None:
+    """A value that is equal for two spec edits exactly when they make the same change, or None where that
+    cannot be told (a closure, a lambda, a bound method, an object with mutable state): None edits, module-level
+    functions, ``functools.partial`` of such with equal arguments, and frozen dataclasses (such as
+    :class:`harness.engine.variants.Composed`) of equal fields."""
+    return ("none",) if edit is None else _identity(edit)
+
+
+_PLAIN = (bool, int, float, str, bytes, type(None), enum.Enum)
+
+
+def _identity(value: object) -> tuple | None:
+    if isinstance(value, _PLAIN):
+        return (type(value), value)
+    if isinstance(value, (tuple, frozenset)):
+        parts = [_identity(v) for v in (sorted(value, key=repr) if isinstance(value, frozenset) else value)]
+        return None if any(p is None for p in parts) else (type(value), tuple(parts))
+    if isinstance(value, types.FunctionType):
+        module_level = value.__closure__ is None and "<" not in value.__qualname__
+        return ("function", value) if module_level else None
+    if isinstance(value, functools.partial):
+        parts = [_identity(value.func), _identity(value.args),
+                 _identity(tuple(sorted(value.keywords.items())))]
+        return None if any(p is None for p in parts) else ("partial", *parts)
+    if dataclasses.is_dataclass(value) and not isinstance(value, type) \
+            and type(value).__dataclass_params__.frozen:  # type: ignore[attr-defined]
+        parts = [_identity(getattr(value, f.name)) for f in dataclasses.fields(value)]
+        return None if any(p is None for p in parts) else ("dataclass", type(value), tuple(parts))
+    return None
 
 
 SMALL_TEXTURE = 8

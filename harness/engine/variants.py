@@ -258,13 +258,19 @@ def converged_solver(model: mujoco.MjModel) -> SpecEdit:
     at least the model's iterations (100). The constraint problem is strictly convex (soft constraints),
     so any solver converges to the one solution this one finds; what the model's own solver leaves of it
     (CG or PGS stopped by their iteration cap) is the budget's ``solver`` part."""
-    iterations = max(int(model.opt.iterations), 100)
+    return ConvergedSolver(iterations=max(int(model.opt.iterations), 100))
 
-    def edit(spec: mujoco.MjSpec) -> None:
+
+@dataclass(frozen=True)
+class ConvergedSolver:
+    """:func:`converged_solver`'s edit, a value (compiled once per variant: :func:`compose`)."""
+
+    iterations: int
+
+    def __call__(self, spec: mujoco.MjSpec) -> None:
         spec.option.solver = mujoco.mjtSolver.mjSOL_NEWTON
         spec.option.tolerance = CONVERGED_TOLERANCE
-        spec.option.iterations = iterations
-    return edit
+        spec.option.iterations = self.iterations
 
 
 def exact_solver(model: mujoco.MjModel) -> SpecEdit | None:
@@ -407,12 +413,27 @@ def scale_inertia(body, factor: float) -> None:
         body.inertia = [factor * float(x) for x in body.inertia]
 
 
+@dataclass(frozen=True)
+class Composed:
+    """Spec edits applied one after the other: a value (equal parts make an equal edit), so that
+    :func:`harness.engine.models.compile_model` compiles each variant once."""
+
+    edits: tuple[SpecEdit, ...]
+
+    def __call__(self, spec: mujoco.MjSpec) -> None:
+        for e in self.edits:
+            e(spec)
+
+
 def compose(*edits: SpecEdit | None) -> SpecEdit:
-    def edit(spec: mujoco.MjSpec) -> None:
-        for e in edits:
-            if e is not None:
-                e(spec)
-    return edit
+    """``edits`` (None: none) applied in order, as one edit; a single one is itself."""
+    parts: list[SpecEdit] = []
+    for e in edits:
+        if isinstance(e, Composed):
+            parts.extend(e.edits)
+        elif e is not None:
+            parts.append(e)
+    return parts[0] if len(parts) == 1 else Composed(tuple(parts))
 
 
 # ---------------------------------------------------------------- float32 round-off

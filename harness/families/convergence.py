@@ -71,7 +71,7 @@ from harness.engine.compat import joint_types, known_defect
 from harness.engine.integrators import EXPECTED_ORDER, available_integrators
 from harness.engine.models import compile_model
 from harness.engine.recording import steps_in
-from harness.engine.variants import exact_solver, floors_pair, point_masses, rigid_factor
+from harness.engine.variants import compose, exact_solver, floors_pair, point_masses, rigid_factor
 from harness.families.bench import Bench, Measured
 from harness.families.runs import every_nth
 from harness.reference import solutions as refmod
@@ -365,14 +365,6 @@ def initial_force_floor(model: mujoco.MjModel, reference: refmod.Reference) -> f
     return float(np.max(np.abs(shift))) / reference.scales.force
 
 
-def _compose(*edits: Callable[[mujoco.MjSpec], None] | None) -> Callable[[mujoco.MjSpec], None]:
-    def edit(spec: mujoco.MjSpec) -> None:
-        for e in edits:
-            if e is not None:
-                e(spec)
-    return edit
-
-
 def refsafe_off(model: mujoco.MjModel) -> bool:
     """Whether ``model`` has soft constraints (equalities, contact pairs) with MuJoCo's refsafe flag off: its
     time constants are then taken as written at any timestep (no floor at 2h; XMLreference.rst, "flag/refsafe"),
@@ -494,7 +486,7 @@ def convergence_study(
     path = Path(mjcf) if mjcf is not None else case.mjcf
     base = compile_model(path, timestep=timestep, edit=edit)
     if exact_solver(base) is not None:  # the solver stops short: the ladder solves exactly (module docstring)
-        edit = _compose(edit, exact_solver(base))
+        edit = compose(edit, exact_solver(base))
         base = compile_model(path, timestep=timestep, edit=edit)
     h0 = float(compile_model(case.mjcf, edit=case.prepare).opt.timestep)  # the case's, whatever timestep is tested
     span = min(case.horizon, FAST_HORIZON) if fast else case.horizon
@@ -529,7 +521,7 @@ def convergence_study(
     diverged: dict[str, str] = {}  # per integrator, the first run of its ladder that diverged
 
     def run(name: str, h: float, extra: Callable[[mujoco.MjSpec], None] | None) -> Trajectory | None:
-        model = compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra))
+        model = compile_model(path, integrator=name, timestep=h, edit=compose(edit, extra))
         try:
             return simulate(engine, model, probe, q0=reference.q0(), qd0=reference.qd0(),
                             steps=steps_in(horizon, h))
@@ -545,7 +537,7 @@ def convergence_study(
         if not bodies:
             return math.nan
         try:
-            runs = [simulate(engine, compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra)),
+            runs = [simulate(engine, compile_model(path, integrator=name, timestep=h, edit=compose(edit, extra)),
                              probe,
                              q0=reference.q0(), qd0=reference.qd0(), steps=steps_in(horizon, h))
                     for extra in floors_pair(base, bodies)]
@@ -557,7 +549,7 @@ def convergence_study(
         """The ladder's runs with 1 − d quadrupled (None where one diverges or 1 − d has no room)."""
         try:
             requests = [Request(compile_model(path, integrator=name, timestep=h,
-                                              edit=_compose(edit, quadruple_softness)),
+                                              edit=compose(edit, quadruple_softness)),
                                 reference.q0(), reference.qd0(), steps_in(horizon, h)) for h in dts]
             return dict(zip(dts, engine.simulate_many(requests, probe), strict=True))
         except (SimulationDiverged, ValueError):
@@ -716,7 +708,7 @@ def _ladder_runs(run: Callable, name: str, dts: Sequence[float], softer: Sequenc
 
     def request(key: tuple[float, Callable | None]) -> Request:
         h, extra = key
-        return Request(compile_model(path, integrator=name, timestep=h, edit=_compose(edit, extra)), *start,
+        return Request(compile_model(path, integrator=name, timestep=h, edit=compose(edit, extra)), *start,
                        steps_in(horizon, h))
 
     try:

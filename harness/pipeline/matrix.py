@@ -13,14 +13,14 @@ import dataclasses
 import math
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import as_completed
 from pathlib import Path
 from typing import TextIO
 
 from harness import cases
 from harness.core import costs
-from harness.core.checks import Check, closest, ratio
+from harness.core.checks import Check, Limit, closest, ratio
 from harness.core.escape import terminal
 from harness.core.options import RunOptions
 from harness.core.tables import terminal_width, wrap
@@ -113,9 +113,10 @@ def case_line(case: str, checks: Sequence[Check], seconds: float, width: int = 0
     return "\n".join(wrap(line, columns))
 
 
-def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: RunOptions | None = None, *,
+def run_all(selected: Sequence[cases.Case], config_path: Path | str | None, options: RunOptions | None = None, *,
             jobs: int | None = None, figures_only: bool = False, lines: bool = False, out: TextIO | None = None,
-            executor: Executor = LOCAL) -> tuple[list[CaseResult], dict[str, list[Check]], Limits]:
+            executor: Executor = LOCAL, given: Mapping[str, Limit] | None = None, bar: bool = True,
+            record_costs: bool = True) -> tuple[list[CaseResult], dict[str, list[Check]], Limits]:
     """run_case for each case (as ``options`` ask), then its verdict; (results, checks by case, limits).
 
     ``jobs`` worker processes (default: one per CPU) share the cases; every
@@ -129,13 +130,17 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
     prints its :func:`case_line` there as it finishes. ``out``: each case prints
     its line to this stream as it finishes, terminal or not, flushed, and no progress bar is drawn (the
     lines are the progress).
+
+    ``given``: fixed limits by figure name, over every case's own; ``bar``: False draws no progress (a library
+    call's); ``record_costs``: keep each shipped case's measured cost for the next run's scheduling.
     """
     options = options or RunOptions()
     limits = load_limits(config_path)
     checks: dict[str, list[Check]] = {}
 
     def finished(result: CaseResult) -> None:  # judged as it comes in, so its line can say how it went
-        checks[result.case.name] = judge(result, case_limits(limits, result.case, result.judged_names))
+        checks[result.case.name] = judge(result, case_limits(limits, result.case, result.judged_names)
+                                         | dict(given or {}))
         stream = out if out is not None else sys.stderr if lines and not sys.stderr.isatty() else None
         if stream is not None:
             print(case_line(result.case.name, checks[result.case.name], sum(result.timings.values()), width,
@@ -144,29 +149,29 @@ def run_all(selected: Sequence[cases.Case], config_path: Path | None, options: R
     check_config(limits.overrides, cases.all_cases(), source=repr(str(config_path)))  # the cases not run too
     workers = min(jobs or cpus(), len(selected))
     width = max((len(c.name) for c in selected), default=0)
-    if out is not None:  # the cases' lines are the progress: no bar among them
-        bar = LogProgress(selected, "mjharness", "case", quiet=True)
+    if out is not None or not bar:  # the cases' lines are the progress (or none is asked for): no bar
+        shown = LogProgress(selected, "mjharness", "case", quiet=True)
     else:  # with lines, each case's own line says the progress
-        bar = progress(selected, "mjharness", quiet=lines)
+        shown = progress(selected, "mjharness", quiet=lines)
     if executor.kind != "local" and options.mjcf is not None:
         results = _run_own_on_cluster(selected, executor, figures_only=figures_only, options=options,
                                       finished=finished)
     elif executor.kind != "local":
-        results = _run_on_cluster(selected, executor, bar, figures_only=figures_only, options=options,
+        results = _run_on_cluster(selected, executor, shown, figures_only=figures_only, options=options,
                                   finished=finished)
     elif options.backend != "c" and len(selected) > 1 and options.mjcf is None:
-        results = _run_isolated(selected, bar, figures_only=figures_only, options=options, finished=finished)
+        results = _run_isolated(selected, shown, figures_only=figures_only, options=options, finished=finished)
     elif workers <= 1 or options.mjcf is not None:
         results = []
-        for case in bar:
-            bar.set_postfix_str(case.name)
+        for case in shown:
+            shown.set_postfix_str(case.name)
             results.append(run_case(case, options))
             finished(results[-1])
     else:
-        results = _run_parallel(selected, workers, bar, figures_only=figures_only, options=options,
+        results = _run_parallel(selected, workers, shown, figures_only=figures_only, options=options,
                                 finished=finished)
-    bar.close()
-    if options.shipped:
+    shown.close()
+    if options.shipped and record_costs:
         costs.record({r.case.name: sum(v for k, v in r.timings.items() if k not in COLD) for r in results})
     return results, {r.case.name: checks[r.case.name] for r in results}, limits
 

@@ -14,11 +14,11 @@ from harness.cli.common import (
     _executor,
     _exit_code,
     _inertials,
+    _judging,
     _junit,
     _limits,
     _opinions,
     _options,
-    _outcome,
     _peers,
     _print_checks,
     _selected,
@@ -35,7 +35,7 @@ from harness.cli.options import (
 )
 from harness.outputs.files import write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
-from harness.pipeline.matrix import run_all
+from harness.pipeline.entry import evaluate
 
 
 def _args_check(p: argparse.ArgumentParser) -> None:
@@ -65,9 +65,9 @@ def cmd_check(args: argparse.Namespace) -> int:
     # with --json, stdout is the document alone: what a library prints meanwhile goes to stderr (mujoco-mjx
     # prints "Failed to import warp" to stdout when it is imported without Warp)
     with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
-        results, checks, limits = run_all(selected, args.config, _options(args, selected), jobs=args.jobs,
-                                          figures_only=True, executor=_executor(args), **_case_lines(args))
-    outcome = _outcome(args, results, checks, limits)
+        done = evaluate(selected, options=_options(args, selected), judging=_judging(args), jobs=args.jobs,
+                        figures_only=True, executor=_executor(args), **_case_lines(args))
+    results, limits, outcome = done.results, done.limits, done.outcome
     inertials = _inertials(args, selected, limits)
     write_atomic(_junit(args.junit, outcome))
     if args.json:

@@ -14,11 +14,11 @@ from harness.cli.common import (
     _executor,
     _exit_code,
     _inertials,
+    _judging,
     _junit,
     _limits,
     _opinions,
     _options,
-    _outcome,
     _peers,
     _print_checks,
     _selected,
@@ -36,7 +36,8 @@ from harness.outputs.files import (
     with_manifest,
     write_atomic,
 )
-from harness.pipeline.matrix import run_all, run_backends
+from harness.pipeline.entry import evaluate
+from harness.pipeline.matrix import run_backends
 
 
 def _args_run(p: argparse.ArgumentParser) -> None:
@@ -62,9 +63,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     opinions = _opinions(args)
     options = _options(args, selected, several=True)
     executor = _executor(args)
-    results, checks, limits = run_all(selected, args.config, options, jobs=args.jobs, executor=executor,
-                                      **_case_lines(args))
-    outcome = _outcome(args, results, checks, limits)
+    done = evaluate(selected, options=options, judging=_judging(args), jobs=args.jobs, executor=executor,
+                    **_case_lines(args))
+    results, checks, limits, outcome = done.results, done.checks, done.limits, done.outcome
     inertials = _inertials(args, selected, limits)
     with heartbeat("the report: plots, pictures and pages"):  # seconds to minutes, after the cases' lines
         pages, appendix, plots = draw_report(selected, results, jobs=args.jobs, executor=executor,
