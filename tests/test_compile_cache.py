@@ -9,7 +9,7 @@ import os
 import mujoco
 import pytest
 
-from harness.engine import models
+from harness.engine import compat, models
 from harness.engine.models import compile_model, edit_identity
 from harness.engine.variants import ConvergedSolver, compose
 from harness.reference.tree import TreeEdit
@@ -35,6 +35,10 @@ def _counts() -> tuple[int, int]:
     return models.COMPILES["compiled"], models.COMPILES["reused"]
 
 
+KEEPS = pytest.mark.skipif(bool(compat.missing_flags()), reason=f"MuJoCo {mujoco.__version__} needs per-parse "
+                           "fallbacks (harness.engine.compat): compile_model keeps nothing there")
+
+
 @pytest.fixture
 def path(tmp_path):
     p = tmp_path / "pendulum.xml"
@@ -42,6 +46,7 @@ def path(tmp_path):
     return p
 
 
+@KEEPS
 def test_an_equal_variant_is_compiled_no_more_than_twice_and_handed_out_as_a_copy(path):
     def variant():
         return compile_model(path, integrator="RK4", timestep=0.005, edit=compose(TreeEdit(), ConvergedSolver(100)))
@@ -125,6 +130,7 @@ def test_equal_compositions_have_one_identity():
     assert edit_identity(TreeEdit(ctrl=(1.0,))) != edit_identity(TreeEdit(ctrl=(True,)))
 
 
+@KEEPS
 def test_the_cache_is_bounded(path, monkeypatch):
     monkeypatch.setattr(models, "COMPILED_MAX", 3)
     for k in range(6):
