@@ -173,6 +173,7 @@ def test_the_command_writes_the_plot_and_the_page_and_escapes_names(tmp_path):
     assert (tmp_path / "out" / "a.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     page = (tmp_path / "out" / "a.html").read_text()
     assert "my&lt;b&gt;robot" in page and "my<b>robot" not in page
+    assert "\\x0a" not in page and "\nRecommended: RK4" in page  # the text's lines as lines
     assert "Recommended: RK4" in done.stdout
 
 

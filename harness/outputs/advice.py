@@ -183,12 +183,17 @@ def plot(advice: Advice) -> bytes:
     return png_bytes(fig)
 
 
+def _lines(said: str) -> str:
+    """Text for a <pre>, line by line (html_text makes a line break in a name visible, as it must)."""
+    return "\n".join(html_text(line) for line in said.split("\n"))
+
+
 def html_page(advice: Sequence[Advice], plots: Sequence[bytes]) -> str:
     """A standalone page: per model, its plot and its text (every name escaped)."""
     style_css = ("body{font-family:sans-serif;max-width:72em;margin:1em auto;color:#222}"
                  "pre{white-space:pre-wrap;font-size:.8em}img{max-width:100%;display:block;margin:.5em 0}")
     body = "".join(f"<section><h2>{html_text(a.model)}</h2><img alt='error against timestep' "
-                   f"src='{png_data_uri(png)}'><pre>{html_text(text(a))}</pre></section>"
+                   f"src='{png_data_uri(png)}'><pre>{_lines(text(a))}</pre></section>"
                    for a, png in zip(advice, plots, strict=True))
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>mjharness advise</title>"
             f"<style>{style_css}</style></head><body><h1>Which integrator and timestep</h1>{body}</body></html>\n")
