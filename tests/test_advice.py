@@ -80,6 +80,12 @@ def test_the_cheapest_integrator_is_recommended_and_its_cost_is_measured():
     assert v.cost > 0 and all(p.cost > 0 for c in advice.curves for p in c.measured())
 
 
+def test_requirements_come_comma_separated_or_repeated():
+    assert parse(["position=1e-3,force=1e-2"]) == parse(["position=1e-3", "force=1e-2"])
+    with pytest.raises(ValueError, match="expected MEASURE=VALUE"):
+        parse(["position=1e-3,"])
+
+
 def test_a_requirement_no_integrator_meets_is_said_so():
     advice = A.advise(cases.get("spring"), parse(["position=1e-14"]), integrators=("Euler", "RK4"))
     assert advice.recommended is None

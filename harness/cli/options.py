@@ -49,8 +49,9 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
                    help='TOML renaming the URDF\'s names to the MJCF\'s: [bodies] link = "body", [joints] a = "b"')
     g = p.add_argument_group("verdict")
     g.add_argument("--require", action="append", default=[], metavar="MEASURE=VALUE",
-                   help="the accuracy you need, judged on each model's own integrator (e.g. position=1e-3, "
-                        "drift.energy=1e-4, force=1e-3; repeatable): exit 3 where the checks pass and it is not met")
+                   help="the accuracy you need, judged on each model's own integrator (e.g. "
+                        "position=1e-3,drift.energy=1e-4 or force=1e-3; comma-separated or repeated): exit 3 where "
+                        "the checks pass and it is not met")
     g.add_argument("--accept-known-defects", action="store_true",
                    help="let a failure that shows the signature of a documented defect of this MuJoCo (shown as "
                         "FAIL, known defect) not fail the exit code")

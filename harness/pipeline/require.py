@@ -61,9 +61,10 @@ class Fitness:
 
 
 def parse(items: Iterable[str], *, source: str = "--require") -> tuple[Requirement, ...]:
-    """``MEASURE=VALUE`` strings as requirements; ConfigError naming what is wrong and what is accepted."""
+    """``MEASURE=VALUE`` strings as requirements, several in one string separated by commas
+    (``position=1e-3,force=1e-2``); ConfigError naming what is wrong and what is accepted."""
     out = []
-    for item in items:
+    for item in (piece for given in items for piece in given.split(",")):
         measure, sep, text = item.partition("=")
         measure = measure.strip()
         if not sep or not measure:

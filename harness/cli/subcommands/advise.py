@@ -26,8 +26,9 @@ def _args_advise(p: argparse.ArgumentParser) -> None:
     _add_systems(p)
     _add_model(p, variant=False)
     p.add_argument("--require", action="append", default=[], metavar="MEASURE=VALUE", required=True,
-                   help="the accuracy you need (e.g. position=1e-3, drift.energy=1e-4, force=1e-2; repeatable, at "
-                        "least one): the recommendation is the cheapest setting that meets every one, verified")
+                   help="the accuracy you need (e.g. position=1e-3,force=1e-2 or drift.energy=1e-4; comma-separated "
+                        "or repeated, at least one): the recommendation is the cheapest setting that meets every one, "
+                        "verified")
     _add_integrators(p)
     _add_horizon(p)
     _add_json(p)
