@@ -112,10 +112,16 @@ def _targets(node: ast.expr) -> Iterator[str]:
 
 
 def defined(tree: ast.Module) -> set[str]:
-    """The names a module binds at its top level: functions, classes, assignments and imports (those for type
-    checking only included: a module's ``__getattr__`` may provide them at run time, as ``harness``'s does)."""
+    """The names a module binds at its top level: functions, classes, assignments and imports; those imported for
+    type checking only where the module's ``__getattr__`` provides them at run time (as ``harness``'s does)."""
     names: set[str] = set()
-    for node in _top_level(tree.body):
+    typing_only = {id(n) for node in tree.body if isinstance(node, ast.If) and isinstance(node.test, ast.Name)
+                   and node.test.id == "TYPE_CHECKING" for n in _top_level(node.body)}
+    statements = list(_top_level(tree.body))
+    lazy = any(isinstance(n, ast.FunctionDef) and n.name == "__getattr__" for n in statements)
+    for node in statements:
+        if id(node) in typing_only and not lazy:
+            continue
         if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
             names.add(node.name)
         elif isinstance(node, ast.Assign):
