@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["thin_hoop"]
+
 HOOP_RTOL = 1e-6
 """How far (relative to m a²) a body's principal moments may be from a thin hoop's: a float32 backend's copies
 of the model move them by a few ulps (1e-7); a hoop written as another body differs by tens of percent."""

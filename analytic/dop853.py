@@ -31,6 +31,8 @@ import numpy as np
 
 from analytic import dop853_table as table
 
+__all__ = ["MAX_STEPS", "Dense", "IntegrationError", "Piecewise", "RightHandSide", "StepBudgetExceeded", "integrate"]
+
 Array = np.ndarray
 
 SAFETY = 0.9  # aim a little below the tolerance, so the next step is rarely rejected

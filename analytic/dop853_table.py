@@ -14,6 +14,8 @@ Stage s (0-based) is evaluated at t + C[s] h from y + h Σ_j A[s][j] K[j]. Stage
 next step's stage 0, and A[12] = B); stages 13–15 exist only for dense output.
 """
 
+__all__ = ["E3", "E5", "N_STAGES", "A", "B", "C", "D"]
+
 # ruff: noqa: E501  (a table of the method's coefficients reads best one stage a line)
 
 N_STAGES = 12  # stages of a step; K[12] = f(t + h, y_new)

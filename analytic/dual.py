@@ -22,6 +22,8 @@ from collections.abc import Callable
 import numpy as np
 from numpy.lib.mixins import NDArrayOperatorsMixin
 
+__all__ = ["Dual", "seeded", "tangent"]
+
 Array = np.ndarray
 
 

@@ -29,6 +29,9 @@ if TYPE_CHECKING:
 
     from analytic.lagrangian import Derivation
 
+__all__ = ["Array", "Compiled", "Constrained", "Dynamics", "chunk_states", "kkt_tangent", "rank_tolerance",
+           "solve_kkt"]
+
 Array = np.ndarray
 
 

@@ -31,6 +31,8 @@ import sympy as sp
 
 from analytic.rigid import RigidBody
 
+__all__ = ["Constraint", "Derivation", "LagrangianSystem", "coordinates", "preload"]
+
 ConstraintKind = Literal["holonomic", "pfaffian"]
 
 

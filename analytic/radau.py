@@ -39,6 +39,8 @@ import numpy as np
 
 from analytic.dop853 import IntegrationError, Piecewise, StepBudgetExceeded
 
+__all__ = ["Dense", "StepsTaken", "integrate", "joined"]
+
 Array = np.ndarray
 
 MAX_STEPS = 1_000_000

@@ -47,6 +47,8 @@ import numpy as np
 
 from analytic.dynamics import Array, Dynamics
 
+__all__ = ["Load", "proper_acceleration", "subtree_wrench"]
+
 
 @dataclass(frozen=True)
 class Load:

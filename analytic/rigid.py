@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+__all__ = ["RigidBody", "axis_rotation", "body_angular_velocity", "euler_zxz", "point_mass", "world_angular_velocity"]
+
 
 def axis_rotation(axis: str, angle: sp.Expr) -> sp.Matrix:
     """The rotation by ``angle`` about the world axis ``"x"``, ``"y"`` or ``"z"`` (right-handed)."""

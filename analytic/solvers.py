@@ -32,6 +32,9 @@ import numpy as np
 from analytic import dop853, dual, radau
 from analytic.dynamics import Array, Dynamics, chunk_states
 
+__all__ = ["DEFAULT_RTOL", "STABILITY", "STIFF_RTOL", "Solution", "TooManySteps", "TooSlow", "explicit_steps",
+           "project", "solve", "state_jacobian"]
+
 DEFAULT_RTOL = 1e-12
 DEFAULT_ATOL = 1e-12
 STIFF_RTOL = 1e-8

@@ -46,6 +46,8 @@ import pytest
 if TYPE_CHECKING:
     from harness.api import Validation
 
+__all__ = ["Harness", "configured_systems", "mjharness", "pytest_addoption", "pytest_report_header"]
+
 PATHS = {"mjcf": "MJCF", "config": "config"}  # the options naming a file, found relative to the test file
 INI = "mjharness_systems"
 VARIABLE = "MJHARNESS_SYSTEMS"

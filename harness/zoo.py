@@ -59,6 +59,9 @@ from harness.studies.engine_faults import CLAIMED, FAULTS, SIZES, UNITS, Caught,
 from harness.studies.injection import SIZES_SEARCHED, Injection, smallest_injection
 from harness.versions.sweep import Model as SweepModel
 
+__all__ = ["Injection", "ZooResult", "discover", "folder_models", "run", "select", "sweep_models", "zoo_json",
+           "zoo_markdown"]
+
 PASS, FAIL, REFUSED, CRASHED, UNFINISHED = "pass", "fail", "refused", "crashed", "unfinished"
 EXIT = {PASS: 0, FAIL: 1, REFUSED: 2, CRASHED: 2, UNFINISHED: None}
 """What ``mjharness check --mjcf FILE`` exits with for each verdict (a crash: 2, the harness's error; unfinished:

@@ -30,6 +30,8 @@ from harness.cases import Series, Wiring
 from harness.engine.readings import Reading
 from harness.engine.sensors import Load
 
+__all__ = ["WIRING"]
+
 STRINGS = ("string1", "string2")
 
 

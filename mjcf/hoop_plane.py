@@ -21,6 +21,8 @@ from harness.engine.readings.contact import analytic_residual, slide_force
 from harness.engine.readings.momentum import axial_angular_momentum
 from harness.engine.sensors import Load
 
+__all__ = ["WIRING"]
+
 WIRING = Wiring(
     forces={"roll_x": slide_force(geom="rim", joint="x"),
             "roll_y": slide_force(geom="rim", joint="y"),

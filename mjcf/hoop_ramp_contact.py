@@ -19,6 +19,8 @@ from harness.cases import Series, Wiring
 from harness.engine.readings.contact import analytic_residual, slide_force
 from harness.engine.sensors import Load
 
+__all__ = ["WIRING"]
+
 WIRING = Wiring(
     system="hoop_ramp",
     description="the hoop_ramp system on a real frictional contact (mj_contactForce), slip recorded",

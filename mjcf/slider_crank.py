@@ -15,6 +15,8 @@ from harness.cases import Wiring
 from harness.engine.compat import CONNECT_WELD_LOOPS
 from harness.engine.sensors import Load
 
+__all__ = ["WIRING"]
+
 WIRING = Wiring(
     loads=(Load("wrist_pin", body="rod", site="rod_end", sign=1.0),
            Load("wrist_pin", body="piston", site="piston_pin", sign=-1.0)),

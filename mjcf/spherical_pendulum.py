@@ -5,4 +5,6 @@ from __future__ import annotations
 from harness.cases import Wiring
 from harness.engine.readings.momentum import axial_angular_momentum
 
+__all__ = ["WIRING"]
+
 WIRING = Wiring(invariants={"p_phi": axial_angular_momentum(body="bob", site="pivot")})

@@ -36,6 +36,8 @@ from harness.cases import Wiring
 from harness.engine.bindings import QuaternionJointBinding
 from harness.engine.readings.momentum import axial_angular_momentum
 
+__all__ = ["WIRING", "BallBinding"]
+
 AZIMUTH_AXIS = np.array([0.0, 0.0, 1.0])   # φ, about world +z
 POLAR_AXIS = np.array([0.0, -1.0, 0.0])    # θ, about −y of the frame turned by φ
 COORDINATES = ("theta", "phi")

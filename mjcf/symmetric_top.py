@@ -33,6 +33,8 @@ from harness.cases import Wiring
 from harness.engine.bindings import QuaternionJointBinding
 from harness.engine.readings.momentum import axial_angular_momentum
 
+__all__ = ["WIRING", "EulerBallBinding", "orientation"]
+
 COORDINATES = ("phi", "theta", "psi")
 AXES = {"phi": np.array([0.0, 0.0, 1.0]), "theta": np.array([1.0, 0.0, 0.0]), "psi": np.array([0.0, 0.0, 1.0])}
 

@@ -34,6 +34,8 @@ from harness.engine.bindings import QuaternionJointBinding
 from harness.engine.readings import Reading
 from harness.engine.readings.momentum import axial_angular_momentum, subtree
 
+__all__ = ["WIRING", "FreeBinding", "euler_angles", "orientation"]
+
 
 def _axis_quat(axis: int, angle: float) -> np.ndarray:
     quat = np.zeros(4)

@@ -14,6 +14,8 @@ from harness.cases import Wiring
 from harness.engine.compat import CONNECT_WELD_LOOPS
 from harness.engine.sensors import Load
 
+__all__ = ["WIRING"]
+
 WIRING = Wiring(
     loads=(Load("glue", body="link", site="top", sign=1.0),
            Load("glue", body="hub", site="socket", sign=-1.0)),

@@ -40,6 +40,8 @@ if TYPE_CHECKING:
 
     from analytic.lagrangian import LagrangianSystem
 
+__all__ = ["REQUIRED", "Motion", "Parameters", "Scales", "build", "has_minimal", "load", "names", "symbols"]
+
 REQUIRED = ("PARAMETERS", "MOTION", "build", "params_from_model", "scales")
 
 Parameters = SimpleNamespace

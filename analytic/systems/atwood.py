@@ -54,6 +54,8 @@ from analytic.systems import Motion, Parameters, Scales
 if TYPE_CHECKING:
     from analytic.lagrangian import LagrangianSystem
 
+__all__ = ["MOTION", "PARAMETERS", "build", "minimal", "params_from_model", "scales"]
+
 PARAMETERS = "m1 m2 m_p a g h"
 
 MOTION = Motion(

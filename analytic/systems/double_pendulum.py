@@ -49,6 +49,8 @@ from analytic.systems import Motion, Parameters, Scales
 if TYPE_CHECKING:
     from analytic.lagrangian import LagrangianSystem
 
+__all__ = ["MOTION", "PARAMETERS", "build", "params_from_model", "scales"]
+
 PARAMETERS = "m1 m2 l1 l2 g"
 
 MOTION = Motion(

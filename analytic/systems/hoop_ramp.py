@@ -59,6 +59,8 @@ from analytic.systems import Motion, Parameters, Scales
 if TYPE_CHECKING:
     from analytic.lagrangian import LagrangianSystem
 
+__all__ = ["MOTION", "PARAMETERS", "build", "minimal", "params_from_model", "scales"]
+
 PARAMETERS = "m g a alpha"
 
 MOTION = Motion(

@@ -62,6 +62,8 @@ from analytic.systems import Motion, Parameters, Scales
 if TYPE_CHECKING:
     from analytic.lagrangian import LagrangianSystem
 
+__all__ = ["MOTION", "PARAMETERS", "SIGNED_PARAMETERS", "build", "params_from_model", "scales"]
+
 PARAMETERS = "m g cx cy cz Ixx Iyy Izz Ixy Ixz Iyz tx ty tz sx sy sz"
 SIGNED_PARAMETERS = "cx cy cz Ixy Ixz Iyz tx ty tz sx sy sz"
 

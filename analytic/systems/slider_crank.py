@@ -59,6 +59,8 @@ from analytic.systems import Motion, Parameters, Scales
 if TYPE_CHECKING:
     from analytic.lagrangian import LagrangianSystem
 
+__all__ = ["MOTION", "PARAMETERS", "build", "params_from_model", "scales"]
+
 PARAMETERS = "m1 I1 d1 r m2 I2 d2 l m3 g"
 
 MOTION = Motion(

@@ -86,6 +86,9 @@ from analytic.systems import Motion, Parameters, Scales
 if TYPE_CHECKING:
     from analytic.lagrangian import LagrangianSystem
 
+__all__ = ["BODY", "COORDINATES", "MOTION", "ORIGIN_SITE", "PARAMETERS", "build", "euler_rate_matrix",
+           "params_from_model", "scales"]
+
 PARAMETERS = "m I1 I2 I3 d"
 
 BODY = "body"

@@ -68,6 +68,8 @@ if TYPE_CHECKING:
 
     from analytic.lagrangian import LagrangianSystem
 
+__all__ = ["MOTION", "PARAMETERS", "build", "params_from_model", "scales"]
+
 PARAMETERS = "I_h m_h a m I1 I2 I3 d e s g"
 
 MOTION = Motion(

@@ -44,6 +44,8 @@ from analytic.tree.kinematics import Layout, Pose, forward, point_jacobians, poi
 from analytic.tree.model import FREE, Tree
 from analytic.tree.rotations import cross, mat_t_vec, mat_vec, quat_to_mat, right_jacobian, skew, vee
 
+__all__ = ["TreeDynamics"]
+
 Array = np.ndarray
 
 STEP = 1e-30

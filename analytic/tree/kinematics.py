@@ -27,6 +27,8 @@ from analytic.dual import Dual
 from analytic.tree.model import BALL, FREE, HINGE, SLIDE, Tree
 from analytic.tree.rotations import cross, exp_and_jacobian, mat_vec, quat_to_mat, right_jacobian, skew
 
+__all__ = ["Layout", "Pose", "forward", "point_jacobians", "points_on", "velocity_map"]
+
 Array = np.ndarray
 
 

@@ -27,6 +27,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+__all__ = ["BALL", "FREE", "HINGE", "SLIDE", "Actuator", "Body", "Equality", "ForceLimit", "Joint", "Point",
+           "TendonLimit", "Tree"]
+
 HINGE, SLIDE, BALL, FREE = "hinge", "slide", "ball", "free"
 DOFS = {HINGE: 1, SLIDE: 1, BALL: 3, FREE: 6}
 

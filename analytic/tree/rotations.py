@@ -14,6 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["cross", "exp_and_jacobian", "exp_map", "mat_t_vec", "mat_to_quat", "mat_vec", "quat_to_mat",
+           "right_jacobian", "skew", "vee"]
+
 Array = np.ndarray
 
 _EYE = np.eye(3)

@@ -61,6 +61,8 @@ import sympy as sp
 if TYPE_CHECKING:
     from harness.audit.view import DocView
 
+__all__ = ["Claim", "ClaimReading", "Frame", "StatementCheck", "doc_frame"]
+
 ClaimKind = Literal["value", "value_up_to_constant", "equation", "statement"]
 Formula = Union[sp.Expr, sp.Matrix, "Callable[[DocView], sp.Expr | sp.Matrix]"]
 StatementCheck = Callable[["DocView"], tuple[bool, str]]

@@ -12,6 +12,9 @@ import sympy as sp
 from harness.audit import StatementCheck
 from harness.audit.view import T_SYMBOL, DocView
 
+__all__ = ["accessible", "conserved", "energy_conserved", "exact", "inequality_bounds_a_region", "on_constraints",
+           "position_check", "reachable", "rows_check", "saddle_rank", "solves", "stationary"]
+
 
 def _solvable(residuals: Sequence[sp.Expr], unknowns: Sequence[sp.Symbol]) -> bool:
     return bool(sp.solve([sp.simplify(e) for e in residuals], list(unknowns), dict=True))

@@ -19,6 +19,8 @@ import re
 from dataclasses import dataclass
 from importlib import resources
 
+__all__ = ["lines_text", "not_checkable", "summary"]
+
 DOCUMENTS = ("000_53d3a09bcd5afa0f.txt", "001_c29a5107db08e1d9.txt")
 
 _ENVIRONMENT = r"\\begin\{(?:equation\*?|gather\*)\}.*?\\end\{(?:equation\*?|gather\*)\}"

@@ -10,6 +10,9 @@ import sympy as sp
 from analytic.systems import symbols
 from harness.audit import Frame, doc_frame
 
+__all__ = ["GOLDSTEIN_1_3", "LECTURE15", "SIMULATIONS", "atwood_frame", "pendulum_frame", "pendulum_frame_flipped",
+           "plane_frame", "ramp_frame", "spherical_frame", "spring_frame"]
+
 LECTURE15 = "000_53d3a09bcd5afa0f.txt"  # Lecture 15: multiplier method, spherical pendulum, hoops, Atwood
 GOLDSTEIN_1_3 = ("Goldstein, Poole & Safko, Classical Mechanics, 3rd ed. (2002), §1.3 'Constraints', p. 12–13: "
                  "holonomic if expressible as f(r₁, r₂, …, t) = 0 (eq. 1.37); 'constraints not expressible in "

@@ -39,6 +39,8 @@ from harness.audit.frames import GOLDSTEIN_1_3, LECTURE15, atwood_frame, plane_f
 from harness.audit.notation import doc_text
 from harness.audit.view import DocView
 
+__all__ = ["claims"]
+
 DOC = LECTURE15
 
 

@@ -21,6 +21,8 @@ from harness.audit.frames import LECTURE15 as DOC
 from harness.audit.frames import atwood_frame, spherical_frame
 from harness.audit.view import DocView
 
+__all__ = ["claims"]
+
 SEC = "Constraints – Method of Lagrange Multipliers: general derivation"
 PRINTED_XI = sp.Matrix([[1, 0, -1], [0, 1, 1]])  # Atwood's Ξ as line 93 prints it
 

@@ -11,6 +11,8 @@ import sympy as sp
 from sympy.printing.precedence import PRECEDENCE
 from sympy.printing.str import StrPrinter
 
+__all__ = ["doc_text", "latex_text"]
+
 _GREEK = {"alpha": "α", "theta": "θ", "phi": "φ", "lambda": "λ", "omega": "ω", "eta": "η", "epsilon": "ε",
           "tau": "τ", "mu": "μ", "pi": "π", "varphi": "ϕ", "Xi": "Ξ"}
 _SUB = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")

@@ -32,6 +32,8 @@ from harness.engine.constraints import equality_block
 from harness.engine.models import compile_model
 from harness.engine.recording import steps_in
 
+__all__ = ["AGREEMENT", "KINDS", "Numbers", "numeric_check"]
+
 SAMPLES = 40
 AGREEMENT = 10.0
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from harness.audit import Claim, lecture15, simulations
 
+__all__ = ["all_claims"]
+
 
 def all_claims() -> tuple[Claim, ...]:
     return (*simulations.claims(), *lecture15.claims())

@@ -21,6 +21,8 @@ from harness.audit.checks import inequality_bounds_a_region, position_check, sol
 from harness.audit.frames import GOLDSTEIN_1_3, SIMULATIONS, pendulum_frame, pendulum_frame_flipped, spring_frame
 from harness.audit.view import T_SYMBOL, DocView
 
+__all__ = ["claims"]
+
 DOC = SIMULATIONS
 
 def _spring_claims() -> list[Claim]:

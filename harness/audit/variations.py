@@ -21,6 +21,8 @@ from harness.audit.frames import SIMULATIONS as DOC
 from harness.audit.frames import spring_frame
 from harness.audit.view import T_SYMBOL, DocView
 
+__all__ = ["claims"]
+
 SEC_ACTION = "Principle of Least Action"
 SEC_COV = "Calculus of Variations"
 LANDAU = ("Landau & Lifshitz, Mechanics, 3rd ed., §2 (the action need be a minimum only over short enough "

@@ -31,6 +31,8 @@ from harness.audit.registry import all_claims
 from harness.audit.view import DocView, resolve, symbolic_check
 from harness.reference.derivations import derivation
 
+__all__ = ["AuditRow", "audit", "audit_claim", "consistent", "counts"]
+
 
 @dataclass(frozen=True)
 class ReadingRow:

@@ -10,6 +10,8 @@ import sympy as sp
 from analytic.lagrangian import Derivation
 from harness.audit import Claim, Frame
 
+__all__ = ["T_SYMBOL", "DocView", "resolve", "symbolic_check"]
+
 T_SYMBOL = sp.Symbol("t", real=True)
 
 

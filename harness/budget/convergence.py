@@ -3,6 +3,8 @@ or evaluation, which no part removes."""
 
 from __future__ import annotations
 
+__all__ = ["NAME", "SOLVER"]
+
 NAME = "convergence"
 
 SOLVER = 10.0

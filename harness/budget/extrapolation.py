@@ -14,6 +14,9 @@ from typing import cast
 
 import numpy as np
 
+__all__ = ["LINEAR_SHRINK", "RIGID_GAIN", "RIGID_TAIL", "from_rigid", "gain", "linearity_note", "richardson",
+           "to_zero"]
+
 
 def richardson(order: float) -> float:
     """κ: the truncation error of a run at h is κ × (its difference from the run at h/2)."""

@@ -7,6 +7,8 @@ from harness.budget.inputs import Runs, States
 from harness.budget.part import Estimates, Part, fraction
 from harness.engine import variants as V
 
+__all__ = ["FLOOR_UNCERTAINTY", "PART"]
+
 FLOOR_UNCERTAINTY = 0.1
 """A point mass's floor inertia (at most 1e-6 m L²) acts linearly: a tenth of the floors' part bounds the rest."""
 

@@ -13,6 +13,8 @@ import numpy as np
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 
+__all__ = ["Runs", "States", "by_name"]
+
 
 def by_name(group: Sequence[Deviation] | None) -> dict[FigureName, np.ndarray]:
     """Each deviation's values by its figure's name (none for None)."""

@@ -9,6 +9,8 @@ from harness.budget.inputs import Runs, by_name
 from harness.budget.part import Estimates, Part
 from harness.engine import variants as V
 
+__all__ = ["INTEGRATION_UNCERTAINTY", "PART"]
+
 INTEGRATION_UNCERTAINTY = 0.25
 """Richardson removes the leading term; what remains is the next order, relatively O(ω h) of the correction: a
 quarter of it allows ω h up to about 1/2 (past the asymptotic range the run at h/4 measures it instead)."""

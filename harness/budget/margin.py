@@ -8,6 +8,8 @@ from harness.budget.inputs import States
 from harness.budget.part import Estimates, Part, fraction
 from harness.engine import variants as V
 
+__all__ = ["PART"]
+
 
 def at_states(states: States, estimates: Estimates) -> None:
     """A with every margin doubled, minus A."""

@@ -17,6 +17,8 @@ import numpy as np
 from harness.budget.inputs import Runs, States
 from harness.core.deviation import Deviation
 
+__all__ = ["Estimates", "Part", "fraction"]
+
 
 @dataclass
 class Estimates:

@@ -8,6 +8,8 @@ from collections.abc import Mapping
 
 from harness.core.budget import Budget
 
+__all__ = ["NAME", "REFERENCE", "REFERENCE_SHARE", "reference_rtol", "reference_share"]
+
 NAME = "reference"
 
 REFERENCE = 50.0

@@ -11,6 +11,8 @@ from harness.budget.inputs import Runs, States
 from harness.budget.part import Estimates, Part
 from harness.core.deviation import Deviation
 
+__all__ = ["ALL", "PARTS", "TOLERANCES", "at_states", "over_runs", "tolerances"]
+
 ALL: tuple[Part, ...] = (integration.PART, softness.PART, floors.PART, margin.PART, solver.PART, stop.PART)
 """Every part, in the order the reports show them."""
 PARTS = tuple(p.name for p in ALL)

@@ -8,6 +8,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+__all__ = ["NAME", "PERTURBED_FACTOR", "PERTURBED_RUNS", "QUANTIZATION", "READ_ULPS", "ROUNDOFF_EPS", "ulp_states"]
+
 NAME = "roundoff"
 
 ROUNDOFF_EPS = 64

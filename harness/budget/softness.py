@@ -13,6 +13,8 @@ from harness.budget.inputs import Runs, States, by_name
 from harness.budget.part import Estimates, Part
 from harness.engine import variants as V
 
+__all__ = ["PART"]
+
 SOFTNESS_UNCERTAINTY = 0.25
 """A softness part from two levels is linear in ε up to relative terms O(ε) and O(h/τ): a quarter of it bounds
 them for ε up to 1/4 (harness/families/runs.py)."""

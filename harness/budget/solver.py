@@ -7,6 +7,8 @@ from harness.budget.inputs import Runs, States, by_name
 from harness.budget.part import Estimates, Part, fraction
 from harness.engine import variants as V
 
+__all__ = ["PART", "SOLVER_PART_UNCERTAINTY"]
+
 SOLVER_PART_UNCERTAINTY = 0.1
 """The solver part (what a converged solve changes) feeds back into the motion: known to a tenth of itself."""
 

@@ -9,6 +9,8 @@ from harness.budget.inputs import Runs, States, by_name
 from harness.budget.part import Estimates, Part, fraction
 from harness.budget.solver import SOLVER_PART_UNCERTAINTY
 
+__all__ = ["PART"]
+
 
 def over_runs(runs: Runs, estimates: Estimates, kappa: float) -> None:
     """A − A(completed); the other parts are then taken from A(completed)."""

@@ -52,7 +52,7 @@ from harness.reference.derivations import dynamics_of, params_of
 from harness.reference.solutions import Reference, build_reference
 from harness.reference.tree import TREE, TreeSystem
 
-__all__ = ["TREE", "Case", "Series", "Wiring", "all_cases", "from_mjcf", "get", "names", "select"]
+__all__ = ["TREE", "Case", "Series", "Wiring", "all_cases", "did_you_mean", "get", "names", "select", "unavailable"]
 
 MODELS_PACKAGE = "mjcf"
 

@@ -52,6 +52,8 @@ from harness.reference.tree import (
     uncovered,
 )
 
+__all__ = ["SPIN_FLOOR", "from_mjcf", "model_name"]
+
 HORIZON_CAP = 1.0
 """The longest horizon chosen (s): the reference's cost grows with it, and a model's tree dynamics shows its
 faults within it."""

@@ -22,6 +22,8 @@ from harness import cases
 from harness.engine.models import compile_model
 from harness.reference import derivations, prebuilt
 
+__all__: list[str] = []
+
 
 def needed() -> Iterator[tuple[str, str, tuple[tuple[str, float], ...]]]:
     """(kind, system, params) of every numeric dynamics a shipped case's run loads, once each (a user's

@@ -35,6 +35,8 @@ from types import ModuleType
 
 import analytic.systems
 
+__all__ = ["GROUP", "SHIPPED", "Source", "check_collisions", "current", "directory_source", "module", "use", "using"]
+
 GROUP = "mjharness.systems"
 """The entry point group an installed package names its systems' package in."""
 LAYOUT = "NAME.py (the analytic system), NAME.xml (its MJCF), optionally NAME.limits.toml"

@@ -2,4 +2,6 @@
 
 from harness.cli.entry import entry
 
+__all__: list[str] = []
+
 entry()

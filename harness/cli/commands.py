@@ -62,6 +62,8 @@ from harness.engine import messages
 from harness.outputs.files import STALE, mark_stale, ours
 from harness.pipeline.executor import TaskLost
 
+__all__ = ["COMMANDS", "main"]
+
 INTERRUPTED = (128 + signal.SIGINT, 128 + signal.SIGTERM)  # Ctrl-C, SIGTERM
 EXIT_PIPE = 128 + signal.SIGPIPE  # stdout's reader went away: what a shell reports for a tool SIGPIPE stopped
 TRACEBACK_VARIABLE = "MJHARNESS_TRACEBACK"  # set to 1: an internal error prints its traceback after its line

@@ -46,6 +46,8 @@ from harness.pipeline.executor import Executor
 from harness.pipeline.matrix import LogProgress
 from harness.pipeline.outcome import EXIT_UNFIT, Outcome
 
+__all__ = ["EXIT_CODES", "EXIT_FAIL", "EXIT_NUMERIC", "EXIT_OK", "EXIT_USAGE", "Command"]
+
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 EXIT_NUMERIC = 4
 EXIT_CODES = {EXIT_OK: "every check passes (and every --require is met)",

@@ -26,6 +26,8 @@ import ctypes
 import os
 import sys
 
+__all__ = ["entry"]
+
 SETTINGS = {"MUJOCO_GL": "disable", "OPENBLAS_NUM_THREADS": "1"}
 """The environment MuJoCo and numpy are imported in (see the module docstring): MUJOCO_GL always, the BLAS
 threads where the user has not set them."""

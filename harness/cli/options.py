@@ -16,6 +16,8 @@ from harness.outputs.files import FORCE
 from harness.pipeline.executor import EXECUTORS
 from harness.pipeline.pool import cpus
 
+__all__: list[str] = []
+
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:  # one line, exit 2 (argparse's own code)

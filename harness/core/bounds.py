@@ -28,6 +28,9 @@ import os
 
 from harness.core.errors import RunTooLong
 
+__all__ = ["EVALUATIONS_PER_SECOND", "check_reference_cost", "check_steps", "max_reference_seconds",
+           "max_reference_steps", "max_solve_seconds", "max_steps", "reference_too_long", "solve_too_slow"]
+
 MAX_STEPS = 1_000_000
 MAX_STEPS_VARIABLE = "MJHARNESS_MAX_STEPS"
 MAX_REFERENCE_STEPS = 100_000

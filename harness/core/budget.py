@@ -9,6 +9,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+__all__ = ["Budget"]
+
 
 @dataclass(frozen=True)
 class Budget:

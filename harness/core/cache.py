@@ -50,6 +50,9 @@ from typing import TypeVar
 
 from harness.core import stored
 
+__all__ = ["cache_dir", "cached", "cost", "entry_bytes", "has", "key", "load", "load_file", "source_key", "store",
+           "write_atomic"]
+
 T = TypeVar("T")
 R = TypeVar("R")
 

@@ -22,6 +22,8 @@ from typing import Literal
 from harness.core.budget import Budget
 from harness.core.figures import FigureName
 
+__all__ = ["BASES", "Check", "Limit", "closest", "gate", "ratio"]
+
 Basis = Literal["budget", "theory", "user"]
 BASES = ("budget", "theory")
 

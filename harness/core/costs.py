@@ -16,6 +16,8 @@ from pathlib import Path
 
 from harness.core import cache
 
+__all__ = ["UNKNOWN", "case_costs", "record"]
+
 UNKNOWN = 0.5  # seconds: a typical case, and a typical derivation
 
 

@@ -17,6 +17,8 @@ import numpy as np
 
 from harness.core.figures import Figure, FigureName
 
+__all__ = ["Deviation"]
+
 
 @dataclass(frozen=True)
 class Deviation:

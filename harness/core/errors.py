@@ -8,6 +8,9 @@ than a mistake in the input.
 
 from __future__ import annotations
 
+__all__ = ["BackendUnavailable", "ConfigError", "ModelError", "ModelMismatch", "RunTooLong", "SimulationDiverged",
+           "UnmodelledElement"]
+
 
 class ConfigError(ValueError):
     """A config or limits file that is missing, unreadable or malformed."""

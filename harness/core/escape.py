@@ -20,6 +20,8 @@ from __future__ import annotations
 import html
 import unicodedata
 
+__all__ = ["html_attr", "html_text", "markdown_cell", "terminal", "visible", "xml_text"]
+
 
 def visible(text: object) -> str:
     """``text`` with every control or format character written as its escape (``\\x1b``, ``\\u202e``)."""

@@ -25,6 +25,8 @@ from typing import Literal
 
 import numpy as np
 
+__all__ = ["Figure", "FigureName", "max_abs"]
+
 Layer = Literal["instant", "reference", "trajectory", "converge"]
 _PREFIXED = ("instant", "reference")  # layers whose text starts with the layer's own name
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+__all__ = ["Finding"]
+
 
 @dataclass(frozen=True)
 class Finding:

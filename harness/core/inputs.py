@@ -13,6 +13,8 @@ import os
 import stat
 from pathlib import Path
 
+__all__ = ["DOCUMENT_LIMIT", "MODEL_LIMIT", "InputFileError", "check", "read_bytes", "read_text"]
+
 MB = 1 << 20
 TEXT_LIMIT = 16 * MB  # a config, limits or map file: kilobytes in practice
 DOCUMENT_LIMIT = 256 * MB  # a report.json or baseline document of many cases

@@ -23,6 +23,8 @@ import sys
 import threading
 from collections.abc import Iterator
 
+__all__ = ["Terminated", "die_with_parent", "exit_code", "sigterm_as_interrupt"]
+
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import mujoco
 
+__all__ = ["RunOptions"]
+
 
 @dataclass(frozen=True)
 class RunOptions:

@@ -18,6 +18,8 @@ from typing import cast
 
 import numpy as np
 
+__all__ = ["FULL_WIDTH", "HALF_WIDTH", "coinciding", "formula_png", "png_bytes", "png_data_uri", "pyplot", "style"]
+
 DPI = 90
 STYLE = {"figure.dpi": DPI, "font.size": 9, "legend.fontsize": 8, "axes.titlesize": 9.5,
          "svg.hashsalt": "mjharness"}

@@ -17,6 +17,8 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
+__all__ = ["heartbeat", "stage"]
+
 HEARTBEAT = 8.0
 """Seconds between two lines while a phase lasts: within the 10 s any command may be silent, yet few lines in a
 CI log."""

@@ -26,6 +26,8 @@ from typing import Any
 
 import numpy as np
 
+__all__ = ["dumps", "loads"]
+
 DTYPES = ("float64", "float32", "int64", "int32", "int8", "uint8", "bool")
 # sympy functions an entry may name (applied to its arguments, as sympy builds them)
 FUNCTIONS = ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "exp", "log", "Abs",

@@ -10,6 +10,8 @@ import sys
 import textwrap
 from collections.abc import Sequence
 
+__all__ = ["fmt", "html_table", "terminal_width", "text_table", "wrap"]
+
 
 def fmt(value: float | None, spec: str = ".3e") -> str:
     """A number for a table; ``-`` for None, ``nan``/``inf`` spelled out."""

@@ -24,6 +24,8 @@ import numpy as np
 from analytic.tree.rotations import exp_map, mat_to_quat, quat_to_mat, right_jacobian
 from harness.core.errors import ModelMismatch
 
+__all__ = ["ONE_DOF", "Binding", "JointBinding", "QuaternionJointBinding", "TreeBinding", "velocity_map"]
+
 ONE_DOF = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
 

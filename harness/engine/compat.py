@@ -15,6 +15,11 @@ from harness.core.figures import FigureName
 from harness.engine.integrators import DOCUMENTED_INTEGRATORS, available_integrators
 from harness.engine.readings import Reading
 
+__all__ = ["CONNECT_WELD_LOOPS", "JAC_DOT_DEFECT", "SOLVER_ITERATIONS", "after_compile", "applicable_defect",
+           "fallbacks", "full_mass_matrix", "jac_dot", "jac_dot_missing", "joint_types", "known_defect",
+           "missing_flags", "set_damping", "set_stiffness", "solver_iterations", "spec_from_file",
+           "unavailable_reason", "version"]
+
 
 def full_mass_matrix(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
     """Dense joint-space inertia matrix after ``mj_forward``.

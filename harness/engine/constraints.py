@@ -16,6 +16,8 @@ import numpy as np
 
 from harness.core.errors import ModelMismatch
 
+__all__ = ["EQUALITY_ROWS", "equality_block", "equality_force", "equality_jacobian", "equality_rows", "equality_size"]
+
 # rows MuJoCo makes for one equality of each type (mjEQ_FLEX and others: as many as MuJoCo makes)
 EQUALITY_ROWS: dict[int, int] = {
     int(mujoco.mjtEq.mjEQ_CONNECT): 3,

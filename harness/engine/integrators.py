@@ -25,6 +25,9 @@ from collections.abc import Callable
 
 import mujoco
 
+__all__ = ["DOCUMENTED_INTEGRATORS", "EXPECTED_ORDER", "STEP_FUNCTIONS", "available_integrators", "integrator_enum",
+           "integrator_name"]
+
 
 def _rk4(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     mujoco.mj_RungeKutta(model, data, 4)

@@ -19,6 +19,8 @@ from collections.abc import Iterator
 
 import mujoco
 
+__all__ = ["keep", "kept_within"]
+
 _kept: deque[str] = deque(maxlen=64)
 _keeping: list[bool] = []  # whether keep() holds for the process (the CLI's), so a block leaves it on
 

@@ -35,6 +35,8 @@ from harness.engine.compat import after_compile, spec_from_file
 from harness.engine.integrators import integrator_enum
 from harness.engine.validity import InvalidModel, check_model, check_spec, check_texts
 
+__all__ = ["SMALL_TEXTURE", "authored", "compile_model", "edit_identity", "load_spec", "mjcf_path"]
+
 
 def mjcf_path(name: str) -> Path:
     """Path of the shipped model ``mjcf/NAME.xml``."""

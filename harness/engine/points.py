@@ -24,6 +24,8 @@ import numpy as np
 
 from harness.core.errors import ModelMismatch
 
+__all__ = ["PointSource", "point_jacobian", "point_source"]
+
 
 @dataclass(frozen=True)
 class PointSource:

@@ -13,6 +13,8 @@ from harness.engine.points import point_source
 from harness.engine.readings import Reading
 from harness.engine.sensors import Load
 
+__all__ = ["Probe"]
+
 
 @dataclass(frozen=True)
 class Probe:

@@ -40,6 +40,8 @@ from analytic.dynamics import Dynamics
 from harness.core.errors import ModelMismatch
 from harness.engine.readings.momentum import subtree as body_subtree
 
+__all__ = ["Load", "Recorder", "Sensor", "sensors", "weld_moment_map"]
+
 KINDS: dict[int, str] = {
     int(mujoco.mjtSensor.mjSENS_FORCE): "force",
     int(mujoco.mjtSensor.mjSENS_TORQUE): "torque",

@@ -23,6 +23,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+__all__ = ["InvalidModel", "check_model", "check_spec", "check_texts"]
+
 # MjModel field prefixes of the elements a message names: (kind, mjtObj, the MjModel count of them)
 ELEMENTS: dict[str, tuple[str, mujoco.mjtObj, str]] = {
     "body_": ("body", mujoco.mjtObj.mjOBJ_BODY, "nbody"), "jnt_": ("joint", mujoco.mjtObj.mjOBJ_JOINT, "njnt"),

@@ -57,6 +57,11 @@ import numpy as np
 from harness.engine.integrators import integrator_name
 from harness.engine.models import compile_model
 
+__all__ = ["CONVERGED_TOLERANCE", "POINT_MASS", "SETTLE_TIMECONSTS", "TIMECONST_FACTOR", "ConvergedSolver",
+           "ModelUnderTest", "SpecEdit", "Variants", "compose", "contact_timeconst", "converged_solver",
+           "exact_solver", "floors_pair", "point_masses", "represented_model", "rigid_factor", "roundoff_copy",
+           "scale_inertia", "softness_factor", "solver_converges", "steps_per_timeconst", "variant", "wider_margins"]
+
 POINT_MASS = 1e-6
 """The largest rotational inertia, relative to m L², a body may carry and still count as a point mass."""
 

@@ -41,6 +41,8 @@ from harness.families import (
 )
 from harness.families.bench import Comparisons, Family
 
+__all__ = ["COMPARISONS", "FAMILIES", "figure_names", "gated", "theory_limit"]
+
 FAMILIES: tuple[Family, ...] = (instant, reactions, peers, reference, trajectory, invariants, convergence, balance)
 """Every family, in the order a case is measured and its figures are listed."""
 

@@ -48,6 +48,9 @@ from harness.engine.variants import compose
 from harness.families.bench import Bench, Measured
 from harness.reference.tree import TreeEdit
 
+__all__ = ["NAME", "POWER", "POWER_FIELDS", "attribute", "balance_figures", "cumulative_work", "gated", "measure",
+           "names", "owns", "theory_limit"]
+
 POWER_FIELDS = ("qfrc_passive", "qfrc_spring", "qfrc_actuator", "qfrc_constraint", "qfrc_applied")
 
 

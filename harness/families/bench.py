@@ -46,6 +46,8 @@ from harness.reference import derivations
 from harness.reference import solutions as refmod
 from harness.reference.tree import switch_note, switched_orders, switches
 
+__all__ = ["Bench", "Comparisons", "Family", "Measured", "perturbed", "settle_time"]
+
 T = TypeVar("T")  # what a timed stage returns
 
 

@@ -77,6 +77,10 @@ from harness.families.runs import every_nth
 from harness.reference import solutions as refmod
 from harness.reference.tree import SWITCHED_ORDER, switched_orders, switches
 
+__all__ = ["EXPECTED_ORDER", "NAME", "ORDER_TOLERANCE", "VERDICT_QUANTITY", "ConvergenceStudy", "Series",
+           "convergence_study", "explained_floor", "fit_order", "gated", "initial_force_floor", "measure", "names",
+           "owns", "roundoff_floor", "scaled_softness", "theory_limit"]
+
 ORDER_TOLERANCE = 0.3   # pass when observed ≥ expected − 0.3 (floor bias ≤ 0.14, see above)
 FLOOR_FACTOR = 10.0     # fit only errors above 10 × the detected floor
 PLATEAU_SLOPE = 0.5     # a local slope below this at the smallest h marks a floor

@@ -52,6 +52,8 @@ from harness.families.bench import Bench, Measured
 from harness.families.sampled import DEFAULT_SAMPLES, Sample, sample_states
 from harness.reference.solutions import Reference
 
+__all__ = ["NAME", "compare", "gated", "measure", "names", "not_unique", "owns", "theory_limit"]
+
 NAME = "instant"
 QUANTITIES = ("kinematics", "kinetic_energy", "point_acceleration", "mass_matrix", "forcing", "qacc",
               "generalized_force")

@@ -25,6 +25,8 @@ from harness.families import trajectory
 from harness.families.bench import Bench, Measured
 from harness.families.runs import Target, largest
 
+__all__ = ["NAME", "compare", "gated", "measure", "names", "owns", "theory_limit"]
+
 NAME = "invariants"
 
 NOT_CONSERVED = 1e4

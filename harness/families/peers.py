@@ -18,6 +18,8 @@ from harness.core.figures import FigureName
 from harness.families.bench import Bench, Measured
 from harness.opinions import threeway
 
+__all__ = ["NAME", "gated", "measure", "names", "owns", "theory_limit"]
+
 NAME = "peers"
 
 

@@ -51,6 +51,8 @@ from harness.families.bench import Bench, Measured
 from harness.families.sampled import Sample
 from harness.reference.tree import TREE
 
+__all__ = ["NAME", "compare", "gated", "measure", "names", "owns", "sensor_names", "theory_limit"]
+
 NAME = "reactions"
 
 

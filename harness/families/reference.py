@@ -20,6 +20,8 @@ from harness.families.bench import Bench, Measured
 from harness.reference.derivations import minimal_dynamics
 from harness.reference.solutions import Reference
 
+__all__ = ["NAME", "gated", "measure", "names", "owns", "reference_figures", "theory_limit"]
+
 NAME = "reference"
 QUANTITIES = ("residual", "ode_vs_dae")
 

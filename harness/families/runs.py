@@ -150,7 +150,8 @@ from harness.engine.integrators import EXPECTED_ORDER, integrator_name
 from harness.engine.probe import Probe
 from harness.engine.recording import record
 
-__all__ = ["INTEGRATION_UNCERTAINTY", "Runs"]  # the integration part's, and the runs' record: read here too
+__all__ = ["INTEGRATION_UNCERTAINTY", "RIGID_SPLITS", "Budgets", "Compare", "Runs", "Target", "budget", "budgets",
+           "compared", "every_nth", "largest", "noise_gain", "point_differences", "rigid_resolved", "unresolved"]
 
 ROUNDOFF = ROUNDOFF_EPS * float(np.finfo(float).eps)
 ASYMPTOTIC = 0.01

@@ -80,6 +80,9 @@ from harness.engine.probe import Probe
 from harness.engine.sensors import Recorder
 from harness.reference.solutions import Reference
 
+__all__ = ["DEFAULT_SAMPLES", "ROUNDOFF", "Compare", "Evaluation", "Sample", "at_states", "budgets", "evaluate",
+           "has_contacts", "mujoco_states", "point_acceleration", "pull_back", "sample_states"]
+
 DEFAULT_SAMPLES = 24
 STATE_TOLERANCE = 1e-14
 

@@ -47,6 +47,8 @@ from typing import overload
 
 import numpy as np
 
+__all__ = ["ASSESSED", "Stability", "assess", "states_for"]
+
 Array = np.ndarray
 
 ASSESSED = ("Euler", "RK4")

@@ -36,6 +36,8 @@ from harness.families.bench import Bench, Measured
 from harness.families.instant import not_unique
 from harness.families.runs import Target, largest, point_differences
 
+__all__ = ["NAME", "QUANTITIES", "compare", "gated", "measure", "names", "owns", "theory_limit"]
+
 NAME = "trajectory"
 QUANTITIES = ("position", "position_final", "velocity", "force", "violation", "generalized_force", "series")
 GATED = ("position", "force", "violation", "series")

@@ -5,3 +5,5 @@ geometry, no material denser than the densest element) and the centre of mass in
 category, likely cause and effect on the dynamics; urdf: a URDF compiled with its own meshes; models: what
 ``check`` and ``run`` audit, with the config's acceptances.
 """
+
+__all__: list[str] = []

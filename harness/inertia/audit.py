@@ -39,6 +39,8 @@ from harness.inertia.bounds import Shape
 from harness.inertia.geometry import Solid, body_geoms, solid
 from harness.opinions.structure import sample_states
 
+__all__ = ["DENSITY_MARGIN", "BodyAudit", "ModelAudit", "audit_model"]
+
 POINT_MASS = 1e-6  # principal moments ≤ this × m L²: the harness's point-mass floor (harness.budget.floors)
 IMPLAUSIBLE = 10.0  # tr Σ this many times above or below the filled hull's: a warning
 DENSITY_MARGIN = 1.25  # the tessellated hull's volume falls short of the exact hull's by ≤ 6.1 % (a sphere's; tests pin

@@ -21,6 +21,9 @@ import numpy as np
 
 from harness.inertia.geometry import Geom, fibonacci_directions, supports
 
+__all__ = ["DENSEST", "Shape", "com_outside", "densest_ball", "inertia_of", "lower_ratio", "realizable",
+           "second_moment", "upper_ratio"]
+
 DENSEST = 22_600.0  # kg/m³: osmium 22,590, iridium 22,560, the densest elements at room conditions
 DIRECTIONS = 500  # Fibonacci directions over the sphere (a hemisphere would do: w(n) = w(−n)), and the body axes
 _DIRS = np.vstack([np.eye(3), fibonacci_directions(DIRECTIONS)])

@@ -27,6 +27,8 @@ import mujoco
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+__all__ = ["Geom", "Solid", "body_geoms", "fibonacci_directions", "solid", "supports"]
+
 _G = mujoco.mjtGeom
 SKIPPED = (int(_G.mjGEOM_PLANE), int(_G.mjGEOM_HFIELD))
 

@@ -13,6 +13,8 @@ from harness.engine.models import compile_model
 from harness.inertia.audit import ModelAudit, audit_model
 from harness.inertia.urdf import urdf_model
 
+__all__ = ["Inertials", "audit_files"]
+
 
 @dataclass(frozen=True)
 class Inertials:

@@ -19,6 +19,8 @@ import mujoco
 
 from harness.core.errors import ModelError
 
+__all__ = ["urdf_model"]
+
 READABLE = (".stl", ".obj", ".msh")
 _OPTIONS = '<mujoco><compiler discardvisual="false" fusestatic="false"/></mujoco>'
 

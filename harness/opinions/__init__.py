@@ -11,3 +11,5 @@
 Pinocchio is the optional extra ``pip install 'mjharness[pin]'``; without it each opinion says in one line
 what it skipped.
 """
+
+__all__: list[str] = []

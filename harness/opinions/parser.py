@@ -17,6 +17,8 @@ import mujoco
 from harness.opinions import structure
 from harness.opinions.structure import PIN_EXTRA, Comparison, captured_stderr, compare
 
+__all__ = ["ParserOpinion", "parser_opinion"]
+
 TITLE = "Pinocchio's MJCF parser (advisory, never gates)"
 
 

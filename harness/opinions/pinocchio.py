@@ -32,6 +32,8 @@ import numpy as np
 
 from harness.core.errors import ModelError
 
+__all__ = ["INSTALL", "available", "build", "rigid"]
+
 INSTALL = "pip install 'mjharness[pin]'"
 """How to get the optional extra every second opinion needs."""
 

@@ -30,6 +30,8 @@ import numpy as np
 
 from harness.engine.compat import full_mass_matrix
 
+__all__ = ["PIN_EXTRA", "Comparison", "captured_stderr", "compare", "pinocchio_available", "sample_states"]
+
 PIN_EXTRA = "pip install 'mjharness[pin]'"
 
 # Tolerances, each relative to the scale named beside it, and their basis. Two files describing the same robot

@@ -42,6 +42,8 @@ from harness.engine.compat import full_mass_matrix
 from harness.opinions import pinocchio as peer
 from harness.reference.tree import charts, read_tree, refusal, start_state
 
+__all__ = ["LIMIT", "QUANTITIES", "summary", "three_way"]
+
 QUANTITIES = ("mass_matrix", "bias", "qacc", "inverse")
 """What the three sides compare: M, the bias forces (Coriolis, centrifugal, gravity), the forward dynamics'
 qacc under a test force, and the inverse dynamics' force for a test acceleration."""

@@ -29,6 +29,8 @@ from harness.opinions import structure
 from harness.opinions.parser import ParserOpinion, parser_opinion
 from harness.opinions.structure import PIN_EXTRA, Comparison, captured_stderr, compare
 
+__all__ = ["compare_urdf", "load_urdf", "model_opinions"]
+
 MAP_FORMAT = '[bodies] urdf_link = "mjcf_body" and [joints] urdf_joint = "mjcf_joint"'
 
 

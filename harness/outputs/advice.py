@@ -15,6 +15,8 @@ from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, s
 from harness.core.tables import text_table
 from harness.studies.advice import Advice, Curve, Point, Verification, covered
 
+__all__: list[str] = []
+
 PANELS = (("position", "position error (m)"), ("drift.energy", "energy drift error (relative)"),
           ("force", "constraint force error (relative)"))
 """The quantities drawn: a measure, or ``force`` for the largest of the ``force.*`` figures."""

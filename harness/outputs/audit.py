@@ -12,6 +12,8 @@ from harness.audit.verdicts import AuditRow, counts
 from harness.core.tables import text_table
 from harness.outputs.formulas import quote_html, text_html
 
+__all__ = ["counts_line", "format_table", "html_section", "json_rows"]
+
 
 def _num(value: float | None) -> str:
     return "n/a" if value is None else f"{value:.2e}"

@@ -18,6 +18,8 @@ from harness.core.checks import Check
 from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, style
 from harness.pipeline.run import CaseResult
 
+__all__ = ["BackendRun", "findings", "side_by_side_html", "side_by_side_json"]
+
 
 @dataclass(frozen=True)
 class BackendRun:

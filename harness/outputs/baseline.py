@@ -44,6 +44,8 @@ from harness.engine.compat import unavailable_reason
 from harness.outputs.files import prepare_output, write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
 
+__all__: list[str] = []
+
 FACTOR = 2.0
 FLOOR = 0.01
 DEFAULT_PATH = "reports/baseline"

@@ -27,6 +27,9 @@ from pathlib import Path
 from harness.core import inputs
 from harness.outputs.schema import check_run
 
+__all__ = ["JUDGED", "FigureChange", "diff_runs", "figure_value", "format_diff", "load_run", "select",
+           "status_flipped"]
+
 PRINTED_PRECISION = 5e-4
 """A ratio within this of 1 prints as 1 at three significant digits: the row shows no change."""
 JUDGED = ("pass", "FAIL", "FAIL (known defect)")

@@ -26,6 +26,8 @@ from harness.pipeline.pool import cpus, run_tasks
 from harness.pipeline.run import CaseResult
 from harness.studies import Studies, contact, softness, solvers
 
+__all__ = ["draw_report"]
+
 
 def study_calls(selected: Sequence[cases.Case]) -> list[tuple[str, str]]:
     """Layer 4 and the seed audit as (kind, name) calls, the costliest kinds first (the seed audit of a

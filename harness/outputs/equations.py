@@ -21,6 +21,8 @@ import sympy as sp
 from analytic.lagrangian import Derivation
 from harness.core.plotting import formula_png, pyplot
 
+__all__ = ["MAX_WIDTH_PX", "equations", "png_data_uri", "width_px"]
+
 DPI, FONTSIZE = 110, 13.0
 MAX_WIDTH_PX = 540
 """The widest line drawn: beside the model still at a 1000 px window there are about 560 px."""

@@ -31,6 +31,10 @@ import uuid
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
+__all__ = ["AUDIT_PAGE", "BACKENDS_PAGE", "CASE_PAGES", "FORCE", "INERTIA_PAGE", "MANIFEST", "PAGES", "REPORT_FILES",
+           "STALE", "STUDIES_PAGE", "check_output", "check_report_folder", "mark_stale", "ours", "prepare_output",
+           "superseded", "with_manifest", "write_atomic"]
+
 STALE = ".stale"
 REPORT_FILES = ("report.html", "report.json", "summary.md")  # what `mjharness run` writes into --out, always
 CASE_PAGES = "cases"  # and a page per case in this folder, NAME.html

@@ -12,6 +12,8 @@ import re
 from harness.audit.notation import latex_text
 from harness.core.plotting import formula_png
 
+__all__ = ["formula_html", "is_display", "quote_html", "text_html"]
+
 FONTSIZE = 12.0
 _SCRIPT = re.compile(r"([_^])\{([^{}]*)\}")
 _COMMANDS = re.compile(r"\\(?:text|mathrm|operatorname)\{[^{}]*\}|\\[A-Za-z]+")

@@ -23,6 +23,8 @@ from harness.inertia.models import Inertials
 from harness.outputs.files import INERTIA_PAGE
 from harness.outputs.page import Page
 
+__all__ = ["inertia_banners", "inertia_page"]
+
 _VIEWS = ((0, 1, "top (x, y)"), (0, 2, "front (x, z)"), (1, 2, "side (y, z)"))
 
 

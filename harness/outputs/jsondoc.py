@@ -19,6 +19,8 @@ from harness.core.checks import Check
 from harness.pipeline.outcome import Outcome
 from harness.pipeline.run import CaseResult
 
+__all__ = ["dumps", "json_doc", "render_json", "versions"]
+
 SCHEMA = 2
 
 

@@ -14,6 +14,8 @@ from collections.abc import Mapping, Sequence
 from harness.core.checks import Check
 from harness.core.escape import xml_text
 
+__all__ = ["junit_xml"]
+
 
 def _fmt(value: float) -> str:
     return f"{value:.6e}"

@@ -16,6 +16,8 @@ import re
 from dataclasses import dataclass, field
 from html.parser import HTMLParser
 
+__all__ = ["Page", "table_of_contents", "unbroken_numbers"]
+
 CONTENTS_ID = "contents"
 
 

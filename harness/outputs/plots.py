@@ -18,6 +18,8 @@ from harness.core.trajectory import Trajectory
 from harness.families.runs import point_differences
 from harness.pipeline.run import CaseResult
 
+__all__ = ["section_plots", "shipped_integrator"]
+
 FLOOR = 1e-16  # errors below this are drawn at it (a log axis has no zero)
 MARKERS = 12  # markers per curve: enough to tell dashes apart, few enough not to hide the line
 

@@ -72,6 +72,8 @@ from harness.pipeline.run import CaseResult
 from harness.reference.derivations import derivation
 from harness.reference.tree import TREE
 
+__all__ = ["render_markdown", "report_files", "section_case", "write_report"]
+
 
 def _esc(value: object) -> str:
     return html.escape(str(value), quote=True)

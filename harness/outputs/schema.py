@@ -16,6 +16,8 @@ from collections.abc import Mapping
 
 from harness.core.figures import FigureName
 
+__all__ = ["SchemaError", "check_run"]
+
 SCHEMAS = (1, 2)  # the schema numbers this version reads (harness.outputs.jsondoc.SCHEMA writes the last)
 NON_FINITE = ("nan", "inf", "-inf")  # how strict JSON holds a non-finite number
 

@@ -40,6 +40,8 @@ from harness import cases
 from harness.core.lifetime import die_with_parent
 from harness.engine.bindings import JointBinding
 
+__all__ = ["Request", "Still", "stills"]
+
 WIDTH, HEIGHT = 480, 360
 BACKENDS = ("egl", "osmesa")
 TIMEOUT_S = 120.0

@@ -23,6 +23,9 @@ from harness.core.checks import Check, ratio
 from harness.core.tables import text_table, wrap
 from harness.pipeline.outcome import Outcome
 
+__all__ = ["checks_table", "coverage_block", "failures_block", "fitness_line", "fitness_table", "fmt_value",
+           "parts_shown", "ratio", "ratio_text", "stability_block", "verdict_line"]
+
 
 def fmt_value(value: float) -> str:
     return f"{value:.3e}" if np.isfinite(value) else str(value)

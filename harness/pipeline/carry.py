@@ -25,6 +25,8 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
+__all__ = ["Carried", "pack"]
+
 ASSETS = {"mesh": ("meshdir",), "skin": ("meshdir",), "texture": ("texturedir",), "hfield": ("texturedir",)}
 """Elements whose ``file`` attributes (``file``, and a cube texture's ``fileright`` …) name an asset, and the
 compiler attribute of the folder MuJoCo looks in (``assetdir`` standing for both)."""

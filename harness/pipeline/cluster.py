@@ -46,6 +46,8 @@ import ray.exceptions
 from harness.pipeline.carry import Carried
 from harness.pipeline.executor import Executor, TaskLost
 
+__all__: list[str] = []
+
 RETRIES = 3
 """Ray's reruns of a task whose worker died: a killed worker, a node lost mid-run."""
 

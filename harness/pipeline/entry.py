@@ -27,6 +27,8 @@ from harness.pipeline.outcome import Outcome, outcome_of
 from harness.pipeline.require import Requirement, check_known
 from harness.pipeline.run import CaseResult
 
+__all__ = ["Judging", "evaluate", "own_case"]
+
 
 @dataclass(frozen=True)
 class Judging:

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+__all__ = ["EXECUTORS", "LOCAL", "Executor", "TaskLost"]
+
 EXECUTORS = ("local", "ray")
 """Where :func:`run_tasks` runs its calls: this machine's process pool, or tasks on a Ray cluster."""
 

@@ -61,6 +61,8 @@ from harness.core.figures import FigureName
 from harness.families import peers as peers_family
 from harness.pipeline.require import Requirement, from_config
 
+__all__ = ["SHIPPED_SOURCE", "Limit", "Limits", "case_limits", "check_config", "load_limits"]
+
 CONFIG_KEYS = {"thresholds", "require", "accept_known_defects", "accept_inertia"}
 
 

@@ -25,6 +25,8 @@ from harness.core.checks import Check, gate
 from harness.core.findings import Finding
 from harness.pipeline.require import Fitness, Requirement, judge_fitness
 
+__all__ = ["EXIT_UNFIT", "Outcome", "outcome_of"]
+
 EXIT_OK, EXIT_FAIL, EXIT_UNFIT = 0, 1, 3
 
 

@@ -30,6 +30,8 @@ from harness.core.lifetime import die_with_parent
 from harness.engine import recording
 from harness.pipeline.executor import LOCAL, Executor
 
+__all__ = ["cpus", "fork_pool", "run_tasks"]
+
 
 def cpus() -> int:
     """CPUs this process may run on."""

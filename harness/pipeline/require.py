@@ -27,6 +27,9 @@ from harness.core.errors import ConfigError
 from harness.core.figures import FigureName
 from harness.pipeline.run import CaseResult
 
+__all__ = ["Fitness", "Requirement", "check_known", "check_possible", "from_config", "judge_fitness", "parse",
+           "requirement"]
+
 GROUPS = ("force", "drift", "violation", "series")
 
 

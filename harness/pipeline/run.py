@@ -34,6 +34,8 @@ from harness.families.bench import Bench, Measured
 from harness.families.stability import Stability
 from harness.pipeline.settings import ModelSettings, RunSettings, authored_differences, changed_settings
 
+__all__ = ["CaseResult", "run_case"]
+
 
 @dataclass(frozen=True)
 class CaseResult:

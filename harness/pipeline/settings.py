@@ -18,6 +18,8 @@ import numpy as np
 
 from harness.engine.integrators import integrator_name
 
+__all__ = ["ModelSettings", "RunSettings", "authored_differences", "changed_settings"]
+
 
 @dataclass(frozen=True)
 class ModelSettings:

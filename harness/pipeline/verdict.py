@@ -26,6 +26,8 @@ from harness.families.convergence import ORDER_TOLERANCE
 from harness.pipeline.limits import Limit
 from harness.pipeline.run import CaseResult
 
+__all__ = ["judge"]
+
 
 def defect_signature(result: CaseResult, name: FigureName) -> str:
     """The known defect a failed figure of ``result`` shows the signature of, with the evidence, or ''."""

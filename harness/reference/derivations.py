@@ -29,6 +29,9 @@ from harness.reference.tree import TREE
 if TYPE_CHECKING:
     from analytic.lagrangian import Derivation, LagrangianSystem
 
+__all__ = ["clear_caches", "derivation", "derivation_cost", "derivation_stored", "dynamics", "dynamics_of",
+           "minimal_derivation", "minimal_dynamics", "numeric_sources", "params_of"]
+
 # Derivation's lazily computed results, all evaluated before a derivation is cached on disk
 SYMBOLIC = ("mass_matrix", "forcing", "constraint_rows", "jacobian", "gamma", "holonomic_residual", "energy",
             "momenta", "cyclic", "equations", "multiplier_symbols")

@@ -29,6 +29,8 @@ from pathlib import Path
 from analytic.dynamics import Compiled
 from harness.core import cache
 
+__all__ = ["DIRECTORY", "SUFFIX", "covers", "load", "write"]
+
 DIRECTORY = Path(__file__).resolve().parent / "prebuilt"
 SUFFIX = ".entry"
 

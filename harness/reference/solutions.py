@@ -40,6 +40,9 @@ from harness.core.trajectory import Trajectory
 from harness.reference.derivations import dynamics, params_of
 from harness.reference.tree import TreeSystem, tree_scales
 
+__all__ = ["TREE_MAX_STEPS", "Reference", "bounded_solve", "build_reference", "clear_caches", "export_solutions",
+           "import_solutions", "trajectory"]
+
 
 @dataclass(frozen=True)
 class Reference:

@@ -21,6 +21,8 @@ from harness.engine.backends import Backend
 from harness.families import convergence as orders
 from harness.studies import softness, solvers
 
+__all__ = ["Studies", "run_studies"]
+
 
 @dataclass(frozen=True)
 class Studies:

@@ -68,6 +68,8 @@ from harness.pipeline.verdict import judge
 from harness.reference import solutions as refmod
 from harness.reference.tree import TreeEdit
 
+__all__ = ["Advice", "Curve", "Point", "Verification", "advise", "covered"]
+
 HALVINGS = 4
 """The ladder's steps below the model's own h₀: four halvings (an order-1 error shrinks 16×, an order-4 one 65 536×).
 Above h₀ it doubles as far as the step allows (:data:`FEWEST_STEPS` over the horizon, the stability limit): a

@@ -40,6 +40,8 @@ from harness.families.bench import settle_time
 from harness.families.runs import Target, compared
 from harness.reference import solutions as refmod
 
+__all__ = ["StudyResult", "contact_study"]
+
 CONES = ("pyramidal", "elliptic")
 IMPRATIOS = (1.0, 10.0, 100.0)
 NOSLIP_ITERATIONS = (0, 3)

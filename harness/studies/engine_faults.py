@@ -42,6 +42,8 @@ from harness.pipeline.run import run_case
 from harness.pipeline.verdict import judge
 from harness.reference.tree import prepare, read_tree, tree_scales
 
+__all__ = ["CLAIMED", "FAULTS", "SIZES", "UNITS", "Caught", "bisect_decades", "damping_scale", "smallest_caught"]
+
 FAULTS = ("inertia", "damping", "axis")
 CLAIMED = {"inertia": 1e-2, "damping": 1e-2, "axis": 1e-3}
 """The sizes issue 29 names for each fault (× 1.01, an extra damping, 1e-3 rad): caught there or smaller."""

@@ -32,6 +32,8 @@ from harness.engine.integrators import available_integrators
 from harness.engine.models import compile_model
 from harness.engine.variants import point_masses, scale_inertia
 
+__all__ = ["COARSE", "FAULTS", "SETTINGS", "Change", "by_name"]
+
 SpecEdit = Callable[[mujoco.MjSpec], None]
 Kind = Literal["setting", "fault"]
 

@@ -39,6 +39,8 @@ from harness.families.balance import POWER, POWER_FIELDS, balance_figures, cumul
 from harness.reference.tree import TreeEdit, prepare
 from harness.studies.engine_faults import SIZES, bisect_decades, damping_scale
 
+__all__ = ["INJECTED", "SIZES_SEARCHED", "Injection", "injector", "smallest_injection", "unaccounted"]
+
 INJECTOR = "mjharness_injection"
 """The name of the actuator that injects the energy (added last: the model's own actuators keep their indices)."""
 INTEGRATORS = ("RK4", "Euler")

@@ -35,6 +35,8 @@ from harness.pipeline.run import run_case
 from harness.pipeline.verdict import judge
 from harness.studies.faults import COARSE, Change, by_name
 
+__all__ = ["LARGEST", "SMALLEST", "Sensitivity", "Trial", "sensitivity_named", "trial_named"]
+
 SMALLEST = 1e-7
 LARGEST = 1.0
 

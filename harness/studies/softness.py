@@ -45,6 +45,8 @@ from harness.engine.recording import steps_in
 from harness.families.convergence import initial_force_floor
 from harness.reference import solutions as refmod
 
+__all__ = ["SETTLE", "SoftnessStudy", "equality_cases", "softness_study"]
+
 TIMECONSTS: tuple[float, ...] = (0.002, 0.005, 0.02, 0.05)   # s; 0.02 is MuJoCo's default solref
 IMPEDANCES: tuple[float, ...] = (0.9, 0.99, 0.999, 0.9999)   # 0.9999 = mjMAXIMP, the stiffest
 FAST_TIMECONSTS: tuple[float, ...] = (0.002, 0.02)

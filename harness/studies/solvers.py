@@ -31,6 +31,8 @@ from harness.engine.models import compile_model
 from harness.engine.recording import steps_in
 from harness.reference import solutions as refmod
 
+__all__ = ["SolverStudy", "constrained_cases", "solver_study"]
+
 SOLVERS: tuple[str, ...] = ("Newton", "CG", "PGS")
 FAST_HORIZON = 0.5
 

@@ -9,3 +9,5 @@ beyond their noise, figures that appeared or vanished, each with the release whe
 needs; :mod:`~harness.versions.releases` asks the package index which releases exist;
 :mod:`~harness.versions.changes_report` writes the text, HTML and JSON.
 """
+
+__all__: list[str] = []

@@ -21,6 +21,8 @@ from harness.outputs.diff import JUDGED
 from harness.versions.changes import NOISE_FACTOR, Key, Snapshot, moved
 from harness.versions.releases import Release
 
+__all__ = ["Bisection", "Target", "bisect", "differs", "parse_target"]
+
 VERDICTS = "verdicts"
 
 

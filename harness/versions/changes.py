@@ -35,6 +35,9 @@ import numpy as np
 from harness.outputs.diff import FigureChange, figure_value, status_flipped
 from harness.versions.releases import Release
 
+__all__ = ["NOISE_FACTOR", "ULP_FLOOR", "Change", "History", "Key", "Snapshot", "changes", "compare", "figures",
+           "history", "moved", "noise", "snapshot", "statuses"]
+
 NOISE_FACTOR = 10.0
 ULP_FLOOR = 4 * float(np.finfo(float).eps)
 

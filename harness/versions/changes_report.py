@@ -18,6 +18,8 @@ from harness.versions.bisect import Bisection
 from harness.versions.changes import NOISE_FACTOR, ULP_FLOOR, Change, History, Snapshot, history
 from harness.versions.runs import NOISE_RUNS, ReleaseRun
 
+__all__ = ["Comparison", "html_page", "json_doc", "text"]
+
 SCHEMA = 1
 TEXT_ROWS = 40  # rows of each list on the terminal; every row is in versions.html and versions.json
 

@@ -40,6 +40,9 @@ from pathlib import Path
 
 from harness.versions.releases import Release
 
+__all__ = ["BACKENDS", "SAME_RELEASE", "Builder", "EnvError", "EnvSpec", "Environment", "Shipped", "backend_packages",
+           "envs_root", "find_uv", "pins", "source_hash", "source_root"]
+
 PINNED = ("numpy", "sympy")
 """The dependencies pinned to this interpreter's versions in every environment: they compute the reference."""
 

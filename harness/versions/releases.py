@@ -14,6 +14,8 @@ import sys
 from collections.abc import Callable, Sequence
 from functools import total_ordering
 
+__all__ = ["Release", "parse_selection", "pip_index_versions", "releases_between"]
+
 PACKAGE = "mujoco"
 OLDEST = "3.3.0"
 

@@ -32,6 +32,8 @@ from harness.pipeline.pool import run_tasks
 from harness.versions.envs import Builder, EnvError, Environment, EnvSpec, Shipped
 from harness.versions.releases import Release
 
+__all__ = ["NOISE_RUNS", "CheckCommand", "ReleaseRun", "check_environ", "noise_runs", "run_release", "run_releases"]
+
 PERTURBATION = 1e-15
 """The relative move of the initial state for the noise runs: about 4.5 units of round-off (2⁻⁵² ≈ 2.2e-16)."""
 NOISE_RUNS = (PERTURBATION, -PERTURBATION)

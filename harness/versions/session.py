@@ -13,6 +13,8 @@ from harness.versions.envs import Builder, EnvSpec
 from harness.versions.releases import Release
 from harness.versions.runs import NOISE_RUNS, CheckCommand, ReleaseRun, run_release, run_releases
 
+__all__ = ["bisect_releases", "compare_releases"]
+
 
 def _snapshot(run: ReleaseRun) -> changes_mod.Snapshot:
     assert run.doc is not None

@@ -37,6 +37,8 @@ from harness.versions.envs import EnvError, EnvSpec, Shipped
 from harness.versions.releases import Release
 from harness.versions.runs import CheckCommand, check_environ
 
+__all__ = ["ERROR", "NA", "REFUSED", "FirstChange", "Model", "Sweep", "first_changes", "plan", "run"]
+
 PASS, FAIL, REFUSED, NA, ERROR = "pass", "fail", "refused", "n/a", "error"
 VERDICTS = (PASS, FAIL, REFUSED, NA, ERROR)
 JUDGED = (PASS, FAIL, REFUSED)

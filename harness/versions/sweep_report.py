@@ -14,6 +14,8 @@ from typing import Any
 from harness.core.escape import markdown_cell
 from harness.versions.sweep import ERROR, NA, REFUSED, FirstChange, Sweep, first_changes
 
+__all__ = ["comparable", "differences", "json_doc", "markdown", "text"]
+
 SCHEMA = 1
 COST_KEYS = ("seconds", "env_seconds", "host", "executor", "command")
 """The keys of sweep.json that say what a run cost and where it ran, not what it found."""

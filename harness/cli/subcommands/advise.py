@@ -19,6 +19,8 @@ from harness.outputs.jsondoc import dumps
 from harness.pipeline import require
 from harness.pipeline.outcome import EXIT_UNFIT
 
+__all__ = ["COMMAND"]
+
 
 def _args_advise(p: argparse.ArgumentParser) -> None:
     p.add_argument("cases", nargs="?", default=None, metavar="CASE",

@@ -9,6 +9,8 @@ from harness.cli.common import EXIT_OK, Command
 from harness.cli.options import _add_json
 from harness.outputs.jsondoc import dumps
 
+__all__ = ["COMMAND"]
+
 
 def _args_audit(p: argparse.ArgumentParser) -> None:
     _add_json(p)

@@ -14,6 +14,8 @@ from harness.outputs.files import check_output
 from harness.outputs.table import checks_table
 from harness.pipeline.matrix import run_all
 
+__all__ = ["COMMAND"]
+
 
 def _args_baseline(p: argparse.ArgumentParser) -> None:
     _add_selection(p, mjcf=False)

@@ -37,6 +37,8 @@ from harness.outputs.files import write_atomic
 from harness.outputs.jsondoc import dumps, json_doc
 from harness.pipeline.entry import evaluate
 
+__all__ = ["COMMAND"]
+
 
 def _args_check(p: argparse.ArgumentParser) -> None:
     _add_selection(p)

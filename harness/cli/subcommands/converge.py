@@ -10,6 +10,8 @@ from harness.cli.options import _add_backend, _add_cases, _add_html, _add_system
 from harness.engine import backends
 from harness.outputs.files import check_output, prepare_output, write_atomic
 
+__all__ = ["COMMAND"]
+
 
 def _args_converge(p: argparse.ArgumentParser) -> None:
     _add_cases(p)

@@ -8,6 +8,8 @@ from pathlib import Path
 from harness.cli.common import EXIT_FAIL, EXIT_OK, Command
 from harness.outputs.diff import diff_runs, format_diff, load_run, select
 
+__all__ = ["COMMAND"]
+
 
 def _args_diff(p: argparse.ArgumentParser) -> None:
     p.add_argument("old", type=Path, metavar="OLD", help="report.json, check --json output or a baseline "

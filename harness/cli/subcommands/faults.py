@@ -11,6 +11,8 @@ from harness.cli.common import EXIT_FAIL, EXIT_OK, Command, _executor, _progress
 from harness.cli.options import _add_cases, _add_executor, _add_jobs, _add_systems
 from harness.pipeline.pool import cpus, run_tasks
 
+__all__ = ["COMMAND"]
+
 
 def _args_faults(p: argparse.ArgumentParser) -> None:
     _add_cases(p)

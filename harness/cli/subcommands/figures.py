@@ -10,6 +10,8 @@ from harness.cli.options import _add_cases, _add_config, _add_jobs, _add_systems
 from harness.core.tables import terminal_width, wrap
 from harness.pipeline.matrix import run_all
 
+__all__ = ["COMMAND"]
+
 
 def _args_figures(p: argparse.ArgumentParser) -> None:
     _add_cases(p)

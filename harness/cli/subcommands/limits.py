@@ -11,6 +11,8 @@ from harness.outputs.files import check_output, write_atomic
 from harness.pipeline import limits as limits_data
 from harness.pipeline.matrix import run_all
 
+__all__ = ["COMMAND"]
+
 
 def _args_limits(p: argparse.ArgumentParser) -> None:
     _add_cases(p)

@@ -10,6 +10,8 @@ from harness.cli.common import EXIT_OK, Command
 from harness.cli.options import _add_systems
 from harness.core.tables import terminal_width, wrap
 
+__all__ = ["COMMAND"]
+
 
 def _args_list(p: argparse.ArgumentParser) -> None:
     _add_systems(p)

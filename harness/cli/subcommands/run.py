@@ -39,6 +39,8 @@ from harness.outputs.files import (
 from harness.pipeline.entry import evaluate
 from harness.pipeline.matrix import run_backends
 
+__all__ = ["COMMAND"]
+
 
 def _args_run(p: argparse.ArgumentParser) -> None:
     _add_selection(p)

@@ -17,6 +17,8 @@ from harness.outputs.files import check_output, check_report_folder, prepare_out
 from harness.outputs.jsondoc import dumps
 from harness.pipeline.pool import cpus
 
+__all__ = ["COMMAND"]
+
 
 def _args_versions(p: argparse.ArgumentParser) -> None:
     p.add_argument("releases", nargs="+", metavar="RELEASE",

@@ -12,6 +12,8 @@ from harness.outputs.files import check_report_folder, prepare_output, with_mani
 from harness.outputs.jsondoc import dumps
 from harness.pipeline.pool import cpus
 
+__all__ = ["COMMAND"]
+
 
 def _args_zoo(p: argparse.ArgumentParser) -> None:
     p.add_argument("models", nargs="*", metavar="MODEL",

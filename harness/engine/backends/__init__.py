@@ -44,6 +44,9 @@ from harness.core.errors import BackendUnavailable
 from harness.core.trajectory import Trajectory
 from harness.engine.probe import Probe
 
+__all__ = ["BACKENDS", "PRECISION", "Backend", "Forward", "Request", "check_installed", "computes_reactions", "expand",
+           "get", "simulate"]
+
 BACKENDS: tuple[str, ...] = ("c", "mjx", "mjx-f64", "warp")
 """Every backend's name, as ``--backend`` and ``validate(backend=...)`` accept them (and ``all``)."""
 

@@ -21,6 +21,8 @@ from harness.engine.compat import full_mass_matrix
 from harness.engine.constraints import equality_block
 from harness.engine.probe import Probe
 
+__all__ = ["backend"]
+
 
 class CBackend:
     """MuJoCo's C engine, float64."""

@@ -62,6 +62,8 @@ from harness.engine.backends import Forward, computes_reactions
 from harness.engine.constraints import equality_rows
 from harness.engine.probe import Probe
 
+__all__ = ["completed_forward", "completed_run", "resolution"]
+
 FD_STEP = 1e-6
 """Central-difference step for H and ∂F/∂a, relative to max(1, |a|): F is smooth within a piece of the active
 set (linear outside an elliptic cone's middle zone), and a piece spans the distance to the nearest change of a

@@ -77,6 +77,8 @@ from harness.engine.probe import Probe
 from harness.engine.readings import fields_of
 from harness.engine.recording.assemble import evaluate_readings, point_velocity
 
+__all__ = ["backend", "energy", "host_model"]
+
 CHUNK = 250
 """Steps per compiled scan: a run of N steps is ⌈N / CHUNK⌉ calls of one compiled function."""
 

@@ -63,6 +63,8 @@ from harness.engine.integrators import integrator_name
 from harness.engine.probe import Probe
 from harness.engine.recording.assemble import Run, evaluate_readings, recorded_fields, trajectory
 
+__all__ = ["backend"]
+
 # Before mujoco_warp loads Warp: no banner, no line per compiled module (warnings still show), and the
 # kernels cached beside the harness's own disk cache.
 wp.config.quiet = True

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+__all__ = ["Reading", "fields_of"]
+
 # Always available to a reading, from the integration state: (N,), (N, nq), (N, nv).
 STATE_FIELDS: tuple[str, ...] = ("time", "qpos", "qvel")
 

@@ -53,6 +53,8 @@ from harness.engine.readings import Reading
 from harness.engine.readings.momentum import subtree
 from harness.reference.derivations import dynamics_of
 
+__all__ = ["analytic_residual", "contact_force", "fit_circle", "slide_force"]
+
 ResidualLevel = Literal["position", "velocity"]
 
 

@@ -29,6 +29,8 @@ import numpy as np
 
 from harness.engine.readings import Reading
 
+__all__ = ["MOMENTUM_FIELDS", "about_at", "about_key", "axial_angular_momentum", "subtree", "total_momentum"]
+
 
 def subtree(model: mujoco.MjModel, body: int) -> list[int]:
     """``body`` and every body below it."""

@@ -31,6 +31,9 @@ from harness.engine.readings.momentum import MOMENTUM_FIELDS, about_key
 from harness.engine.recording.equalities import joint_equalities, recovered
 from harness.engine.recording.scratch import SPARE, keep
 
+__all__ = ["Plan", "Run", "evaluate_readings", "plan", "point_state", "point_velocity", "recorded_fields",
+           "source_velocity", "trajectory"]
+
 # Derived fields the recorders in C record at every state (all fixed-size), besides the readings' own:
 # always (energy, generalized constraint force), for points (position: site_xpos or xipos as the points
 # are sites or bodies; and velocity as mj_jac assembles it) and for joint equalities recovered from

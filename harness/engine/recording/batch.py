@@ -34,6 +34,8 @@ from harness.engine.recording.equalities import joint_equalities, read_equalitie
 from harness.engine.recording.scratch import SPARE, STATE, Record, give_back_data, keep, take_data
 from harness.engine.recording.verify import check_warnings, checked_forward, checked_run
 
+__all__ = ["mujoco_batch", "record", "set_threads"]
+
 try:  # MuJoCo ≥ 4
     from mujoco import batch as mujoco_batch
 except ImportError:  # MuJoCo 3.3: the loop records everything (recording.recorder() says so)

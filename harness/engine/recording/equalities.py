@@ -26,6 +26,9 @@ from harness.engine.constraints import EQUALITY_ROWS, equality_block, equality_s
 from harness.engine.probe import Probe
 from harness.engine.recording.scratch import STATE
 
+__all__ = ["block", "equality_layout", "fixed_rows", "joint_equalities", "read_equalities", "recovered", "rows",
+           "signed"]
+
 
 def rows(model: mujoco.MjModel, name: str, n: int) -> np.ndarray:
     """Zeros for ``n`` samples of equality ``name``: (n,) for one row, (n, k) for a block of k rows."""

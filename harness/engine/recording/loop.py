@@ -21,6 +21,8 @@ from harness.engine.recording.assemble import Run, evaluate_readings, point_stat
 from harness.engine.recording.equalities import block, rows
 from harness.engine.recording.verify import check_warnings, checked_forward
 
+__all__ = ["record"]
+
 
 def record(model: mujoco.MjModel, probe: Probe, data: mujoco.MjData, steps: int) -> Run:
     """mj_forward, record, integrator function: one Python round trip per step."""

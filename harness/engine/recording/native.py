@@ -59,6 +59,8 @@ from harness.engine.recording.equalities import equality_layout, fixed_rows, joi
 from harness.engine.recording.scratch import STATE, Record
 from harness.engine.recording.verify import check_warnings, checked_run
 
+__all__ = ["library", "record", "why_not"]
+
 ABI = 7  # native_record.c's mjh_abi()
 SOURCE = Path(__file__).with_name("native_record.c")
 HASH_SUFFIX = ".sha256"  # beside the library: the hash of the file this install built

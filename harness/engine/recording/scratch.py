@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+__all__ = ["SPARE", "STATE", "Record", "give_back_data", "keep", "take_data"]
+
 STATE = mujoco.mjtState.mjSTATE_INTEGRATION  # what a recorded state row holds
 
 SPARE = 4  # MjData (and recording arrays) kept for reuse, by model layout

@@ -29,6 +29,8 @@ from harness.engine.recording.assemble import Run, evaluate_readings, plan, sour
 from harness.engine.recording.equalities import block, read_equalities, rows, signed
 from harness.engine.recording.scratch import STATE, Record
 
+__all__ = ["FALLBACKS", "check_warnings", "checked_forward", "checked_run"]
+
 # every time this process's native or batch recorder fell back to reading per sample or to the loop, and why
 FALLBACKS: list[str] = []
 

@@ -15,6 +15,8 @@ from harness.families import convergence as orders
 from harness.outputs.studies import contact, convergence, softness, solvers
 from harness.studies import Studies
 
+__all__ = ["PLOTS", "draw", "html_page", "html_section", "text"]
+
 PLOTS: Mapping[str, Callable[..., bytes]] = {
     "convergence": convergence.plot, "softness": softness.plot, "solvers": solvers.plot, "contact": contact.plot}
 """Each kind of study's plot, as PNG bytes."""

@@ -11,6 +11,8 @@ import numpy as np
 from harness.core.plotting import FULL_WIDTH, png_bytes, pyplot
 from harness.studies.contact import StudyResult
 
+__all__ = ["html_section", "plot"]
+
 
 def plot(result: StudyResult) -> bytes:
     """Steady slip, worst force error and position error per setting, as PNG bytes: one horizontal bar

@@ -16,6 +16,8 @@ from harness.families.convergence import (
     Series,
 )
 
+__all__ = ["HEADER", "LEGEND", "html_section", "plot", "rows"]
+
 HEADER = ("case", "integrator", "quantity", "h [ms]", "error", "order", "expected", "floor", "verdict")
 
 

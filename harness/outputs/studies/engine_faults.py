@@ -7,6 +7,8 @@ import math
 
 from harness.studies.engine_faults import SIZES, Caught
 
+__all__ = ["cell", "sized", "unsized_cell"]
+
 
 def cell(found: Caught) -> str:
     """One fault's cell: its smallest size caught and the check that caught it there."""

@@ -7,6 +7,8 @@ import math
 from harness.outputs.studies.engine_faults import sized, unsized_cell
 from harness.studies.injection import SIZES_SEARCHED, Injection
 
+__all__ = ["cell"]
+
 
 def cell(found: Injection) -> str:
     """One model's cell: the smallest injection caught, with the energy it fed in, or why none was."""

@@ -10,6 +10,8 @@ from harness.core.tables import text_table
 from harness.studies.faults import COARSE
 from harness.studies.sensitivity import LARGEST, SMALLEST, Sensitivity, Trial
 
+__all__ = ["table", "trials_table"]
+
 
 def trials_table(rows: Sequence[Trial]) -> str:
     """The catalog as a text table: per case and change, the verdict, the deciding check and its budget."""

@@ -10,6 +10,8 @@ from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, s
 from harness.core.tables import fmt, html_table, text_table
 from harness.studies.softness import SETTLE, SoftnessStudy
 
+__all__ = ["html_section", "plot", "text"]
+
 HEADER = ("case", "timeconst [s]", "eff. [s]", "d", "violation [m]", "doc", "ratio",
           "force t=0", "doc", "force settled", "position [m]")
 

@@ -8,6 +8,8 @@ from harness.core.plotting import FULL_WIDTH, png_bytes, png_data_uri, pyplot, s
 from harness.core.tables import fmt, html_table, text_table
 from harness.studies.solvers import SolverStudy
 
+__all__ = ["html_section", "plot", "text"]
+
 HEADER = ("case", "solver", "force error", "vs first", "position [m]", "iterations mean", "max", "limit", "note")
 
 
