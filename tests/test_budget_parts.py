@@ -16,7 +16,10 @@ import numpy as np
 
 import harness.budget as B
 from harness.budget import registry
+from harness.budget.floors import Pair
+from harness.budget.inputs import States, by_name
 from harness.budget.part import Part
+from harness.budget.softness import Levels
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.families import runs, sampled
@@ -77,14 +80,16 @@ def _made() -> tuple[set[str], set[str], set[str], set[str]]:
 
     a = dev([1.0, 2.0])
     made = runs.budgets(runs.Runs(as_is=a, half_step=dev([0.9, 1.9]), softness=(dev([0.8, 1.8]),),
-                                  softness_half_step=dev([0.7, 1.7]), floors={"position": np.array([0.1, 0.1])},
-                                  converged=dev([0.95, 1.95])),
+                                  softness_half_step=dev([0.7, 1.7]), converged=dev([0.95, 1.95]),
+                                  own={"floors": {"position": np.array([0.1, 0.1])}}),
                         order=1.0, steps=1, rtol=1e-12, solver_tolerance=1e-10)[name]
     stopped = runs.budgets(runs.Runs(as_is=a, half_step=dev([0.9, 1.9]), completed=dev([0.95, 1.95])),
                            order=1.0, steps=1, rtol=1e-12, solver_tolerance=1e-10)[name]
-    at_states = sampled.budgets(a, softness=(dev([0.8, 1.8]),), heavier=dev([1.1, 2.1]), margins=dev([1.2, 2.2]),
-                                converged=dev([0.95, 1.95]))[name]
-    at_states_stopped = sampled.budgets(a, completed=dev([0.95, 1.95]))[name]
+    at_states = sampled.budgets(a, States(own={"softness": Levels([by_name(dev([0.8, 1.8]))]),
+                                               "floors": Pair(by_name(dev([1.1, 2.1]))),
+                                               "margin": by_name(dev([1.2, 2.2])),
+                                               "solver": by_name(dev([0.95, 1.95]))}))[name]
+    at_states_stopped = sampled.budgets(a, States(own={"stop": by_name(dev([0.95, 1.95]))}))[name]
     return (set(made.explained) | set(stopped.explained), set(made.tolerance) | set(stopped.tolerance),
             set(at_states.explained) | set(at_states_stopped.explained),
             set(at_states.tolerance) | set(at_states_stopped.tolerance))
@@ -209,18 +214,20 @@ def test_the_docs_words_for_each_part_are_its_fields():
     assert [row[:2] for row in readme] == [[f"`{p.name}`", p.explains] for p in B.ALL]
 
 
-def test_a_new_variant_field_is_a_tripwire_for_the_noise_gain():
-    """The runs' noise gain (runs.noise_gain) weighs the variant runs it lists, and the states' (sampled.budgets'
-    ``noise``) the evaluations it lists: a variant added to the budget's inputs without its weight there would make
-    the round-off and convergence tolerances silently too small. This test lists the variant fields as the gains
-    know them; a new field fails it until the gains count it (and the list here is extended)."""
+def test_a_new_shared_variant_field_is_a_tripwire_for_the_noise_gain():
+    """The runs' noise gain (runs.noise_gain) weighs the shared variant runs it lists, and each part's own runs
+    (Runs.own) by linearity; the states' (sampled.budgets' ``noise``) is each part's own ``states_gain``. A shared
+    variant field added to the budget's inputs without its weight in runs.noise_gain would make the round-off and
+    convergence tolerances silently too small: this test lists the shared fields as the gain knows them; a new field
+    fails it until the gain counts it (and the list here is extended). A part's own variants need no field here."""
     import dataclasses
 
     from harness.budget.inputs import Runs, States
 
     assert [f.name for f in dataclasses.fields(Runs)] == [
-        "as_is", "half_step", "quarter_step", "softness", "softness_half_step", "slower", "floors", "converged",
+        "as_is", "half_step", "quarter_step", "softness", "softness_half_step", "slower", "converged",
         "perturbed", "represented", "quantized", "eps_factor", "tc_factor", "completed", "rigid", "rigid_ladder",
-        "rigid_split", "rigid_unresolved", "stiffest"]
-    assert [f.name for f in dataclasses.fields(States)] == [
-        "levels", "eps_factor", "rigid", "lowest", "heavier", "lighter", "converged", "completed", "wider"]
+        "rigid_split", "rigid_unresolved", "stiffest", "own"]
+    assert [f.name for f in dataclasses.fields(States)] == ["own", "perturbed", "represented"]
+    for part in B.ALL:  # a part with evaluations of its own at the states weighs them (stop: A's own, completed)
+        assert part.states is None or part.states_gain is not None or part.name == "stop", part.name
