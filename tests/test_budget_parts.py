@@ -1,7 +1,7 @@
 """The error budget's parts and tolerances as the docs name them and as the code makes them: the same names, both
 ways. The docs read: README.md's parts table ("Read a verdict: the error budget"), docs/design.md's budget line
-(``measured = explained parts (…) + unexplained``) and its tolerance table, and the budget package's docstring (its
-``- ``name``:`` list of parts). The code read: the one list of parts (harness.budget.registry) and the tolerances,
+(``measured = explained parts (…) + unexplained``) and its tolerance table. The code read: the parts the registry
+finds (harness.budget.registry) and the tolerances,
 the part modules, and the keys the runs' and the sampled states' budgets actually produce (each budget made from
 one synthetic figure)."""
 
@@ -66,10 +66,6 @@ def _design_tolerances() -> list[str]:
     return _table_names(_section(_design(), "### The tolerances and their bases"), "tolerance")
 
 
-def _docstring_parts() -> list[str]:
-    return re.findall(r"^- ``(\w+)``:", B.__doc__ or "", flags=re.M)
-
-
 def _made() -> tuple[set[str], set[str], set[str], set[str]]:
     """The explained and tolerance keys of a runs' budget and of a sampled states' budget, one synthetic figure
     each, with every part that context has present (so the explained keys are every part it can make)."""
@@ -96,11 +92,11 @@ def _made() -> tuple[set[str], set[str], set[str], set[str]]:
 
 
 def test_the_docs_name_the_parts_the_code_has():
-    """README's parts table, docs/design.md's budget line and the budget module's docstring each name exactly the
-    code's parts: none the code lacks (``roundoff`` is a tolerance, not a part), none left out."""
+    """README's parts table and docs/design.md's budget line each name exactly the code's parts: none the code lacks
+    (``roundoff`` is a tolerance, not a part), none left out."""
     code = set(B.PARTS)
     for where, named in (("README.md's parts table", _readme_parts()), ("docs/design.md's budget line",
-                         _design_parts()), ("harness/budget/__init__.py's docstring", _docstring_parts())):
+                                                                        _design_parts())):
         assert len(named) == len(set(named)), f"{where} names a part twice: {named}"
         assert not set(named) - code, f"{where} names parts the code lacks: {sorted(set(named) - code)}"
         assert not code - set(named), f"{where} leaves out parts of the code: {sorted(code - set(named))}"
@@ -128,7 +124,7 @@ def test_the_declared_parts_and_tolerances_are_what_the_budgets_make():
 
 def test_the_readers_fail_on_drift():
     """The readers are not vacuous: a part added to the docs or left out of them is seen."""
-    assert _readme_parts() and _design_parts() and _docstring_parts() and _design_tolerances()
+    assert _readme_parts() and _design_parts() and _design_tolerances()
     drifted = set(_readme_parts()) | {"roundoff"}
     assert drifted - set(B.PARTS) == {"roundoff"}
 

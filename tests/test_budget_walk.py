@@ -79,6 +79,8 @@ def _with_toy(tmp_path, monkeypatch, text: str = TOY) -> None:
     monkeypatch.delitem(sys.modules, "harness.budget.toy", raising=False)
     for key, value in registry.lists(registry.discover()).items():
         monkeypatch.setattr(registry, key, value)
+        if hasattr(harness.budget, key):  # the package's names of them too
+            monkeypatch.setattr(harness.budget, key, value)
 
 
 def test_a_new_part_is_one_module(tmp_path, monkeypatch):
@@ -88,9 +90,10 @@ def test_a_new_part_is_one_module(tmp_path, monkeypatch):
     convergence tolerances grow), every other part's estimate and tolerance untouched; and without it, the
     budgets exactly as before."""
     runs_before, states_before = _budgets()
+    shipped = harness.budget.PARTS
     _with_toy(tmp_path, monkeypatch)
-    assert registry.PARTS[-1] == "toy" and registry.PARTS[:-1] == tuple(p.name for p in harness.budget.ALL)
-    assert registry.TOLERANCES.index("toy") == len(harness.budget.PARTS)  # before the three no part removes
+    assert registry.PARTS == harness.budget.PARTS == (*shipped, "toy")
+    assert (*shipped, "toy", *registry.UNREMOVED) == registry.TOLERANCES
     toy = sys.modules["harness.budget.toy"]
     runs_with, states_with = _budgets()
     assert len(toy.CALLS["runs"]) == 1 and toy.CALLS["states"] == 1
@@ -109,9 +112,22 @@ def test_a_new_part_is_one_module(tmp_path, monkeypatch):
                     assert budget.tolerance[key] == value, (name, key)
         assert sum(budget.explained["toy"] > 0 for budget in after.values()) >= 2  # kinematics ignore gravity
     monkeypatch.undo()
-    assert "toy" not in registry.PARTS
+    assert registry.PARTS == harness.budget.PARTS == shipped
     runs_after, states_after = _budgets()
     assert runs_after == runs_before and states_after == states_before
+
+
+def test_a_new_part_without_its_words_in_the_docs_fails_the_docs_test(tmp_path, monkeypatch):
+    """The one thing a new part asks beyond its module and tests is its words in the docs (README's and
+    docs/design.md's parts tables, the budget line): tests/test_budget_parts.py fails, naming it, until they are
+    there."""
+    from tests import test_budget_parts
+
+    _with_toy(tmp_path, monkeypatch)
+    with pytest.raises(AssertionError, match=r"leaves out parts of the code: \['toy'\]"):
+        test_budget_parts.test_the_docs_name_the_parts_the_code_has()
+    with pytest.raises(AssertionError):
+        test_budget_parts.test_the_docs_words_for_each_part_are_its_fields()
 
 
 def test_discovery_refuses_two_parts_of_one_order(tmp_path, monkeypatch):
@@ -119,3 +135,19 @@ def test_discovery_refuses_two_parts_of_one_order(tmp_path, monkeypatch):
     naming the order, rather than shown in an order nobody chose."""
     with pytest.raises(ValueError, match="share an order"):
         _with_toy(tmp_path, monkeypatch, TOY.replace("order=70", "order=10"))
+
+
+def test_a_new_parts_runs_weigh_in_the_noise_gain(tmp_path, monkeypatch):
+    """The runs' noise gain weighs a part's own runs by linearity, with nothing declared: with the toy's D − A beside
+    the integration's κ(A − B) (order 4, κ = 16/15), ideal = (2 − κ) A + κ B − D, Σ|w| = 14/15 + 16/15 + 1 = 3;
+    without the toy, |1 − κ| + κ = 17/15 (and 2, not 3, were D left unweighed)."""
+    import numpy as np
+
+    from harness.core.deviation import Deviation
+    from harness.core.figures import FigureName
+    from harness.families import runs
+
+    d = [Deviation(FigureName("x.position"), np.array([0.0]), "scalar", "1", "")]
+    assert runs.noise_gain(runs.Runs(as_is=d, half_step=d), order=4) == pytest.approx(17 / 15)
+    _with_toy(tmp_path, monkeypatch)
+    assert runs.noise_gain(runs.Runs(as_is=d, half_step=d, own={"toy": d}), order=4) == pytest.approx(3.0)
