@@ -513,12 +513,13 @@ def _variant_run(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: T
 
 
 def _making(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: Target, sim: Trajectory, name: str, *,
-            variants: V.Variants) -> Making:
+            variants: V.Variants, model: mujoco.MjModel | None = None) -> Making:
     """What a part's own runs are made with (:class:`~harness.budget.part.Making`): the model compiled with the
-    integrator ``name``, and each edit of it run over the horizon of ``sim`` (the run at h, itself where the edit
-    and the baseline's are none) with the constraints solved exactly where the model's own solver does not
-    converge, completed where the backend's solve stopped, as its deviations on the grid of the run at h."""
-    model = mut.compile(integrator=name)
+    integrator ``name`` (``model``, where the caller has it), and each edit of it run over the horizon of ``sim``
+    (the run at h, itself where the edit and the baseline's are none) with the constraints solved exactly where the
+    model's own solver does not converge, completed where the backend's solve stopped, as its deviations on the
+    grid of the run at h."""
+    model = mut.compile(integrator=name) if model is None else model
     exact = V.exact_solver(model)
     steps = len(sim.t) - 1
 
@@ -573,9 +574,11 @@ def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, targe
     represented = _represented(probe, target, model, steps=steps) if float32 else {}
     quantized = _quantized(probe, target, model, steps=steps) if float32 else {}
     own = dict(shared)
-    making = _making(mut, probe, engine, target, sim, name, variants=variants)
-    for part in registry.ALL:
-        if part.runs is not None and not part.shared_runs and (made := part.runs(making)) is not None:
+    makers = [part for part in registry.ALL if part.runs is not None and not part.shared_runs]
+    making = _making(mut, probe, engine, target, sim, name, variants=variants, model=model) if makers else None
+    for part in makers:
+        assert part.runs is not None and making is not None
+        if (made := part.runs(making)) is not None:
             own[part.name] = made
     return Runs(
         as_is=as_is,

@@ -26,7 +26,8 @@ state by state
 - floors = D − A: linear in the inertia;
 - ideal = A − softness − floors,
 
-each reduced as the figure is (each part's estimate and tolerance is its module's in :mod:`harness.budget`, the
+each reduced as the figure is (each part's evaluations, estimate and tolerance are its module's in
+:mod:`harness.budget`: :func:`evaluate` has each part make its own and hands them back under its name, the
 registry's parts iterated by :func:`budgets`). The tolerances: 1/4 of the softness part (the O(1 − d) terms for
 1 − d up to 1/4), 1/10 of the floors', float round-off (:data:`ROUNDOFF` × the quantity's size: the analytic side is a
 closed-form evaluation and one KKT solve, MuJoCo's a forward pass) and the constraint solver's tolerance
@@ -451,9 +452,9 @@ def evaluate(mut: V.ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref: Re
     ``integrator``), with its budget: the same states evaluated on the variants — softer, heavier floors,
     wider margins, and with the constraints solved exactly where the model's own solver does not converge —,
     every evaluation on ``engine``, each made by its part (:attr:`harness.budget.part.Part.states`). On a float32
-    engine the variants are taken completed too, so their
-    differences are the settings', not where each stop fell. ``conditioning``: n · cond(M) of a model judged
-    against its own tree, whose solved figures' round-off grows with it (:data:`CONDITIONED`)."""
+    engine the variants are taken completed too, so their differences are the settings', not where each stop fell.
+    ``conditioning``: n · cond(M) of a model judged against its own tree, whose solved figures' round-off grows
+    with it (:data:`CONDITIONED`)."""
     found = at_states(model, probe, ref, engine, compares, perturbed=True)
     variants = V.Variants.of(model, ref.scales.length, floors=mut.floors)
     exact = V.exact_solver(model)
