@@ -376,6 +376,7 @@ def test_instant_roundoff_is_the_copies_spread_on_float32_and_unchanged_on_float
     """With copies, the round-off tolerance is PERTURBED_FACTOR × the largest copy difference (+ the measured
     shift of the constants in float32, + READ_ULPS ε32 × size), × the noise gain; without, today's ROUNDOFF ×
     size."""
+    from harness.budget.inputs import States
     from harness.budget.roundoff import PERTURBED_FACTOR, READ_ULPS
     from harness.core.deviation import Deviation
     from harness.core.figures import FigureName
@@ -387,14 +388,14 @@ def test_instant_roundoff_is_the_copies_spread_on_float32_and_unchanged_on_float
                                                                                  np.array([-1e-7, 0.0]))]
     plain = instant_budgets([base])[name]
     assert plain.tolerance["roundoff"] == ROUNDOFF * base.size
-    measured = instant_budgets([base], perturbed=copies, represented={name: 5e-8})[name]
+    measured = instant_budgets([base], States(perturbed=copies, represented={name: 5e-8}))[name]
     assert measured.tolerance["roundoff"] == pytest.approx(
         PERTURBED_FACTOR * 3e-7 + 5e-8 + READ_ULPS * float(np.finfo(np.float32).eps), rel=1e-12)
     # an error beyond what the copies' spread allows fails, one within it passes
     for error, passes in ((1e-5, False), (1e-6, True)):
         dev = dataclasses.replace(base, values=np.array([error, 0.0]))
         spread = [[dataclasses.replace(dev, values=dev.values + c[0].values - base.values)] for c in copies]
-        assert instant_budgets([dev], perturbed=spread)[name].passed is passes, error
+        assert instant_budgets([dev], States(perturbed=spread))[name].passed is passes, error
 
 
 _ROUNDOFF_VS_C = """

@@ -1,7 +1,7 @@
 """The error budget's parts and tolerances as the docs name them and as the code makes them: the same names, both
 ways. The docs read: README.md's parts table ("Read a verdict: the error budget"), docs/design.md's budget line
-(``measured = explained parts (…) + unexplained``) and its tolerance table, and the budget package's docstring (its
-``- ``name``:`` list of parts). The code read: the one list of parts (harness.budget.registry) and the tolerances,
+(``measured = explained parts (…) + unexplained``) and its tolerance table. The code read: the parts the registry
+finds (harness.budget.registry) and the tolerances,
 the part modules, and the keys the runs' and the sampled states' budgets actually produce (each budget made from
 one synthetic figure)."""
 
@@ -16,7 +16,10 @@ import numpy as np
 
 import harness.budget as B
 from harness.budget import registry
+from harness.budget.floors import Pair
+from harness.budget.inputs import States, by_name
 from harness.budget.part import Part
+from harness.budget.softness import Levels
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.families import runs, sampled
@@ -63,10 +66,6 @@ def _design_tolerances() -> list[str]:
     return _table_names(_section(_design(), "### The tolerances and their bases"), "tolerance")
 
 
-def _docstring_parts() -> list[str]:
-    return re.findall(r"^- ``(\w+)``:", B.__doc__ or "", flags=re.M)
-
-
 def _made() -> tuple[set[str], set[str], set[str], set[str]]:
     """The explained and tolerance keys of a runs' budget and of a sampled states' budget, one synthetic figure
     each, with every part that context has present (so the explained keys are every part it can make)."""
@@ -77,25 +76,27 @@ def _made() -> tuple[set[str], set[str], set[str], set[str]]:
 
     a = dev([1.0, 2.0])
     made = runs.budgets(runs.Runs(as_is=a, half_step=dev([0.9, 1.9]), softness=(dev([0.8, 1.8]),),
-                                  softness_half_step=dev([0.7, 1.7]), floors={"position": np.array([0.1, 0.1])},
-                                  converged=dev([0.95, 1.95])),
+                                  softness_half_step=dev([0.7, 1.7]), converged=dev([0.95, 1.95]),
+                                  own={"floors": {"position": np.array([0.1, 0.1])}}),
                         order=1.0, steps=1, rtol=1e-12, solver_tolerance=1e-10)[name]
     stopped = runs.budgets(runs.Runs(as_is=a, half_step=dev([0.9, 1.9]), completed=dev([0.95, 1.95])),
                            order=1.0, steps=1, rtol=1e-12, solver_tolerance=1e-10)[name]
-    at_states = sampled.budgets(a, softness=(dev([0.8, 1.8]),), heavier=dev([1.1, 2.1]), margins=dev([1.2, 2.2]),
-                                converged=dev([0.95, 1.95]))[name]
-    at_states_stopped = sampled.budgets(a, completed=dev([0.95, 1.95]))[name]
+    at_states = sampled.budgets(a, States(own={"softness": Levels([by_name(dev([0.8, 1.8]))]),
+                                               "floors": Pair(by_name(dev([1.1, 2.1]))),
+                                               "margin": by_name(dev([1.2, 2.2])),
+                                               "solver": by_name(dev([0.95, 1.95]))}))[name]
+    at_states_stopped = sampled.budgets(a, States(own={"stop": by_name(dev([0.95, 1.95]))}))[name]
     return (set(made.explained) | set(stopped.explained), set(made.tolerance) | set(stopped.tolerance),
             set(at_states.explained) | set(at_states_stopped.explained),
             set(at_states.tolerance) | set(at_states_stopped.tolerance))
 
 
 def test_the_docs_name_the_parts_the_code_has():
-    """README's parts table, docs/design.md's budget line and the budget module's docstring each name exactly the
-    code's parts: none the code lacks (``roundoff`` is a tolerance, not a part), none left out."""
+    """README's parts table and docs/design.md's budget line each name exactly the code's parts: none the code lacks
+    (``roundoff`` is a tolerance, not a part), none left out."""
     code = set(B.PARTS)
     for where, named in (("README.md's parts table", _readme_parts()), ("docs/design.md's budget line",
-                         _design_parts()), ("harness/budget/__init__.py's docstring", _docstring_parts())):
+                                                                        _design_parts())):
         assert len(named) == len(set(named)), f"{where} names a part twice: {named}"
         assert not set(named) - code, f"{where} names parts the code lacks: {sorted(set(named) - code)}"
         assert not code - set(named), f"{where} leaves out parts of the code: {sorted(code - set(named))}"
@@ -123,7 +124,7 @@ def test_the_declared_parts_and_tolerances_are_what_the_budgets_make():
 
 def test_the_readers_fail_on_drift():
     """The readers are not vacuous: a part added to the docs or left out of them is seen."""
-    assert _readme_parts() and _design_parts() and _docstring_parts() and _design_tolerances()
+    assert _readme_parts() and _design_parts() and _design_tolerances()
     drifted = set(_readme_parts()) | {"roundoff"}
     assert drifted - set(B.PARTS) == {"roundoff"}
 
@@ -209,18 +210,20 @@ def test_the_docs_words_for_each_part_are_its_fields():
     assert [row[:2] for row in readme] == [[f"`{p.name}`", p.explains] for p in B.ALL]
 
 
-def test_a_new_variant_field_is_a_tripwire_for_the_noise_gain():
-    """The runs' noise gain (runs.noise_gain) weighs the variant runs it lists, and the states' (sampled.budgets'
-    ``noise``) the evaluations it lists: a variant added to the budget's inputs without its weight there would make
-    the round-off and convergence tolerances silently too small. This test lists the variant fields as the gains
-    know them; a new field fails it until the gains count it (and the list here is extended)."""
+def test_a_new_shared_variant_field_is_a_tripwire_for_the_noise_gain():
+    """The runs' noise gain (runs.noise_gain) weighs the shared variant runs it lists, and each part's own runs
+    (Runs.own) by linearity; the states' (sampled.budgets' ``noise``) is each part's own ``states_gain``. A shared
+    variant field added to the budget's inputs without its weight in runs.noise_gain would make the round-off and
+    convergence tolerances silently too small: this test lists the shared fields as the gain knows them; a new field
+    fails it until the gain counts it (and the list here is extended). A part's own variants need no field here."""
     import dataclasses
 
     from harness.budget.inputs import Runs, States
 
     assert [f.name for f in dataclasses.fields(Runs)] == [
-        "as_is", "half_step", "quarter_step", "softness", "softness_half_step", "slower", "floors", "converged",
+        "as_is", "half_step", "quarter_step", "softness", "softness_half_step", "slower", "converged",
         "perturbed", "represented", "quantized", "eps_factor", "tc_factor", "completed", "rigid", "rigid_ladder",
-        "rigid_split", "rigid_unresolved", "stiffest"]
-    assert [f.name for f in dataclasses.fields(States)] == [
-        "levels", "eps_factor", "rigid", "lowest", "heavier", "lighter", "converged", "completed", "wider"]
+        "rigid_split", "rigid_unresolved", "stiffest", "own"]
+    assert [f.name for f in dataclasses.fields(States)] == ["own", "perturbed", "represented"]
+    for part in B.ALL:  # a part with evaluations of its own at the states weighs them (stop: A's own, completed)
+        assert part.states is None or part.states_gain is not None or part.name == "stop", part.name

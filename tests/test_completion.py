@@ -16,6 +16,8 @@ import numpy as np
 import pytest
 
 from harness import cases
+from harness.budget.inputs import States, by_name
+from harness.budget.softness import Levels
 from harness.core.deviation import Deviation
 from harness.core.figures import FigureName
 from harness.engine.backends import Forward, get
@@ -141,11 +143,13 @@ def test_the_stop_part_explains_what_completion_removes_and_nothing_else():
     name = FigureName("instant.sensor.hub_force")
     as_is, done = _dev([1e-3, -2e-3]), _dev([1e-9, 2e-9])
     level = [_dev([1.5e-9, 2.5e-9])]  # a softened level, completed: the softness part is 5e-10
-    got = instant_budgets([as_is], softness=[level], completed=[done])[name]
+    got = instant_budgets([as_is], States(own={"softness": Levels([by_name(level)]), "stop": by_name([done])}))[name]
     assert got.explained["stop"] == pytest.approx(2e-3, rel=1e-6)
     assert got.tolerance["stop"] == pytest.approx(2e-4, rel=1e-6)
     assert got.passed
-    kept = instant_budgets([as_is], softness=[level], completed=[as_is])[name]  # nothing completed
+    kept = instant_budgets([as_is], States(own={"softness": Levels([by_name(level)]),
+                                                "stop": by_name([as_is])}))[name]  # nothing completed
     assert not kept.passed
-    without = instant_budgets([as_is], softness=[[_dev([4e-3, 1e-3])]])[name]  # the old way: levels' stops
+    without = instant_budgets([as_is], States(own={"softness": Levels([by_name([_dev([4e-3, 1e-3])])])}))[
+        name]  # the old way: levels' stops
     assert not without.passed

@@ -1,12 +1,16 @@
 """What a figure's budget is estimated from: one integrator's runs of the model and its variants (:class:`Runs`,
 made by :mod:`harness.families.runs`), or the variants evaluated at the sampled states (:class:`States`, made by
 :mod:`harness.families.sampled`), each as deviations from the reference. The parts
-(:mod:`harness.budget.registry`) read them."""
+(:mod:`harness.budget.registry`) read them: what they share (the model as it is, the integration ladder with the
+softness levels on it, the baseline solves, the round-off copies) by its field, and each part's own runs and
+evaluations, which it makes itself (:attr:`harness.budget.part.Part.runs`, ``states``), under its name in
+``own``."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -33,8 +37,6 @@ class Runs:
         softness: at h with ε × s (C) and, where ε is not at the stiffest, also × s² (C₂).
         softness_half_step: E (h/2, ε × s).
         slower: with contacts, at h with τ × r and ε, ε × s (and ε × s²): C′, C″ (and C‴).
-        floors: D − A per figure (:attr:`FigureName.measure`), shared by the integrators: a point
-            mass's floor is physics, not integration.
         converged: where the model's own constraint solver does not converge (CG, PGS, a loose
             tolerance), A with the constraints solved exactly (Newton); every other run is then made
             that way too, and A − converged is the ``solver`` part.
@@ -64,6 +66,9 @@ class Runs:
             (:func:`~harness.budget.extrapolation.linearity_note`), from the levels at h where those are inside
             the asymptotic range (elsewhere their differences at h are the integrator's as much as the
             softness's).
+        own: each part's own runs (:attr:`harness.budget.part.Part.runs`), by the part's name, where it has any
+            for this model: the floors' D − A per figure (:attr:`FigureName.measure`, shared by the integrators:
+            a point mass's floor is physics, not integration), a new part's runs.
     """
 
     as_is: Sequence[Deviation]
@@ -72,7 +77,6 @@ class Runs:
     softness: Sequence[Sequence[Deviation]] = ()
     softness_half_step: Sequence[Deviation] | None = None
     slower: Sequence[Sequence[Deviation]] = ()
-    floors: Mapping[str, np.ndarray] | None = None
     converged: Sequence[Deviation] | None = None
     perturbed: Sequence[Sequence[Deviation]] = ()
     represented: Mapping[str, float] = field(default_factory=dict)
@@ -85,29 +89,25 @@ class Runs:
     rigid_split: int = 1
     rigid_unresolved: str = ""
     stiffest: Sequence[Deviation] | None = None
-
+    own: Mapping[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
 class States:
-    """The variants evaluated at the sampled states, each figure's values by name (:func:`by_name`), beside the
-    model as it is (:func:`harness.families.sampled.budgets` says which is which).
+    """The variants evaluated at the sampled states beside the model as it is, each part's own by its name
+    (:attr:`harness.budget.part.Part.states`), and the round-off copies' evaluations.
 
     Attributes:
-        levels: the softer levels (every ε × s, s²; or the near-rigid 2fε and fε with ``rigid``).
-        eps_factor: s; ``rigid``: the levels are the near-rigid ones.
-        lowest: with ``rigid``, the model at fε/2 (only for :func:`~harness.budget.extrapolation.linearity_note`).
-        heavier, lighter: the floors doubled, and where given the base the floors' part is taken from.
-        converged: the constraints solved exactly; ``completed``: the stopped solve completed in float64.
-        wider: every contact margin doubled.
+        own: each part's evaluations where they apply, by the part's name, as its module makes and reads them
+            (the softness's levels, the floors' pair, the converged or completed solve, the wider margins:
+            each figure's values by name, :func:`by_name`).
+        perturbed: on a float32 backend (and on the C engine where the model has constraints), the figures from
+            the round-off copies of the model at the same states
+            (:attr:`harness.families.sampled.Evaluation.perturbed`).
+        represented: on a float32 backend, each figure's shift with the model's constants and the states held in
+            float32 (:attr:`harness.families.sampled.Evaluation.represented`).
     """
 
-    levels: Sequence[Mapping[FigureName, np.ndarray]] = ()
-    eps_factor: float = 2.0
-    rigid: bool = False
-    lowest: Mapping[FigureName, np.ndarray] = field(default_factory=dict)
-    heavier: Mapping[FigureName, np.ndarray] = field(default_factory=dict)
-    lighter: Mapping[FigureName, np.ndarray] = field(default_factory=dict)
-    converged: Mapping[FigureName, np.ndarray] = field(default_factory=dict)
-    completed: Mapping[FigureName, np.ndarray] = field(default_factory=dict)
-    wider: Mapping[FigureName, np.ndarray] = field(default_factory=dict)
+    own: Mapping[str, Any] = field(default_factory=dict)
+    perturbed: Sequence[Sequence[Deviation]] = ()
+    represented: Mapping[FigureName, float] = field(default_factory=dict)

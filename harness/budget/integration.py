@@ -36,6 +36,7 @@ def tolerance(estimates: Estimates, explained: Mapping[str, float]) -> float:
 
 PART = Part(
     name="integration",
+    order=10,
     varies="the timestep: the same run at h/2 (and h/4 past the asymptotic range)",
     variant=V.variant,
     explains="truncation error at the model's timestep h",

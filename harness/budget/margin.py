@@ -3,23 +3,43 @@ every margin doubled, linear in the margin (instantaneous figures only)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
 from harness.budget.floors import FLOOR_UNCERTAINTY
-from harness.budget.inputs import States
-from harness.budget.part import Estimates, Part, fraction
+from harness.budget.inputs import States, by_name
+from harness.budget.part import Estimates, Evaluating, Part, fraction
+from harness.core.figures import FigureName
 from harness.engine import variants as V
 
 __all__ = ["PART"]
 
 
+def states(evaluating: Evaluating) -> Mapping[FigureName, np.ndarray] | None:
+    """The model with every contact margin doubled (:func:`~harness.engine.variants.wider_margins`) at the states;
+    None where no margin is set."""
+    wider = V.wider_margins(evaluating.model)
+    return by_name(evaluating.at(wider)) if wider is not None else None
+
+
 def at_states(states: States, estimates: Estimates) -> None:
     """A with every margin doubled, minus A."""
     name = estimates.dev.name
-    if name in states.wider:
-        estimates.explained["margin"] = states.wider[name] - estimates.base
+    wider = states.own.get("margin", {})
+    if name in wider:
+        estimates.explained["margin"] = wider[name] - estimates.base
+
+
+def states_gain(wider: Any, noise: float) -> float:
+    """Wider minus A: 2."""
+    return noise + 2.0 if wider else noise
 
 
 PART = Part(
     name="margin",
+    order=40,
     varies="every contact margin, doubled (sampled states only)",
     variant=V.wider_margins,
     explains="a contact pair's `margin`, pushing before it touches",
@@ -29,4 +49,6 @@ PART = Part(
           "(margin/width)²",
     tolerance=fraction("margin", FLOOR_UNCERTAINTY),
     at_states=at_states,
+    states=states,
+    states_gain=states_gain,
 )

@@ -4,16 +4,19 @@ to the rigid limit; with contacts, plus the part linear in their time constant �
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from harness.budget.extrapolation import from_rigid, to_zero
+from harness.budget.extrapolation import RIGID_GAIN, from_rigid, gain, linearity_note, to_zero
 from harness.budget.inputs import Runs, States, by_name
-from harness.budget.part import Estimates, Part
+from harness.budget.part import Estimates, Evaluating, Part
+from harness.core.figures import FigureName
 from harness.engine import variants as V
 
-__all__ = ["PART"]
+__all__ = ["PART", "Levels"]
 
 SOFTNESS_UNCERTAINTY = 0.25
 """A softness part from two levels is linear in ε up to relative terms O(ε) and O(h/τ): a quarter of it bounds
@@ -23,7 +26,8 @@ them for ε up to 1/4 (harness/families/runs.py)."""
 def over_runs(runs: Runs, estimates: Estimates, kappa: float) -> None:
     """The levels brought to h → 0 (each by its own Richardson correction; the integration error taken bilinear in
     h and ε) and extrapolated to ε → 0; with contacts, plus (y(rτ) − y(τ))/(r − 1) (:mod:`harness.families.runs`'
-    docstring). Needs the integration part's estimate first."""
+    docstring). Needs the integration part's estimate first. Its runs are the integration ladder's neighbours, made
+    with it by :mod:`harness.families.runs` (:class:`~harness.budget.inputs.Runs`' softness fields)."""
     name, a = estimates.dev.name, estimates.base
     integration = estimates.explained["integration"]
     s, r = runs.eps_factor, runs.tc_factor
@@ -66,19 +70,64 @@ def over_runs(runs: Runs, estimates: Estimates, kappa: float) -> None:
         estimates.explained["softness"] = softness
         if softness_unc is not None:
             estimates.uncertainty["softness"] = softness_unc
+    if runs.rigid is not None and runs.stiffest is not None and len(runs.softness) == 2 \
+            and not runs.rigid_ladder and not runs.rigid_unresolved:  # at h: only inside the asymptotic range
+        said = linearity_note(estimates.dev.magnitude, by_name(runs.softness[0])[name],
+                              by_name(runs.softness[1])[name], by_name(runs.stiffest)[name])
+        if said:
+            estimates.notes.append(said)
+
+
+@dataclass(frozen=True)
+class Levels:
+    """The softness's evaluations at the sampled states: the softer levels (every ε × s, s²; or the near-rigid 2fε
+    and fε with ``rigid``), each figure's values by name; ``eps_factor``: s; ``lowest``: with ``rigid``, the model
+    at fε/2 (only for :func:`~harness.budget.extrapolation.linearity_note`)."""
+
+    levels: Sequence[Mapping[FigureName, np.ndarray]]
+    eps_factor: float = 2.0
+    rigid: bool = False
+    lowest: Mapping[FigureName, np.ndarray] = field(default_factory=dict)
+
+
+def states(evaluating: Evaluating) -> Levels | None:
+    """Every ε × s (and s²; :func:`~harness.engine.variants.softness_factor`), or the near-rigid 2fε and fε and fε/2
+    (:func:`~harness.engine.variants.rigid_factor`), at the states; None without soft constraints."""
+    if not evaluating.variants.soft:
+        return None
+    model = evaluating.model
+    eps_factor = V.softness_factor(model)
+    rigid = V.rigid_factor(model)
+    levels = (2.0 * rigid, rigid) if rigid is not None else (eps_factor, eps_factor**2) if eps_factor < 1 \
+        else (eps_factor,)
+    at = tuple(by_name(evaluating.at(V.variant(model, eps_factor=f))) for f in levels)
+    lowest = by_name(evaluating.at(V.variant(model, eps_factor=rigid / 2.0))) if rigid is not None else {}
+    return Levels(at, eps_factor, rigid is not None, lowest)  # fε/2: 1e-4 (the cap)
 
 
 def at_states(states: States, estimates: Estimates) -> None:
     """A minus the levels extrapolated to ε → 0 (from the near-rigid levels, or linearly from two, quadratically
     from three)."""
-    if not states.levels:
+    own = states.own.get("softness")
+    if own is None or not own.levels:
         return
     name, a = estimates.dev.name, estimates.base
-    at = [a, *(level[name] for level in states.levels)]
-    ideal, uncertainty = from_rigid(at) if states.rigid else to_zero(at, states.eps_factor)
+    at = [a, *(level[name] for level in own.levels)]
+    ideal, uncertainty = from_rigid(at) if own.rigid else to_zero(at, own.eps_factor)
     estimates.explained["softness"] = a - ideal
     if uncertainty is not None:
         estimates.uncertainty["softness"] = uncertainty
+    if own.rigid and len(own.levels) == 2 and name in own.lowest:
+        said = linearity_note(estimates.dev.magnitude, own.levels[0][name], own.levels[1][name], own.lowest[name])
+        if said:
+            estimates.notes.append(said)
+
+
+def states_gain(own: Any, noise: float) -> float:
+    """The extrapolation's Σ |w| in place of A's own 1 (A is its first level)."""
+    if not own.levels:
+        return noise
+    return noise - 1.0 + (RIGID_GAIN if own.rigid else gain(len(own.levels) + 1, own.eps_factor))
 
 
 def tolerance(estimates: Estimates, explained: Mapping[str, float]) -> float:
@@ -95,6 +144,7 @@ def tolerance(estimates: Estimates, explained: Mapping[str, float]) -> float:
 
 PART = Part(
     name="softness",
+    order=20,
     varies="every constraint's effective ε = 1 − d (× ½, or × 2 at the stiffest; or the near-rigid 2fε and "
            "fε), and with contacts their τ (× 1.5)",
     variant=V.variant,
@@ -107,4 +157,6 @@ PART = Part(
     tolerance=tolerance,
     over_runs=over_runs,
     at_states=at_states,
+    states=states,
+    states_gain=states_gain,
 )

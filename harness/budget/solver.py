@@ -3,8 +3,14 @@ cap, a loose tolerance), the difference a converged solve makes. Every other var
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
 from harness.budget.inputs import Runs, States, by_name
-from harness.budget.part import Estimates, Part, fraction
+from harness.budget.part import Estimates, Evaluating, Part, fraction
+from harness.core.figures import FigureName
 from harness.engine import variants as V
 
 __all__ = ["PART", "SOLVER_PART_UNCERTAINTY"]
@@ -14,15 +20,27 @@ SOLVER_PART_UNCERTAINTY = 0.1
 
 
 def over_runs(runs: Runs, estimates: Estimates, kappa: float) -> None:
-    """A − A(converged); the other parts are then taken from A(converged)."""
+    """A − A(converged); the other parts are then taken from A(converged). The converged run is made by
+    :mod:`harness.families.runs` (:attr:`~harness.budget.inputs.Runs.converged`): every other run is made so too."""
     if runs.converged is not None:
         _apply(estimates, by_name(runs.converged)[estimates.dev.name])
 
 
+def states(evaluating: Evaluating) -> Mapping[FigureName, np.ndarray] | None:
+    """The model with its constraints solved exactly at the states, where its own solver does not converge."""
+    return by_name(evaluating.at(None)) if evaluating.exact is not None else None
+
+
 def at_states(states: States, estimates: Estimates) -> None:
     """As over the runs, at the states."""
-    if estimates.dev.name in states.converged:
-        _apply(estimates, states.converged[estimates.dev.name])
+    converged = states.own.get("solver", {})
+    if estimates.dev.name in converged:
+        _apply(estimates, converged[estimates.dev.name])
+
+
+def states_gain(converged: Any, noise: float) -> float:
+    """A − A(converged): 2."""
+    return noise + 2.0 if converged else noise
 
 
 def _apply(estimates: Estimates, converged) -> None:
@@ -32,6 +50,7 @@ def _apply(estimates: Estimates, converged) -> None:
 
 PART = Part(
     name="solver",
+    order=50,
     varies="the constraint solver: Newton to `CONVERGED_TOLERANCE` where the model's own does not converge",
     variant=V.converged_solver,
     explains="CG or PGS stopped short of the solution",
@@ -43,4 +62,6 @@ PART = Part(
     over_runs=over_runs,
     at_states=at_states,
     baseline=True,
+    states=states,
+    states_gain=states_gain,
 )

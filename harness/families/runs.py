@@ -54,8 +54,14 @@ a constraint's response depends on h/τ (the row is folded into the implicit
 step), and without E that interaction would be counted twice — once in each part.
 
 Each part's estimate and tolerance is its module's in :mod:`harness.budget` (the
-registry's parts, iterated by :func:`parts` and :func:`budgets`); this module
-makes the runs they read and the round-off, reference and convergence
+registry's parts, iterated by :func:`parts` and :func:`budgets`), and so are its
+own runs (:attr:`harness.budget.part.Part.runs`: D is the floors', made once by
+:func:`variant_runs` and shared; a part's own per integrator are made by
+:func:`_integrator_runs`), handed back under its name in :attr:`Runs.own`. This
+module makes what the parts share: A, the integration ladder (B, h/4) with the
+softness levels on it (C, E, C₂, C′…, each taken to h → 0 on the same ladder),
+the baseline solves every run is made with (the converged solve, the completed
+one), the round-off copies, and the round-off, reference and convergence
 tolerances. What bounds the residual is each estimate's own accuracy (the
 tolerances, in the figure's unit):
 
@@ -118,6 +124,7 @@ tolerances, in the figure's unit):
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 from collections.abc import Callable, Mapping, Sequence
@@ -131,10 +138,10 @@ import numpy as np
 from analytic.systems import Scales
 from harness.budget import registry
 from harness.budget.convergence import SOLVER
-from harness.budget.extrapolation import linearity_note, richardson
+from harness.budget.extrapolation import richardson
 from harness.budget.inputs import Runs, by_name
 from harness.budget.integration import INTEGRATION_UNCERTAINTY
-from harness.budget.part import Estimates
+from harness.budget.part import Estimates, Making
 from harness.budget.reference import REFERENCE
 from harness.budget.roundoff import PERTURBED_FACTOR, PERTURBED_RUNS, QUANTIZATION, READ_ULPS, ROUNDOFF_EPS, ulp_states
 from harness.cases import Series
@@ -356,12 +363,16 @@ def noise_gain(runs: Runs, *, order: float) -> float:
     """Σ |wᵢ|: how much the ideal estimate (a linear combination Σ wᵢ xᵢ of the runs, Σ wᵢ = 1) can
     amplify noise that is independent from run to run (round-off, the constraint solver stopping at its
     tolerance). Found by linearity: the estimate with one run's values 1 and every other's 0 is its
-    weight. The floors' part D − A adds 2 (its two runs, each with weight ±1)."""
+    weight; each part's own runs (:attr:`Runs.own`: the lists of deviations in its record) are weighed so too, after
+    the shared ones, and a part adds its :attr:`~harness.budget.part.Part.runs_gain` for what it keeps as numbers
+    made elsewhere (the floors' D − A: 2, its two runs, each with weight ±1)."""
     name = FigureName("x.position")
+    owned = {p.name: _run_count(runs.own[p.name]) for p in registry.ALL if p.name in runs.own}
     groups = {"as_is": 1, "converged": int(runs.converged is not None), "half_step": 1,
               "quarter_step": int(runs.quarter_step is not None),
               "softness": len(runs.softness), "softness_half_step": int(runs.softness_half_step is not None),
-              "slower": len(runs.slower), "rigid_ladder": 3 * len(runs.rigid_ladder)}
+              "slower": len(runs.slower), "rigid_ladder": 3 * len(runs.rigid_ladder),
+              **{f"own.{part}": count for part, count in owned.items() if count}}
 
     def unit(hot: tuple[str, int], label: str, index: int = 0) -> list[Deviation]:
         return [Deviation(name, np.array([1.0 if hot == (label, index) else 0.0]), "scalar", "1", "")]
@@ -379,11 +390,43 @@ def noise_gain(runs: Runs, *, order: float) -> float:
                          slower=tuple(unit(hot, "slower", k) for k in range(groups["slower"])),
                          eps_factor=runs.eps_factor, tc_factor=runs.tc_factor, rigid=runs.rigid,
                          rigid_ladder=tuple(tuple(unit(hot, "rigid_ladder", 3 * level + k) for k in range(3))
-                                            for level in range(len(runs.rigid_ladder))))
+                                            for level in range(len(runs.rigid_ladder))),
+                         own={part: _with_runs(runs.own[part], functools.partial(unit, hot, f"own.{part}"))
+                              for part, count in owned.items() if count})
             dev = probe.as_is[0]
             found = parts(probe, dev, order=order)
             gain += float(abs((dev.values - sum(found.explained.values()))[0]))
-    return gain + (2.0 if runs.floors is not None else 0.0)
+    for part in registry.ALL:
+        if part.name in runs.own:
+            gain += part.runs_gain
+    return gain
+
+
+def _is_run(value: object) -> bool:
+    """Whether ``value`` is one run's deviations (a list or tuple of :class:`Deviation`)."""
+    return isinstance(value, list | tuple) and bool(value) and all(isinstance(v, Deviation) for v in value)
+
+
+def _run_count(value: object) -> int:
+    """How many runs a part's record holds (:attr:`Runs.own`): its lists of deviations, alone or in tuples."""
+    if _is_run(value):
+        return 1
+    if isinstance(value, list | tuple):
+        return sum(_run_count(v) for v in value)
+    return 0
+
+
+def _with_runs(value: object, made: Callable[[int], list[Deviation]], start: int = 0) -> Any:
+    """A part's record with its k-th run (in :func:`_run_count`'s order) replaced by ``made(k)``."""
+    if _is_run(value):
+        return made(start)
+    if isinstance(value, list | tuple):
+        out = []
+        for v in value:
+            out.append(_with_runs(v, made, start))
+            start += _run_count(v)
+        return type(value)(out)
+    return value
 
 
 def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_tolerance: float,
@@ -420,12 +463,8 @@ def budgets(runs: Runs, *, order: float, steps: int, rtol: float, solver_toleran
                                   if runs.perturbed else gain * roundoff * walk * dev.size),
                      "reference": REFERENCE * rtol * dev.size,
                      "convergence": gain * SOLVER * solver_tolerance * dev.size}
-        said = linearity_note(dev.magnitude, by_name(runs.softness[0])[dev.name],
-                              by_name(runs.softness[1])[dev.name], by_name(runs.stiffest)[dev.name]) \
-            if runs.rigid is not None and runs.stiffest is not None and len(runs.softness) == 2 \
-            and not runs.rigid_ladder and not runs.rigid_unresolved else ""  # at h: only inside the asymptotic range
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
-                               tolerance=tolerance, notes=(*notes, *((said,) if said else ())))
+                               tolerance=tolerance, notes=(*notes, *found.estimates.notes))
     return out
 
 
@@ -474,29 +513,31 @@ def _variant_run(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: T
     return _variant_runs(mut, probe, engine, target, model, steps=steps, variants=[(split, eps_factor, tc_factor)])[0]
 
 
-def _floors(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: Target, sims: Mapping[str, Trajectory],
-            bodies: tuple[str, ...]) -> dict[str, np.ndarray]:
-    """D − A per figure measure: the point masses' floors doubled (both runs without fluid forces where the
-    model has them: :func:`~harness.engine.variants.floors_pair`), run once with the most accurate integrator
-    (a floor moves an explicit integrator's error too: a ball joint's spin carries the floor alone),
-    shared by every integrator: a floor is physics, not integration."""
-    name = "RK4" if "RK4" in sims else next(iter(sims))
-    steps = len(sims[name].t) - 1
-    model = mut.compile(integrator=name)
+def _making(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: Target, sim: Trajectory, name: str, *,
+            variants: V.Variants, model: mujoco.MjModel | None = None) -> Making:
+    """What a part's own runs are made with (:class:`~harness.budget.part.Making`): the model compiled with the
+    integrator ``name`` (``model``, where the caller has it), and each edit of it run over the horizon of ``sim``
+    (the run at h, itself where the edit and the baseline's are none) with the constraints solved exactly where the
+    model's own solver does not converge, completed where the backend's solve stopped, as its deviations on the
+    grid of the run at h."""
+    model = mut.compile(integrator=name) if model is None else model
     exact = V.exact_solver(model)
-    lighter, more = V.floors_pair(model, bodies)
-    heavier = simulate(engine, mut.compile(integrator=name, variant=V.compose(exact, more)),
-                       probe, q0=target.q0, qd0=target.qd0, steps=steps)
-    base = sims[name] if exact is None and lighter is None else \
-        simulate(engine, mut.compile(integrator=name, variant=V.compose(exact, lighter)), probe, q0=target.q0,
-                 qd0=target.qd0, steps=steps)
-    as_is = {d.name.measure: d.values for d in compared(target, _completed(base), name)}
-    return {d.name.measure: d.values - as_is[d.name.measure] for d in compared(target, _completed(heavier), name)}
+    steps = len(sim.t) - 1
+
+    def run(edit: V.SpecEdit | None) -> list[Deviation]:
+        made = sim if exact is None and edit is None else \
+            simulate(engine, mut.compile(integrator=name, variant=V.compose(exact, edit)), probe, q0=target.q0,
+                     qd0=target.qd0, steps=steps)
+        return compared(target, _completed(made), name)
+
+    return Making(model=model, run=run, variants=variants)
 
 
 def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: Target, sim: Trajectory,
                      name: str, *, as_is: list[Deviation], order: float, variants: V.Variants,
-                     floors: Mapping[str, np.ndarray] | None, switching: bool = False) -> Runs:
+                     shared: Mapping[str, Any], switching: bool = False) -> Runs:
+    """One integrator's :class:`Runs`: its variants batched (the module docstring), then each part's own runs
+    (:attr:`~harness.budget.part.Part.runs`) beside those made once and shared by every integrator (``shared``)."""
     model = mut.compile(integrator=name)
     steps = len(sim.t) - 1
     eps = V.softness_factor(model)
@@ -533,6 +574,13 @@ def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, targe
                                                    rigid=rigid, integrator=name) if rigid is not None else ((), 1, "")
     represented = _represented(probe, target, model, steps=steps) if float32 else {}
     quantized = _quantized(probe, target, model, steps=steps) if float32 else {}
+    own = dict(shared)
+    makers = [part for part in registry.ALL if part.runs is not None and not part.shared_runs]
+    making = _making(mut, probe, engine, target, sim, name, variants=variants, model=model) if makers else None
+    for part in makers:
+        assert part.runs is not None and making is not None
+        if (made := part.runs(making)) is not None:
+            own[part.name] = made
     return Runs(
         as_is=as_is,
         half_step=half_step,
@@ -541,7 +589,7 @@ def _integrator_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, targe
         softness=tuple(done[f"softness{k}"] for k in range(len(levels))) if variants.soft else (),
         softness_half_step=done["softness_half_step"] if variants.soft else None,
         slower=tuple(done[f"slower{k}"] for k in range(1 + len(levels))) if variants.contacts else (),
-        floors=floors,
+        own=own,
         perturbed=tuple(done[f"perturbed{k}"] for k in range(1, PERTURBED_RUNS + 1)) if float32 else (),
         completed=None if sim.completed is None else compared(target, sim.completed, name),
         represented=represented,
@@ -628,13 +676,18 @@ def variant_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: T
     if not sims:
         return runs, failed
     variants = V.Variants.of(mut.compile(integrator=next(iter(sims))), target.scales.length, floors=mut.floors)
-    floors = None
-    if variants.point_masses:
+    shared: dict[str, Any] = {}  # the parts' runs made once, with the most accurate integrator, for every integrator
+    accurate = "RK4" if "RK4" in sims else next(iter(sims))
+    for part in registry.ALL:
+        if part.runs is None or not part.shared_runs:
+            continue
         try:
-            floors = _floors(mut, probe, engine, target, sims, variants.point_masses)
+            made = part.runs(_making(mut, probe, engine, target, sims[accurate], accurate, variants=variants))
         except SimulationDiverged as exc:
-            return runs, {name: f"the budget's run with the point masses' floors doubled {exc.reason}"
-                          for name in sims}
+            words = part.diverged or f"the budget's run for its {part.name} part"
+            return runs, {name: f"{words} {exc.reason}" for name in sims}
+        if made is not None:
+            shared[part.name] = made
     twins: list[tuple[float, Trajectory, str]] = []  # (order, run at h, the integrator whose variants it has)
     twin_of: dict[str, str] = {}
     jobs: list[tuple[str, Trajectory, list[Deviation]]] = []
@@ -656,7 +709,7 @@ def variant_runs(mut: V.ModelUnderTest, probe: Probe, engine: Backend, target: T
         name, sim, as_is = job
         try:
             made = _integrator_runs(mut, probe, engine, target, sim, name, as_is=as_is, order=orders[name],
-                                    variants=variants, floors=floors, switching=switching)
+                                    variants=variants, shared=shared, switching=switching)
         except SimulationDiverged as exc:
             return None, f"a run of its budget (a variant at h/2, h/4 or softer) {exc.reason}"
         return made, unresolved(made, order=orders[name], integrator=name)
@@ -688,6 +741,8 @@ def _renamed(runs: Runs, integrator: str, as_is: Sequence[Deviation]) -> Runs:
             return [renamed(v) for v in value]
         if isinstance(value, tuple):
             return tuple(renamed(v) for v in value)
+        if isinstance(value, Mapping):  # the parts' own records (Runs.own) among them
+            return {k: renamed(v) for k, v in value.items()}
         return value
 
     changed: dict[str, Any] = {f.name: renamed(getattr(runs, f.name)) for f in dataclasses.fields(runs)

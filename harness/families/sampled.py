@@ -26,7 +26,8 @@ state by state
 - floors = D − A: linear in the inertia;
 - ideal = A − softness − floors,
 
-each reduced as the figure is (each part's estimate and tolerance is its module's in :mod:`harness.budget`, the
+each reduced as the figure is (each part's evaluations, estimate and tolerance are its module's in
+:mod:`harness.budget`: :func:`evaluate` has each part make its own and hands them back under its name, the
 registry's parts iterated by :func:`budgets`). The tolerances: 1/4 of the softness part (the O(1 − d) terms for
 1 − d up to 1/4), 1/10 of the floors', float round-off (:data:`ROUNDOFF` × the quantity's size: the analytic side is a
 closed-form evaluation and one KKT solve, MuJoCo's a forward pass) and the constraint solver's tolerance
@@ -63,8 +64,8 @@ from analytic.dynamics import Constrained, Dynamics
 from analytic.solvers import project
 from harness.budget import registry
 from harness.budget.convergence import SOLVER
-from harness.budget.extrapolation import RIGID_GAIN, gain, linearity_note
-from harness.budget.inputs import States, by_name
+from harness.budget.inputs import States
+from harness.budget.part import Evaluating
 from harness.budget.roundoff import PERTURBED_FACTOR, PERTURBED_RUNS, READ_ULPS
 from harness.core.budget import Budget
 from harness.core.deviation import Deviation
@@ -453,9 +454,10 @@ def evaluate(mut: V.ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref: Re
     """Every figure the families compare at the sampled states of ``model`` (compiled from ``mut`` with
     ``integrator``), with its budget: the same states evaluated on the variants — softer, heavier floors,
     wider margins, and with the constraints solved exactly where the model's own solver does not converge —,
-    every evaluation on ``engine``. On a float32 engine the variants are taken completed too, so their
-    differences are the settings', not where each stop fell. ``conditioning``: n · cond(M) of a model judged
-    against its own tree, whose solved figures' round-off grows with it (:data:`CONDITIONED`)."""
+    every evaluation on ``engine``, each made by its part (:attr:`harness.budget.part.Part.states`). On a float32
+    engine the variants are taken completed too, so their differences are the settings', not where each stop fell.
+    ``conditioning``: n · cond(M) of a model judged against its own tree, whose solved figures' round-off grows
+    with it (:data:`CONDITIONED`)."""
     found = at_states(model, probe, ref, engine, compares, perturbed=True)
     variants = V.Variants.of(model, ref.scales.length, floors=mut.floors)
     exact = V.exact_solver(model)
@@ -465,26 +467,14 @@ def evaluate(mut: V.ModelUnderTest, model: mujoco.MjModel, probe: Probe, ref: Re
                         compares)
         return got.completed if got.completed is not None else got.deviations
 
-    eps_factor = V.softness_factor(model)
-    rigid = V.rigid_factor(model) if variants.soft else None
-    levels = (2.0 * rigid, rigid) if rigid is not None else (eps_factor, eps_factor**2) if eps_factor < 1 \
-        else (eps_factor,)
-    softness = tuple(at(V.variant(model, eps_factor=f)) for f in levels) if variants.soft else ()
-    stiffest = at(V.variant(model, eps_factor=rigid / 2.0)) if rigid is not None else None  # fε/2: 1e-4 (the cap)
-    heavier = lighter = None
-    if variants.point_masses:
-        base, more = V.floors_pair(model, variants.point_masses)
-        heavier, lighter = at(more), (at(base) if base is not None else None)
-    converged = at(None) if exact is not None else None
-    wider = V.wider_margins(model)
-    margins = at(wider) if wider is not None else None
-    made = budgets(found.deviations, conditioning=conditioning, softness=softness, heavier=heavier, lighter=lighter,
-                   converged=converged, margins=margins, eps_factor=eps_factor, rigid=rigid is not None,
-                   stiffest=stiffest,
+    # each part's own evaluations, handed back under its name (harness.budget.part.Part.states)
+    evaluating = Evaluating(model=model, at=at, variants=variants, exact=exact, completed=found.completed)
+    own = {p.name: made for p in registry.ALL if p.states is not None and (made := p.states(evaluating)) is not None}
+    made = budgets(found.deviations, States(own=own, perturbed=found.perturbed, represented=found.represented),
+                   conditioning=conditioning,
                    solver_tolerance=V.CONVERGED_TOLERANCE if exact is not None else variants.solver_tolerance,
                    notes=(*variants.notes, *((found.completion_note,) if found.completion_note else ())),
-                   perturbed=found.perturbed, represented=found.represented, epsilon=engine.epsilon,
-                   completed=found.completed)
+                   epsilon=engine.epsilon)
     return Evaluation(deviations=found.deviations, budgets=made, perturbed=found.perturbed,
                       represented=found.represented, unavailable=found.unavailable, failing=found.failing,
                       completed=found.completed, completion_note=found.completion_note)
@@ -535,38 +525,22 @@ until their fault matrix is re-run with it)."""
 FLOAT64 = float(np.finfo(float).eps)
 
 
-def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation]] = (),
-                    heavier: Sequence[Deviation] | None = None, lighter: Sequence[Deviation] | None = None,
-                    converged: Sequence[Deviation] | None = None, margins: Sequence[Deviation] | None = None,
-                    eps_factor: float = 2.0, rigid: bool = False, solver_tolerance: float = 0.0,
-                    notes: Sequence[str] = (),
-                    perturbed: Sequence[Sequence[Deviation]] = (),
-                    represented: Mapping[FigureName, float] | None = None,
-                    epsilon: float = float(np.finfo(np.float32).eps),
-                    completed: Sequence[Deviation] | None = None,
-                    conditioning: float = 1.0, stiffest: Sequence[Deviation] | None = None
-                    ) -> dict[FigureName, Budget]:
-    """Every figure's budget from the model's deviations at the sampled states (A) and,
-    where they apply, the model's with every ε × s, s² (``softness``, s = ``eps_factor``; ``rigid``: at the
-    near-rigid 2fε and fε instead, :func:`~harness.budget.extrapolation.from_rigid`) and with
-    heavier floors (D) at the same states; ``lighter``: where given, the floors' part is D − ``lighter``
-    instead of D − A (the pair :func:`~harness.engine.variants.floors_pair` makes without fluid forces).
-    ``margins``: A with every contact margin doubled (:func:`~harness.engine.variants.wider_margins`); the
-    margin part is that minus A, linear in the margin.
-    ``converged``: A with the constraints solved exactly, where the model's own solver does not converge
-    (the other evaluations are then made that way too).
-    ``completed``: on a float32 backend, A with the backend's stopped solve completed in float64
-    (:mod:`harness.engine.backends.completion`; the other evaluations are then passed completed too).
-    ``stiffest``: with ``rigid``, A at fε/2 (the smallest ε at MuJoCo's stiffest, 1e-4): not used in the part, only
-    to say where the softness is not linear down there (:func:`linearity_note`)."""
-    states = States(levels=[by_name(group) for group in softness], eps_factor=eps_factor, rigid=rigid,
-                    lowest=by_name(stiffest), heavier=by_name(heavier), lighter=by_name(lighter),
-                    converged=by_name(converged), completed=by_name(completed), wider=by_name(margins))
-    levels, lowest = states.levels, states.lowest
-    noise = (RIGID_GAIN if rigid else gain(len(levels) + 1, eps_factor) if levels else 1.0) \
-        + (2.0 if states.heavier else 0.0) + (2.0 if states.converged else 0.0) + (2.0 if states.wider else 0.0)
+def budgets(as_is: Sequence[Deviation], states: States | None = None, *, solver_tolerance: float = 0.0,
+            notes: Sequence[str] = (), epsilon: float = float(np.finfo(np.float32).eps), conditioning: float = 1.0
+            ) -> dict[FigureName, Budget]:
+    """Every figure's budget from the model's deviations at the sampled states (A) and the variants evaluated at the
+    same states, each part's own in ``states`` (:class:`~harness.budget.inputs.States`: by the part's name, as its
+    module makes and reads them, with the round-off copies' figures); ``solver_tolerance``: the constraint solver's
+    (0 without constraints); ``epsilon``: the machine epsilon of the backend's arithmetic; ``conditioning``: n ·
+    cond(M) of a model judged against its own tree (:data:`CONDITIONED`). The noise gain of the extrapolation (Σ|w|
+    of the evaluations' weights) is each part's :attr:`~harness.budget.part.Part.states_gain` in turn, from A's 1."""
+    states = States() if states is None else states
+    noise = 1.0
+    for part in registry.ALL:
+        if part.states_gain is not None and part.name in states.own:
+            noise = part.states_gain(states.own[part.name], noise)
     copies: dict[FigureName, list[np.ndarray]] = {}
-    for group in perturbed:
+    for group in states.perturbed:
         for d in group:
             copies.setdefault(d.name, []).append(d.values)
     out = {}
@@ -580,15 +554,13 @@ def budgets(as_is: Sequence[Deviation], *, softness: Sequence[Sequence[Deviation
         roundoff = noise * max(ROUNDOFF, CONDITIONED * conditioning * FLOAT64 if solved else 0.0) * dev.size
         if dev.name in copies:
             spread = noise * (PERTURBED_FACTOR * max(dev.magnitude(c - dev.values) for c in copies[dev.name])
-                              + (represented or {}).get(dev.name, 0.0) + READ_ULPS * epsilon * dev.size)
+                              + states.represented.get(dev.name, 0.0) + READ_ULPS * epsilon * dev.size)
             # float32: the copies' spread is the round-off; float64 (a constraint solve): the larger of the two
             roundoff = spread if epsilon > FLOAT64 else max(roundoff, spread)
         tolerance = {**registry.tolerances(found, explained, runs=False),
                      "roundoff": roundoff,
                      "convergence": noise * SOLVER * solver_tolerance * dev.size}
-        said = linearity_note(dev.magnitude, levels[0][dev.name], levels[1][dev.name], lowest[dev.name]) \
-            if rigid and len(levels) == 2 and dev.name in lowest else ""
         out[dev.name] = Budget(measured=dev.magnitude(), explained=explained, unexplained=dev.magnitude(ideal),
-                               tolerance=tolerance, notes=(*notes, *((said,) if said else ())))
+                               tolerance=tolerance, notes=(*notes, *found.notes))
     return out
 
