@@ -43,8 +43,8 @@ PROTOCOLS = {
     r"analytic\.systems\.[^.]+": ("PARAMETERS", "SIGNED_PARAMETERS", "MOTION", "build", "minimal",
                                   "params_from_model", "scales", "WIRING"),
     r"mjcf\.[^.]+": ("WIRING",),  # a model's wiring (harness/cases/__init__.py)
-    r"harness\.engine\.backends\.[^.]+": ("backend",),
-    r"harness\.budget\.[^.]+": ("PART",),  # a budget part (harness/budget/registry.py discovers them)  # an optional backend's factory (backends.get)
+    r"harness\.engine\.backends\.[^.]+": ("backend",),  # an optional backend's factory (backends.get)
+    r"harness\.budget\.[^.]+": ("PART",),  # a budget part (harness/budget/registry.py discovers them)
     # a family of figures (harness/families/__init__.py: FAMILIES, modules typed as the protocol bench.Family)
     r"harness\.families\.[^.]+": ("NAME", "owns", "names", "gated", "theory_limit", "measure", "compare"),
     # the pytest plugin (entry point pytest11): pytest reads its hooks and fixtures by name
