@@ -229,7 +229,7 @@ def _compiled(path: Path | str, *, integrator: str | None, timestep: float | Non
 
 
 _PREPARED: OrderedDict[tuple, tuple[tuple, mujoco.MjSpec]] = OrderedDict()
-_PREPARED_MAX = 16
+_PREPARED_MAX = 4  # a spec compiled once (isolate's) holds its meshes: Menagerie's Panda's, 50 MB
 PREPARED = {"prepared": 0, "reused": 0}
 """How many specs :func:`_prepared` made with their leading edit applied, and how many it copied again."""
 
@@ -255,10 +255,10 @@ def _prepared(path: Path | str, edit: Callable[[mujoco.MjSpec], None] | None
                 _PREPARED.move_to_end(key)
         if entry is not None and _identities(entry[0]) == entry[0]:
             PREPARED["reused"] += 1
-            with _CACHES:  # what check_text reads after compiling: this text, unchanged on disk
-                _TEXTS.pop(str(path), None)
+            with _CACHES:  # copied one thread at a time, as _parsed copies; and what check_text reads after
+                _TEXTS.pop(str(path), None)  # compiling: this text, unchanged on disk
                 _TEXTS[str(path)] = key[1]
-            return entry[1].copy(), rest
+                return entry[1].copy(), rest
     spec = load_spec(path)
     small_textures(spec)
     flat_textures(spec)
@@ -273,7 +273,7 @@ def _prepared(path: Path | str, edit: Callable[[mujoco.MjSpec], None] | None
         _PREPARED[key] = (files, spec)
         while len(_PREPARED) > _PREPARED_MAX:
             _PREPARED.popitem(last=False)
-    return spec.copy(), rest
+        return spec.copy(), rest
 
 
 def _prepared_key(path: Path | str, lead: Callable[[mujoco.MjSpec], None] | None) -> tuple | None:
