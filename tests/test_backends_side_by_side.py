@@ -16,7 +16,7 @@ import pytest
 from harness import cases
 from harness.core.options import RunOptions
 from harness.outputs.backends import BackendRun, findings, side_by_side_html, side_by_side_json
-from harness.pipeline.matrix import run_backends
+from harness.pipeline.entry import evaluate_backends
 
 SHORT = RunOptions(horizon=0.02, integrators=("RK4",))
 
@@ -26,7 +26,7 @@ def pair():
     """symmetric_top (its system holds a closure, which does not pickle) and pendulum, each run on 'c' in a
     backend process of its own, as ``run --backend all`` runs every backend."""
     selected = [cases.get("symmetric_top"), cases.get("pendulum")]
-    return selected, run_backends(selected, None, SHORT, ["c"])
+    return selected, evaluate_backends(selected, None, SHORT, ["c"])
 
 
 def test_each_backends_run_comes_back_with_its_cases_references_and_runs(pair):

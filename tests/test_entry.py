@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 
 import pytest
 
@@ -72,3 +73,24 @@ def test_a_model_of_ones_own_is_evaluated_as_validate_judges_it(through_entry):
     assert [r.case.tree is not None for r in evaluated.results] == [True]  # judged against its own tree
     assert tuple(evaluated.checks[validated.case]) == validated.checks
     assert through_entry == [(validated.case,)] * 2
+
+
+def test_baseline_figures_and_limits_run_through_the_entry(through_entry, tmp_path, capsys):
+    assert main(["baseline", "spring", "--write", str(tmp_path / "b.json"), "-j", "1"]) == 0
+    assert main(["figures", "spring", "-j", "1"]) == 0
+    assert "spring" in capsys.readouterr().out
+    assert through_entry == [("spring",)] * 2
+    assert not hasattr(sys.modules["harness.cli.subcommands.limits"], "run_all")  # limits --write: the entry's
+
+
+def test_the_figures_commands_neither_check_nor_judge_requirements(through_entry):
+    """baseline, figures and limits read the figures and checks alone (requirements=False), as they did before
+    they came through the entry: a requirement naming no measured figure stops check, never them."""
+    from harness.core.errors import ConfigError
+    from harness.pipeline.require import Requirement
+
+    judging = Judging(require=(Requirement("nosuch", 1e-3),))
+    with pytest.raises(ConfigError, match="nosuch"):
+        evaluate(cases.get("pendulum"), options=RunOptions(integrators=RK4), judging=judging)
+    done = evaluate(cases.get("pendulum"), options=RunOptions(integrators=RK4), judging=judging, requirements=False)
+    assert done.outcome.exit_code == 0 and not done.outcome.unmet

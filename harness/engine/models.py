@@ -32,7 +32,7 @@ from harness.core import inputs
 from harness.core.errors import ModelError
 from harness.engine import compat
 from harness.engine.compat import after_compile, spec_from_file
-from harness.engine.integrators import integrator_enum
+from harness.engine.integrators import integrator_enum, integrator_name
 from harness.engine.validity import InvalidModel, check_model, check_spec, check_texts
 
 __all__ = ["SMALL_TEXTURE", "authored", "compile_model", "edit_identity", "load_spec", "mjcf_path"]
@@ -124,7 +124,6 @@ COMPILED_BYTES = 512 * 2**20
 """How many bytes of compiled models it keeps at most (``MjModel.nbuffer``): a robot's meshes make a model tens of
 MB (Menagerie's Panda: 35 MB)."""
 _COMPILED: OrderedDict[tuple, tuple[tuple, mujoco.MjModel]] = OrderedDict()
-_ASKED: OrderedDict[tuple, None] = OrderedDict()  # the variants asked for once, not kept (yet)
 COMPILES = {"compiled": 0, "reused": 0}
 """How many models :func:`compile_model` compiled and how many it handed out again (tests, benchmarks)."""
 
@@ -140,58 +139,71 @@ def compile_model(
     edit, so that they hold whatever the edit sets), for simulation: its generated textures are made small
     (:func:`small_textures`) and those read from image files flat (:func:`flat_textures`).
 
-    A variant asked for again is not compiled again: a variant asked for a second time is kept (a copy of it),
-    and from then on a copy is handed out, as long as the file (and every file it includes or reads a mesh,
-    height field or skin from) is unchanged on disk and the integrator, timestep and edit are equal
-    (:func:`edit_identity`; an edit without a stable identity, such as a closure, is compiled every time).
-    Copies, since callers may change a model in place; kept from the second time only, since a copy costs a
-    third of a compile on a model with large meshes and most variants are asked for once. Bounded:
-    :data:`COMPILED_MAX` models, :data:`COMPILED_BYTES` bytes."""
+    A variant is compiled once: it is kept (a copy of it) and from then on a copy is handed out, as long as the
+    file (and every file it includes or reads a mesh, height field or skin from) is unchanged on disk and the
+    integrator, timestep and edit are equal (:func:`edit_identity`; an edit without a stable identity, such as a
+    closure, is compiled every time). Copies, since callers may change a model in place. Bounded:
+    :data:`COMPILED_MAX` models, :data:`COMPILED_BYTES` bytes. The edit's leading part (a tree case's
+    preparation) is applied once per model, whatever variants follow it (:func:`_prepared`)."""
     key = _variant_key(path, integrator, timestep, edit)
-    if key is not None:
-        with _CACHES:
-            entry = _COMPILED.get(key)
-            if entry is not None:
-                _COMPILED.move_to_end(key)
-        if entry is not None and _identities(entry[0]) == entry[0]:
-            COMPILES["reused"] += 1
-            return copy.copy(entry[1])
-    spec, model = _compiled(path, integrator=integrator, timestep=timestep, edit=edit)
-    COMPILES["compiled"] += 1
-    if key is not None:
-        _keep(key, spec, model, path)
-    return model
-
-
-def _keep(key: tuple, spec: mujoco.MjSpec, model: mujoco.MjModel, path: Path | str) -> None:
-    """Keep a copy of ``model`` where its variant was asked for before (else note that it was)."""
+    if key is None:
+        COMPILES["compiled"] += 1
+        return _compiled(path, integrator=integrator, timestep=timestep, edit=edit)[1]
     with _CACHES:
-        again = key in _ASKED or key in _COMPILED
-        _ASKED.pop(key, None)
-        if not again:
-            _ASKED[key] = None
-            while len(_ASKED) > 8 * COMPILED_MAX:
-                _ASKED.popitem(last=False)
-            return
+        compiling = _COMPILING.setdefault(key, threading.Lock())
+    with compiling:  # variants are compiled side by side: one thread compiles each, those asking meanwhile wait
+        try:
+            kept = _kept(key)
+            if kept is not None:
+                COMPILES["reused"] += 1
+                return kept
+            spec, model = _compiled(path, integrator=integrator, timestep=timestep, edit=edit)
+            COMPILES["compiled"] += 1
+            # kept also as the variants that name the integrator or timestep it compiled with: the same model,
+            # asked for so by a caller that read them off it (the model's own step, h/1 of a ladder)
+            named = {(*key[:2], i, t, key[4]) for i in (key[2], integrator_name(model))
+                     for t in (key[3], _identity(float(model.opt.timestep)))}
+            _keep((key, *sorted(named - {key}, key=repr)), spec, model, path)
+            return model
+        finally:
+            with _CACHES:
+                _COMPILING.pop(key, None)
+
+
+_COMPILING: dict[tuple, threading.Lock] = {}  # the variants being compiled now, each by one thread
+
+
+def _kept(key: tuple) -> mujoco.MjModel | None:
+    """A copy of the model kept as ``key``, None where none is or its files changed on disk since."""
+    with _CACHES:
+        entry = _COMPILED.get(key)
+        if entry is not None:
+            _COMPILED.move_to_end(key)
+    return copy.copy(entry[1]) if entry is not None and _identities(entry[0]) == entry[0] else None
+
+
+def _keep(keys: tuple[tuple, ...], spec: mujoco.MjSpec, model: mujoco.MjModel, path: Path | str) -> None:
+    """Keep a copy of ``model`` under each of its variant's ``keys``, with the identities of the files it was read
+    from."""
     if int(model.nbuffer) > COMPILED_BYTES:
         return
     resolved = Path(path).resolve()
     files = _identities(tuple(sorted({str(resolved), *_included(resolved), *_assets(spec, resolved.parent)})))
-    kept = copy.copy(model)
+    entry = (files, copy.copy(model))
     with _CACHES:
-        _COMPILED[key] = (files, kept)
-        _COMPILED.move_to_end(key)
-        while len(_COMPILED) > COMPILED_MAX or sum(int(m.nbuffer) for _, m in _COMPILED.values()) > COMPILED_BYTES:
+        for key in keys:
+            _COMPILED[key] = entry
+            _COMPILED.move_to_end(key)
+        while len({id(e) for e in _COMPILED.values()}) > COMPILED_MAX or \
+                sum(int(m.nbuffer) for _, m in {id(e): e for e in _COMPILED.values()}.values()) > COMPILED_BYTES:
             _COMPILED.popitem(last=False)
 
 
 def _compiled(path: Path | str, *, integrator: str | None, timestep: float | None,
               edit: Callable[[mujoco.MjSpec], None] | None) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
-    spec = load_spec(path)
-    small_textures(spec)
-    flat_textures(spec)
-    if edit is not None:
-        edit(spec)
+    spec, rest = _prepared(path, edit)
+    if rest is not None:
+        rest(spec)
     if integrator is not None:
         spec.option.integrator = integrator_enum(integrator)
     if timestep is not None:
@@ -216,6 +228,68 @@ def _compiled(path: Path | str, *, integrator: str | None, timestep: float | Non
         raise ModelError(f"invalid MJCF {str(path)!r}: {exc}") from None
     after_compile(model, str(path))  # fallbacks for an older MuJoCo (harness.compat)
     return spec, model
+
+
+_PREPARED: OrderedDict[tuple, tuple[tuple, mujoco.MjSpec]] = OrderedDict()
+_PREPARED_MAX = 4  # a spec compiled once (isolate's) holds its meshes: Menagerie's Panda's, 50 MB
+PREPARED = {"prepared": 0, "reused": 0}
+"""How many specs :func:`_prepared` made with their leading edit applied, and how many it copied again."""
+
+
+def _prepared(path: Path | str, edit: Callable[[mujoco.MjSpec], None] | None
+              ) -> tuple[mujoco.MjSpec, Callable[[mujoco.MjSpec], None] | None]:
+    """The spec of ``path`` with its textures made small and flat and the leading part of ``edit`` applied, and
+    what of ``edit`` is left to apply (None: nothing). The leading part is ``edit`` itself, or the first of a
+    composed edit's parts (``edits``: :class:`harness.engine.variants.Composed`): a tree case's
+    :class:`~harness.reference.tree.TreeEdit`, which every variant of its model gets first and which compiles
+    the model to find what to switch off. A copy of the spec made so before is handed out where the file (and
+    each file it includes or reads a mesh, height field or skin from) is unchanged on disk and the leading part
+    is equal (:func:`edit_identity`), so that part runs once per model and process, not once per variant; made
+    anew where that cannot be told (as :func:`compile_model`'s own keeping)."""
+    parts = getattr(edit, "edits", None)
+    lead, rest = (parts[0], (parts[1] if len(parts) == 2 else dataclasses.replace(edit, edits=parts[1:]))) \
+        if isinstance(parts, tuple) and parts and dataclasses.is_dataclass(edit) else (edit, None)
+    key = _prepared_key(path, lead)
+    if key is not None:
+        with _CACHES:
+            entry = _PREPARED.get(key)
+            if entry is not None:
+                _PREPARED.move_to_end(key)
+        if entry is not None and _identities(entry[0]) == entry[0]:
+            PREPARED["reused"] += 1
+            with _CACHES:  # copied one thread at a time, as _parsed copies; and what check_text reads after
+                _TEXTS.pop(str(path), None)  # compiling: this text, unchanged on disk
+                _TEXTS[str(path)] = key[1]
+                return entry[1].copy(), rest
+    spec = load_spec(path)
+    small_textures(spec)
+    flat_textures(spec)
+    if lead is not None:
+        lead(spec)
+    if key is None:
+        return spec, rest
+    PREPARED["prepared"] += 1
+    resolved = Path(path).resolve()
+    files = _identities(tuple(sorted({str(resolved), *_included(resolved), *_assets(spec, resolved.parent)})))
+    with _CACHES:
+        _PREPARED[key] = (files, spec)
+        while len(_PREPARED) > _PREPARED_MAX:
+            _PREPARED.popitem(last=False)
+        return spec.copy(), rest
+
+
+def _prepared_key(path: Path | str, lead: Callable[[mujoco.MjSpec], None] | None) -> tuple | None:
+    """What makes a prepared spec of ``path`` (its resolved path, its text, the leading edit), or None where it
+    cannot be kept: an edit without a stable identity, an unreadable file, an older MuJoCo's per-parse fallbacks
+    or one without ``MjSpec.copy``."""
+    identity = edit_identity(lead)
+    if identity is None or compat.missing_flags() or not hasattr(mujoco.MjSpec, "copy"):
+        return None
+    try:
+        text = inputs.read_bytes(path, what="MJCF", limit=inputs.MODEL_LIMIT)
+    except (OSError, inputs.InputFileError):
+        return None
+    return (str(Path(path).resolve()), text, identity)
 
 
 def _variant_key(path: Path | str, integrator: str | None, timestep: float | None,

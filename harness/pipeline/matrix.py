@@ -350,25 +350,3 @@ def _run_isolated(selected: Sequence[cases.Case], bar, *, figures_only: bool, op
         finished(results[-1])
         bar.update(1)
     return results
-
-
-def _run_backend(names: Sequence[str], config_path: Path | None, options: RunOptions
-                 ) -> tuple[list[CaseResult], dict[str, list[Check]]]:
-    """run_all in a backend's own process; its results go back to the parent without their case (a case's
-    system may hold closures, which do not pickle: symmetric_top's axial momentum), reattached there."""
-    results, checks, _ = run_all([cases.get(n) for n in names], config_path, options, jobs=1)
-    return [r.without_case() for r in results], checks
-
-
-def run_backends(selected: Sequence[cases.Case], config_path: Path | None, options: RunOptions,
-                 names: Sequence[str]) -> list[tuple[str, list[CaseResult], dict[str, list[Check]]]]:
-    """run_all on each backend of ``names``, each in a process of its own, forked from this one, which
-    imports no accelerated backend: JAX and Warp do not survive a fork, and MJX fixes its precision at its
-    first import, so float32 and float64 cannot share a process."""
-    out = []
-    for name in names:
-        with fork_pool(1) as pool:
-            results, checks = pool.submit(_run_backend, [c.name for c in selected], config_path,
-                                          dataclasses.replace(options, backend=name)).result()
-        out.append((name, [dataclasses.replace(r, case=c) for r, c in zip(results, selected, strict=True)], checks))
-    return out

@@ -166,7 +166,14 @@ def _tightened(case: Case, options: RunOptions) -> tuple[Bench, list[tuple[str, 
     """The case measured with its reference as tight as its budgets need: a stiff tree's Radau IIA solve is made
     to STIFF_RTOL first and, where its part passes REFERENCE_SHARE of a figure's limit, once more at the rtol that
     the budgets derive (:func:`harness.budget.reference.reference_rtol`); the statement of the reference's tolerance
-    and its share ("" where the reference is not a stiff tree's)."""
+    and its share ("" where the reference is not a stiff tree's).
+
+    The second time, every family is measured again, on purpose: each compares MuJoCo with the reference or reads
+    what is derived from its solution (the states sampled on it, its scales, whose length counts how far the solved
+    motion goes, the clamp switches located on it, the reference's own part of every budget), so a figure
+    measured against the looser solve is not the figure at the tighter one. What does not depend on the reference
+    is not made again: the models (each variant whose edit has a stable identity comes from the compile cache,
+    :func:`harness.engine.models.compile_model`) and the derived dynamics (their cache)."""
     bench, measured = _measure(case, options)
     rtol = bench.reference.solution.rtol
     if case.tree is None or bench.reference.solution.method != "Radau IIA":

@@ -12,7 +12,7 @@ from harness.outputs import baseline
 from harness.outputs.diff import load_run
 from harness.outputs.files import check_output
 from harness.outputs.table import checks_table
-from harness.pipeline.matrix import run_all
+from harness.pipeline.entry import Judging, evaluate
 
 __all__ = ["COMMAND"]
 
@@ -33,7 +33,9 @@ def cmd_baseline(args: argparse.Namespace) -> int:
         check_output(baseline.output_dir(args.write))
         partial = bool(args.cases or args.case)
         old = load_run(args.write) if partial and baseline.exists(args.write) else None
-        results, checks, _ = run_all(selected, args.config, jobs=args.jobs, figures_only=True)
+        done = evaluate(selected, judging=Judging(config=args.config), jobs=args.jobs, figures_only=True,
+                        requirements=False)
+        results, checks = done.results, done.checks
         failing = [c for cs in checks.values() for c in cs if not c.passed and not c.known]  # a known defect is
         # what this MuJoCo does, documented: a baseline of this version records it
         if failing:
@@ -49,7 +51,9 @@ def cmd_baseline(args: argparse.Namespace) -> int:
     mismatch = baseline.version_mismatch(reference, source=str(args.compare))
     if mismatch:  # a baseline is per MuJoCo version: refuse before any work
         raise ValueError(mismatch)
-    results, checks, _ = run_all(selected, args.config, jobs=args.jobs, figures_only=True)
+    done = evaluate(selected, judging=Judging(config=args.config), jobs=args.jobs, figures_only=True,
+                    requirements=False)
+    results, checks = done.results, done.checks
     findings = [f for r in results for f in baseline.compare(
         reference, r.case.name, r.figures, checks[r.case.name], source=str(args.compare))]
     for f in findings:

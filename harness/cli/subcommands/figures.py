@@ -8,7 +8,7 @@ from harness import cases
 from harness.cli.common import EXIT_OK, Command
 from harness.cli.options import _add_cases, _add_config, _add_jobs, _add_systems
 from harness.core.tables import terminal_width, wrap
-from harness.pipeline.matrix import run_all
+from harness.pipeline.entry import Judging, evaluate
 
 __all__ = ["COMMAND"]
 
@@ -24,7 +24,9 @@ def cmd_figures(args: argparse.Namespace) -> int:
     """Every figure a case measures, with its unit, what it measures and its limit with the basis. The
     descriptions are those the code that measures the figures gives them, so the cases run (as ``check``
     does: seconds, no report)."""
-    results, _, limits = run_all(cases.select(args.cases), args.config, jobs=args.jobs, figures_only=True)
+    done = evaluate(cases.select(args.cases), judging=Judging(config=args.config), jobs=args.jobs,
+                    figures_only=True, requirements=False)
+    results, limits = done.results, done.limits
     width = terminal_width()
     print("\n".join(wrap("unit 1 = relative to the case's scale (m·g for forces, m·g·l for energy); a "
                          "budget-gated figure passes when what its budget does not explain is within the limit "

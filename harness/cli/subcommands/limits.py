@@ -9,7 +9,7 @@ from harness.cli.common import EXIT_OK, Command
 from harness.cli.options import _add_cases, _add_jobs, _add_systems
 from harness.outputs.files import check_output, write_atomic
 from harness.pipeline import limits as limits_data
-from harness.pipeline.matrix import run_all
+from harness.pipeline.entry import evaluate
 
 __all__ = ["COMMAND"]
 
@@ -43,7 +43,7 @@ def cmd_limits(args: argparse.Namespace) -> int:
         print("every case named has its limits file; budgets are computed for each run, so there is nothing "
               "to rewrite (edit a file to gate another figure)")
         return EXIT_OK
-    results, _, _ = run_all(missing, None, jobs=args.jobs, figures_only=True)
+    results = evaluate(missing, jobs=args.jobs, figures_only=True, requirements=False).results
     files = {}
     for r in results:
         constrained = bool(r.case.dynamics().constraint_names)

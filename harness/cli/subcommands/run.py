@@ -36,8 +36,7 @@ from harness.outputs.files import (
     with_manifest,
     write_atomic,
 )
-from harness.pipeline.entry import evaluate
-from harness.pipeline.matrix import run_backends
+from harness.pipeline.entry import evaluate, evaluate_backends
 
 __all__ = ["COMMAND"]
 
@@ -82,7 +81,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         runs = [BackendRun(options.backend, backends.PRECISION[options.backend], results, checks)]
         runs += [BackendRun(name, backends.PRECISION[name], r, c)
-                 for name, r, c in run_backends(selected, args.config, options, others)]
+                 for name, r, c in evaluate_backends(selected, args.config, options, others)]
         pages = [*pages, Page(BACKENDS_PAGE, "Backends side by side", "every gated figure of each case on each "
                               "backend, and the findings", (side_by_side_html(runs),))]
         appendix = (appendix or {}) | {"backends": side_by_side_json(runs)}
