@@ -51,22 +51,6 @@ PROTOCOLS = {
     r"harness\.pytest_plugin": ("pytest_addoption", "pytest_report_header", "mjharness"),
     r"harness\.cli\.entry": ("entry",),  # the console script (pyproject's [project.scripts])
 }
-# Underscore names the package's code imported across modules before the boundary was drawn (most of them the
-# command line's helpers, split out of one module into many): to be renamed without the underscore and listed in
-# __all__, in a change of their own once the branches editing harness/cli/ have merged. Nothing may join this list;
-# an entry no longer imported is reported, so that it shrinks.
-UNDERSCORE_DEBT = {
-    "harness/cli/common.py": ("_backend_refusals", "_case_lines", "_check_junit", "_executor", "_exit_code",
-                              "_inertials", "_judging", "_junit", "_limits", "_opinions", "_options", "_peers",
-                              "_print_checks", "_progress", "_selected", "_trees"),
-    "harness/cli/options.py": ("_Parser", "_add_backend", "_add_cases", "_add_config", "_add_executor",
-                               "_add_horizon", "_add_html", "_add_integrators", "_add_jobs", "_add_json", "_add_junit",
-                               "_add_model", "_add_out", "_add_quiet", "_add_run_options", "_add_selection",
-                               "_add_systems", "_number", "_positive", "_seconds"),
-    "harness/cli/subcommands/check.py": ("_args_check",),
-    "harness/families/convergence.py": ("_reference_grids",),
-    "harness/opinions/pinocchio.py": ("_BALL", "_FREE", "_HINGE", "_NDOF", "_SLIDE"),
-}
 
 
 @dataclass(frozen=True)
@@ -230,16 +214,10 @@ def _public(name: str) -> bool:
     return not name.startswith("_") or (name.startswith("__") and name.endswith("__"))
 
 
-def problems(root: Path = ROOT, *, debt: dict[str, tuple[str, ...]] | None = None) -> list[str]:
-    """Every breach of the boundary, one actionable line each (``debt``: :data:`UNDERSCORE_DEBT`)."""
-    debt = UNDERSCORE_DEBT if debt is None else debt
+def problems(root: Path = ROOT) -> list[str]:
+    """Every breach of the boundary, one actionable line each."""
     mods, found = used(root)
     lines = []
-    for rel, names in debt.items():
-        users = found.get(module_name(root / rel, root), {})
-        lines += [f"tests/exports.py: UNDERSCORE_DEBT lists {name!r} of {rel}, which no module of the package "
-                  f"imports any more; remove it" for name in names
-                  if not any(u.by_package for u in users.get(name, []))]
     for module, path in mods.items():
         rel = path.relative_to(root)
         tree = ast.parse(path.read_text(encoding="utf-8"))
@@ -260,7 +238,7 @@ def problems(root: Path = ROOT, *, debt: dict[str, tuple[str, ...]] | None = Non
             if where[0].star:
                 continue  # `from M import *` takes __all__ and nothing else: it cannot reach past it
             if not _public(name):
-                for u in package_users if name not in debt.get(str(rel), ()) else ():
+                for u in package_users:
                     lines.append(f"{u.where}: uses {name!r} of {rel}: a leading underscore is private to its module; "
                                  f"rename it there without one (and add it to __all__), or move the code")
             elif name not in names and name in bound:

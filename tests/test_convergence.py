@@ -288,7 +288,7 @@ def test_the_ladders_reference_is_evaluated_once_on_the_finest_grid_and_taken_ev
     evaluated = []
     real = refmod.trajectory
     monkeypatch.setattr(refmod, "trajectory", lambda r, t: evaluated.append(len(t)) or real(r, t))
-    got = orders._reference_grids(ref, grids)
+    got = orders.reference_grids(ref, grids)
     assert sorted(evaluated) == [31, 201]
     for t in grids:
         alone = real(ref, t)

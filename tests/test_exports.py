@@ -98,7 +98,7 @@ def test_the_check_fails_on_a_broken_package(tmp_path):
     the type checker), an unlisted name imported or read off the module by the package, by a test, and an underscore
     name crossing modules."""
     root = _package(tmp_path, BROKEN)
-    found = exports.problems(root, debt={})
+    found = exports.problems(root)
     write = "`python -m tests.exports --write` does"
     assert sorted(found) == sorted([
         f"harness/c.py: no __all__; {write[:-5]} writes it (the names other modules use from it)",
@@ -110,14 +110,9 @@ def test_the_check_fails_on_a_broken_package(tmp_path):
         "harness/b.py:5: uses '_private' of harness/a.py: a leading underscore is private to its module; rename it "
         "there without one (and add it to __all__), or move the code",
     ])
-    # the debt list silences only what it names, and an entry nothing imports is reported
-    assert not any("_private" in line for line in exports.problems(root, debt={"harness/a.py": ("_private",)}))
-    stale = exports.problems(root, debt={"harness/a.py": ("_private", "_gone")})
-    assert any("UNDERSCORE_DEBT lists '_gone' of harness/a.py" in line for line in stale)
-
     # the writer fixes all but the underscore, keeps the order ruff wants, and a second run changes nothing
     assert exports.write(root) == ["harness/a.py", "harness/c.py"]
-    assert [line for line in exports.problems(root, debt={}) if "_private" not in line] == []
+    assert [line for line in exports.problems(root) if "_private" not in line] == []
     a = ast.parse((root / "harness/a.py").read_text(encoding="utf-8"))
     assert exports.declared(a)[0] == ["hidden", "read", "shown", "tested"]
     c = (root / "harness/c.py").read_text(encoding="utf-8")

@@ -36,7 +36,7 @@ from analytic.dop853 import IntegrationError
 from analytic.solvers import TooManySteps
 from harness.cases import sources
 from harness.cli.common import EXIT_CODES, EXIT_NUMERIC, EXIT_USAGE, Command
-from harness.cli.options import _Parser
+from harness.cli.options import OneLineParser
 from harness.cli.subcommands import (
     advise,
     audit,
@@ -103,11 +103,11 @@ class _Help(argparse.RawDescriptionHelpFormatter):
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="mjharness", description="Validate MuJoCo against analytical mechanics.",
+    p = OneLineParser(prog="mjharness", description="Validate MuJoCo against analytical mechanics.",
                 epilog=_exit_codes_text() + "\n\n'mjharness COMMAND --help' gives each command's options.",
                 formatter_class=_Help)
     p.add_argument("--version", action="version", version=_version())
-    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser, title="commands",
+    sub = p.add_subparsers(dest="command", required=True, parser_class=OneLineParser, title="commands",
                            metavar="COMMAND")
     for name, command in COMMANDS.items():
         command.add_arguments(sub.add_parser(name, help=command.help, description=command.description

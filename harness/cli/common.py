@@ -46,7 +46,10 @@ from harness.pipeline.executor import Executor
 from harness.pipeline.matrix import LogProgress
 from harness.pipeline.outcome import EXIT_UNFIT, Outcome
 
-__all__ = ["EXIT_CODES", "EXIT_FAIL", "EXIT_NUMERIC", "EXIT_OK", "EXIT_USAGE", "Command"]
+__all__ = ["EXIT_CODES", "EXIT_FAIL", "EXIT_NUMERIC", "EXIT_OK", "EXIT_USAGE", "Command", "backend_refusals",
+           "case_lines", "check_junit", "command_exit_code", "executor_of", "inertials_of", "judging_of",
+           "junit_files", "limits_of", "opinions_of", "peers_of", "print_checks", "progress_printer", "run_options",
+           "selected_cases", "trees_of"]
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 EXIT_NUMERIC = 4
@@ -77,7 +80,7 @@ class Command:
     description: str = ""
 
 
-def _selected(args: argparse.Namespace) -> tuple[cases.Case, ...]:
+def selected_cases(args: argparse.Namespace) -> tuple[cases.Case, ...]:
     """Cases named positionally or with --case (all when none); --mjcf with no case is any model, judged
     against its own kinematic tree, and with one case a variant of that case's model."""
     names = [*args.cases, *(args.case or [])]
@@ -93,30 +96,30 @@ def _selected(args: argparse.Namespace) -> tuple[cases.Case, ...]:
     return selected
 
 
-def _case_lines(args: argparse.Namespace) -> dict:
+def case_lines(args: argparse.Namespace) -> dict:
     """Where run_all prints each case's line as it finishes: stdout (flushed, terminal or not) unless
     --quiet or --json, which keep stdout for the verdict or the document (then stderr where it is not a
     terminal, a progress bar where it is)."""
     return {"lines": True} if args.quiet or getattr(args, "json", False) else {"out": sys.stdout}
 
 
-def _trees(results: Sequence) -> dict[str, dict[str, str] | None]:
+def trees_of(results: Sequence) -> dict[str, dict[str, str] | None]:
     """Each case's forces its own tree's reference leaves out (None: a hand-derived case)."""
     return {r.case.name: (dict(r.settings.tree["not examined"]) if r.settings.tree is not None else None)
             for r in results}
 
 
-def _limits(results: Sequence) -> dict[str, list[str]]:
+def limits_of(results: Sequence) -> dict[str, list[str]]:
     """Each case's statements of the integrators run beyond their stability limit, the model's own first."""
     return {r.case.name: [s.statement() for s in r.stability.values() if s.beyond] for r in results}
 
 
-def _peers(results: Sequence) -> dict[str, dict | None]:
+def peers_of(results: Sequence) -> dict[str, dict | None]:
     """Each case's three-way comparison (None where it did not run: a backend other than C)."""
     return {r.case.name: r.settings.peers for r in results}
 
 
-def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, written: str = "",
+def print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, written: str = "",
                   trees: dict[str, dict[str, str] | None] | None = None,
                   peers: dict[str, dict | None] | None = None, opinions: Sequence[str] = (),
                   limits: dict[str, list[str]] | None = None) -> None:
@@ -148,7 +151,7 @@ def _print_checks(outcome: Outcome, *, quiet: bool, verbose: bool = False, writt
     print("\n".join(terminal(line) for line in text.split("\n")))  # names from files and models: no escapes act
 
 
-def _options(args: argparse.Namespace, selected: Sequence[cases.Case], *, several: bool = False) -> RunOptions:
+def run_options(args: argparse.Namespace, selected: Sequence[cases.Case], *, several: bool = False) -> RunOptions:
     """The run options the flags ask for; --q0/--qd0 name one case's coordinates, so need one case."""
     if (args.q0 or args.qd0) and len(selected) != 1:
         raise ValueError("--q0 and --qd0 name one case's coordinates; name exactly one case "
@@ -169,13 +172,13 @@ def _options(args: argparse.Namespace, selected: Sequence[cases.Case], *, severa
                       q0=args.q0, qd0=args.qd0, perturb=getattr(args, "perturb", None), backend=chosen[0])
 
 
-def _judging(args: argparse.Namespace) -> Judging:
+def judging_of(args: argparse.Namespace) -> Judging:
     """How the flags ask the runs to be judged: ``--config``, ``--require``, ``--accept-known-defects``."""
     return Judging(config=args.config, require=require.parse(args.require),
                    accept_known_defects=args.accept_known_defects)
 
 
-def _executor(args: argparse.Namespace) -> Executor:
+def executor_of(args: argparse.Namespace) -> Executor:
     """The executor ``--executor``/``--ray-address`` ask for; Ray not installed: one line naming the fix."""
     if args.ray_address is not None and args.executor != "ray":
         raise ValueError("--ray-address needs --executor ray")
@@ -184,7 +187,7 @@ def _executor(args: argparse.Namespace) -> Executor:
     return Executor(args.executor, args.ray_address)
 
 
-def _check_junit(path: Path | None, report: Path | None = None) -> None:
+def check_junit(path: Path | None, report: Path | None = None) -> None:
     """Refuse an unusable --junit path before any work is done: a directory, an unwritable place, or (with
     ``report``, the --out of ``run``) one of the report's own files, which the JUnit would replace."""
     if path is not None:
@@ -203,7 +206,7 @@ def _same_file(a: Path, b: Path) -> bool:
     return a.resolve() == b.resolve()
 
 
-def _junit(path: Path | None, outcome: Outcome) -> dict[Path, str]:
+def junit_files(path: Path | None, outcome: Outcome) -> dict[Path, str]:
     """The JUnit file to write with the command's other outputs (none without --junit)."""
     if path is None:
         return {}
@@ -211,7 +214,7 @@ def _junit(path: Path | None, outcome: Outcome) -> dict[Path, str]:
     return {path: junit_xml(outcome.checks, accept_known_defects=outcome.accept_known_defects)}
 
 
-def _inertials(args: argparse.Namespace, selected: Sequence[cases.Case], limits):
+def inertials_of(args: argparse.Namespace, selected: Sequence[cases.Case], limits):
     """The inertia audit (harness.inertia) of the models judged: --mjcf's, else each case's, and --urdf's own
     inertials against its own meshes, the bodies the config's [accept_inertia] names accepted."""
     from harness.inertia.models import audit_files  # lazy: scipy's start-up, paid by the audit alone
@@ -220,7 +223,7 @@ def _inertials(args: argparse.Namespace, selected: Sequence[cases.Case], limits)
     return audit_files(models, urdf=args.urdf, accept=limits.accept_inertia, own=args.mjcf is not None)
 
 
-def _opinions(args: argparse.Namespace):
+def opinions_of(args: argparse.Namespace):
     """The second opinions on the model (harness.opinions.urdf), bad input named before any case is built: the
     URDF's comparison where --urdf is given (with --mjcf, or one case's model), Pinocchio's MJCF parser's on a
     model of your own (--mjcf)."""
@@ -235,7 +238,7 @@ def _opinions(args: argparse.Namespace):
         return model_opinions(mjcf, urdf=args.urdf, mapping=args.urdf_map, parser=own and not args.quiet)
 
 
-def _exit_code(outcome: Outcome, opinions, inertials, *, json: bool = False) -> int:
+def command_exit_code(outcome: Outcome, opinions, inertials, *, json: bool = False) -> int:
     """The checks' exit code, made a fail where the URDF disagrees with the MJCF or a body's inertial cannot lie
     in its geometry (each printed under the verdict; on stderr where stdout holds the JSON document alone)."""
     failed = [part for part in (opinions, inertials) if part.failed]
@@ -246,7 +249,7 @@ def _exit_code(outcome: Outcome, opinions, inertials, *, json: bool = False) -> 
     return outcome.exit_code
 
 
-def _progress(total: int) -> Callable[[int, object], None]:
+def progress_printer(total: int) -> Callable[[int, object], None]:
     """A progress line on stderr as each of ``total`` runs finishes: rewritten in place on a terminal;
     elsewhere (a log) a line of its own at most every :data:`~harness.pipeline.matrix.PROGRESS_INTERVAL`."""
     log = None if sys.stderr.isatty() else LogProgress(range(total), "mjharness", "run")
@@ -261,7 +264,7 @@ def _progress(total: int) -> Callable[[int, object], None]:
     return report
 
 
-def _backend_refusals(backend: str | None, chosen: Sequence, *, every: bool = False) -> dict:
+def backend_refusals(backend: str | None, chosen: Sequence, *, every: bool = False) -> dict:
     """The releases ``backend`` cannot run because the package index has no release of its package under
     the same number (mujoco-mjx for MuJoCo 4.0.0), each with its one-line reason; ValueError where that
     is every chosen release, unless ``every`` (a sweep: each such cell says why)."""

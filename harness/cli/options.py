@@ -16,32 +16,34 @@ from harness.outputs.files import FORCE
 from harness.pipeline.executor import EXECUTORS
 from harness.pipeline.pool import cpus
 
-__all__: list[str] = []
+__all__ = ["OneLineParser", "add_backend", "add_cases", "add_config", "add_executor", "add_horizon", "add_html",
+           "add_integrators", "add_jobs", "add_json", "add_junit", "add_model", "add_out", "add_quiet",
+           "add_run_options", "add_selection", "add_systems", "parse_number", "parse_positive", "parse_seconds"]
 
 
-class _Parser(argparse.ArgumentParser):
+class OneLineParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:  # one line, exit 2 (argparse's own code)
         self.exit(EXIT_USAGE, f"mjharness: error: {message}\n")
 
 
-def _add_quiet(p: argparse.ArgumentParser) -> None:
+def add_quiet(p: argparse.ArgumentParser) -> None:
     g = p.add_mutually_exclusive_group()
     g.add_argument("--quiet", "-q", action="store_true", help="print the failures and the verdict line only")
     g.add_argument("--verbose", "-v", action="store_true",
                    help="also print every check as a table: its figure, budget parts, limit and verdict")
 
 
-def _add_run_options(p: argparse.ArgumentParser) -> None:
+def add_run_options(p: argparse.ArgumentParser) -> None:
     """How the cases run and what decides the exit code (run, check)."""
     g = p.add_argument_group("how the cases run (default: as shipped)")
-    g.add_argument("--timestep", type=_seconds, metavar="SECONDS", help="run every model at this timestep")
-    _add_horizon(g)
-    _add_integrators(g)
+    g.add_argument("--timestep", type=parse_seconds, metavar="SECONDS", help="run every model at this timestep")
+    add_horizon(g)
+    add_integrators(g)
     g.add_argument("--q0", type=_state, metavar="NAME=VALUE,...",
                    help="initial coordinates (the case's names; needs one case); the rest as the case has them, "
                         "then brought onto the constraints")
     g.add_argument("--qd0", type=_state, metavar="NAME=VALUE,...", help="initial velocities, as --q0")
-    _add_backend(g)
+    add_backend(g)
     g = p.add_argument_group("a second opinion on the model (needs pip install 'mjharness[pin]')")
     g.add_argument("--urdf", type=Path, metavar="FILE",
                    help="the robot's URDF, compared with the MJCF (--mjcf, or the one case's) body by body and joint "
@@ -59,7 +61,7 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
                         "FAIL, known defect) not fail the exit code")
 
 
-def _add_backend(g) -> None:
+def add_backend(g) -> None:
     g.add_argument("--backend", type=_backend, default="c", metavar="|".join([*backends.BACKENDS, "all"]),
                    help="the engine every run goes to (default c: MuJoCo's C engine; mjx float32 and mjx-f64 need "
                         "pip install 'mjharness[mjx]')")
@@ -73,7 +75,7 @@ def _backend(text: str) -> str:
     return text
 
 
-def _number(text: str) -> float:
+def parse_number(text: str) -> float:
     """``text`` as a float; nan where it is none (the caller's range check then refuses it)."""
     try:
         return float(text)
@@ -81,8 +83,8 @@ def _number(text: str) -> float:
         return math.nan
 
 
-def _seconds(text: str) -> float:
-    value = _number(text)
+def parse_seconds(text: str) -> float:
+    value = parse_number(text)
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text!r}")
     return value
@@ -109,14 +111,14 @@ def _state(text: str) -> dict[str, float]:
     out = {}
     for item in text.split(","):
         name, sep, value = item.partition("=")
-        number = _number(value)
+        number = parse_number(value)
         if not sep or not name.strip() or not math.isfinite(number):
             raise argparse.ArgumentTypeError(f"expected NAME=VALUE,... with finite numbers, got {item!r}")
         out[name.strip()] = number
     return out
 
 
-def _add_systems(p: argparse.ArgumentParser) -> None:
+def add_systems(p: argparse.ArgumentParser) -> None:
     p.add_argument("--systems", action="append", type=_systems_directory, metavar="DIR",
                    help="also discover the cases of your own systems in DIR: NAME.py (the analytic system), "
                         "NAME.xml (its MJCF), NAME.limits.toml (repeatable; installed packages' come through the "
@@ -131,36 +133,36 @@ def _systems_directory(text: str) -> Path:
     return Path(text)
 
 
-def _add_selection(p: argparse.ArgumentParser, *, mjcf: bool = True) -> None:
-    _add_cases(p)
+def add_selection(p: argparse.ArgumentParser, *, mjcf: bool = True) -> None:
+    add_cases(p)
     p.add_argument("--case", action="append", metavar="NAME", help="a case name (same as CASE; repeatable)")
-    _add_systems(p)
-    _add_config(p)
-    _add_jobs(p)
+    add_systems(p)
+    add_config(p)
+    add_jobs(p)
     if mjcf:
-        _add_model(p)
+        add_model(p)
 
 
-def _add_cases(p: argparse.ArgumentParser) -> None:
+def add_cases(p: argparse.ArgumentParser) -> None:
     """The cases named on the command line, positionally (``args.cases``)."""
     p.add_argument("cases", nargs="*", metavar="CASE", help="case names (default: all)")
 
 
-def _add_config(p: argparse.ArgumentParser) -> None:
+def add_config(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", type=Path, metavar="FILE",
                    help="TOML: limits of your own ([thresholds.CASE] \"FIGURE\" = LIMIT, over the shipped ones: "
                         "basis 'user'), requirements ([require] QUANTITY = SIZE) and accept_known_defects = true")
 
 
-def _add_jobs(p: argparse.ArgumentParser) -> None:
+def add_jobs(p: argparse.ArgumentParser) -> None:
     """--jobs: how many worker processes share a command's runs on this machine (cases, tasks, cells, a release's
     check), each command's work shared among them."""
-    p.add_argument("--jobs", "-j", type=_positive, metavar="N",
+    p.add_argument("--jobs", "-j", type=parse_positive, metavar="N",
                    help=f"worker processes (default: one per CPU, here {cpus()}, shared by what runs at once); "
                         "the results do not depend on N")
 
 
-def _add_model(p: argparse.ArgumentParser, *, variant: bool = True) -> None:
+def add_model(p: argparse.ArgumentParser, *, variant: bool = True) -> None:
     """--mjcf, --keyframe and --ctrl: a model of one's own; ``variant``: with one case, a variant of its model."""
     p.add_argument("--mjcf", type=Path, metavar="PATH",
                    help="validate this MJCF: with no case, any model against its own kinematic tree" + (
@@ -172,24 +174,24 @@ def _add_model(p: argparse.ArgumentParser, *, variant: bool = True) -> None:
                    help="with --mjcf and no case: actuator controls by name (default: the keyframe's, else 0)")
 
 
-def _add_horizon(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
-    p.add_argument("--horizon", type=_seconds, metavar="SECONDS", help="simulate this long (default: the case's)")
+def add_horizon(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    p.add_argument("--horizon", type=parse_seconds, metavar="SECONDS", help="simulate this long (default: the case's)")
 
 
-def _add_integrators(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+def add_integrators(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
     p.add_argument("--integrators", type=_names, metavar="NAMES",
                    help=f"run only these, comma-separated (default: every one: {', '.join(available_integrators())})")
 
 
-def _add_json(p: argparse.ArgumentParser) -> None:
+def add_json(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print the outcome as JSON instead of the text")
 
 
-def _add_html(p: argparse.ArgumentParser) -> None:
+def add_html(p: argparse.ArgumentParser) -> None:
     p.add_argument("--html", type=Path, metavar="FILE", help="also write the text and the plots as one HTML page")
 
 
-def _add_executor(p: argparse.ArgumentParser) -> None:
+def add_executor(p: argparse.ArgumentParser) -> None:
     p.add_argument("--executor", choices=EXECUTORS, default="local",
                    help="where the runs go: local (worker processes on this machine, the default) or ray (a Ray "
                         "task each, pip install 'mjharness[ray]'); the results do not depend on it")
@@ -198,7 +200,7 @@ def _add_executor(p: argparse.ArgumentParser) -> None:
                         "started and stopped by this command)")
 
 
-def _positive(text: str) -> int:
+def parse_positive(text: str) -> int:
     try:
         value = int(text)
     except ValueError:
@@ -208,11 +210,11 @@ def _positive(text: str) -> int:
     return value
 
 
-def _add_junit(p: argparse.ArgumentParser) -> None:
+def add_junit(p: argparse.ArgumentParser) -> None:
     p.add_argument("--junit", type=Path, metavar="FILE", help="also write JUnit XML (one testcase per check)")
 
 
-def _add_out(p: argparse.ArgumentParser, default: Path, what: str) -> None:
+def add_out(p: argparse.ArgumentParser, default: Path, what: str) -> None:
     """--out and --force-out, as every command that writes a folder of files takes them: a new or empty folder, or
     one an earlier run wrote (its manifest: :func:`harness.outputs.files.check_report_folder`)."""
     p.add_argument("--out", type=_folder, default=default, metavar="DIR",

@@ -79,7 +79,7 @@ from harness.reference.tree import SWITCHED_ORDER, switched_orders, switches
 
 __all__ = ["EXPECTED_ORDER", "NAME", "ORDER_TOLERANCE", "VERDICT_QUANTITY", "ConvergenceStudy", "Series",
            "convergence_study", "explained_floor", "fit_order", "gated", "initial_force_floor", "measure", "names",
-           "owns", "roundoff_floor", "scaled_softness", "theory_limit"]
+           "owns", "reference_grids", "roundoff_floor", "scaled_softness", "theory_limit"]
 
 ORDER_TOLERANCE = 0.3   # pass when observed ≥ expected − 0.3 (floor bias ≤ 0.14, see above)
 FLOOR_FACTOR = 10.0     # fit only errors above 10 × the detected floor
@@ -568,7 +568,7 @@ def convergence_study(
     # every integrator's ladder side by side (their compiles and steps run in C, Python's lock released)
     with ThreadPoolExecutor(max_workers=max(1, min(len(chosen), os.cpu_count() or 1))) as pool:
         ladders = dict(zip(chosen, pool.map(ladder_of, chosen), strict=True))
-    grids = _reference_grids(reference, [run[0].t for ladder in ladders.values() for run in ladder.values()
+    grids = reference_grids(reference, [run[0].t for ladder in ladders.values() for run in ladder.values()
                                          if run[0] is not None])
     series: list[Series] = []
     for name in chosen:
@@ -630,7 +630,7 @@ def convergence_study(
                             series=tuple(series), unavailable=unavailable, joints=joint_types(base))
 
 
-def _reference_grids(reference: refmod.Reference, grids: Sequence[np.ndarray]) -> dict[int, Trajectory]:
+def reference_grids(reference: refmod.Reference, grids: Sequence[np.ndarray]) -> dict[int, Trajectory]:
     """The reference on each of ``grids`` (sample times k·h), by number of steps: evaluated once on the finest and
     taken every m-th sample for each grid that is exactly every m-th of its times (the ladder's halvings of h),
     else evaluated on its own. Each sample's constraint forces cost a KKT solve of the tree."""

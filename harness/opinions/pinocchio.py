@@ -32,7 +32,8 @@ import numpy as np
 
 from harness.core.errors import ModelError
 
-__all__ = ["INSTALL", "available", "build", "rigid"]
+__all__ = ["INSTALL", "JOINT_BALL", "JOINT_FREE", "JOINT_HINGE", "JOINT_NDOF", "JOINT_SLIDE", "available", "build",
+           "rigid"]
 
 INSTALL = "pip install 'mjharness[pin]'"
 """How to get the optional extra every second opinion needs."""
@@ -76,9 +77,9 @@ class PinocchioModel:
         qpos0 = self.qpos0
         out = np.zeros(self.model.nq)
         for kind, adr, _, iq, _ in self.joints:
-            if kind in (_HINGE, _SLIDE):
+            if kind in (JOINT_HINGE, JOINT_SLIDE):
                 out[iq] = qpos[adr] - qpos0[adr]
-            elif kind == _BALL:
+            elif kind == JOINT_BALL:
                 out[iq:iq + 4] = _xyzw(qpos[adr:adr + 4])
             else:
                 out[iq:iq + 3] = qpos[adr:adr + 3]
@@ -90,7 +91,7 @@ class PinocchioModel:
         nv = self.model.nv
         t = np.eye(nv)
         for kind, adr, _, _, iv in self.joints:
-            if kind == _FREE:
+            if kind == JOINT_FREE:
                 t[iv:iv + 3, iv:iv + 3] = _rotation(qpos[adr + 3:adr + 7]).T
         return t
 
@@ -112,7 +113,7 @@ class PinocchioModel:
         v = self.v(qpos, qvel)
         a = self.frames(qpos) @ self._ordered(qacc)
         for kind, _, _, _, iv in self.joints:
-            if kind == _FREE:
+            if kind == JOINT_FREE:
                 a[iv:iv + 3] -= np.cross(v[iv + 3:iv + 6], v[iv:iv + 3])
         return a
 
@@ -121,7 +122,7 @@ class PinocchioModel:
         v = self.v(qpos, qvel)
         a = np.array(a, dtype=float)
         for kind, _, _, _, iv in self.joints:
-            if kind == _FREE:
+            if kind == JOINT_FREE:
                 a[iv:iv + 3] += np.cross(v[iv + 3:iv + 6], v[iv:iv + 3])
         return self._mujoco(self.frames(qpos).T @ a)
 
@@ -149,7 +150,7 @@ class PinocchioModel:
         """Pinocchio's dof index of each MuJoCo dof."""
         out = np.zeros(self.model.nv, dtype=int)
         for kind, _, dof, _, iv in self.joints:
-            k = _NDOF[kind]
+            k = JOINT_NDOF[kind]
             out[dof:dof + k] = np.arange(iv, iv + k)
         return out
 
@@ -176,9 +177,9 @@ class PinocchioModel:
         return self.qacc(qpos, qvel, np.array(a))
 
 
-_HINGE, _SLIDE, _BALL, _FREE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE),
+JOINT_HINGE, JOINT_SLIDE, JOINT_BALL, JOINT_FREE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE),
                                 int(mujoco.mjtJoint.mjJNT_BALL), int(mujoco.mjtJoint.mjJNT_FREE))
-_NDOF = {_HINGE: 1, _SLIDE: 1, _BALL: 3, _FREE: 6}
+JOINT_NDOF = {JOINT_HINGE: 1, JOINT_SLIDE: 1, JOINT_BALL: 3, JOINT_FREE: 6}
 
 
 def _xyzw(wxyz: np.ndarray) -> np.ndarray:
@@ -220,7 +221,7 @@ def build(model: mujoco.MjModel) -> PinocchioModel:
         for j in range(start, start + count):
             kind = int(model.jnt_type[j])
             pos = np.asarray(model.jnt_pos[j], dtype=float)
-            if kind == _FREE:
+            if kind == JOINT_FREE:
                 if jid != 0 or count != 1:
                     raise ModelError(f"joint {model.joint(j).name or j!r}: a free joint that is not the only joint "
                                      "of a body hanging from the world; accepted: free joints in top-level bodies")
@@ -228,15 +229,15 @@ def build(model: mujoco.MjModel) -> PinocchioModel:
             else:
                 placement = frame * pin.SE3(np.eye(3), pos - anchor)
                 axis = np.asarray(model.jnt_axis[j], dtype=float)
-                jm = {_HINGE: lambda a=axis: pin.JointModelRevoluteUnaligned(a),
-                      _SLIDE: lambda a=axis: pin.JointModelPrismaticUnaligned(a),
-                      _BALL: pin.JointModelSpherical}[kind]()
+                jm = {JOINT_HINGE: lambda a=axis: pin.JointModelRevoluteUnaligned(a),
+                      JOINT_SLIDE: lambda a=axis: pin.JointModelPrismaticUnaligned(a),
+                      JOINT_BALL: pin.JointModelSpherical}[kind]()
             name = model.joint(j).name or f"joint{j}"
             jid = pm.addJoint(jid, jm, placement, name)
             frame, anchor = pin.SE3.Identity(), pos
             joints.append((kind, int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j]),
                            int(pm.idx_qs[jid]), int(pm.idx_vs[jid])))
-            for k in range(_NDOF[kind]):
+            for k in range(JOINT_NDOF[kind]):
                 armature.append((int(pm.idx_vs[jid]) + k, float(model.dof_armature[int(model.jnt_dofadr[j]) + k])))
         if jid != parent_joint:
             frame = pin.SE3(np.eye(3), -anchor)  # the body frame in its last joint's frame

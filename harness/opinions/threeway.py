@@ -143,20 +143,20 @@ def _states(model: mujoco.MjModel, count: int, seed: int) -> tuple[np.ndarray, n
         kind, adr, dof = int(model.jnt_type[j]), int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j])
         lo, hi = (float(x) for x in model.jnt_range[j])
         limited = bool(model.jnt_limited[j]) if hasattr(model, "jnt_limited") else hi > lo
-        if kind in (peer._HINGE, peer._SLIDE):
+        if kind in (peer.JOINT_HINGE, peer.JOINT_SLIDE):
             if limited and hi > lo:
                 qpos[:, adr] = rng.uniform(lo, hi, count)
             else:
-                span = math.pi if kind == peer._HINGE else size
+                span = math.pi if kind == peer.JOINT_HINGE else size
                 qpos[:, adr] += rng.uniform(-span, span, count)
-        elif kind == peer._BALL:
+        elif kind == peer.JOINT_BALL:
             qpos[:, adr:adr + 4] = _unit_quaternions(rng, count)
         else:
             qpos[:, adr:adr + 3] += rng.uniform(-size, size, (count, 3))
             qpos[:, adr + 3:adr + 7] = _unit_quaternions(rng, count)
         rate = math.sqrt(g / size)  # rad/s; m/s for a linear dof below
-        for k in range(peer._NDOF[kind]):
-            linear = kind == peer._SLIDE or (kind == peer._FREE and k < 3)
+        for k in range(peer.JOINT_NDOF[kind]):
+            linear = kind == peer.JOINT_SLIDE or (kind == peer.JOINT_FREE and k < 3)
             qvel[:, dof + k] = rng.standard_normal(count) * (rate * size if linear else rate)
     return qpos, qvel
 

@@ -30,7 +30,7 @@ from harness.pipeline.pool import fork_pool
 from harness.pipeline.require import Requirement, check_known
 from harness.pipeline.run import CaseResult
 
-__all__ = ["Judging", "evaluate", "own_case"]
+__all__ = ["Judging", "evaluate", "evaluate_backends", "own_case"]
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,7 @@ from harness.pipeline.verdict import judge
 from harness.reference import derivations
 from harness.reference import solutions as refmod
 
-__all__ = ["LogProgress", "progress", "run_all", "run_backends"]
+__all__ = ["LogProgress", "progress", "run_all"]
 
 COLD = ("derivation",)  # the timings of run_case that a warm run (derivations cached) does not pay
 

@@ -59,7 +59,7 @@ from harness.engine.recording import steps_in
 from harness.engine.variants import compose
 from harness.families import COMPARISONS, runs
 from harness.families.bench import Bench
-from harness.families.convergence import ORDER_TOLERANCE, _reference_grids, scaled_softness
+from harness.families.convergence import ORDER_TOLERANCE, reference_grids, scaled_softness
 from harness.families.stability import ASSESSED
 from harness.pipeline.limits import case_limits, load_limits
 from harness.pipeline.require import Requirement
@@ -427,7 +427,7 @@ def measure(bench: Bench, *, integrators: Sequence[str], limits: Mapping[str, fl
 
     compared_runs = {(name, h): on_grid(run[0]) for name, (ladder, _, _) in done.items() for h, run in ladder
                      if not isinstance(run, str)}
-    grids = _reference_grids(bench.reference, [sim.t for sim in compared_runs.values()])
+    grids = reference_grids(bench.reference, [sim.t for sim in compared_runs.values()])
     rtol = bench.reference.solution.rtol
     tolerance = float(bench.model.opt.tolerance) if bench.probe.constraints else 0.0
     curves = []

@@ -9,7 +9,7 @@ from pathlib import Path
 from harness import cases
 from harness.cases.own import from_mjcf
 from harness.cli.common import EXIT_OK, Command
-from harness.cli.options import _add_horizon, _add_html, _add_integrators, _add_json, _add_model, _add_systems
+from harness.cli.options import add_horizon, add_html, add_integrators, add_json, add_model, add_systems
 from harness.core.escape import terminal
 from harness.core.options import RunOptions
 from harness.core.progress import heartbeat
@@ -25,16 +25,16 @@ __all__ = ["COMMAND"]
 def _args_advise(p: argparse.ArgumentParser) -> None:
     p.add_argument("cases", nargs="?", default=None, metavar="CASE",
                    help="a shipped case (or one of --systems); none with --mjcf: your model against its own tree")
-    _add_systems(p)
-    _add_model(p, variant=False)
+    add_systems(p)
+    add_model(p, variant=False)
     p.add_argument("--require", action="append", default=[], metavar="MEASURE=VALUE", required=True,
                    help="the accuracy you need (e.g. position=1e-3,force=1e-2 or drift.energy=1e-4; comma-separated "
                         "or repeated, at least one): the recommendation is the cheapest setting that meets every one, "
                         "verified")
-    _add_integrators(p)
-    _add_horizon(p)
-    _add_json(p)
-    _add_html(p)
+    add_integrators(p)
+    add_horizon(p)
+    add_json(p)
+    add_html(p)
     p.add_argument("--png", type=Path, metavar="FILE", help="also write the plot: error against timestep per "
                                                             "integrator, stability limits, the requirement and "
                                                             "the recommendation")

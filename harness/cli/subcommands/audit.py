@@ -6,14 +6,14 @@ import argparse
 import sys
 
 from harness.cli.common import EXIT_OK, Command
-from harness.cli.options import _add_json
+from harness.cli.options import add_json
 from harness.outputs.jsondoc import dumps
 
 __all__ = ["COMMAND"]
 
 
 def _args_audit(p: argparse.ArgumentParser) -> None:
-    _add_json(p)
+    add_json(p)
 
 
 def cmd_audit(args: argparse.Namespace) -> int:

@@ -6,8 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from harness.cli.common import EXIT_FAIL, EXIT_OK, Command, _selected
-from harness.cli.options import _add_selection
+from harness.cli.common import EXIT_FAIL, EXIT_OK, Command, selected_cases
+from harness.cli.options import add_selection
 from harness.outputs import baseline
 from harness.outputs.diff import load_run
 from harness.outputs.files import check_output
@@ -18,7 +18,7 @@ __all__ = ["COMMAND"]
 
 
 def _args_baseline(p: argparse.ArgumentParser) -> None:
-    _add_selection(p, mjcf=False)
+    add_selection(p, mjcf=False)
     mode = p.add_mutually_exclusive_group(required=True)
     mode.add_argument("--write", type=Path, metavar="PATH",
                       help="run the cases and write their gated figures: a directory gets one file per case "
@@ -28,7 +28,7 @@ def _args_baseline(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_baseline(args: argparse.Namespace) -> int:
-    selected = _selected(args)
+    selected = selected_cases(args)
     if args.write is not None:
         check_output(baseline.output_dir(args.write))
         partial = bool(args.cases or args.case)

@@ -6,7 +6,7 @@ import argparse
 
 from harness import cases
 from harness.cli.common import EXIT_FAIL, EXIT_OK, Command
-from harness.cli.options import _add_backend, _add_cases, _add_html, _add_systems
+from harness.cli.options import add_backend, add_cases, add_html, add_systems
 from harness.engine import backends
 from harness.outputs.files import check_output, prepare_output, write_atomic
 
@@ -14,13 +14,13 @@ __all__ = ["COMMAND"]
 
 
 def _args_converge(p: argparse.ArgumentParser) -> None:
-    _add_cases(p)
-    _add_systems(p)
+    add_cases(p)
+    add_systems(p)
     p.add_argument("--fast", action="store_true", help="the 3-timestep subset `check` gates (T ≤ 0.5 s)")
     p.add_argument("--softness", action="store_true", help="also sweep solref/solimp of the equality cases")
     p.add_argument("--solvers", action="store_true", help="also compare Newton, CG and PGS on the constrained cases")
-    _add_html(p)
-    _add_backend(p)
+    add_html(p)
+    add_backend(p)
 
 
 def cmd_converge(args: argparse.Namespace) -> int:

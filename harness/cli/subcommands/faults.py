@@ -7,20 +7,20 @@ import argparse
 import mujoco
 
 from harness import cases
-from harness.cli.common import EXIT_FAIL, EXIT_OK, Command, _executor, _progress
-from harness.cli.options import _add_cases, _add_executor, _add_jobs, _add_systems
+from harness.cli.common import EXIT_FAIL, EXIT_OK, Command, executor_of, progress_printer
+from harness.cli.options import add_cases, add_executor, add_jobs, add_systems
 from harness.pipeline.pool import cpus, run_tasks
 
 __all__ = ["COMMAND"]
 
 
 def _args_faults(p: argparse.ArgumentParser) -> None:
-    _add_cases(p)
-    _add_systems(p)
+    add_cases(p)
+    add_systems(p)
     p.add_argument("--coarse", action="store_true",
                    help="also judge each fault at 2 × the timestep with MuJoCo's default softness, at its coarse size")
-    _add_jobs(p)
-    _add_executor(p)
+    add_jobs(p)
+    add_executor(p)
 
 
 def cmd_faults(args: argparse.Namespace) -> int:
@@ -32,7 +32,7 @@ def cmd_faults(args: argparse.Namespace) -> int:
     calls = [(study.trial_named, (case.name, change.name, False)) for case in selected for change in faults.SETTINGS]
     calls += [(study.trial_named, (case.name, fault.name, coarse)) for case in selected for fault in faults.FAULTS
               for coarse in ((False, True) if args.coarse else (False,))]
-    rows = run_tasks(calls, args.jobs or cpus(), on_done=_progress(len(calls)), executor=_executor(args),
+    rows = run_tasks(calls, args.jobs or cpus(), on_done=progress_printer(len(calls)), executor=executor_of(args),
                      labels=[f"faults {case} {change} (MuJoCo {mujoco.__version__}, backend c)"
                              for _, (case, change, _) in calls])
     print(trials_table(rows))

@@ -6,7 +6,7 @@ import argparse
 
 from harness import cases
 from harness.cli.common import EXIT_OK, Command
-from harness.cli.options import _add_cases, _add_config, _add_jobs, _add_systems
+from harness.cli.options import add_cases, add_config, add_jobs, add_systems
 from harness.core.tables import terminal_width, wrap
 from harness.pipeline.entry import Judging, evaluate
 
@@ -14,10 +14,10 @@ __all__ = ["COMMAND"]
 
 
 def _args_figures(p: argparse.ArgumentParser) -> None:
-    _add_cases(p)
-    _add_systems(p)
-    _add_config(p)
-    _add_jobs(p)
+    add_cases(p)
+    add_systems(p)
+    add_config(p)
+    add_jobs(p)
 
 
 def cmd_figures(args: argparse.Namespace) -> int:

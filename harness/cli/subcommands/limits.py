@@ -6,7 +6,7 @@ import argparse
 
 from harness import cases
 from harness.cli.common import EXIT_OK, Command
-from harness.cli.options import _add_cases, _add_jobs, _add_systems
+from harness.cli.options import add_cases, add_jobs, add_systems
 from harness.outputs.files import check_output, write_atomic
 from harness.pipeline import limits as limits_data
 from harness.pipeline.entry import evaluate
@@ -15,13 +15,13 @@ __all__ = ["COMMAND"]
 
 
 def _args_limits(p: argparse.ArgumentParser) -> None:
-    _add_cases(p)
-    _add_systems(p)
+    add_cases(p)
+    add_systems(p)
     p.add_argument("--write", action="store_true",
                    help="run the cases that have no limits file and write one by the default rule (the "
                         "figures it gates, each judged by its budget or its theory limit); files that exist "
                         "are left as they are")
-    _add_jobs(p)
+    add_jobs(p)
 
 
 def cmd_limits(args: argparse.Namespace) -> int:

@@ -7,14 +7,14 @@ import textwrap
 
 from harness import cases
 from harness.cli.common import EXIT_OK, Command
-from harness.cli.options import _add_systems
+from harness.cli.options import add_systems
 from harness.core.tables import terminal_width, wrap
 
 __all__ = ["COMMAND"]
 
 
 def _args_list(p: argparse.ArgumentParser) -> None:
-    _add_systems(p)
+    add_systems(p)
 
 
 def cmd_list(args: argparse.Namespace) -> int:

@@ -9,22 +9,22 @@ from pathlib import Path
 
 from harness.cli.common import (
     Command,
-    _case_lines,
-    _check_junit,
-    _executor,
-    _exit_code,
-    _inertials,
-    _judging,
-    _junit,
-    _limits,
-    _opinions,
-    _options,
-    _peers,
-    _print_checks,
-    _selected,
-    _trees,
+    case_lines,
+    check_junit,
+    command_exit_code,
+    executor_of,
+    inertials_of,
+    judging_of,
+    junit_files,
+    limits_of,
+    opinions_of,
+    peers_of,
+    print_checks,
+    run_options,
+    selected_cases,
+    trees_of,
 )
-from harness.cli.options import _add_executor, _add_junit, _add_out, _add_quiet, _add_run_options, _add_selection
+from harness.cli.options import add_executor, add_junit, add_out, add_quiet, add_run_options, add_selection
 from harness.core.progress import heartbeat
 from harness.engine import backends
 from harness.outputs.files import (
@@ -42,14 +42,14 @@ __all__ = ["COMMAND"]
 
 
 def _args_run(p: argparse.ArgumentParser) -> None:
-    _add_selection(p)
-    _add_out(p, Path("mjharness-report"), "the report")
+    add_selection(p)
+    add_out(p, Path("mjharness-report"), "the report")
     p.add_argument("--no-studies", dest="studies", action="store_false",
                    help="skip layer 4 (convergence, softness, solver and contact studies) and the seed audit")
-    _add_junit(p)
-    _add_quiet(p)
-    _add_run_options(p)
-    _add_executor(p)
+    add_junit(p)
+    add_quiet(p)
+    add_run_options(p)
+    add_executor(p)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -59,15 +59,15 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     start = time.perf_counter()
     check_report_folder(args.out, force=args.force_out)  # fail before minutes of work, not after
-    _check_junit(args.junit, args.out)
-    selected = _selected(args)  # first: a model too large for its reference is refused before anything runs
-    opinions = _opinions(args)
-    options = _options(args, selected, several=True)
-    executor = _executor(args)
-    done = evaluate(selected, options=options, judging=_judging(args), jobs=args.jobs, executor=executor,
-                    **_case_lines(args))
+    check_junit(args.junit, args.out)
+    selected = selected_cases(args)  # first: a model too large for its reference is refused before anything runs
+    opinions = opinions_of(args)
+    options = run_options(args, selected, several=True)
+    executor = executor_of(args)
+    done = evaluate(selected, options=options, judging=judging_of(args), jobs=args.jobs, executor=executor,
+                    **case_lines(args))
     results, checks, limits, outcome = done.results, done.checks, done.limits, done.outcome
-    inertials = _inertials(args, selected, limits)
+    inertials = inertials_of(args, selected, limits)
     with heartbeat("the report: plots, pictures and pages"):  # seconds to minutes, after the cases' lines
         pages, appendix, plots = draw_report(selected, results, jobs=args.jobs, executor=executor,
                                              studies=args.studies and options.shipped)
@@ -90,13 +90,13 @@ def cmd_run(args: argparse.Namespace) -> int:
                              appendix=appendix, plots=plots, banners=inertia_banners(inertials))
     prepare_output(args.out)
     # the report and its JUnit, all or none, and an earlier report's pages this one has not removed with them
-    paths = write_atomic(with_manifest(args.out, files | _junit(args.junit, outcome)),
+    paths = write_atomic(with_manifest(args.out, files | junit_files(args.junit, outcome)),
                          remove=superseded(args.out, files))
-    _print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=_trees(results), limits=_limits(results),
-                  peers=_peers(results), opinions=[*opinions.lines(quiet=args.quiet),
+    print_checks(outcome, quiet=args.quiet, verbose=args.verbose, trees=trees_of(results), limits=limits_of(results),
+                  peers=peers_of(results), opinions=[*opinions.lines(quiet=args.quiet),
                                                    *inertials.lines(quiet=args.quiet)],
                   written=f"wrote in {time.perf_counter() - start:.1f} s: {_written(args.out, paths)}")
-    return _exit_code(outcome, opinions, inertials)
+    return command_exit_code(outcome, opinions, inertials)
 
 
 def _written(out: Path, paths: Sequence[Path]) -> str:

@@ -7,20 +7,20 @@ import argparse
 import mujoco
 
 from harness import cases
-from harness.cli.common import EXIT_OK, Command, _executor, _progress
-from harness.cli.options import _add_cases, _add_executor, _add_jobs, _add_systems
+from harness.cli.common import EXIT_OK, Command, executor_of, progress_printer
+from harness.cli.options import add_cases, add_executor, add_jobs, add_systems
 from harness.pipeline.pool import cpus, run_tasks
 
 __all__ = ["COMMAND"]
 
 
 def _args_sensitivity(p: argparse.ArgumentParser) -> None:
-    _add_cases(p)
-    _add_systems(p)
+    add_cases(p)
+    add_systems(p)
     p.add_argument("--faults", type=lambda text: text.split(","), metavar="NAME,...",
                    help="the faults to size (default: every fault of the catalog)")
-    _add_jobs(p)
-    _add_executor(p)
+    add_jobs(p)
+    add_executor(p)
 
 
 def cmd_sensitivity(args: argparse.Namespace) -> int:
@@ -36,7 +36,7 @@ def cmd_sensitivity(args: argparse.Namespace) -> int:
                          f"{', '.join(f.name for f in faults.FAULTS)}")
     calls = [(study.sensitivity_named, (case.name, fault.name, coarse)) for case in selected for fault in chosen
              for coarse in (False, True)]
-    rows = run_tasks(calls, args.jobs or cpus(), on_done=_progress(len(calls)), executor=_executor(args),
+    rows = run_tasks(calls, args.jobs or cpus(), on_done=progress_printer(len(calls)), executor=executor_of(args),
                      labels=[f"sensitivity {case} {fault} (MuJoCo {mujoco.__version__}, backend c)"
                              for _, (case, fault, _) in calls])
     print(table(rows))

@@ -6,8 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from harness.cli.common import EXIT_FAIL, EXIT_OK, Command, _backend_refusals, _executor
-from harness.cli.options import _add_executor, _add_integrators, _add_jobs, _add_out, _seconds
+from harness.cli.common import EXIT_FAIL, EXIT_OK, Command, backend_refusals, executor_of
+from harness.cli.options import add_executor, add_integrators, add_jobs, add_out, parse_seconds
 from harness.outputs.files import check_output, check_report_folder, prepare_output, with_manifest, write_atomic
 from harness.outputs.jsondoc import dumps
 from harness.pipeline.pool import cpus
@@ -25,12 +25,12 @@ def _args_sweep(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backends", type=_backend_list, default=("c",), metavar="NAMES",
                    help="comma-separated backends, each cell run with check --backend NAME (default: c; "
                         "mjx where the index has mujoco-mjx of the release, else the cell is n/a)")
-    _add_integrators(p)
-    p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
+    add_integrators(p)
+    p.add_argument("--timeout", type=parse_seconds, metavar="SECONDS",
                    help="stop each cell's check after so long (the cell: error)")
-    _add_out(p, Path("mjharness-sweep"), "sweep.md and sweep.json")
-    _add_jobs(p)
-    _add_executor(p)
+    add_out(p, Path("mjharness-sweep"), "sweep.md and sweep.json")
+    add_jobs(p)
+    add_executor(p)
 
 
 def _backend_list(text: str) -> tuple[str, ...]:
@@ -51,10 +51,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from harness.versions import sweep_report as report  # lazy: as above
 
     check_report_folder(args.out, force=args.force_out)  # before any environment is built
-    executor = _executor(args)
+    executor = executor_of(args)
     models = zoo.sweep_models(args.models)
     chosen = releases.parse_selection(args.releases)
-    refused = {(r, b): why for b in args.backends for r, why in _backend_refusals(b, chosen, every=True).items()}
+    refused = {(r, b): why for b in args.backends for r, why in backend_refusals(b, chosen, every=True).items()}
     check_output(args.out)
     root = envs.source_root()
     builder = envs.Builder(uv=envs.find_uv(), root=envs.envs_root(), source=root)

@@ -9,9 +9,9 @@ from pathlib import Path
 from typing import NoReturn
 
 from harness import cases
-from harness.cli.common import EXIT_FAIL, EXIT_OK, Command, _backend_refusals, _executor
-from harness.cli.options import _add_executor, _add_jobs, _add_out, _Parser, _positive
-from harness.cli.subcommands.check import _args_check
+from harness.cli.common import EXIT_FAIL, EXIT_OK, Command, backend_refusals, executor_of
+from harness.cli.options import OneLineParser, add_executor, add_jobs, add_out, parse_positive
+from harness.cli.subcommands.check import args_check
 from harness.engine import backends
 from harness.outputs.files import check_output, check_report_folder, prepare_output, with_manifest, write_atomic
 from harness.outputs.jsondoc import dumps
@@ -27,18 +27,18 @@ def _args_versions(p: argparse.ArgumentParser) -> None:
     p.add_argument("--bisect", metavar="CASE:FIGURE|verdicts",
                    help="find the first release of the range at which this figure moved beyond its noise (or any "
                         "verdict flipped), installing only the releases the bisection needs")
-    _add_out(p, Path("mjharness-versions"), "versions.html, versions.json and versions.txt")
+    add_out(p, Path("mjharness-versions"), "versions.html, versions.json and versions.txt")
     p.add_argument("--backend", metavar="NAME",
                    help="install the backend's packages in every environment and run the check with --backend NAME")
     p.add_argument("--with", dest="extras", action="append", default=[], metavar="REQUIREMENT", type=_requirement,
                    help="an extra package for every environment ('{version}' is the MuJoCo release, e.g. "
                         "'mujoco-mjx=={version}'; repeatable)")
-    p.add_argument("--parallel", type=_positive, metavar="N",
+    p.add_argument("--parallel", type=parse_positive, metavar="N",
                    help="releases run at once (default: as many as CPUs, here "
                         f"{cpus()}; one with --bisect)")
-    _add_jobs(p)
+    add_jobs(p)
     p.add_argument("--no-plots", dest="plots", action="store_false", help="versions.html without the plots")
-    _add_executor(p)
+    add_executor(p)
 
 
 def _requirement(text: str) -> str:
@@ -70,12 +70,12 @@ def cmd_versions(args: argparse.Namespace) -> int:
         cases.select([target.case])  # an unknown case: one line naming the known ones
         if not (checked.cases or checked.case):
             check_args += ["--case", target.case]  # only the case the figure belongs to
-    executor = _executor(args)
+    executor = executor_of(args)
     if executor.kind == "ray" and target is not None:
         raise ValueError("--bisect runs one release after another (each depends on the last): use it without "
                          "--executor ray")
     chosen = releases.parse_selection(args.releases)
-    refused = _backend_refusals(args.backend, chosen)
+    refused = backend_refusals(args.backend, chosen)
     added = {r: envs.backend_packages(args.backend, r) for r in chosen if r not in refused} if args.backend else {}
     check_output(args.out)
     parallel = 1 if target is not None else (args.parallel or min(len(chosen), cpus()))
@@ -119,11 +119,11 @@ def _check_options(check_args: Sequence[str]) -> argparse.Namespace:
     if any(a == "--perturb" or a.startswith("--perturb=") for a in check_args):
         raise ValueError("the check options after -- may not set --perturb: versions sets it for the noise runs")
     parser = _CheckOptions(prog="mjharness versions ... --", add_help=False)
-    _args_check(parser)
+    args_check(parser)
     return parser.parse_args(list(check_args))
 
 
-class _CheckOptions(_Parser):
+class _CheckOptions(OneLineParser):
     def error(self, message: str) -> NoReturn:  # raised, not printed: the command's one line names it
         raise ValueError(f"the check options after -- are not ones `mjharness check` takes here: {message}")
 

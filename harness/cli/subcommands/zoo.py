@@ -6,8 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from harness.cli.common import Command, _executor
-from harness.cli.options import _add_executor, _add_integrators, _add_jobs, _add_out, _positive, _seconds
+from harness.cli.common import Command, executor_of
+from harness.cli.options import add_executor, add_integrators, add_jobs, add_out, parse_positive, parse_seconds
 from harness.outputs.files import check_report_folder, prepare_output, with_manifest, write_atomic
 from harness.outputs.jsondoc import dumps
 from harness.pipeline.pool import cpus
@@ -23,18 +23,18 @@ def _args_zoo(p: argparse.ArgumentParser) -> None:
                    help="judge every MJCF entry of DIR instead, a folder of robots laid out like MuJoCo Menagerie's: "
                         "every .xml file under it whose root is <mujoco> and that no other <include>s (scene.xml, "
                         "not the robot.xml it includes)")
-    _add_out(p, Path("reports/zoo"), "zoo.md and zoo.json")
+    add_out(p, Path("reports/zoo"), "zoo.md and zoo.json")
     p.add_argument("--faults", action="store_true",
                    help="also find the smallest size of each engine-side fault (inertia, damping, axis tilt) caught")
     p.add_argument("--injection", action="store_true",
                    help="also find the smallest energy injection (energy from no force) each model's balance catches")
-    p.add_argument("--fault-max-nv", type=_positive, metavar="N",
+    p.add_argument("--fault-max-nv", type=parse_positive, metavar="N",
                    help="size the faults and injections on models of ≤ N dofs only")
-    _add_integrators(p)
-    p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
+    add_integrators(p)
+    p.add_argument("--timeout", type=parse_seconds, metavar="SECONDS",
                    help="stop each model's verdict, and each model's fault study, after so long (unfinished)")
-    _add_jobs(p)
-    _add_executor(p)
+    add_jobs(p)
+    add_executor(p)
 
 
 def cmd_zoo(args: argparse.Namespace) -> int:
@@ -69,7 +69,7 @@ def cmd_zoo(args: argparse.Namespace) -> int:
 
     run = zoo.run(chosen, jobs=args.jobs or cpus(), integrators=args.integrators, faults=args.faults,
                   fault_max_nv=args.fault_max_nv, injection=args.injection, skipped=skipped, on_done=done,
-                  timeout=args.timeout, executor=_executor(args), found=args.folder is None,
+                  timeout=args.timeout, executor=executor_of(args), found=args.folder is None,
                   command=" ".join(["mjharness", *sys.argv[1:]]) if sys.argv[1:2] == ["zoo"] else "mjharness zoo")
     prepare_output(args.out)
     paths = write_atomic(with_manifest(args.out, {args.out / "zoo.md": zoo.zoo_markdown(run),
