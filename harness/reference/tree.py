@@ -46,6 +46,9 @@ TREE = "tree"
 _KINDS = {int(mujoco.mjtJoint.mjJNT_HINGE): HINGE, int(mujoco.mjtJoint.mjJNT_SLIDE): SLIDE,
           int(mujoco.mjtJoint.mjJNT_BALL): BALL, int(mujoco.mjtJoint.mjJNT_FREE): FREE}
 _DSBL = mujoco.mjtDisableBit
+_SPRUNG = (HINGE, SLIDE)
+"""The joint kinds whose spring :func:`read_tree` reads (the others' are a gap of ``FEATURES``): one tuple, so
+what is read and what is listed as not covered cannot disagree."""
 
 
 def prepare(spec: mujoco.MjSpec) -> None:
@@ -282,8 +285,7 @@ def _ungeared(spec: mujoco.MjSpec, found: Sequence[int]) -> None:
 def _spring_gaps(model: mujoco.MjModel) -> Iterator[Gap]:
     for j in range(model.njnt):
         why = ""
-        if model.jnt_stiffness[j] and int(model.jnt_type[j]) not in (int(mujoco.mjtJoint.mjJNT_HINGE),
-                                                                     int(mujoco.mjtJoint.mjJNT_SLIDE)):
+        if model.jnt_stiffness[j] and _KINDS[int(model.jnt_type[j])] not in _SPRUNG:
             why = "a ball or free joint's spring"
         if hasattr(model, "jnt_stiffnesspoly") and np.any(model.jnt_stiffnesspoly[j]):
             why = "a polynomial spring (stiffnesspoly)"
@@ -397,8 +399,8 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
             name=model.joint(j).name, kind=kind, body=int(model.jnt_bodyid[j]) - 1, dof=dof,
             pos=np.array(model.jnt_pos[j], dtype=float), axis=np.array(model.jnt_axis[j], dtype=float),
             ref=float(model.qpos0[model.jnt_qposadr[j]]) if kind in (HINGE, SLIDE) else 0.0,
-            stiffness=float(model.jnt_stiffness[j]) if passive and kind in (HINGE, SLIDE) else 0.0,
-            springref=float(model.qpos_spring[model.jnt_qposadr[j]]) if kind in (HINGE, SLIDE) else 0.0,
+            stiffness=float(model.jnt_stiffness[j]) if passive and kind in _SPRUNG else 0.0,
+            springref=float(model.qpos_spring[model.jnt_qposadr[j]]) if kind in _SPRUNG else 0.0,
             damping=(float(damping[0]), float(poly[0]), float(poly[1])) if damper else (0.0, 0.0, 0.0),
             armature=float(model.dof_armature[dof]),
             chart=np.asarray(chart.get(j, (1.0, 0.0, 0.0, 0.0)), dtype=float),
