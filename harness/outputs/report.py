@@ -257,7 +257,7 @@ CHECK_COLUMNS: tuple[Column, ...] = (
     Column("meaning", lambda c, r: _esc(_meaning(r, c)), "dim meaning"),
 )
 """The gated-checks table, left to right: a new column is one more entry. The budget's parts
-(integration, softness, floors, solver) appear where some check of the case has them; for a check with
+(harness.budget.PARTS, in their order) appear where some check of the case has them; for a check with
 a fixed limit the measured figure is what the limit applies to."""
 
 

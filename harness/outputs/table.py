@@ -45,7 +45,7 @@ def ratio_text(r: float) -> str:
 
 
 def parts_shown(checks: Sequence[Check]) -> tuple[str, ...]:
-    """The budget parts any of ``checks`` has (integration, softness, floors, solver: in that order)."""
+    """The budget parts any of ``checks`` has (in the order of harness.budget.PARTS)."""
     present = {p for c in checks if c.budget is not None for p in c.budget.explained}
     return tuple(p for p in PARTS if p in present)
 
