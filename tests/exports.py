@@ -135,7 +135,8 @@ def declared(tree: ast.Module) -> tuple[list[str] | None, ast.stmt | None]:
     return None, None
 
 
-def _resolve(node: ast.ImportFrom, module: str, is_package: bool) -> str:
+def resolve(node: ast.ImportFrom, module: str, is_package: bool) -> str:
+    """The module a ``from … import`` in ``module`` (a package's ``__init__`` where ``is_package``) reads from."""
     if not node.level:
         return node.module or ""
     base = module.split(".") if is_package else module.split(".")[:-1]
@@ -158,7 +159,7 @@ def uses(path: Path, module: str, known: set[str], root: Path = ROOT) -> Iterato
                 elif not a.asname and a.name.partition(".")[0] in known:
                     aliases[a.name.partition(".")[0]] = a.name.partition(".")[0]
         elif isinstance(node, ast.ImportFrom):
-            target = _resolve(node, module, path.name == "__init__.py")
+            target = resolve(node, module, path.name == "__init__.py")
             if target not in known:
                 continue
             for a in node.names:

@@ -22,33 +22,15 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("analytic", "harness", "mjcf")
+from tests import exports
+from tests.exports import ROOT, resolve
+
 LAYERS = ("analytic", "harness.core", "harness.reference", "harness.engine", "harness.budget", "harness.cases", "mjcf",
           "harness.opinions", "harness.inertia", "harness.families", "harness.pipeline", "harness.studies",
           "harness.audit", "harness.outputs", "harness.versions", "harness.api", "harness.cli", "harness")
 SAME_LAYER = {"harness.pytest_plugin": "harness.api", "harness.__main__": "harness.cli",
               "harness.zoo": "harness.api"}  # the zoo runs models as the API does, for the CLI's `zoo`
 LAZY = "# lazy:"
-
-
-def _module_name(path: Path) -> str:
-    parts = list(path.relative_to(ROOT).with_suffix("").parts)
-    if parts[-1] == "__init__":
-        parts.pop()
-    return ".".join(parts)
-
-
-def _modules() -> dict[str, Path]:
-    return {_module_name(p): p for pkg in PACKAGES for p in sorted((ROOT / pkg).rglob("*.py"))}
-
-
-def _resolve(node: ast.ImportFrom, module: str, is_package: bool) -> str:
-    if not node.level:
-        return node.module or ""
-    base = module.split(".") if is_package else module.split(".")[:-1]
-    base = base[: len(base) - (node.level - 1)]
-    return ".".join([*base, node.module] if node.module else base)
 
 
 def _typing_only(tree: ast.Module) -> set[int]:
@@ -68,7 +50,7 @@ def _imports(module: str, path: Path, known: set[str]) -> list[tuple[str, int, b
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom):
-            target = _resolve(node, module, path.name == "__init__.py")
+            target = resolve(node, module, path.name == "__init__.py")
             names = [f"{target}.{a.name}" if f"{target}.{a.name}" in known else target for a in node.names]
         for name in names:
             while name and name not in known:
@@ -80,7 +62,7 @@ def _imports(module: str, path: Path, known: set[str]) -> list[tuple[str, int, b
 
 def _graph(*, typing: bool = True) -> dict[str, set[str]]:
     """Module -> the modules of ours it imports (``typing``: with the imports for type checking only)."""
-    modules = _modules()
+    modules = exports.modules()
     return {m: {t for t, _, only_typing in _imports(m, p, set(modules)) if typing or not only_typing}
             for m, p in modules.items()}
 
@@ -132,13 +114,13 @@ def test_dependencies_point_down_the_layers():
 def test_every_harness_module_is_in_a_layer_package():
     """harness/ is grouped by role: nothing but the API face (the API, the zoo's runner beside it), the plugin and the
     entry points at its top."""
-    top = sorted(m for m in _modules() if m.startswith("harness.") and m.count(".") == 1
+    top = sorted(m for m in exports.modules() if m.startswith("harness.") and m.count(".") == 1
                  and not (ROOT / m.replace(".", "/")).is_dir())
     assert top == ["harness.__main__", "harness.api", "harness.pytest_plugin", "harness.zoo"]
 
 
 def test_an_import_inside_a_function_is_a_marked_lazy_one():
-    modules = _modules()
+    modules = exports.modules()
     unmarked = []
     for path in modules.values():
         lines = path.read_text(encoding="utf-8").splitlines()
@@ -163,4 +145,4 @@ def test_the_checks_can_fail():
     assert _upward({"harness.cli.commands": {"harness.core.figures"}}) == []
     assert _layer("harness.pytest_plugin") == _layer("harness.api")
     node = ast.parse("from ..cli import commands\n").body[0]
-    assert isinstance(node, ast.ImportFrom) and _resolve(node, "harness.core.figures", False) == "harness.cli"
+    assert isinstance(node, ast.ImportFrom) and resolve(node, "harness.core.figures", False) == "harness.cli"
