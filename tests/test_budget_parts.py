@@ -35,16 +35,21 @@ def _section(text: str, heading: str) -> str:
     return text[start:start + end.start()] if end else text[start:]
 
 
-def _table_names(section: str, header: str) -> list[str]:
-    """The backticked names in the first column of the markdown table whose header row starts ``| header |``."""
+def _rows(section: str, header: str) -> list[list[str]]:
+    """The cells of each row of the markdown table whose header row starts ``| header |``."""
     lines = section.splitlines()
     first = next(i for i, line in enumerate(lines) if line.startswith(f"| {header} |"))
-    names = []
+    rows = []
     for line in lines[first + 2:]:
         if not line.startswith("|"):
             break
-        names.append(re.fullmatch(r"\| `(\w+)` ", line[:line.index("|", 1) + 1].rstrip("|")).group(1))
-    return names
+        rows.append([cell.strip() for cell in line.strip().strip("|").split(" | ")])
+    return rows
+
+
+def _table_names(section: str, header: str) -> list[str]:
+    """The backticked names in the first column of the markdown table whose header row starts ``| header |``."""
+    return [re.fullmatch(r"`(\w+)`", row[0]).group(1) for row in _rows(section, header)]
 
 
 def _readme_parts() -> list[str]:
@@ -186,18 +191,6 @@ def test_the_constants_the_tolerance_table_names_exist():
             assert hasattr(importlib.import_module(module), constant), name
         else:
             assert any(hasattr(m, name) for m in homes), f"the tolerance table names {name}: no such constant"
-
-
-def _rows(section: str, header: str) -> list[list[str]]:
-    """The cells of each row of the markdown table whose header row starts ``| header |``."""
-    lines = section.splitlines()
-    first = next(i for i, line in enumerate(lines) if line.startswith(f"| {header} |"))
-    rows = []
-    for line in lines[first + 2:]:
-        if not line.startswith("|"):
-            break
-        rows.append([cell.strip() for cell in line.strip().strip("|").split(" | ")])
-    return rows
 
 
 def test_the_docs_words_for_each_part_are_its_fields():
