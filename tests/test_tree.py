@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from analytic.solvers import solve
-from analytic.tree import TreeDynamics
+from analytic.tree import Spring, TreeDynamics
 from analytic.tree.kinematics import forward, point_jacobians, points_on
 from analytic.tree.rotations import exp_map, mat_to_quat, right_jacobian
 from harness import cases
@@ -195,9 +195,10 @@ def test_lagrange_by_complex_step_equals_kane_typed_by_hand():
         arm = dyn._armature
         kane -= b.T @ (arm * (b_dot @ qd))  # the armature's own velocity-product term
         for j, joint in enumerate(dyn.tree.joints):
-            if joint.stiffness:
+            for term in joint.terms:  # a hinge or slide's spring, typed here by hand: −k (q − springref)
+                assert isinstance(term, Spring), term
                 k = dyn.layout.first[j]
-                kane[k] -= joint.stiffness * (q[k] - joint.springref)
+                kane[k] -= term.stiffness * (q[k] - term.springref)
         kane += dyn._applied(q, qd, lin)
         got = dyn.forcing(q, qd)
         assert np.allclose(got, kane, rtol=0, atol=AGREE * max(1.0, np.abs(kane).max()))

@@ -14,5 +14,7 @@ the solvers and every layer of the harness take it as they take a derived one.
 
 from analytic.tree.dynamics import TreeDynamics
 from analytic.tree.model import Actuator, Body, Equality, ForceLimit, Joint, Point, TendonLimit, Tree
+from analytic.tree.terms import Spring, Term
 
-__all__ = ["Actuator", "Body", "Equality", "ForceLimit", "Joint", "Point", "TendonLimit", "Tree", "TreeDynamics"]
+__all__ = ["Actuator", "Body", "Equality", "ForceLimit", "Joint", "Point", "Spring", "TendonLimit", "Term", "Tree",
+           "TreeDynamics"]

@@ -2,7 +2,7 @@
 differentiated exactly by complex step.
 
     T(q, q̇) = Σ_b ½ m_b |ċ_b|² + ½ ω_bᵀ I_b ω_b + ½ Σ_dof armature · qvel²      (qvel = B(q) q̇)
-    V(q)    = −Σ_b m_b g·c_b + Σ_joints ½ k (q − springref)²
+    V(q)    = −Σ_b m_b g·c_b + Σ_joints Σ_terms V_term(q_joint)      (analytic.tree.terms: springs)
     d/dt ∂T/∂q̇ − ∂T/∂q + ∂V/∂q = Q   ⇒   M q̈ = Q − Ṁ q̇ + ∂T/∂q − ∂V/∂q =: F
 
 T is quadratic in q̇, so M(q) = ∂²T/∂q̇² is read off the quadratic form built
@@ -173,9 +173,8 @@ class TreeDynamics(Dynamics):
             com = points_on(pose, self._bodies["index"], self._bodies["ipos"])
         v = -np.einsum("b,...bi,i->...", self._bodies["mass"], com, self.tree.gravity)
         for j, joint in enumerate(self.tree.joints):
-            if joint.stiffness:
-                x = q[..., self.layout.first[j]] - joint.springref
-                v = v + 0.5 * joint.stiffness * x * x
+            for term in joint.terms:
+                v = v + term.energy(q[..., self.layout.first[j]:self.layout.first[j] + joint.ndof])
         return v
 
     @property

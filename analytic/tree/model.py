@@ -27,6 +27,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from analytic.tree.terms import Term
+
 __all__ = ["BALL", "FREE", "HINGE", "SLIDE", "Actuator", "Body", "Equality", "ForceLimit", "Joint", "Point",
            "TendonLimit", "Tree"]
 
@@ -38,6 +40,7 @@ DOFS = {HINGE: 1, SLIDE: 1, BALL: 3, FREE: 6}
 class Joint:
     """One joint: its kind, body, anchor and axis in the body frame, and its passive parameters.
 
+    ``terms`` are what the joint adds to the potential (:mod:`analytic.tree.terms`: its spring).
     ``damping`` is MuJoCo's polynomial (a, b, c): f(v) = −(a v + b v|v| + c v³) per dof.
     ``chart`` is the reference orientation R₀ (w, x, y, z) of a ball or free joint's rotation vector.
     ``gravcomp`` says where the bodies' gravity compensation on this joint's dofs goes: ``passive`` (a passive
@@ -52,8 +55,7 @@ class Joint:
     pos: np.ndarray
     axis: np.ndarray
     ref: float = 0.0
-    stiffness: float = 0.0
-    springref: float = 0.0
+    terms: tuple[Term, ...] = ()
     damping: tuple[float, float, float] = (0.0, 0.0, 0.0)
     armature: float = 0.0
     chart: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
@@ -229,8 +231,12 @@ class Tree:
         for j in self.joints:
             out |= {f"{j.name}.pos.{k}": float(v) for k, v in enumerate(j.pos)}
             out |= {f"{j.name}.axis.{k}": float(v) for k, v in enumerate(j.axis)}
-            for key in ("ref", "stiffness", "springref", "armature"):
-                out[f"{j.name}.{key}"] = float(getattr(j, key))
+            out[f"{j.name}.ref"] = float(j.ref)
+            for term in j.terms:
+                out |= term.params(j.name)
+            # every joint has the rows of a spring, 0 where it has none: the same rows for every kind of joint
+            out |= {f"{j.name}.{key}": 0.0 for key in ("stiffness", "springref") if f"{j.name}.{key}" not in out}
+            out[f"{j.name}.armature"] = float(j.armature)
             out |= {f"{j.name}.damping.{k}": float(v) for k, v in enumerate(j.damping)}
             if j.gravcomp != "passive":
                 out[f"{j.name}.gravcomp_to_actuator"] = float(j.gravcomp == "actuator")

@@ -34,6 +34,7 @@ import numpy as np
 from analytic.systems import Motion, Scales
 from analytic.tree import Actuator, Body, Equality, ForceLimit, Joint, Point, TendonLimit, Tree, TreeDynamics
 from analytic.tree.model import BALL, FREE, HINGE, SLIDE
+from analytic.tree.terms import Spring, Term
 from harness.core.errors import ModelError
 
 __all__ = ["FEATURES", "SWITCHED_ORDER", "TREE", "TreeEdit", "TreeSystem", "charts", "isolate", "motion", "prepare",
@@ -207,13 +208,15 @@ it matters, and its index among its kind's elements (-1 for a model-wide feature
 @dataclass(frozen=True)
 class Feature:
     """One MuJoCo feature and how the tree reference treats it, stated once: what of it :func:`read_tree` reads
-    (``read``: the fields of :mod:`analytic.tree`'s types it fills), where a compiled model has what is not
+    (``read``: the fields of :mod:`analytic.tree`'s types it fills; ``terms``: what it adds to joint j's potential,
+    :mod:`analytic.tree.terms`, which :func:`read_tree` puts on the joint), where a compiled model has what is not
     covered (``gaps``, listed by :func:`uncovered`), and how :func:`isolate` switches that off in a spec
     (``switch_off``, given the indices ``gaps`` found; a model-wide switch is set whether or not the model has
     the feature). A feature with gaps and no ``switch_off`` is left acting in the comparison."""
 
     name: str
     read: tuple[str, ...] = ()
+    terms: Callable[[mujoco.MjModel, int], tuple[Term, ...]] | None = None
     gaps: Callable[[mujoco.MjModel], Iterator[Gap]] | None = None
     switch_off: Callable[[mujoco.MjSpec, Sequence[int]], None] | None = None
 
@@ -282,6 +285,20 @@ def _ungeared(spec: mujoco.MjSpec, found: Sequence[int]) -> None:
         spec.actuators[a].gear = [0.0] * 6
 
 
+def _springs_on(model: mujoco.MjModel) -> bool:
+    """Whether MuJoCo applies joint springs: MuJoCo 3.3's one flag for every passive force, later their own."""
+    every = hasattr(_DSBL, "mjDSBL_PASSIVE") and _disabled(model, _DSBL.mjDSBL_PASSIVE)
+    return not every and not (hasattr(_DSBL, "mjDSBL_SPRING") and _disabled(model, _DSBL.mjDSBL_SPRING))
+
+
+def _springs(model: mujoco.MjModel, j: int) -> tuple[Term, ...]:
+    """A hinge or slide's spring about its ``qpos_spring`` (stiffness 0 where springs are off)."""
+    if _KINDS[int(model.jnt_type[j])] not in _SPRUNG:
+        return ()
+    return (Spring(stiffness=float(model.jnt_stiffness[j]) if _springs_on(model) else 0.0,
+                   springref=float(model.qpos_spring[model.jnt_qposadr[j]])),)
+
+
 def _spring_gaps(model: mujoco.MjModel) -> Iterator[Gap]:
     for j in range(model.njnt):
         why = ""
@@ -323,7 +340,7 @@ FEATURES: tuple[Feature, ...] = (
             read=("Tree.actuators", "Tree.limits", "Tree.tendon_limits"), gaps=_actuator_gaps,
             switch_off=_ungeared),
     Feature("joint springs: hinge and slide; ball and free, polynomial, yielding",
-            read=("Joint.stiffness", "Joint.springref"), gaps=_spring_gaps),
+            read=("Joint.terms",), terms=_springs, gaps=_spring_gaps),
 )
 """Every MuJoCo feature the tree reference reads or leaves out, in the order :func:`uncovered` lists them: adding
 a feature is one entry here."""
@@ -371,7 +388,7 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
     chart = chart or {}
     # MuJoCo 3.3's one flag for every passive force (springs, dampers, gravity compensation), later two
     every = hasattr(_DSBL, "mjDSBL_PASSIVE") and _disabled(model, _DSBL.mjDSBL_PASSIVE)
-    passive = not every and not (hasattr(_DSBL, "mjDSBL_SPRING") and _disabled(model, _DSBL.mjDSBL_SPRING))
+    springs = _springs_on(model)
     damper = not every and not (hasattr(_DSBL, "mjDSBL_DAMPER") and _disabled(model, _DSBL.mjDSBL_DAMPER))
     # gravity compensation is computed unless both are off (mj_passive); on a joint with actuatorgravcomp it is added
     # to the actuators' force instead, which nothing applies where actuation is off or there are no actuators
@@ -387,7 +404,7 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
             mass=float(model.body_mass[b]), inertia=np.array(model.body_inertia[b], dtype=float),
             joints=() if mocap else tuple(range(int(model.body_jntadr[b]),
                                                 int(model.body_jntadr[b]) + int(model.body_jntnum[b]))),
-            gravcomp=float(model.body_gravcomp[b]) if passive or damper else 0.0))
+            gravcomp=float(model.body_gravcomp[b]) if springs or damper else 0.0))
     joints = []
     for j in range(model.njnt):
         kind = _KINDS[int(model.jnt_type[j])]
@@ -399,8 +416,7 @@ def read_tree(model: mujoco.MjModel, *, chart: Mapping[int, np.ndarray] | None =
             name=model.joint(j).name, kind=kind, body=int(model.jnt_bodyid[j]) - 1, dof=dof,
             pos=np.array(model.jnt_pos[j], dtype=float), axis=np.array(model.jnt_axis[j], dtype=float),
             ref=float(model.qpos0[model.jnt_qposadr[j]]) if kind in (HINGE, SLIDE) else 0.0,
-            stiffness=float(model.jnt_stiffness[j]) if passive and kind in _SPRUNG else 0.0,
-            springref=float(model.qpos_spring[model.jnt_qposadr[j]]) if kind in _SPRUNG else 0.0,
+            terms=tuple(term for feature in FEATURES if feature.terms for term in feature.terms(model, j)),
             damping=(float(damping[0]), float(poly[0]), float(poly[1])) if damper else (0.0, 0.0, 0.0),
             armature=float(model.dof_armature[dof]),
             chart=np.asarray(chart.get(j, (1.0, 0.0, 0.0, 0.0)), dtype=float),
