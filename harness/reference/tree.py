@@ -37,9 +37,9 @@ from analytic.tree.model import BALL, FREE, HINGE, SLIDE
 from analytic.tree.terms import Spring, Term
 from harness.core.errors import ModelError
 
-__all__ = ["FEATURES", "SWITCHED_ORDER", "TREE", "TreeEdit", "TreeSystem", "charts", "isolate", "motion", "prepare",
-           "read_tree", "refusal", "start_state", "switch_note", "switched_orders", "switches", "tree_scales",
-           "uncovered"]
+__all__ = ["FEATURES", "SWITCHED_ORDER", "TREE", "Feature", "TreeEdit", "TreeSystem", "charts", "isolate", "motion",
+           "prepare", "read_tree", "refusal", "start_state", "switch_note", "switched_orders", "switches",
+           "tree_scales", "uncovered"]
 
 TREE = "tree"
 """The system name of every case whose reference is its model's own tree (no hand-derived module)."""
