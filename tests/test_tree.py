@@ -66,6 +66,32 @@ EVERY_KIND = """
 </mujoco>
 """
 
+# Polynomial springs (MuJoCo 4's stiffness="a b c": the force −(a x + b x² + c x³), x = q − springref) on a hinge, a
+# slide and a second hinge with no linear part (MuJoCo applies the polynomial though a = 0), under gravity.
+POLY = """
+<mujoco>
+  <compiler angle="radian"/>
+  <option gravity="0.2 0 -9.81"><flag energy="enable" contact="disable"/></option>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="hinge" type="hinge" axis="0 1 0" stiffness="0.5 -1.5 4" springref="0.3" damping="0.1"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.04"/>
+      <body name="tip" pos="0.3 0 0">
+        <joint name="slide" type="slide" axis="1 0 0.2" stiffness="2 -6 30" springref="-0.1"/>
+        <geom size="0.03" mass="0.2"/>
+        <body name="hand" pos="0.05 0 0">
+          <joint name="cubic" type="hinge" axis="0 0 1" stiffness="0 0 7" springref="-0.2"/>
+          <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02"/>
+          <site name="hand_tip" pos="0.2 0 0"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+POLY_X = (-2.5, -0.7, 0.05, 0.9, 2.5)
+"""The displacements x = q − springref each joint is set at: the largest where the cubic term is ≥ 5× the others."""
+
 
 def _compiled(xml: str) -> mujoco.MjModel:
     spec = mujoco.MjSpec.from_string(xml)
@@ -173,10 +199,11 @@ def test_jacobians_are_the_derivatives_of_the_poses():
         assert np.allclose(ang[..., k], np.stack([w[:, 2, 1], w[:, 0, 2], w[:, 1, 0]], -1), atol=1e-14)
 
 
-def test_lagrange_by_complex_step_equals_kane_typed_by_hand():
+@pytest.mark.parametrize("xml", [EVERY_KIND, POLY], ids=["every joint kind", "polynomial springs"])
+def test_lagrange_by_complex_step_equals_kane_typed_by_hand(xml):
     """F from Lagrange's equations (complex step on T and V) against Kane's form of the same equations, typed
     here as an independent check: Σ Jᵀ(m g − m J̇q̇) − J_ωᵀ(I α_v + ω × I ω) + Q, per body."""
-    model = _compiled(EVERY_KIND)
+    model = _compiled(xml)
     for qpos, qvel in _random_states(model, 3, seed=4):
         dyn, q, qd = _at(model, qpos, qvel)
         q = q + np.random.default_rng(5).normal(scale=0.2, size=dyn.n)  # off the chart's centre: B ≠ I
@@ -195,10 +222,11 @@ def test_lagrange_by_complex_step_equals_kane_typed_by_hand():
         arm = dyn._armature
         kane -= b.T @ (arm * (b_dot @ qd))  # the armature's own velocity-product term
         for j, joint in enumerate(dyn.tree.joints):
-            for term in joint.terms:  # a hinge or slide's spring, typed here by hand: −k (q − springref)
+            for term in joint.terms:  # a hinge or slide's spring, typed here by hand: −(k x + Σ pᵢ x^(i+2))
                 assert isinstance(term, Spring), term
                 k = dyn.layout.first[j]
-                kane[k] -= term.stiffness * (q[k] - term.springref)
+                x = q[k] - term.springref
+                kane[k] -= term.stiffness * x + sum(p * x ** (i + 2) for i, p in enumerate(term.poly))
         kane += dyn._applied(q, qd, lin)
         got = dyn.forcing(q, qd)
         assert np.allclose(got, kane, rtol=0, atol=AGREE * max(1.0, np.abs(kane).max()))
@@ -245,6 +273,32 @@ def test_every_joint_kind_agrees_with_mujoco():
     ctrl = np.array([0.2, -0.7])
     worst = _against_mujoco(model, _random_states(model, 6), ctrl=ctrl)
     assert max(worst.values()) < AGREE, worst
+
+
+def _poly_states(model: mujoco.MjModel) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Every joint of POLY at each displacement of POLY_X from its springref (the others' staggered), moving."""
+    rng = np.random.default_rng(7)
+    spring = np.array([model.qpos_spring[model.jnt_qposadr[j]] for j in range(model.njnt)])
+    return [(spring + np.roll(POLY_X, -i)[:model.njnt], rng.normal(size=model.nv)) for i in range(len(POLY_X))]
+
+
+def test_polynomial_springs_agree_with_mujoco_where_the_cubic_dominates(monkeypatch):
+    """Hinge and slide polynomial springs are read and not listed as uncovered; the tree's forces and energy (its
+    V the polynomial's integral, differentiated exactly) are MuJoCo's qfrc_passive and energy, up to displacements
+    where c x³ is ≥ 5× a x + b x²; with the polynomial dropped, the same comparison fails by far."""
+    import harness.reference.tree as tree_reference
+
+    model = _compiled(POLY)
+    assert not uncovered(model)
+    poly = np.asarray(model.jnt_stiffnesspoly)
+    x = max(POLY_X, key=abs)
+    assert np.all(np.abs(poly[:, 1] * x ** 3) >= 5 * np.abs(model.jnt_stiffness * x + poly[:, 0] * x ** 2))
+    states = _poly_states(model)
+    worst = _against_mujoco(model, states)
+    assert max(worst.values()) < AGREE, worst
+    monkeypatch.setattr(tree_reference, "_stiffness_poly", lambda model, j: ())  # the polynomial term dropped
+    dropped = _against_mujoco(model, states)
+    assert dropped["forcing"] > 0.1 and dropped["energy"] > 0.1, dropped
 
 
 TREE_CASES = ("pendulum", "physical_pendulum", "double_pendulum", "spherical_pendulum", "spherical_pendulum_ball",

@@ -63,6 +63,9 @@ CASES = [
     ("actuators", "actuator 0", {"actuator": "<actuator><general joint='hinge' dyntype='integrator' "
                                              "gainprm='5'/></actuator>"}, {}),
     ("joint springs", "joint ball spring", {"bodies": BALL.format("stiffness='40'")}, {"bodies": BALL.format("")}),
+    # a ball's polynomial spring with no linear part (a hinge or slide's is read: tests/test_tree.py)
+    ("joint springs", "joint ball spring", {"bodies": BALL.format("stiffness='0 20 40'")},
+     {"bodies": BALL.format("")}),
 ]
 
 

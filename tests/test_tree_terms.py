@@ -1,6 +1,7 @@
 """A joint feature is a term (analytic/tree/terms.py) and its entry's reader in FEATURES: a toy term added so,
 from this file alone, is put on the joints, lists its parameters and acts as the force −∂V/∂q its energy states,
-against a force typed here by hand; the shipped spring's rows stay those of every joint."""
+against a force typed here by hand; the shipped spring's rows stay those of every joint, and its polynomial (MuJoCo
+4's stiffness="a b c") is read whole, its energy the integral of the force MuJoCo documents."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import numpy as np
 import pytest
 
 import harness.reference.tree as tree_reference
+from analytic.dual import Dual
 from analytic.tree import Spring, TreeDynamics
 from harness.reference.tree import FEATURES, Feature, read_tree
 
@@ -82,3 +84,21 @@ def test_springs_off_leave_the_spring_at_nothing(model):
     spring = read_tree(model).joints[0].terms[0]
     assert spring == Spring(stiffness=0.0, springref=0.2)
     assert spring.energy(np.array([[np.inf]])) == 0.0  # exactly nothing, whatever q holds
+
+
+def test_a_polynomial_spring_is_read_whole_and_its_energy_is_the_integral_of_its_force(model):
+    """stiffness="3 -1 2" is the force −f(x), f(x) = 3x − x² + 2x³ (MuJoCo's doc/computation "Polynomial forces"):
+    read into the hinge's one spring, its coefficients listed as rows only where they are nonzero, the exact
+    derivative of its energy (dual numbers, as the stiff solver's Jacobian takes it) f typed here by hand, over
+    displacements where the cubic dominates; springs off leave nothing of it."""
+    poly = mujoco.MjModel.from_xml_string(XML.replace('stiffness="3"', 'stiffness="3 -1 2"'))
+    spring = read_tree(poly).joints[0].terms[0]
+    assert spring == Spring(stiffness=3.0, springref=0.2, poly=(-1.0, 2.0))
+    params = read_tree(poly).params()
+    assert (params["hinge.stiffnesspoly.0"], params["hinge.stiffnesspoly.1"]) == (-1.0, 2.0)
+    assert not any(".stiffnesspoly" in k for k in read_tree(model).params())  # a linear spring's rows are unchanged
+    x = np.linspace(-4.0, 4.0, 17)
+    dv = spring.energy(Dual((0.2 + x)[:, None], np.ones((x.size, 1)))).tangent
+    assert np.allclose(dv, 3 * x - x ** 2 + 2 * x ** 3, rtol=1e-14, atol=1e-14)
+    poly.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_SPRING)
+    assert read_tree(poly).joints[0].terms[0] == Spring(stiffness=0.0, springref=0.2)

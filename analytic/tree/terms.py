@@ -35,17 +35,30 @@ class Term(Protocol):
 
 @dataclass(frozen=True)
 class Spring:
-    """A hinge or slide's linear spring (MuJoCo's ``stiffness`` k about ``springref``, its ``qpos_spring``):
-    V = ½ k (q − springref)²."""
+    """A hinge or slide's spring about ``springref`` (MuJoCo's ``qpos_spring``): the force −f(x), x = q − springref,
+    f(x) = k x + p₀ x² + p₁ x³ + … with k ``stiffness`` and ``poly`` the higher coefficients (MuJoCo 4's
+    ``jnt_stiffnesspoly``; none before it). V = ∫₀ˣ f = ½ k x² + Σᵢ pᵢ x^(i+3) / (i + 3)."""
 
     stiffness: float
     springref: float
+    poly: tuple[float, ...] = ()
 
     def energy(self, q: Array) -> Array:
-        if not self.stiffness:  # no spring (or springs off): nothing at all, whatever q holds
+        if not self.stiffness and not any(self.poly):  # no spring (or springs off): nothing at all, whatever q holds
             return np.zeros(())
         x = q[..., 0] - self.springref
-        return 0.5 * self.stiffness * x * x
+        v = 0.5 * self.stiffness * x * x
+        if any(self.poly):  # Horner: x² Σᵢ pᵢ x^(i+1) / (i + 3)
+            tail = 0.0
+            for i in reversed(range(len(self.poly))):
+                tail = (tail + self.poly[i] / (i + 3)) * x
+            v = v + x * x * tail
+        return v
 
     def params(self, joint: str) -> dict[str, float]:
-        return {f"{joint}.stiffness": float(self.stiffness), f"{joint}.springref": float(self.springref)}
+        """``stiffness`` and ``springref``; the polynomial's coefficients (``stiffnesspoly.i``) only where any is
+        nonzero, so that a linear spring's rows stay those of every joint (:meth:`analytic.tree.Tree.params`)."""
+        out = {f"{joint}.stiffness": float(self.stiffness), f"{joint}.springref": float(self.springref)}
+        if any(self.poly):
+            out |= {f"{joint}.stiffnesspoly.{i}": float(p) for i, p in enumerate(self.poly)}
+        return out

@@ -291,21 +291,35 @@ def _springs_on(model: mujoco.MjModel) -> bool:
     return not every and not (hasattr(_DSBL, "mjDSBL_SPRING") and _disabled(model, _DSBL.mjDSBL_SPRING))
 
 
+def _stiffness_poly(model: mujoco.MjModel, j: int) -> tuple[float, ...]:
+    """Joint ``j``'s spring coefficients beyond the linear one (MuJoCo 4's ``jnt_stiffnesspoly``: x², x³, …; none
+    on MuJoCo 3): every one the model holds, so that a longer polynomial is read whole, less trailing zeros (a
+    linear spring's record is ``Spring(k, springref)``, as before polynomials)."""
+    poly = [float(p) for p in np.atleast_1d(getattr(model, "jnt_stiffnesspoly", np.zeros((model.njnt, 0)))[j])]
+    while poly and not poly[-1]:
+        poly.pop()
+    return tuple(poly)
+
+
 def _springs(model: mujoco.MjModel, j: int) -> tuple[Term, ...]:
-    """A hinge or slide's spring about its ``qpos_spring`` (stiffness 0 where springs are off)."""
+    """A hinge or slide's spring about its ``qpos_spring``, polynomial where the model's is (nothing where springs
+    are off: stiffness 0, no polynomial)."""
     if _KINDS[int(model.jnt_type[j])] not in _SPRUNG:
         return ()
-    return (Spring(stiffness=float(model.jnt_stiffness[j]) if _springs_on(model) else 0.0,
-                   springref=float(model.qpos_spring[model.jnt_qposadr[j]])),)
+    on = _springs_on(model)
+    return (Spring(stiffness=float(model.jnt_stiffness[j]) if on else 0.0,
+                   springref=float(model.qpos_spring[model.jnt_qposadr[j]]),
+                   poly=_stiffness_poly(model, j) if on else ()),)
 
 
 def _spring_gaps(model: mujoco.MjModel) -> Iterator[Gap]:
     for j in range(model.njnt):
         why = ""
-        if model.jnt_stiffness[j] and _KINDS[int(model.jnt_type[j])] not in _SPRUNG:
-            why = "a ball or free joint's spring"
-        if hasattr(model, "jnt_stiffnesspoly") and np.any(model.jnt_stiffnesspoly[j]):
-            why = "a polynomial spring (stiffnesspoly)"
+        if _KINDS[int(model.jnt_type[j])] not in _SPRUNG:
+            if any(_stiffness_poly(model, j)):
+                why = "a ball or free joint's polynomial spring (stiffnesspoly)"
+            elif model.jnt_stiffness[j]:
+                why = "a ball or free joint's spring"
         if hasattr(model, "jnt_springyield") and np.any(model.jnt_springyield[j]):
             why = "a spring that yields (springyield)"
         if why:
@@ -339,7 +353,7 @@ FEATURES: tuple[Feature, ...] = (
     Feature("actuators: affine force on a hinge, slide or fixed tendon, its clamps; any other",
             read=("Tree.actuators", "Tree.limits", "Tree.tendon_limits"), gaps=_actuator_gaps,
             switch_off=_ungeared),
-    Feature("joint springs: hinge and slide; ball and free, polynomial, yielding",
+    Feature("joint springs: hinge and slide, polynomial too; ball and free, yielding",
             read=("Joint.terms",), terms=_springs, gaps=_spring_gaps),
 )
 """Every MuJoCo feature the tree reference reads or leaves out, in the order :func:`uncovered` lists them: adding
