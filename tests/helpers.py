@@ -9,12 +9,21 @@ from collections.abc import Sequence
 
 import mujoco
 import numpy as np
+import pytest
 
 from harness.engine import compat
 from harness.engine.constraints import equality_block, equality_jacobian
 
 # MuJoCo's default constraint softness (solref, solimp), far softer than the shipped models'
 DEFAULT_SOFTNESS = ([0.02, 1.0], [0.9, 0.95, 0.001, 0.5, 2.0])
+
+
+# a polynomial spring (stiffness="a b c", jnt_stiffnesspoly) is MuJoCo 3.7's: the oldest supported MuJoCo (3.3.0)
+# reads one stiffness and refuses three
+needs_polynomial_springs = pytest.mark.skipif(not hasattr(mujoco.MjModel, "jnt_stiffnesspoly"),
+                                              reason=f"MuJoCo {mujoco.__version__} has no polynomial springs")
+# MuJoCo 3.3's one flag for every passive force, later springs' own
+SPRINGS_OFF = int(getattr(mujoco.mjtDisableBit, "mjDSBL_SPRING", getattr(mujoco.mjtDisableBit, "mjDSBL_PASSIVE", 0)))
 
 
 # --- states ---------------------------------------------------------------------------------------------

@@ -28,6 +28,7 @@ from harness.engine.compat import full_mass_matrix
 from harness.engine.models import compile_model
 from harness.families.sampled import sample_states
 from harness.reference.tree import charts, prepare, read_tree, refusal, start_state, uncovered
+from tests.helpers import needs_polynomial_springs
 
 MJCF = Path(__file__).resolve().parent.parent / "mjcf"
 AGREE = 1e-12
@@ -199,7 +200,8 @@ def test_jacobians_are_the_derivatives_of_the_poses():
         assert np.allclose(ang[..., k], np.stack([w[:, 2, 1], w[:, 0, 2], w[:, 1, 0]], -1), atol=1e-14)
 
 
-@pytest.mark.parametrize("xml", [EVERY_KIND, POLY], ids=["every joint kind", "polynomial springs"])
+@pytest.mark.parametrize("xml", [EVERY_KIND, pytest.param(POLY, marks=needs_polynomial_springs)],
+                         ids=["every joint kind", "polynomial springs"])
 def test_lagrange_by_complex_step_equals_kane_typed_by_hand(xml):
     """F from Lagrange's equations (complex step on T and V) against Kane's form of the same equations, typed
     here as an independent check: Σ Jᵀ(m g − m J̇q̇) − J_ωᵀ(I α_v + ω × I ω) + Q, per body."""
@@ -282,6 +284,7 @@ def _poly_states(model: mujoco.MjModel) -> list[tuple[np.ndarray, np.ndarray]]:
     return [(spring + np.roll(POLY_X, -i)[:model.njnt], rng.normal(size=model.nv)) for i in range(len(POLY_X))]
 
 
+@needs_polynomial_springs
 def test_polynomial_springs_agree_with_mujoco_where_the_cubic_dominates(monkeypatch):
     """Hinge and slide polynomial springs are read and not listed as uncovered; the tree's forces and energy (its
     V the polynomial's integral, differentiated exactly) are MuJoCo's qfrc_passive and energy, up to displacements

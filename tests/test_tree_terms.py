@@ -15,6 +15,7 @@ import harness.reference.tree as tree_reference
 from analytic.dual import Dual
 from analytic.tree import Spring, TreeDynamics
 from harness.reference.tree import FEATURES, Feature, read_tree
+from tests.helpers import SPRINGS_OFF, needs_polynomial_springs
 
 XML = """<mujoco>
   <compiler angle="radian"/>
@@ -80,12 +81,13 @@ def test_the_spring_is_read_as_a_term_and_every_joint_keeps_a_springs_rows(model
 
 
 def test_springs_off_leave_the_spring_at_nothing(model):
-    model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_SPRING)
+    model.opt.disableflags |= SPRINGS_OFF
     spring = read_tree(model).joints[0].terms[0]
     assert spring == Spring(stiffness=0.0, springref=0.2)
     assert spring.energy(np.array([[np.inf]])) == 0.0  # exactly nothing, whatever q holds
 
 
+@needs_polynomial_springs
 def test_a_polynomial_spring_is_read_whole_and_its_energy_is_the_integral_of_its_force(model):
     """stiffness="3 -1 2" is the force −f(x), f(x) = 3x − x² + 2x³ (MuJoCo's doc/computation "Polynomial forces"):
     read into the hinge's one spring, its coefficients listed as rows only where they are nonzero, the exact
@@ -100,5 +102,5 @@ def test_a_polynomial_spring_is_read_whole_and_its_energy_is_the_integral_of_its
     x = np.linspace(-4.0, 4.0, 17)
     dv = spring.energy(Dual((0.2 + x)[:, None], np.ones((x.size, 1)))).tangent
     assert np.allclose(dv, 3 * x - x ** 2 + 2 * x ** 3, rtol=1e-14, atol=1e-14)
-    poly.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_SPRING)
+    poly.opt.disableflags |= SPRINGS_OFF
     assert read_tree(poly).joints[0].terms[0] == Spring(stiffness=0.0, springref=0.2)

@@ -49,7 +49,7 @@ class Spring:
         x = q[..., 0] - self.springref
         v = 0.5 * self.stiffness * x * x
         if any(self.poly):  # Horner: x² Σᵢ pᵢ x^(i+1) / (i + 3)
-            tail = 0.0
+            tail: Array | float = 0.0
             for i in reversed(range(len(self.poly))):
                 tail = (tail + self.poly[i] / (i + 3)) * x
             v = v + x * x * tail
