@@ -8,11 +8,13 @@ from __future__ import annotations
 
 import sys
 
+import numpy as np
 import pytest
 
 import harness.budget
 from harness import cases
 from harness.budget import registry
+from harness.budget.part import adds
 from harness.core.options import RunOptions
 
 TOY = '''
@@ -151,3 +153,15 @@ def test_a_new_parts_runs_weigh_in_the_noise_gain(tmp_path, monkeypatch):
     assert runs.noise_gain(runs.Runs(as_is=d, half_step=d), order=4) == pytest.approx(17 / 15)
     _with_toy(tmp_path, monkeypatch)
     assert runs.noise_gain(runs.Runs(as_is=d, half_step=d, own={"toy": d}), order=4) == pytest.approx(3.0)
+
+
+def test_a_parts_evaluations_weigh_their_weight_and_an_empty_record_nothing():
+    """adds(w): the noise gain grows by w where the part evaluated something (margin's and solver's D − A: 2), by
+    nothing where its record is empty."""
+    gain = adds(2.0)
+    assert gain({"instant.qacc": np.zeros(3)}, 1.0) == 3.0
+    assert gain({}, 1.0) == 1.0
+    by_part = {part.name: part for part in registry.ALL}
+    for name in ("margin", "solver"):
+        assert by_part[name].states_gain({"instant.qacc": np.zeros(3)}, 1.0) == 3.0
+        assert by_part[name].states_gain({}, 1.0) == 1.0

@@ -4,13 +4,12 @@ every margin doubled, linear in the margin (instantaneous figures only)."""
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 
 from harness.budget.floors import FLOOR_UNCERTAINTY
 from harness.budget.inputs import States, by_name
-from harness.budget.part import Estimates, Evaluating, Part, fraction
+from harness.budget.part import Estimates, Evaluating, Part, adds, fraction
 from harness.core.figures import FigureName
 from harness.engine import variants as V
 
@@ -32,11 +31,6 @@ def at_states(states: States, estimates: Estimates) -> None:
         estimates.explained["margin"] = wider[name] - estimates.base
 
 
-def states_gain(wider: Any, noise: float) -> float:
-    """Wider minus A: 2."""
-    return noise + 2.0 if wider else noise
-
-
 PART = Part(
     name="margin",
     order=40,
@@ -50,5 +44,5 @@ PART = Part(
     tolerance=fraction("margin", FLOOR_UNCERTAINTY),
     at_states=at_states,
     states=states,
-    states_gain=states_gain,
+    states_gain=adds(2.0),
 )

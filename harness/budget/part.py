@@ -20,7 +20,7 @@ import numpy as np
 from harness.budget.inputs import Runs, States
 from harness.core.deviation import Deviation
 
-__all__ = ["Estimates", "Evaluating", "Making", "Part", "fraction"]
+__all__ = ["Estimates", "Evaluating", "Making", "Part", "adds", "fraction"]
 
 
 @dataclass
@@ -162,9 +162,10 @@ class Part:
 
 
 def adds(weight: float) -> GainAtStates:
-    """The :data:`GainAtStates` of a part whose evaluations enter with total weight ``weight`` (D − A: 2)."""
+    """The :data:`GainAtStates` of a part whose evaluations enter with total weight ``weight`` (D − A: 2); an empty
+    record (nothing evaluated) weighs nothing."""
     def gain(own: Any, noise: float) -> float:
-        return noise + weight
+        return noise + weight if own else noise
 
     return gain
 

@@ -4,12 +4,11 @@ cap, a loose tolerance), the difference a converged solve makes. Every other var
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 
 from harness.budget.inputs import Runs, States, by_name
-from harness.budget.part import Estimates, Evaluating, Part, fraction
+from harness.budget.part import Estimates, Evaluating, Part, adds, fraction
 from harness.core.figures import FigureName
 from harness.engine import variants as V
 
@@ -38,11 +37,6 @@ def at_states(states: States, estimates: Estimates) -> None:
         _apply(estimates, converged[estimates.dev.name])
 
 
-def states_gain(converged: Any, noise: float) -> float:
-    """A − A(converged): 2."""
-    return noise + 2.0 if converged else noise
-
-
 def _apply(estimates: Estimates, converged) -> None:
     estimates.base = converged
     estimates.explained["solver"] = estimates.dev.values - converged
@@ -63,5 +57,5 @@ PART = Part(
     at_states=at_states,
     baseline=True,
     states=states,
-    states_gain=states_gain,
+    states_gain=adds(2.0),
 )
