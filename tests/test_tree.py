@@ -67,7 +67,7 @@ EVERY_KIND = """
 </mujoco>
 """
 
-# Polynomial springs (MuJoCo 4's stiffness="a b c": the force −(a x + b x² + c x³), x = q − springref) on a hinge, a
+# Polynomial springs (MuJoCo ≥ 3.7's stiffness="a b c": the force −(a x + b x² + c x³), x = q − springref) on a hinge, a
 # slide and a second hinge with no linear part (MuJoCo applies the polynomial though a = 0), under gravity.
 POLY = """
 <mujoco>

@@ -1,7 +1,7 @@
 """A joint feature is a term (analytic/tree/terms.py) and its entry's reader in FEATURES: a toy term added so,
 from this file alone, is put on the joints, lists its parameters and acts as the force −∂V/∂q its energy states,
 against a force typed here by hand; the shipped spring's rows stay those of every joint, and its polynomial (MuJoCo
-4's stiffness="a b c") is read whole, its energy the integral of the force MuJoCo documents."""
+≥ 3.7's stiffness="a b c") is read whole, its energy the integral of the force MuJoCo documents."""
 
 from __future__ import annotations
 

@@ -36,8 +36,8 @@ class Term(Protocol):
 @dataclass(frozen=True)
 class Spring:
     """A hinge or slide's spring about ``springref`` (MuJoCo's ``qpos_spring``): the force −f(x), x = q − springref,
-    f(x) = k x + p₀ x² + p₁ x³ + … with k ``stiffness`` and ``poly`` the higher coefficients (MuJoCo 4's
-    ``jnt_stiffnesspoly``; none before it). V = ∫₀ˣ f = ½ k x² + Σᵢ pᵢ x^(i+3) / (i + 3)."""
+    f(x) = k x + p₀ x² + p₁ x³ + … with k ``stiffness`` and ``poly`` the higher coefficients (MuJoCo
+    ≥ 3.7's ``jnt_stiffnesspoly``; none before). V = ∫₀ˣ f = ½ k x² + Σᵢ pᵢ x^(i+3) / (i + 3)."""
 
     stiffness: float
     springref: float

@@ -292,8 +292,8 @@ def _springs_on(model: mujoco.MjModel) -> bool:
 
 
 def _stiffness_poly(model: mujoco.MjModel, j: int) -> tuple[float, ...]:
-    """Joint ``j``'s spring coefficients beyond the linear one (MuJoCo 4's ``jnt_stiffnesspoly``: x², x³, …; none
-    on MuJoCo 3): every one the model holds, so that a longer polynomial is read whole, less trailing zeros (a
+    """Joint ``j``'s spring coefficients beyond the linear one (MuJoCo ≥ 3.7's ``jnt_stiffnesspoly``: x², x³, …;
+    none before): every one the model holds, so that a longer polynomial is read whole, less trailing zeros (a
     linear spring's record is ``Spring(k, springref)``, as before polynomials)."""
     poly = [float(p) for p in np.atleast_1d(getattr(model, "jnt_stiffnesspoly", np.zeros((model.njnt, 0)))[j])]
     while poly and not poly[-1]:
