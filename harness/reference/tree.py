@@ -356,8 +356,9 @@ FEATURES: tuple[Feature, ...] = (
     Feature("joint springs: hinge and slide, polynomial too; ball and free, yielding",
             read=("Joint.terms",), terms=_springs, gaps=_spring_gaps),
 )
-"""Every MuJoCo feature the tree reference reads or leaves out, in the order :func:`uncovered` lists them: adding
-a feature is one entry here."""
+"""Every MuJoCo feature the tree reference reads or leaves out, in the order :func:`uncovered` lists them: leaving
+a feature out is one entry here; modelling a joint feature, its entry's ``terms`` and its term
+(:mod:`analytic.tree.terms`)."""
 
 
 def uncovered(model: mujoco.MjModel) -> dict[str, str]:
