@@ -11,7 +11,7 @@ A term's ``energy`` takes the joint's own coordinates (..., ndof), in :mod:`anal
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import Protocol
 
 import numpy as np
 
@@ -20,7 +20,6 @@ __all__ = ["Spring", "Term"]
 Array = np.ndarray
 
 
-@runtime_checkable
 class Term(Protocol):
     """A joint's contribution to the potential V(q), and its parameters by a readable name (the report's rows)."""
 
