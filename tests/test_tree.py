@@ -304,6 +304,28 @@ def test_polynomial_springs_agree_with_mujoco_where_the_cubic_dominates(monkeypa
     assert dropped["forcing"] > 0.1 and dropped["energy"] > 0.1, dropped
 
 
+@needs_polynomial_springs
+@pytest.mark.parametrize(("engine", "passes"), [
+    (POLY, True),  # as written
+    (POLY.replace("0.5 -1.5 4", "0.5 -1.5 8"), False),  # the hinge's cubic coefficient doubled
+    (POLY.replace("0.5 -1.5 4", "0.5").replace("2 -6 30", "2").replace("0 0 7", "0"), False),  # polynomials dropped
+], ids=["as written", "cubic doubled", "polynomials dropped"])
+def test_a_polynomial_spring_model_passes_as_written_and_fails_where_the_engine_runs_another(tmp_path, engine,
+                                                                                              passes):
+    """Both directions through the whole pipeline (check --mjcf's judging): the model judged against its own tree
+    passes; the same tree as reference with a spring changed on the engine's side alone fails."""
+    from harness import validate
+    from harness.cases.own import from_mjcf
+
+    reference, judged = tmp_path / "poly.xml", tmp_path / "engine.xml"
+    reference.write_text(POLY)
+    judged.write_text(engine)
+    verdict = validate(from_mjcf(judged, reference=reference, horizon=0.5), integrators=["RK4", "implicitfast"])
+    assert verdict.passed is passes
+    if not passes:  # failed for its forces, not for anything else
+        assert not verdict.check("instant.forcing").passed
+
+
 TREE_CASES = ("pendulum", "physical_pendulum", "double_pendulum", "spherical_pendulum", "spherical_pendulum_ball",
               "symmetric_top", "torque_free_body", "slider_crank", "welded_pendulum")
 """The shipped cases that are trees the reference expresses whole (spring and atwood hang on spatial tendons, the
