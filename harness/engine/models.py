@@ -187,9 +187,7 @@ def _keep(keys: tuple[tuple, ...], spec: mujoco.MjSpec, model: mujoco.MjModel, p
     from."""
     if int(model.nbuffer) > COMPILED_BYTES:
         return
-    resolved = Path(path).resolve()
-    files = _identities(tuple(sorted({str(resolved), *_included(resolved), *_assets(spec, resolved.parent)})))
-    entry = (files, copy.copy(model))
+    entry = (_read_from(spec, path), copy.copy(model))
     with _CACHES:
         for key in keys:
             _COMPILED[key] = entry
@@ -269,8 +267,7 @@ def _prepared(path: Path | str, edit: Callable[[mujoco.MjSpec], None] | None
     if key is None:
         return spec, rest
     PREPARED["prepared"] += 1
-    resolved = Path(path).resolve()
-    files = _identities(tuple(sorted({str(resolved), *_included(resolved), *_assets(spec, resolved.parent)})))
+    files = _read_from(spec, path)
     with _CACHES:
         _PREPARED[key] = (files, spec)
         while len(_PREPARED) > _PREPARED_MAX:
@@ -305,6 +302,13 @@ def _variant_key(path: Path | str, integrator: str | None, timestep: float | Non
         return None
     return (str(Path(path).resolve()), hashlib.sha256(text).hexdigest(), integrator,
             _identity(timestep), identity)
+
+
+def _read_from(spec: mujoco.MjSpec, path: Path | str) -> tuple:
+    """The identities (:func:`_identities`) of every file ``spec`` was read from: ``path``, the files it includes,
+    and those it reads a mesh, height field or skin from: what a model kept from it depends on."""
+    resolved = Path(path).resolve()
+    return _identities(tuple(sorted({str(resolved), *_included(resolved), *_assets(spec, resolved.parent)})))
 
 
 def _identities(paths: tuple) -> tuple:
